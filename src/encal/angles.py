@@ -1,0 +1,90 @@
+"""Angles and units.
+
+Conventions used throughout encal: angles in degrees, errors in arc-minutes,
+``error = encoder - reference`` wrapped to (-180, 180] degrees.
+"""
+
+import numpy as np
+
+__all__ = [
+    "ARCMIN_PER_DEG",
+    "wrap360",
+    "wrap180",
+    "angle_difference",
+    "deg_to_arcmin",
+    "arcmin_to_deg",
+    "lsb_arcmin",
+    "arcmin_to_lsb",
+]
+
+ARCMIN_PER_DEG = 60.0
+
+
+def wrap360(angle_deg):
+    """Wrap angles to [0, 360) degrees.
+
+    Parameters
+    ----------
+    angle_deg : float or array-like
+        Angles in degrees, any finite value.
+
+    Returns
+    -------
+    float or ndarray
+        The same angles in [0, 360).
+
+    Examples
+    --------
+    >>> float(wrap360(-1.0))
+    359.0
+    >>> float(wrap360(720.5))
+    0.5
+    """
+    wrapped = np.mod(angle_deg, 360.0)
+    # np.mod(-1e-17, 360) rounds to 360.0 exactly; keep the half-open interval.
+    return np.where(wrapped >= 360.0, 0.0, wrapped)[()]
+
+
+def wrap180(angle_deg):
+    """Wrap angles to (-180, 180] degrees.
+
+    Examples
+    --------
+    >>> float(wrap180(190.0))
+    -170.0
+    >>> float(wrap180(-180.0))
+    180.0
+    """
+    wrapped = -np.mod(-np.asarray(angle_deg, dtype=float) + 180.0, 360.0) + 180.0
+    return wrapped[()]
+
+
+def angle_difference(a_deg, b_deg):
+    """Signed difference ``a - b`` wrapped to (-180, 180] degrees."""
+    return wrap180(np.asarray(a_deg, dtype=float) - np.asarray(b_deg, dtype=float))
+
+
+def deg_to_arcmin(angle_deg):
+    """Degrees to arc-minutes."""
+    return np.asarray(angle_deg, dtype=float)[()] * ARCMIN_PER_DEG
+
+
+def arcmin_to_deg(angle_arcmin):
+    """Arc-minutes to degrees."""
+    return np.asarray(angle_arcmin, dtype=float)[()] / ARCMIN_PER_DEG
+
+
+def lsb_arcmin(bits):
+    """Size of one least significant bit of a ``bits``-bit encoder, in arc-minutes.
+
+    Examples
+    --------
+    >>> round(lsb_arcmin(16), 4)
+    0.3296
+    """
+    return 21600.0 / 2.0 ** int(bits)
+
+
+def arcmin_to_lsb(angle_arcmin, bits):
+    """Arc-minutes to LSB of a ``bits``-bit encoder."""
+    return np.asarray(angle_arcmin, dtype=float)[()] / lsb_arcmin(bits)

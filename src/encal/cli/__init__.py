@@ -1,0 +1,72 @@
+"""The ``encal`` command line: a thin layer over the public API.
+
+Each command lives in a module ``cmd_<name>.py`` of this package with
+``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``; the
+modules are found at start-up, so adding a command means adding a file.
+
+Exit status: 0 on success, 1 on bad data or a failed operation (one line on
+stderr, no traceback), 2 on wrong usage (argparse).
+"""
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from .._version import __version__
+from ..errors import EncalError
+
+__all__ = ["main"]
+
+#: Order in ``encal --help``; commands not listed follow alphabetically.
+_ORDER = ["demo", "simulate", "profile", "fit", "evaluate", "correct", "export",
+          "compare", "study", "drift"]
+
+
+def _command_modules():
+    names = [m.name[4:] for m in pkgutil.iter_modules(__path__) if m.name.startswith("cmd_")]
+    names.sort(key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), n))
+    return {name: importlib.import_module(f"{__name__}.cmd_{name}") for name in names}
+
+
+def build_parser():
+    """The argument parser with every command."""
+    parser = argparse.ArgumentParser(
+        prog="encal",
+        description="Calibrate low-cost angle encoders and compensate their systematic error.",
+    )
+    parser.add_argument("--version", action="version", version=f"encal {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, module in _command_modules().items():
+        cmd = sub.add_parser(name, help=module.HELP, description=module.__doc__ or module.HELP,
+                             formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_arguments(cmd)
+        cmd.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv=None):
+    """Run the command line; returns the exit status."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help(sys.stderr)
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except EncalError as exc:
+        print(f"encal {args.command}: error: {exc}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:
+        return 0
+    except OSError as exc:
+        where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
+        print(f"encal {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print(f"encal {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

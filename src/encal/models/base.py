@@ -1,0 +1,115 @@
+"""The interface every error model implements.
+
+A model is a periodic function of the encoder reading: it predicts the error
+``encoder - reference`` in arc-minutes from the encoder angle in degrees. The
+corrected angle is ``(encoder - predicted / 60) mod 360``.
+
+Each model kind is a subclass registered under its ``kind`` name; its
+``parameters()`` are plain JSON data (lists and floats) from which
+``from_parameters`` rebuilds it exactly. The model file (``encal.deploy``)
+stores ``kind``, ``parameters()`` and the metadata dicts.
+"""
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from ..angles import ARCMIN_PER_DEG, wrap360
+from ..errors import InputError
+
+__all__ = ["Model", "register_model", "model_class", "MODEL_KINDS"]
+
+MODEL_KINDS = {}
+
+
+def register_model(cls):
+    """Class decorator: make ``cls`` loadable from a model file by its ``kind``."""
+    MODEL_KINDS[cls.kind] = cls
+    return cls
+
+
+def model_class(kind):
+    """The registered model class for ``kind``.
+
+    Raises
+    ------
+    InputError
+        If no model kind of that name exists.
+    """
+    try:
+        return MODEL_KINDS[kind]
+    except KeyError:
+        known = ", ".join(sorted(MODEL_KINDS))
+        raise InputError(f"unknown model kind {kind!r}; expected one of: {known}") from None
+
+
+def as_angles(theta_enc_deg):
+    """Encoder angles as a float array (any shape), checked finite."""
+    theta = np.asarray(theta_enc_deg, dtype=float)
+    if not np.all(np.isfinite(theta)):
+        raise InputError("encoder angles must be finite numbers of degrees (found NaN or infinity)")
+    return theta
+
+
+class Model(ABC):
+    """An error model ``predict(theta_enc_deg) -> error_arcmin``.
+
+    Attributes
+    ----------
+    kind : str
+        Registered name of the model family (``'fourier'``, ``'lut'``, ``'ann'``, ...).
+    encoder : dict
+        The encoder's name and resolution (``{'name': str, 'resolution_bits': int | None}``).
+    training : dict
+        How the model was made (method, algorithm, options, seed, data hash, ...).
+    """
+
+    kind = "abstract"
+
+    def __init__(self, *, encoder=None, training=None):
+        self.encoder = dict(encoder or {})
+        self.training = dict(training or {})
+
+    @abstractmethod
+    def _predict(self, theta_deg):
+        """Predicted error in arcmin at angles ``theta_deg`` (finite ndarray)."""
+
+    @abstractmethod
+    def parameters(self):
+        """Everything needed to evaluate the model, as JSON-ready data."""
+
+    @classmethod
+    @abstractmethod
+    def from_parameters(cls, parameters, *, encoder=None, training=None):
+        """Rebuild a model from ``parameters()``."""
+
+    def predict(self, theta_enc_deg):
+        """Predicted error at the given encoder readings.
+
+        Parameters
+        ----------
+        theta_enc_deg : float or array-like
+            Encoder readings in degrees (any real value; the model is periodic).
+
+        Returns
+        -------
+        float or ndarray
+            Predicted error ``encoder - reference`` in arc-minutes, same shape.
+        """
+        theta = as_angles(theta_enc_deg)
+        return np.asarray(self._predict(wrap360(theta)), dtype=float).reshape(theta.shape)[()]
+
+    def correct(self, theta_enc_deg):
+        """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``, in degrees."""
+        theta = as_angles(theta_enc_deg)
+        return wrap360(theta - self.predict(theta) / ARCMIN_PER_DEG)
+
+    def save(self, path, **options):
+        """Write the model file (see :func:`encal.deploy.save_model`)."""
+        from ..deploy.modelfile import save_model
+
+        return save_model(self, path, **options)
+
+    def __repr__(self):
+        name = self.encoder.get("name") or "unnamed encoder"
+        return f"<{type(self).__name__} kind={self.kind!r} for {name}>"

@@ -1,0 +1,1 @@
+"""Imports every back-end module so that each registers its algorithms."""

@@ -1,0 +1,127 @@
+"""Registry of training algorithms and the one front end that dispatches to them."""
+
+import inspect
+import math
+
+import numpy as np
+
+from ..errors import InputError
+from ._monitor import Monitor
+from ._result import TrainResult
+
+__all__ = ["ALGORITHMS", "register_algorithm", "train"]
+
+#: name -> (back end, default stopping parameters)
+ALGORITHMS = {}
+
+_STOPPING = ("epochs", "goal", "min_grad", "max_fail", "time", "plateau_patience", "plateau_tol")
+
+
+def register_algorithm(name, **stopping_defaults):
+    """Decorator registering a back end ``fn(problem, x0, monitor, **options) -> x``.
+
+    The back end calls ``monitor.start(x0, mse, grad)`` once, then
+    ``monitor.update(x, mse, grad)`` after every epoch, and returns when either
+    returns True or when it calls ``monitor.stop(reason)``. ``stopping_defaults``
+    are MATLAB's documented ``trainParam`` defaults for that algorithm.
+    """
+
+    def decorate(fn):
+        ALGORITHMS[name] = (fn, stopping_defaults)
+        return fn
+
+    return decorate
+
+
+class _Counted:
+    """Wraps an objective and counts performance evaluations."""
+
+    def __init__(self, problem):
+        self._problem = problem
+        self.n_params = problem.n_params
+        self.n_samples = problem.n_samples
+        self.nfev = 0
+
+    def residuals(self, w):
+        self.nfev += 1
+        return self._problem.residuals(w)
+
+    def residuals_and_jacobian(self, w):
+        self.nfev += 1
+        return self._problem.residuals_and_jacobian(w)
+
+    def mse(self, w):
+        self.nfev += 1
+        return self._problem.mse(w)
+
+    def mse_and_gradient(self, w):
+        self.nfev += 1
+        return self._problem.mse_and_gradient(w)
+
+    def __getattr__(self, name):
+        return getattr(self._problem, name)
+
+
+def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, **options):
+    """Minimise a least-squares problem with one of MATLAB's training algorithms.
+
+    Parameters
+    ----------
+    problem : Objective
+        Training problem (see :class:`encal.training.Objective`).
+    algorithm : str, default='trainlm'
+        MATLAB name: one of ``sorted(encal.training.ALGORITHMS)``.
+    x0 : array-like of shape (n_params,)
+        Initial weights.
+    validation : Objective, optional
+        Validation problem; enables the ``max_fail`` criterion.
+    callback : callable, optional
+        ``callback(epoch, w, mse)`` after every epoch.
+    **options
+        Stopping parameters (``epochs``, ``goal``, ``min_grad``, ``max_fail``,
+        ``time`` in seconds, ``plateau_patience``, ``plateau_tol``) and the
+        algorithm's own parameters (``mu``, ``lr``, ...), with MATLAB's
+        defaults for those not given.
+
+    Returns
+    -------
+    TrainResult
+    """
+    if algorithm not in ALGORITHMS:
+        known = ", ".join(sorted(ALGORITHMS))
+        raise InputError(f"unknown training algorithm {algorithm!r}; expected one of: {known}")
+    backend, defaults = ALGORITHMS[algorithm]
+    stopping = {"epochs": 1000, "goal": 0.0, "min_grad": 1e-7, "max_fail": 6, "time": math.inf}
+    stopping.update(defaults)
+    for key in _STOPPING:
+        if key in options:
+            stopping[key] = options.pop(key)
+    accepted = set(inspect.signature(backend).parameters) - {"problem", "x0", "monitor"}
+    unknown = set(options) - accepted
+    if unknown:
+        raise InputError(
+            f"{algorithm} does not take the option(s) {', '.join(sorted(unknown))}; "
+            f"it takes: {', '.join(sorted(accepted | set(_STOPPING))) or 'none'}"
+        )
+    if int(stopping["epochs"]) < 0:
+        raise InputError(f"epochs must be an int >= 0. Got {stopping['epochs']} instead.")
+    x0 = np.array(x0, dtype=float, copy=True).reshape(-1)
+    if x0.size != problem.n_params:
+        raise InputError(f"x0 has {x0.size} values; the problem has {problem.n_params} parameters")
+    counted = _Counted(problem)
+    monitor = Monitor(counted, validation=validation, callback=callback, **stopping)
+    x = backend(counted, x0, monitor, **options)
+    if monitor.reason is None:  # a back end that ran out of epochs without saying so
+        monitor.reason = "epochs"
+    x = monitor.final_weights(x)
+    return TrainResult(
+        x=x,
+        algorithm=algorithm,
+        reason=monitor.reason,
+        epochs=monitor.epoch,
+        mse=problem.mse(x),
+        val_mse=None if validation is None else validation.mse(x),
+        history=monitor.histories(),
+        nfev=counted.nfev,
+        time_s=monitor.elapsed,
+    )
