@@ -1,0 +1,47 @@
+"""Helpers shared by the command modules."""
+
+import json
+import sys
+
+__all__ = ["add_calibration_options", "read_calibration_from_args", "positive_int", "print_json"]
+
+
+def add_calibration_options(parser):
+    """The options every command that reads a calibration CSV accepts."""
+    parser.add_argument("--allow-gaps", action="store_true",
+                        help="accept a calibration with a coverage gap over 30 degrees")
+    parser.add_argument("--reverse", action="store_true",
+                        help="the encoder counts against the reference: negate its angles")
+    parser.add_argument("--average-duplicates", action="store_true",
+                        help="average repeated reference angles instead of refusing them")
+
+
+def read_calibration_from_args(path, args):
+    """Read ``path`` with the options of :func:`add_calibration_options`."""
+    from ..calibration import read_calibration
+
+    return read_calibration(
+        path,
+        allow_gaps=getattr(args, "allow_gaps", False),
+        reverse=getattr(args, "reverse", False),
+        duplicates="average" if getattr(args, "average_duplicates", False) else "refuse",
+    )
+
+
+def positive_int(text):
+    """argparse type: an int >= 1."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
+    return value
+
+
+def print_json(data, stream=None):
+    """Print one JSON object on one line."""
+    stream = stream or sys.stdout
+    stream.write(json.dumps(data, allow_nan=False) + "\n")

@@ -1,0 +1,146 @@
+"""``fit`` and ``evaluate``: the public entry points from a calibration to a model and back.
+
+Each model family provides ``fit_<kind>(theta_enc_deg, error_arcmin, **options) -> Model`` on plain
+arrays; :func:`fit` takes a :class:`~encal.calibration.Calibration`, dispatches on ``method``, and records
+the encoder and where the model came from.
+"""
+
+import hashlib
+import importlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from .angles import ARCMIN_PER_DEG, wrap180
+from .calibration import Calibration
+from .errors import InputError
+from .profile import ErrorStats, error_stats
+
+__all__ = ["fit", "evaluate", "Evaluation", "METHODS", "calibration_sha256"]
+
+#: method name -> (module, fit function). Modules are imported on first use.
+METHODS = {
+    "auto": ("encal.models.select", "fit_auto"),
+    "fourier": ("encal.models.fourier", "fit_fourier"),
+    "lut": ("encal.models.lut", "fit_lut"),
+    "ann": ("encal.models.ann", "fit_ann"),
+    "hybrid": ("encal.models.hybrid", "fit_hybrid"),
+}
+
+#: methods whose fit takes a random generator or seed
+_RANDOMISED = {"auto", "ann", "hybrid"}
+
+
+def calibration_sha256(cal):
+    """SHA-256 (hex) of a calibration's angles, to tie a model to the data it was fitted on."""
+    digest = hashlib.sha256()
+    for array in (cal.reference_deg, cal.encoder_deg):
+        digest.update(np.ascontiguousarray(array, dtype="<f8").tobytes())
+    if cal.direction is not None:
+        digest.update(np.ascontiguousarray(cal.direction, dtype="i1").tobytes())
+    return digest.hexdigest()
+
+
+def _fitter(method):
+    if method not in METHODS:
+        raise InputError(f"method must be one of {', '.join(sorted(METHODS))}. Got {method!r} instead.")
+    module_name, function = METHODS[method]
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:  # a family not built yet
+        raise InputError(f"method {method!r} is not available in this version of encal") from exc
+    return getattr(module, function)
+
+
+def fit(cal, method="auto", *, rng=None, **options):
+    """Fit an error model to a calibration.
+
+    Parameters
+    ----------
+    cal : Calibration
+        The calibration run (encoder readings and reference angles in degrees).
+    method : {'auto', 'fourier', 'lut', 'ann', 'hybrid'}, default='auto'
+        Model family; ``'auto'`` chooses by cross-validation.
+    rng : int or numpy.random.Generator, optional
+        Seed for the methods that draw random numbers (network initialisation).
+    **options
+        Passed to the family's fit function (``hidden``, ``algorithm``, ``encoding`` for ``'ann'``;
+        ``orders``, ``n_orders``, ``select`` for ``'fourier'``; ``interpolation`` for ``'lut'``).
+
+    Returns
+    -------
+    Model
+        Predicts the error ``encoder - reference`` in arc-minutes from the encoder angle in degrees.
+
+    Examples
+    --------
+    >>> import numpy as np, encal
+    >>> ref = np.arange(0.0, 360.0, 2.0)
+    >>> cal = encal.Calibration(ref, ref + np.sin(np.radians(ref)) / 60)   # 1 arcmin first harmonic
+    >>> model = encal.fit(cal, method="fourier", orders=[0, 1])
+    >>> round(float(model.predict(90.0 + 1 / 60)), 3)
+    1.0
+    """
+    if not isinstance(cal, Calibration):
+        raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
+    fitter = _fitter(method)
+    if method in _RANDOMISED:
+        options["rng"] = rng
+    elif rng is not None:
+        raise InputError(f"method {method!r} draws no random numbers; rng must be None")
+    model = fitter(cal.encoder_deg, cal.errors_arcmin, **options)
+    model.encoder = {"name": cal.name, "resolution_bits": cal.resolution_bits}
+    model.training = {
+        "method": method,
+        **model.training,
+        "n_points": len(cal),
+        "data_sha256": calibration_sha256(cal),
+    }
+    if isinstance(rng, (int, np.integer)):
+        model.training.setdefault("seed", int(rng))
+    return model
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """A model's accuracy on one calibration.
+
+    Attributes
+    ----------
+    before : ErrorStats
+        Statistics of the raw errors ``encoder - reference`` (arcmin).
+    after : ErrorStats
+        Statistics of the errors of the corrected angles ``corrected - reference`` (arcmin).
+    encoder_deg : ndarray
+        Encoder angles of the points (degrees).
+    residual_arcmin : ndarray
+        ``corrected - reference`` at every point (arcmin): the observed error minus the predicted one.
+    """
+
+    before: ErrorStats
+    after: ErrorStats
+    encoder_deg: np.ndarray
+    residual_arcmin: np.ndarray
+
+    def as_dict(self):
+        """JSON-ready: the ``after`` statistics at top level and ``before`` as a nested object."""
+        return {**self.after.as_dict(), "before": self.before.as_dict()}
+
+
+def evaluate(model, cal):
+    """Residual statistics of a model on a calibration (ideally one it was not fitted on).
+
+    Parameters
+    ----------
+    model : Model
+    cal : Calibration
+
+    Returns
+    -------
+    Evaluation
+    """
+    if not isinstance(cal, Calibration):
+        raise InputError(f"evaluate expects a Calibration. Got {type(cal).__name__} instead.")
+    observed = cal.errors_arcmin
+    residual = wrap180((observed - model.predict(cal.encoder_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
+    return Evaluation(error_stats(observed), error_stats(residual), cal.encoder_deg.copy(), residual)

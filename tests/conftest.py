@@ -1,0 +1,38 @@
+"""Shared fixtures."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REAL_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "mechaduino"
+
+
+@pytest.fixture
+def real_data_dir():
+    """The folder of real AS5047D calibrations (shared/ beside the repository); skips when absent."""
+    if not REAL_DATA.is_dir():
+        pytest.skip("shared/data/real/mechaduino is not beside this checkout")
+    return REAL_DATA
+
+
+@pytest.fixture
+def write_csv(tmp_path):
+    """Write text to a CSV file in tmp_path and return its path."""
+
+    def write(text, name="cal.csv", mode="w"):
+        path = tmp_path / name
+        if isinstance(text, bytes):
+            path.write_bytes(text)
+        else:
+            path.write_text(text, encoding="utf-8", newline="")
+        return path
+
+    return write
+
+
+def grid_csv(step=2.0, offset=0.0, error=lambda ref: 0.01 * np.sin(np.radians(ref))):
+    """CSV text of a calibration on a regular grid with a given error function (degrees)."""
+    ref = np.arange(0.0, 360.0, step) + offset
+    lines = ["reference_deg,encoder_deg"] + [f"{float(r)!r},{float(r + error(r))!r}" for r in ref]
+    return "\n".join(lines) + "\n"

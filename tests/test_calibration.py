@@ -1,0 +1,204 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from numpy.testing import assert_allclose, assert_array_equal
+
+from conftest import grid_csv
+from encal import Calibration, CalibrationError, read_calibration, write_calibration
+
+
+# ---------------------------------------------------------------- refused, in one sentence
+
+
+def _refused(path, match, **kwargs):
+    with pytest.raises(CalibrationError, match=match) as info:
+        read_calibration(path, **kwargs)
+    message = str(info.value)
+    assert "\n" not in message
+    assert str(path) in message
+    return message
+
+
+def test_missing_file(tmp_path):
+    _refused(tmp_path / "nope.csv", "no such file")
+
+
+def test_folder(tmp_path):
+    _refused(tmp_path, "is a folder")
+
+
+@pytest.mark.parametrize("text", ["", "\n\n", "# only a comment\n"])
+def test_empty_file(write_csv, text):
+    _refused(write_csv(text), "empty")
+
+
+def test_no_header(write_csv):
+    text = "\n".join(f"{r},{r}" for r in range(0, 360, 10))
+    message = _refused(write_csv(text), "header lacks reference_deg and encoder_deg")
+    assert "line 1" in message and "row of numbers" in message
+
+
+def test_header_without_encoder_column(write_csv):
+    message = _refused(write_csv("reference_deg,reading\n0,0\n"), "header lacks encoder_deg")
+    assert "reference_deg, reading" in message
+
+
+@pytest.mark.parametrize("separator, label", [(";", "semicolons"), ("\t", "tabs")])
+def test_wrong_separator(write_csv, separator, label):
+    text = grid_csv().replace(",", separator)
+    message = _refused(write_csv(text), label)
+    assert "expected commas" in message
+
+
+def test_non_numeric_value_names_line_and_column(write_csv):
+    lines = grid_csv().splitlines()
+    lines[5] = "8.0,abc"
+    message = _refused(write_csv("\n".join(lines)), "'abc'")
+    assert "line 6, column 2" in message
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf", "NaN"])
+def test_nan_and_infinity(write_csv, bad):
+    lines = grid_csv().splitlines()
+    lines[3] = f"{bad},4.0"
+    message = _refused(write_csv("\n".join(lines)), "finite")
+    assert "line 4, column 1" in message
+
+
+def test_too_few_points(write_csv):
+    text = "reference_deg,encoder_deg\n" + "".join(f"{r},{r}\n" for r in range(0, 360, 52))
+    _refused(write_csv(text), "7 calibration points, expected at least 8")
+
+
+def test_truncated_row(write_csv):
+    text = grid_csv() + "358.5\n"
+    _refused(write_csv(text), "truncated")
+
+
+def test_binary_file(write_csv):
+    _refused(write_csv(bytes(range(256)) * 4), "binary")
+
+
+def test_gap_refused_and_allowed(write_csv):
+    text = grid_csv(step=2.0)
+    lines = [line for line in text.splitlines() if not line.split(",")[0].startswith(("1", "2"))
+             or line.startswith("reference")]
+    path = write_csv("\n".join(lines))
+    message = _refused(path, "gap of")
+    assert "--allow-gaps" in message
+    cal = read_calibration(path, allow_gaps=True)
+    assert len(cal) == len(lines) - 1
+
+
+def test_reversed_encoder_refused_and_accepted(write_csv):
+    ref = np.arange(0.0, 360.0, 2.0)
+    text = "reference_deg,encoder_deg\n" + "".join(f"{r},{(-r + 0.01) % 360}\n" for r in ref)
+    path = write_csv(text)
+    _refused(path, "counts against the reference.*--reverse")
+    cal = read_calibration(path, reverse=True)
+    assert_allclose(cal.errors_arcmin, -0.6, atol=1e-9)
+
+
+def test_conflicting_duplicates_refused_or_averaged(write_csv):
+    text = grid_csv() + "4.0,4.02\n"
+    path = write_csv(text)
+    _refused(path, "more than once with different readings")
+    cal = read_calibration(path, duplicates="average")
+    assert len(cal) == 180
+    i = int(np.flatnonzero(cal.reference_deg == 4.0)[0])
+    assert_allclose(cal.encoder_deg[i], (4.0 + 0.01 * np.sin(np.radians(4.0)) + 4.02) / 2)
+
+
+def test_identical_duplicates_kept(write_csv):
+    text = grid_csv()
+    repeat = text.splitlines()[3]
+    cal = read_calibration(write_csv(text + repeat + "\n"))
+    assert len(cal) == 181
+
+
+# ---------------------------------------------------------------- accepted
+
+
+def test_odd_but_valid_file(write_csv):
+    ref = np.arange(0.0, 360.0, 5.0)
+    rows = [f"x{i},{r + 720.0 + 0.02},{r - 360.0}" for i, r in enumerate(ref)]
+    text = "\ufeff# a comment\r\nNote,Encoder_DEG,REFERENCE_deg\r\n" + "\r\n".join(rows[:10]) \
+        + "\r\n# another comment\r\n" + "\r\n".join(rows[10:]) + "\r\n"
+    cal = read_calibration(write_csv(text))
+    assert len(cal) == ref.size
+    assert_allclose(cal.reference_deg, ref, atol=1e-9)
+    assert_allclose(cal.errors_arcmin, 1.2, atol=1e-9)
+    assert np.all((cal.encoder_deg >= 0) & (cal.encoder_deg < 360))
+    assert cal.name == "cal"
+
+
+def test_direction_and_epoch_columns(write_csv):
+    ref = np.arange(0.0, 360.0, 10.0)
+    rows = [f"{r},{r},cw,a" for r in ref] + [f"{r},{r + 0.01},CCW,a" for r in ref]
+    cal = read_calibration(write_csv("reference_deg,encoder_deg,direction,epoch\n" + "\n".join(rows)))
+    assert_array_equal(np.unique(cal.direction), [-1, 1])
+    assert set(cal.epoch) == {"a"}
+
+
+def test_bad_direction(write_csv):
+    text = "reference_deg,encoder_deg,direction\n" + "".join(f"{r},{r},up\n" for r in range(0, 360, 10))
+    message = _refused(write_csv(text), "direction is 'up'")
+    assert "line 2, column 3" in message
+
+
+def test_resolution_comment(write_csv):
+    cal = read_calibration(write_csv("# resolution_bits: 14\n" + grid_csv()))
+    assert cal.resolution_bits == 14
+
+
+def test_large_zero_offset_near_180_stays_continuous():
+    ref = np.arange(0.0, 360.0, 1.8)
+    error_deg = 179.9 + 0.2 * np.sin(np.radians(ref))  # crosses the +-180 boundary
+    cal = Calibration(ref, ref + error_deg)
+    assert_allclose(cal.errors_arcmin / 60.0 % 360.0, error_deg % 360.0, atol=1e-9)
+    assert np.ptp(cal.errors_arcmin) < 0.5 * 60
+
+
+def test_real_file(real_data_dir):
+    cal = read_calibration(real_data_dir / "mech_jcchurch_2016-11-22_9d73d2c6.csv")
+    assert len(cal) == 200
+    assert 10 < np.ptp(cal.errors_arcmin) < 200
+
+
+# ---------------------------------------------------------------- round trip
+
+angles = arrays(np.float64, st.integers(8, 60),
+                elements=st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False))
+
+
+@settings(max_examples=50, deadline=None)
+@given(angles, st.floats(-5, 5), st.sampled_from([None, 12, 16]))
+def test_write_read_round_trip(tmp_path_factory, reference, offset, bits):
+    reference = np.sort(np.mod(reference, 360.0))
+    cal = Calibration(reference, reference + offset / 60.0, name="rt", resolution_bits=bits)
+    path = tmp_path_factory.mktemp("rt") / "rt.csv"
+    write_calibration(path, cal, extra_columns={"note": ["n"] * len(cal)})
+    back = read_calibration(path, allow_gaps=True, duplicates="average")
+    unique = np.unique(np.round(cal.reference_deg, 9)).size
+    if unique == len(cal):
+        assert_array_equal(back.reference_deg, cal.reference_deg)
+        assert_array_equal(back.encoder_deg, cal.encoder_deg)
+    assert back.resolution_bits == bits
+
+
+def test_write_is_atomic_when_folder_missing(tmp_path):
+    cal = Calibration(np.arange(0, 360, 10.0), np.arange(0, 360, 10.0))
+    with pytest.raises(Exception, match="does not exist"):
+        write_calibration(tmp_path / "missing" / "x.csv", cal)
+    assert not (tmp_path / "missing").exists()
+
+
+def test_calibration_validation():
+    with pytest.raises(CalibrationError, match="one reading per reference angle"):
+        Calibration([0, 1], [0])
+    with pytest.raises(CalibrationError, match="finite"):
+        Calibration([0, np.nan], [0, 1])
+    with pytest.raises(CalibrationError, match=r"\+1 or -1"):
+        Calibration([0, 1], [0, 1], direction=[1, 0])
