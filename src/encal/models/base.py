@@ -62,9 +62,13 @@ class Model(ABC):
         The encoder's name and resolution (``{'name': str, 'resolution_bits': int | None}``).
     training : dict
         How the model was made (method, algorithm, options, seed, data hash, ...).
+    uncertainty : dict or None
+        Prediction uncertainty as JSON-ready data (see :mod:`encal.uncertainty`), or ``None`` when the
+        model has none. The model file stores it as its ``uncertainty`` field.
     """
 
     kind = "abstract"
+    uncertainty = None
 
     def __init__(self, *, encoder=None, training=None):
         self.encoder = dict(encoder or {})
@@ -83,21 +87,32 @@ class Model(ABC):
     def from_parameters(cls, parameters, *, encoder=None, training=None):
         """Rebuild a model from ``parameters()``."""
 
-    def predict(self, theta_enc_deg):
+    def predict(self, theta_enc_deg, return_std=False):
         """Predicted error at the given encoder readings.
 
         Parameters
         ----------
         theta_enc_deg : float or array-like
             Encoder readings in degrees (any real value; the model is periodic).
+        return_std : bool, default=False
+            Also return the standard uncertainty of a new reading's residual
+            (needs :attr:`uncertainty`, see :func:`encal.uncertainty.add_uncertainty`).
 
         Returns
         -------
-        float or ndarray
+        mean : float or ndarray
             Predicted error ``encoder - reference`` in arc-minutes, same shape.
+        std : float or ndarray
+            Only with ``return_std=True``: ``sqrt(sigma_model**2 + sigma_noise**2)`` in arc-minutes,
+            same shape.
         """
         theta = as_angles(theta_enc_deg)
-        return np.asarray(self._predict(wrap360(theta)), dtype=float).reshape(theta.shape)[()]
+        mean = np.asarray(self._predict(wrap360(theta)), dtype=float).reshape(theta.shape)[()]
+        if not return_std:
+            return mean
+        from ..uncertainty import predictive_std
+
+        return mean, predictive_std(self.uncertainty, theta)
 
     def correct(self, theta_enc_deg):
         """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``, in degrees."""

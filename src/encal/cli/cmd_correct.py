@@ -1,0 +1,64 @@
+"""Correct encoder angles with a model file, streaming.
+
+Reads encoder angles in degrees, one per line, or a CSV file whose header names
+an ``encoder_deg`` column; blank lines and ``#`` comments are skipped. Writes one
+corrected angle per line, in degrees in [0, 360), exactly (Python's shortest
+round-tripping ``repr``: parse it as a double and you get the library's value).
+
+Memory stays constant however long the input. Each block of input is answered
+as soon as it is read, and a pipe that delivers one line gives one answer at
+once, so ``encal correct`` can sit in a live acquisition chain:
+
+    acquire | encal correct enc1.json | log
+
+A malformed line stops the command with status 1 and a message naming the
+line (the answers to the lines before it are already written); with
+``--skip-bad`` it gets ``nan`` and the stream goes on.
+"""
+
+import os
+import sys
+
+from ..deploy import Compensator
+from ..deploy.stream import correct_stream
+
+HELP = "correct encoder angles (one per line, degrees) with a model file"
+
+
+def add_arguments(parser):
+    parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")
+    parser.add_argument("input", metavar="FILE", nargs="?", default="-",
+                        help="encoder angles in degrees, one per line, or a CSV with an "
+                             "encoder_deg column; '-' (default) reads standard input")
+    parser.add_argument("--skip-bad", action="store_true",
+                        help="write 'nan' for a malformed line and go on instead of stopping")
+
+
+def run(args):
+    compensator = Compensator(args.model)
+    sink = getattr(sys.stdout, "buffer", None) or _TextSink(sys.stdout)
+    try:
+        if args.input == "-":
+            correct_stream(compensator, sys.stdin.buffer, sink, skip_bad=args.skip_bad)
+        else:
+            with open(args.input, "rb") as source:
+                correct_stream(compensator, source, sink, skip_bad=args.skip_bad,
+                               name=args.input)
+    except BrokenPipeError:
+        # The reader went away (`encal correct ... | head`): stop quietly, and keep
+        # Python from failing again when it flushes stdout at exit.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    return 0
+
+
+class _TextSink:
+    """Bytes to a text stream (for a replaced ``sys.stdout`` without a buffer)."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def write(self, data):
+        self.stream.write(data.decode("ascii"))
+
+    def flush(self):
+        self.stream.flush()

@@ -1,0 +1,87 @@
+"""Error statistics and harmonic analysis of one calibration.
+
+Prints n, MAE, RMS, STD (RMS about the mean), min, max and peak-to-peak of
+the error ``encoder - reference`` in arc-minutes (and in LSB when the
+encoder's resolution is known), then the harmonic orders of largest
+amplitude of the error as a function of the encoder angle.
+With --json, prints one JSON object instead.
+"""
+
+import json
+
+import numpy as np
+
+from ..angles import lsb_arcmin
+from ..calibration import read_calibration
+from ..profile import error_stats, harmonics
+
+HELP = "error statistics and harmonic analysis of one calibration"
+
+_ROWS = [
+    ("MAE", "mae"),
+    ("RMS", "rms"),
+    ("STD (RMS about mean)", "std"),
+    ("min", "min"),
+    ("max", "max"),
+    ("peak-to-peak", "pp"),
+    ("max |error|", "max_abs"),
+]
+
+
+def add_arguments(parser):
+    parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--top", metavar="N", type=_count, default=10,
+                        help="list the N harmonic orders of largest amplitude (default 10; 0 lists all)")
+    parser.add_argument("--allow-gaps", action="store_true",
+                        help="accept encoder angles that leave a gap over 30 degrees")
+    parser.add_argument("--reverse", action="store_true",
+                        help="the encoder counts against the reference: negate its angles")
+    parser.add_argument("--average-duplicates", action="store_true",
+                        help="average repeated reference angles whose readings disagree")
+
+
+def run(args):
+    cal = read_calibration(args.calibration, allow_gaps=args.allow_gaps, reverse=args.reverse,
+                           duplicates="average" if args.average_duplicates else "refuse")
+    stats = error_stats(cal)
+    analysis = harmonics(cal.encoder_deg, cal.errors_arcmin)
+    top = analysis.as_list(args.top or None)
+    if args.json:
+        print(json.dumps({"name": cal.name, "resolution_bits": cal.resolution_bits,
+                          **stats.as_dict(), "harmonics": top}))
+    else:
+        print(_report(cal, stats, analysis, top))
+    return 0
+
+
+def _report(cal, stats, analysis, top):
+    bits = cal.resolution_bits
+    lsb = lsb_arcmin(bits) if bits is not None else None
+    resolution = f"; {bits}-bit encoder, 1 LSB = {lsb:.4f} arcmin" if bits is not None else ""
+    lines = [f"{cal.name or cal.source or 'calibration'}: {stats.n} points{resolution}", ""]
+    lines.append(f"{'statistic':<22}{'arcmin':>10}" + (f"{'LSB':>10}" if lsb else ""))
+    lines.append(f"{'n':<22}{stats.n:>10d}")
+    for label, attribute in _ROWS:
+        value = getattr(stats, attribute)
+        lines.append(f"{label:<22}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
+    lines += ["", f"largest harmonics of the error vs encoder angle "
+                  f"({len(top)} of orders 0..{analysis.max_order})"]
+    lines.append(f"{'order':>5}{'amplitude/arcmin':>19}{'phase/deg':>12}")
+    phase = np.degrees(analysis.phase_rad)
+    for entry in top:
+        k = entry["order"]
+        lines.append(f"{k:>5d}{entry['amplitude_arcmin']:>19.3f}{phase[k]:>12.1f}")
+    return "\n".join(lines)
+
+
+def _count(text):
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return value

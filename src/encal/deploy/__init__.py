@@ -1,0 +1,18 @@
+"""Deployment: model files, online correction, dense tables and C export.
+
+- :func:`save_model` / :func:`load_model`: the versioned, checksummed JSON model file.
+- :class:`Compensator`: correct encoder readings with a model (NumPy, vectorised).
+- :mod:`encal.deploy.runtime`: a standalone, standard-library-only reader of model
+  files, to copy into a data acquisition program.
+- :func:`compile_table`: a per-code correction table for a B-bit encoder.
+- :func:`export_c`: C source for firmware.
+"""
+
+from .cexport import export_c, write_c
+from .compensator import Compensator
+from .modelfile import load_model, model_from_dict, model_to_dict, read_model, save_model
+from .table import CorrectionTable, compile_table, load_table, save_table
+
+__all__ = ["save_model", "load_model", "read_model", "model_to_dict", "model_from_dict",
+           "Compensator", "CorrectionTable", "compile_table", "save_table", "load_table",
+           "export_c", "write_c"]

@@ -1,0 +1,428 @@
+"""C source for firmware: a model (or its dense table) as ``PREFIX.h`` and ``PREFIX.c``.
+
+The generated code is plain C99 with ``<math.h>`` and ``<stdint.h>``; it
+defines, for a prefix such as ``encal``::
+
+    float encal_predict_arcmin(float theta_deg);   /* predicted error, arc-minutes */
+    float encal_correct_deg(float theta_deg);      /* corrected angle, [0, 360) degrees */
+    float encal_correct_counts(uint32_t code);     /* same for a raw B-bit code */
+
+Two ways of evaluating the model:
+
+- the model's formula (Fourier series, piecewise polynomial, 1:N:1 network
+  with its input and output scaling, or their sum), computed in ``double``.
+  Angles are reduced before any trigonometry: a Fourier phase ``k * theta``
+  is taken modulo 360 degrees in double (exact, as ``theta`` is a float and
+  ``k`` a small integer) before it is turned into radians, so orders of
+  several hundred lose nothing. Constants are stored as ``float`` (printed
+  ``%.9g``, which round-trips float32) when that changes the model by at most
+  :data:`FLOAT32_BUDGET_ARCMIN` on a dense grid, else as ``double`` (``%.17g``);
+- the dense per-code table of :mod:`encal.deploy.table` (``table='int16'`` or
+  ``'float32'``): one lookup per reading, no transcendental functions, for
+  processors without a double-precision unit. Angles that are not codes are
+  looked up at the nearest code.
+
+Only the return value is a float: the corrected angle is rounded once, to
+float32, at the end (at most 2^-16 degrees = 0.00092 arcmin near 360).
+"""
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_write
+from .._version import __version__
+from ..errors import InputError
+from .compensator import Compensator
+from .table import compile_table
+
+__all__ = ["export_c", "write_c", "FLOAT32_BUDGET_ARCMIN", "C_KEYWORDS"]
+
+#: Largest change of the model, in arc-minutes, that storing its constants as
+#: float32 may cause; beyond it they are stored as double.
+FLOAT32_BUDGET_ARCMIN = 1e-4
+_CHECK_POINTS = 1 << 16  # grid on which the float32 rounding of the constants is measured
+_MAX_C_TABLE_BITS = 20
+
+C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum extern
+float for goto if inline int long register restrict return short signed sizeof static struct
+switch typedef union unsigned void volatile while _Bool _Complex _Imaginary""".split())
+
+
+def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
+    """C source that corrects encoder angles with ``model``.
+
+    Parameters
+    ----------
+    model : Model, Compensator, str or os.PathLike
+        The model, or its model file.
+    prefix : str, default='encal'
+        Prefix of the file names and of every exported C identifier; a valid C identifier.
+    bits : int, optional
+        Encoder resolution for ``<prefix>_correct_counts``. Default: the
+        model's ``encoder.resolution_bits``.
+    table : {None, 'int16', 'float32'}, default=None
+        Evaluate the formula (None), or look up a dense table of this dtype.
+    constants : {'auto', 'float', 'double'}, default='auto'
+        Storage of the formula's constants; 'auto' chooses float when the
+        model then changes by at most :data:`FLOAT32_BUDGET_ARCMIN`.
+
+    Returns
+    -------
+    dict of str to str
+        ``{'<prefix>.h': text, '<prefix>.c': text}``.
+
+    Raises
+    ------
+    InputError
+        If ``prefix`` is not a valid C identifier, or an option is invalid.
+    """
+    _check_identifier(prefix)
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits, table)
+    if constants not in ("auto", "float", "double"):
+        raise InputError(f"expected constants 'auto', 'float' or 'double', got {constants!r}")
+    if table is None:
+        ctype, deviation = _constant_type(comp, constants)
+        body = _FORMULA[comp.kind](comp.model.parameters(), _Literals(ctype))
+        how = (f"the model's formula in double; constants stored as {ctype} (they change "
+               f"the model by at most {deviation:.3g} arcmin on {_CHECK_POINTS} angles)")
+    else:
+        compiled = compile_table(comp, bits, dtype=table)
+        body = _table_source(compiled)
+        how = (f"a {bits}-bit {table} table: {compiled.quantisation_arcmin:.3g} arcmin from the "
+               f"model at the codes, plus up to {compiled.between_codes_arcmin:.3g} arcmin "
+               "for angles between codes (looked up at the nearest code)")
+    banner = _banner(comp, prefix, how)
+    return {f"{prefix}.h": _header(prefix, bits, banner),
+            f"{prefix}.c": _source(prefix, bits, banner, body)}
+
+
+def write_c(model, directory, **options):
+    """Write the files of :func:`export_c` into ``directory`` (created if missing, files
+    written atomically); return their paths."""
+    files = export_c(model, **options)
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, text in files.items():
+        paths.append(directory / name)
+        atomic_write(paths[-1], text)
+    return paths
+
+
+def _check_identifier(prefix):
+    valid = isinstance(prefix, str) and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix)
+    reserved = valid and (prefix.startswith("__") or re.match(r"_[A-Z]", prefix))
+    if not valid or reserved or prefix in C_KEYWORDS:
+        raise InputError(f"expected a C identifier for the prefix (letters, digits, '_', not "
+                         f"starting with a digit, '__' or '_' + capital, not a keyword), "
+                         f"got {prefix!r}")
+
+
+def _check_bits(bits, table):
+    limit = _MAX_C_TABLE_BITS if table else 32
+    if bits is None:
+        raise InputError("expected the encoder resolution in bits (the model file does not "
+                         "record it), got none; pass bits")
+    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= limit:
+        raise InputError(f"expected an encoder resolution from 1 to {limit} bits"
+                         f"{' for a C table' if table else ''}, got {bits!r}")
+    return int(bits)
+
+
+# -- constants as float or double -------------------------------------------------------
+
+def _constant_type(comp, constants):
+    """'float' or 'double', and the measured model change (arcmin) of float32 constants."""
+    if constants == "double":
+        return "double", 0.0
+    rounded = _map_numbers(comp.model.parameters(), lambda v: float(np.float32(v)))
+    theta = np.arange(_CHECK_POINTS) * (360.0 / _CHECK_POINTS)
+    exact = comp.model.predict(theta)
+    with np.errstate(all="ignore"):
+        document = {"kind": comp.kind, "parameters": rounded}
+        try:
+            approximate = _rebuild(comp.model, document).predict(theta)
+            deviation = float(np.max(np.abs(approximate - exact)))
+        except (ValueError, FloatingPointError):  # a constant beyond float32's range
+            deviation = np.inf
+    if constants == "float":
+        if not np.isfinite(deviation):
+            raise InputError("expected model constants within float32's range, got larger "
+                             "ones; use constants='double'")
+        return "float", deviation
+    return ("float", deviation) if deviation <= FLOAT32_BUDGET_ARCMIN else ("double", deviation)
+
+
+def _rebuild(model, document):
+    return type(model).from_parameters(document["parameters"], encoder=model.encoder)
+
+
+def _map_numbers(value, function):
+    if isinstance(value, dict):
+        return {key: _map_numbers(item, function) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_map_numbers(item, function) for item in value]
+    if isinstance(value, float) or isinstance(value, int) and not isinstance(value, bool):
+        return function(value) if isinstance(value, float) else value
+    return value
+
+
+class _Literals:
+    """C literals and array definitions of one storage type."""
+
+    def __init__(self, ctype):
+        self.ctype = ctype
+
+    def number(self, value):
+        text = f"{value:.9g}" if self.ctype == "float" else f"{value:.17g}"
+        if not re.search(r"[.eEn]", text):  # '5' -> '5.0': '5f' is not a C literal
+            text += ".0"
+        return text + ("f" if self.ctype == "float" else "")
+
+    def array(self, name, values, per_line=4, ctype=None, number=None):
+        values = list(values)
+        number = number or self.number
+        rows = [", ".join(number(v) for v in values[i:i + per_line])
+                for i in range(0, len(values), per_line)]
+        return (f"static const {ctype or self.ctype} {name}[{len(values)}] = {{\n    "
+                + ",\n    ".join(rows) + "\n};\n")
+
+
+# -- formula of each kind ---------------------------------------------------------------
+# Each returns C that defines `static double error_arcmin(double theta)` for theta
+# in [0, 360) degrees, plus the static data it needs.
+
+def _fourier_source(p, literals, name="error_arcmin"):
+    tag = name.replace("error_arcmin", "fourier")
+    return f"""\
+{literals.array(f"{tag}_order", p["orders"], per_line=12, ctype="int", number=str)}
+{literals.array(f"{tag}_cos", p["cos"])}
+{literals.array(f"{tag}_sin", p["sin"])}
+static double {name}(double theta)
+{{
+    double sum = 0.0;
+    int i;
+    for (i = 0; i < {len(p["orders"])}; ++i) {{
+        /* k * theta is exact in double (theta came from a float): reduce it first. */
+        double phase = fmod((double){tag}_order[i] * theta, 360.0) * DEG_TO_RAD;
+        sum += (double){tag}_cos[i] * cos(phase) + (double){tag}_sin[i] * sin(phase);
+    }}
+    return sum;
+}}
+"""
+
+
+def _lut_source(p, literals):
+    degree = len(p["coefficients"]) - 1
+    n = len(p["breaks_deg"]) - 1
+    arrays = "".join(literals.array(f"lut_c{m}", row) for m, row in enumerate(p["coefficients"]))
+    horner = "(double)lut_c0[i]"
+    for m in range(1, degree + 1):
+        horner = f"({horner}) * dx + (double)lut_c{m}[i]"
+    return f"""\
+{literals.array("lut_breaks", p["breaks_deg"])}
+{arrays}
+static double error_arcmin(double theta)
+{{
+    /* into [x_0, x_0 + 360), then the interval i with x_i <= x < x_(i+1) by bisection */
+    double x = theta - 360.0 * floor((theta - (double)lut_breaks[0]) / 360.0);
+    int lo = 0, hi = {n};
+    double dx;
+    while (hi - lo > 1) {{
+        int mid = (lo + hi) / 2;
+        if ((double)lut_breaks[mid] <= x) lo = mid; else hi = mid;
+    }}
+    {{
+        const int i = lo;
+        dx = x - (double)lut_breaks[i];
+        return {horner};
+    }}
+}}
+"""
+
+
+def _ann_source(p, literals, name="error_arcmin"):
+    tag = name.replace("error_arcmin", "ann")
+    hidden = len(p["b1"])
+    periodic = p["encoding"] == "periodic"
+    inputs = ("const double u[2] = {cos(theta * DEG_TO_RAD), sin(theta * DEG_TO_RAD)};"
+              if periodic else "const double u[1] = {theta};")
+    n_inputs = 2 if periodic else 1
+    activation = ("tanh(z)" if p["activation"] == "tansig"
+                  else "(z >= 0.0 ? 1.0 / (1.0 + exp(-z)) : exp(z) / (1.0 + exp(z)))")
+    return f"""\
+{literals.array(f"{tag}_input_offset", p["input_offset"])}
+{literals.array(f"{tag}_input_gain", p["input_gain"])}
+{literals.array(f"{tag}_W1", [w for row in p["W1"] for w in row])}
+{literals.array(f"{tag}_b1", p["b1"])}
+{literals.array(f"{tag}_W2", p["W2"])}
+static const {literals.ctype} {tag}_b2 = {literals.number(p["b2"])};
+static const {literals.ctype} {tag}_target_offset = {literals.number(p["target_offset"])};
+static const {literals.ctype} {tag}_target_gain = {literals.number(p["target_gain"])};
+
+static double {name}(double theta)
+{{
+    {inputs}
+    double x[{n_inputs}];
+    double y = (double){tag}_b2;
+    int i, j;
+    for (i = 0; i < {n_inputs}; ++i) {{
+        x[i] = (double){tag}_input_gain[i] * (u[i] - (double){tag}_input_offset[i]) - 1.0; /* mapminmax */
+    }}
+    for (j = 0; j < {hidden}; ++j) {{
+        double z = (double){tag}_b1[j];
+        for (i = 0; i < {n_inputs}; ++i) {{
+            z += (double){tag}_W1[j * {n_inputs} + i] * x[i];
+        }}
+        y += (double){tag}_W2[j] * {activation};
+    }}
+    return (y + 1.0) / (double){tag}_target_gain + (double){tag}_target_offset;
+}}
+"""
+
+
+def _hybrid_source(p, literals):
+    return (_fourier_source(p["fourier"], literals, name="fourier_error_arcmin") + "\n"
+            + _ann_source(p["ann"], literals, name="ann_error_arcmin") + """
+static double error_arcmin(double theta)
+{
+    return fourier_error_arcmin(theta) + ann_error_arcmin(theta);
+}
+""")
+
+
+_FORMULA = {"fourier": _fourier_source, "lut": _lut_source, "ann": _ann_source,
+            "hybrid": _hybrid_source}
+
+
+def _table_source(table):
+    ctype = {"int16": "int16_t", "float32": "float"}[table.dtype]
+    if table.dtype == "int16":
+        items = [str(int(v)) for v in table.values]
+        per_line = 12
+    else:
+        items = [_Literals("float").number(float(v)) for v in table.values]
+        per_line = 6
+    rows = ",\n    ".join(", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line))
+    scale = _Literals("double").number(table.scale_arcmin)
+    return f"""\
+/* predicted error at code k, in units of TABLE_SCALE_ARCMIN arc-minutes */
+static const {ctype} error_table[{table.values.size}] = {{
+    {rows}
+}};
+#define TABLE_SCALE_ARCMIN {scale}
+
+static double code_error_arcmin(uint32_t code)
+{{
+    return (double)error_table[code & CODE_MASK] * TABLE_SCALE_ARCMIN;
+}}
+
+static double error_arcmin(double theta)
+{{
+    return code_error_arcmin((uint32_t)floor(theta / STEP_DEG + 0.5)); /* nearest code */
+}}
+"""
+
+
+# -- files ------------------------------------------------------------------------------
+
+def _banner(comp, prefix, how):
+    name = json.dumps(comp.encoder.get("name") or "", ensure_ascii=True).replace("*/", "*\\/")
+    sha = comp.sha256 or "none (the model was not saved to a file)"
+    return f"""\
+/*
+ * {prefix}: encoder error compensation, generated by encal {__version__}. Do not edit.
+ * Model: kind {comp.kind}, encoder {name}, sha256 {sha}.
+ * Evaluates {how}.
+ * Angles in degrees, errors in arc-minutes (error = encoder - reference);
+ * corrected angle = (theta - error / 60) mod 360.
+ */
+"""
+
+
+def _header(prefix, bits, banner):
+    guard = f"{prefix.upper()}_H"
+    macro = prefix.upper()
+    return f"""\
+{banner}
+#ifndef {guard}
+#define {guard}
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {{
+#endif
+
+/* Resolution of the encoder codes taken by {prefix}_correct_counts, in bits. */
+#define {macro}_BITS {bits}u
+
+/* Predicted error (arc-minutes) at the encoder reading theta_deg (degrees, any value). */
+float {prefix}_predict_arcmin(float theta_deg);
+
+/* Corrected angle, in [0, 360) degrees, of the encoder reading theta_deg (degrees). */
+float {prefix}_correct_deg(float theta_deg);
+
+/* Corrected angle, in [0, 360) degrees, of the raw code of a {macro}_BITS-bit encoder
+   (the angle code * 360 / 2^{macro}_BITS; higher bits are ignored). */
+float {prefix}_correct_counts(uint32_t code);
+
+#ifdef __cplusplus
+}}
+#endif
+
+#endif /* {guard} */
+"""
+
+
+def _source(prefix, bits, banner, body):
+    step = _Literals("double").number(360.0 / 2**bits)
+    counts_error = ("code_error_arcmin(k)" if "code_error_arcmin" in body
+                    else "error_arcmin(theta)")
+    return f"""\
+{banner}
+#include "{prefix}.h"
+
+#include <math.h>
+#include <stdint.h>
+
+#define DEG_TO_RAD 0.017453292519943295
+#define CODE_MASK ((uint32_t)((((uint64_t)1) << {bits}) - 1u))
+#define STEP_DEG {step} /* 360 / 2^{bits} degrees per code */
+
+static double wrap360(double angle)
+{{
+    double wrapped = fmod(angle, 360.0);
+    if (wrapped < 0.0) wrapped += 360.0;
+    return wrapped >= 360.0 ? 0.0 : wrapped;
+}}
+
+static float to_float_angle(double angle)
+{{
+    float rounded = (float)angle; /* 359.99999999 rounds to 360.0f: keep [0, 360) */
+    return rounded >= 360.0f ? 0.0f : rounded;
+}}
+
+{body}
+float {prefix}_predict_arcmin(float theta_deg)
+{{
+    return (float)error_arcmin(wrap360((double)theta_deg));
+}}
+
+float {prefix}_correct_deg(float theta_deg)
+{{
+    const double theta = (double)theta_deg;
+    return to_float_angle(wrap360(theta - error_arcmin(wrap360(theta)) / 60.0));
+}}
+
+float {prefix}_correct_counts(uint32_t code)
+{{
+    const uint32_t k = code & CODE_MASK;
+    const double theta = (double)k * STEP_DEG;
+    return to_float_angle(wrap360(theta - {counts_error} / 60.0));
+}}
+"""

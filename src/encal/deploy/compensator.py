@@ -1,0 +1,123 @@
+"""Online correction of encoder readings with a model."""
+
+import inspect
+import os
+
+import numpy as np
+
+from ..angles import ARCMIN_PER_DEG, wrap360
+from ..errors import InputError
+from ..models.base import Model, as_angles
+from .modelfile import model_to_dict, read_model
+
+__all__ = ["Compensator"]
+
+
+class Compensator:
+    """Subtract a model's predicted error from encoder readings.
+
+    Parameters
+    ----------
+    model : Model or str or os.PathLike
+        A model, or the path of a model file.
+
+    Attributes
+    ----------
+    model : Model
+    source : str or None
+        The model file, when built from one.
+
+    Examples
+    --------
+    >>> comp = Compensator("enc1.json")                  # doctest: +SKIP
+    >>> comp.correct([10.0, 20.0])                       # doctest: +SKIP
+    array([ 9.99..., 19.99...])
+    """
+
+    def __init__(self, model):
+        if isinstance(model, Model):
+            self.model, self.source, self._sha256 = model, None, None
+        elif isinstance(model, (str, os.PathLike)):
+            self.model, self._sha256 = read_model(model)
+            self.source = os.fspath(model)
+        else:
+            raise InputError(f"expected a Model or the path of a model file, "
+                             f"got {type(model).__name__}")
+        self._directional = "direction" in inspect.signature(self.model.predict).parameters
+
+    @property
+    def sha256(self):
+        """Checksum of the model file (None for a model that was never saved)."""
+        if self._sha256 is None and self.model.training.get("date"):
+            self._sha256 = model_to_dict(self.model)["sha256"]
+        return self._sha256
+
+    @property
+    def kind(self):
+        return self.model.kind
+
+    @property
+    def encoder(self):
+        return self.model.encoder
+
+    def predict(self, theta_enc_deg, direction=None, return_std=False):
+        """Predicted error at encoder readings.
+
+        Parameters
+        ----------
+        theta_enc_deg : float or array-like
+            Encoder readings in degrees (any finite value).
+        direction : int or array-like of {+1, -1}, optional
+            Direction of travel into each reading. A model with one profile per
+            direction (``kind='directional'``, whose ``predict`` takes
+            ``direction``) uses it, and the mean of both without it; the other
+            kinds have one profile and ignore it.
+        return_std : bool, default=False
+            Also return the model's predictive standard uncertainty (arc-minutes;
+            the model must carry an uncertainty).
+
+        Returns
+        -------
+        mean : float or ndarray
+            Predicted error ``encoder - reference`` in arc-minutes, same shape.
+        std : float or ndarray
+            Only with ``return_std=True``.
+        """
+        theta = as_angles(theta_enc_deg)
+        options = {"return_std": True} if return_std else {}
+        if direction is not None:
+            direction = _directions(direction, theta.shape)
+            if self._directional:
+                options["direction"] = direction
+        return self.model.predict(theta, **options)
+
+    def correct(self, theta_enc_deg, direction=None):
+        """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``.
+
+        Parameters are those of :meth:`predict`.
+
+        Returns
+        -------
+        float or ndarray
+            Corrected angles in degrees, in [0, 360), same shape.
+        """
+        theta = as_angles(theta_enc_deg)
+        return wrap360(theta - self.predict(theta, direction) / ARCMIN_PER_DEG)[()]
+
+    __call__ = correct
+
+    def __repr__(self):
+        origin = f" from {self.source}" if self.source else ""
+        return f"<Compensator {self.model!r}{origin}>"
+
+
+def _directions(direction, shape):
+    direction = np.asarray(direction)
+    if not np.all(np.isin(direction, (-1, 1))):
+        raise InputError("expected direction values +1 or -1, got "
+                         f"{np.unique(direction[~np.isin(direction, (-1, 1))])[:3].tolist()}")
+    try:
+        return np.broadcast_to(direction, shape).astype(np.int8)
+    except ValueError:
+        raise InputError(f"expected one direction per angle (shape {shape}), "
+                         f"got shape {direction.shape}") from None

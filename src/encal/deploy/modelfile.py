@@ -1,0 +1,275 @@
+"""The model file: a model and how it was made, as versioned, checksummed JSON.
+
+The format is specified in ``docs/model-file.md``. Checking a file (format,
+version, checksum, fields, parameter shapes) is done by the standalone reader
+:mod:`encal.deploy.runtime`, so encal and a copied runtime accept exactly the
+same files; this module turns files into :class:`~encal.models.Model` objects
+and back.
+"""
+
+import contextlib
+import datetime
+import importlib
+import json
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_write
+from .._version import __version__
+from ..errors import InputError, ModelFileError
+from ..models.base import MODEL_KINDS, Model
+from . import runtime
+
+__all__ = ["save_model", "load_model", "read_model", "model_to_dict", "model_from_dict", "dumps",
+           "FORMAT", "VERSION"]
+
+FORMAT = runtime.FORMAT
+VERSION = runtime.VERSION
+
+#: Date written by ``reproducible=True`` when SOURCE_DATE_EPOCH is not set.
+_REPRODUCIBLE_DATE = "1970-01-01T00:00:00Z"
+
+
+def model_to_dict(model, *, reproducible=False):
+    """The model file content of ``model``, as a JSON-ready dict (with ``sha256``).
+
+    Parameters
+    ----------
+    model : Model
+        Any registered model kind.
+    reproducible : bool, default=False
+        Write a fixed training date (SOURCE_DATE_EPOCH if set, else
+        1970-01-01T00:00:00Z), so the same model gives the same bytes.
+
+    Returns
+    -------
+    dict
+        ``format, version, kind, encoder, units, normalisation, parameters,
+        training``, ``uncertainty`` when the model has one, and ``sha256``, in
+        that order.
+
+    Raises
+    ------
+    ModelFileError
+        If the parameters do not fit the format (wrong shapes, NaN or infinite numbers).
+    InputError
+        If the training metadata is not JSON data, or SOURCE_DATE_EPOCH is not an integer.
+    """
+    if not isinstance(model, Model):
+        raise InputError(f"expected an encal Model to save, got {type(model).__name__}")
+    where = f"the {model.kind} model of {model.encoder.get('name') or 'an unnamed encoder'}"
+    if model.kind not in runtime.KINDS:
+        raise ModelFileError(f"{where}: format version {VERSION} holds the model kinds "
+                             f"{', '.join(runtime.KINDS)}, not {model.kind!r}")
+    parameters = _json_data(model.parameters(), "parameters", finite=True)
+    with _encal_errors():
+        runtime.check_parameters(model.kind, parameters, where)
+    encoder = _json_data(model.encoder, "encoder", finite=False)
+    document = {
+        "format": FORMAT,
+        "version": VERSION,
+        "kind": model.kind,
+        "encoder": {"name": encoder.pop("name", None) or "",
+                    "resolution_bits": encoder.pop("resolution_bits", None), **encoder},
+        "units": dict(runtime.UNITS),
+        "normalisation": runtime.normalisation_of(model.kind, parameters),
+        "parameters": parameters,
+        "training": _training_metadata(model, reproducible),
+    }
+    if model.uncertainty is not None:
+        document["uncertainty"] = _json_data(model.uncertainty, "uncertainty", finite=True)
+    try:
+        document["sha256"] = runtime.content_sha256(document)
+    except ValueError:
+        raise ModelFileError(f"{where}: expected finite numbers only, got NaN or infinity "
+                             "outside the checked parameters") from None
+    with _encal_errors():
+        runtime.check_document(document, where)
+    return document
+
+
+def model_from_dict(document, *, source="model file", verify_checksum=True):
+    """Rebuild a model from a model file's content.
+
+    Parameters
+    ----------
+    document : dict
+        As returned by :func:`model_to_dict` or read from a model file.
+    source : str, default='model file'
+        Where the content came from, for messages.
+    verify_checksum : bool, default=True
+        Whether to compare ``sha256`` with the content (hand-made dicts may skip it).
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    ModelFileError
+        If the content is not a valid model file of a version this encal reads.
+    """
+    with _encal_errors():
+        runtime.check_document(document, source, verify_checksum=verify_checksum)
+    kind = document["kind"]
+    cls = _registered_class(kind)
+    if cls is None:
+        raise ModelFileError(f"{source}: expected a model kind this installation can evaluate, "
+                             f"got {kind!r}, which has no registered model class")
+    model = cls.from_parameters(document["parameters"], encoder=document["encoder"],
+                                training=document["training"])
+    if document.get("uncertainty") is not None:
+        model.uncertainty = document["uncertainty"]
+    return model
+
+
+def save_model(model, path, *, reproducible=False):
+    """Write ``model`` to a model file, atomically.
+
+    Parameters
+    ----------
+    model : Model
+    path : str or os.PathLike
+        Destination (``.json``); its folder must exist.
+    reproducible : bool, default=False
+        Fix the training date (see :func:`model_to_dict`), so that the same
+        data, options and seed give a byte-identical file.
+
+    Returns
+    -------
+    pathlib.Path
+        The file written.
+    """
+    path = Path(path)
+    atomic_write(path, dumps(model_to_dict(model, reproducible=reproducible)))
+    return path
+
+
+def load_model(path):
+    """Read a model file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    ModelFileError
+        If the file is not JSON, not an encal model file, of a newer format
+        version, altered after it was written (checksum), or malformed; the
+        message names the file.
+    OSError
+        If the file cannot be read.
+    """
+    return read_model(path)[0]
+
+
+def read_model(path):
+    """Read a model file; return the model and the file's ``sha256`` (which identifies it).
+
+    Raises the same errors as :func:`load_model`.
+    """
+    with _encal_errors():
+        document = runtime.read_document(path)
+    model = model_from_dict(document, source=str(path), verify_checksum=False)
+    return model, document["sha256"]
+
+
+def dumps(document):
+    """Model file text: readable JSON, one field per line, number arrays on one line each."""
+    return _dumps(document, "") + "\n"
+
+
+def _dumps(value, indent):
+    inner = indent + "  "
+    if isinstance(value, dict) and value:
+        items = [f"{inner}{json.dumps(key, ensure_ascii=False)}: {_dumps(item, inner)}"
+                 for key, item in value.items()]
+        return "{\n" + ",\n".join(items) + "\n" + indent + "}"
+    if isinstance(value, list) and any(isinstance(item, (list, dict)) for item in value):
+        return "[\n" + ",\n".join(inner + _dumps(item, inner) for item in value) + "\n" + indent + "]"
+    return json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
+
+
+@contextlib.contextmanager
+def _encal_errors():
+    """Re-raise the standalone runtime's errors as encal's :class:`ModelFileError`."""
+    try:
+        yield
+    except runtime.ModelFileError as exc:
+        raise ModelFileError(str(exc)) from None
+
+
+def _registered_class(kind):
+    """The model class of ``kind``, importing ``encal.models.<kind>`` on first use."""
+    if kind not in MODEL_KINDS:
+        module = f"encal.models.{kind}"
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError as exc:
+            if exc.name != module:  # the module exists but something it needs does not
+                raise
+    return MODEL_KINDS.get(kind)
+
+
+def _training_metadata(model, reproducible):
+    training = {
+        "method": model.kind, "algorithm": None, "epochs": None, "seed": None,
+        "data_sha256": None, "n_points": None, "date": None, "encal_version": __version__,
+        "options": {},
+        **_json_data(model.training, "training", finite=False),
+    }
+    fixed = _fixed_date(reproducible)
+    training["date"] = fixed or training["date"] or _utc_iso(datetime.datetime.now(datetime.UTC))
+    return training
+
+
+def _fixed_date(reproducible):
+    """The date to write when builds must be reproducible, else None."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    if epoch is not None:
+        try:
+            seconds = int(epoch)
+        except ValueError:
+            raise InputError(f"expected SOURCE_DATE_EPOCH to be an integer number of seconds, "
+                             f"got {epoch!r}") from None
+        return _utc_iso(datetime.datetime.fromtimestamp(seconds, datetime.UTC))
+    return _REPRODUCIBLE_DATE if reproducible else None
+
+
+def _utc_iso(moment):
+    return moment.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def _json_data(value, field, *, finite):
+    """``value`` as plain JSON data (NumPy arrays and scalars become lists and numbers).
+
+    Non-finite floats are kept when ``finite`` (the checks then name the
+    field), and become ``None`` in metadata, since JSON has no NaN.
+    """
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    elif isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, dict):
+        result = {}
+        for key, item in value.items():
+            if not isinstance(key, str):
+                raise InputError(f"expected text keys in the model's {field}, got {key!r}")
+            result[key] = _json_data(item, f"{field}.{key}", finite=finite)
+        return result
+    if isinstance(value, (list, tuple)):
+        return [_json_data(item, f"{field}[{i}]", finite=finite) for i, item in enumerate(value)]
+    if isinstance(value, float) and not math.isfinite(value) and not finite:
+        return None
+    if value is None or isinstance(value, (str, int, float)):
+        return value
+    raise InputError(f"expected JSON data (numbers, text, lists, dicts) in the model's {field}, "
+                     f"got a {type(value).__name__}")

@@ -1,0 +1,534 @@
+"""Correct encoder angles from an encal model file with the Python standard library alone.
+
+This one file is meant to be copied into a data acquisition program: it reads
+a model file written by ``encal fit`` (any kind: ``fourier``, ``lut``,
+``ann``, ``hybrid``, ``directional``), verifies its checksum and structure, and evaluates the
+model one angle at a time. It imports nothing but ``json``, ``math``,
+``bisect`` and ``hashlib``; NumPy and encal need not be installed.
+
+>>> model = load("enc1.json")                        # doctest: +SKIP
+>>> model.correct_deg(123.456)                       # doctest: +SKIP
+123.4412...
+
+Conventions (those of encal): angles in degrees, errors in arc-minutes, the
+error is ``encoder - reference``; the corrected angle is
+``(theta_enc - predict_arcmin(theta_enc) / 60) mod 360``, in [0, 360).
+
+The file format is specified in encal's ``docs/model-file.md``. encal itself
+uses the checks below when it loads a file, so this reader and encal accept
+exactly the same files.
+"""
+
+import bisect
+import hashlib
+import json
+import math
+
+__all__ = ["load", "read_document", "RuntimeModel", "ModelFileError",
+           "canonical_json", "content_sha256", "check_document", "check_parameters",
+           "check_uncertainty", "normalisation_of", "FORMAT", "VERSION", "KINDS"]
+
+FORMAT = "encal.model"
+#: The newest format version this reader understands.
+VERSION = 1
+#: Model kinds whose parameters format version 1 specifies.
+KINDS = ("ann", "directional", "fourier", "hybrid", "lut")
+#: Kinds that can be one direction's part of a ``directional`` model.
+PART_KINDS = ("ann", "fourier", "hybrid", "lut")
+UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}
+FIELDS = ("format", "version", "kind", "encoder", "units", "normalisation", "parameters",
+          "training", "sha256")
+OPTIONAL_FIELDS = ("uncertainty",)
+TRAINING_FIELDS = ("method", "algorithm", "epochs", "seed", "data_sha256", "n_points", "date",
+                   "encal_version", "options")
+_SCALING_FIELDS = ("input_offset", "input_gain", "target_offset", "target_gain")
+_UNCERTAINTY_FIELDS = ("method", "grid_step_deg", "model_std_arcmin", "noise_std_arcmin")
+
+
+class ModelFileError(ValueError):
+    """A model file cannot be used: not JSON, another format, altered, newer, malformed."""
+
+
+# -- checksum ---------------------------------------------------------------------------
+
+def canonical_json(content):
+    """The canonical JSON text of ``content``: keys sorted, no spaces, floats by ``repr``.
+
+    ``json`` writes floats with ``float.__repr__``, the shortest text that
+    reads back to the same double, so the canonical text, and the checksum,
+    survive a save/load round trip exactly. Non-ASCII text is escaped.
+    """
+    return json.dumps(content, sort_keys=True, separators=(",", ":"), ensure_ascii=True,
+                      allow_nan=False)
+
+
+def content_sha256(document):
+    """SHA-256 (hex) of the canonical JSON of every field of ``document`` but ``sha256``."""
+    content = {key: value for key, value in document.items() if key != "sha256"}
+    return hashlib.sha256(canonical_json(content).encode("ascii")).hexdigest()
+
+
+# -- reading and checking ---------------------------------------------------------------
+
+def read_document(path):
+    """Read, verify and check a model file; return its JSON object.
+
+    Raises
+    ------
+    ModelFileError
+        If the file is not a valid, unaltered encal model file this reader understands.
+    OSError
+        If the file cannot be read.
+    """
+    with open(path, "rb") as handle:
+        raw = handle.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(f"{path}: expected UTF-8 JSON, found a byte that is not UTF-8 "
+                             f"at offset {exc.start}") from None
+    try:
+        document = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ModelFileError(f"{path}: expected a JSON model file, but line {exc.lineno} "
+                             f"column {exc.colno} is not valid JSON ({exc.msg})") from None
+    check_document(document, path)
+    return document
+
+
+def check_document(document, where, *, verify_checksum=True):
+    """Check a parsed model file completely (format, version, checksum, fields, parameters).
+
+    Parameters
+    ----------
+    document : object
+        The parsed JSON.
+    where : str
+        Name of the file, used in messages.
+    verify_checksum : bool, default=True
+        Whether to require the ``sha256`` field and compare it with the content.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``where``, the field and what was expected.
+    """
+    if not isinstance(document, dict):
+        raise ModelFileError(f"{where}: expected a JSON object (an encal model file), "
+                             f"got a JSON {_json_type(document)}")
+    if document.get("format") != FORMAT:
+        got = ("no 'format' field" if "format" not in document
+               else f"format {_describe(document['format'])}")
+        raise ModelFileError(f"{where}: expected an encal model file (format {FORMAT!r}), got {got}")
+    version = document.get("version")
+    if not _is_int(version) or version < 1:
+        raise ModelFileError(f"{where}: expected a format version number (an integer >= 1), "
+                             f"got {_describe(version)}")
+    if version > VERSION:
+        raise ModelFileError(f"{where}: the file has format version {version}, newer than "
+                             f"version {VERSION} that this encal reads; upgrade encal to read it")
+    if verify_checksum:
+        _check_checksum(document, where)
+    missing = [name for name in FIELDS if name not in document and name != "sha256"]
+    if missing:
+        raise ModelFileError(f"{where}: expected the fields {', '.join(FIELDS)}, "
+                             f"but {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing")
+    _check_header(document, where)
+    check_parameters(document["kind"], document["parameters"], where)
+    check_uncertainty(document.get("uncertainty"), where)
+    expected = normalisation_of(document["kind"], document["parameters"])
+    if document["normalisation"] != expected:
+        raise ModelFileError(f"{where}: expected 'normalisation' to repeat the scaling held in "
+                             f"'parameters' ({_describe(expected)}), got "
+                             f"{_describe(document['normalisation'])}")
+
+
+def _check_checksum(document, where):
+    checksum = document.get("sha256")
+    if not isinstance(checksum, str):
+        raise ModelFileError(f"{where}: expected a 'sha256' checksum field, "
+                             f"got {_describe(checksum)}")
+    try:
+        actual = content_sha256(document)
+    except ValueError:  # NaN or Infinity were read from the file
+        raise ModelFileError(f"{where}: expected finite numbers only, got NaN or Infinity "
+                             "somewhere in the file") from None
+    if actual != checksum:
+        raise ModelFileError(f"{where}: the sha256 checksum does not match the content "
+                             f"(stored {checksum[:12]}..., computed {actual[:12]}...), "
+                             "so the file was altered after it was written")
+
+
+def _check_header(document, where):
+    kind = document["kind"]
+    if kind not in KINDS:
+        raise ModelFileError(f"{where}: expected a model kind among {', '.join(KINDS)}, "
+                             f"got {_describe(kind)}")
+    if document["units"] != UNITS:
+        raise ModelFileError(f"{where}: expected units {json.dumps(UNITS)}, "
+                             f"got {_describe(document['units'])}")
+    encoder = document["encoder"]
+    if not isinstance(encoder, dict) or not isinstance(encoder.get("name"), str):
+        raise ModelFileError(f"{where}: expected 'encoder' to be an object with a string 'name', "
+                             f"got {_describe(encoder)}")
+    bits = encoder.get("resolution_bits", "missing")
+    if bits is not None and not (_is_int(bits) and 1 <= bits <= 32):
+        raise ModelFileError(f"{where}: expected encoder.resolution_bits to be an integer "
+                             f"from 1 to 32 or null, got {_describe(bits)}")
+    training = document["training"]
+    if not isinstance(training, dict):
+        raise ModelFileError(f"{where}: expected 'training' to be an object, "
+                             f"got {_describe(training)}")
+    missing = [name for name in TRAINING_FIELDS if name not in training]
+    if missing:
+        raise ModelFileError(f"{where}: expected the training fields {', '.join(TRAINING_FIELDS)}, "
+                             f"but {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing")
+
+
+def check_parameters(kind, parameters, where, field="parameters"):
+    """Check the parameters of a model of ``kind`` against the format (shapes, finite numbers).
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``where`` and the offending field.
+    """
+    _require_object(parameters, where, field)
+    check = {"fourier": _check_fourier, "lut": _check_lut, "ann": _check_ann,
+             "hybrid": _check_hybrid, "directional": _check_directional}[kind]
+    check(parameters, where, field)
+
+
+def check_uncertainty(uncertainty, where, field="uncertainty"):
+    """Check the optional uncertainty data of a model (``None`` when it has none).
+
+    It holds ``method``, ``grid_step_deg`` (dividing 360), ``model_std_arcmin``
+    (one value >= 0 per grid angle) and ``noise_std_arcmin`` (>= 0); see
+    encal's ``encal.uncertainty``.
+    """
+    if uncertainty is None:
+        return
+    _require_object(uncertainty, where, field)
+    missing = [name for name in _UNCERTAINTY_FIELDS if name not in uncertainty]
+    if missing:
+        raise ModelFileError(f"{where}: expected {field} to hold {', '.join(_UNCERTAINTY_FIELDS)}, "
+                             f"but {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing")
+    step = uncertainty["grid_step_deg"]
+    size = round(360.0 / step) if _is_number(step) and step > 0 else 0
+    if size < 1 or abs(size * step - 360.0) >= 1e-9:
+        raise ModelFileError(f"{where}: expected {field}.grid_step_deg to divide 360 degrees, "
+                             f"got {_describe(step)}")
+    table = uncertainty["model_std_arcmin"]
+    _require_numbers(table, size, where, f"{field}.model_std_arcmin")
+    noise = uncertainty["noise_std_arcmin"]
+    _require_number(noise, where, f"{field}.noise_std_arcmin")
+    if noise < 0 or min(table) < 0:
+        raise ModelFileError(f"{where}: expected standard uncertainties >= 0 in {field}, "
+                             "got a negative one")
+
+
+def _check_fourier(p, where, field):
+    orders = p.get("orders")
+    if not (isinstance(orders, list) and orders and all(_is_int(k) and k >= 0 for k in orders)):
+        raise ModelFileError(f"{where}: expected {field}.orders to be a non-empty list of "
+                             f"integers >= 0, got {_describe(orders)}")
+    for name in ("cos", "sin"):
+        _require_numbers(p.get(name), len(orders), where, f"{field}.{name}")
+
+
+def _check_lut(p, where, field):
+    degree = {"linear": 1, "cubic": 3}.get(p.get("interpolation"))
+    if degree is None:
+        raise ModelFileError(f"{where}: expected {field}.interpolation to be 'linear' or 'cubic', "
+                             f"got {_describe(p.get('interpolation'))}")
+    breaks = p.get("breaks_deg")
+    if not isinstance(breaks, list) or len(breaks) < 2:
+        raise ModelFileError(f"{where}: expected {field}.breaks_deg to be a list of at least 2 "
+                             f"numbers of degrees, got {_describe(breaks)}")
+    _require_numbers(breaks, len(breaks), where, f"{field}.breaks_deg")
+    if any(b <= a for a, b in zip(breaks, breaks[1:])):
+        raise ModelFileError(f"{where}: expected {field}.breaks_deg to be strictly increasing, "
+                             "but it is not")
+    if abs(breaks[-1] - breaks[0] - 360.0) > 1e-9:
+        raise ModelFileError(f"{where}: expected {field}.breaks_deg to span one turn "
+                             f"(last = first + 360), got {breaks[0]!r} to {breaks[-1]!r}")
+    _require_matrix(p.get("coefficients"), degree + 1, len(breaks) - 1, where,
+                    f"{field}.coefficients")
+
+
+def _check_ann(p, where, field):
+    n_inputs = {"raw": 1, "periodic": 2}.get(p.get("encoding"))
+    if n_inputs is None:
+        raise ModelFileError(f"{where}: expected {field}.encoding to be 'raw' or 'periodic', "
+                             f"got {_describe(p.get('encoding'))}")
+    if p.get("activation") not in ("tansig", "logsig"):
+        raise ModelFileError(f"{where}: expected {field}.activation to be 'tansig' or 'logsig', "
+                             f"got {_describe(p.get('activation'))}")
+    for name in ("input_offset", "input_gain"):
+        _require_numbers(p.get(name), n_inputs, where, f"{field}.{name}")
+    for name in ("target_offset", "target_gain", "b2"):
+        _require_number(p.get(name), where, f"{field}.{name}")
+    if p["target_gain"] == 0:
+        raise ModelFileError(f"{where}: expected {field}.target_gain to be non-zero, got 0")
+    b1 = p.get("b1")
+    if not isinstance(b1, list) or not b1:
+        raise ModelFileError(f"{where}: expected {field}.b1 to be a non-empty list of numbers "
+                             f"(one per hidden node), got {_describe(b1)}")
+    hidden = len(b1)
+    _require_numbers(b1, hidden, where, f"{field}.b1")
+    _require_numbers(p.get("W2"), hidden, where, f"{field}.W2")
+    _require_matrix(p.get("W1"), hidden, n_inputs, where, f"{field}.W1")
+
+
+def _check_hybrid(p, where, field):
+    for part, check in (("fourier", _check_fourier), ("ann", _check_ann)):
+        check(_require_object(p.get(part), where, f"{field}.{part}"), where, f"{field}.{part}")
+
+
+def _check_directional(p, where, field):
+    for part in ("forward", "reverse"):
+        name = f"{field}.{part}"
+        data = _require_object(p.get(part), where, name)
+        if data.get("kind") not in PART_KINDS:
+            raise ModelFileError(f"{where}: expected {name}.kind to be one of "
+                                 f"{', '.join(PART_KINDS)}, got {_describe(data.get('kind'))}")
+        check_parameters(data["kind"], data.get("parameters"), where, f"{name}.parameters")
+        check_uncertainty(data.get("uncertainty"), where, f"{name}.uncertainty")
+
+
+def normalisation_of(kind, parameters):
+    """The ``normalisation`` field for a model: its networks' mapminmax settings, else ``{}``.
+
+    ``ann`` and ``hybrid``: the network's four settings; ``directional``:
+    ``{"forward": ..., "reverse": ...}`` with each part's normalisation.
+    """
+    if kind == "directional":
+        return {part: normalisation_of(parameters[part]["kind"], parameters[part]["parameters"])
+                for part in ("forward", "reverse")}
+    network = {"ann": parameters, "hybrid": parameters.get("ann")}.get(kind)
+    if network is None:
+        return {}
+    return {name: network[name] for name in _SCALING_FIELDS}
+
+
+def _is_int(value):
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_number(value):
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _require_object(value, where, field):
+    if not isinstance(value, dict):
+        raise ModelFileError(f"{where}: expected {field} to be a JSON object, "
+                             f"got {_describe(value)}")
+    return value
+
+
+def _require_number(value, where, field):
+    if not _is_number(value):
+        raise ModelFileError(f"{where}: expected {field} to be a finite number, "
+                             f"got {_describe(value)}")
+
+
+def _require_numbers(value, n, where, field):
+    if not (isinstance(value, list) and len(value) == n and all(map(_is_number, value))):
+        raise ModelFileError(f"{where}: expected {field} to be a list of {n} finite numbers, "
+                             f"got {_describe(value)}")
+
+
+def _require_matrix(value, rows, columns, where, field):
+    if not (isinstance(value, list) and len(value) == rows
+            and all(isinstance(row, list) and len(row) == columns and all(map(_is_number, row))
+                    for row in value)):
+        raise ModelFileError(f"{where}: expected {field} to be {rows} rows of {columns} finite "
+                             f"numbers, got {_describe(value)}")
+
+
+def _json_type(value):
+    names = {dict: "object", list: "array", str: "string", bool: "boolean", type(None): "null"}
+    return names.get(type(value), "number")
+
+
+def _describe(value):
+    """Short description of a JSON value for a message."""
+    if isinstance(value, list):
+        if value and all(isinstance(row, list) for row in value):
+            lengths = sorted({len(row) for row in value})
+            return f"{len(value)} rows of {'/'.join(map(str, lengths))} values"
+        bad = [v for v in value if not _is_number(v)]
+        detail = f" including {json.dumps(bad[0])}" if bad else ""
+        return f"a list of {len(value)} values{detail}"
+    text = json.dumps(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+# -- evaluation -------------------------------------------------------------------------
+
+def _wrap360(angle_deg):
+    wrapped = angle_deg % 360.0
+    return 0.0 if wrapped >= 360.0 else wrapped  # -1e-17 % 360 rounds to 360.0
+
+
+def _fourier(p):
+    terms = list(zip(p["orders"], p["cos"], p["sin"]))
+
+    def predict(theta_deg):
+        theta = math.radians(theta_deg)
+        return math.fsum(a * math.cos(k * theta) + b * math.sin(k * theta) for k, a, b in terms)
+
+    return predict
+
+
+def _lut(p):
+    breaks = p["breaks_deg"]
+    columns = list(zip(*p["coefficients"]))  # one tuple of coefficients per interval
+    start, period, last = breaks[0], breaks[-1] - breaks[0], len(breaks) - 2
+
+    def predict(theta_deg):
+        x = start + (theta_deg - start) % period
+        i = min(max(bisect.bisect_right(breaks, x) - 1, 0), last)
+        dx = x - breaks[i]
+        value = 0.0
+        for c in columns[i]:
+            value = value * dx + c
+        return value
+
+    return predict
+
+
+def _logsig(z):
+    if z >= 0.0:
+        return 1.0 / (1.0 + math.exp(-z))
+    e = math.exp(z)  # the other form would overflow for very negative z
+    return e / (1.0 + e)
+
+
+def _ann(p):
+    periodic = p["encoding"] == "periodic"
+    offsets, gains = p["input_offset"], p["input_gain"]
+    nodes = [(row, b, w) for row, b, w in zip(p["W1"], p["b1"], p["W2"])]
+    activation = math.tanh if p["activation"] == "tansig" else _logsig
+    b2, target_offset, target_gain = p["b2"], p["target_offset"], p["target_gain"]
+
+    def predict(theta_deg):
+        if periodic:
+            theta = math.radians(theta_deg)
+            inputs = (math.cos(theta), math.sin(theta))
+        else:
+            inputs = (theta_deg,)
+        x = [g * (u - o) - 1.0 for u, o, g in zip(inputs, offsets, gains)]
+        y = b2
+        for row, b, w in nodes:
+            z = b
+            for weight, xi in zip(row, x):
+                z += weight * xi
+            y += w * activation(z)
+        return (y + 1.0) / target_gain + target_offset
+
+    return predict
+
+
+def _hybrid(p):
+    fourier, ann = _fourier(p["fourier"]), _ann(p["ann"])
+    return lambda theta_deg: fourier(theta_deg) + ann(theta_deg)
+
+
+def _directional(p):
+    forward = _EVALUATORS[p["forward"]["kind"]](p["forward"]["parameters"])
+    reverse = _EVALUATORS[p["reverse"]["kind"]](p["reverse"]["parameters"])
+
+    def predict(theta_deg, direction=None):
+        if direction is None:
+            return 0.5 * (forward(theta_deg) + reverse(theta_deg))
+        return forward(theta_deg) if direction > 0 else reverse(theta_deg)
+
+    return predict
+
+
+_EVALUATORS = {"fourier": _fourier, "lut": _lut, "ann": _ann, "hybrid": _hybrid,
+               "directional": _directional}
+
+
+class RuntimeModel:
+    """An error model read from a model file, evaluated one angle at a time.
+
+    Parameters
+    ----------
+    document : dict
+        A checked model file (see :func:`read_document`).
+
+    Attributes
+    ----------
+    kind : str
+    encoder : dict
+        ``{'name': str, 'resolution_bits': int or None}``.
+    sha256 : str
+        Checksum of the file's content: identifies the model.
+    """
+
+    def __init__(self, document):
+        self.kind = document["kind"]
+        self.encoder = document["encoder"]
+        self.sha256 = document["sha256"]
+        self.directional = self.kind == "directional"
+        self._predict = _EVALUATORS[self.kind](document["parameters"])
+
+    def predict_arcmin(self, theta_deg, direction=None):
+        """Predicted error ``encoder - reference`` in arc-minutes at encoder angle ``theta_deg``.
+
+        ``direction`` (+1 turning forward, -1 turning back) selects a part of a
+        ``directional`` model; ``None`` (unknown) gives the mean of both parts.
+        Other kinds have one profile and ignore it.
+        """
+        theta = _wrap360(_finite(theta_deg))
+        if self.directional:
+            return float(self._predict(theta, _direction(direction)))
+        return float(self._predict(theta))
+
+    def correct_deg(self, theta_deg, direction=None):
+        """Corrected angle in degrees, in [0, 360), of the encoder reading ``theta_deg`` (degrees).
+
+        ``direction`` is as for :meth:`predict_arcmin`.
+        """
+        theta = _finite(theta_deg)
+        return _wrap360(theta - self.predict_arcmin(theta, direction) / 60.0)
+
+    def __repr__(self):
+        return f"<RuntimeModel kind={self.kind!r} for {self.encoder.get('name')!r}>"
+
+
+def _finite(theta_deg):
+    theta = float(theta_deg)
+    if not math.isfinite(theta):
+        raise ValueError(f"expected a finite encoder angle in degrees, got {theta_deg!r}")
+    return theta
+
+
+def _direction(direction):
+    if direction is None or direction in (1, -1):
+        return direction
+    raise ValueError(f"expected a direction of +1, -1 or None, got {direction!r}")
+
+
+def load(path):
+    """Load a model file for per-angle correction.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        An encal model file (JSON).
+
+    Returns
+    -------
+    RuntimeModel
+        With ``predict_arcmin(theta_deg)`` and ``correct_deg(theta_deg)``.
+
+    Raises
+    ------
+    ModelFileError
+        If the file is not a valid, unaltered model file of a version this reader knows.
+    """
+    return RuntimeModel(read_document(path))

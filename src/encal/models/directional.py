@@ -1,0 +1,157 @@
+"""A model per direction of travel: the ``directional`` kind.
+
+An encoder with hysteresis (a converter's 1-LSB dead band, a coupling's backlash) reads differently when the
+shaft arrives at an angle turning forward (+1) than turning back (-1). A directional model holds one model of
+any kind for each direction; it uses the one of the known direction, and the mean of the two when the
+direction is not known. Fit one with :func:`encal.bidirectional.fit_bidirectional`.
+"""
+
+import contextlib
+import importlib
+
+import numpy as np
+
+from ..angles import ARCMIN_PER_DEG, wrap360
+from ..errors import InputError, ModelFileError
+from .base import MODEL_KINDS, Model, as_angles, model_class, register_model
+
+__all__ = ["DirectionalModel"]
+
+_PARTS = ("forward", "reverse")
+
+
+@register_model
+class DirectionalModel(Model):
+    """Two error models, one per direction of travel.
+
+    Parameters
+    ----------
+    forward : Model
+        Predicts the error of readings taken turning forward (direction +1), arc-minutes.
+    reverse : Model
+        Predicts the error of readings taken turning back (direction -1), arc-minutes.
+    encoder, training : dict, optional
+        See :class:`~encal.models.base.Model`.
+
+    Examples
+    --------
+    >>> from encal.models.fourier import FourierModel
+    >>> model = DirectionalModel(FourierModel([0], [0.2], [0.0]), FourierModel([0], [-0.2], [0.0]))
+    >>> float(model.predict(10.0, direction=1)), float(model.predict(10.0, direction=-1))
+    (0.2, -0.2)
+    >>> float(model.predict(10.0))
+    0.0
+    """
+
+    kind = "directional"
+
+    def __init__(self, forward, reverse, *, encoder=None, training=None):
+        super().__init__(encoder=encoder, training=training)
+        for name, part in (("forward", forward), ("reverse", reverse)):
+            if not isinstance(part, Model) or isinstance(part, DirectionalModel):
+                raise InputError(f"DirectionalModel expects a one-direction Model as {name}; "
+                                 f"got {type(part).__name__}")
+        self.forward = forward
+        self.reverse = reverse
+
+    def _predict(self, theta_deg):
+        return 0.5 * (self.forward._predict(theta_deg) + self.reverse._predict(theta_deg))
+
+    def predict(self, theta_enc_deg, return_std=False, direction=None):
+        """Predicted error at the given encoder readings.
+
+        Parameters
+        ----------
+        theta_enc_deg : float or array-like
+            Encoder readings in degrees.
+        return_std : bool, default=False
+            Also return the standard uncertainty of a new reading's residual (needs both parts to carry an
+            uncertainty). With an unknown direction it adds half the predicted reversal in quadrature.
+        direction : {+1, -1} or array-like of them, optional
+            Direction of travel into each reading (broadcast against ``theta_enc_deg``); ``None`` when not
+            known: the mean of both directions' predictions.
+
+        Returns
+        -------
+        mean : float or ndarray
+            Arc-minutes, same shape as ``theta_enc_deg``.
+        std : float or ndarray
+            Only with ``return_std=True``; arc-minutes.
+        """
+        theta = as_angles(theta_enc_deg)
+        forward = self.forward.predict(theta, return_std=return_std)
+        reverse = self.reverse.predict(theta, return_std=return_std)
+        if not return_std:
+            forward, reverse = (forward, None), (reverse, None)
+        (f_mean, f_std), (r_mean, r_std) = forward, reverse
+        if direction is None:
+            mean = 0.5 * (f_mean + r_mean)
+            if not return_std:
+                return mean
+            half_reversal = 0.5 * (f_mean - r_mean)
+            return mean, np.sqrt(0.5 * (f_std**2 + r_std**2) + half_reversal**2)
+        forward_side = self._direction_mask(direction, theta.shape)
+        mean = np.where(forward_side, f_mean, r_mean)[()]
+        if not return_std:
+            return mean
+        return mean, np.where(forward_side, f_std, r_std)[()]
+
+    def correct(self, theta_enc_deg, direction=None):
+        """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees."""
+        theta = as_angles(theta_enc_deg)
+        return wrap360(theta - self.predict(theta, direction=direction) / ARCMIN_PER_DEG)
+
+    @staticmethod
+    def _direction_mask(direction, shape):
+        values = np.asarray(direction)
+        if values.dtype.kind not in "iuf" or not np.all(np.isin(values, (-1, 1))):
+            raise InputError("direction must be +1 (forward), -1 (reverse) or None (unknown); "
+                             f"got {np.unique(values)[:4].tolist()}")
+        try:
+            return np.broadcast_to(values > 0, shape)
+        except ValueError:
+            raise InputError(f"direction has shape {values.shape}, expected one value or the shape "
+                             f"{shape} of the encoder angles") from None
+
+    def parameters(self):
+        return {name: self._part_data(getattr(self, name)) for name in _PARTS}
+
+    @staticmethod
+    def _part_data(part):
+        data = {"kind": part.kind, "parameters": part.parameters()}
+        if part.uncertainty is not None:
+            data["uncertainty"] = part.uncertainty
+        return data
+
+    @classmethod
+    def from_parameters(cls, parameters, *, encoder=None, training=None):
+        try:
+            parts = [cls._part_from_data(parameters[name]) for name in _PARTS]
+        except (KeyError, TypeError) as exc:
+            raise ModelFileError(f"directional parameters: expected 'forward' and 'reverse' objects with "
+                                 f"'kind' and 'parameters', got {exc!s}") from None
+        return cls(*parts, encoder=encoder, training=training)
+
+    @staticmethod
+    def _part_from_data(data):
+        from ..uncertainty import check_uncertainty
+
+        kind = data["kind"]
+        if kind == DirectionalModel.kind:
+            raise ModelFileError("directional parameters: expected one-direction parts, got a directional part")
+        if kind not in MODEL_KINDS and isinstance(kind, str) and kind.isidentifier():
+            with contextlib.suppress(ModuleNotFoundError):
+                importlib.import_module(f"encal.models.{kind}")
+        try:
+            cls = model_class(kind)
+        except InputError as exc:
+            raise ModelFileError(f"directional parameters: {exc}") from None
+        part = cls.from_parameters(data["parameters"])
+        if data.get("uncertainty") is not None:
+            part.uncertainty = check_uncertainty(data["uncertainty"], "directional part uncertainty")
+        return part
+
+    def __repr__(self):
+        name = self.encoder.get("name") or "unnamed encoder"
+        return (f"<DirectionalModel forward={self.forward.kind!r} reverse={self.reverse.kind!r} "
+                f"for {name}>")

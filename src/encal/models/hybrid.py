@@ -1,0 +1,114 @@
+"""Hybrid error model: a Fourier series of the dominant orders plus a small network on the rest.
+
+A resolver's or magnetic encoder's error is mostly a few low harmonics, which
+a Fourier series fits exactly and cheaply; a local defect (a scratch on a code
+disc, a dent in a magnet) is not, and a series long enough to follow it also
+follows the noise everywhere else. The hybrid fits the ``n_orders`` largest
+harmonics by least squares, then a small periodic 1:N:1 network, with Bayesian
+regularisation by default, to what they leave; regularisation keeps the
+network near zero where the residual is only noise.
+"""
+
+import numpy as np
+
+from ..errors import ModelFileError
+from ..profile import profile_arrays
+from .ann import ANNModel, fit_ann
+from .base import Model, register_model
+from .fourier import FourierModel, fit_fourier
+
+__all__ = ["HybridModel", "fit_hybrid"]
+
+
+@register_model
+class HybridModel(Model):
+    """The sum of a Fourier-series model and a network model.
+
+    Parameters
+    ----------
+    fourier : FourierModel
+        The dominant harmonics, arc-minutes.
+    ann : ANNModel
+        The network fitted to the residual of ``fourier``, arc-minutes.
+    encoder, training : dict, optional
+        See :class:`~encal.models.base.Model`.
+    """
+
+    kind = "hybrid"
+
+    def __init__(self, fourier, ann, *, encoder=None, training=None):
+        super().__init__(encoder=encoder, training=training)
+        self.fourier = fourier
+        self.ann = ann
+
+    def _predict(self, theta_deg):
+        return self.fourier._predict(theta_deg) + self.ann._predict(theta_deg)
+
+    def parameters(self):
+        return {"fourier": self.fourier.parameters(), "ann": self.ann.parameters()}
+
+    @classmethod
+    def from_parameters(cls, parameters, *, encoder=None, training=None):
+        if not (isinstance(parameters, dict) and isinstance(parameters.get("fourier"), dict)
+                and isinstance(parameters.get("ann"), dict)):
+            shown = sorted(parameters) if isinstance(parameters, dict) else type(parameters).__name__
+            raise ModelFileError("hybrid model parameters must be an object with the objects 'fourier' and "
+                                 f"'ann' (docs/model-file.md). Got {shown} instead.")
+        return cls(FourierModel.from_parameters(parameters["fourier"]),
+                   ANNModel.from_parameters(parameters["ann"]), encoder=encoder, training=training)
+
+    def __repr__(self):
+        name = self.encoder.get("name") or "unnamed encoder"
+        return (f"<HybridModel orders={self.fourier.orders.tolist()} + "
+                f"1:{self.ann.hidden}:1 network for {name}>")
+
+
+def fit_hybrid(theta_enc_deg, error_arcmin, *, n_orders=4, hidden=8, algorithm="trainbr", rng=None,
+               **train_options):
+    """Fit the ``n_orders`` largest harmonics, then a periodic network to their residual.
+
+    Parameters
+    ----------
+    theta_enc_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors ``encoder - reference`` in arc-minutes.
+    n_orders : int, default=4
+        Number of harmonics of largest amplitude in the Fourier part (see
+        :func:`~encal.models.fourier.fit_fourier` with ``select='top'``).
+    hidden : int, default=8
+        Hidden nodes of the network part (a 2-input ``periodic`` 1:N:1 network).
+    algorithm : str, default='trainbr'
+        Training algorithm of the network part, MATLAB's name.
+    rng : int or numpy.random.Generator, optional
+        Seed of the network's initial weights.
+    **train_options
+        Passed to :func:`~encal.models.ann.fit_ann` (``epochs``, ``goal``, ``activation``, ...).
+
+    Returns
+    -------
+    HybridModel
+        ``training`` holds the options and the ``fourier`` and ``ann`` parts' own training records.
+
+    Examples
+    --------
+    >>> theta = np.arange(0.0, 360.0, 2.0)
+    >>> bump = 2.0 * np.exp(-0.5 * ((theta - 100.0) / 4.0) ** 2)
+    >>> model = fit_hybrid(theta, 5.0 * np.sin(np.radians(theta)) + bump, rng=0)
+    >>> float(np.sqrt(np.mean((model.predict(theta) - 5.0 * np.sin(np.radians(theta)) - bump) ** 2))) < 0.1
+    True
+    """
+    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_hybrid")
+    fourier = fit_fourier(theta, error, n_orders=n_orders, select="top")
+    residual = error - fourier.predict(theta)
+    ann = fit_ann(theta, residual, hidden=hidden, algorithm=algorithm, encoding="periodic", rng=rng,
+                  **train_options)
+    training = {
+        "algorithm": ann.training.get("algorithm", algorithm),
+        "epochs": ann.training.get("epochs"),
+        "options": {"n_orders": n_orders, "hidden": hidden, "algorithm": algorithm, **train_options},
+        "fourier": fourier.training,
+        "ann": ann.training,
+    }
+    fourier.training, ann.training = {}, {}
+    return HybridModel(fourier, ann, training=training)

@@ -1,0 +1,159 @@
+"""Lookup-table error model (Kaul et al. 1997).
+
+The calibration points themselves are the table: between them the error is
+interpolated, linearly or by a periodic cubic spline, around the whole circle
+(the segment from the last angle to the first one + 360° closes it). The table
+is stored as a periodic piecewise polynomial in SciPy's ``PPoly`` convention,
+so the model file alone evaluates it.
+"""
+
+import numpy as np
+from scipy.interpolate import CubicSpline, PPoly
+
+from ..errors import InputError, ModelFileError
+from ..profile import distinct_angles, profile_arrays
+from .base import Model, register_model
+
+__all__ = ["LookupTableModel", "fit_lut"]
+
+#: Polynomial degree of each interpolation.
+DEGREE = {"linear": 1, "cubic": 3}
+
+
+@register_model
+class LookupTableModel(Model):
+    """A periodic piecewise polynomial of the encoder angle.
+
+    Parameters
+    ----------
+    breaks_deg : sequence of float of length n + 1
+        Increasing break points in degrees with ``breaks_deg[-1] == breaks_deg[0] + 360``.
+    coefficients : sequence of sequences, shape (degree + 1, n)
+        ``PPoly`` coefficients: on ``[x_i, x_{i+1})``,
+        ``ε̂(θ) = Σ_m c[m][i] (θ - x_i)^(degree - m)``, in arc-minutes.
+    interpolation : {'linear', 'cubic'}
+        The interpolation the table was made with (degree 1 or 3).
+    encoder, training : dict, optional
+        See :class:`~encal.models.base.Model`.
+
+    Examples
+    --------
+    >>> model = LookupTableModel([0.0, 180.0, 360.0], [[0.01, -0.01], [0.0, 1.8]], "linear")
+    >>> float(model.predict(90.0)), float(model.predict(-90.0))
+    (0.9, 0.9)
+    """
+
+    kind = "lut"
+
+    def __init__(self, breaks_deg, coefficients, interpolation, *, encoder=None, training=None):
+        super().__init__(encoder=encoder, training=training)
+        if interpolation not in DEGREE:
+            raise InputError(
+                f"LookupTableModel expects interpolation 'linear' or 'cubic'; got {interpolation!r}"
+            )
+        breaks = np.asarray(breaks_deg, dtype=float).reshape(-1)
+        coefficients = np.asarray(coefficients, dtype=float)
+        degree = DEGREE[interpolation]
+        if (
+            breaks.size < 2
+            or not np.all(np.isfinite(breaks))
+            or not np.all(np.diff(breaks) > 0)
+            or not np.isclose(breaks[-1] - breaks[0], 360.0, rtol=0.0, atol=1e-9)
+        ):
+            raise InputError(
+                "LookupTableModel expects increasing breaks_deg spanning exactly 360 degrees "
+                f"(last = first + 360); got {breaks.size} breaks from {breaks[:1].tolist()} "
+                f"to {breaks[-1:].tolist()}"
+            )
+        if coefficients.shape != (degree + 1, breaks.size - 1) or not np.all(np.isfinite(coefficients)):
+            raise InputError(
+                f"LookupTableModel expects finite {interpolation} coefficients of shape "
+                f"({degree + 1}, {breaks.size - 1}); got shape {coefficients.shape}"
+            )
+        self.interpolation = interpolation
+        self.breaks_deg = breaks
+        self.coefficients = coefficients
+        self._ppoly = PPoly(coefficients, breaks, extrapolate=True)
+
+    @property
+    def table_deg(self):
+        """Encoder angles of the table entries, in degrees."""
+        return self.breaks_deg[:-1]
+
+    @property
+    def table_arcmin(self):
+        """Errors of the table entries, in arc-minutes."""
+        return self.coefficients[-1]
+
+    def _predict(self, theta_deg):
+        first = self.breaks_deg[0]
+        # Into [x_0, x_0 + 360) without touching angles already there (table points stay exact).
+        inside = theta_deg - 360.0 * np.floor((theta_deg - first) / 360.0)
+        return self._ppoly(inside)
+
+    def parameters(self):
+        return {
+            "interpolation": self.interpolation,
+            "breaks_deg": [float(x) for x in self.breaks_deg],
+            "coefficients": [[float(c) for c in row] for row in self.coefficients],
+        }
+
+    @classmethod
+    def from_parameters(cls, parameters, *, encoder=None, training=None):
+        try:
+            return cls(parameters["breaks_deg"], parameters["coefficients"], parameters["interpolation"],
+                       encoder=encoder, training=training)
+        except (KeyError, TypeError, ValueError) as exc:
+            reason = f"missing key {exc}" if isinstance(exc, KeyError) else str(exc)
+            raise ModelFileError(
+                "lut model parameters must be {'interpolation', 'breaks_deg', 'coefficients'} "
+                f"as in docs/model-file.md; {reason}"
+            ) from None
+
+    def __repr__(self):
+        name = self.encoder.get("name") or "unnamed encoder"
+        return f"<LookupTableModel {self.interpolation} with {self.table_deg.size} entries for {name}>"
+
+
+def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear"):
+    """Build a lookup-table model from calibration points.
+
+    Parameters
+    ----------
+    theta_enc_deg : array-like of shape (n,)
+        Encoder angles in degrees, any order; wrapped to [0, 360).
+    error_arcmin : array-like of shape (n,)
+        Errors ``encoder - reference`` in arc-minutes.
+    interpolation : {'linear', 'cubic'}, default='linear'
+        Periodic linear interpolation, or a periodic cubic spline
+        (``scipy.interpolate.CubicSpline`` with ``bc_type='periodic'``).
+
+    Returns
+    -------
+    LookupTableModel
+        Passes exactly through every distinct calibration point. Repeated
+        encoder angles (closer than 1e-9°) become one entry holding the mean
+        of their errors. ``training`` records the interpolation and the
+        number of entries.
+
+    Examples
+    --------
+    >>> model = fit_lut([270.0, 90.0, 90.0], [-1.0, 1.0, 2.0])
+    >>> float(model.predict(90.0)), float(model.predict(0.0))
+    (1.5, 0.25)
+    """
+    if interpolation not in DEGREE:
+        raise InputError(
+            f"The 'interpolation' parameter of fit_lut must be 'linear' or 'cubic'. Got {interpolation!r} instead."
+        )
+    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_lut")
+    angles, group = distinct_angles(theta)
+    values = np.bincount(group, weights=error) / np.bincount(group)
+    breaks = np.r_[angles, angles[0] + 360.0]
+    closed = np.r_[values, values[0]]
+    if interpolation == "linear":
+        coefficients = np.vstack([np.diff(closed) / np.diff(breaks), values])
+    else:
+        coefficients = CubicSpline(breaks, closed, bc_type="periodic").c
+    training = {"interpolation": interpolation, "n_entries": int(angles.size)}
+    return LookupTableModel(breaks, coefficients, interpolation, training=training)

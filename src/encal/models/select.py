@@ -1,0 +1,360 @@
+"""Choose the model family by cross-validation: ``fit(cal, method='auto')``.
+
+No family wins everywhere. A few Fourier orders describe a resolver's smooth
+error and average out its noise; a lookup table follows a reference with a
+per-step pattern that no low-order series can; a network or a Fourier series
+plus a network follows a local defect. :func:`fit_auto` measures, instead of
+guessing, which one predicts the error *between* calibration points best:
+
+1. Sort the points by encoder angle and deal them round-robin into ``k`` folds
+   (point ``i`` goes to fold ``i mod k``), so every fold is spread evenly round
+   the circle and holding it out opens gaps of ``k`` grid steps at most between
+   the remaining points. Predicting a held-out fold is then interpolation
+   between calibration points, which is what correcting a live reading is.
+2. Fit every candidate on ``k - 1`` folds and predict the held-out one; each
+   candidate's data-driven choices (the Fourier order set, the network's
+   weights) are made inside the fold, from the training folds alone.
+3. Pool the held-out residuals of all folds into a CV RMS and MAE per
+   candidate, pick the lowest RMS, but prefer the simplest candidate whose RMS
+   is within ``tolerance`` of it (see :data:`SIMPLICITY`), and refit that
+   candidate on all points.
+
+The CV table and the reason for the choice are kept in
+``model.training['selection']``. See ``docs/model-selection.md``.
+"""
+
+import importlib
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import EncalError, InputError
+from ..profile import profile_arrays
+
+__all__ = [
+    "Candidate",
+    "DEFAULT_CANDIDATES",
+    "SIMPLICITY",
+    "CVScore",
+    "interleaved_folds",
+    "cross_validate",
+    "choose",
+    "fit_auto",
+]
+
+#: family -> (module, fit function) of the families auto can choose from
+FAMILIES = {
+    "fourier": ("encal.models.fourier", "fit_fourier"),
+    "lut": ("encal.models.lut", "fit_lut"),
+    "ann": ("encal.models.ann", "fit_ann"),
+    "hybrid": ("encal.models.hybrid", "fit_hybrid"),
+}
+
+#: Families that draw random numbers (their fit takes ``rng``).
+_RANDOMISED = {"ann", "hybrid"}
+
+#: Families from simplest to most complex, for the tie rule. A Fourier series is a
+#: closed-form least-squares fit of a few physically meaningful coefficients; a
+#: lookup table is closed-form too but keeps one value per point; a hybrid and a
+#: network are trained iteratively from a random start, the network with the most
+#: free weights of all. Within a family, fewer free parameters is simpler.
+SIMPLICITY = ("fourier", "lut", "hybrid", "ann")
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One model family with fixed options, as auto tries it.
+
+    Parameters
+    ----------
+    family : {'fourier', 'lut', 'ann', 'hybrid'}
+        Model family.
+    options : dict, optional
+        Keyword options of the family's fit function (``fit_fourier``, ...).
+    """
+
+    family: str
+    options: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.family not in FAMILIES:
+            raise InputError(f"a candidate's family must be one of {', '.join(FAMILIES)}. "
+                             f"Got {self.family!r} instead.")
+
+    @property
+    def label(self):
+        """Short name, e.g. ``'ann hidden=10 algorithm=trainbr'``."""
+        return " ".join([self.family, *(f"{key}={value}" for key, value in self.options.items())])
+
+    def fit(self, theta_deg, error_arcmin, rng=None):
+        """Fit this candidate; ``rng`` is passed only to the families that draw random numbers."""
+        module, function = FAMILIES[self.family]
+        fitter = getattr(importlib.import_module(module), function)
+        options = dict(self.options)
+        if self.family in _RANDOMISED:
+            options["rng"] = rng
+        return fitter(theta_deg, error_arcmin, **options)
+
+
+#: The candidates of ``fit_auto`` when none are given. Networks use the periodic
+#: input (continuous at 0/360) and Bayesian regularisation, which needs no
+#: validation split and keeps a network from following the noise; their epochs
+#: are capped so that a whole auto fit of 180 points takes seconds.
+DEFAULT_CANDIDATES = (
+    Candidate("fourier", {"select": "top", "n_orders": 10}),
+    Candidate("fourier", {"select": "cv"}),
+    Candidate("lut", {"interpolation": "linear"}),
+    Candidate("lut", {"interpolation": "cubic"}),
+    Candidate("hybrid", {}),
+    Candidate("ann", {"hidden": 5, "algorithm": "trainbr", "epochs": 200}),
+    Candidate("ann", {"hidden": 10, "algorithm": "trainbr", "epochs": 200}),
+    Candidate("ann", {"hidden": 20, "algorithm": "trainbr", "epochs": 200}),
+)
+
+
+@dataclass(frozen=True)
+class CVScore:
+    """Cross-validated accuracy of one candidate.
+
+    Attributes
+    ----------
+    candidate : Candidate
+    rms_arcmin, mae_arcmin : float
+        RMS and mean absolute value of the held-out residuals of all folds, arcmin.
+    max_abs_arcmin : float
+        Largest absolute held-out residual, arcmin.
+    n_parameters : float
+        Free parameters of the fold models (see :func:`free_parameters`), averaged over the folds.
+    time_s : float
+        Wall-clock time of the ``k`` fold fits, seconds.
+    error : str or None
+        Why the candidate could not be fitted (its score is then infinite), else None.
+    """
+
+    candidate: Candidate
+    rms_arcmin: float
+    mae_arcmin: float
+    max_abs_arcmin: float
+    n_parameters: float
+    time_s: float
+    error: str | None = None
+
+    @property
+    def simplicity(self):
+        """Sort key of the tie rule: family rank in :data:`SIMPLICITY`, then free parameters."""
+        return (SIMPLICITY.index(self.candidate.family), self.n_parameters)
+
+    def as_dict(self):
+        """One row of the CV table, JSON-ready."""
+        row = {
+            "family": self.candidate.family,
+            "options": dict(self.candidate.options),
+            "label": self.candidate.label,
+            "cv_rms_arcmin": _finite_or_none(self.rms_arcmin),
+            "cv_mae_arcmin": _finite_or_none(self.mae_arcmin),
+            "cv_max_abs_arcmin": _finite_or_none(self.max_abs_arcmin),
+            "n_parameters": _finite_or_none(self.n_parameters),
+            "time_s": round(self.time_s, 3),
+        }
+        if self.error is not None:
+            row["error"] = self.error
+        return row
+
+
+def free_parameters(parameters, kind):
+    """Number of fitted values in a model's ``parameters()`` (layout of ``docs/model-file.md``).
+
+    Fourier: its coefficients (order 0 has one); lookup table: its entries (the interpolation
+    derives the rest); network: its weights and biases; hybrid: the sum of its parts.
+    """
+    if kind == "fourier":
+        return sum(1 if k == 0 else 2 for k in parameters["orders"])
+    if kind == "lut":
+        return len(parameters["breaks_deg"]) - 1
+    if kind == "ann":
+        return len(parameters["W1"]) * (len(parameters["W1"][0]) + 2) + 1
+    if kind == "hybrid":
+        return free_parameters(parameters["fourier"], "fourier") + free_parameters(parameters["ann"], "ann")
+    raise InputError(f"free_parameters expects a model kind among fourier, lut, ann, hybrid. Got {kind!r} instead.")
+
+
+def _finite_or_none(value):
+    return float(value) if np.isfinite(value) else None
+
+
+def interleaved_folds(theta_deg, folds):
+    """Fold index of every point: the ``i``-th point in order of angle goes to fold ``i mod folds``.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees, any order.
+    folds : int
+        Number of folds, ``2 <= folds <= n``.
+
+    Returns
+    -------
+    ndarray of int of shape (n,)
+        Fold of each point, in the order of ``theta_deg``.
+
+    Examples
+    --------
+    >>> interleaved_folds([0.0, 90.0, 180.0, 270.0, 45.0], 2).tolist()
+    [0, 0, 0, 1, 1]
+    """
+    theta = np.asarray(theta_deg, dtype=float).reshape(-1)
+    order = np.argsort(np.mod(theta, 360.0), kind="stable")
+    fold = np.empty(theta.size, dtype=int)
+    fold[order] = np.arange(theta.size) % folds
+    return fold
+
+
+def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds):
+    """Held-out accuracy of one candidate over the given folds.
+
+    Parameters
+    ----------
+    theta_deg, error_arcmin : ndarray of shape (n,)
+        Encoder angles (degrees) and errors (arcmin).
+    candidate : Candidate
+    fold : ndarray of int of shape (n,)
+        Fold of each point, from :func:`interleaved_folds`.
+    seeds : sequence of numpy.random.SeedSequence
+        One per fold, for the randomised families.
+
+    Returns
+    -------
+    CVScore
+    """
+    held_out = np.empty_like(error_arcmin)
+    n_parameters = []
+    start = time.perf_counter()
+    try:
+        for k, seed in zip(range(fold.max() + 1), seeds):
+            test = fold == k
+            model = candidate.fit(theta_deg[~test], error_arcmin[~test], rng=np.random.default_rng(seed))
+            held_out[test] = error_arcmin[test] - model.predict(theta_deg[test])
+            n_parameters.append(free_parameters(model.parameters(), model.kind))
+    except EncalError as exc:  # e.g. too few points for this family
+        return CVScore(candidate, np.inf, np.inf, np.inf, np.inf, time.perf_counter() - start, error=str(exc))
+    elapsed = time.perf_counter() - start
+    if not np.all(np.isfinite(held_out)):
+        return CVScore(candidate, np.inf, np.inf, np.inf, np.inf, elapsed, error="non-finite predictions")
+    return CVScore(
+        candidate,
+        rms_arcmin=float(np.sqrt(np.mean(held_out**2))),
+        mae_arcmin=float(np.mean(np.abs(held_out))),
+        max_abs_arcmin=float(np.max(np.abs(held_out))),
+        n_parameters=float(np.mean(n_parameters)),
+        time_s=elapsed,
+    )
+
+
+def choose(scores, tolerance=0.01):
+    """The candidate to use, and why: the simplest within ``tolerance`` of the lowest CV RMS.
+
+    Parameters
+    ----------
+    scores : sequence of CVScore
+    tolerance : float, default=0.01
+        Relative margin: candidates with ``rms <= (1 + tolerance) * best_rms`` count as tied.
+
+    Returns
+    -------
+    (CVScore, str)
+        The chosen score and one sentence saying why it was chosen.
+    """
+    finite = [score for score in scores if np.isfinite(score.rms_arcmin)]
+    if not finite:
+        raise InputError("no candidate model could be fitted to this calibration; "
+                         f"the first failure was: {scores[0].error}")
+    best = min(finite, key=lambda score: score.rms_arcmin)
+    tied = [score for score in finite if score.rms_arcmin <= (1.0 + tolerance) * best.rms_arcmin]
+    chosen = min(tied, key=lambda score: (score.simplicity, score.rms_arcmin))
+    if chosen is best:
+        runner_up = min((s for s in finite if s is not best), key=lambda s: s.rms_arcmin, default=None)
+        margin = "" if runner_up is None else (
+            f", {runner_up.rms_arcmin / best.rms_arcmin - 1:.1%} below the next best "
+            f"({runner_up.candidate.label})")
+        reason = f"{best.candidate.label} has the lowest CV RMS, {best.rms_arcmin:.4g} arcmin{margin}"
+    else:
+        reason = (f"{chosen.candidate.label} (CV RMS {chosen.rms_arcmin:.4g} arcmin) is within "
+                  f"{tolerance:.0%} of the lowest, {best.candidate.label} ({best.rms_arcmin:.4g} arcmin), "
+                  "and simpler")
+    return chosen, reason
+
+
+def _seed_sequence(rng):
+    if isinstance(rng, np.random.Generator):
+        return np.random.SeedSequence(int(rng.integers(2**63)))
+    if rng is None or isinstance(rng, (int, np.integer)):
+        return np.random.SeedSequence(None if rng is None else int(rng))
+    raise InputError(f"rng must be None, an int or a numpy.random.Generator. Got {type(rng).__name__} instead.")
+
+
+def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None, tolerance=0.01):
+    """Fit the model family that cross-validates best.
+
+    Parameters
+    ----------
+    theta_enc_deg : array-like of shape (n,)
+        Encoder angles of the calibration points, degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors ``encoder - reference`` at those points, arc-minutes.
+    rng : int or numpy.random.Generator, optional
+        Seed of the networks' initial weights; the same seed gives the same choice and model.
+    folds : int, default=5
+        Number of interleaved, circular cross-validation folds, ``2 <= folds <= n / 4``.
+    candidates : sequence of Candidate, optional
+        Families and options to choose from; :data:`DEFAULT_CANDIDATES` by default.
+    tolerance : float, default=0.01
+        Tie rule: the simplest candidate whose CV RMS is within this fraction of the lowest wins.
+
+    Returns
+    -------
+    Model
+        The chosen candidate refitted on all points. ``model.training['selection']`` holds
+        ``folds``, ``scheme``, ``tolerance``, ``table`` (one row per candidate: ``family``,
+        ``options``, ``label``, ``cv_rms_arcmin``, ``cv_mae_arcmin``, ``cv_max_abs_arcmin``,
+        ``time_s``), ``chosen`` (the label) and ``reason`` (one sentence).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> theta = np.arange(0.0, 360.0, 2.0)
+    >>> error = 3.0 * np.sin(np.radians(theta)) + 0.5 * np.cos(np.radians(4 * theta))
+    >>> model = fit_auto(theta, error, rng=0)
+    >>> model.kind, model.training["selection"]["chosen"]
+    ('fourier', 'fourier select=top n_orders=10')
+    """
+    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_auto")
+    if isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or not 2 <= folds <= theta.size // 4:
+        raise InputError(f"The 'folds' parameter of fit_auto must be an int in [2, {theta.size // 4}] for "
+                         f"{theta.size} points. Got {folds!r} instead.")
+    if not (isinstance(tolerance, (int, float)) and 0.0 <= tolerance < 1.0):
+        raise InputError(f"The 'tolerance' parameter of fit_auto must be a float in [0, 1). "
+                         f"Got {tolerance!r} instead.")
+    candidates = tuple(DEFAULT_CANDIDATES if candidates is None else candidates)
+    if not candidates or not all(isinstance(c, Candidate) for c in candidates):
+        raise InputError("The 'candidates' parameter of fit_auto must be a non-empty sequence of Candidate. "
+                         f"Got {candidates!r} instead.")
+
+    fold = interleaved_folds(theta, folds)
+    # One seed stream per candidate (k fold fits + the final fit), so a candidate's
+    # result does not depend on which other candidates were tried.
+    streams = [seq.spawn(folds + 1) for seq in _seed_sequence(rng).spawn(len(candidates))]
+    scores = [cross_validate(theta, error, c, fold, seeds=s[:folds]) for c, s in zip(candidates, streams)]
+    chosen, reason = choose(scores, tolerance)
+
+    final_seed = streams[next(i for i, score in enumerate(scores) if score is chosen)][folds]
+    model = chosen.candidate.fit(theta, error, rng=np.random.default_rng(final_seed))
+    model.training["selection"] = {
+        "folds": int(folds),
+        "scheme": "interleaved circular: i-th point by angle in fold i mod folds",
+        "tolerance": float(tolerance),
+        "table": [score.as_dict() for score in scores],
+        "chosen": chosen.candidate.label,
+        "reason": reason,
+    }
+    return model

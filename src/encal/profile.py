@@ -1,0 +1,489 @@
+"""Error profile statistics and harmonic analysis.
+
+An error profile is the error ``encoder - reference`` in arc-minutes at a set
+of encoder angles in degrees. This module summarises it (:func:`error_stats`)
+and splits it into harmonics of the shaft angle (:func:`harmonics`), the
+analysis the paper uses to choose the terms of its Fourier-series model.
+
+The harmonic analysis is a least-squares fit of ``a_k cos(k θ) + b_k sin(k θ)``,
+so it works on any set of angles; on a uniform grid it equals the discrete
+Fourier transform. How many orders a set of angles can identify is decided by
+:func:`identifiable_order`; ``docs/statistics.md`` explains the rules.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .angles import wrap360
+from .errors import InputError
+
+__all__ = [
+    "ErrorStats",
+    "error_stats",
+    "Harmonics",
+    "harmonics",
+    "identifiable_order",
+    "fit_harmonic_series",
+    "distinct_angles",
+]
+
+#: Encoder angles closer than this (degrees) are the same angle; 1e-9° is
+#: about 1e-5 of the LSB of a 24-bit encoder.
+ANGLE_TOLERANCE_DEG = 1e-9
+
+#: A design matrix whose smallest singular value is below this fraction of its
+#: largest cannot identify its coefficients (numerical rank deficiency).
+_RCOND = 1e-8
+
+#: A grid is regular when each angle lies within this fraction of the spacing
+#: of its own node of a uniform grid (Kadec's 1/4 bound).
+_REGULAR_DEVIATION = 0.25
+
+
+# --------------------------------------------------------------------------- statistics
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """Summary statistics of errors, in arc-minutes.
+
+    Attributes
+    ----------
+    n : int
+        Number of errors.
+    mae : float
+        Mean absolute error, ``mean(|e|)``.
+    rms : float
+        Root mean square about zero, ``sqrt(mean(e**2))``.
+    std : float
+        Root mean square about the mean (population standard deviation,
+        ``ddof=0``), so that ``rms**2 == mean**2 + std**2``.
+    min, max : float
+        Smallest and largest (signed) error.
+    pp : float
+        Peak-to-peak error ``max - min``.
+    """
+
+    n: int
+    mae: float
+    rms: float
+    std: float
+    min: float
+    max: float
+    pp: float
+
+    @property
+    def max_abs(self):
+        """Largest absolute error, in arc-minutes."""
+        return max(abs(self.min), abs(self.max))
+
+    def as_dict(self):
+        """The statistics as JSON-ready data with unit-bearing keys.
+
+        Examples
+        --------
+        >>> sorted(error_stats([1.0, -1.0]).as_dict())  # doctest: +NORMALIZE_WHITESPACE
+        ['mae_arcmin', 'max_abs_arcmin', 'max_arcmin', 'min_arcmin', 'n', 'pp_arcmin',
+         'rms_arcmin', 'std_arcmin']
+        """
+        return {
+            "n": int(self.n),
+            "mae_arcmin": float(self.mae),
+            "rms_arcmin": float(self.rms),
+            "std_arcmin": float(self.std),
+            "min_arcmin": float(self.min),
+            "max_arcmin": float(self.max),
+            "max_abs_arcmin": float(self.max_abs),
+            "pp_arcmin": float(self.pp),
+        }
+
+
+def error_stats(data):
+    """Summary statistics of an error profile.
+
+    Parameters
+    ----------
+    data : Calibration or array-like of float
+        A calibration (its ``errors_arcmin`` are used) or errors in arc-minutes.
+
+    Returns
+    -------
+    ErrorStats
+        n, MAE, RMS, STD, min, max and peak-to-peak, in arc-minutes.
+
+    Raises
+    ------
+    InputError
+        If there are no errors or one of them is not finite.
+
+    Examples
+    --------
+    >>> stats = error_stats([1.0, 2.0, 3.0])
+    >>> stats.mae, round(stats.rms, 4), round(stats.std, 4), stats.pp
+    (2.0, 2.1602, 0.8165, 2.0)
+    """
+    errors = np.asarray(getattr(data, "errors_arcmin", data), dtype=float).reshape(-1)
+    if errors.size == 0:
+        raise InputError("error_stats expects at least one error value; got none")
+    if not np.all(np.isfinite(errors)):
+        raise InputError("error_stats expects finite errors in arc-minutes; got NaN or infinity")
+    mean = errors.mean()
+    return ErrorStats(
+        n=int(errors.size),
+        mae=float(np.mean(np.abs(errors))),
+        rms=float(np.sqrt(np.mean(errors**2))),
+        std=float(np.sqrt(np.mean((errors - mean) ** 2))),
+        min=float(errors.min()),
+        max=float(errors.max()),
+        pp=float(errors.max() - errors.min()),
+    )
+
+
+# --------------------------------------------------------------------------- sampling grid
+
+
+def profile_arrays(theta_deg, error_arcmin, caller):
+    """Validated angle and error arrays of one profile.
+
+    Returns ``(theta_deg wrapped to [0, 360), error_arcmin)`` as 1-D float
+    arrays of equal length; ``caller`` names the function in error messages.
+    """
+    theta = np.asarray(theta_deg, dtype=float).reshape(-1)
+    error = np.asarray(error_arcmin, dtype=float).reshape(-1)
+    if theta.size != error.size:
+        raise InputError(
+            f"{caller} expects one error per encoder angle; "
+            f"got {theta.size} angles and {error.size} errors"
+        )
+    if theta.size == 0:
+        raise InputError(f"{caller} expects at least one calibration point; got none")
+    if not (np.all(np.isfinite(theta)) and np.all(np.isfinite(error))):
+        raise InputError(
+            f"{caller} expects finite angles (degrees) and errors (arc-minutes); "
+            "got NaN or infinity"
+        )
+    return wrap360(theta), error
+
+
+def distinct_angles(theta_deg):
+    """The distinct angles of a set of angles on the circle.
+
+    Angles closer than ``ANGLE_TOLERANCE_DEG`` (1e-9°), also across 0/360,
+    count as one; each group is represented by its first angle in
+    ascending order (for a group spanning 0/360, the one just above 0).
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Angles in degrees, wrapped to [0, 360).
+
+    Returns
+    -------
+    distinct_deg : ndarray of shape (m,)
+        The distinct angles in degrees, increasing.
+    group : ndarray of int of shape (n,)
+        Index into ``distinct_deg`` of every input angle.
+
+    Examples
+    --------
+    >>> angles, group = distinct_angles([90.0, 0.0, 90.0])
+    >>> angles.tolist(), group.tolist()
+    ([0.0, 90.0], [1, 0, 1])
+    """
+    theta = np.asarray(theta_deg, dtype=float).reshape(-1)
+    order = np.argsort(theta, kind="stable")
+    sorted_theta = theta[order]
+    starts_group = np.r_[True, np.diff(sorted_theta) > ANGLE_TOLERANCE_DEG]
+    group_sorted = np.cumsum(starts_group) - 1
+    if group_sorted[-1] > 0 and sorted_theta[0] + 360.0 - sorted_theta[-1] <= ANGLE_TOLERANCE_DEG:
+        group_sorted[group_sorted == group_sorted[-1]] = 0  # the last group wraps onto the first
+    group = np.empty_like(group_sorted)
+    group[order] = group_sorted
+    return sorted_theta[starts_group][: group_sorted.max() + 1], group
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """How a set of angles samples the circle."""
+
+    n_distinct: int
+    phase_rad: float | None  # phase of the uniform grid the angles match, if they match one
+
+    @property
+    def nyquist_order(self):
+        """Order sampled at exactly two points per period, or None."""
+        if self.phase_rad is None or self.n_distinct % 2:
+            return None
+        return self.n_distinct // 2
+
+    @property
+    def max_order(self):
+        if self.phase_rad is not None:
+            return self.n_distinct // 2
+        return (self.n_distinct - 1) // 2
+
+
+def _grid(theta_deg):
+    distinct, _ = distinct_angles(theta_deg)
+    m = distinct.size
+    theta = np.radians(distinct)
+    # Best-fitting phase of a uniform m-point grid: every node has m θ ≡ m φ (mod 2π).
+    phase = float(np.angle(np.sum(np.exp(1j * m * theta)))) / m
+    position = (theta - phase) * m / (2.0 * np.pi)  # in grid spacings
+    node = np.round(position)
+    regular = (
+        np.unique(np.mod(node, m)).size == m
+        and np.max(np.abs(position - node)) < _REGULAR_DEVIATION
+    )
+    return _Grid(m, phase if regular else None)
+
+
+def identifiable_order(theta_deg):
+    """Highest harmonic order a set of encoder angles can identify.
+
+    With ``m`` distinct angles (closer than 1e-9° counts as one):
+
+    - on a *regular* grid, one whose angles can be paired one-to-one with
+      the nodes of a uniform ``m``-point grid, each within a quarter of the
+      spacing of its node, the limit is the Nyquist order ``m // 2``; for even
+      ``m`` that order has a single term (two samples per period cannot
+      tell a cosine from a sine);
+    - otherwise ``(m - 1) // 2``: ``2K + 1`` distinct angles determine a
+      trigonometric polynomial of order ``K``.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> identifiable_order(range(0, 360, 2))         # uniform, 180 points
+    90
+    >>> identifiable_order([0, 10, 20, 30, 50, 100])  # irregular, 6 points
+    2
+    """
+    theta = wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
+    if theta.size == 0:
+        raise InputError("identifiable_order expects at least one angle; got none")
+    return _grid(theta).max_order
+
+
+def _design(theta_deg, orders, grid):
+    """Columns [cos(kθ), sin(kθ)] per order, with the grid's special cases.
+
+    Returns the design matrix and, per order, a complex number that maps its
+    fitted column coefficients to (a_k, b_k): see :func:`fit_harmonic_series`.
+    """
+    theta = np.radians(theta_deg)
+    columns, owners = [], []
+    for index, k in enumerate(orders):
+        if k == 0:
+            columns.append(np.ones_like(theta))
+            owners.append((index, "cos"))
+        elif k == grid.nyquist_order:
+            # Two samples per period: only the term locked to the grid phase exists.
+            columns.append(np.cos(k * (theta - grid.phase_rad)))
+            owners.append((index, "nyquist"))
+        else:
+            columns += [np.cos(k * theta), np.sin(k * theta)]
+            owners += [(index, "cos"), (index, "sin")]
+    return np.column_stack(columns), owners
+
+
+def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic_series"):
+    """Least-squares coefficients of chosen harmonic orders.
+
+    Fits ``ε(θ) = Σ a_k cos(k θ) + b_k sin(k θ)`` (θ in radians) to the
+    profile. At the Nyquist order of a regular grid with an even number of
+    angles only the term ``c cos(k (θ - φ))`` locked to the grid phase φ is
+    fitted (``a_k = c cos kφ``, ``b_k = c sin kφ``); on a grid starting at 0°
+    that is the plain cosine.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors in arc-minutes.
+    orders : sequence of int
+        Distinct non-negative harmonic orders.
+    caller : str, default='fit_harmonic_series'
+        Function named in error messages.
+
+    Returns
+    -------
+    cos_arcmin, sin_arcmin : ndarray of shape (len(orders),)
+        ``a_k`` and ``b_k`` in arc-minutes; ``b_0 = 0``.
+
+    Raises
+    ------
+    InputError
+        If the angles cannot identify the orders (numerically rank-deficient
+        least squares).
+
+    Examples
+    --------
+    >>> theta = np.arange(0.0, 360.0, 30.0)
+    >>> a, b = fit_harmonic_series(theta, 2 + np.sin(np.radians(3 * theta)), [0, 3])
+    >>> np.round(a, 12).tolist(), np.round(b, 12).tolist()
+    ([2.0, 0.0], [0.0, 1.0])
+    """
+    theta, error = profile_arrays(theta_deg, error_arcmin, caller)
+    orders = [int(k) for k in orders]
+    grid = _grid(theta)
+    design, owners = _design(theta, orders, grid)
+    solution, _, rank, singular = np.linalg.lstsq(design, error, rcond=_RCOND)
+    if rank < design.shape[1]:
+        raise InputError(
+            f"{caller} cannot identify harmonic orders {_short_list(orders)} from "
+            f"{grid.n_distinct} distinct encoder angles (rank-deficient least squares); "
+            f"expected orders up to {grid.max_order} that do not alias one another"
+        )
+    cos_arcmin, sin_arcmin = np.zeros(len(orders)), np.zeros(len(orders))
+    for value, (index, term) in zip(solution, owners):
+        if term == "cos":
+            cos_arcmin[index] = value
+        elif term == "sin":
+            sin_arcmin[index] = value
+        else:
+            shift = orders[index] * grid.phase_rad
+            cos_arcmin[index] = value * np.cos(shift)
+            sin_arcmin[index] = value * np.sin(shift)
+    return cos_arcmin, sin_arcmin
+
+
+def _short_list(orders, limit=12):
+    text = ", ".join(str(k) for k in orders[:limit])
+    return f"[{text}{', ...' if len(orders) > limit else ''}]"
+
+
+# --------------------------------------------------------------------------- harmonics
+
+
+@dataclass(frozen=True, eq=False)
+class Harmonics:
+    """Harmonic content of an error profile, ``ε(θ) = Σ A_k cos(k θ - φ_k)``.
+
+    Attributes
+    ----------
+    orders : ndarray of int of shape (K + 1,)
+        Orders ``0, 1, ..., K`` (cycles per revolution).
+    cos_arcmin, sin_arcmin : ndarray of shape (K + 1,)
+        Coefficients ``a_k`` and ``b_k`` of ``a_k cos(k θ) + b_k sin(k θ)``
+        (θ in radians), in arc-minutes.
+    n_points : int
+        Number of calibration points analysed.
+    """
+
+    orders: np.ndarray
+    cos_arcmin: np.ndarray
+    sin_arcmin: np.ndarray
+    n_points: int
+
+    @property
+    def amplitude_arcmin(self):
+        """Amplitude ``A_k = hypot(a_k, b_k)`` of every order, in arc-minutes (``A_0 = |a_0|``)."""
+        return np.hypot(self.cos_arcmin, self.sin_arcmin)
+
+    @property
+    def phase_rad(self):
+        """Phase ``φ_k = atan2(b_k, a_k)`` of every order, in radians (0 or π for order 0)."""
+        return np.arctan2(self.sin_arcmin, self.cos_arcmin)
+
+    @property
+    def max_order(self):
+        """Highest order analysed."""
+        return int(self.orders[-1])
+
+    def ranked(self):
+        """All orders, largest amplitude first.
+
+        Amplitudes equal to 12 significant digits of the largest one count as
+        equal (rounding must not decide); the lower order comes first.
+        """
+        amplitude = self.amplitude_arcmin
+        scale = amplitude.max(initial=0.0) or 1.0
+        return self.orders[np.lexsort((self.orders, -np.round(amplitude / scale, 12)))]
+
+    def top(self, n=10):
+        """The ``n`` orders of largest amplitude, largest first, as the paper lists them.
+
+        Parameters
+        ----------
+        n : int, default=10
+            How many orders; all of them if there are fewer.
+
+        Returns
+        -------
+        list of int
+        """
+        if int(n) != n or n < 0:
+            raise InputError(f"Harmonics.top expects a count n >= 0; got {n!r}")
+        return [int(k) for k in self.ranked()[: int(n)]]
+
+    def as_list(self, n=None):
+        """``[{"order": k, "amplitude_arcmin": A_k}, ...]``, largest first (the ``n`` largest if given)."""
+        amplitude = self.amplitude_arcmin
+        chosen = self.ranked() if n is None else self.top(n)
+        return [{"order": int(k), "amplitude_arcmin": float(amplitude[k])} for k in chosen]
+
+    def __call__(self, theta_deg):
+        """The harmonic series evaluated at ``theta_deg`` (degrees), in arc-minutes."""
+        theta = np.radians(np.asarray(theta_deg, dtype=float))[..., np.newaxis]
+        series = self.cos_arcmin * np.cos(self.orders * theta) + self.sin_arcmin * np.sin(self.orders * theta)
+        return series.sum(axis=-1)[()]
+
+
+def harmonics(theta_deg, error_arcmin, max_order=None):
+    """Harmonic analysis of an error profile by least squares.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees; any order, any spacing, repeats allowed.
+    error_arcmin : array-like of shape (n,)
+        Errors in arc-minutes.
+    max_order : int, optional
+        Highest order to analyse. Default: :func:`identifiable_order` of the
+        angles (the Nyquist order ``n // 2`` on a uniform grid of ``n`` points).
+
+    Returns
+    -------
+    Harmonics
+        Orders ``0..max_order`` with their coefficients. On a uniform grid of
+        ``N`` points with the default ``max_order`` the result equals the DFT
+        ``X_k = Σ ε_j e^{-2πi jk/N} / N``: ``A_0 = |X_0|``, ``A_k = 2 |X_k|``,
+        and ``A_{N/2} = |X_{N/2}|`` for even ``N``.
+
+    Raises
+    ------
+    InputError
+        If ``max_order`` exceeds what the angles can identify.
+
+    Examples
+    --------
+    >>> theta = np.arange(0.0, 360.0, 2.0)
+    >>> h = harmonics(theta, 1.0 + 3.0 * np.cos(np.radians(2 * theta - 40)))
+    >>> h.top(2)
+    [2, 0]
+    >>> round(float(h.amplitude_arcmin[2]), 12), round(float(np.degrees(h.phase_rad[2])), 9)
+    (3.0, 40.0)
+    """
+    theta, error = profile_arrays(theta_deg, error_arcmin, "harmonics")
+    limit = _grid(theta).max_order
+    if max_order is None:
+        max_order = limit
+    elif int(max_order) != max_order or not 0 <= max_order <= limit:
+        raise InputError(
+            f"harmonics expects max_order between 0 and {limit}, the highest order "
+            f"{distinct_angles(theta)[0].size} distinct encoder angles can identify; got {max_order!r}"
+        )
+    orders = np.arange(int(max_order) + 1)
+    cos_arcmin, sin_arcmin = fit_harmonic_series(theta, error, orders, caller="harmonics")
+    return Harmonics(orders, cos_arcmin, sin_arcmin, int(theta.size))

@@ -1,0 +1,320 @@
+"""The paper's 1:N:1 network, as a least-squares training problem.
+
+One hidden layer of ``N`` neurons with a sigmoid activation (``tansig`` or
+``logsig``) and a linear output neuron, as MATLAB's ``feedforwardnet`` builds
+it, including MATLAB's ``mapminmax`` scaling of inputs and target to [-1, 1]
+and its Nguyen-Widrow initialisation (``initnw``).
+
+Input encodings of the encoder angle θ (degrees):
+
+``'raw'``
+    One input, θ itself (the paper's network). The fitted function of θ on
+    [0, 360) is not periodic: its values at 0° and just below 360° are unrelated,
+    so the model jumps where the encoder angle wraps.
+``'periodic'``
+    Two inputs, ``cos θ`` and ``sin θ``. The network is then a continuous,
+    periodic function of θ by construction.
+
+Flat weight vector
+------------------
+Training algorithms see the weights as one vector ``w`` of
+``n_params = N * (n_inputs + 2) + 1`` values (1:80:1: 241 for ``'raw'``,
+321 for ``'periodic'``), laid out as::
+
+    w = [W1.ravel(),  # N × n_inputs, row-major: W1[j, k] is w[j * n_inputs + k]
+         b1,          # N hidden biases
+         W2,          # N output weights
+         b2]          # 1 output bias
+
+The network's output is ``y_n = W2 · f(W1 x_n + b1) + b2`` for a normalised
+input vector ``x_n``; ``docs/model-file.md`` stores the same arrays.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import expit
+
+from ..errors import InputError
+
+__all__ = [
+    "ENCODINGS",
+    "ACTIVATIONS",
+    "MapMinMax",
+    "encode_angles",
+    "n_weights",
+    "pack_weights",
+    "unpack_weights",
+    "nguyen_widrow",
+    "forward",
+    "NetworkProblem",
+]
+
+#: encoding name -> number of network inputs
+ENCODINGS = {"raw": 1, "periodic": 2}
+
+
+def _tansig_slope(h):
+    return 1.0 - h * h
+
+
+def _logsig_slope(h):
+    return h * (1.0 - h)
+
+
+#: name -> (activation f(z), its derivative written in terms of h = f(z))
+ACTIVATIONS = {
+    "tansig": (np.tanh, _tansig_slope),
+    "logsig": (expit, _logsig_slope),
+}
+
+#: Half-width of each activation's active input region, MATLAB's
+#: ``tansig('active')`` = [-2, 2] and ``logsig('active')`` = [-4, 4].
+_ACTIVE_HALF_WIDTH = {"tansig": 2.0, "logsig": 4.0}
+
+
+@dataclass(frozen=True)
+class MapMinMax:
+    """MATLAB's ``mapminmax`` to [-1, 1]: ``x_n = gain · (x − offset) − 1``.
+
+    Attributes
+    ----------
+    offset : float or ndarray of shape (k,)
+        Minimum of each column of the data the settings were fitted to.
+    gain : float or ndarray of shape (k,)
+        ``2 / (max − min)`` of each column; 1 where ``max == min``.
+    """
+
+    offset: np.ndarray
+    gain: np.ndarray
+
+    @classmethod
+    def fit(cls, values):
+        """Settings that map the range of ``values`` (shape (m,) or (m, k)) onto [-1, 1]."""
+        values = np.asarray(values, dtype=float)
+        low, high = values.min(axis=0), values.max(axis=0)
+        span = np.asarray(high - low, dtype=float)
+        with np.errstate(over="ignore"):
+            gain = 2.0 / np.where(span > 0, span, 2.0)  # gain 1 where max == min
+        gain = np.where(np.isfinite(gain), gain, 1.0)
+        return cls(offset=np.asarray(low, dtype=float)[()], gain=gain[()])
+
+    def apply(self, values):
+        """Scale raw values to normalised ones."""
+        return self.gain * (np.asarray(values, dtype=float) - self.offset) - 1.0
+
+    def reverse(self, normalised):
+        """Map normalised values back to raw units."""
+        return (np.asarray(normalised, dtype=float) + 1.0) / self.gain + self.offset
+
+
+def encode_angles(theta_deg, encoding):
+    """Network inputs for encoder angles.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (m,)
+        Encoder angles in degrees.
+    encoding : {'raw', 'periodic'}
+        ``'raw'``: the angle in degrees; ``'periodic'``: ``cos θ`` and ``sin θ``.
+
+    Returns
+    -------
+    ndarray of shape (m, n_inputs)
+        Un-normalised inputs (``n_inputs`` is 1 or 2).
+    """
+    theta = np.asarray(theta_deg, dtype=float).reshape(-1)
+    if encoding == "raw":
+        return theta[:, None]
+    if encoding == "periodic":
+        radians = np.deg2rad(theta)
+        return np.column_stack((np.cos(radians), np.sin(radians)))
+    raise InputError(f"encoding must be one of {sorted(ENCODINGS)}. Got {encoding!r} instead.")
+
+
+def n_weights(n_inputs, hidden):
+    """Length of the flat weight vector of a ``n_inputs``:``hidden``:1 network."""
+    return hidden * (n_inputs + 2) + 1
+
+
+def unpack_weights(w, n_inputs, hidden):
+    """Views ``(W1, b1, W2, b2)`` into the flat weight vector ``w`` (see the module docstring)."""
+    w = np.asarray(w, dtype=float)
+    k = hidden * n_inputs
+    W1 = w[:k].reshape(hidden, n_inputs)
+    b1 = w[k:k + hidden]
+    W2 = w[k + hidden:k + 2 * hidden]
+    return W1, b1, W2, w[-1]
+
+
+def pack_weights(W1, b1, W2, b2):
+    """The flat weight vector of the arrays ``W1`` (N × n_inputs), ``b1`` (N), ``W2`` (N), ``b2``."""
+    return np.concatenate([np.ravel(W1), np.ravel(b1), np.ravel(W2), np.ravel(b2)]).astype(float)
+
+
+def nguyen_widrow(n_inputs, hidden, activation="tansig", rng=None):
+    """Initial weights by the Nguyen-Widrow rule, as MATLAB's ``initnw`` computes them.
+
+    Nguyen, D. and Widrow, B. (1990), "Improving the learning speed of 2-layer
+    neural networks by choosing initial values of the adaptive weights",
+    Proc. IJCNN, vol. 3, pp. 21-26; MATLAB Deep Learning Toolbox ``initnw``.
+
+    Hidden neurons get weight vectors of length ``0.7 · N^(1/n_inputs)`` in
+    random directions and biases spread evenly over the same magnitude, then
+    both are scaled to the activation's active region ([-2, 2] for tansig,
+    [-4, 4] for logsig); the inputs are assumed mapminmax'ed to [-1, 1]. The
+    linear output neuron's weights and bias are uniform on [-1, 1] (MATLAB's
+    ``rands``, which ``initnw`` uses for a layer without a finite active region).
+
+    Parameters
+    ----------
+    n_inputs, hidden : int
+        Network size ``n_inputs``:``hidden``:1.
+    activation : {'tansig', 'logsig'}, default='tansig'
+    rng : None, int or numpy.random.Generator
+        The same seed gives bit-identical weights.
+
+    Returns
+    -------
+    ndarray of shape (n_weights(n_inputs, hidden),)
+    """
+    rng = np.random.default_rng(rng)
+    magnitude = 0.7 * hidden ** (1.0 / n_inputs)
+    directions = rng.standard_normal((hidden, n_inputs))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    W1 = magnitude * directions
+    if hidden == 1:
+        b1 = np.zeros(1)
+    else:
+        b1 = magnitude * np.linspace(-1.0, 1.0, hidden) * np.sign(W1[:, 0])
+    half_width = _ACTIVE_HALF_WIDTH[activation]
+    W2 = rng.uniform(-1.0, 1.0, hidden)
+    b2 = rng.uniform(-1.0, 1.0)
+    return pack_weights(half_width * W1, half_width * b1, W2, b2)
+
+
+def forward(inputs, W1, b1, W2, b2, activation="tansig"):
+    """Network output for normalised inputs.
+
+    Parameters
+    ----------
+    inputs : ndarray of shape (m, n_inputs)
+        mapminmax'ed inputs.
+    W1, b1, W2, b2 : ndarray
+        Weights, shapes (N, n_inputs), (N,), (N,), ().
+    activation : {'tansig', 'logsig'}
+
+    Returns
+    -------
+    ndarray of shape (m,)
+        Normalised output ``y_n``.
+    """
+    f = ACTIVATIONS[activation][0]
+    return f(inputs @ W1.T + b1) @ W2 + b2
+
+
+class NetworkProblem:
+    """Training problem of a 1:N:1 network: an :class:`encal.training.Objective`.
+
+    Residuals are ``y_n − t_n`` in normalised target units (the target
+    mapminmax'ed to [-1, 1]); the Jacobian is analytic. Work is vectorised over
+    samples.
+
+    Parameters
+    ----------
+    inputs : array-like of shape (m, n_inputs)
+        Normalised network inputs.
+    targets : array-like of shape (m,)
+        Normalised targets.
+    hidden : int
+        Number of hidden neurons N.
+    activation : {'tansig', 'logsig'}, default='tansig'
+
+    Attributes
+    ----------
+    n_params, n_samples : int
+    encoding : str or None
+        Set by :meth:`from_angles`, with ``input_scaling`` and ``target_scaling``
+        (:class:`MapMinMax`).
+    """
+
+    def __init__(self, inputs, targets, hidden, activation="tansig"):
+        self.inputs = np.ascontiguousarray(inputs, dtype=float)
+        self.targets = np.ascontiguousarray(targets, dtype=float).reshape(-1)
+        if self.inputs.ndim != 2 or self.inputs.shape[0] != self.targets.size:
+            raise InputError(
+                f"inputs must have shape (m, n_inputs) with m = {self.targets.size} targets. "
+                f"Got shape {self.inputs.shape} instead."
+            )
+        self.hidden = int(hidden)
+        self.activation = activation
+        self._f, self._slope = ACTIVATIONS[activation]
+        self.n_samples, self.n_inputs = self.inputs.shape
+        self.n_params = n_weights(self.n_inputs, self.hidden)
+        self.encoding = None
+        self.input_scaling = None
+        self.target_scaling = None
+
+    @classmethod
+    def from_angles(cls, theta_deg, error_arcmin, hidden, *, encoding="periodic",
+                    activation="tansig", input_scaling=None, target_scaling=None):
+        """The problem of fitting errors (arcmin) as a function of encoder angles (degrees).
+
+        ``input_scaling`` and ``target_scaling`` default to mapminmax settings
+        fitted to these data; pass a training problem's settings to build its
+        validation problem.
+        """
+        inputs = encode_angles(theta_deg, encoding)
+        targets = np.asarray(error_arcmin, dtype=float).reshape(-1)
+        input_scaling = input_scaling or MapMinMax.fit(inputs)
+        target_scaling = target_scaling or MapMinMax.fit(targets)
+        problem = cls(input_scaling.apply(inputs), target_scaling.apply(targets), hidden,
+                      activation)
+        problem.encoding = encoding
+        problem.input_scaling = input_scaling
+        problem.target_scaling = target_scaling
+        return problem
+
+    def unpack(self, w):
+        """``(W1, b1, W2, b2)`` views of the flat weight vector."""
+        return unpack_weights(w, self.n_inputs, self.hidden)
+
+    def initial_weights(self, rng=None):
+        """Nguyen-Widrow initial weights (see :func:`nguyen_widrow`)."""
+        return nguyen_widrow(self.n_inputs, self.hidden, self.activation, rng)
+
+    def _forward(self, w):
+        W1, b1, W2, b2 = self.unpack(w)
+        h = self._f(self.inputs @ W1.T + b1)
+        return h, h @ W2 + b2, W2
+
+    def outputs(self, w):
+        """Normalised network outputs at the training inputs, shape (m,)."""
+        return self._forward(w)[1]
+
+    def residuals(self, w):
+        return self._forward(w)[1] - self.targets
+
+    def residuals_and_jacobian(self, w):
+        h, y, W2 = self._forward(w)
+        m, n_in, N = self.n_samples, self.n_inputs, self.hidden
+        # d y / d b1_j = W2_j f'(z_j); d y / d W1_jk = that times input k.
+        d_hidden = self._slope(h) * W2
+        J = np.empty((m, self.n_params))
+        J[:, :N * n_in] = (d_hidden[:, :, None] * self.inputs[:, None, :]).reshape(m, N * n_in)
+        J[:, N * n_in:N * (n_in + 1)] = d_hidden
+        J[:, N * (n_in + 1):N * (n_in + 2)] = h
+        J[:, -1] = 1.0
+        return y - self.targets, J
+
+    def mse(self, w):
+        r = self.residuals(w)
+        return float(r @ r) / self.n_samples
+
+    def mse_and_gradient(self, w):
+        h, y, W2 = self._forward(w)
+        r = y - self.targets
+        m = self.n_samples
+        back = (self._slope(h) * W2) * r[:, None]
+        grad = np.concatenate([(back.T @ self.inputs).ravel(), back.sum(axis=0), r @ h, [r.sum()]])
+        return float(r @ r) / m, (2.0 / m) * grad

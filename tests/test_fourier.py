@@ -1,0 +1,210 @@
+"""Fourier-series error model (encal.models.fourier)."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from encal.errors import InputError, ModelFileError
+from encal.models import MODEL_KINDS
+from encal.models.fourier import FourierModel, cross_validate_order_count, fit_fourier
+
+TRAIN = np.arange(0.0, 360.0, 2.0)  # the paper's training grid
+TEST = np.arange(1.0, 360.0, 2.0)  # the paper's test grid
+
+
+def series(theta_deg, orders, cos, sin):
+    """The Fourier series of docs/model-file.md, written out independently."""
+    theta = np.radians(np.asarray(theta_deg, dtype=float))
+    return sum(a * np.cos(k * theta) + b * np.sin(k * theta) for k, a, b in zip(orders, cos, sin))
+
+
+def random_profile(rng, orders):
+    cos = rng.normal(size=len(orders)) * 2.0
+    sin = np.where(np.asarray(orders) == 0, 0.0, rng.normal(size=len(orders)) * 2.0)
+    return cos, sin
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_noise_free_profile_is_recovered_exactly(seed):
+    rng = np.random.default_rng(seed)
+    orders = [0, 1, 2, 4, 14, 16, 32, 48, 84]
+    cos, sin = random_profile(rng, orders)
+    model = fit_fourier(TRAIN, series(TRAIN, orders, cos, sin), orders=orders)
+    assert model.orders.tolist() == orders
+    assert_allclose(model.cos, cos, rtol=0, atol=1e-10)
+    assert_allclose(model.sin, sin, rtol=0, atol=1e-10)
+    anywhere = rng.uniform(-720.0, 720.0, 500)
+    assert_allclose(model.predict(anywhere), series(anywhere, orders, cos, sin), rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_top_rule_finds_the_orders_of_a_noise_free_profile(seed):
+    rng = np.random.default_rng(seed)
+    orders = [0, 1, 2, 3, 4, 14, 16, 32, 48, 84]
+    cos, sin = random_profile(rng, orders)
+    cos = np.sign(cos) * (0.5 + np.abs(cos))  # every order clearly present
+    model = fit_fourier(TRAIN, series(TRAIN, orders, cos, sin))  # select='top', n_orders=10
+    assert sorted(model.orders.tolist()) == orders
+    assert_allclose(model.predict(TEST), series(TEST, orders, cos, sin), rtol=0, atol=1e-10)
+    assert model.training == {"select": "top", "n_orders": 10, "orders": model.orders.tolist(),
+                              "max_order": 90}
+
+
+def test_noise_free_profile_is_recovered_from_irregular_angles():
+    rng = np.random.default_rng(11)
+    theta = rng.uniform(0.0, 360.0, 150)
+    orders = [0, 1, 2, 5, 16, 40]
+    cos, sin = random_profile(rng, orders)
+    model = fit_fourier(theta, series(theta, orders, cos, sin), orders=orders)
+    assert_allclose(model.cos, cos, atol=1e-10)
+    assert_allclose(model.sin, sin, atol=1e-10)
+
+
+@pytest.mark.parametrize("grid, phase_deg", [(TRAIN, 0.0), (TEST, 1.0)])
+def test_nyquist_order_keeps_the_term_the_grid_can_see(grid, phase_deg):
+    # Two samples per period: only the term locked to the grid is identifiable.
+    truth = 1.5 * np.cos(np.radians(90 * (grid - phase_deg))) + np.sin(np.radians(grid))
+    model = fit_fourier(grid, truth, orders=[1, 90])
+    assert_allclose(model.predict(grid), truth, atol=1e-10)
+    a, b = model.cos[1], model.sin[1]
+    assert_allclose([a, b], 1.5 * np.array([np.cos(np.radians(90 * phase_deg)),
+                                            np.sin(np.radians(90 * phase_deg))]), atol=1e-10)
+    assert model.training["max_order"] == 90
+
+
+def test_top_rule_picks_the_per_step_pattern_at_the_nyquist_order():
+    steps = np.arange(0.0, 360.0, 3.6)  # 100 full steps pairs: order 50 is the Nyquist order
+    error = 20.0 * np.cos(np.radians(2 * steps)) + 3.0 * (-1.0) ** np.arange(100)
+    model = fit_fourier(steps, error, n_orders=2)
+    assert model.orders.tolist() == [2, 50]
+    assert_allclose(model.predict(steps), error, atol=1e-10)
+
+
+@pytest.mark.parametrize("seed", range(10))
+@pytest.mark.parametrize("select", ["top", "cv"])
+def test_noisy_profile_is_recovered_within_the_noise(seed, select):
+    """White noise σ = 0.1 arcmin on 180 points: the fitted curve stays within σ RMS of the truth.
+
+    The least-squares estimate of p ≤ 21 coefficients from 180 points has an
+    RMS error of about σ √(p / 180) ≈ 0.03 arcmin; σ is a bound that no seed
+    comes near.
+    """
+    rng = np.random.default_rng(seed)
+    orders = [0, 1, 2, 16, 14, 48]
+    cos, sin = random_profile(rng, orders)
+    cos = np.sign(cos) * (0.5 + np.abs(cos))
+    sigma = 0.1
+    observed = series(TRAIN, orders, cos, sin) + rng.normal(0.0, sigma, TRAIN.size)
+    model = fit_fourier(TRAIN, observed, select=select)
+    assert set(orders) <= set(model.orders.tolist())
+    dense = np.linspace(0.0, 360.0, 3601)
+    error = model.predict(dense) - series(dense, orders, cos, sin)
+    assert np.sqrt(np.mean(error**2)) < sigma
+    residual = observed - model.predict(TRAIN)
+    assert np.sqrt(np.mean(residual**2)) < 1.5 * sigma
+
+
+def test_cross_validation_keeps_few_orders_when_the_rest_is_noise():
+    rng = np.random.default_rng(0)
+    truth = 3.0 * np.cos(np.radians(TRAIN)) + 1.0 * np.sin(np.radians(2 * TRAIN))
+    model = fit_fourier(TRAIN, truth + rng.normal(0.0, 0.1, TRAIN.size), select="cv")
+    assert {1, 2} <= set(model.orders.tolist())
+    assert len(model.orders) < 10  # the paper's fixed ten would fit noise
+    curve = model.training["cv_rms_arcmin"]
+    assert model.training["select"] == "cv" and model.training["folds"] == 5
+    assert min(curve) == pytest.approx(curve[len(model.orders) - 1])
+
+
+def test_cross_validation_curve_is_exact_for_noise_free_data():
+    truth = 2.0 + np.cos(np.radians(3 * TRAIN))
+    counts, rms = cross_validate_order_count(TRAIN, truth, folds=4)
+    assert counts[0] == 1 and rms.size == counts.size
+    assert rms[1] < 1e-10 and rms[0] > 0.5  # two orders (0 and 3) describe it exactly
+    assert fit_fourier(TRAIN, truth, select="cv").orders.tolist() == [0, 3]
+
+
+def test_cross_validation_keeps_repeated_angles_in_one_fold():
+    # Two epochs on the same grid: with the twin of a held-out point in training,
+    # CV would reward interpolating the noise.
+    rng = np.random.default_rng(5)
+    theta = np.r_[TRAIN, TRAIN]
+    noise = rng.normal(0.0, 0.2, TRAIN.size)
+    observed = np.r_[np.cos(np.radians(theta[:180])) + noise, np.cos(np.radians(theta[180:])) + noise]
+    model = fit_fourier(theta, observed, select="cv")
+    assert len(model.orders) < 30
+
+
+@settings(max_examples=60, deadline=None)
+@given(theta=st.floats(-1e4, 1e4, allow_nan=False), turns=st.integers(-5, 5))
+def test_prediction_is_periodic(theta, turns):
+    model = FourierModel([0, 1, 2, 16, 90], [0.3, 2.0, -1.0, 0.5, 0.2], [0.0, 1.0, 0.4, -0.3, 0.0])
+    # θ + 360 k and θ round differently; the series' slope is at most Σ k |coef| arcmin/rad.
+    slope_per_deg = math.radians(sum(k * (abs(a) + abs(b)) for k, a, b in
+                                     zip(model.orders, model.cos, model.sin)))
+    tolerance = slope_per_deg * 1e-10 * max(1.0, abs(theta))
+    assert model.predict(theta + 360.0 * turns) == pytest.approx(float(model.predict(theta)), abs=tolerance)
+
+
+def test_prediction_is_continuous_at_zero():
+    model = fit_fourier(TRAIN, np.random.default_rng(2).normal(size=180))
+    assert model.predict(360.0 - 1e-9) == pytest.approx(float(model.predict(0.0)), abs=1e-3)
+    assert model.predict(360.0) == model.predict(0.0)
+
+
+def test_parameters_follow_the_model_file_layout_and_round_trip():
+    rng = np.random.default_rng(4)
+    model = fit_fourier(TRAIN, rng.normal(size=180), select="top")
+    parameters = json.loads(json.dumps(model.parameters()))
+    assert set(parameters) == {"orders", "cos", "sin"}
+    assert all(type(k) is int for k in parameters["orders"])
+    assert parameters["sin"][parameters["orders"].index(0)] == 0.0 if 0 in parameters["orders"] else True
+    angles = rng.uniform(0.0, 360.0, 100)
+    assert_allclose(series(angles, **parameters), model.predict(angles), rtol=0, atol=1e-12)
+    again = FourierModel.from_parameters(parameters)
+    assert np.array_equal(again.predict(angles), model.predict(angles))
+    assert MODEL_KINDS["fourier"] is FourierModel
+
+
+def test_predict_and_correct_keep_the_shape_of_the_input():
+    model = FourierModel([1], [60.0], [0.0])  # one degree at 0°
+    assert np.shape(model.predict(np.zeros((2, 3)))) == (2, 3)
+    assert isinstance(model.predict(10.0), float)
+    assert model.correct(0.5) == pytest.approx(359.5)
+
+
+def test_fit_checks_its_options():
+    errors = np.zeros(TRAIN.size)
+    with pytest.raises(InputError, match="'select' parameter of fit_fourier"):
+        fit_fourier(TRAIN, errors, select="best")
+    with pytest.raises(InputError, match="'n_orders' parameter"):
+        fit_fourier(TRAIN, errors, n_orders=0)
+    with pytest.raises(InputError, match="'folds' parameter"):
+        fit_fourier(TRAIN, errors, select="cv", folds=1)
+    with pytest.raises(InputError, match="'orders' parameter of fit_fourier must hold distinct ints from 0 to 90"):
+        fit_fourier(TRAIN, errors, orders=[1, 91])
+    with pytest.raises(InputError, match="'orders' parameter"):
+        fit_fourier(TRAIN, errors, orders=[1, 1])
+    with pytest.raises(InputError, match="cannot identify"):
+        fit_fourier(TRAIN, errors, orders=[1, 179], max_order=179)  # 179 aliases to 1
+    with pytest.raises(InputError, match="one error per encoder angle"):
+        fit_fourier(TRAIN, errors[:-1])
+
+
+def test_few_points_keep_as_many_orders_as_they_identify():
+    theta = np.arange(0.0, 360.0, 45.0)  # 8 points: orders 0..4
+    model = fit_fourier(theta, np.random.default_rng(0).normal(size=8))
+    assert sorted(model.orders.tolist()) == [0, 1, 2, 3, 4]
+
+
+def test_invalid_parameters_are_a_model_file_error():
+    with pytest.raises(ModelFileError, match="fourier model parameters"):
+        FourierModel.from_parameters({"orders": [1], "cos": [1.0]})
+    with pytest.raises(ModelFileError, match="fourier model parameters"):
+        FourierModel.from_parameters({"orders": [1, 2], "cos": [1.0], "sin": [0.0]})
+    with pytest.raises(ModelFileError):
+        FourierModel.from_parameters({"orders": [-1], "cos": [1.0], "sin": [0.0]})

@@ -1,0 +1,242 @@
+"""Error statistics and harmonic analysis (encal.profile)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from encal import Calibration, ErrorStats, Harmonics, error_stats, harmonics
+from encal.errors import InputError
+from encal.profile import distinct_angles, fit_harmonic_series, identifiable_order
+
+finite_errors = st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=1, max_size=200)
+
+
+# --------------------------------------------------------------------------- error_stats
+
+
+def test_error_stats_of_known_values():
+    stats = error_stats([-4.0, 0.0, 1.0, 3.0])
+    assert stats.n == 4
+    assert stats.mae == pytest.approx(2.0)
+    assert stats.rms == pytest.approx(np.sqrt(26 / 4))
+    assert stats.std == pytest.approx(np.sqrt(np.mean((np.array([-4, 0, 1, 3]) - 0.0) ** 2)))
+    assert (stats.min, stats.max, stats.pp, stats.max_abs) == (-4.0, 3.0, 7.0, 4.0)
+
+
+def test_std_is_the_rms_about_the_mean():
+    stats = error_stats([10.0, 12.0])
+    assert stats.rms == pytest.approx(np.sqrt(122.0))
+    assert stats.std == pytest.approx(1.0)
+
+
+def test_error_stats_of_a_calibration_uses_its_errors():
+    ref = np.arange(0.0, 360.0, 2.0)
+    cal = Calibration(ref, ref + np.sin(np.radians(ref)) / 60.0)  # 1 arcmin first harmonic
+    stats = error_stats(cal)
+    assert stats.n == 180
+    assert stats.rms == pytest.approx(np.sqrt(0.5), rel=1e-9)
+    assert stats.mae == pytest.approx(2 / np.pi, rel=1e-3)
+    assert stats == error_stats(cal.errors_arcmin)
+
+
+def test_as_dict_has_the_contract_keys_and_plain_types():
+    record = error_stats(np.array([1.0, -2.0])).as_dict()
+    assert set(record) == {"n", "mae_arcmin", "rms_arcmin", "std_arcmin", "min_arcmin",
+                           "max_arcmin", "max_abs_arcmin", "pp_arcmin"}
+    assert type(record["n"]) is int
+    assert all(type(value) is float for key, value in record.items() if key != "n")
+    assert record["max_abs_arcmin"] == 2.0
+
+
+def test_error_stats_is_frozen():
+    with pytest.raises(AttributeError):
+        error_stats([1.0]).rms = 0.0  # type: ignore[misc]
+    assert isinstance(error_stats([1.0]), ErrorStats)
+
+
+@pytest.mark.parametrize("bad", [[], [1.0, np.nan], [np.inf]])
+def test_error_stats_refuses_empty_or_non_finite(bad):
+    with pytest.raises(InputError, match="error_stats expects"):
+        error_stats(bad)
+
+
+@given(finite_errors)
+def test_rms_decomposes_into_mean_and_std_and_bounds_mae(errors):
+    stats = error_stats(errors)
+    mean = float(np.mean(errors))
+    scale = max(1.0, stats.max_abs)
+    assert stats.rms**2 == pytest.approx(mean**2 + stats.std**2, rel=1e-9, abs=1e-9 * scale**2)
+    # MAE <= RMS about zero always (Jensen): why the paper's "RMS" below its MAE must be a STD.
+    assert stats.mae <= stats.rms * (1 + 1e-12) + 1e-12
+    assert stats.min <= mean + 1e-9 * scale and mean <= stats.max + 1e-9 * scale
+    assert stats.pp == pytest.approx(stats.max - stats.min)
+
+
+def test_a_profile_like_the_papers_encoder_4_has_std_below_mae():
+    """Table 1, encoder 4: MAE 1.78 > "RMS" 1.31 -- possible only for the RMS about the mean."""
+    theta = np.radians(np.arange(0.0, 360.0, 2.0))
+    errors = -1.5 + 1.31 * np.sqrt(2) * np.cos(theta)  # an offset and a first harmonic
+    stats = error_stats(errors)
+    assert stats.std == pytest.approx(1.31, rel=1e-9)
+    assert stats.mae > stats.std
+    assert stats.rms > stats.mae
+
+
+# --------------------------------------------------------------------------- harmonics
+
+
+def dft_amplitudes(values):
+    n = values.size
+    spectrum = np.fft.rfft(values) / n
+    amplitude = 2.0 * np.abs(spectrum)
+    amplitude[0] /= 2.0
+    if n % 2 == 0:
+        amplitude[-1] /= 2.0
+    return spectrum, amplitude
+
+
+@pytest.mark.parametrize("n, offset_deg", [(180, 0.0), (180, 1.0), (25, 0.0), (24, 7.3), (2, 0.0), (1, 5.0)])
+@pytest.mark.parametrize("seed", range(3))
+def test_harmonics_on_a_uniform_grid_equal_the_dft(n, offset_deg, seed):
+    rng = np.random.default_rng(seed)
+    theta = offset_deg + 360.0 * np.arange(n) / n
+    errors = rng.normal(size=n) * 3.0
+    _, amplitude = dft_amplitudes(errors)
+    shuffle = rng.permutation(n)  # the analysis must not depend on the order of the points
+    result = harmonics(theta[shuffle], errors[shuffle])
+    assert result.max_order == n // 2
+    assert_allclose(result.amplitude_arcmin, amplitude, rtol=0, atol=1e-10)
+
+
+def test_harmonic_coefficients_on_a_grid_from_zero_are_the_dft_coefficients():
+    n = 180
+    theta = 360.0 * np.arange(n) / n
+    errors = np.random.default_rng(7).normal(size=n)
+    spectrum, _ = dft_amplitudes(errors)
+    result = harmonics(theta, errors)
+    expected_cos = 2.0 * spectrum.real
+    expected_sin = -2.0 * spectrum.imag
+    expected_cos[0] /= 2.0
+    expected_cos[-1] /= 2.0  # Nyquist: one cosine term, sin identically zero at the samples
+    expected_sin[-1] = 0.0
+    assert_allclose(result.cos_arcmin, expected_cos, rtol=0, atol=1e-10)
+    assert_allclose(result.sin_arcmin, expected_sin, rtol=0, atol=1e-10)
+
+
+def test_nyquist_term_on_the_papers_test_grid_is_a_sine():
+    theta = np.arange(1.0, 360.0, 2.0)  # 1, 3, ..., 359: cos(90 θ) vanishes here, sin(90 θ) = ±1
+    errors = 0.7 * np.sin(np.radians(90 * theta))
+    result = harmonics(theta, errors)
+    assert result.top(1) == [90]
+    assert result.sin_arcmin[90] == pytest.approx(0.7, abs=1e-12)
+    assert result.cos_arcmin[90] == pytest.approx(0.0, abs=1e-12)
+
+
+def test_harmonics_recover_a_profile_on_an_irregular_grid():
+    rng = np.random.default_rng(3)
+    theta = np.sort(rng.uniform(0.0, 360.0, 61))
+    cos = np.array([0.5, 2.0, -1.0, 0.0, 0.3])
+    sin = np.array([0.0, 1.0, 0.25, -0.7, 0.0])
+    k = np.arange(5)
+    errors = (np.cos(np.radians(np.outer(theta, k))) @ cos + np.sin(np.radians(np.outer(theta, k))) @ sin)
+    result = harmonics(theta, errors, max_order=12)
+    assert_allclose(result.cos_arcmin[:5], cos, atol=1e-10)
+    assert_allclose(result.sin_arcmin[:5], sin, atol=1e-10)
+    assert_allclose(result.amplitude_arcmin[5:], 0.0, atol=1e-10)
+    assert harmonics(theta, errors).max_order == 30  # (61 - 1) // 2
+
+
+def test_harmonic_series_interpolates_the_points_at_the_identifiable_order():
+    theta = np.arange(0.0, 360.0, 10.0)
+    errors = np.random.default_rng(1).normal(size=theta.size)
+    assert_allclose(harmonics(theta, errors)(theta), errors, atol=1e-10)
+
+
+def test_amplitude_and_phase_describe_a_shifted_cosine():
+    theta = np.arange(0.0, 360.0, 2.0)
+    result = harmonics(theta, -0.4 + 3.0 * np.cos(np.radians(2 * theta - 40.0)))
+    assert result.amplitude_arcmin[2] == pytest.approx(3.0, abs=1e-12)
+    assert np.degrees(result.phase_rad[2]) == pytest.approx(40.0, abs=1e-9)
+    assert result.amplitude_arcmin[0] == pytest.approx(0.4, abs=1e-12)
+    assert result.phase_rad[0] == pytest.approx(np.pi)
+
+
+def test_top_lists_the_largest_orders_first_as_the_paper_does():
+    theta = np.arange(0.0, 360.0, 2.0)
+    amplitudes = {1: 3.0, 2: 2.5, 16: 1.2, 0: 1.0, 14: 0.8, 48: 0.5}
+    errors = sum(a * np.cos(np.radians(k * theta + 10.0 * k)) for k, a in amplitudes.items())
+    result = harmonics(theta, errors)
+    assert result.top(6) == [1, 2, 16, 0, 14, 48]
+    assert result.top(0) == []
+    assert len(result.top(1000)) == 91
+    listed = result.as_list()
+    assert [entry["order"] for entry in listed[:6]] == [1, 2, 16, 0, 14, 48]
+    assert listed[0] == {"order": 1, "amplitude_arcmin": pytest.approx(3.0)}
+    assert all(type(e["order"]) is int and type(e["amplitude_arcmin"]) is float for e in listed)
+    assert [e["order"] for e in result.as_list(3)] == [1, 2, 16]
+    with pytest.raises(InputError):
+        result.top(-1)
+
+
+def test_equal_amplitudes_rank_the_lower_order_first():
+    theta = np.arange(0.0, 360.0, 10.0)
+    result = harmonics(theta, np.cos(np.radians(5 * theta)) + np.sin(np.radians(3 * theta)))
+    assert result.top(2) == [3, 5]
+
+
+def test_harmonics_refuse_orders_the_points_cannot_identify():
+    theta = [0.0, 10.0, 20.0, 30.0, 50.0, 100.0]  # 6 irregular angles identify order 2
+    with pytest.raises(InputError, match="max_order between 0 and 2"):
+        harmonics(theta, np.zeros(6), max_order=3)
+    with pytest.raises(InputError, match="cannot identify"):
+        fit_harmonic_series(np.arange(0.0, 360.0, 36.0), np.zeros(10), [1, 9])  # 9 aliases to 1
+
+
+@pytest.mark.parametrize("theta, errors", [([], []), ([1.0, 2.0], [1.0]), ([np.nan], [1.0])])
+def test_harmonics_refuse_bad_arrays(theta, errors):
+    with pytest.raises(InputError, match="harmonics expects"):
+        harmonics(theta, errors)
+
+
+def test_repeated_angles_do_not_count_towards_the_identifiable_order():
+    grid = np.arange(0.0, 360.0, 2.0)
+    assert identifiable_order(grid) == 90
+    assert identifiable_order(np.r_[grid, grid]) == 90
+    assert identifiable_order(np.r_[grid, grid + 1e-12, 360.0 - 1e-12]) == 90
+    assert identifiable_order(np.r_[grid, 1.0]) == 90  # 181 irregular angles: (181 - 1) // 2
+    assert identifiable_order(grid + 0.2 * np.sin(np.radians(grid))) == 90  # within 1/4 spacing
+    assert identifiable_order(grid + 0.8 * np.sin(np.radians(grid))) == 89  # not regular any more
+
+
+def test_two_epochs_on_one_grid_average_in_the_analysis():
+    theta = np.arange(0.0, 360.0, 2.0)
+    first = np.cos(np.radians(theta))
+    result = harmonics(np.r_[theta, theta], np.r_[first + 0.5, first - 0.5])
+    assert_allclose(result.amplitude_arcmin[:2], [0.0, 1.0], atol=1e-12)
+
+
+def test_distinct_angles_merge_repeats_also_across_zero():
+    angles, group = distinct_angles(np.array([359.9999999999, 0.0, 180.0, 180.0]))
+    assert angles.tolist() == [0.0, 180.0]
+    assert group.tolist() == [0, 0, 1, 1]
+
+
+def test_harmonics_is_a_public_type():
+    theta = np.arange(0.0, 360.0, 30.0)
+    assert isinstance(harmonics(theta, np.zeros(12)), Harmonics)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    n=st.integers(3, 120),
+    offset=st.floats(0.0, 360.0, exclude_max=True),
+    rotation=st.integers(-3, 3),
+)
+def test_harmonic_amplitudes_do_not_depend_on_where_the_grid_starts(n, offset, rotation):
+    rng = np.random.default_rng(n)
+    errors = rng.normal(size=n)
+    theta = offset + 360.0 * np.arange(n) / n + 360.0 * rotation
+    _, amplitude = dft_amplitudes(errors)
+    assert_allclose(harmonics(theta, errors).amplitude_arcmin, amplitude, atol=1e-9)

@@ -1,0 +1,159 @@
+"""The standalone runtime: standard library only, and the same answers as the NumPy models."""
+
+import json
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
+
+from encal.deploy import load_model, runtime
+from encal.deploy.runtime import ModelFileError
+
+DATA = Path(__file__).parent / "data"
+V1_FILES = sorted(DATA.glob("model_v1_*.json"))
+EXPECTED = json.loads((DATA / "expected_v1.json").read_text(encoding="utf-8"))
+RUNTIME_SOURCE = Path(runtime.__file__)
+
+angles = st.one_of(
+    st.sampled_from([0.0, -0.0, 360.0, -360.0, 359.9999999999999, 1e-300, -1e-17, 720.0, 1e15,
+                     -1e300, 1e300, 180.0, 2.0, 358.0]),
+    st.floats(-1080.0, 1080.0),
+    st.floats(allow_nan=False, allow_infinity=False),
+)
+
+
+def circular_difference_deg(a, b):
+    return abs((np.asarray(a) - np.asarray(b) + 180.0) % 360.0 - 180.0)
+
+
+@pytest.fixture(scope="module", params=V1_FILES, ids=lambda p: p.name)
+def both(request):
+    """The NumPy model and the runtime model of one stored file."""
+    try:
+        model = load_model(request.param)
+    except Exception as exc:  # a model class not written yet
+        pytest.skip(f"the NumPy class of {request.param.name} is not available: {exc}")
+    return model, runtime.load(request.param)
+
+
+@settings(max_examples=150, deadline=None)
+@given(theta=angles)
+@example(theta=0.0)
+@example(theta=360.0)
+@example(theta=-1.0)
+@example(theta=1e300)
+def test_runtime_agrees_with_numpy(both, theta):
+    model, stored = both
+    assert abs(stored.predict_arcmin(theta) - float(model.predict(theta))) <= 1e-9
+    assert circular_difference_deg(stored.correct_deg(theta), model.correct(theta)) <= 1e-9 / 60
+    assert 0.0 <= stored.correct_deg(theta) < 360.0
+
+
+def test_runtime_agrees_on_a_dense_grid(both):
+    model, stored = both
+    theta = np.linspace(-2.0, 362.0, 3001)
+    ours = np.array([stored.predict_arcmin(t) for t in theta])
+    np.testing.assert_allclose(ours, model.predict(theta), rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("path", V1_FILES, ids=lambda p: p.name)
+def test_runtime_predicts_the_stored_values(path):
+    expected = EXPECTED[path.name]
+    stored = runtime.load(path)
+    for theta, error, corrected in zip(expected["theta_deg"], expected["predict_arcmin"],
+                                       expected["correct_deg"]):
+        assert stored.predict_arcmin(theta) == pytest.approx(error, abs=1e-12)
+        assert stored.correct_deg(theta) == pytest.approx(corrected, abs=1e-12)
+
+
+def test_runtime_is_periodic():
+    stored = runtime.load(DATA / "model_v1_lut_linear.json")
+    for theta in (0.0, 1.0, 0.5, 359.75, 123.0):
+        assert stored.predict_arcmin(theta + 360.0) == pytest.approx(stored.predict_arcmin(theta),
+                                                                     abs=1e-9)
+
+
+def test_directional_models_take_a_direction():
+    stored = runtime.load(DATA / "model_v1_directional.json")
+    forward, reverse = stored.predict_arcmin(10.0, 1), stored.predict_arcmin(10.0, -1)
+    assert forward != reverse
+    assert stored.predict_arcmin(10.0) == pytest.approx(0.5 * (forward + reverse), abs=1e-12)
+    with pytest.raises(ValueError, match="direction"):
+        stored.predict_arcmin(10.0, 0)
+
+
+def test_other_kinds_ignore_the_direction():
+    stored = runtime.load(DATA / "model_v1_fourier.json")
+    assert stored.correct_deg(10.0, -1) == stored.correct_deg(10.0)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, "ten"])
+def test_runtime_refuses_non_finite_angles(bad):
+    stored = runtime.load(DATA / "model_v1_fourier.json")
+    with pytest.raises(ValueError):
+        stored.correct_deg(bad)
+
+
+def test_logsig_does_not_overflow():
+    assert runtime._logsig(-1000.0) == 0.0 and runtime._logsig(1000.0) == 1.0
+
+
+def test_runtime_verifies_the_checksum(tmp_path):
+    path = tmp_path / "m.json"
+    text = (DATA / "model_v1_fourier.json").read_text(encoding="utf-8")
+    document = json.loads(text)
+    document["parameters"]["cos"][1] += 1e-9
+    path.write_text(json.dumps(document), encoding="utf-8")
+    with pytest.raises(ModelFileError, match="altered"):
+        runtime.load(path)
+
+
+def test_runtime_errors_are_value_errors():
+    assert issubclass(ModelFileError, ValueError)
+
+
+def test_runtime_metadata():
+    stored = runtime.load(DATA / "model_v1_ann.json")
+    assert stored.kind == "ann" and stored.encoder["resolution_bits"] == 16
+    assert stored.sha256 == json.loads((DATA / "model_v1_ann.json").read_text())["sha256"]
+    assert "ann" in repr(stored)
+
+
+def test_runtime_imports_only_the_standard_library(tmp_path):
+    # As a user would: the one file copied into another folder, run in isolated mode.
+    shutil.copy(RUNTIME_SOURCE, tmp_path / "encal_runtime.py")
+    script = f"""
+import sys
+sys.path[:] = [p for p in sys.path if 'site-packages' not in p and 'dist-packages' not in p]
+sys.path.insert(0, {str(tmp_path)!r})
+before = set(sys.modules)
+import encal_runtime
+for name in {[p.name for p in V1_FILES]!r}:
+    model = encal_runtime.load({str(DATA)!r} + '/' + name)
+    print(name, repr(model.correct_deg(123.456)), repr(model.predict_arcmin(-1.0)))
+loaded = {{m.split('.')[0] for m in set(sys.modules) - before}} - {{'encal_runtime'}}
+foreign = sorted(m for m in loaded if m not in sys.stdlib_module_names)
+print('FOREIGN', foreign)
+"""
+    result = subprocess.run([sys.executable, "-I", "-c", script], capture_output=True, text=True,
+                            timeout=60, check=True)
+    lines = result.stdout.splitlines()
+    assert lines[-1] == "FOREIGN []"
+    for line in lines[:-1]:
+        name, corrected, error = line.split()
+        assert float(corrected) == pytest.approx(runtime.load(DATA / name).correct_deg(123.456),
+                                                 abs=0)
+        assert float(error) == runtime.load(DATA / name).predict_arcmin(-1.0)
+
+
+def test_runtime_source_names_no_third_party_module():
+    source = RUNTIME_SOURCE.read_text(encoding="utf-8")
+    imports = {line.split()[1].split(".")[0] for line in source.splitlines()
+               if line.startswith(("import ", "from "))}
+    assert imports <= {"bisect", "hashlib", "json", "math"}
