@@ -10,6 +10,7 @@ Stated tolerances, on all 65,536 codes of a 16-bit encoder:
 A table export is compared with the Python table it was compiled from.
 """
 
+import functools
 import json
 import re
 import shutil
@@ -23,6 +24,7 @@ import encal
 from encal.deploy import Compensator, compile_table, export_c, write_c
 from encal.deploy.cexport import FLOAT32_BUDGET_ARCMIN
 from encal.errors import InputError
+from encal.models.ann import fit_ann
 from encal.models.fourier import FourierModel
 
 DATA = Path(__file__).parent / "data"
@@ -84,23 +86,43 @@ def circular(a, b):
     return np.abs((np.asarray(a) - np.asarray(b) + 180.0) % 360.0 - 180.0)
 
 
-def models():
-    names = ["fourier", "lut", "lut_linear", "directional", "ann", "ann_raw", "hybrid"]
-    return [pytest.param(DATA / f"model_v1_{name}.json", id=name) for name in names]
+def cases(names, option):
+    """Test parameters (model source, option): stored model files and trained models."""
+    return [pytest.param(name if name in TRAINED else DATA / f"model_v1_{name}.json", option,
+                         id=f"{name}-{option}") for name in names]
 
 
-def compensator_or_skip(path):
-    try:
-        return Compensator(path)
-    except Exception as exc:  # a model class not written yet
-        pytest.skip(f"cannot load {path.name} with NumPy: {exc}")
+EVERY_KIND = ["fourier", "lut", "lut_linear", "directional", "ann", "ann_raw", "hybrid",
+              "trained_ann_raw", "trained_ann_periodic"]
+
+
+@functools.lru_cache(maxsize=None)
+def trained_ann(encoding):
+    """A network trained on a synthetic profile: real weights, as large as training makes them."""
+    theta = np.arange(0.0, 360.0, 2.0)
+    r = np.radians(theta)
+    error = 4.0 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) - 0.6 * np.sin(4 * r)
+    if encoding == "raw":  # the paper's 1:80:1
+        model = fit_ann(theta, error, hidden=80, encoding="raw", rng=0, epochs=20)
+    else:
+        model = fit_ann(theta, error, hidden=12, encoding="periodic", rng=0, epochs=100)
+    model.encoder["resolution_bits"] = BITS
+    return model
+
+
+TRAINED = {"trained_ann_raw": lambda: trained_ann("raw"),
+           "trained_ann_periodic": lambda: trained_ann("periodic")}
+
+
+def compensator_of(source):
+    return Compensator(TRAINED[source]() if source in TRAINED else source)
 
 
 @needs_gcc
-@pytest.mark.parametrize("path", models())
-@pytest.mark.parametrize("constants", ["auto", "double"])
+@pytest.mark.parametrize("path, constants", [
+    *cases(EVERY_KIND, "auto"), *cases(["lut", "hybrid", "trained_ann_raw"], "double")])
 def test_formula_agrees_with_python_on_every_code(tmp_path, path, constants):
-    comp = compensator_or_skip(path)
+    comp = compensator_of(path)
     write_c(comp, tmp_path, prefix="enc", constants=constants)
     at_codes, at_extra = build_and_run(tmp_path, "enc")
     codes, theta = inputs()
@@ -119,10 +141,10 @@ def test_formula_agrees_with_python_on_every_code(tmp_path, path, constants):
 
 
 @needs_gcc
-@pytest.mark.parametrize("path", models()[:4])
-@pytest.mark.parametrize("dtype", ["int16", "float32"])
+@pytest.mark.parametrize("path, dtype", [
+    *cases(["fourier", "lut_linear", "directional"], "int16"), *cases(["lut"], "float32")])
 def test_table_agrees_with_the_python_table(tmp_path, path, dtype):
-    comp = compensator_or_skip(path)
+    comp = compensator_of(path)
     write_c(comp, tmp_path, prefix="tab", table=dtype)
     at_codes, _ = build_and_run(tmp_path, "tab")
     codes, theta = inputs()
@@ -184,20 +206,20 @@ def test_banner_names_version_and_checksum():
 def test_constants_round_trip_float32():
     path = DATA / "model_v1_fourier.json"
     text = export_c(path, constants="float")["encal.c"]
-    block = re.search(r"fourier_cos\[\d+\] = \{(.*?)\};", text, re.S).group(1)
-    printed = [float(v.rstrip("f")) for v in block.replace("\n", " ").split(",")]
+    block = re.search(r"model_cos\[\d+\] = \{(.*?)\};", text, re.S).group(1)
+    printed = [float(v.strip().rstrip("f")) for v in block.replace("\n", " ").split(",")]
     expected = json.loads(path.read_text())["parameters"]["cos"]
     assert np.array_equal(np.float32(printed), np.float32(expected))
     double = export_c(path, constants="double")["encal.c"]
-    block = re.search(r"fourier_cos\[\d+\] = \{(.*?)\};", double, re.S).group(1)
+    block = re.search(r"model_cos\[\d+\] = \{(.*?)\};", double, re.S).group(1)
     assert [float(v) for v in block.replace("\n", " ").split(",")] == expected
 
 
 def test_auto_constants_fall_back_to_double_when_float32_is_not_enough():
     # Two huge cancelling terms: float32 coefficients would move the model by arc-minutes.
     model = FourierModel([1, 2], [1e6 + 0.1, 0.0], [0.0, 1e6], encoder={"resolution_bits": 12})
-    assert "static const double fourier_cos" in export_c(model)["encal.c"]
-    assert "static const float fourier_cos" in export_c(DATA / "model_v1_fourier.json")["encal.c"]
+    assert "static const double model_cos" in export_c(model)["encal.c"]
+    assert "static const float model_cos" in export_c(DATA / "model_v1_fourier.json")["encal.c"]
 
 
 def test_encoder_names_cannot_end_the_banner_comment():
@@ -235,3 +257,48 @@ def test_invalid_options_are_refused(options):
 def test_write_c_creates_the_folder(tmp_path):
     paths = write_c(DATA / "model_v1_fourier.json", tmp_path / "new" / "dir", prefix="m")
     assert [p.name for p in paths] == ["m.h", "m.c"] and all(p.is_file() for p in paths)
+
+
+DIRECTED_DRIVER = """\
+#include <stdio.h>
+#include <stdint.h>
+#include "dir.h"
+
+int main(void)
+{
+    uint32_t k;
+    for (k = 0; k < 65536u; k += 7u) {
+        const float theta = (float)((double)k * (360.0 / 65536.0));
+        const float out[4] = {dir_correct_deg_directed(theta, 1), dir_correct_deg_directed(theta, -1),
+                              dir_correct_counts_directed(k, 1), dir_correct_deg_directed(theta, 0)};
+        fwrite(out, sizeof(float), 4, stdout);
+    }
+    return 0;
+}
+"""
+
+
+@needs_gcc
+def test_directional_models_export_directed_functions(tmp_path):
+    comp = Compensator(DATA / "model_v1_directional.json")
+    write_c(comp, tmp_path, prefix="dir")
+    assert "dir_correct_counts_directed" in (tmp_path / "dir.h").read_text()
+    (tmp_path / "main.c").write_text(DIRECTED_DRIVER)
+    program = tmp_path / "main"
+    subprocess.run([GCC, *CFLAGS, "-I", str(tmp_path), str(tmp_path / "main.c"),
+                    str(tmp_path / "dir.c"), "-lm", "-o", str(program)], check=True, timeout=300)
+    raw = subprocess.run([str(program)], capture_output=True, check=True, timeout=60).stdout
+    out = np.frombuffer(raw, dtype=np.float32).reshape(-1, 4).astype(float)
+    codes = np.arange(0, 65536, 7)
+    theta = (codes * (360.0 / 65536)).astype(np.float32).astype(float)
+    tolerance = 2.0**-16 + 1e-4 / 60
+    assert circular(out[:, 0], comp.correct(theta, direction=1)).max() <= tolerance
+    assert circular(out[:, 1], comp.correct(theta, direction=-1)).max() <= tolerance
+    assert circular(out[:, 2], comp.correct(codes * (360.0 / 65536), direction=1)).max() <= tolerance
+    assert circular(out[:, 3], comp.correct(theta)).max() <= tolerance
+    assert circular(out[:, 0], out[:, 1]).max() > 1e-3  # the two directions differ
+
+
+def test_only_directional_formulas_have_directed_functions():
+    assert "directed" not in export_c(DATA / "model_v1_fourier.json")["encal.h"]
+    assert "directed" not in export_c(DATA / "model_v1_directional.json", table="int16")["encal.h"]

@@ -40,9 +40,13 @@ def example_lut():
     return model
 
 
-@pytest.fixture(params=["fourier", "lut"])
+@pytest.fixture(params=["fourier", "lut", *(p.name for p in V1_FILES)])
 def model(request):
-    return {"fourier": example_fourier, "lut": example_lut}[request.param]()
+    """A model of every kind: made here, or read from the stored version-1 files."""
+    makers = {"fourier": example_fourier, "lut": example_lut}
+    if request.param in makers:
+        return makers[request.param]()
+    return load_model(DATA / request.param)
 
 
 def same_floats(a, b):
@@ -73,8 +77,26 @@ def test_save_load_round_trip(model, tmp_path):
     assert same_floats(loaded.parameters(), model.parameters())
     assert loaded.encoder == {"name": model.encoder["name"],
                               "resolution_bits": model.encoder["resolution_bits"]}
+    assert loaded.uncertainty == model.uncertainty
     theta = np.linspace(-720.0, 720.0, 1001)
     np.testing.assert_array_equal(loaded.predict(theta), model.predict(theta))
+
+
+def test_uncertainty_is_kept(tmp_path):
+    model = load_model(DATA / "model_v1_ann.json")
+    assert model.uncertainty["noise_std_arcmin"] == 0.14
+    mean, std = load_model(save_model(model, tmp_path / "m.json")).predict([0.0, 90.0],
+                                                                           return_std=True)
+    assert np.all(std > 0.14)
+    assert "uncertainty" not in model_to_dict(example_fourier())
+
+
+def test_refuses_malformed_uncertainty(tmp_path):
+    document = model_to_dict(load_model(DATA / "model_v1_ann.json"))
+    document["uncertainty"]["model_std_arcmin"].pop()
+    assert "uncertainty.model_std_arcmin" in refusal(write_document(tmp_path / "u.json", document))
+    document["uncertainty"] = {"method": "x"}
+    assert "grid_step_deg" in refusal(write_document(tmp_path / "u.json", document))
 
 
 def test_file_layout_follows_the_contract(tmp_path):

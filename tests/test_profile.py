@@ -145,7 +145,9 @@ def test_harmonics_recover_a_profile_on_an_irregular_grid():
     assert_allclose(result.cos_arcmin[:5], cos, atol=1e-10)
     assert_allclose(result.sin_arcmin[:5], sin, atol=1e-10)
     assert_allclose(result.amplitude_arcmin[5:], 0.0, atol=1e-10)
-    assert harmonics(theta, errors).max_order == 30  # (61 - 1) // 2
+    largest_gap = np.max(np.diff(np.r_[theta, theta[0] + 360.0]))
+    default = harmonics(theta, errors).max_order
+    assert default * largest_gap < 180.0 <= (default + 1) * largest_gap  # the gap rule
 
 
 def test_harmonic_series_interpolates_the_points_at_the_identifiable_order():
@@ -205,9 +207,19 @@ def test_repeated_angles_do_not_count_towards_the_identifiable_order():
     assert identifiable_order(grid) == 90
     assert identifiable_order(np.r_[grid, grid]) == 90
     assert identifiable_order(np.r_[grid, grid + 1e-12, 360.0 - 1e-12]) == 90
-    assert identifiable_order(np.r_[grid, 1.0]) == 90  # 181 irregular angles: (181 - 1) // 2
+    assert identifiable_order(np.r_[grid, 1.0]) == 89  # irregular, largest gap 2°: 89 * 2° < 180°
     assert identifiable_order(grid + 0.2 * np.sin(np.radians(grid))) == 90  # within 1/4 spacing
-    assert identifiable_order(grid + 0.8 * np.sin(np.radians(grid))) == 89  # not regular any more
+    assert identifiable_order(grid + 0.8 * np.sin(np.radians(grid))) == 88  # irregular, gap 2.03°
+    assert identifiable_order(np.arange(0.0, 300.0, 2.0)) == 2  # a 62° gap hides order 3
+
+
+def test_orders_above_the_stable_default_can_be_asked_for():
+    theta = np.r_[np.arange(0.0, 300.0, 2.0), 330.0]  # 151 angles, largest gap 30°: default 5
+    errors = np.cos(np.radians(7 * theta))
+    assert harmonics(theta, errors).max_order == 5
+    result = harmonics(theta, errors, max_order=7)
+    assert result.top(1) == [7]
+    assert_allclose(result.amplitude_arcmin, np.eye(8)[7], atol=1e-9)
 
 
 def test_two_epochs_on_one_grid_average_in_the_analysis():

@@ -12,8 +12,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from encal.deploy import load_model, runtime
+from encal.deploy import Compensator, load_model, runtime, save_model
+from encal.models.ann import fit_ann
+from encal.models.hybrid import fit_hybrid
 from encal.deploy.runtime import ModelFileError
+from encal.errors import InputError
 
 DATA = Path(__file__).parent / "data"
 V1_FILES = sorted(DATA.glob("model_v1_*.json"))
@@ -32,14 +35,30 @@ def circular_difference_deg(a, b):
     return abs((np.asarray(a) - np.asarray(b) + 180.0) % 360.0 - 180.0)
 
 
-@pytest.fixture(scope="module", params=V1_FILES, ids=lambda p: p.name)
-def both(request):
-    """The NumPy model and the runtime model of one stored file."""
-    try:
-        model = load_model(request.param)
-    except Exception as exc:  # a model class not written yet
-        pytest.skip(f"the NumPy class of {request.param.name} is not available: {exc}")
-    return model, runtime.load(request.param)
+def trained(kind):
+    """A model trained on a synthetic profile (real weights, not hand-made ones)."""
+    theta = np.arange(0.0, 360.0, 2.0)
+    r = np.radians(theta)
+    error = 4.0 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) - 0.6 * np.sin(4 * r)
+    if kind == "ann_raw":
+        return fit_ann(theta, error, hidden=80, encoding="raw", rng=0, epochs=20)
+    if kind == "ann_periodic_logsig":
+        return fit_ann(theta, error, hidden=12, activation="logsig", rng=1, epochs=50)
+    return fit_hybrid(theta, error + 0.3 * np.exp(-0.5 * ((theta - 200.0) / 6.0) ** 2), rng=2,
+                      epochs=50)
+
+
+SOURCES = [*(p.name for p in V1_FILES), "ann_raw", "ann_periodic_logsig", "hybrid"]
+
+
+@pytest.fixture(scope="module", params=SOURCES)
+def both(request, tmp_path_factory):
+    """The NumPy model and the runtime model of one stored or freshly trained model file."""
+    if request.param.endswith(".json"):
+        path = DATA / request.param
+    else:
+        path = save_model(trained(request.param), tmp_path_factory.mktemp("m") / "m.json")
+    return load_model(path), runtime.load(path)
 
 
 @settings(max_examples=150, deadline=None)
@@ -157,3 +176,59 @@ def test_runtime_source_names_no_third_party_module():
     imports = {line.split()[1].split(".")[0] for line in source.splitlines()
                if line.startswith(("import ", "from "))}
     assert imports <= {"bisect", "hashlib", "json", "math"}
+
+
+# -- the NumPy compensator (the vectorised online path) ---------------------------------
+
+def test_compensator_from_a_file_or_a_model():
+    path = DATA / "model_v1_hybrid.json"
+    from_file, model = Compensator(path), load_model(path)
+    from_model = Compensator(model)
+    theta = np.linspace(-10.0, 370.0, 777).reshape(7, 111)
+    np.testing.assert_array_equal(from_file.correct(theta), model.correct(theta))
+    np.testing.assert_array_equal(from_model(theta), model.correct(theta))
+    assert from_file.correct(theta).shape == (7, 111)
+    assert isinstance(from_file.correct(10.0), float)
+    assert from_file.sha256 == json.loads(path.read_text())["sha256"] == from_model.sha256
+    assert from_file.source == str(path) and from_model.source is None
+    assert from_file.kind == "hybrid" and from_file.encoder["name"] == "v1-hybrid"
+    assert "hybrid" in repr(from_file).lower()
+
+
+def test_compensator_of_an_unsaved_model_has_no_checksum():
+    from encal.models.fourier import FourierModel
+
+    assert Compensator(FourierModel([1], [1.0], [0.0])).sha256 is None
+
+
+def test_compensator_direction():
+    directional = Compensator(DATA / "model_v1_directional.json")
+    stored = runtime.load(DATA / "model_v1_directional.json")
+    theta = np.array([10.0, 20.0, 30.0])
+    for direction in (1, -1):
+        expected = [stored.correct_deg(t, direction) for t in theta]
+        np.testing.assert_allclose(directional.correct(theta, direction), expected, atol=1e-12)
+    mixed = directional.predict(theta, direction=[1, -1, 1])
+    assert mixed[1] == pytest.approx(stored.predict_arcmin(20.0, -1), abs=1e-12)
+    plain = Compensator(DATA / "model_v1_fourier.json")
+    np.testing.assert_array_equal(plain.correct(theta, direction=-1), plain.correct(theta))
+
+
+@pytest.mark.parametrize("direction, message", [(0, "+1 or -1"), ([1, -1], "shape")])
+def test_compensator_refuses_bad_directions(direction, message):
+    with pytest.raises(InputError, match=message):
+        Compensator(DATA / "model_v1_fourier.json").correct([1.0, 2.0, 3.0], direction)
+
+
+def test_compensator_uncertainty():
+    comp = Compensator(DATA / "model_v1_ann.json")
+    mean, std = comp.predict([0.0, 180.0], return_std=True)
+    np.testing.assert_array_equal(mean, comp.predict([0.0, 180.0]))
+    assert np.all(std >= 0.14)
+
+
+def test_compensator_refuses_other_things():
+    with pytest.raises(InputError, match="Model or the path"):
+        Compensator(42)
+    with pytest.raises(InputError, match="finite"):
+        Compensator(DATA / "model_v1_fourier.json").correct([1.0, np.nan])

@@ -204,19 +204,21 @@ def test_zero_residual_exponential_plus_sine(algorithm):
         assert relative_error(result.x, ExpSine.TRUTH) <= tol, (seed, result)
 
 
-# traingd is left out: in Rosenbrock's curved valley it needs ~1e5 epochs.
+# algorithm -> (epochs, tolerance, number of starting points). traingd is left out: in
+# Rosenbrock's curved valley it needs ~1e5 epochs; trainrp needs ~6000 for 1e-2.
 ROSENBROCK = {
-    "traingdx": (20000, 1e-3),
-    "trainrp": (20000, 1e-3),
-    **{name: (300, 1e-5) for name in CURVATURE},
+    "traingdx": (5000, 1e-3, 5),
+    "trainrp": (10000, 1e-2, 3),
+    **{name: (300, 1e-5, 5) for name in CURVATURE},
 }
 
 
 @pytest.mark.parametrize("algorithm", sorted(ROSENBROCK))
 def test_rosenbrock(algorithm):
-    epochs, tol = ROSENBROCK[algorithm]
-    for start in Rosenbrock.STARTS:
-        result = train(Rosenbrock(), algorithm, x0=start, epochs=epochs)
+    epochs, tol, n_starts = ROSENBROCK[algorithm]
+    for start in Rosenbrock.STARTS[:n_starts]:
+        # mse >= 0.0998·‖x − x*‖² near the minimum, so this goal only stops runs that are done.
+        result = train(Rosenbrock(), algorithm, x0=start, epochs=epochs, goal=0.01 * tol**2)
         assert relative_error(result.x, np.ones(2)) <= tol, (start, result)
 
 

@@ -288,7 +288,7 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
     Returns
     -------
     Model
-        ``training`` records ``bidirectional`` (the mode), ``options`` and the calibration's
+        ``training`` records ``bidirectional`` (the mode), ``fit_options`` and the calibration's
         ``mean_reversal_value_arcmin`` and ``reversal_value_arcmin``.
 
     Raises
@@ -319,7 +319,7 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
     generator = None if rng is None else np.random.default_rng(rng)
     record = {
         "bidirectional": mode,
-        "options": dict(options),
+        "fit_options": dict(options),
         "mean_reversal_value_arcmin": analysis.mean_reversal_value,
         "reversal_value_arcmin": analysis.reversal_value,
     }
@@ -351,11 +351,11 @@ def add_bidirectional_uncertainty(model, cal, *, method=None, options=None, n_bo
         The same model, with its uncertainty (or its parts' uncertainties) set.
     """
     from .models.directional import DirectionalModel
-    from .uncertainty import estimate_uncertainty
+    from .uncertainty import estimate_uncertainty, recorded_options
 
     settings = {"n_boot": n_boot, "n_folds": n_folds, "grid_step_deg": grid_step_deg}
     if options is None:
-        options = model.training.get("options", {})
+        options = recorded_options(model)
     generator = np.random.default_rng(rng)
     if isinstance(model, DirectionalModel):
         _require_directions(cal, "add_uncertainty of a directional model")

@@ -261,9 +261,11 @@ def _match(angle_deg, value, at_deg):
     order = np.argsort(angle_deg, kind="stable")
     grid, values = angle_deg[order], value[order]
     at = np.asarray(at_deg, dtype=float)
-    distance = np.abs(wrap180(at[:, None] - grid[None, :]))
-    nearest = distance.argmin(axis=1)
-    matched = distance[np.arange(at.size), nearest] <= MATCH_TOLERANCE_DEG
+    above = np.searchsorted(grid, at) % grid.size
+    candidates = np.stack([above - 1, above])  # index -1 wraps to the last point
+    distance = np.abs(wrap180(at[None, :] - grid[candidates]))
+    nearest = candidates[distance.argmin(axis=0), np.arange(at.size)]
+    matched = distance.min(axis=0) <= MATCH_TOLERANCE_DEG
     result = np.interp(at, grid, values, period=360.0)
     result[matched] = values[nearest[matched]]
     return result, bool(not np.all(matched))

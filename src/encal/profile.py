@@ -14,6 +14,7 @@ Fourier transform. How many orders a set of angles can identify is decided by
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from .angles import wrap360
 from .errors import InputError
@@ -25,6 +26,7 @@ __all__ = [
     "harmonics",
     "identifiable_order",
     "fit_harmonic_series",
+    "nested_harmonic_fits",
     "distinct_angles",
 ]
 
@@ -209,6 +211,7 @@ class _Grid:
 
     n_distinct: int
     phase_rad: float | None  # phase of the uniform grid the angles match, if they match one
+    largest_gap_deg: float
 
     @property
     def nyquist_order(self):
@@ -219,9 +222,18 @@ class _Grid:
 
     @property
     def max_order(self):
+        """Highest order whose series the distinct angles can determine at all."""
         if self.phase_rad is not None:
             return self.n_distinct // 2
         return (self.n_distinct - 1) // 2
+
+    @property
+    def stable_order(self):
+        """Highest order the angles determine stably (see :func:`identifiable_order`)."""
+        if self.phase_rad is not None:
+            return self.n_distinct // 2
+        below_half_period = int(np.ceil(180.0 / self.largest_gap_deg)) - 1  # K * gap < 180°
+        return min(self.max_order, below_half_period)
 
 
 def _grid(theta_deg):
@@ -236,21 +248,31 @@ def _grid(theta_deg):
         np.unique(np.mod(node, m)).size == m
         and np.max(np.abs(position - node)) < _REGULAR_DEVIATION
     )
-    return _Grid(m, phase if regular else None)
+    largest_gap = float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0])))
+    return _Grid(m, phase if regular else None, largest_gap)
 
 
 def identifiable_order(theta_deg):
-    """Highest harmonic order a set of encoder angles can identify.
+    """Highest harmonic order a set of encoder angles identifies stably.
 
-    With ``m`` distinct angles (closer than 1e-9° counts as one):
+    This is the default ``max_order`` of :func:`harmonics` and
+    :func:`~encal.models.fourier.fit_fourier`. With ``m`` distinct angles
+    (closer than 1e-9° counts as one):
 
-    - on a *regular* grid, one whose angles can be paired one-to-one with
-      the nodes of a uniform ``m``-point grid, each within a quarter of the
-      spacing of its node, the limit is the Nyquist order ``m // 2``; for even
-      ``m`` that order has a single term (two samples per period cannot
-      tell a cosine from a sine);
-    - otherwise ``(m - 1) // 2``: ``2K + 1`` distinct angles determine a
-      trigonometric polynomial of order ``K``.
+    - on a *regular* grid, one whose angles pair one-to-one with the nodes
+      of a uniform ``m``-point grid, each within a quarter of the spacing of
+      its node, it is the Nyquist order ``m // 2``; for even ``m`` that
+      order has a single term (two samples per period cannot tell a cosine
+      from a sine);
+    - otherwise it is the highest order ``K`` whose half-period exceeds the
+      largest gap ``g`` between neighbouring angles, ``K g < 180°``, and at
+      most ``(m - 1) // 2``. Below that bound every trigonometric polynomial
+      of order ``K`` is stably determined by its samples (Gröchenig 1992);
+      above it, a gap can hide a whole half-period.
+
+    Higher orders, up to ``(m - 1) // 2`` (``2K + 1`` distinct angles
+    determine a trigonometric polynomial of order ``K``), can be asked for
+    explicitly; they are refused when the least squares is rank-deficient.
 
     Parameters
     ----------
@@ -263,15 +285,17 @@ def identifiable_order(theta_deg):
 
     Examples
     --------
-    >>> identifiable_order(range(0, 360, 2))         # uniform, 180 points
+    >>> identifiable_order(range(0, 360, 2))          # uniform, 180 points
     90
-    >>> identifiable_order([0, 10, 20, 30, 50, 100])  # irregular, 6 points
+    >>> identifiable_order([0, 10, 20, 30, 50, 100])  # irregular: largest gap 260°
+    0
+    >>> identifiable_order(np.r_[0:300:2.0])          # 150 points with a 62° gap
     2
     """
     theta = wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
     if theta.size == 0:
         raise InputError("identifiable_order expects at least one angle; got none")
-    return _grid(theta).max_order
+    return _grid(theta).stable_order
 
 
 def _design(theta_deg, orders, grid):
@@ -338,13 +362,65 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     orders = [int(k) for k in orders]
     grid = _grid(theta)
     design, owners = _design(theta, orders, grid)
-    solution, _, rank, singular = np.linalg.lstsq(design, error, rcond=_RCOND)
+    # QR with column pivoting (gelsy): rank-revealing, and much faster than the SVD.
+    solution, _, rank, _ = scipy.linalg.lstsq(design, error, cond=_RCOND, lapack_driver="gelsy",
+                                              check_finite=False)
     if rank < design.shape[1]:
         raise InputError(
             f"{caller} cannot identify harmonic orders {_short_list(orders)} from "
             f"{grid.n_distinct} distinct encoder angles (rank-deficient least squares); "
             f"expected orders up to {grid.max_order} that do not alias one another"
         )
+    return _coefficients(solution, owners, orders, grid)
+
+
+def nested_harmonic_fits(theta_deg, error_arcmin, ranked_orders, *, grid_deg=None):
+    """Least-squares fits of the first 1, 2, 3, ... orders of a ranking, from one QR.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors in arc-minutes.
+    ranked_orders : sequence of int
+        Distinct orders in the order they are added.
+    grid_deg : array-like, optional
+        The angles whose grid fixes the terms of each order (the single
+        term of a Nyquist order, see :func:`fit_harmonic_series`); default
+        ``theta_deg``. Cross-validation passes the whole calibration here so
+        that each fold fits the same series as the whole data.
+
+    Returns
+    -------
+    cos_arcmin, sin_arcmin : ndarray of shape (C, len(ranked_orders))
+        Row ``c - 1`` holds the coefficients of the fit of the first ``c``
+        orders (zero for the others). ``C`` is the longest prefix of the
+        ranking that the angles identify.
+    """
+    theta, error = profile_arrays(theta_deg, error_arcmin, "nested_harmonic_fits")
+    orders = [int(k) for k in ranked_orders]
+    grid = _grid(theta if grid_deg is None else wrap360(np.asarray(grid_deg, dtype=float).reshape(-1)))
+    design, owners = _design(theta, orders, grid)
+    n_columns = np.cumsum(np.bincount([index for index, _ in owners], minlength=len(orders)))
+    design = design[:, : min(design.shape)]  # never more unknowns than points
+    q, r = np.linalg.qr(design)
+    projected = q.T @ error
+    # Column j adds nothing new when it (nearly) lies in the span of the columns before it.
+    independent = np.abs(np.diag(r)) > _RCOND * np.linalg.norm(design, axis=0)
+    first_dependent = design.shape[1] if independent.all() else int(np.argmin(independent))
+    identified = int(np.searchsorted(n_columns, first_dependent, side="right"))
+    cos_arcmin = np.zeros((identified, len(orders)))
+    sin_arcmin = np.zeros((identified, len(orders)))
+    for c in range(1, identified + 1):
+        p = n_columns[c - 1]
+        solution = scipy.linalg.solve_triangular(r[:p, :p], projected[:p], check_finite=False)
+        cos_arcmin[c - 1], sin_arcmin[c - 1] = _coefficients(solution, owners[:p], orders, grid)
+    return cos_arcmin, sin_arcmin
+
+
+def _coefficients(solution, owners, orders, grid):
+    """(a_k, b_k) per order from the solved column coefficients."""
     cos_arcmin, sin_arcmin = np.zeros(len(orders)), np.zeros(len(orders))
     for value, (index, term) in zip(solution, owners):
         if term == "cos":
@@ -451,7 +527,9 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
         Errors in arc-minutes.
     max_order : int, optional
         Highest order to analyse. Default: :func:`identifiable_order` of the
-        angles (the Nyquist order ``n // 2`` on a uniform grid of ``n`` points).
+        angles (the Nyquist order ``n // 2`` on a uniform grid of ``n``
+        points). Up to ``(m - 1) // 2`` for ``m`` distinct angles may be asked
+        for; it is refused if the least squares is rank-deficient.
 
     Returns
     -------
@@ -464,7 +542,7 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     Raises
     ------
     InputError
-        If ``max_order`` exceeds what the angles can identify.
+        If ``max_order`` exceeds what the angles can determine.
 
     Examples
     --------
@@ -476,13 +554,13 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     (3.0, 40.0)
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, "harmonics")
-    limit = _grid(theta).max_order
+    grid = _grid(theta)
     if max_order is None:
-        max_order = limit
-    elif int(max_order) != max_order or not 0 <= max_order <= limit:
+        max_order = grid.stable_order
+    elif int(max_order) != max_order or not 0 <= max_order <= grid.max_order:
         raise InputError(
-            f"harmonics expects max_order between 0 and {limit}, the highest order "
-            f"{distinct_angles(theta)[0].size} distinct encoder angles can identify; got {max_order!r}"
+            f"harmonics expects max_order between 0 and {grid.max_order}, the highest order "
+            f"{grid.n_distinct} distinct encoder angles can determine; got {max_order!r}"
         )
     orders = np.arange(int(max_order) + 1)
     cos_arcmin, sin_arcmin = fit_harmonic_series(theta, error, orders, caller="harmonics")

@@ -222,8 +222,8 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
     method : str, optional
         The method the model was fitted with; default ``model.training['method']``, else its kind.
     options : dict, optional
-        The options it was fitted with (``hidden``, ``orders``, ...); default
-        ``model.training.get('options', {})``. Pass the options you gave :func:`encal.fit`: the refits
+        The options it was fitted with (``hidden``, ``orders``, ...); default ``model.training['fit_options']``,
+        else ``model.training['options']``, else none. Pass the options you gave :func:`encal.fit`: the refits
         must be made the same way as the model.
     n_boot : int, default=30
         Bootstrap refits on all points (and as many on ``n_folds - 1`` folds for the noise gain).
@@ -302,7 +302,7 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
                          f"divides 360. Got {grid_step_deg!r} instead.")
     grid = np.arange(size) * float(grid_step_deg)
     method = method or model.training.get("method") or model.kind
-    refit = _Refitter(method, options if options is not None else model.training.get("options", {}), rng)
+    refit = _Refitter(method, recorded_options(model) if options is None else options, rng)
     cv_mean_square = float(np.mean(np.square(_held_out_residuals(refit, theta, error, fold))))
 
     # Trial noise of the cross-validated size (a tiny floor keeps an exact fit from collapsing the trials).
@@ -417,6 +417,13 @@ class _Refitter:
         # Refits that warn (a network stopping early) still count: they are draws of the same procedure.
         self.warnings += bool(caught)
         return model
+
+
+def recorded_options(model):
+    """The fit options a model records: ``training['fit_options']``, else ``training['options']``, else none."""
+    training = model.training
+    recorded = training.get("fit_options", training.get("options"))
+    return dict(recorded) if isinstance(recorded, dict) else {}
 
 
 def _wrapped_arcmin(error_arcmin):

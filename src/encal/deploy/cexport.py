@@ -86,7 +86,7 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
         raise InputError(f"expected constants 'auto', 'float' or 'double', got {constants!r}")
     if table is None:
         ctype, deviation = _constant_type(comp, constants)
-        body = _FORMULA[comp.kind](comp.model.parameters(), _Literals(ctype))
+        body = _formula_source(comp.kind, comp.model.parameters(), _Literals(ctype))
         how = (f"the model's formula in double; constants stored as {ctype} (they change "
                f"the model by at most {deviation:.3g} arcmin on {_CHECK_POINTS} angles)")
     else:
@@ -96,8 +96,9 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
                f"model at the codes, plus up to {compiled.between_codes_arcmin:.3g} arcmin "
                "for angles between codes (looked up at the nearest code)")
     banner = _banner(comp, prefix, how)
-    return {f"{prefix}.h": _header(prefix, bits, banner),
-            f"{prefix}.c": _source(prefix, bits, banner, body)}
+    directed = table is None and comp.kind == "directional"
+    return {f"{prefix}.h": _header(prefix, bits, banner, directed),
+            f"{prefix}.c": _source(prefix, bits, banner, body, directed)}
 
 
 def write_c(model, directory, **options):
@@ -126,7 +127,7 @@ def _check_bits(bits, table):
     limit = _MAX_C_TABLE_BITS if table else 32
     if bits is None:
         raise InputError("expected the encoder resolution in bits (the model file does not "
-                         "record it), got none; pass bits")
+                         "record it), got none; pass bits= (--bits on the command line)")
     if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= limit:
         raise InputError(f"expected an encoder resolution from 1 to {limit} bits"
                          f"{' for a C table' if table else ''}, got {bits!r}")
@@ -193,21 +194,21 @@ class _Literals:
 
 
 # -- formula of each kind ---------------------------------------------------------------
-# Each returns C that defines `static double error_arcmin(double theta)` for theta
-# in [0, 360) degrees, plus the static data it needs.
+# Each generator returns C defining `static double <tag>_error_arcmin(double theta)` for
+# theta in [0, 360) degrees, and the static data it needs, named <tag>_...
 
-def _fourier_source(p, literals, name="error_arcmin"):
-    tag = name.replace("error_arcmin", "fourier")
+def _fourier_source(p, literals, tag):
     return f"""\
 {literals.array(f"{tag}_order", p["orders"], per_line=12, ctype="int", number=str)}
 {literals.array(f"{tag}_cos", p["cos"])}
 {literals.array(f"{tag}_sin", p["sin"])}
-static double {name}(double theta)
+static double {tag}_error_arcmin(double theta)
 {{
     double sum = 0.0;
     int i;
     for (i = 0; i < {len(p["orders"])}; ++i) {{
-        /* k * theta is exact in double (theta came from a float): reduce it first. */
+        /* k * theta is exact in double (theta has at most 24 significant bits when it
+           comes from a float or a code): reduce it to [0, 360) before cos and sin. */
         double phase = fmod((double){tag}_order[i] * theta, 360.0) * DEG_TO_RAD;
         sum += (double){tag}_cos[i] * cos(phase) + (double){tag}_sin[i] * sin(phase);
     }}
@@ -216,37 +217,34 @@ static double {name}(double theta)
 """
 
 
-def _lut_source(p, literals):
+def _lut_source(p, literals, tag):
     degree = len(p["coefficients"]) - 1
     n = len(p["breaks_deg"]) - 1
-    arrays = "".join(literals.array(f"lut_c{m}", row) for m, row in enumerate(p["coefficients"]))
-    horner = "(double)lut_c0[i]"
+    arrays = "".join(literals.array(f"{tag}_c{m}", row) for m, row in enumerate(p["coefficients"]))
+    horner = f"(double){tag}_c0[i]"
     for m in range(1, degree + 1):
-        horner = f"({horner}) * dx + (double)lut_c{m}[i]"
+        horner = f"({horner}) * dx + (double){tag}_c{m}[i]"
     return f"""\
-{literals.array("lut_breaks", p["breaks_deg"])}
+{literals.array(f"{tag}_breaks", p["breaks_deg"])}
 {arrays}
-static double error_arcmin(double theta)
+static double {tag}_error_arcmin(double theta)
 {{
     /* into [x_0, x_0 + 360), then the interval i with x_i <= x < x_(i+1) by bisection */
-    double x = theta - 360.0 * floor((theta - (double)lut_breaks[0]) / 360.0);
-    int lo = 0, hi = {n};
+    const double x = theta - 360.0 * floor((theta - (double){tag}_breaks[0]) / 360.0);
+    int lo = 0, hi = {n}, i;
     double dx;
     while (hi - lo > 1) {{
-        int mid = (lo + hi) / 2;
-        if ((double)lut_breaks[mid] <= x) lo = mid; else hi = mid;
+        const int mid = (lo + hi) / 2;
+        if ((double){tag}_breaks[mid] <= x) lo = mid; else hi = mid;
     }}
-    {{
-        const int i = lo;
-        dx = x - (double)lut_breaks[i];
-        return {horner};
-    }}
+    i = lo;
+    dx = x - (double){tag}_breaks[i];
+    return {horner};
 }}
 """
 
 
-def _ann_source(p, literals, name="error_arcmin"):
-    tag = name.replace("error_arcmin", "ann")
+def _ann_source(p, literals, tag):
     hidden = len(p["b1"])
     periodic = p["encoding"] == "periodic"
     inputs = ("const double u[2] = {cos(theta * DEG_TO_RAD), sin(theta * DEG_TO_RAD)};"
@@ -264,14 +262,14 @@ static const {literals.ctype} {tag}_b2 = {literals.number(p["b2"])};
 static const {literals.ctype} {tag}_target_offset = {literals.number(p["target_offset"])};
 static const {literals.ctype} {tag}_target_gain = {literals.number(p["target_gain"])};
 
-static double {name}(double theta)
+static double {tag}_error_arcmin(double theta)
 {{
     {inputs}
     double x[{n_inputs}];
     double y = (double){tag}_b2;
     int i, j;
-    for (i = 0; i < {n_inputs}; ++i) {{
-        x[i] = (double){tag}_input_gain[i] * (u[i] - (double){tag}_input_offset[i]) - 1.0; /* mapminmax */
+    for (i = 0; i < {n_inputs}; ++i) {{ /* mapminmax */
+        x[i] = (double){tag}_input_gain[i] * (u[i] - (double){tag}_input_offset[i]) - 1.0;
     }}
     for (j = 0; j < {hidden}; ++j) {{
         double z = (double){tag}_b1[j];
@@ -285,18 +283,46 @@ static double {name}(double theta)
 """
 
 
-def _hybrid_source(p, literals):
-    return (_fourier_source(p["fourier"], literals, name="fourier_error_arcmin") + "\n"
-            + _ann_source(p["ann"], literals, name="ann_error_arcmin") + """
-static double error_arcmin(double theta)
-{
-    return fourier_error_arcmin(theta) + ann_error_arcmin(theta);
-}
+def _hybrid_source(p, literals, tag):
+    return (_fourier_source(p["fourier"], literals, f"{tag}_fourier") + "\n"
+            + _ann_source(p["ann"], literals, f"{tag}_ann") + f"""
+static double {tag}_error_arcmin(double theta)
+{{
+    return {tag}_fourier_error_arcmin(theta) + {tag}_ann_error_arcmin(theta);
+}}
 """)
 
 
+def _directional_source(p, literals, tag):
+    parts = [_FORMULA[p[part]["kind"]](p[part]["parameters"], literals, f"{tag}_{part}")
+             for part in ("forward", "reverse")]
+    return "\n".join(parts) + f"""
+/* direction +1: turning forward, -1: turning back, 0: unknown (the mean of both) */
+static double {tag}_directed_error_arcmin(double theta, int direction)
+{{
+    if (direction > 0) return {tag}_forward_error_arcmin(theta);
+    if (direction < 0) return {tag}_reverse_error_arcmin(theta);
+    return 0.5 * ({tag}_forward_error_arcmin(theta) + {tag}_reverse_error_arcmin(theta));
+}}
+
+static double {tag}_error_arcmin(double theta)
+{{
+    return {tag}_directed_error_arcmin(theta, 0);
+}}
+"""
+
+
 _FORMULA = {"fourier": _fourier_source, "lut": _lut_source, "ann": _ann_source,
-            "hybrid": _hybrid_source}
+            "hybrid": _hybrid_source, "directional": _directional_source}
+
+
+def _formula_source(kind, parameters, literals):
+    return _FORMULA[kind](parameters, literals, "model") + """
+static double error_arcmin(double theta)
+{
+    return model_error_arcmin(theta);
+}
+"""
 
 
 def _table_source(table):
@@ -344,9 +370,15 @@ def _banner(comp, prefix, how):
 """
 
 
-def _header(prefix, bits, banner):
+def _header(prefix, bits, banner, directed):
     guard = f"{prefix.upper()}_H"
     macro = prefix.upper()
+    directed_api = "" if not directed else f"""
+/* The same for a known direction of travel into the reading: +1 turning forward,
+   -1 turning back, 0 unknown (the mean of both, as the functions above). */
+float {prefix}_correct_deg_directed(float theta_deg, int direction);
+float {prefix}_correct_counts_directed(uint32_t code, int direction);
+"""
     return f"""\
 {banner}
 #ifndef {guard}
@@ -370,7 +402,7 @@ float {prefix}_correct_deg(float theta_deg);
 /* Corrected angle, in [0, 360) degrees, of the raw code of a {macro}_BITS-bit encoder
    (the angle code * 360 / 2^{macro}_BITS; higher bits are ignored). */
 float {prefix}_correct_counts(uint32_t code);
-
+{directed_api}
 #ifdef __cplusplus
 }}
 #endif
@@ -379,8 +411,22 @@ float {prefix}_correct_counts(uint32_t code);
 """
 
 
-def _source(prefix, bits, banner, body):
+def _source(prefix, bits, banner, body, directed):
     step = _Literals("double").number(360.0 / 2**bits)
+    directed_api = "" if not directed else f"""
+float {prefix}_correct_deg_directed(float theta_deg, int direction)
+{{
+    const double theta = (double)theta_deg;
+    return to_float_angle(wrap360(theta - model_directed_error_arcmin(wrap360(theta), direction)
+                                  / 60.0));
+}}
+
+float {prefix}_correct_counts_directed(uint32_t code, int direction)
+{{
+    const double theta = (double)(code & CODE_MASK) * STEP_DEG;
+    return to_float_angle(wrap360(theta - model_directed_error_arcmin(theta, direction) / 60.0));
+}}
+"""
     counts_error = ("code_error_arcmin(k)" if "code_error_arcmin" in body
                     else "error_arcmin(theta)")
     return f"""\
@@ -425,4 +471,4 @@ float {prefix}_correct_counts(uint32_t code)
     const double theta = (double)k * STEP_DEG;
     return to_float_angle(wrap360(theta - {counts_error} / 60.0));
 }}
-"""
+{directed_api}"""

@@ -211,7 +211,7 @@ def _power_of_two_scale(largest_arcmin):
 def _check_bits(bits):
     if bits is None:
         raise InputError("expected the encoder resolution in bits (the model file does not "
-                         "record it), got none; pass bits")
+                         "record it), got none; pass bits= (--bits on the command line)")
     if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) \
             or not 1 <= bits <= MAX_TABLE_BITS:
         raise InputError(f"expected a table resolution from 1 to {MAX_TABLE_BITS} bits, "

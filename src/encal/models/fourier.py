@@ -14,6 +14,7 @@ from ..profile import (
     fit_harmonic_series,
     harmonics,
     identifiable_order,
+    nested_harmonic_fits,
     profile_arrays,
 )
 from .base import Model, register_model
@@ -121,7 +122,8 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
           amplitude in the harmonic analysis of the profile;
         - ``'cv'``: rank the orders the same way and keep the number of
           them that minimises the ``folds``-fold cross-validated RMS error
-          (see :func:`cross_validate_order_count`).
+          (see :func:`cross_validate_order_count`); of counts tied within
+          rounding, the smallest.
     max_order : int, optional
         Highest order allowed. Default: :func:`~encal.profile.identifiable_order`
         of the angles (the Nyquist order on a uniform grid). A larger value
@@ -149,19 +151,20 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
     ([1, 16], 2.5)
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_fourier")
-    limit = identifiable_order(theta) if max_order is None else _check_count(max_order, "max_order", 0)
+    stable = identifiable_order(theta)
+    limit = stable if max_order is None else _check_count(max_order, "max_order", 0)
     if orders is not None:
-        chosen = _check_orders(orders, limit)
+        chosen = _check_orders(orders, None if max_order is None else limit)
         training = {"select": "explicit"}
     elif select == "top":
         n_orders = _check_count(n_orders, "n_orders", 1)
-        chosen = harmonics(theta, error, min(limit, identifiable_order(theta))).top(n_orders)
+        chosen = harmonics(theta, error, min(limit, stable)).top(n_orders)
         training = {"select": "top", "n_orders": n_orders}
     elif select == "cv":
         folds = _check_count(folds, "folds", 2)
         counts, cv_rms = cross_validate_order_count(theta, error, folds=folds, max_order=limit)
-        best = counts[_smallest_best(cv_rms)]
-        chosen = harmonics(theta, error, min(limit, identifiable_order(theta))).top(best)
+        best = counts[_smallest_best(cv_rms, scale=np.sqrt(np.mean(error**2)))]
+        chosen = harmonics(theta, error, min(limit, stable)).top(best)
         training = {"select": "cv", "folds": folds, "cv_rms_arcmin": [float(r) for r in cv_rms]}
     else:
         raise InputError(f"The 'select' parameter of fit_fourier must be 'top' or 'cv'. Got {select!r} instead.")
@@ -173,12 +176,14 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
 def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_order=None):
     """Cross-validated RMS error of keeping the ``c`` largest harmonics, for every ``c``.
 
-    The distinct encoder angles, sorted around the circle, are dealt to the
-    folds in turn (0, 1, ..., folds-1, 0, 1, ...), so every fold is spread
-    evenly over the circle and its training part still covers it; repeated
-    readings of one angle stay in one fold. For each fold the harmonics of
-    the training part are ranked and the ``c`` largest fitted; the held-out
-    errors give the RMS.
+    The orders are ranked once, by the harmonic analysis of the whole profile
+    (the paper's ranking). The distinct encoder angles, sorted around the
+    circle, are dealt to the folds in turn (0, 1, ..., folds-1, 0, 1, ...),
+    so every fold is spread evenly over the circle and its complement still
+    covers it; repeated readings of one angle stay in one fold. For each fold
+    the ``c`` top-ranked orders are fitted to the other folds (with the
+    series of the whole grid, so a Nyquist term keeps its single term) and
+    predict the held-out errors.
 
     Parameters
     ----------
@@ -189,13 +194,13 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     folds : int, default=5
         Number of folds, 2 to the number of distinct angles.
     max_order : int, optional
-        Highest order considered.
+        Highest order ranked; default :func:`~encal.profile.identifiable_order`.
 
     Returns
     -------
     counts : ndarray of int
-        ``1, 2, ..., C``; ``C`` is the number of orders every training part
-        can identify.
+        ``1, 2, ..., C``; ``C`` is the longest prefix of the ranking that
+        every fold's training part identifies.
     cv_rms_arcmin : ndarray of float
         Cross-validated RMS error for each count, in arc-minutes.
     """
@@ -206,28 +211,24 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
             f"cross-validation expects between 2 and {distinct.size} folds for "
             f"{distinct.size} distinct encoder angles; got {folds}"
         )
+    limit = identifiable_order(theta) if max_order is None else min(max_order, identifiable_order(theta))
+    ranking = harmonics(theta, error, limit).ranked()
     fold = (np.arange(distinct.size) % folds)[group]
-    rankings = []
+    squared = []
     for f in range(folds):
-        train = fold != f
-        limit = identifiable_order(theta[train])
-        if max_order is not None:
-            limit = min(limit, max_order)
-        rankings.append(harmonics(theta[train], error[train], limit).ranked())
-    n_counts = min(len(ranking) for ranking in rankings)
-    squared = np.zeros(n_counts)
-    for f, ranking in enumerate(rankings):
         train, test = fold != f, fold == f
-        for c in range(1, n_counts + 1):
-            cos, sin = fit_harmonic_series(theta[train], error[train], ranking[:c], caller="fit_fourier")
-            model = FourierModel(ranking[:c], cos, sin)
-            squared[c - 1] += np.sum((error[test] - model.predict(theta[test])) ** 2)
-    return np.arange(1, n_counts + 1), np.sqrt(squared / theta.size)
+        cos, sin = nested_harmonic_fits(theta[train], error[train], ranking, grid_deg=theta)
+        phase = np.radians(np.outer(ranking, theta[test]))
+        predicted = cos @ np.cos(phase) + sin @ np.sin(phase)  # one row per count
+        squared.append(np.sum((error[test] - predicted) ** 2, axis=1))
+    n_counts = min(s.size for s in squared)
+    total = sum(s[:n_counts] for s in squared)
+    return np.arange(1, n_counts + 1), np.sqrt(total / theta.size)
 
 
-def _smallest_best(cv_rms, rtol=1e-9):
-    """Index of the smallest count whose CV error ties the minimum (within rounding)."""
-    return int(np.flatnonzero(cv_rms <= cv_rms.min() * (1.0 + rtol) + 1e-300)[0])
+def _smallest_best(cv_rms, scale):
+    """Index of the smallest count whose CV error ties the minimum within rounding of ``scale``."""
+    return int(np.flatnonzero(cv_rms <= cv_rms.min() + 1e-9 * scale)[0])
 
 
 def _check_count(value, name, lowest):
@@ -240,15 +241,17 @@ def _check_count(value, name, lowest):
 
 def _check_orders(orders, limit):
     values = np.asarray(orders).reshape(-1)
+    upper = np.inf if limit is None else limit
     if (
         values.size == 0
         or not np.issubdtype(values.dtype, np.integer)
         or np.any(values < 0)
-        or np.any(values > limit)
+        or np.any(values > upper)
         or np.unique(values).size != values.size
     ):
+        up_to = "" if limit is None else f" up to max_order={limit}"
         raise InputError(
-            f"The 'orders' parameter of fit_fourier must hold distinct ints from 0 to {limit} "
-            f"(the highest order the encoder angles identify, or max_order). Got {values.tolist()} instead."
+            f"The 'orders' parameter of fit_fourier must hold distinct ints >= 0{up_to}. "
+            f"Got {values.tolist()} instead."
         )
     return [int(k) for k in values]

@@ -104,8 +104,9 @@ def fit_hybrid(theta_enc_deg, error_arcmin, *, n_orders=4, hidden=8, algorithm="
     ann = fit_ann(theta, residual, hidden=hidden, algorithm=algorithm, encoding="periodic", rng=rng,
                   **train_options)
     training = {
-        "algorithm": ann.training.get("algorithm", algorithm),
+        "algorithm": algorithm,
         "epochs": ann.training.get("epochs"),
+        "seed": ann.training.get("seed"),
         "options": {"n_orders": n_orders, "hidden": hidden, "algorithm": algorithm, **train_options},
         "fourier": fourier.training,
         "ann": ann.training,

@@ -201,7 +201,7 @@ def interleaved_folds(theta_deg, folds):
     Examples
     --------
     >>> interleaved_folds([0.0, 90.0, 180.0, 270.0, 45.0], 2).tolist()
-    [0, 0, 0, 1, 1]
+    [0, 0, 1, 0, 1]
     """
     theta = np.asarray(theta_deg, dtype=float).reshape(-1)
     order = np.argsort(np.mod(theta, 360.0), kind="stable")
@@ -251,14 +251,18 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds):
     )
 
 
-def choose(scores, tolerance=0.01):
+def choose(scores, tolerance=0.01, resolution_arcmin=0.0):
     """The candidate to use, and why: the simplest within ``tolerance`` of the lowest CV RMS.
 
     Parameters
     ----------
     scores : sequence of CVScore
     tolerance : float, default=0.01
-        Relative margin: candidates with ``rms <= (1 + tolerance) * best_rms`` count as tied.
+        Relative margin: candidates with ``rms <= (1 + tolerance) * best_rms + resolution_arcmin``
+        count as tied.
+    resolution_arcmin : float, default=0
+        Absolute margin, arc-minutes: differences this small are rounding, not accuracy (it decides
+        between candidates that all reproduce a noise-free profile to ~1e-15 arcmin).
 
     Returns
     -------
@@ -270,13 +274,13 @@ def choose(scores, tolerance=0.01):
         raise InputError("no candidate model could be fitted to this calibration; "
                          f"the first failure was: {scores[0].error}")
     best = min(finite, key=lambda score: score.rms_arcmin)
-    tied = [score for score in finite if score.rms_arcmin <= (1.0 + tolerance) * best.rms_arcmin]
+    limit = (1.0 + tolerance) * best.rms_arcmin + resolution_arcmin
+    tied = [score for score in finite if score.rms_arcmin <= limit]
     chosen = min(tied, key=lambda score: (score.simplicity, score.rms_arcmin))
     if chosen is best:
         runner_up = min((s for s in finite if s is not best), key=lambda s: s.rms_arcmin, default=None)
         margin = "" if runner_up is None else (
-            f", {runner_up.rms_arcmin / best.rms_arcmin - 1:.1%} below the next best "
-            f"({runner_up.candidate.label})")
+            f"; the next best, {runner_up.candidate.label}, has {runner_up.rms_arcmin:.4g} arcmin")
         reason = f"{best.candidate.label} has the lowest CV RMS, {best.rms_arcmin:.4g} arcmin{margin}"
     else:
         reason = (f"{chosen.candidate.label} (CV RMS {chosen.rms_arcmin:.4g} arcmin) is within "
@@ -345,7 +349,8 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None,
     # result does not depend on which other candidates were tried.
     streams = [seq.spawn(folds + 1) for seq in _seed_sequence(rng).spawn(len(candidates))]
     scores = [cross_validate(theta, error, c, fold, seeds=s[:folds]) for c, s in zip(candidates, streams)]
-    chosen, reason = choose(scores, tolerance)
+    # Differences below 1e-9 of the profile's RMS are rounding error, not accuracy.
+    chosen, reason = choose(scores, tolerance, resolution_arcmin=1e-9 * float(np.sqrt(np.mean(error**2))))
 
     final_seed = streams[next(i for i, score in enumerate(scores) if score is chosen)][folds]
     model = chosen.candidate.fit(theta, error, rng=np.random.default_rng(final_seed))

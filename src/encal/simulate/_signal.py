@@ -18,6 +18,11 @@ def _harmonic(coefficient, order, angle):
     return np.imag(coefficient * np.exp(1j * order * angle))
 
 
+def _weighted_sum(phasors, coefficients):
+    """``phasors @ coefficients`` without BLAS, whose threads stall on a busy machine for so small a product."""
+    return (phasors * coefficients).sum(axis=-1)
+
+
 def shaft_angle(state, command, table_noise):
     """Steps 1-2: the rotor angle, radians, for table commands ``command`` (radians)."""
     table = state.table
@@ -31,7 +36,8 @@ def shaft_angle(state, command, table_noise):
 def winding_envelopes(resolver, theta):
     """Step 3: sin and cos envelopes, relative to the fundamental amplitude."""
     phasors = np.exp(1j * np.multiply.outer(theta, resolver.harmonic_orders))
-    spatial = phasors @ resolver.positive_sequence + phasors.conj() @ resolver.negative_sequence
+    spatial = (_weighted_sum(phasors, resolver.positive_sequence)
+               + _weighted_sum(phasors.conj(), resolver.negative_sequence))
     half_alpha = resolver.amplitude_mismatch / 2.0
     half_phi = resolver.quadrature_error / 2.0
     sin_env = (1.0 + half_alpha) * np.sin(theta + half_phi) + spatial.imag
@@ -86,7 +92,7 @@ def converter_angle(state, command, rng=None):
     d_sin, d_cos = demodulate(state, sin_env, cos_env, noise_sin, noise_cos)
     phi = np.arctan2(d_sin, d_cos) + state.decoder.psd_offset
     phasors = np.exp(1j * np.multiply.outer(phi, NONLINEARITY_ORDERS))
-    return phi + np.imag(phasors @ state.decoder.nonlinearity)
+    return phi + np.imag(_weighted_sum(phasors, state.decoder.nonlinearity))
 
 
 def approach_directions(command):

@@ -324,21 +324,36 @@ def comparison_table(comparisons):
 
 
 def reproducibility_table(results):
-    """Repeat calibrations against the first one, and the first model on the repeats (arcmin)."""
+    """Repeat calibrations against the first one, and the first one's model on the repeats (arcmin).
+
+    Parameters
+    ----------
+    results : mapping of str to Reproducibility
+        One result per encoder (:func:`encal.studies.reproducibility.reproducibility`).
+    """
+    with_floor = any(run.floor_arcmin is not None for r in results.values() for run in r.runs)
     columns = [Column("encoder", "encoder", "{}"), Column("run", "run", "{}"),
                Column("diff_mae_arcmin", "diff MAE"), Column("diff_rms_arcmin", "diff RMS"),
                Column("diff_max_abs_arcmin", "diff max|d|"),
                Column("within_1lsb", "within 1 LSB", "{:.0%}"),
-               Column("model_rms_arcmin", "model RMS"), Column("refit_rms_arcmin", "own-fit RMS")]
+               Column("model_rms_arcmin", "model RMS"),
+               Column("model_rms_first_test_arcmin", "same-epoch test RMS")]
+    if with_floor:
+        columns.append(Column("floor_arcmin", "floor"))
     rows = []
     for name, result in results.items():
+        same_epoch = None if result.first_test_residual is None else result.first_test_residual.rms
         for run in result.runs:
-            rows.append([name, run.label, run.difference.mae, run.difference.rms, run.difference.max_abs,
-                         run.within_one_lsb, run.model_residual.rms, run.own_fit_rms])
-    lsb = next(iter(results.values())).lsb_arcmin if results else float("nan")
-    notes = [f"diff: error of the repeat run minus error of the first run at the same reference angles; "
-             f"1 LSB = {lsb:.4f} arcmin.",
+            row = [name, run.label, run.difference.mae, run.difference.rms, run.difference.max_abs,
+                   run.within_one_lsb, run.model_residual.rms, same_epoch]
+            if with_floor:
+                row.append(run.floor_arcmin)
+            rows.append(row)
+    lsbs = {r.lsb_arcmin for r in results.values() if r.lsb_arcmin is not None}
+    lsb_text = f"; 1 LSB = {lsbs.pop():.4f} arcmin" if len(lsbs) == 1 else ""
+    notes = [f"diff: error of the repeat run minus error of the first run at the same reference angles{lsb_text}.",
              "model RMS: residual RMS when the model fitted to the first run corrects the repeat run; "
-             "own-fit RMS: the same model kind fitted to the repeat run itself and evaluated on it "
-             "(what recalibrating would give, an optimistic in-sample figure)."]
+             "same-epoch test RMS: the same model on the first epoch's test grid, without drift."]
+    if with_floor:
+        notes.append("floor: RMS of measured minus noise-free error of the repeat run, the best any model can do.")
     return Table("reproducibility", "Reproducibility of the error profile (arcmin)", columns, rows, notes)

@@ -21,10 +21,13 @@ Training algorithms see the weights as one vector ``w`` of
 ``n_params = N * (n_inputs + 2) + 1`` values (1:80:1: 241 for ``'raw'``,
 321 for ``'periodic'``), laid out as::
 
-    w = [W1.ravel(),  # N × n_inputs, row-major: W1[j, k] is w[j * n_inputs + k]
-         b1,          # N hidden biases
-         W2,          # N output weights
-         b2]          # 1 output bias
+    w = [W1.T.ravel(),  # N × n_inputs, column by column: W1[j, k] is w[k * N + j]
+         b1,            # N hidden biases
+         W2,            # N output weights
+         b2]            # 1 output bias
+
+(``W1`` column by column, as MATLAB's ``IW{1,1}(:)``, keeps each input's
+block of the Jacobian contiguous.)
 
 The network's output is ``y_n = W2 · f(W1 x_n + b1) + b2`` for a normalised
 input vector ``x_n``; ``docs/model-file.md`` stores the same arrays.
@@ -141,7 +144,7 @@ def unpack_weights(w, n_inputs, hidden):
     """Views ``(W1, b1, W2, b2)`` into the flat weight vector ``w`` (see the module docstring)."""
     w = np.asarray(w, dtype=float)
     k = hidden * n_inputs
-    W1 = w[:k].reshape(hidden, n_inputs)
+    W1 = w[:k].reshape(n_inputs, hidden).T
     b1 = w[k:k + hidden]
     W2 = w[k + hidden:k + 2 * hidden]
     return W1, b1, W2, w[-1]
@@ -149,7 +152,7 @@ def unpack_weights(w, n_inputs, hidden):
 
 def pack_weights(W1, b1, W2, b2):
     """The flat weight vector of the arrays ``W1`` (N × n_inputs), ``b1`` (N), ``W2`` (N), ``b2``."""
-    return np.concatenate([np.ravel(W1), np.ravel(b1), np.ravel(W2), np.ravel(b2)]).astype(float)
+    return np.concatenate([np.ravel(np.transpose(W1)), np.ravel(b1), np.ravel(W2), np.ravel(b2)]).astype(float)
 
 
 def nguyen_widrow(n_inputs, hidden, activation="tansig", rng=None):
@@ -254,6 +257,7 @@ class NetworkProblem:
         self.encoding = None
         self.input_scaling = None
         self.target_scaling = None
+        self._last = (None, None, None)
 
     @classmethod
     def from_angles(cls, theta_deg, error_arcmin, hidden, *, encoding="periodic",
@@ -284,26 +288,35 @@ class NetworkProblem:
         return nguyen_widrow(self.n_inputs, self.hidden, self.activation, rng)
 
     def _forward(self, w):
-        W1, b1, W2, b2 = self.unpack(w)
-        h = self._f(self.inputs @ W1.T + b1)
-        return h, h @ W2 + b2, W2
+        # The accepted trial point of a Levenberg-Marquardt epoch is evaluated
+        # again for its Jacobian: reuse the last forward pass.
+        cached_w, h, y = self._last
+        if cached_w is None or not np.array_equal(w, cached_w):
+            W1, b1, W2, b2 = self.unpack(w)
+            h = self._f(self.inputs @ W1.T + b1)
+            y = h @ W2 + b2
+            self._last = (np.array(w, dtype=float, copy=True), h, y)
+        return h, y
 
     def outputs(self, w):
         """Normalised network outputs at the training inputs, shape (m,)."""
-        return self._forward(w)[1]
+        return self._forward(w)[1].copy()
 
     def residuals(self, w):
         return self._forward(w)[1] - self.targets
 
     def residuals_and_jacobian(self, w):
-        h, y, W2 = self._forward(w)
-        m, n_in, N = self.n_samples, self.n_inputs, self.hidden
+        h, y = self._forward(w)
+        W2 = self.unpack(w)[2]
+        N = self.hidden
         # d y / d b1_j = W2_j f'(z_j); d y / d W1_jk = that times input k.
         d_hidden = self._slope(h) * W2
-        J = np.empty((m, self.n_params))
-        J[:, :N * n_in] = (d_hidden[:, :, None] * self.inputs[:, None, :]).reshape(m, N * n_in)
-        J[:, N * n_in:N * (n_in + 1)] = d_hidden
-        J[:, N * (n_in + 1):N * (n_in + 2)] = h
+        J = np.empty((self.n_samples, self.n_params))
+        for k in range(self.n_inputs):  # one or two inputs
+            np.multiply(d_hidden, self.inputs[:, k:k + 1], out=J[:, k * N:(k + 1) * N])
+        n_w1 = N * self.n_inputs
+        J[:, n_w1:n_w1 + N] = d_hidden
+        J[:, n_w1 + N:n_w1 + 2 * N] = h
         J[:, -1] = 1.0
         return y - self.targets, J
 
@@ -312,9 +325,9 @@ class NetworkProblem:
         return float(r @ r) / self.n_samples
 
     def mse_and_gradient(self, w):
-        h, y, W2 = self._forward(w)
+        h, y = self._forward(w)
         r = y - self.targets
         m = self.n_samples
-        back = (self._slope(h) * W2) * r[:, None]
-        grad = np.concatenate([(back.T @ self.inputs).ravel(), back.sum(axis=0), r @ h, [r.sum()]])
+        back = (self._slope(h) * self.unpack(w)[2]) * r[:, None]
+        grad = np.concatenate([(self.inputs.T @ back).ravel(), back.sum(axis=0), r @ h, [r.sum()]])
         return float(r @ r) / m, (2.0 / m) * grad

@@ -47,7 +47,7 @@ def effective_parameters(system, beta, alpha):
         scaled = beta * np.clip(np.linalg.eigvalsh(system.gram), 0.0, None)
         ratio = np.divide(scaled, scaled + alpha, out=np.zeros_like(scaled), where=scaled + alpha > 0)
         return float(np.sum(ratio))
-    lower = np.tril(factor[0])
+    lower = np.tril(factor)
     inverse = solve_triangular(lower, np.eye(k), lower=True, check_finite=False)
     # tr(A⁻¹) = ||L⁻¹||_F² for A = L Lᵀ
     return float(k - alpha * np.sum(inverse * inverse))

@@ -23,7 +23,8 @@ because an epoch rarely needs more than two tries.
 import math
 
 import numpy as np
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
+from scipy.linalg.blas import dsyrk
+from scipy.linalg.lapack import dpotrf, dpotrs
 
 from ..errors import InputError
 from ._registry import register_algorithm
@@ -55,17 +56,23 @@ class DampedGaussNewton:
         m, n = J.shape
         #: True when the m × m matrix JJᵀ is used (more weights than residuals).
         self.dual = m < n
-        self.gram = J @ J.T if self.dual else J.T @ J
+        # J.T is J's memory in Fortran order, so BLAS reads it without a copy;
+        # syrk fills only the lower triangle, all that Cholesky reads.
+        self.gram = dsyrk(1.0, J.T, trans=1 if self.dual else 0, lower=1)
         self._Jte = None if self.dual else J.T @ e
 
     def factor(self, scale, shift):
-        """Cholesky factor of ``scale · G + shift · I`` (G the Gram matrix), or None if not positive definite."""
+        """Lower Cholesky factor of ``scale · G + shift · I`` (G the Gram matrix), or None if not positive definite.
+
+        Only the lower triangle of the result is meaningful.
+        """
         A = scale * self.gram
         A.flat[::A.shape[0] + 1] += shift
-        try:
-            return cho_factor(A, lower=True, overwrite_a=True, check_finite=False)
-        except LinAlgError:
-            return None
+        lower, info = dpotrf(A, lower=1, clean=0, overwrite_a=1)
+        return lower if info == 0 else None
+
+    def _solve(self, lower, rhs):
+        return dpotrs(lower, rhs, lower=1)[0]
 
     def step(self, mu, beta=1.0, alpha=0.0, x=None):
         """The step ``dX``, or None when the damped matrix is numerically singular.
@@ -88,14 +95,14 @@ class DampedGaussNewton:
             rhs = beta * self.e
             if alpha:
                 rhs = rhs - (alpha * beta / damping) * (self.J @ x)
-            dx = -(self.J.T @ cho_solve(factor, rhs, check_finite=False))
+            dx = -(self.J.T @ self._solve(factor, rhs))
             if alpha:
                 dx -= (alpha / damping) * x
             return dx
         rhs = beta * self._Jte
         if alpha:
             rhs = rhs + alpha * x
-        return -cho_solve(factor, rhs, check_finite=False)
+        return -self._solve(factor, rhs)
 
 
 def check_option(algorithm, name, value, low, high=math.inf, *, low_open=True, high_open=True):

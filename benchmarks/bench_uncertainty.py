@@ -1,0 +1,112 @@
+"""Does the predictive uncertainty cover the residuals it claims to? Measured on the demo fleet.
+
+For every demo encoder and method: fit on the training run (0:2:358), estimate the uncertainty with
+:func:`encal.uncertainty.add_uncertainty`, and count the share of residuals inside ±2σ on
+
+- the test run (1:2:359, same epoch and decoder): what the uncertainty is made for, nominally 95 %;
+- the second epoch (0:2:358 again, after the mount and resolver drifted): outside what it is made for, shown
+  to say how far a drift takes the residuals beyond the claim.
+
+Then, for bidirectional runs of the same encoders (forward over the grid, one degree past its end, and back):
+the ISO 230-2 reversal values, and the residual RMS and ±2σ share on a bidirectional test run of a
+per-direction model used with and without the direction, and of a model of the mean.
+
+Run:  .venv/bin/python benchmarks/bench_uncertainty.py [--methods fourier lut ann] [--n-boot 30] [--encoders 4]
+"""
+
+import os
+
+# One BLAS thread: the refits are many small least-squares problems, which threads only slow down
+# when the machine is shared.
+for variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(variable, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+import encal  # noqa: E402
+from encal.bidirectional import fit_bidirectional, reversal  # noqa: E402
+from encal.simulate import TEST_GRID_DEG, TRAINING_GRID_DEG, calibration_run  # noqa: E402
+from encal.simulate._fleet import demo_fleet  # noqa: E402
+from encal.uncertainty import add_uncertainty, coverage  # noqa: E402
+
+
+def residual_rms(model, cal):
+    return float(encal.evaluate(model, cal).after.rms)
+
+
+def bidirectional_run(encoder, grid_deg, seed):
+    """Forward over ``grid_deg``, one degree past its end, then back; the turning point is dropped."""
+    visits = np.concatenate([grid_deg, [grid_deg[-1] + 1.0], grid_deg[::-1]])
+    cal = calibration_run(encoder, visits, rng=seed).calibration
+    keep = np.arange(visits.size) != grid_deg.size
+    direction = np.concatenate([np.ones(grid_deg.size + 1), -np.ones(grid_deg.size)])[keep]
+    return encal.Calibration(cal.reference_deg[keep], cal.encoder_deg[keep], direction=direction,
+                             name=cal.name, resolution_bits=cal.resolution_bits)
+
+
+def bidirectional_table(fleet, methods, n_boot):
+    print(f"{'encoder':8s} {'B̄ LSB':>7s} {'B LSB':>6s} {'method':8s} {'RMS dir':>8s} {'RMS no dir':>10s} "
+          f"{'RMS mean':>9s} {'±2σ dir':>8s} {'±2σ no dir':>10s} {'±2σ mean':>9s}")
+    for index, member in enumerate(fleet):
+        train = bidirectional_run(member.encoder, TRAINING_GRID_DEG, 10 + index)
+        test = bidirectional_run(member.encoder, TEST_GRID_DEG, 20 + index)
+        iso = reversal(train).as_dict()
+        for method in methods:
+            seed = {"rng": 0} if method in ("ann", "hybrid", "auto") else {}
+            split = add_uncertainty(fit_bidirectional(train, "per-direction", method, **seed), train,
+                                    n_boot=n_boot, rng=1)
+            mean = add_uncertainty(fit_bidirectional(train, "mean", method, **seed), train, n_boot=n_boot, rng=1)
+            observed = test.errors_arcmin
+            with_direction, without = split.predict(test.encoder_deg, return_std=True, direction=test.direction), \
+                split.predict(test.encoder_deg, return_std=True)
+            of_mean = mean.predict(test.encoder_deg, return_std=True)
+            rms = [np.sqrt(np.mean((observed - m) ** 2)) for m, _ in (with_direction, without, of_mean)]
+            share = [np.mean(np.abs(observed - m) <= 2 * s) for m, s in (with_direction, without, of_mean)]
+            print(f"{member.name:8s} {iso['mean_reversal_value_lsb']:7.2f} {iso['reversal_value_lsb']:6.2f} "
+                  f"{method:8s} {rms[0]:8.3f} {rms[1]:10.3f} {rms[2]:9.3f} {100 * share[0]:7.1f}% "
+                  f"{100 * share[1]:9.1f}% {100 * share[2]:8.1f}%")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--methods", nargs="+", default=["fourier", "lut", "ann"])
+    parser.add_argument("--n-boot", type=int, default=30)
+    parser.add_argument("--encoders", type=int, default=4)
+    args = parser.parse_args()
+
+    fleet = demo_fleet(args.encoders)
+    header = (f"{'encoder':8s} {'method':8s} {'σ_noise':>8s} {'σ_model':>8s} {'pred σ':>7s} {'test RMS':>9s} "
+              f"{'±2σ test':>9s} {'±2σ ep2':>8s} {'seconds':>8s}")
+    print(f"n_boot = {args.n_boot}, 10 folds; arcmin; σ_model and pred σ are RMS over the test angles")
+    print(header)
+    shares = {method: [] for method in args.methods}
+    for member in fleet:
+        train, test, epoch2 = (member.train.calibration, member.test.calibration, member.epoch2.calibration)
+        for method in args.methods:
+            seed = {"rng": 0} if method in ("ann", "hybrid", "auto") else {}
+            started = time.perf_counter()
+            model = encal.fit(train, method, **seed)
+            add_uncertainty(model, train, method=method, options={}, n_boot=args.n_boot, rng=1)
+            seconds = time.perf_counter() - started
+            _, std = model.predict(test.encoder_deg, return_std=True)
+            model_std = np.asarray(model.uncertainty["model_std_arcmin"])
+            on_test, on_epoch2 = coverage(model, test), coverage(model, epoch2)
+            shares[method].append(on_test)
+            print(f"{member.name:8s} {method:8s} {model.uncertainty['noise_std_arcmin']:8.3f} "
+                  f"{np.sqrt(np.mean(np.square(np.interp(test.encoder_deg, np.arange(360.0), model_std, period=360)))):8.3f} "
+                  f"{np.sqrt(np.mean(std**2)):7.3f} {residual_rms(model, test):9.3f} "
+                  f"{100 * on_test:8.1f}% {100 * on_epoch2:7.1f}% {seconds:8.1f}")
+    print()
+    for method, values in shares.items():
+        print(f"{method:8s} mean share of test residuals inside ±2σ: {100 * np.mean(values):.1f}% "
+              f"(over {len(values)} encoders x 180 points)")
+    print()
+    print("bidirectional runs (ISO 230-2 reversal of the training run; arcmin; test run 1:2:359 both ways)")
+    bidirectional_table(fleet, args.methods, args.n_boot)
+
+
+if __name__ == "__main__":
+    main()

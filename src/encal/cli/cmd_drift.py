@@ -1,0 +1,98 @@
+"""Compare repeated calibrations of one encoder with the first, and say whether a model fitted on the first still holds.
+
+The first file is the baseline; each later one is compared at the same shaft positions (each calibration's
+circular-mean zero offset removed, unless --keep-offset). A model of the first calibration (by default the
+paper's ten-harmonic Fourier series) still holds on a later one when its residual RMS there exceeds its
+residual on the first by at most the tolerance: by default max(1 LSB, 10 %). The verdict is data: the exit
+status is 0 whether the model holds or not, 1 on bad input.
+
+Examples:
+  encal drift enc1_train.csv enc1_epoch2.csv
+  encal drift runs.csv --json                 (one file whose epoch column names the runs)
+  encal drift a.csv b.csv --tolerance 0.5 --method lut
+"""
+
+import argparse
+from pathlib import Path
+
+from ._common import add_calibration_options, print_json, read_calibration_from_args
+
+HELP = "drift of repeated calibrations and whether the first one's model still holds"
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes, got {text!r}") from None
+
+
+def add_arguments(parser):
+    parser.add_argument("calibrations", metavar="CAL.csv", nargs="+",
+                        help="the first calibration, then later ones (or one file with an epoch column)")
+    parser.add_argument("--tolerance", metavar="ARCMIN", type=_number, default=None,
+                        help="allowed increase of the residual RMS (default: max(1 LSB, 10%%))")
+    parser.add_argument("--method", default="fourier",
+                        help="model fitted on the first calibration (default: fourier)")
+    parser.add_argument("--model", metavar="MODEL.json", default=None,
+                        help="judge this model file instead of fitting one on the first calibration")
+    parser.add_argument("--keep-offset", action="store_true",
+                        help="compare errors as measured, without removing each calibration's zero offset")
+    parser.add_argument("--seed", type=int, default=None, help="seed of a randomised method")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    add_calibration_options(parser)
+
+
+def run(args):
+    from ..drift import compare_calibrations, split_epochs
+
+    cals, labels = [], []
+    for path in args.calibrations:
+        cal = read_calibration_from_args(path, args)
+        runs = split_epochs(cal) if len(args.calibrations) == 1 else [cal]
+        cals.extend(runs)
+        labels.extend([Path(path).name] if len(runs) == 1 else [str(run.epoch[0]) for run in runs])
+    model = None
+    if args.model is not None:
+        from ..deploy import load_model
+
+        model = load_model(args.model)
+    report = compare_calibrations(cals, tolerance_arcmin=args.tolerance, model=model, method=args.method,
+                                  offset="keep" if args.keep_offset else "remove", labels=labels,
+                                  rng=args.seed)
+    if args.json:
+        print_json(report.as_dict())
+    else:
+        _print_table(report, args.model)
+    return 0
+
+
+def _print_table(report, model_path):
+    lsb = report.lsb_arcmin
+    if lsb is None:
+        resolution = "resolution unknown"
+    else:
+        how = "inferred from the readings" if report.resolution_inferred else "given"
+        resolution = f"{report.resolution_bits}-bit ({how}), 1 LSB = {lsb:.4f}'"
+    offsets = "zero offsets removed" if report.offset == "remove" else "zero offsets kept"
+    source = f"{report.model_kind} model from {model_path}" if model_path else \
+        f"{report.method} model fitted on {report.baseline_label}"
+    print(f"drift against {report.baseline_label} (arcmin; {resolution}; {offsets})")
+    print(f"{source}: residual RMS {report.baseline_rms_arcmin:.4f} on the first calibration; "
+          f"tolerance +{report.tolerance_arcmin:.4f} ({report.tolerance_rule})")
+    width = max(12, *(len(epoch.label) for epoch in report.epochs))
+    header = (f"{'calibration':<{width}} {'n':>5} {'interp':>6} {'offset Δ':>10} {'diff RMS':>9} "
+              f"{'max |d|':>8} {'≤1 LSB':>7} {'resid RMS':>10} {'change':>8}  verdict")
+    print(header)
+    for epoch in report.epochs:
+        stats = epoch.difference
+        share = "-" if epoch.share_within_lsb is None else f"{100 * epoch.share_within_lsb:.0f}%"
+        print(f"{epoch.label:<{width}} {stats.n:>5d} {'yes' if epoch.interpolated else 'no':>6} "
+              f"{epoch.offset_change_arcmin:>+10.3f} {stats.rms:>9.4f} {stats.max_abs:>8.4f} {share:>7} "
+              f"{epoch.residual_rms_arcmin:>10.4f} {epoch.increase_arcmin:>+8.4f}  "
+              f"{'holds' if epoch.holds else 'does not hold'}")
+    if report.holds:
+        print("verdict: the model still holds on every later calibration")
+    else:
+        failed = ", ".join(epoch.label for epoch in report.epochs if not epoch.holds)
+        print(f"verdict: the model does not hold on {failed}")

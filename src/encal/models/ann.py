@@ -1,0 +1,310 @@
+"""The paper's neural-network error model: a 1:N:1 network of the encoder angle.
+
+The network (:mod:`encal.training.network`) maps the encoder angle, encoded
+as ``'raw'`` degrees (the paper's; the model jumps where the angle wraps at
+0/360) or ``'periodic'`` ``(cos θ, sin θ)`` (continuous and periodic, the
+default), through mapminmax scaling, N sigmoid hidden neurons and a linear
+output to the error in arc-minutes. Its parameters are stored exactly as
+``docs/model-file.md`` lays them out, so the standalone runtime and the C
+export evaluate the same function.
+
+Default size: the paper's 1:80:1 for ``'raw'`` input. For ``'periodic'``
+input, :data:`DEFAULT_HIDDEN` ``['periodic']`` was chosen by measurement (a
+sweep of N on the demo fleet and on synthetic harmonic profiles, see
+``BENCHMARKS.md``, section "trainlm"): with two inputs each hidden neuron is
+a smooth ridge over the circle, so far fewer neurons reproduce the few
+dominant harmonics, and a network with more weights than the 180 points
+interpolates the noise of the calibration under trainlm.
+"""
+
+import numbers
+
+import numpy as np
+
+from ..errors import CalibrationError, InputError, ModelFileError
+from ..profile import profile_arrays
+from ..training import ALGORITHMS, train
+from ..training.network import (
+    ACTIVATIONS,
+    ENCODINGS,
+    MapMinMax,
+    NetworkProblem,
+    encode_angles,
+    forward,
+    pack_weights,
+)
+from .base import Model, register_model
+
+__all__ = ["ANNModel", "fit_ann", "DEFAULT_HIDDEN"]
+
+#: Hidden neurons by input encoding when ``hidden`` is not given.
+DEFAULT_HIDDEN = {"raw": 80, "periodic": 12}
+
+
+@register_model
+class ANNModel(Model):
+    """A 1:N:1 network predicting the error (arc-minutes) from the encoder angle (degrees).
+
+    Parameters
+    ----------
+    W1 : array-like of shape (N, n_inputs)
+        Input-to-hidden weights.
+    b1 : array-like of shape (N,)
+        Hidden biases.
+    W2 : array-like of shape (N,)
+        Hidden-to-output weights.
+    b2 : float
+        Output bias.
+    encoding : {'raw', 'periodic'}
+        Input encoding: ``[θ_deg]`` or ``[cos θ, sin θ]`` (``n_inputs`` 1 or 2).
+    activation : {'tansig', 'logsig'}
+        Hidden activation.
+    input_offset, input_gain : array-like of shape (n_inputs,)
+        mapminmax settings of the inputs.
+    target_offset, target_gain : float
+        mapminmax settings of the target (arc-minutes).
+    encoder, training : dict, optional
+        See :class:`~encal.models.base.Model`.
+
+    Attributes
+    ----------
+    hidden : int
+        Number of hidden neurons N.
+    train_result : TrainResult or None
+        The training run that produced the model (not saved in the model file).
+    """
+
+    kind = "ann"
+
+    def __init__(self, W1, b1, W2, b2, *, encoding, activation, input_offset, input_gain,
+                 target_offset, target_gain, encoder=None, training=None):
+        super().__init__(encoder=encoder, training=training)
+        if encoding not in ENCODINGS:
+            raise InputError(f"encoding must be one of {sorted(ENCODINGS)}. Got {encoding!r} instead.")
+        if activation not in ACTIVATIONS:
+            raise InputError(f"activation must be one of {sorted(ACTIVATIONS)}. Got {activation!r} instead.")
+        n_inputs = ENCODINGS[encoding]
+        self.encoding = encoding
+        self.activation = activation
+        self.W1 = _array(W1, "W1", ndim=2)
+        self.hidden = self.W1.shape[0]
+        shapes = {
+            "W1": (self.W1, (self.hidden, n_inputs)),
+            "b1": (_array(b1, "b1", ndim=1), (self.hidden,)),
+            "W2": (_array(W2, "W2", ndim=1), (self.hidden,)),
+            "input_offset": (_array(input_offset, "input_offset", ndim=1), (n_inputs,)),
+            "input_gain": (_array(input_gain, "input_gain", ndim=1), (n_inputs,)),
+        }
+        for name, (value, shape) in shapes.items():
+            if value.shape != shape or self.hidden == 0:
+                raise InputError(
+                    f"{name} of a {encoding} 1:N:1 network with N = {self.hidden} must have shape {shape}. "
+                    f"Got shape {value.shape} instead."
+                )
+        self.b1 = shapes["b1"][0]
+        self.W2 = shapes["W2"][0]
+        self.b2 = _scalar(b2, "b2")
+        self.input_scaling = MapMinMax(shapes["input_offset"][0], shapes["input_gain"][0])
+        self.target_scaling = MapMinMax(_scalar(target_offset, "target_offset"),
+                                        _scalar(target_gain, "target_gain"))
+        if self.target_scaling.gain == 0:
+            raise InputError("target_gain must be a non-zero float. Got 0 instead.")
+        self.train_result = None
+
+    @property
+    def weights(self):
+        """The flat weight vector (layout of :mod:`encal.training.network`)."""
+        return pack_weights(self.W1, self.b1, self.W2, self.b2)
+
+    def _predict(self, theta_deg):
+        inputs = self.input_scaling.apply(encode_angles(np.ravel(theta_deg), self.encoding))
+        y = forward(inputs, self.W1, self.b1, self.W2, self.b2, self.activation)
+        return self.target_scaling.reverse(y)
+
+    def parameters(self):
+        return {
+            "encoding": self.encoding,
+            "activation": self.activation,
+            "input_offset": [float(v) for v in self.input_scaling.offset],
+            "input_gain": [float(v) for v in self.input_scaling.gain],
+            "target_offset": float(self.target_scaling.offset),
+            "target_gain": float(self.target_scaling.gain),
+            "W1": [[float(v) for v in row] for row in self.W1],
+            "b1": [float(v) for v in self.b1],
+            "W2": [float(v) for v in self.W2],
+            "b2": float(self.b2),
+        }
+
+    @classmethod
+    def from_parameters(cls, parameters, *, encoder=None, training=None):
+        names = ("W1", "b1", "W2", "b2", "encoding", "activation", "input_offset", "input_gain",
+                 "target_offset", "target_gain")
+        if not isinstance(parameters, dict) or not all(name in parameters for name in names):
+            shown = sorted(parameters) if isinstance(parameters, dict) else type(parameters).__name__
+            raise ModelFileError(
+                f"ann model parameters must be an object with the keys {', '.join(names)} "
+                f"(docs/model-file.md). Got {shown} instead."
+            )
+        p = parameters
+        try:
+            return cls(p["W1"], p["b1"], p["W2"], p["b2"], encoding=p["encoding"],
+                       activation=p["activation"], input_offset=p["input_offset"],
+                       input_gain=p["input_gain"], target_offset=p["target_offset"],
+                       target_gain=p["target_gain"], encoder=encoder, training=training)
+        except InputError as exc:
+            raise ModelFileError(f"ann model parameters are invalid: {exc}") from None
+
+    def __repr__(self):
+        name = self.encoder.get("name") or "unnamed encoder"
+        return (f"<ANNModel 1:{self.hidden}:1 {self.encoding} {self.activation} for {name}>")
+
+
+def _array(value, name, ndim):
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name} must be an array of floats. Got {value!r:.60} instead.") from None
+    if array.ndim != ndim or not np.all(np.isfinite(array)):
+        raise InputError(f"{name} must be a {ndim}-D array of finite floats. "
+                         f"Got a {array.ndim}-D array with {array.size} values instead.")
+    return array
+
+
+def _scalar(value, name):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value):
+        raise InputError(f"{name} must be a finite float. Got {value!r} instead.")
+    return float(value)
+
+
+def _check_choice(name, value, choices):
+    if value not in choices:
+        raise InputError(f"{name} must be one of {', '.join(map(repr, sorted(choices)))}. "
+                         f"Got {value!r} instead.")
+
+
+def _seed_of(rng):
+    """``(generator argument, seed to record)`` for ``rng`` = None, an int >= 0 or a Generator."""
+    if rng is None:
+        seed = int(np.random.SeedSequence().generate_state(1)[0])
+        return seed, seed
+    if isinstance(rng, np.random.Generator):
+        return rng, None
+    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and rng >= 0:
+        return int(rng), int(rng)
+    raise InputError(f"rng must be None, an int >= 0 or a numpy.random.Generator. Got {rng!r} instead.")
+
+
+def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", encoding="periodic",
+            activation="tansig", rng=None, validation=None, **train_options):
+    """Train a 1:N:1 network on an error profile.
+
+    Parameters
+    ----------
+    theta_enc_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors ``encoder - reference`` in arc-minutes.
+    hidden : int, optional
+        Hidden neurons N. Default :data:`DEFAULT_HIDDEN` of the encoding: 80
+        (the paper's) for ``'raw'``, 12 for ``'periodic'``.
+    algorithm : str, default='trainlm'
+        Training algorithm, MATLAB's name (``sorted(encal.training.ALGORITHMS)``).
+    encoding : {'periodic', 'raw'}, default='periodic'
+        Network input: ``(cos θ, sin θ)``, or the paper's angle in degrees.
+    activation : {'tansig', 'logsig'}, default='tansig'
+        Hidden activation.
+    rng : None, int >= 0 or numpy.random.Generator
+        Seed of the Nguyen-Widrow initial weights; the same seed gives the
+        same model. ``None`` draws a seed and records it.
+    validation : tuple of (theta_enc_deg, error_arcmin), optional
+        Points not used for training; enables the ``max_fail`` criterion.
+    **train_options
+        Stopping parameters and algorithm options of
+        :func:`encal.training.train` (``epochs``, ``goal``, ``mu``, ``plateau_patience``, ...).
+
+    Returns
+    -------
+    ANNModel
+        ``model.train_result`` is the :class:`~encal.training.TrainResult`;
+        ``model.training`` records ``method``, ``algorithm``, ``epochs``,
+        ``stop_reason``, ``seed``, ``train_mse_arcmin2`` (final training MSE in
+        arcmin²), ``hidden``, ``encoding``, ``activation`` and ``options``.
+
+    Raises
+    ------
+    InputError
+        If an option is invalid.
+    CalibrationError
+        If training ends without finite weights.
+
+    Examples
+    --------
+    >>> theta = np.arange(0.0, 360.0, 2.0)
+    >>> error = 3.0 * np.sin(np.radians(theta)) + np.cos(np.radians(3 * theta))
+    >>> model = fit_ann(theta, error, hidden=6, rng=0)
+    >>> bool(abs(model.predict(91.0) - (3.0 * np.sin(np.radians(91.0)) + np.cos(np.radians(273.0)))) < 0.01)
+    True
+    """
+    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_ann")
+    _check_choice("encoding", encoding, ENCODINGS)
+    _check_choice("activation", activation, ACTIVATIONS)
+    _check_choice("algorithm", algorithm, ALGORITHMS)
+    if hidden is None:
+        hidden = DEFAULT_HIDDEN[encoding]
+    if isinstance(hidden, bool) or not isinstance(hidden, numbers.Integral) or hidden < 1:
+        raise InputError(f"hidden must be an int >= 1. Got {hidden!r} instead.")
+    hidden = int(hidden)
+    generator, seed = _seed_of(rng)
+
+    problem = NetworkProblem.from_angles(theta, error, hidden, encoding=encoding, activation=activation)
+    validation_problem = None
+    if validation is not None:
+        try:
+            theta_val, error_val = validation
+        except (TypeError, ValueError):
+            raise InputError("validation must be a pair (theta_enc_deg, error_arcmin). "
+                             f"Got {type(validation).__name__} instead.") from None
+        theta_val, error_val = profile_arrays(theta_val, error_val, "fit_ann validation")
+        validation_problem = NetworkProblem.from_angles(
+            theta_val, error_val, hidden, encoding=encoding, activation=activation,
+            input_scaling=problem.input_scaling, target_scaling=problem.target_scaling)
+
+    result = train(problem, algorithm, x0=problem.initial_weights(generator),
+                   validation=validation_problem, **train_options)
+    if result.x is None or not np.all(np.isfinite(result.x)):
+        raise CalibrationError(f"training the 1:{hidden}:1 network with {algorithm} gave no finite "
+                               "weights; expected finite errors in arc-minutes")
+
+    W1, b1, W2, b2 = problem.unpack(result.x)
+    target_gain = float(problem.target_scaling.gain)
+    model = ANNModel(
+        W1.copy(), b1.copy(), W2.copy(), float(b2), encoding=encoding, activation=activation,
+        input_offset=np.atleast_1d(problem.input_scaling.offset),
+        input_gain=np.atleast_1d(problem.input_scaling.gain),
+        target_offset=float(problem.target_scaling.offset), target_gain=target_gain,
+        training={
+            "method": "ann",
+            "algorithm": algorithm,
+            "epochs": int(result.epochs),
+            "stop_reason": result.reason,
+            "seed": seed,
+            "train_mse_arcmin2": float(result.mse) / target_gain**2,
+            "hidden": hidden,
+            "encoding": encoding,
+            "activation": activation,
+            "options": {key: _plain(value) for key, value in train_options.items()},
+        },
+    )
+    model.train_result = result
+    return model
+
+
+def _plain(value):
+    """An option value as JSON-ready data."""
+    if isinstance(value, (bool, str)) or value is None:
+        return value
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        return float(value)
+    return repr(value)

@@ -1,0 +1,444 @@
+"""Figures of the paper's procedure, drawn with Matplotlib.
+
+Every ``plot_*`` function draws on ``ax`` and returns it. With ``ax=None`` it
+makes a new :class:`matplotlib.figure.Figure` that pyplot does not manage, so
+nothing opens a window and figures made in a loop are freed with their last
+reference; show one with ``ax.figure`` in a notebook, or save it with
+:func:`save_figure`. The ``*_figure`` functions lay out one panel per encoder,
+(a)-(d) as in the paper.
+
+The smooth curves through error profiles and residuals (the paper's
+"smoothened spline") are periodic smoothing splines, see
+:func:`periodic_smoothing_spline`.
+"""
+
+import io
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._atomic import atomic_write
+from .errors import InputError
+
+__all__ = [
+    "PeriodicSpline",
+    "periodic_smoothing_spline",
+    "new_axes",
+    "panel_figure",
+    "save_figure",
+    "figure_png",
+    "plot_profile",
+    "plot_harmonics",
+    "plot_sweep",
+    "plot_training_curves",
+    "plot_algorithms",
+    "plot_singular_values",
+    "plot_residuals",
+    "plot_repeats",
+]
+
+_TRAIN_COLOUR = "#1f77b4"
+_TEST_COLOUR = "#ff7f0e"
+_CURVE_COLOUR = "#222222"
+_FLOOR_COLOUR = "#bbbbbb"
+
+
+# --------------------------------------------------------------------------- smoothing
+
+
+@dataclass(frozen=True, eq=False)
+class PeriodicSpline:
+    """A periodic smoothing spline: a trigonometric polynomial of degrees.
+
+    Attributes
+    ----------
+    orders : ndarray of int
+        Orders 0..K.
+    cos, sin : ndarray
+        Coefficients of ``cos(k θ)`` and ``sin(k θ)`` (θ in radians), in the data's unit.
+    lam : float
+        Smoothing parameter chosen by generalised cross-validation.
+    edf : float
+        Effective degrees of freedom (trace of the smoother matrix).
+    """
+
+    orders: np.ndarray
+    cos: np.ndarray
+    sin: np.ndarray
+    lam: float
+    edf: float
+
+    def __call__(self, theta_deg):
+        """The spline at ``theta_deg`` (degrees)."""
+        theta = np.radians(np.asarray(theta_deg, dtype=float))[..., None]
+        k = self.orders
+        return (np.cos(k * theta) @ self.cos + np.sin(k * theta) @ self.sin)[()]
+
+
+def periodic_smoothing_spline(theta_deg, values, max_order=None):
+    """Fit a periodic cubic smoothing spline, its smoothing chosen by generalised cross-validation.
+
+    Minimises ``Σ (y_i − f(θ_i))² + λ ∫ f''(θ)² dθ`` over 2π-periodic ``f``. In the Fourier basis the
+    roughness is ``π Σ k⁴ (a_k² + b_k²)``, so the periodic smoothing spline (Wahba 1975) is a ridge
+    regression on ``cos kθ, sin kθ`` with penalty ``k⁴``; orders above ``max_order`` are negligible under
+    that penalty and are dropped. λ minimises the GCV score ``n RSS / (n − edf)²``.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Angles in degrees, any order.
+    values : array-like of shape (n,)
+        Data (arcmin).
+    max_order : int, optional
+        Highest order; default ``min((n_distinct − 1) // 2 − 1, 150)``.
+
+    Returns
+    -------
+    PeriodicSpline
+
+    Examples
+    --------
+    >>> theta = np.arange(0.0, 360.0, 2.0)
+    >>> spline = periodic_smoothing_spline(theta, np.sin(np.radians(theta)))
+    >>> bool(abs(spline(90.0) - 1.0) < 1e-3)
+    True
+    """
+    theta = np.radians(np.mod(np.asarray(theta_deg, dtype=float).reshape(-1), 360.0))
+    y = np.asarray(values, dtype=float).reshape(-1)
+    if theta.size != y.size or theta.size < 8 or not np.all(np.isfinite(y)):
+        raise InputError(f"periodic_smoothing_spline expects at least 8 finite values, one per angle. "
+                         f"Got {theta.size} angles and {y.size} values instead.")
+    n_distinct = np.unique(np.round(theta, 12)).size
+    if max_order is None:
+        max_order = min((n_distinct - 1) // 2 - 1, 150)
+    orders = np.arange(max(int(max_order), 1) + 1)
+    design = np.hstack([np.cos(np.outer(theta, orders)), np.sin(np.outer(theta, orders[1:]))])
+    penalty = np.pi * np.concatenate([orders.astype(float) ** 4, orders[1:].astype(float) ** 4])
+    # Diagonalise once (R = chol(AᵀA), M = R⁻ᵀ D R⁻¹ = U Λ Uᵀ), then every λ costs O(p):
+    # fitted values Q z / (1 + λ Λ) with Q = A R⁻¹ U orthonormal and z = Qᵀ y.
+    gram = design.T @ design
+    gram.flat[:: gram.shape[0] + 1] += 1e-12 * np.trace(gram) / gram.shape[0]
+    R = np.linalg.cholesky(gram).T
+    R_inv = np.linalg.inv(R)
+    eigenvalues, U = np.linalg.eigh(R_inv.T @ (penalty[:, None] * R_inv))
+    eigenvalues = np.clip(eigenvalues, 0.0, None)
+    Q = design @ (R_inv @ U)
+    z = Q.T @ y
+    outside = float(y @ y - z @ z)  # part of y the basis cannot represent
+    n = y.size
+
+    def gcv(log_lam):
+        shrink = 1.0 / (1.0 + 10.0**log_lam * eigenvalues)
+        rss = max(outside, 0.0) + float(np.sum((z * (1.0 - shrink)) ** 2))
+        edf = float(shrink.sum())
+        return n * rss / max(n - edf, 1e-9) ** 2, edf
+
+    grid = np.linspace(-12.0, 4.0, 161)
+    scores = [gcv(g)[0] for g in grid]
+    best = grid[int(np.argmin(scores))]
+    fine = np.linspace(best - 0.1, best + 0.1, 21)
+    best = fine[int(np.argmin([gcv(g)[0] for g in fine]))]
+    lam = 10.0**best
+    coefficients = R_inv @ (U @ (z / (1.0 + lam * eigenvalues)))
+    k = orders.size
+    return PeriodicSpline(orders, coefficients[:k], np.r_[0.0, coefficients[k:]], float(lam), gcv(best)[1])
+
+
+# --------------------------------------------------------------------------- figures and files
+
+
+def new_axes(ax=None, figsize=(6.4, 3.6)):
+    """``ax``, or the axes of a new Figure (not managed by pyplot) when ``ax`` is None."""
+    if ax is not None:
+        return ax
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, layout="constrained").add_subplot()
+
+
+def panel_figure(items, draw, *, title=None, ncols=2, panel_size=(4.6, 3.0), sharey=False):
+    """One panel per item, labelled (a), (b), ... as in the paper's figures.
+
+    Parameters
+    ----------
+    items : mapping of str to object
+        Panel name (the encoder) -> what ``draw`` plots.
+    draw : callable
+        ``draw(obj, ax)``; it sets the panel's own title.
+    title : str, optional
+        Figure title.
+    ncols : int, default=2
+    panel_size : (float, float), default=(4.6, 3.0)
+        Inches per panel.
+    sharey : bool, default=False
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    names = list(items)
+    if not names:
+        raise InputError("panel_figure needs at least one item to draw. Got none.")
+    ncols = min(ncols, len(names))
+    nrows = math.ceil(len(names) / ncols)
+    fig = Figure(figsize=(panel_size[0] * ncols, panel_size[1] * nrows + (0.4 if title else 0)),
+                 layout="constrained")
+    axes = np.atleast_1d(fig.subplots(nrows, ncols, sharey=sharey, squeeze=False).ravel())
+    for index, (name, ax) in enumerate(zip(names, axes)):
+        draw(items[name], ax)
+        ax.set_title(f"({chr(ord('a') + index)}) {ax.get_title()}", fontsize="medium")
+    for ax in axes[len(names):]:
+        ax.set_visible(False)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def figure_png(fig, dpi=100):
+    """The figure as PNG bytes."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=dpi)
+    return buffer.getvalue()
+
+
+def save_figure(fig, path, dpi=100):
+    """Write the figure as a PNG file, atomically; returns the path."""
+    atomic_write(path, figure_png(fig, dpi=dpi))
+    return path
+
+
+# --------------------------------------------------------------------------- Fig. 1 and spectra
+
+
+def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, title=None):
+    """Fig. 1: an error profile against the encoder angle, with a smooth periodic curve.
+
+    Parameters
+    ----------
+    theta_deg, error_arcmin : array-like of shape (n,)
+        Training points: encoder angles (degrees) and errors ``encoder − reference`` (arcmin).
+    test : (array-like, array-like), optional
+        Test points, drawn in another colour; the curve passes through both sets.
+    smooth : bool, default=True
+        Draw the periodic smoothing spline through all points.
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    theta = np.asarray(theta_deg, dtype=float)
+    error = np.asarray(error_arcmin, dtype=float)
+    ax.plot(theta, error, ".", ms=3.5, color=_TRAIN_COLOUR, label="training grid")
+    all_theta, all_error = theta, error
+    if test is not None:
+        test_theta, test_error = (np.asarray(a, dtype=float) for a in test)
+        ax.plot(test_theta, test_error, ".", ms=3.5, color=_TEST_COLOUR, label="test grid")
+        all_theta, all_error = np.r_[theta, test_theta], np.r_[error, test_error]
+    if smooth:
+        spline = periodic_smoothing_spline(all_theta, all_error)
+        grid = np.linspace(0.0, 360.0, 1441)
+        ax.plot(grid, spline(grid), "-", lw=1.0, color=_CURVE_COLOUR, label="smoothing spline")
+    _angle_axis(ax)
+    ax.set_ylabel("error θ_enc − θ_ref (arcmin)")
+    if title is not None:
+        ax.set_title(title)
+    ax.legend(loc="best", fontsize="x-small", frameon=False)
+    return ax
+
+
+def plot_harmonics(harmonics, *, n_label=10, ax=None, title=None):
+    """The harmonic spectrum of an error profile: amplitude against order, the largest labelled.
+
+    Parameters
+    ----------
+    harmonics : Harmonics
+        From :func:`encal.harmonics`.
+    n_label : int, default=10
+        Label the orders of the ``n_label`` largest amplitudes (the paper's top-10 rule).
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+    """
+    ax = new_axes(ax)
+    orders = np.asarray(harmonics.orders)
+    amplitude = np.asarray(harmonics.amplitude_arcmin)
+    floor = max(amplitude.max() * 1e-4, 1e-6)
+    shown = np.maximum(amplitude, floor)
+    ax.vlines(orders, floor, shown, color=_TRAIN_COLOUR, lw=0.8)
+    top = harmonics.top(n_label)
+    ax.plot(top, shown[top], "o", ms=4, color=_TEST_COLOUR, label=f"top {len(top)}")
+    for k in top:
+        ax.annotate(str(k), (k, shown[k]), textcoords="offset points", xytext=(0, 4), ha="center",
+                    fontsize="x-small")
+    ax.set_yscale("log")
+    ax.set_ylim(floor, amplitude.max() * 3)
+    ax.set_xlim(-1, orders.max() + 1)
+    ax.set_xlabel("harmonic order (cycles per revolution)")
+    ax.set_ylabel("amplitude (arcmin)")
+    if title is not None:
+        ax.set_title(title)
+    ax.legend(loc="upper right", fontsize="x-small", frameon=False)
+    return ax
+
+
+# --------------------------------------------------------------------------- Fig. 2 and Table 2
+
+
+def plot_sweep(sweep, ax=None):
+    """Fig. 2a: final training MSE (arcmin²) against the number of hidden nodes, per algorithm.
+
+    Error bars span ± one standard deviation over seeds (none for a single seed).
+    """
+    ax = new_axes(ax)
+    for algorithm in sweep.algorithms:
+        mean, std = sweep.mse_mean(algorithm), sweep.mse_std(algorithm)
+        ax.errorbar(sweep.hidden, mean, yerr=std if sweep.n_seeds > 1 else None, marker="o", ms=4,
+                    capsize=2, lw=1.2, label=algorithm)
+    if 80 in sweep.hidden:
+        ax.axvline(80, color=_FLOOR_COLOUR, ls=":", lw=1, label="paper's choice, N = 80")
+    ax.set_yscale("log")
+    ax.set_xlabel("hidden nodes N")
+    ax.set_ylabel("final training MSE (arcmin²)")
+    ax.set_title(f"1:N:1 network, {sweep.encoding} input, {sweep.encoder}")
+    ax.legend(fontsize="x-small", frameon=False)
+    return ax
+
+
+def plot_training_curves(curves, *, hidden=None, ax=None):
+    """Fig. 2b: training MSE (arcmin²) against epoch, one line per algorithm (first seed solid).
+
+    Parameters
+    ----------
+    curves : mapping of str to list of ndarray
+        Algorithm -> MSE per epoch (epoch 0 first) of each seed's fit.
+    hidden : int, optional
+        Hidden-node count, for the title.
+    """
+    ax = new_axes(ax)
+    for index, (algorithm, runs) in enumerate(curves.items()):
+        colour = f"C{index % 10}"
+        for k, curve in enumerate(r for r in runs if r is not None):
+            ax.plot(np.arange(curve.size), curve, color=colour, lw=1.2 if k == 0 else 0.6,
+                    alpha=1.0 if k == 0 else 0.4, label=algorithm if k == 0 else None)
+    ax.set_yscale("log")
+    ax.set_xlabel("epoch")
+    ax.set_ylabel("training MSE (arcmin²)")
+    if hidden is not None:
+        ax.set_title(f"1:{hidden}:1 network")
+    ax.legend(fontsize="x-small", frameon=False, ncols=2)
+    return ax
+
+
+def plot_algorithms(study, ax=None):
+    """Table 2 as a figure: final MSE per algorithm, mean (dot) and range over seeds (bar), paper's value (x)."""
+    from .studies.tables import PAPER_TABLE2
+
+    ax = new_axes(ax)
+    rows = sorted(study.rows, key=lambda r: r.mse_mean, reverse=True)
+    y = np.arange(len(rows))
+    ax.hlines(y, [r.mse_min for r in rows], [r.mse_max for r in rows], color=_TRAIN_COLOUR, lw=2.5,
+              alpha=0.5, label=f"range over {study.n_seeds} seeds")
+    ax.plot([r.mse_mean for r in rows], y, "o", color=_TRAIN_COLOUR, ms=5, label="mean")
+    paper = [(PAPER_TABLE2[r.algorithm], i) for i, r in enumerate(rows) if r.algorithm in PAPER_TABLE2]
+    if paper:
+        ax.plot(*zip(*paper), "x", color=_TEST_COLOUR, ms=6, mew=1.5, label="paper (one run)")
+    ax.set_yticks(y, [r.algorithm for r in rows])
+    ax.set_xscale("log")
+    ax.set_xlabel("final training MSE (arcmin²)")
+    ax.set_title(f"1:{study.hidden}:1, {study.epochs} epochs each, {study.encoder}")
+    ax.legend(fontsize="x-small", frameon=False, loc="lower right")
+    return ax
+
+
+# --------------------------------------------------------------------------- Fig. 3
+
+
+def plot_singular_values(pruning, ax=None):
+    """Fig. 3: singular values of the hidden layer before and after the activation, relative to the largest.
+
+    The paper's matrix (before the sigmoid) has rank 2 for one input: its singular values beyond the second
+    are rounding noise, drawn at their (tiny) values. After the activation, the significant ones are those
+    above the threshold line.
+    """
+    ax = new_axes(ax)
+    index = np.arange(1, pruning.singular_after.size + 1)
+    tiny = 1e-17
+    before = np.maximum(pruning.singular_before / pruning.singular_before[0], tiny)
+    after = np.maximum(pruning.singular_after / pruning.singular_after[0], tiny)
+    ax.semilogy(index, before, "s", ms=3, mfc="none", color=_FLOOR_COLOUR,
+                label=f"X before sigmoid (paper), rank {pruning.rank_before_activation}")
+    ax.semilogy(index, after, "o", ms=3, color=_TRAIN_COLOUR, label="H after sigmoid")
+    ax.axhline(pruning.threshold, color=_TEST_COLOUR, ls="--", lw=1,
+               label=f"threshold {pruning.threshold:g}: {pruning.significant} significant")
+    ax.set_ylim(tiny / 3, 3)
+    ax.set_xlabel("singular value index")
+    ax.set_ylabel("σ_i / σ_1")
+    ax.set_title(f"{pruning.encoder}: 1:{pruning.hidden}:1 {pruning.encoding}")
+    ax.legend(fontsize="x-small", frameon=False, loc="lower left")
+    return ax
+
+
+# --------------------------------------------------------------------------- Fig. 4
+
+
+def plot_residuals(comparison, key="ann-paper", ax=None, smooth=True):
+    """Fig. 4: one model's residual on the test grid against the encoder angle, with a smooth curve.
+
+    Parameters
+    ----------
+    comparison : Comparison
+        From :func:`encal.studies.comparison.compare_models`.
+    key : str, default='ann-paper'
+        Which model (``'fourier'``, ``'lut-linear'``, ``'lut-cubic'``, ``'ann-paper'``, ``'ann-periodic'``).
+    ax : matplotlib.axes.Axes, optional
+    smooth : bool, default=True
+        Draw a periodic smoothing spline, to show systematic structure left in the residual.
+    """
+    ax = new_axes(ax)
+    entry = comparison.entry(key)
+    theta = comparison.encoder_deg
+    if entry.floor_arcmin is not None:
+        ax.axhspan(-entry.floor_arcmin, entry.floor_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,
+                   label=f"± measurement floor ({entry.floor_arcmin:.2f})")
+    ax.plot(theta, entry.residual_arcmin, ".", ms=3.5, color=_TEST_COLOUR, label="test grid")
+    if smooth:
+        spline = periodic_smoothing_spline(theta, entry.residual_arcmin)
+        grid = np.linspace(0.0, 360.0, 1441)
+        ax.plot(grid, spline(grid), "-", lw=1.0, color=_CURVE_COLOUR, label="smoothing spline")
+    ax.axhline(0.0, color=_CURVE_COLOUR, lw=0.5)
+    _angle_axis(ax)
+    ax.set_ylabel("residual (arcmin)")
+    ax.set_title(f"{comparison.encoder}: {entry.label}, RMS {entry.stats.rms:.3f}")
+    ax.legend(fontsize="x-small", frameon=False, loc="upper right")
+    return ax
+
+
+# --------------------------------------------------------------------------- reproducibility
+
+
+def plot_repeats(result, ax=None):
+    """Repeat calibration minus first calibration against the reference angle, with the ± 1 LSB band."""
+    ax = new_axes(ax)
+    if result.lsb_arcmin is not None:
+        ax.axhspan(-result.lsb_arcmin, result.lsb_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,
+                   label=f"± 1 LSB ({result.lsb_arcmin:.3f})")
+    for index, run in enumerate(result.runs):
+        ax.plot(run.reference_deg, run.difference_arcmin, ".-", ms=3, lw=0.5, color=f"C{index}",
+                label=f"{run.label} − first (RMS {run.difference.rms:.2f})")
+    _angle_axis(ax)
+    ax.set_xlabel("reference angle (deg)")
+    ax.set_ylabel("difference (arcmin)")
+    ax.set_title(result.encoder)
+    ax.legend(fontsize="x-small", frameon=False, loc="upper right")
+    return ax
+
+
+def _angle_axis(ax):
+    ax.set_xlim(0.0, 360.0)
+    ax.set_xticks(np.arange(0, 361, 60))
+    ax.set_xlabel("encoder angle θ_enc (deg)")

@@ -1,0 +1,178 @@
+"""Reproducibility of an error profile across calibrations (the paper's repeat epochs and second decoder).
+
+The paper calibrates each encoder again at later epochs and finds the profiles
+"near reproducible, to within the limits of the decoder resolution"; it also
+finds that one resolver read by two decoders differs by about 2 arcmin, and
+so calibrates each resolver-decoder pair as one unit. This study measures
+both: the difference between a repeat calibration and the first one at the
+same reference angles (statistics, and the share of points within one LSB),
+and the residual left when the model fitted to the first calibration corrects
+the repeat, which is what a user of an old calibration gets.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..angles import lsb_arcmin
+from ..errors import InputError
+from ..fitting import evaluate, fit
+from ..profile import error_stats
+from ._checks import check_calibration, check_seed
+from ._fits import task_seed
+
+__all__ = ["RepeatRun", "Reproducibility", "reproducibility", "matched_difference"]
+
+
+@dataclass(frozen=True, eq=False)
+class RepeatRun:
+    """A repeat calibration compared with the first.
+
+    Attributes
+    ----------
+    label : str
+        Name of the repeat (``'epoch2'``, ``'decoder2'``).
+    reference_deg : ndarray of shape (m,)
+        Reference angles present in both calibrations, degrees.
+    difference_arcmin : ndarray of shape (m,)
+        Error of the repeat minus error of the first calibration at those angles, arcmin.
+    difference : ErrorStats
+        Statistics of ``difference_arcmin``.
+    within_one_lsb : float or None
+        Share of the points whose difference is at most one LSB (None when the resolution is unknown).
+    model_residual : ErrorStats
+        Residual of the repeat after correction by the model fitted to the first calibration, arcmin.
+    floor_arcmin : float or None
+        Measurement floor of the repeat run, when known.
+    """
+
+    label: str
+    reference_deg: np.ndarray
+    difference_arcmin: np.ndarray
+    difference: object
+    within_one_lsb: float | None
+    model_residual: object
+    floor_arcmin: float | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Reproducibility:
+    """Repeat calibrations of one encoder against its first calibration.
+
+    Attributes
+    ----------
+    encoder : str
+    resolution_bits : int or None
+    lsb_arcmin : float or None
+        One LSB, arcmin.
+    model : Model
+        The model fitted to the first calibration.
+    first_test_residual : ErrorStats or None
+        That model's residual on the first epoch's test run (for comparison), arcmin.
+    runs : tuple of RepeatRun
+    """
+
+    encoder: str
+    resolution_bits: int | None
+    lsb_arcmin: float | None
+    model: object
+    first_test_residual: object
+    runs: tuple
+
+    def run(self, label):
+        """The repeat with this label."""
+        for run in self.runs:
+            if run.label == label:
+                return run
+        raise KeyError(label)
+
+    def table(self):
+        """The comparison as a :class:`~encal.studies.tables.Table`."""
+        from .tables import reproducibility_table
+
+        return reproducibility_table({self.encoder: self})
+
+    def plot(self, ax=None):
+        """Differences against the reference angle with the one-LSB band (see :func:`encal.plots.plot_repeats`)."""
+        from ..plots import plot_repeats
+
+        return plot_repeats(self, ax=ax)
+
+
+def matched_difference(first, repeat, tolerance_deg=1e-6):
+    """Error of ``repeat`` minus error of ``first`` at the reference angles both contain.
+
+    Parameters
+    ----------
+    first, repeat : Calibration
+    tolerance_deg : float, default=1e-6
+        Reference angles closer than this are the same point.
+
+    Returns
+    -------
+    reference_deg : ndarray of shape (m,)
+        The common reference angles, increasing, degrees.
+    difference_arcmin : ndarray of shape (m,)
+
+    Raises
+    ------
+    InputError
+        If fewer than 8 reference angles are common to both.
+    """
+    def keyed(cal):
+        keys = np.round(cal.reference_deg / tolerance_deg).astype(np.int64)
+        return dict(zip(keys.tolist(), cal.errors_arcmin))
+
+    a, b = keyed(first), keyed(repeat)
+    common = sorted(set(a) & set(b))
+    if len(common) < 8:
+        raise InputError(f"the repeat calibration {repeat.name or ''!s} shares {len(common)} reference angles with "
+                         "the first one; expected at least 8 common angles to compare the profiles")
+    return (np.array(common) * tolerance_deg,
+            np.array([b[k] for k in common]) - np.array([a[k] for k in common]))
+
+
+def reproducibility(first, repeats, *, model=None, test=None, resolution_bits=None, floors=None, rng=0):
+    """Compare repeat calibrations with the first one, and correct them with the first one's model.
+
+    Parameters
+    ----------
+    first : Calibration
+        The first calibration (the one a model is fitted to).
+    repeats : mapping of str to Calibration
+        Repeat calibrations by label (a later epoch, another decoder).
+    model : Model, optional
+        Model fitted to ``first``; default encal's periodic network (:func:`encal.fit` with ``method='ann'``).
+    test : Calibration, optional
+        The first epoch's test run, to show the model's residual without drift beside the repeats'.
+    resolution_bits : int, optional
+        Encoder resolution for the one-LSB share; default ``first.resolution_bits``.
+    floors : mapping of str to float, optional
+        Measurement floor of each repeat (arcmin), when known.
+    rng : int, default=0
+        Seed of the default model.
+
+    Returns
+    -------
+    Reproducibility
+    """
+    first = check_calibration(first, "first")
+    if not repeats:
+        raise InputError("repeats must name at least one repeat calibration. Got none.")
+    repeats = {str(label): check_calibration(cal, f"repeats[{label!r}]") for label, cal in repeats.items()}
+    if test is not None:
+        test = check_calibration(test, "test")
+    if model is None:
+        model = fit(first, "ann", rng=task_seed(check_seed(rng), 12, 0), encoding="periodic")
+    bits = resolution_bits if resolution_bits is not None else first.resolution_bits
+    lsb = None if bits is None else lsb_arcmin(bits)
+    floors = dict(floors or {})
+    runs = []
+    for label, cal in repeats.items():
+        reference, difference = matched_difference(first, cal)
+        within = None if lsb is None else float(np.mean(np.abs(difference) <= lsb * (1 + 1e-9)))
+        runs.append(RepeatRun(label, reference, difference, error_stats(difference), within,
+                              evaluate(model, cal).after, floors.get(label)))
+    return Reproducibility(
+        encoder=first.name, resolution_bits=bits, lsb_arcmin=lsb, model=model,
+        first_test_residual=None if test is None else evaluate(model, test).after, runs=tuple(runs))

@@ -1,0 +1,212 @@
+"""`encal correct`: streaming correction of encoder angles."""
+
+import os
+import select
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from encal.cli import main
+from encal.deploy import Compensator
+
+DATA = Path(__file__).parent / "data"
+MODEL = DATA / "model_v1_fourier.json"
+ENCAL = [sys.executable, "-m", "encal"]
+
+
+@pytest.fixture(scope="module")
+def compensator():
+    return Compensator(MODEL)
+
+
+def correct(capsys, *args):
+    status = main(["correct", str(MODEL), *map(str, args)])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+def values(out):
+    return [float(line) for line in out.splitlines()]
+
+
+def test_one_angle_per_line(tmp_path, capsys, compensator):
+    angles = [0.0, 1.5, 359.999, -10.0, 720.25, 1e-9]
+    (tmp_path / "in.txt").write_text("".join(f"{a!r}\n" for a in angles))
+    status, out, err = correct(capsys, tmp_path / "in.txt")
+    assert status == 0 and err == ""
+    assert values(out) == compensator.correct(angles).tolist()  # exact: repr round-trips
+
+
+def test_csv_with_an_encoder_deg_column(tmp_path, capsys, compensator):
+    (tmp_path / "in.csv").write_text(textwrap.dedent("""\
+        # acquired 2026-11-22
+        time_s,Encoder_Deg,temperature
+        0.0,10.5,21.0
+        0.1, 11.25 ,21.1
+
+        0.2,12.0,21.1
+        """))
+    status, out, _ = correct(capsys, tmp_path / "in.csv")
+    assert status == 0
+    assert values(out) == compensator.correct([10.5, 11.25, 12.0]).tolist()
+
+
+def test_comments_blank_lines_crlf_bom_and_no_final_newline(tmp_path, capsys, compensator):
+    (tmp_path / "in.txt").write_bytes(b"\xef\xbb\xbf# header comment\r\n1.0\r\n\r\n  2.0  \r\n3.0")
+    status, out, _ = correct(capsys, tmp_path / "in.txt")
+    assert status == 0 and values(out) == compensator.correct([1.0, 2.0, 3.0]).tolist()
+
+
+def test_empty_input_gives_empty_output(tmp_path, capsys):
+    (tmp_path / "in.txt").write_text("")
+    assert correct(capsys, tmp_path / "in.txt") == (0, "", "")
+
+
+def test_malformed_line_stops_with_its_number_and_content(tmp_path, capsys, compensator):
+    (tmp_path / "in.txt").write_text("1.0\n2.0\n# note\nabc\n4.0\n")
+    status, out, err = correct(capsys, tmp_path / "in.txt")
+    assert status == 1
+    assert values(out) == compensator.correct([1.0, 2.0]).tolist()
+    assert len(err.strip().splitlines()) == 1
+    assert "line 4" in err and "'abc'" in err and str(tmp_path / "in.txt") in err
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-Infinity", "1.0,2.0", "12deg"])
+def test_non_finite_and_malformed_numbers_are_bad_lines(tmp_path, capsys, bad):
+    (tmp_path / "in.txt").write_text(f"1.0\n{bad}\n")
+    status, out, err = correct(capsys, tmp_path / "in.txt")
+    assert status == 1 and "line 2" in err and len(values(out)) == 1
+
+
+def test_malformed_csv_field(tmp_path, capsys):
+    (tmp_path / "in.csv").write_text("a,encoder_deg\n1,2\n3\n")
+    status, out, err = correct(capsys, tmp_path / "in.csv")
+    assert status == 1 and "line 3" in err and "column 2" in err and len(values(out)) == 1
+
+
+def test_skip_bad_writes_nan_and_goes_on(tmp_path, capsys, compensator):
+    (tmp_path / "in.txt").write_text("1.0\nabc\nnan\n4.0\n")
+    status, out, _ = correct(capsys, tmp_path / "in.txt", "--skip-bad")
+    assert status == 0
+    result = values(out)
+    assert np.isnan(result[1]) and np.isnan(result[2])
+    assert [result[0], result[3]] == compensator.correct([1.0, 4.0]).tolist()
+
+
+def test_large_file_in_blocks_is_exact(tmp_path, capsys, compensator):
+    angles = np.random.default_rng(0).uniform(-400.0, 400.0, 50_000)  # several read blocks
+    (tmp_path / "in.txt").write_text("".join(f"{a!r}\n" for a in angles.tolist()))
+    status, out, _ = correct(capsys, tmp_path / "in.txt")
+    assert status == 0 and values(out) == compensator.correct(angles).tolist()
+
+
+def test_bad_line_in_a_later_block_keeps_the_earlier_answers(tmp_path, capsys):
+    lines = [f"{i * 0.01!r}\n" for i in range(30_000)]
+    lines[25_000] = "oops\n"
+    (tmp_path / "in.txt").write_text("".join(lines))
+    status, out, err = correct(capsys, tmp_path / "in.txt")
+    assert status == 1 and "line 25001" in err and len(values(out)) == 25_000
+
+
+def test_overlong_line_is_refused(tmp_path, capsys):
+    (tmp_path / "in.txt").write_text("1" * 200_000)
+    status, _, err = correct(capsys, tmp_path / "in.txt")
+    assert status == 1 and "bytes" in err
+
+
+def test_missing_input_and_bad_model_exit_1(tmp_path, capsys):
+    assert main(["correct", str(MODEL), str(tmp_path / "missing.txt")]) == 1
+    assert "missing.txt" in capsys.readouterr().err
+    (tmp_path / "m.json").write_text("{")
+    assert main(["correct", str(tmp_path / "m.json"), str(tmp_path / "missing.txt")]) == 1
+    assert "m.json" in capsys.readouterr().err
+
+
+def test_usage_error_exits_2(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["correct"])
+    assert info.value.code == 2
+
+
+# -- as a process in a pipe -------------------------------------------------------------
+
+def test_reads_standard_input_by_default(compensator):
+    result = subprocess.run([*ENCAL, "correct", str(MODEL)], input=b"10\n20\n",
+                            capture_output=True, timeout=120, check=True)
+    assert values(result.stdout.decode()) == compensator.correct([10.0, 20.0]).tolist()
+    dash = subprocess.run([*ENCAL, "correct", str(MODEL), "-"], input=b"10\n",
+                          capture_output=True, timeout=120, check=True)
+    assert values(dash.stdout.decode()) == compensator.correct([10.0]).tolist()
+
+
+def test_answers_each_line_before_the_next_is_written(compensator):
+    # A live acquisition chain: one reading in, its correction out, then the next.
+    with subprocess.Popen([*ENCAL, "correct", str(MODEL)], stdin=subprocess.PIPE,
+                          stdout=subprocess.PIPE) as proc:
+        for theta in (12.5, 200.0, 359.75, -3.0):
+            proc.stdin.write(f"{theta}\n".encode())
+            proc.stdin.flush()
+            ready, _, _ = select.select([proc.stdout], [], [], 120)  # guards against a hang
+            assert ready, "no answer to a line while the input stayed open"
+            assert float(proc.stdout.readline()) == float(compensator.correct(theta))
+        proc.stdin.close()
+        assert proc.wait(timeout=60) == 0
+
+
+def test_closed_output_pipe_ends_quietly():
+    with subprocess.Popen([sys.executable, "-c", "import sys\n"
+                           "for i in range(300000): sys.stdout.write(f'{i % 360}\\n')"],
+                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL) as source, \
+            subprocess.Popen([*ENCAL, "correct", str(MODEL)], stdin=source.stdout,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE) as proc:
+        source.stdout.close()
+        first = proc.stdout.readline()
+        proc.stdout.close()  # like `| head -1`
+        err = proc.stderr.read()
+        proc.wait(timeout=120)
+    assert float(first) >= 0
+    assert proc.returncode == 0 and b"Traceback" not in err and b"Exception" not in err
+
+
+# -- constant memory --------------------------------------------------------------------
+
+GENERATOR = """\
+import sys
+n = int(sys.argv[1])
+block = "".join(f"{(i * 0.0137) % 720 - 360!r}\\n" for i in range(10_000)).encode()
+out = sys.stdout.buffer
+for _ in range(n // 10_000):
+    out.write(block)
+"""
+
+
+def stream_lines(n):
+    """Pipe n generated lines through `encal correct`; return (count, last line, peak RSS in KiB)."""
+    with subprocess.Popen([sys.executable, "-c", GENERATOR, str(n)],
+                          stdout=subprocess.PIPE) as source, \
+            subprocess.Popen([*ENCAL, "correct", str(MODEL)], stdin=source.stdout,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE) as proc:
+        source.stdout.close()
+        count, tail = 0, b""
+        while chunk := proc.stdout.read(1 << 20):
+            count += chunk.count(b"\n")
+            tail = (tail + chunk)[-200:]
+        stderr = proc.stderr.read()
+        _, status, usage = os.wait4(proc.pid, 0)  # the rusage of this one process
+        proc.returncode = os.waitstatus_to_exitcode(status)
+    assert proc.returncode == 0 and source.returncode == 0, stderr
+    return count, tail.splitlines()[-1], usage.ru_maxrss
+
+
+def test_ten_million_lines_in_constant_memory(compensator):
+    small_count, _, small_rss = stream_lines(10_000)
+    count, last, rss = stream_lines(10_000_000)
+    assert small_count == 10_000 and count == 10_000_000
+    last_input = (9_999 * 0.0137) % 720 - 360
+    assert float(last) == float(compensator.correct(last_input))
+    # The whole input would take > 500 MB as Python floats and strings: memory must not grow.
+    assert rss - small_rss < 16 * 1024, (small_rss, rss)

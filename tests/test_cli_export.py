@@ -1,0 +1,102 @@
+"""`encal export`: dense tables and C source from a model file."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from encal.cli import main
+from encal.deploy import Compensator, compile_table, load_table
+from encal.models.fourier import FourierModel
+
+DATA = Path(__file__).parent / "data"
+MODEL = DATA / "model_v1_lut.json"
+
+
+def export(capsys, *args):
+    status = main(["export", *map(str, args)])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+@pytest.mark.parametrize("dtype", ["int16", "float32"])
+def test_table(tmp_path, capsys, dtype):
+    path = tmp_path / "enc.tab"
+    status, out, err = export(capsys, MODEL, "--format", "table", "--bits", 12, "--dtype", dtype,
+                              "-o", path)
+    assert status == 0 and err == "" and str(path) in out and "arcmin" in out
+    table = load_table(path)
+    assert table.bits == 12 and table.dtype == dtype
+    expected = compile_table(MODEL, 12, dtype=dtype)
+    np.testing.assert_array_equal(table.values, expected.values)
+    assert table.model_sha256 == json.loads(MODEL.read_text())["sha256"]
+
+
+def test_table_bits_default_to_the_model_file(tmp_path, capsys):
+    status, _, _ = export(capsys, MODEL, "--format", "table", "-o", tmp_path / "t.tab")
+    assert status == 0 and load_table(tmp_path / "t.tab").bits == 16
+
+
+def test_c(tmp_path, capsys):
+    status, out, _ = export(capsys, MODEL, "--format", "c", "-o", tmp_path / "fw", "--name", "axis1")
+    assert status == 0
+    header = (tmp_path / "fw" / "axis1.h").read_text()
+    source = (tmp_path / "fw" / "axis1.c").read_text()
+    assert "float axis1_correct_deg(float theta_deg);" in header
+    assert "axis1_correct_counts" in source and "kind lut" in source
+    assert str(tmp_path / "fw" / "axis1.c") in out
+
+
+def test_c_with_a_table(tmp_path, capsys):
+    status, _, _ = export(capsys, MODEL, "--format", "c", "-o", tmp_path, "--table", "--bits", 10,
+                          "--dtype", "float32")
+    source = (tmp_path / "encal.c").read_text()
+    assert status == 0 and "static const float error_table[1024]" in source
+
+
+def test_c_constants_option(tmp_path, capsys):
+    export(capsys, DATA / "model_v1_fourier.json", "--format", "c", "-o", tmp_path,
+           "--constants", "double")
+    assert "static const double model_cos" in (tmp_path / "encal.c").read_text()
+
+
+def test_missing_bits_exit_1(tmp_path, capsys):
+    path = FourierModel([1], [1.0], [0.0]).save(tmp_path / "m.json")
+    status, _, err = export(capsys, path, "--format", "table", "-o", tmp_path / "t.tab")
+    assert status == 1 and "--bits" in err
+    assert not (tmp_path / "t.tab").exists()
+
+
+def test_invalid_prefix_exit_1_and_writes_nothing(tmp_path, capsys):
+    status, _, err = export(capsys, MODEL, "--format", "c", "-o", tmp_path / "fw", "--name", "9x")
+    assert status == 1 and "C identifier" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "fw").exists()
+
+
+def test_bad_model_file_exit_1(tmp_path, capsys):
+    (tmp_path / "m.json").write_text("[]")
+    status, _, err = export(capsys, tmp_path / "m.json", "--format", "c", "-o", tmp_path)
+    assert status == 1 and "m.json" in err
+
+
+def test_table_into_missing_folder_exit_1(tmp_path, capsys):
+    status, _, err = export(capsys, MODEL, "--format", "table", "-o", tmp_path / "no" / "t.tab")
+    assert status == 1 and "does not exist" in err
+
+
+@pytest.mark.parametrize("args", [["--format", "c"], ["-o", "x"], ["--format", "onnx", "-o", "x"],
+                                  ["--format", "table", "-o", "x", "--dtype", "int8"]])
+def test_usage_errors_exit_2(capsys, args):
+    with pytest.raises(SystemExit) as info:
+        main(["export", str(MODEL), *args])
+    assert info.value.code == 2
+
+
+def test_exported_table_corrects_like_the_model(tmp_path, capsys):
+    export(capsys, MODEL, "--format", "table", "-o", tmp_path / "t.tab")
+    table = load_table(tmp_path / "t.tab")
+    codes = np.arange(0, 2**16, 97)
+    expected = Compensator(MODEL).correct(codes * (360.0 / 2**16))
+    difference = (table.correct_counts(codes) - expected + 180.0) % 360.0 - 180.0
+    assert np.abs(difference).max() <= table.quantisation_arcmin / 60 + 1e-12

@@ -1,0 +1,235 @@
+"""Drift between repeated calibrations and the verdict on a model of the first."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import encal
+from encal import Calibration, InputError
+from encal.drift import (
+    circular_mean_offset_arcmin,
+    compare_calibrations,
+    infer_resolution_bits,
+    split_epochs,
+)
+
+GRID = np.arange(0.0, 360.0, 2.0)
+LSB16 = encal.lsb_arcmin(16)
+
+
+def profile(theta_deg, phase=0.0):
+    r = np.radians(theta_deg)
+    return 2.0 * np.sin(r + phase) + 0.7 * np.cos(2 * r) + 0.2 * np.sin(5 * r)
+
+
+def calibration(reference_deg, error_arcmin, rng=None, noise=0.0, offset_deg=0.0, **kwargs):
+    rng = np.random.default_rng(rng)
+    error = error_arcmin + rng.normal(0.0, noise, np.size(reference_deg))
+    return Calibration(reference_deg, reference_deg + offset_deg + error / 60.0, **kwargs)
+
+
+# ---------------------------------------------------------------- simulated epochs
+
+
+@pytest.fixture(scope="module")
+def fleet():
+    from encal.simulate._fleet import simulate_fleet
+
+    return simulate_fleet(2, seed=5)
+
+
+def test_two_simulated_epochs_of_one_encoder_hold(fleet):
+    member = fleet[0]
+    report = compare_calibrations([member.train.calibration, member.epoch2.calibration])
+    assert report.holds
+    (epoch,) = report.epochs
+    assert not epoch.interpolated and epoch.share_within_lsb > 0.5
+    assert report.resolution_bits == 16 and not report.resolution_inferred
+    assert report.tolerance_arcmin == pytest.approx(LSB16)
+
+
+def test_a_calibration_of_another_encoder_does_not_hold(fleet):
+    report = compare_calibrations([fleet[0].train.calibration, fleet[1].train.calibration])
+    assert not report.holds
+    assert report.epochs[0].difference.rms > 3 * LSB16
+
+
+def test_a_different_grid_is_interpolated(fleet):
+    member = fleet[0]
+    report = compare_calibrations([member.train.calibration, member.test.calibration])
+    assert report.epochs[0].interpolated and report.holds
+
+
+# ---------------------------------------------------------------- zero offsets and matching
+
+
+def test_an_arbitrary_zero_is_removed_and_reported():
+    # A repeat whose reference started 44 grid steps later: the same shaft position has another reference
+    # angle, and the encoder reads a constant 88 degrees more.
+    first = calibration(GRID, profile(GRID), resolution_bits=16)
+    shifted = np.mod(GRID - 88.0, 360.0)
+    later = calibration(shifted, profile(GRID), offset_deg=88.0, resolution_bits=16)
+    report = compare_calibrations([first, later], orders=[0, 1, 2, 5])
+    (epoch,) = report.epochs
+    assert epoch.offset_change_arcmin == pytest.approx(88.0 * 60, abs=1e-6)
+    assert not epoch.interpolated
+    assert epoch.difference.max_abs < 1e-9
+    assert report.holds
+    kept = compare_calibrations([first, later], offset="keep", orders=[0, 1, 2, 5])
+    assert not kept.holds and kept.epochs[0].difference.rms > 1000
+
+
+def test_same_grid_differences_are_exact():
+    first = calibration(GRID, profile(GRID), resolution_bits=16)
+    later = calibration(GRID, profile(GRID) + 0.3 * np.cos(np.radians(3 * GRID)), resolution_bits=16)
+    (epoch,) = compare_calibrations([first, later], offset="keep").epochs
+    assert not epoch.interpolated
+    assert_allclose(epoch.difference_arcmin, 0.3 * np.cos(np.radians(3 * GRID)), atol=1e-9)
+    assert_allclose(epoch.angle_deg, GRID)
+
+
+def test_offset_removal_changes_neither_shape_nor_verdict_of_a_fixed_zero():
+    rng = np.random.default_rng(0)
+    first = calibration(GRID, profile(GRID), rng, noise=0.1, offset_deg=0.5, resolution_bits=16)
+    later = calibration(GRID, profile(GRID), rng, noise=0.1, offset_deg=0.5, resolution_bits=16)
+    removed, kept = (compare_calibrations([first, later], offset=mode) for mode in ("remove", "keep"))
+    assert removed.holds and kept.holds
+    assert removed.epochs[0].difference.std == pytest.approx(kept.epochs[0].difference.std, rel=1e-3)
+
+
+def test_circular_mean_offset_across_the_wrap():
+    cal = Calibration(GRID, GRID + 179.9 + 0.2 * np.sin(np.radians(GRID)))
+    assert circular_mean_offset_arcmin(cal) == pytest.approx(179.9 * 60, abs=1e-6)
+
+
+# ---------------------------------------------------------------- verdict and tolerance
+
+
+def test_a_drift_larger_than_the_tolerance_fails():
+    rng = np.random.default_rng(1)
+    first = calibration(GRID, profile(GRID), rng, noise=0.1, resolution_bits=16)
+    later = calibration(GRID, profile(GRID) + 0.8 * np.sin(np.radians(7 * GRID)), rng, noise=0.1,
+                        resolution_bits=16)
+    report = compare_calibrations([first, later])
+    (epoch,) = report.epochs
+    assert not report.holds
+    assert epoch.residual_rms_arcmin > report.baseline_rms_arcmin + report.tolerance_arcmin
+    loose = compare_calibrations([first, later], tolerance_arcmin=1.0)
+    assert loose.holds and loose.tolerance_rule == "given"
+
+
+def test_tolerance_is_ten_percent_without_resolution():
+    rng = np.random.default_rng(2)
+    first = calibration(GRID, profile(GRID), rng, noise=0.1)
+    later = calibration(GRID, profile(GRID), rng, noise=0.1)
+    report = compare_calibrations([first, later])
+    assert report.resolution_bits is None and report.lsb_arcmin is None
+    assert report.tolerance_arcmin == pytest.approx(0.1 * report.baseline_rms_arcmin)
+    assert report.epochs[0].share_within_lsb is None
+
+
+def test_detectable_drift_follows_from_baseline_and_tolerance():
+    first = calibration(GRID, profile(GRID), 3, noise=0.2, resolution_bits=16)
+    report = compare_calibrations([first, calibration(GRID, profile(GRID), 4, noise=0.2, resolution_bits=16)])
+    base, tolerance = report.baseline_rms_arcmin, report.tolerance_arcmin
+    assert report.detectable_drift_rms_arcmin == pytest.approx(np.sqrt((base + tolerance) ** 2 - base**2))
+
+
+def test_a_given_model_is_judged():
+    rng = np.random.default_rng(5)
+    first = calibration(GRID, profile(GRID), rng, noise=0.1, resolution_bits=16)
+    later = calibration(GRID, profile(GRID), rng, noise=0.1, resolution_bits=16)
+    model = encal.fit(first, "lut")
+    report = compare_calibrations([first, later], model=model)
+    assert report.method is None and report.model_kind == "lut"
+    assert report.baseline_rms_arcmin == pytest.approx(0.0, abs=1e-12)  # a table interpolates its points
+    assert report.holds
+
+
+def test_one_calibration_with_epochs_is_split():
+    rng = np.random.default_rng(6)
+    runs = [calibration(GRID, profile(GRID), rng, noise=0.1, resolution_bits=16) for _ in range(3)]
+    joined = Calibration(np.concatenate([r.reference_deg for r in runs]),
+                         np.concatenate([r.encoder_deg for r in runs]),
+                         epoch=np.repeat(["2016", "2017", "2018"], GRID.size), name="enc7", resolution_bits=16)
+    assert [len(run) for run in split_epochs(joined)] == [GRID.size] * 3
+    report = compare_calibrations(joined)
+    assert report.baseline_label == "enc7 2016"
+    assert [epoch.label for epoch in report.epochs] == ["enc7 2017", "enc7 2018"]
+
+
+def test_duplicate_labels_are_told_apart():
+    cal = calibration(GRID, profile(GRID), name="enc1")
+    report = compare_calibrations([cal, cal, cal])
+    assert [report.baseline_label] + [e.label for e in report.epochs] == ["enc1", "enc1 (2)", "enc1 (3)"]
+
+
+def test_as_dict_keys():
+    cal = calibration(GRID, profile(GRID), 0, noise=0.1, resolution_bits=16)
+    data = compare_calibrations([cal, calibration(GRID, profile(GRID), 1, noise=0.1, resolution_bits=16)]).as_dict()
+    assert {"baseline", "offset", "model_kind", "method", "resolution_bits", "lsb_arcmin", "baseline_rms_arcmin",
+            "tolerance_arcmin", "tolerance_rule", "detectable_drift_rms_arcmin", "holds", "epochs"} <= set(data)
+    epoch = data["epochs"][0]
+    assert {"label", "n", "interpolated", "offset_change_arcmin", "difference", "residual_rms_arcmin",
+            "increase_arcmin", "holds"} <= set(epoch)
+    assert {"rms_arcmin", "max_abs_arcmin", "share_within_lsb"} <= set(epoch["difference"])
+
+
+# ---------------------------------------------------------------- refused input
+
+
+@pytest.mark.parametrize("cals, match", [
+    ([], "at least two"),
+    ("not calibrations", "Calibration"),
+    (3, "list of Calibrations"),
+])
+def test_bad_calibration_lists_are_refused(cals, match):
+    with pytest.raises(InputError, match=match):
+        compare_calibrations(cals)
+
+
+def test_one_calibration_without_epochs_is_refused():
+    with pytest.raises(InputError, match="at least two"):
+        compare_calibrations([calibration(GRID, profile(GRID))])
+
+
+def test_bidirectional_calibrations_are_refused():
+    reference = np.concatenate([GRID, GRID])
+    both = Calibration(reference, reference, direction=np.repeat([1, -1], GRID.size))
+    with pytest.raises(InputError, match="one direction"):
+        compare_calibrations([both, both])
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"tolerance_arcmin": -0.1}, "tolerance_arcmin"),
+    ({"tolerance_arcmin": float("inf")}, "tolerance_arcmin"),
+    ({"offset": "subtract"}, "offset"),
+    ({"labels": ["a"]}, "one label per calibration"),
+])
+def test_bad_options_are_refused(options, match):
+    cal = calibration(GRID, profile(GRID))
+    with pytest.raises(InputError, match=match):
+        compare_calibrations([cal, cal], **options)
+
+
+# ---------------------------------------------------------------- resolution
+
+
+def test_resolution_is_inferred_from_whole_counts():
+    counts = np.round((GRID + 0.01 * np.sin(np.radians(GRID))) * 2**14 / 360.0)
+    assert infer_resolution_bits(Calibration(GRID, counts * 360.0 / 2**14)) == 14
+    assert infer_resolution_bits(calibration(GRID, profile(GRID))) is None
+
+
+# ---------------------------------------------------------------- real repeats
+
+
+def test_real_repeat_holds_and_another_board_does_not(real_data_dir):
+    first = encal.read_calibration(real_data_dir / "mech_kaiwol_2016-10-20_b_92fa4feb.csv")
+    repeat = encal.read_calibration(real_data_dir / "mech_kaiwol_2016-10-21_9d58ebc8.csv")
+    other = encal.read_calibration(real_data_dir / "mech_kaiwol_2016-10-20_a_740df76b.csv")
+    report = compare_calibrations([first, repeat, other])
+    assert report.resolution_bits == 14 and report.resolution_inferred
+    same, different = report.epochs
+    assert same.holds and same.difference.rms < 1.5 * report.lsb_arcmin
+    assert not different.holds
