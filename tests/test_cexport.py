@@ -302,3 +302,10 @@ def test_directional_models_export_directed_functions(tmp_path):
 def test_only_directional_formulas_have_directed_functions():
     assert "directed" not in export_c(DATA / "model_v1_fourier.json")["encal.h"]
     assert "directed" not in export_c(DATA / "model_v1_directional.json", table="int16")["encal.h"]
+
+
+def test_constants_beyond_float32_range():
+    model = FourierModel([1], [1e39], [0.0], encoder={"resolution_bits": 8})
+    assert "static const double model_cos" in export_c(model)["encal.c"]
+    with pytest.raises(InputError, match="float32's range"):
+        export_c(model, constants="float")

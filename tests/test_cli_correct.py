@@ -202,6 +202,7 @@ def stream_lines(n):
     return count, tail.splitlines()[-1], usage.ru_maxrss
 
 
+@pytest.mark.slow
 def test_ten_million_lines_in_constant_memory(compensator):
     small_count, _, small_rss = stream_lines(10_000)
     count, last, rss = stream_lines(10_000_000)

@@ -436,3 +436,15 @@ def test_stored_files_load_and_predict_the_stored_values(path):
                                rtol=0, atol=1e-9)
     np.testing.assert_allclose(model.correct(expected["theta_deg"]), expected["correct_deg"],
                                rtol=0, atol=1e-9 / 60)
+
+
+@pytest.mark.parametrize("change, field", [
+    (lambda p: p["forward"].update(kind="directional"), "parameters.forward.kind"),
+    (lambda p: p.pop("reverse"), "parameters.reverse"),
+    (lambda p: p["reverse"]["parameters"].pop("breaks_deg"), "parameters.reverse.parameters"),
+    (lambda p: p["forward"]["uncertainty"].update(noise_std_arcmin=-1.0), "uncertainties"),
+])
+def test_refuses_malformed_directional_models(tmp_path, change, field):
+    document = json.loads((DATA / "model_v1_directional.json").read_text(encoding="utf-8"))
+    change(document["parameters"])  # the parameters are checked before the normalisation
+    assert field in refusal(write_document(tmp_path / "d.json", document))

@@ -34,7 +34,8 @@ SEEDS = range(5)
 
 
 def linear_problem(seed, hessian_range, n=6, m=30, noise=0.1):
-    """``(problem, x0)``: least squares whose MSE Hessian ``2AᵀA/m`` has eigenvalues spread over ``hessian_range``."""
+    """``(problem, x0)``: least squares whose MSE Hessian ``2AᵀA/m`` has its eigenvalues
+    spread geometrically over ``hessian_range``."""
     rng = np.random.default_rng(seed)
     U, _ = np.linalg.qr(rng.standard_normal((m, n)))
     V, _ = np.linalg.qr(rng.standard_normal((n, n)))
@@ -45,7 +46,7 @@ def linear_problem(seed, hessian_range, n=6, m=30, noise=0.1):
 
 
 class ExpSine:
-    """Zero-residual fit of ``y = a·exp(-b·t) + c·sin(d·t)`` to data made with known parameters."""
+    """Zero-residual fit of ``y = a·exp(-b·t) + c·sin(d·t)`` to data from known parameters."""
 
     TRUTH = np.array([2.0, 0.8, 0.5, 3.0])
 
@@ -106,7 +107,8 @@ def relative_error(x, truth):
 
 MATLAB_DEFAULTS = {
     "traingd": (1e-5, {"lr": 0.01}),
-    "traingdx": (1e-5, {"lr": 0.01, "lr_inc": 1.05, "lr_dec": 0.7, "max_perf_inc": 1.04, "mc": 0.9}),
+    "traingdx": (1e-5, {"lr": 0.01, "lr_inc": 1.05, "lr_dec": 0.7, "max_perf_inc": 1.04,
+                        "mc": 0.9}),
     "trainrp": (1e-5, {"delt_inc": 1.2, "delt_dec": 0.5, "delta0": 0.07, "deltamax": 50.0}),
     "trainscg": (1e-6, {"sigma": 5e-5, "lambda_": 5e-7}),
     "traincgf": (1e-10, {"line_search": "wolfe", "alpha": 0.001, "beta": 0.1, "low_lim": 0.1,
@@ -124,7 +126,8 @@ MATLAB_DEFAULTS = {
 def test_registered_with_matlab_defaults(algorithm):
     backend, stopping = ALGORITHMS[algorithm]
     min_grad, options = MATLAB_DEFAULTS[algorithm]
-    assert stopping == {"min_grad": min_grad}  # epochs=1000, goal=0, max_fail=6, time=inf from train()
+    # epochs=1000, goal=0, max_fail=6 and time=inf are train()'s defaults for every algorithm.
+    assert stopping == {"min_grad": min_grad}
     parameters = inspect.signature(backend).parameters
     defaults = {name: p.default for name, p in parameters.items()
                 if name not in ("problem", "x0", "monitor")}
@@ -217,7 +220,7 @@ ROSENBROCK = {
 def test_rosenbrock(algorithm):
     epochs, tol, n_starts = ROSENBROCK[algorithm]
     for start in Rosenbrock.STARTS[:n_starts]:
-        # mse >= 0.0998·‖x − x*‖² near the minimum, so this goal only stops runs that are done.
+        # mse >= 0.0998·‖x − x*‖² near the minimum: this goal only stops runs that are done.
         result = train(Rosenbrock(), algorithm, x0=start, epochs=epochs, goal=0.01 * tol**2)
         assert relative_error(result.x, np.ones(2)) <= tol, (start, result)
 
@@ -290,14 +293,16 @@ BAD_OPTIONS = [
 @pytest.mark.parametrize(("algorithm", "option", "value"), BAD_OPTIONS)
 def test_bad_option_values_are_refused_in_one_sentence(algorithm, option, value):
     problem, x0 = linear_problem(0, (1.0, 10.0))
-    with pytest.raises(InputError, match=rf"^{option} of {algorithm} must be .*\. Got .* instead\.$"):
+    message = rf"^{option} of {algorithm} must be .*\. Got .* instead\.$"
+    with pytest.raises(InputError, match=message):
         train(problem, algorithm, x0=x0, **{option: value})
 
 
 @pytest.mark.parametrize("algorithm", LINE_SEARCH_METHODS)
 def test_unknown_line_search_is_refused(algorithm):
     problem, x0 = linear_problem(0, (1.0, 10.0))
-    with pytest.raises(InputError, match="line_search of .* must be one of 'backtracking', 'wolfe'"):
+    message = "line_search of .* must be one of 'backtracking', 'wolfe'"
+    with pytest.raises(InputError, match=message):
         train(problem, algorithm, x0=x0, line_search="srchcha")
 
 
@@ -356,7 +361,8 @@ def test_traingdx_without_momentum_or_adaptation_is_traingd():
 def test_trainrp_step_sizes_stay_within_zero_and_deltamax(deltamax):
     for seed in SEEDS:
         problem, x0 = linear_problem(seed, (1e-2, 1e2))
-        result = train(problem, "trainrp", x0=10.0 * x0, epochs=300, deltamax=deltamax, min_grad=0.0)
+        result = train(problem, "trainrp", x0=10.0 * x0, epochs=300, deltamax=deltamax,
+                       min_grad=0.0)
         low, high = result.history["step_min"], result.history["step_max"]
         assert np.all(low > 0.0) and np.all(high <= deltamax)
         if deltamax < 1.0:

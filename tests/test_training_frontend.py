@@ -38,7 +38,7 @@ class WrongGradient(LinearLeastSquares):
 
 
 class BlowsUp:
-    """``r = [exp(10·w1) − e^20, w2 − 1]``: from w1 = 1.9 the gradient is ~1e18 and long steps overflow."""
+    """``r = [exp(10·w1) − e^20, w2 − 1]``: gradient ~1e18 at w1 = 1.9; long steps overflow."""
 
     n_params, n_samples = 2, 2
 

@@ -199,12 +199,8 @@ def split_epochs(cal):
     """The runs of a calibration with an ``epoch`` column, one calibration per label, in order of appearance."""
     if cal.epoch is None:
         return [cal]
-    labels = list(dict.fromkeys(cal.epoch.tolist()))
-    runs = []
-    for label in labels:
-        part = cal.subset(cal.epoch == label)
-        runs.append(part)
-    return runs
+    labels = dict.fromkeys(cal.epoch.tolist())  # first appearance order
+    return [cal.subset(cal.epoch == label) for label in labels]
 
 
 def circular_mean_offset_arcmin(cal):
@@ -276,6 +272,16 @@ def _residual_rms(model, cal, offset):
     if offset == "remove":
         residual = residual - residual.mean()
     return float(np.sqrt(np.mean(np.square(residual))))
+
+
+def _tolerance(given_arcmin, baseline_arcmin, lsb):
+    """The allowed increase of the residual RMS (arcmin) and a phrase saying where it came from."""
+    if given_arcmin is not None:
+        return float(given_arcmin), "given"
+    relative = RELATIVE_TOLERANCE * baseline_arcmin
+    if lsb is None:
+        return relative, "10% of the residual on the first calibration (resolution unknown)"
+    return max(lsb, relative), "max(1 LSB, 10% of the residual on the first calibration)"
 
 
 def _calibrations(cals):
@@ -402,14 +408,7 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
     else:
         method = None
     baseline = _residual_rms(model, first, offset)
-    if tolerance_arcmin is None:
-        relative = RELATIVE_TOLERANCE * baseline
-        if lsb is None:
-            tolerance, rule = relative, "10% of the residual on the first calibration (resolution unknown)"
-        else:
-            tolerance, rule = max(lsb, relative), "max(1 LSB, 10% of the residual on the first calibration)"
-    else:
-        tolerance, rule = float(tolerance_arcmin), "given"
+    tolerance, rule = _tolerance(tolerance_arcmin, baseline, lsb)
 
     base_offset = circular_mean_offset_arcmin(first)
     base_angle, base_error = _profile(first, offset, base_offset)

@@ -16,7 +16,7 @@ from .calibration import Calibration
 from .errors import InputError
 from .profile import ErrorStats, error_stats
 
-__all__ = ["fit", "evaluate", "Evaluation", "METHODS", "calibration_sha256"]
+__all__ = ["fit", "evaluate", "Evaluation", "METHODS", "RANDOMISED_METHODS", "fitter", "calibration_sha256"]
 
 #: method name -> (module, fit function). Modules are imported on first use.
 METHODS = {
@@ -28,7 +28,7 @@ METHODS = {
 }
 
 #: methods whose fit takes a random generator or seed
-_RANDOMISED = {"auto", "ann", "hybrid"}
+RANDOMISED_METHODS = {"auto", "ann", "hybrid"}
 
 
 def calibration_sha256(cal):
@@ -41,7 +41,8 @@ def calibration_sha256(cal):
     return digest.hexdigest()
 
 
-def _fitter(method):
+def fitter(method):
+    """The fit function of a method: ``fit_<kind>(theta_enc_deg, error_arcmin, **options) -> Model``."""
     if method not in METHODS:
         raise InputError(f"method must be one of {', '.join(sorted(METHODS))}. Got {method!r} instead.")
     module_name, function = METHODS[method]
@@ -52,7 +53,7 @@ def _fitter(method):
     return getattr(module, function)
 
 
-def fit(cal, method="auto", *, rng=None, **options):
+def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     """Fit an error model to a calibration.
 
     Parameters
@@ -63,6 +64,9 @@ def fit(cal, method="auto", *, rng=None, **options):
         Model family; ``'auto'`` chooses by cross-validation.
     rng : int or numpy.random.Generator, optional
         Seed for the methods that draw random numbers (network initialisation).
+    uncertainty : bool, default=False
+        Also estimate the prediction uncertainty (bootstrap refits; see :mod:`encal.uncertainty`), so that
+        ``model.predict(theta, return_std=True)`` works. Costs about 70 refits.
     **options
         Passed to the family's fit function (``hidden``, ``algorithm``, ``encoding`` for ``'ann'``;
         ``orders``, ``n_orders``, ``select`` for ``'fourier'``; ``interpolation`` for ``'lut'``).
@@ -83,12 +87,13 @@ def fit(cal, method="auto", *, rng=None, **options):
     """
     if not isinstance(cal, Calibration):
         raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
-    fitter = _fitter(method)
-    if method in _RANDOMISED:
+    fit_family = fitter(method)
+    fit_options = dict(options)
+    if method in RANDOMISED_METHODS:
         options["rng"] = rng
     elif rng is not None:
         raise InputError(f"method {method!r} draws no random numbers; rng must be None")
-    model = fitter(cal.encoder_deg, cal.errors_arcmin, **options)
+    model = fit_family(cal.encoder_deg, cal.errors_arcmin, **options)
     model.encoder = {"name": cal.name, "resolution_bits": cal.resolution_bits}
     model.training = {
         "method": method,
@@ -96,8 +101,13 @@ def fit(cal, method="auto", *, rng=None, **options):
         "n_points": len(cal),
         "data_sha256": calibration_sha256(cal),
     }
+    model.training.setdefault("fit_options", fit_options)
     if isinstance(rng, (int, np.integer)):
         model.training.setdefault("seed", int(rng))
+    if uncertainty:
+        from .uncertainty import add_uncertainty
+
+        add_uncertainty(model, cal, method=method, options=fit_options, rng=rng)
     return model
 
 

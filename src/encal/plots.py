@@ -248,7 +248,7 @@ def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, ti
     ax.set_ylabel("error θ_enc − θ_ref (arcmin)")
     if title is not None:
         ax.set_title(title)
-    ax.legend(loc="best", fontsize="x-small", frameon=False)
+    _legend(ax)
     return ax
 
 
@@ -379,7 +379,7 @@ def plot_singular_values(pruning, ax=None):
     ax.set_xlabel("singular value index")
     ax.set_ylabel("σ_i / σ_1")
     ax.set_title(f"{pruning.encoder}: 1:{pruning.hidden}:1 {pruning.encoding}")
-    ax.legend(fontsize="x-small", frameon=False, loc="lower left")
+    ax.legend(fontsize="x-small", frameon=False, loc="center right")
     return ax
 
 
@@ -414,7 +414,7 @@ def plot_residuals(comparison, key="ann-paper", ax=None, smooth=True):
     _angle_axis(ax)
     ax.set_ylabel("residual (arcmin)")
     ax.set_title(f"{comparison.encoder}: {entry.label}, RMS {entry.stats.rms:.3f}")
-    ax.legend(fontsize="x-small", frameon=False, loc="upper right")
+    _legend(ax)
     return ax
 
 
@@ -434,8 +434,13 @@ def plot_repeats(result, ax=None):
     ax.set_xlabel("reference angle (deg)")
     ax.set_ylabel("difference (arcmin)")
     ax.set_title(result.encoder)
-    ax.legend(fontsize="x-small", frameon=False, loc="upper right")
+    _legend(ax)
     return ax
+
+
+def _legend(ax):
+    """A small framed legend that lets the data show through."""
+    ax.legend(fontsize="x-small", loc="best", frameon=True, framealpha=0.75, edgecolor="none")
 
 
 def _angle_axis(ax):

@@ -52,6 +52,7 @@ __all__ = [
     "expanded_uncertainty",
     "coverage",
     "cross_validated_residuals",
+    "recorded_options",
     "check_uncertainty",
 ]
 
@@ -308,19 +309,8 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
     # Trial noise of the cross-validated size (a tiny floor keeps an exact fit from collapsing the trials).
     trial_std = math.sqrt(cv_mean_square) or 1e-9 * max(1.0, float(np.max(np.abs(error))))
     fitted = model.predict(theta)
-    replicates = np.array([
-        refit(theta, fitted + refit.noise(theta.size, trial_std)).predict(grid) for _ in range(n_boot)
-    ])
-    spread = replicates.std(axis=0, ddof=1)
-
-    gain_samples = []
-    for pair in range(math.ceil(n_boot / 2)):
-        held = fold == pair % n_folds
-        a, b = (refit(theta[~held], fitted[~held] + refit.noise(int((~held).sum()), trial_std))
-                .predict(theta[held]) for _ in range(2))
-        gain_samples.append(np.square(a - b) / 2.0)
-    noise_gain = float(np.mean(np.concatenate(gain_samples))) / trial_std**2
-
+    spread = _bootstrap_spread(refit, theta, fitted, grid, trial_std, n_boot)
+    noise_gain = _fold_noise_gain(refit, theta, fitted, fold, trial_std, math.ceil(n_boot / 2))
     noise_var = cv_mean_square / (1.0 + noise_gain)
     scale = math.sqrt(noise_var) / trial_std
     return {
@@ -335,6 +325,29 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
         "fit_method": method,
         "refit_warnings": refit.warnings,
     }
+
+
+def _bootstrap_spread(refit, theta, fitted, grid, trial_std, n_boot):
+    """Standard deviation over the grid of refits to ``fitted`` plus trial noise (arcmin)."""
+    replicates = [refit(theta, fitted + refit.noise(theta.size, trial_std)).predict(grid) for _ in range(n_boot)]
+    return np.std(replicates, axis=0, ddof=1)
+
+
+def _fold_noise_gain(refit, theta, fitted, fold, trial_std, n_pairs):
+    """Variance of a fold model's prediction at its held-out points, per unit noise variance.
+
+    Two refits on the same folds that differ only in their trial noise differ by sqrt(2) times the spread of
+    one; half their mean squared difference is the variance.
+    """
+    n_folds = int(fold.max()) + 1
+    samples = []
+    for pair in range(n_pairs):
+        held = fold == pair % n_folds
+        train_theta, train_fitted = theta[~held], fitted[~held]
+        first, second = (refit(train_theta, train_fitted + refit.noise(train_theta.size, trial_std))
+                         .predict(theta[held]) for _ in range(2))
+        samples.append(np.square(first - second) / 2.0)
+    return float(np.mean(np.concatenate(samples))) / trial_std**2
 
 
 def cross_validated_residuals(theta_enc_deg, error_arcmin, method, *, options=None, n_folds=10, rng=None):
@@ -392,15 +405,14 @@ class _Refitter:
     """Refit the model's method with its options on new data, each randomised refit with a new seed."""
 
     def __init__(self, method, options, rng):
-        from .fitting import _RANDOMISED, _fitter
+        from .fitting import RANDOMISED_METHODS, fitter
 
-        self.fit = _fitter(method)
+        self.fit = fitter(method)
         self.options = {key: value for key, value in dict(options or {}).items() if key != "rng"}
-        self.randomised = method in _RANDOMISED
+        self.randomised = method in RANDOMISED_METHODS
         self.method = method
         self.generator = np.random.default_rng(rng)
         self.warnings = 0
-        self._first_warning = None
 
     def noise(self, size, std):
         return self.generator.normal(0.0, std, size)
@@ -412,8 +424,8 @@ class _Refitter:
             try:
                 model = self.fit(theta, error, **self.options, **seed)
             except (TypeError, ValueError) as exc:
-                raise InputError(f"add_uncertainty expected to refit method {self.method!r} with options "
-                                 f"{self.options!r}, but the refit failed: {exc}") from None
+                raise InputError(f"expected to refit method {self.method!r} with options {self.options!r} on "
+                                 f"{np.size(theta)} points, but the refit failed: {exc}") from None
         # Refits that warn (a network stopping early) still count: they are draws of the same procedure.
         self.warnings += bool(caught)
         return model

@@ -140,15 +140,13 @@ def _constant_type(comp, constants):
     """'float' or 'double', and the measured model change (arcmin) of float32 constants."""
     if constants == "double":
         return "double", 0.0
-    rounded = _map_numbers(comp.model.parameters(), lambda v: float(np.float32(v)))
     theta = np.arange(_CHECK_POINTS) * (360.0 / _CHECK_POINTS)
-    exact = comp.model.predict(theta)
     with np.errstate(all="ignore"):
-        document = {"kind": comp.kind, "parameters": rounded}
+        rounded = _map_floats(comp.model.parameters(), lambda v: float(np.float32(v)))
         try:
-            approximate = _rebuild(comp.model, document).predict(theta)
-            deviation = float(np.max(np.abs(approximate - exact)))
-        except (ValueError, FloatingPointError):  # a constant beyond float32's range
+            approximate = type(comp.model).from_parameters(rounded).predict(theta)
+            deviation = float(np.max(np.abs(approximate - comp.model.predict(theta))))
+        except ValueError:  # a constant beyond float32's range became infinite
             deviation = np.inf
     if constants == "float":
         if not np.isfinite(deviation):
@@ -158,18 +156,12 @@ def _constant_type(comp, constants):
     return ("float", deviation) if deviation <= FLOAT32_BUDGET_ARCMIN else ("double", deviation)
 
 
-def _rebuild(model, document):
-    return type(model).from_parameters(document["parameters"], encoder=model.encoder)
-
-
-def _map_numbers(value, function):
+def _map_floats(value, function):
     if isinstance(value, dict):
-        return {key: _map_numbers(item, function) for key, item in value.items()}
+        return {key: _map_floats(item, function) for key, item in value.items()}
     if isinstance(value, list):
-        return [_map_numbers(item, function) for item in value]
-    if isinstance(value, float) or isinstance(value, int) and not isinstance(value, bool):
-        return function(value) if isinstance(value, float) else value
-    return value
+        return [_map_floats(item, function) for item in value]
+    return function(value) if isinstance(value, float) else value
 
 
 class _Literals:

@@ -88,8 +88,12 @@ class Compensator:
         if direction is not None:
             direction = _directions(direction, theta.shape)
             if self._directional:
-                options["direction"] = direction
-        return self.model.predict(theta, **options)
+                options["direction"] = direction.reshape(-1)
+        # Models see one flat array, whatever the shape of the readings.
+        result = self.model.predict(theta.reshape(-1), **options)
+        if return_std:
+            return tuple(np.reshape(part, theta.shape)[()] for part in result)
+        return np.reshape(result, theta.shape)[()]
 
     def correct(self, theta_enc_deg, direction=None):
         """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``.

@@ -110,8 +110,9 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
     error_arcmin : array-like of shape (n,)
         Errors ``encoder - reference`` in arc-minutes.
     orders : sequence of int, optional
-        Harmonic orders to fit. When given, ``select`` and ``n_orders`` are
-        not used.
+        Harmonic orders to fit: distinct ints >= 0 (at most ``max_order`` if
+        that is given) that the angles identify together. When given,
+        ``select`` and ``n_orders`` are not used.
     n_orders : int, default=10
         With ``select='top'``: how many orders to keep (fewer if the angles
         identify fewer).
@@ -120,15 +121,14 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
 
         - ``'top'``: the paper's rule, the ``n_orders`` orders of largest
           amplitude in the harmonic analysis of the profile;
-        - ``'cv'``: rank the orders the same way and keep the number of
-          them that minimises the ``folds``-fold cross-validated RMS error
-          (see :func:`cross_validate_order_count`); of counts tied within
-          rounding, the smallest.
+        - ``'cv'``: rank the orders the same way and keep the smallest
+          number of them whose ``folds``-fold cross-validated RMS error is
+          within one standard error of the lowest (see
+          :func:`cross_validate_order_count`).
     max_order : int, optional
-        Highest order allowed. Default: :func:`~encal.profile.identifiable_order`
-        of the angles (the Nyquist order on a uniform grid). A larger value
-        is accepted for explicit ``orders`` when the least squares stays
-        full-rank.
+        Highest order ranked by ``select``; default and upper limit
+        :func:`~encal.profile.identifiable_order` of the angles (the Nyquist
+        order on a uniform grid).
     folds : int, default=5
         Number of cross-validation folds for ``select='cv'``.
 
@@ -162,9 +162,9 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
         training = {"select": "top", "n_orders": n_orders}
     elif select == "cv":
         folds = _check_count(folds, "folds", 2)
-        counts, cv_rms = cross_validate_order_count(theta, error, folds=folds, max_order=limit)
-        best = counts[_smallest_best(cv_rms, scale=np.sqrt(np.mean(error**2)))]
-        chosen = harmonics(theta, error, min(limit, stable)).top(best)
+        counts, cv_rms, cv_se = cross_validate_order_count(theta, error, folds=folds, max_order=limit)
+        best = _one_standard_error_rule(cv_rms, cv_se, scale=np.sqrt(np.mean(error**2)))
+        chosen = harmonics(theta, error, min(limit, stable)).top(counts[best])
         training = {"select": "cv", "folds": folds, "cv_rms_arcmin": [float(r) for r in cv_rms]}
     else:
         raise InputError(f"The 'select' parameter of fit_fourier must be 'top' or 'cv'. Got {select!r} instead.")
@@ -177,13 +177,21 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     """Cross-validated RMS error of keeping the ``c`` largest harmonics, for every ``c``.
 
     The orders are ranked once, by the harmonic analysis of the whole profile
-    (the paper's ranking). The distinct encoder angles, sorted around the
-    circle, are dealt to the folds in turn (0, 1, ..., folds-1, 0, 1, ...),
-    so every fold is spread evenly over the circle and its complement still
-    covers it; repeated readings of one angle stay in one fold. For each fold
-    the ``c`` top-ranked orders are fitted to the other folds (with the
-    series of the whole grid, so a Nyquist term keeps its single term) and
-    predict the held-out errors.
+    (the paper's ranking); cross-validation chooses how many of them to keep.
+    The distinct encoder angles, sorted around the circle, are dealt to the
+    folds in turn (0, 1, ..., folds-1, 0, 1, ...), so every fold is spread
+    evenly over the circle and the other folds still cover it; repeated
+    readings of one angle stay in one fold. For each fold the ``c``
+    top-ranked orders are fitted to the other folds, with the terms of the
+    whole grid (a Nyquist order keeps its single term), and predict the
+    held-out errors.
+
+    Because the ranking has seen the held-out points, orders that only fit
+    noise rank a little higher than they should and the curve favours
+    keeping too many; :func:`fit_fourier` offsets this with the
+    one-standard-error rule. Ranking inside each fold would avoid it, but a
+    fold with a fifth of the points missing cannot see the orders near the
+    Nyquist limit, which real profiles need (``docs/statistics.md``).
 
     Parameters
     ----------
@@ -202,7 +210,11 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
         ``1, 2, ..., C``; ``C`` is the longest prefix of the ranking that
         every fold's training part identifies.
     cv_rms_arcmin : ndarray of float
-        Cross-validated RMS error for each count, in arc-minutes.
+        Cross-validated RMS error for each count (all held-out points pooled),
+        in arc-minutes.
+    cv_se_arcmin : ndarray of float
+        Its standard error from the spread of the folds' mean squared
+        errors, in arc-minutes.
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "cross_validate_order_count")
     distinct, group = distinct_angles(theta)
@@ -214,21 +226,28 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     limit = identifiable_order(theta) if max_order is None else min(max_order, identifiable_order(theta))
     ranking = harmonics(theta, error, limit).ranked()
     fold = (np.arange(distinct.size) % folds)[group]
-    squared = []
+    squared, sizes = [], []
     for f in range(folds):
         train, test = fold != f, fold == f
         cos, sin = nested_harmonic_fits(theta[train], error[train], ranking, grid_deg=theta)
         phase = np.radians(np.outer(ranking, theta[test]))
         predicted = cos @ np.cos(phase) + sin @ np.sin(phase)  # one row per count
         squared.append(np.sum((error[test] - predicted) ** 2, axis=1))
+        sizes.append(test.sum())
     n_counts = min(s.size for s in squared)
-    total = sum(s[:n_counts] for s in squared)
-    return np.arange(1, n_counts + 1), np.sqrt(total / theta.size)
+    squared = np.array([s[:n_counts] for s in squared])
+    rms = np.sqrt(squared.sum(axis=0) / theta.size)
+    fold_mse = squared / np.array(sizes)[:, np.newaxis]
+    mse_se = fold_mse.std(axis=0, ddof=1) / np.sqrt(folds)
+    rms_se = mse_se / (2.0 * np.maximum(rms, np.finfo(float).tiny))  # delta method
+    return np.arange(1, n_counts + 1), rms, rms_se
 
 
-def _smallest_best(cv_rms, scale):
-    """Index of the smallest count whose CV error ties the minimum within rounding of ``scale``."""
-    return int(np.flatnonzero(cv_rms <= cv_rms.min() + 1e-9 * scale)[0])
+def _one_standard_error_rule(cv_rms, cv_se, scale):
+    """Index of the smallest count within one standard error (or rounding of ``scale``) of the best."""
+    best = int(np.argmin(cv_rms))
+    threshold = cv_rms[best] + max(cv_se[best], 1e-9 * scale)
+    return int(np.flatnonzero(cv_rms <= threshold)[0])
 
 
 def _check_count(value, name, lowest):

@@ -8,6 +8,7 @@ the rotary table. See ``docs/simulator.md``.
 """
 
 from ._encoder import EncoderState, SimulatedEncoder, draw_encoder
+from ._fleet import DEMO_EXTRA_SEED, DEMO_SEEDS, RUN_NAMES, FleetMember, demo_fleet, simulate_fleet
 from ._run import TEST_GRID_DEG, TRAINING_GRID_DEG, SimulatedRun, calibration_run, measurement_floor
 
 __all__ = [
@@ -19,4 +20,10 @@ __all__ = [
     "measurement_floor",
     "TRAINING_GRID_DEG",
     "TEST_GRID_DEG",
+    "FleetMember",
+    "RUN_NAMES",
+    "demo_fleet",
+    "simulate_fleet",
+    "DEMO_SEEDS",
+    "DEMO_EXTRA_SEED",
 ]

@@ -198,7 +198,7 @@ def compare_models(train, test, *, models=DEFAULT_MODELS, floor_arcmin=None, epo
         evaluation = evaluate(model, test)
         entries.append(ComparisonEntry(spec.key, spec.label, model, evaluation.after,
                                        evaluation.residual_arcmin, floor, fit_time))
-    return Comparison(test.name or train.name, test.encoder_deg.copy(), tuple(entries), floor)
+    return Comparison(train.name or test.name, test.encoder_deg.copy(), tuple(entries), floor)
 
 
 def _default_hidden(options):

@@ -32,7 +32,8 @@ class DirectionRule(Protocol):
         """Forget the past; return the steepest-descent direction ``-grad``."""
 
     def next(self, step, grad_change, grad):
-        """Direction after a step ``s = x_new - x`` with gradient change ``y``; ``grad`` at ``x_new``."""
+        """The direction at ``x_new``, after a step ``x_new - x`` that changed the gradient
+        by ``grad_change`` to ``grad``."""
 
 
 def _downhill(direction, grad, min_cosine):

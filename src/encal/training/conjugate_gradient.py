@@ -166,7 +166,10 @@ def trainscg(problem, x0, monitor, *, sigma=5e-5, lambda_=5e-7):
         if success:
             probe = sigma / math.sqrt(length_sq)
             probe_grad = trial_mse_and_gradient(problem, x + probe * direction)[1]
-            curvature = 0.0 if probe_grad is None else float(direction @ (probe_grad - grad)) / probe
+            if probe_grad is None:  # no curvature information; λ alone scales the step
+                curvature = 0.0
+            else:
+                curvature = float(direction @ (probe_grad - grad)) / probe
         curvature += (scale - raised_scale) * length_sq
         if curvature <= 0.0:  # make the model positive definite
             raised_scale = 2.0 * (scale - curvature / length_sq)

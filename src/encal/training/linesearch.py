@@ -96,7 +96,7 @@ class LineSearch:
 
     @classmethod
     def from_options(cls, algorithm, method, *, alpha, beta, low_lim, up_lim, minstep, maxstep):
-        """A validated search built from an algorithm's options; raises InputError naming ``algorithm``."""
+        """A validated search from an algorithm's options (errors name ``algorithm``)."""
         if method not in LINE_SEARCHES:
             raise InputError(
                 f"line_search of {algorithm} must be one of {', '.join(map(repr, LINE_SEARCHES))}. "
@@ -197,7 +197,7 @@ class LineSearch:
         return shrunk if math.isfinite(shrunk) else self.low_lim * a
 
     def _refine(self, line, low, high, phi0, slope0, min_a):
-        """Shrink [low, high] until the curvature condition holds at ``low``; returns its multiplier.
+        """Shrink [low, high] until the curvature condition holds at ``low``; return its multiplier.
 
         ``low = (a, phi, grad, slope)`` decreases the error enough but is still
         steep; ``high = (a, phi)`` does not decrease it enough. Each trial is the

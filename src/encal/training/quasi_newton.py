@@ -24,7 +24,8 @@ _EPS = np.finfo(float).eps
 
 def _curvature_ok(step, grad_change):
     """``sᵀy > 0`` by a margin: only then does a BFGS update keep ``H`` positive definite."""
-    return float(step @ grad_change) > _EPS * float(np.linalg.norm(step) * np.linalg.norm(grad_change))
+    lengths = float(np.linalg.norm(step) * np.linalg.norm(grad_change))
+    return float(step @ grad_change) > _EPS * lengths
 
 
 class InverseBFGS:

@@ -1,0 +1,139 @@
+"""The paper's network studies on your own calibration: hidden-node sweep, algorithm table, SVD pruning.
+
+  sweep       final training MSE of the 1:N:1 network for N = 10..110 with trainlm and traingd (Fig. 2)
+  algorithms  final training MSE at N = 80 for every training algorithm, over seeds (Table 2)
+  prune       SVD of the trained network's hidden layer; the network retrained at the pruned size (Fig. 3)
+
+The table goes to stdout; with --out DIR its CSV and figure(s) are written there too.
+
+Examples:
+  encal study sweep enc1_train.csv --out study/ --seeds 3
+  encal study algorithms enc1_train.csv --test enc1_test.csv --epochs 500
+  encal study prune enc1_train.csv --test enc1_test.csv
+"""
+
+from ._common import add_calibration_options, positive_int, read_calibration_from_args
+
+HELP = "hidden-node sweep, training-algorithm table or SVD pruning of the network on a calibration"
+
+
+def _nonnegative(text):
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
+    return value
+
+
+def add_arguments(parser):
+    parser.add_argument("study", choices=["sweep", "algorithms", "prune"], help="which study")
+    parser.add_argument("train", metavar="TRAIN.csv", help="calibration the networks are trained on")
+    parser.add_argument("--test", metavar="TEST.csv",
+                        help="calibration to measure test RMS on (algorithms, prune)")
+    parser.add_argument("--out", metavar="DIR", help="write the table as CSV and the figure(s) as PNG here")
+    parser.add_argument("--seeds", type=positive_int,
+                        help="fits per point from different initial weights (default: sweep 1, algorithms 5)")
+    parser.add_argument("--epochs", type=positive_int, default=1000,
+                        help="epoch budget of every fit (default: 1000, MATLAB's)")
+    parser.add_argument("--hidden", metavar="N[,N...]",
+                        help="hidden nodes: a list for sweep (default 10,20,...,110), one number otherwise "
+                             "(default 80)")
+    parser.add_argument("--algorithms", metavar="NAMES",
+                        help="comma-separated MATLAB names (default: sweep trainlm,traingd; algorithms all ten)")
+    parser.add_argument("--encoding", choices=["raw", "periodic"], default="raw",
+                        help="network input: the raw angle (the paper's, default) or cos/sin")
+    parser.add_argument("--threshold", type=float, default=1e-3,
+                        help="prune: relative threshold of a significant singular value (default: 1e-3)")
+    parser.add_argument("--seed", type=_nonnegative, default=0, help="study seed (default: 0)")
+    parser.add_argument("--workers", type=_nonnegative, metavar="N",
+                        help="worker processes (default: CPU count, at most 2; 0: none)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
+    add_calibration_options(parser)
+
+
+def _counts(text, default, single):
+    from ..errors import InputError
+
+    if text is None:
+        return default
+    try:
+        values = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        values = []
+    if not values or min(values) < 1 or (single and len(values) != 1):
+        what = "one whole number >= 1" if single else "comma-separated whole numbers >= 1"
+        raise InputError(f"--hidden must be {what}. Got {text!r} instead.")
+    return values[0] if single else tuple(values)
+
+
+def _names(text, default):
+    if text is None:
+        return default
+    return tuple(name.strip() for name in text.split(",") if name.strip())
+
+
+def _check_algorithms(names):
+    from ..errors import InputError
+    from ..training import ALGORITHMS
+
+    unknown = [name for name in names if name not in ALGORITHMS]
+    if unknown or not names:
+        raise InputError(f"--algorithms must name some of {', '.join(sorted(ALGORITHMS))}. "
+                         f"Got {', '.join(unknown) or 'none'} instead.")
+    return names
+
+
+def run(args):
+    from pathlib import Path
+
+    train = read_calibration_from_args(args.train, args)
+    test = read_calibration_from_args(args.test, args) if args.test else None
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        from ..errors import InputError
+
+        if out.exists() and not out.is_dir():
+            raise InputError(f"--out {out} is a file; expected a folder")
+        out.mkdir(parents=True, exist_ok=True)
+    common = {"rng": args.seed}
+    figures = {}
+    if args.study == "sweep":
+        from ..studies.sweep import PAPER_HIDDEN, hidden_node_sweep
+
+        hidden = _counts(args.hidden, PAPER_HIDDEN, single=False)
+        result = hidden_node_sweep(train, hidden=hidden, algorithms=_check_algorithms(_names(
+            args.algorithms, ("trainlm", "traingd"))), encoding=args.encoding, epochs=args.epochs,
+            seeds=args.seeds or 1, curve_hidden=80 if 80 in hidden else hidden[-1], workers=args.workers,
+            progress=not args.no_progress, **common)
+        table = result.table()
+        figures = {"fig2a_sweep": result.plot, "fig2b_training": result.plot_curves}
+    elif args.study == "algorithms":
+        from ..studies.algorithms import EXTRA_ALGORITHMS, PAPER_ALGORITHMS, compare_algorithms
+
+        result = compare_algorithms(train, test, algorithms=_check_algorithms(_names(
+            args.algorithms, (*PAPER_ALGORITHMS, *EXTRA_ALGORITHMS))), hidden=_counts(args.hidden, 80, True),
+            encoding=args.encoding, epochs=args.epochs, seeds=args.seeds or 5, workers=args.workers,
+            progress=not args.no_progress, **common)
+        table = result.table()
+        figures = {"table2_algorithms": result.plot, "table2_training": result.plot_curves}
+    else:
+        from ..studies.pruning import svd_pruning
+        from ..studies.tables import pruning_table
+
+        result = svd_pruning(train, test, hidden=_counts(args.hidden, 80, True), encoding=args.encoding,
+                             epochs=args.epochs, threshold=args.threshold, **common)
+        table = pruning_table({train.name: result})
+        figures = {"fig3_singular_values": result.plot}
+    print(table.to_text())
+    if out is not None:
+        from ..plots import save_figure
+
+        table.write_csv(out / f"{table.name}.csv")
+        for name, plot in figures.items():
+            save_figure(plot().figure, out / f"{name}.png")
+        print(f"wrote {out / (table.name + '.csv')} and {', '.join(name + '.png' for name in figures)} in {out}")
+    return 0

@@ -1,0 +1,177 @@
+"""The 'ann' model: fit_ann, its parameters (docs/model-file.md), periodicity and reproducibility."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose, assert_array_equal
+
+from encal.errors import InputError, ModelFileError
+from encal.models.ann import DEFAULT_HIDDEN, ANNModel, fit_ann
+from encal.models.base import model_class
+from encal.training import TrainResult
+
+TRAINING_GRID = np.arange(0.0, 360.0, 2.0)
+TEST_GRID = TRAINING_GRID + 1.0
+
+
+def smooth_profile(theta_deg):
+    """A noise-free error profile of a few harmonics, arc-minutes."""
+    t = np.radians(theta_deg)
+    return (3.0 * np.sin(t + 0.3) + 1.5 * np.cos(2 * t) + 0.5 * np.sin(4 * t + 1.0)
+            + 0.3 * np.cos(7 * t))
+
+
+def rms(values):
+    return float(np.sqrt(np.mean(np.square(values))))
+
+
+@pytest.fixture(scope="module")
+def periodic_model():
+    return fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), hidden=12, rng=0)
+
+
+@pytest.fixture(scope="module")
+def raw_model():
+    return fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), hidden=10, encoding="raw",
+                   activation="logsig", rng=0, epochs=50)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_smooth_periodic_profile_is_fitted_between_training_points(seed):
+    model = fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), hidden=12, rng=seed)
+    assert rms(model.predict(TEST_GRID) - smooth_profile(TEST_GRID)) < 0.01
+
+
+def test_default_hidden_depends_on_encoding():
+    assert DEFAULT_HIDDEN["raw"] == 80  # the paper's 1:80:1
+    model = fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), rng=0, epochs=2)
+    assert model.hidden == DEFAULT_HIDDEN["periodic"]
+
+
+@settings(max_examples=40, deadline=None)
+@given(theta=st.floats(-720.0, 720.0), turns=st.integers(-3, 3))
+def test_predict_is_periodic(periodic_model, raw_model, theta, turns):
+    for model in (periodic_model, raw_model):
+        assert_allclose(model.predict(theta + 360.0 * turns), model.predict(theta), rtol=0, atol=1e-9)
+
+
+def test_periodic_encoding_is_continuous_across_zero(periodic_model):
+    below, above = periodic_model.predict([360.0 - 1e-9, -1e-9]), periodic_model.predict([0.0, 1e-9])
+    assert_allclose(below, above, rtol=0, atol=1e-6)
+
+
+def test_parameters_have_the_documented_layout_and_formula(periodic_model):
+    p = periodic_model.parameters()
+    assert set(p) == {"encoding", "activation", "input_offset", "input_gain", "target_offset",
+                      "target_gain", "W1", "b1", "W2", "b2"}
+    assert (p["encoding"], p["activation"]) == ("periodic", "tansig")
+    assert np.shape(p["W1"]) == (12, 2) and len(p["b1"]) == len(p["W2"]) == 12
+    # docs/model-file.md, evaluated independently of the package
+    theta = np.radians(TEST_GRID)
+    u = np.column_stack((np.cos(theta), np.sin(theta)))
+    x = np.asarray(p["input_gain"]) * (u - np.asarray(p["input_offset"])) - 1
+    y = np.tanh(x @ np.asarray(p["W1"]).T + p["b1"]) @ p["W2"] + p["b2"]
+    expected = (y + 1) / p["target_gain"] + p["target_offset"]
+    assert_allclose(periodic_model.predict(TEST_GRID), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_raw_encoding_maps_degrees_with_mapminmax(raw_model):
+    p = raw_model.parameters()
+    assert p["input_offset"] == [0.0] and p["input_gain"] == [2.0 / 358.0]
+    assert np.shape(p["W1"]) == (10, 1)
+
+
+def test_parameters_survive_json_exactly(periodic_model, raw_model):
+    for model in (periodic_model, raw_model):
+        copy = model_class("ann").from_parameters(json.loads(json.dumps(model.parameters())))
+        assert_array_equal(copy.predict(TEST_GRID), model.predict(TEST_GRID))
+        assert copy.parameters() == model.parameters()
+
+
+def test_save_and_load_round_trip(periodic_model, tmp_path):
+    from encal.deploy import load_model
+
+    path = tmp_path / "enc.json"
+    periodic_model.save(path)
+    loaded = load_model(path)
+    assert isinstance(loaded, ANNModel)
+    assert_array_equal(loaded.predict(TEST_GRID), periodic_model.predict(TEST_GRID))
+
+
+def test_training_record(periodic_model):
+    t = periodic_model.training
+    result = periodic_model.train_result
+    assert isinstance(result, TrainResult)
+    assert t["method"] == "ann" and t["algorithm"] == "trainlm"
+    assert t["epochs"] == result.epochs and t["stop_reason"] == result.reason
+    assert (t["seed"], t["hidden"], t["encoding"], t["activation"]) == (0, 12, "periodic", "tansig")
+    fitted = periodic_model.predict(TRAINING_GRID)
+    assert t["train_mse_arcmin2"] == pytest.approx(np.mean((fitted - smooth_profile(TRAINING_GRID)) ** 2),
+                                                    rel=1e-6)
+    json.dumps(t)
+
+
+def test_same_seed_same_model_and_recorded_seed_reproduces():
+    error = smooth_profile(TRAINING_GRID)
+    first = fit_ann(TRAINING_GRID, error, hidden=5, rng=7, epochs=20)
+    assert fit_ann(TRAINING_GRID, error, hidden=5, rng=7, epochs=20).parameters() == first.parameters()
+    drawn = fit_ann(TRAINING_GRID, error, hidden=5, epochs=20)
+    assert isinstance(drawn.training["seed"], int)
+    again = fit_ann(TRAINING_GRID, error, hidden=5, rng=drawn.training["seed"], epochs=20)
+    assert again.parameters() == drawn.parameters()
+    from_generator = fit_ann(TRAINING_GRID, error, hidden=5, rng=np.random.default_rng(7), epochs=20)
+    assert from_generator.training["seed"] is None
+
+
+def test_trainbr_and_validation_stopping():
+    error = smooth_profile(TRAINING_GRID)
+    model = fit_ann(TRAINING_GRID, error, hidden=6, algorithm="trainbr", rng=0, epochs=30)
+    assert model.training["algorithm"] == "trainbr"
+    assert "gamma" in model.train_result.history
+    validated = fit_ann(TRAINING_GRID, error, hidden=6, rng=0,
+                        validation=(TEST_GRID, smooth_profile(TEST_GRID) + 1.0))
+    assert validated.training["stop_reason"] == "max_fail"
+
+
+def test_constant_profile_gives_a_finite_constant_model():
+    model = fit_ann(TRAINING_GRID, np.full(TRAINING_GRID.size, 2.5), hidden=3, rng=0)
+    assert np.all(np.isfinite(model.weights))
+    assert_allclose(model.predict(TEST_GRID), 2.5, atol=1e-6)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"hidden": 0}, "hidden must be an int >= 1. Got 0 instead."),
+    ({"hidden": 2.5}, "hidden must be an int >= 1. Got 2.5 instead."),
+    ({"hidden": True}, "hidden must be an int >= 1. Got True instead."),
+    ({"encoding": "sincos"}, "encoding must be one of 'periodic', 'raw'. Got 'sincos' instead."),
+    ({"activation": "relu"}, "activation must be one of 'logsig', 'tansig'. Got 'relu' instead."),
+    ({"rng": -1}, "rng must be None, an int >= 0 or a numpy.random.Generator. Got -1 instead."),
+])
+def test_invalid_options_are_rejected_in_one_sentence(options, message):
+    with pytest.raises(InputError) as info:
+        fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), **options)
+    assert str(info.value) == message
+
+
+def test_invalid_algorithm_and_data_are_rejected():
+    with pytest.raises(InputError, match="algorithm must be one of"):
+        fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), algorithm="adam")
+    with pytest.raises(InputError, match="one error per encoder angle"):
+        fit_ann(TRAINING_GRID, np.zeros(3))
+    with pytest.raises(InputError, match="finite"):
+        fit_ann(TRAINING_GRID, np.full(TRAINING_GRID.size, math.nan))
+
+
+def test_malformed_parameters_raise_model_file_error(periodic_model):
+    p = periodic_model.parameters()
+    del p["b2"]
+    with pytest.raises(ModelFileError, match="must be an object with the keys"):
+        ANNModel.from_parameters(p)
+    p = periodic_model.parameters()
+    p["W2"] = p["W2"][:-1]
+    with pytest.raises(ModelFileError, match="W2 of a periodic 1:N:1 network"):
+        ANNModel.from_parameters(p)

@@ -1,0 +1,111 @@
+"""trainbr: Bayesian regularisation on known-answer problems and MacKay's fixed point."""
+
+import inspect
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from encal.training import ALGORITHMS, LinearLeastSquares, train
+from encal.training.network import NetworkProblem
+from encal.training.trainbr import effective_parameters
+from encal.training.trainlm import DampedGaussNewton
+
+SEEDS = range(5)
+TRAINING_GRID = np.arange(0.0, 360.0, 2.0)
+TEST_GRID = TRAINING_GRID + 1.0
+
+
+def linear_problem(seed, noise, m=60, n=6):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((m, n))
+    return LinearLeastSquares(A, A @ rng.standard_normal(n) + noise * rng.standard_normal(m))
+
+
+def few_harmonics(theta_deg):
+    t = np.radians(theta_deg)
+    return 3.0 * np.sin(t + 0.3) + 1.5 * np.cos(2 * t) + 0.5 * np.sin(4 * t + 1.0)
+
+
+def test_matlab_defaults():
+    backend, _ = ALGORITHMS["trainbr"]
+    defaults = {name: p.default for name, p in inspect.signature(backend).parameters.items()
+                if p.default is not inspect.Parameter.empty}
+    assert defaults == {"mu": 0.005, "mu_dec": 0.1, "mu_inc": 10.0, "mu_max": 1e10}
+
+
+@pytest.mark.parametrize("dual", [False, True])
+def test_effective_parameters_is_mackays_gamma(dual):
+    rng = np.random.default_rng(0)
+    m, n = (8, 20) if dual else (20, 8)
+    J = rng.standard_normal((m, n))
+    beta, alpha = 2.0, 3.0
+    hessian = 2 * beta * J.T @ J + 2 * alpha * np.eye(n)
+    expected = n - 2 * alpha * np.trace(np.linalg.inv(hessian))
+    assert effective_parameters(DampedGaussNewton(J, np.zeros(m)), beta, alpha) == pytest.approx(expected,
+                                                                                               rel=1e-12)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_noise_free_linear_problem_reaches_lstsq_solution(seed):
+    # Without noise β grows without bound and the regularisation vanishes.
+    problem = linear_problem(seed, noise=0.0)
+    result = train(problem, "trainbr", x0=np.zeros(6))
+    assert_allclose(result.x, problem.solution(), rtol=1e-8, atol=1e-8)
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_noisy_linear_problem_ends_at_mackays_fixed_point(seed):
+    problem = linear_problem(seed, noise=0.5)
+    result = train(problem, "trainbr", x0=np.zeros(6))
+    alpha, beta, gamma = (result.history[k][-1] for k in ("alpha", "beta", "gamma"))
+    A, b, x = problem.A, problem.b, result.x
+    # x is the ridge solution of the final α, β ...
+    assert_allclose(x, np.linalg.solve(beta * A.T @ A + alpha * np.eye(6), beta * A.T @ b), rtol=1e-5)
+    # ... and α, β are re-estimated from it by the evidence rules.
+    eigenvalues = np.linalg.eigvalsh(A.T @ A)
+    assert gamma == pytest.approx(np.sum(beta * eigenvalues / (beta * eigenvalues + alpha)), rel=1e-4)
+    assert alpha == pytest.approx(gamma / (2 * x @ x), rel=1e-4)
+    assert beta == pytest.approx((problem.n_samples - gamma) / (2 * problem.mse(x) * problem.n_samples),
+                                 rel=1e-4)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_shrinks_effective_parameters_of_an_oversized_network_on_noisy_data(seed):
+    rng = np.random.default_rng(seed)
+    error = few_harmonics(TRAINING_GRID) + 0.1 * rng.standard_normal(TRAINING_GRID.size)
+    problem = NetworkProblem.from_angles(TRAINING_GRID, error, 30)
+    result = train(problem, "trainbr", x0=problem.initial_weights(seed), epochs=300)
+    gamma = result.history["gamma"]
+    assert gamma[0] == problem.n_params == 121
+    assert gamma[-1] < 0.4 * problem.n_params
+    # The regularised network generalises between the training points: below the noise level.
+    validation = NetworkProblem.from_angles(TEST_GRID, few_harmonics(TEST_GRID), 30,
+                                            input_scaling=problem.input_scaling,
+                                            target_scaling=problem.target_scaling)
+    test_rms_arcmin = np.sqrt(validation.mse(result.x)) / problem.target_scaling.gain
+    assert test_rms_arcmin < 0.06
+
+
+def test_records_mu_gamma_alpha_beta_every_epoch():
+    problem = linear_problem(0, noise=0.5)
+    result = train(problem, "trainbr", x0=np.zeros(6), epochs=3)
+    for name in ("mu", "gamma", "alpha", "beta"):
+        assert result.history[name].size == result.epochs + 1 == 4
+        assert np.all(result.history[name] > 0)
+    assert result.history["mu"][0] == 0.005
+
+
+def test_stops_after_epochs_and_at_goal():
+    problem = linear_problem(0, noise=0.5)
+    assert train(problem, "trainbr", x0=np.zeros(6), epochs=2).reason == "epochs"
+    goal = 1.5 * problem.mse(problem.solution())
+    result = train(problem, "trainbr", x0=np.zeros(6), goal=goal)
+    assert result.reason == "goal" and result.mse <= goal
+
+
+def test_stops_at_mu_max_when_no_step_lowers_the_performance():
+    problem = LinearLeastSquares(np.zeros((5, 3)), np.ones(5))
+    result = train(problem, "trainbr", x0=np.zeros(3), min_grad=0.0)
+    assert result.reason == "mu_max"
+    assert np.all(result.x == 0)
