@@ -141,8 +141,9 @@ def machine():
             if line.startswith("model name"):
                 cpu = line.split(":", 1)[1].strip()
                 break
-    gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.split("\n")[0] \
-        if shutil.which("gcc") else "no gcc"
+    gcc = "no gcc"
+    if shutil.which("gcc"):
+        gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.split("\n")[0]
     return (f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
             f"Python {platform.python_version()}, NumPy {np.__version__}; {gcc}")
 

@@ -131,7 +131,8 @@ def test_formula_agrees_with_python_on_every_code(tmp_path, path, constants):
     assert np.abs(at_codes[:, 0] - error).max() <= tolerance
     angle_tolerance = 2.0**-16 + tolerance / 60
     assert circular(at_codes[:, 1], comp.correct(theta)).max() <= angle_tolerance
-    assert circular(at_codes[:, 2], comp.correct(codes * (360.0 / 2**BITS))).max() <= angle_tolerance
+    by_code = comp.correct(codes * (360.0 / 2**BITS))
+    assert circular(at_codes[:, 2], by_code).max() <= angle_tolerance
     assert np.all((at_codes[:, 1:] >= 0) & (at_codes[:, 1:] < 360))
     extra = np.array(EXTRA_ANGLES, dtype=np.float32).astype(float)
     assert np.abs(at_extra[:, 0] - comp.predict(extra)).max() <= tolerance
@@ -223,7 +224,8 @@ def test_auto_constants_fall_back_to_double_when_float32_is_not_enough():
 
 
 def test_encoder_names_cannot_end_the_banner_comment():
-    model = FourierModel([1], [1.0], [0.0], encoder={"name": "evil */ int x;", "resolution_bits": 8})
+    model = FourierModel([1], [1.0], [0.0],
+                         encoder={"name": "evil */ int x;", "resolution_bits": 8})
     text = export_c(model)["encal.c"]
     banner = text[:text.index("*/")]
     assert "evil" in banner
@@ -269,8 +271,10 @@ int main(void)
     uint32_t k;
     for (k = 0; k < 65536u; k += 7u) {
         const float theta = (float)((double)k * (360.0 / 65536.0));
-        const float out[4] = {dir_correct_deg_directed(theta, 1), dir_correct_deg_directed(theta, -1),
-                              dir_correct_counts_directed(k, 1), dir_correct_deg_directed(theta, 0)};
+        const float out[4] = {dir_correct_deg_directed(theta, 1),
+                              dir_correct_deg_directed(theta, -1),
+                              dir_correct_counts_directed(k, 1),
+                              dir_correct_deg_directed(theta, 0)};
         fwrite(out, sizeof(float), 4, stdout);
     }
     return 0;
@@ -294,7 +298,8 @@ def test_directional_models_export_directed_functions(tmp_path):
     tolerance = 2.0**-16 + 1e-4 / 60
     assert circular(out[:, 0], comp.correct(theta, direction=1)).max() <= tolerance
     assert circular(out[:, 1], comp.correct(theta, direction=-1)).max() <= tolerance
-    assert circular(out[:, 2], comp.correct(codes * (360.0 / 65536), direction=1)).max() <= tolerance
+    by_code = comp.correct(codes * (360.0 / 65536), direction=1)
+    assert circular(out[:, 2], by_code).max() <= tolerance
     assert circular(out[:, 3], comp.correct(theta)).max() <= tolerance
     assert circular(out[:, 0], out[:, 1]).max() > 1e-3  # the two directions differ
 

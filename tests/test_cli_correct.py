@@ -185,7 +185,10 @@ for _ in range(n // 10_000):
 
 
 def stream_lines(n):
-    """Pipe n generated lines through `encal correct`; return (count, last line, peak RSS in KiB)."""
+    """Pipe n generated lines through `encal correct`.
+
+    Returns the number of lines out, the last line and the peak RSS of `encal correct` in KiB.
+    """
     with subprocess.Popen([sys.executable, "-c", GENERATOR, str(n)],
                           stdout=subprocess.PIPE) as source, \
             subprocess.Popen([*ENCAL, "correct", str(MODEL)], stdin=source.stdout,

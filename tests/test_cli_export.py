@@ -39,7 +39,8 @@ def test_table_bits_default_to_the_model_file(tmp_path, capsys):
 
 
 def test_c(tmp_path, capsys):
-    status, out, _ = export(capsys, MODEL, "--format", "c", "-o", tmp_path / "fw", "--name", "axis1")
+    status, out, _ = export(capsys, MODEL, "--format", "c", "-o", tmp_path / "fw",
+                            "--name", "axis1")
     assert status == 0
     header = (tmp_path / "fw" / "axis1.h").read_text()
     source = (tmp_path / "fw" / "axis1.c").read_text()

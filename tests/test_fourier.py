@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+import encal
 from encal.errors import InputError, ModelFileError
 from encal.models import MODEL_KINDS
 from encal.models.fourier import FourierModel, cross_validate_order_count, fit_fourier
@@ -203,7 +204,7 @@ def test_fit_checks_its_options():
         fit_fourier(TRAIN, errors, n_orders=0)
     with pytest.raises(InputError, match="'folds' parameter"):
         fit_fourier(TRAIN, errors, select="cv", folds=1)
-    with pytest.raises(InputError, match="'orders' parameter of fit_fourier must hold distinct ints >= 0 up to"):
+    with pytest.raises(InputError, match="'orders' parameter of fit_fourier must hold distinct ints >= 0 up"):
         fit_fourier(TRAIN, errors, orders=[1, 91], max_order=90)
     with pytest.raises(InputError, match="cannot identify"):
         fit_fourier(TRAIN, errors, orders=[89, 91])  # on 180 points 91 aliases to 89
@@ -230,3 +231,14 @@ def test_invalid_parameters_are_a_model_file_error():
         FourierModel.from_parameters({"orders": [1, 2], "cos": [1.0], "sin": [0.0]})
     with pytest.raises(ModelFileError):
         FourierModel.from_parameters({"orders": [-1], "cos": [1.0], "sin": [0.0]})
+
+
+def test_save_and_load_give_the_same_model(tmp_path):
+    model = fit_fourier(TRAIN, np.random.default_rng(8).normal(size=180), select="cv")
+    model.encoder = {"name": "enc1", "resolution_bits": 16}
+    model.save(tmp_path / "enc1.json")
+    again = encal.load_model(tmp_path / "enc1.json")
+    angles = np.random.default_rng(0).uniform(-720.0, 720.0, 500)
+    assert type(again) is type(model)
+    assert np.array_equal(again.predict(angles), model.predict(angles))
+    assert again.parameters() == model.parameters()

@@ -9,6 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
+import encal
 from encal.errors import InputError, ModelFileError
 from encal.models import MODEL_KINDS
 from encal.models.lut import LookupTableModel, fit_lut
@@ -163,3 +164,14 @@ def test_invalid_parameters_are_a_model_file_error():
     with pytest.raises(ModelFileError, match="lut model parameters"):
         LookupTableModel.from_parameters({"interpolation": "linear", "breaks_deg": [0.0, 360.0],
                                           "coefficients": [[0.0, 1.0]]})
+
+
+def test_save_and_load_give_the_same_model(tmp_path):
+    model = fit_lut(*scattered_profile(8), interpolation="cubic")
+    model.encoder = {"name": "enc1", "resolution_bits": 16}
+    model.save(tmp_path / "enc1.json")
+    again = encal.load_model(tmp_path / "enc1.json")
+    angles = np.random.default_rng(0).uniform(-720.0, 720.0, 500)
+    assert type(again) is type(model)
+    assert np.array_equal(again.predict(angles), model.predict(angles))
+    assert again.parameters() == model.parameters()

@@ -203,7 +203,8 @@ def test_bad_source_date_epoch_is_refused(tmp_path, monkeypatch):
 
 def test_date_is_utc_now_otherwise(tmp_path, monkeypatch):
     monkeypatch.delenv("SOURCE_DATE_EPOCH", raising=False)
-    date = json.loads(save_model(example_fourier(), tmp_path / "a.json").read_text())["training"]["date"]
+    path = save_model(example_fourier(), tmp_path / "a.json")
+    date = json.loads(path.read_text())["training"]["date"]
     assert date.endswith("Z") and date > "2020" and len(date) == 20
 
 

@@ -112,8 +112,11 @@ def test_history_has_one_entry_per_epoch_from_epoch_zero(algorithm):
         assert values.shape == (n,), name
     assert calls == list(range(n))
     assert result.history["mse"][0] == pytest.approx(problem.mse(x0), rel=1e-12)
-    assert result.history["mse"][-1] == pytest.approx(result.mse, rel=1e-12)
+    # With a validation problem the weights of the best validation epoch are returned, as in MATLAB.
+    best = int(np.argmin(result.history["val_mse"]))
+    assert result.history["mse"][best] == pytest.approx(result.mse, rel=1e-12)
     assert result.val_mse == pytest.approx(validation.mse(result.x), rel=1e-12)
+    assert result.val_mse == pytest.approx(result.history["val_mse"].min(), rel=1e-12)
     assert result.nfev >= n
 
 

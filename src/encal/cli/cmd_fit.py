@@ -71,6 +71,11 @@ def run(args):
     report = getattr(model, "report", None)
     if callable(report):
         print(report())
+    selection = model.training.get("selection")
+    if selection is not None:
+        from ..models.select import format_selection
+
+        print(format_selection(selection))
     print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS "
           f"{fitted.before.rms:.4g} -> {fitted.after.rms:.4g} arcmin (MAE {fitted.before.mae:.4g} -> "
           f"{fitted.after.mae:.4g}); wrote {args.output}")

@@ -1,12 +1,13 @@
 """Error statistics and harmonic analysis of one calibration.
 
 Prints n, MAE, RMS, STD (RMS about the mean), min, max and peak-to-peak of
-the error ``encoder - reference`` in arc-minutes (and in LSB when the
+the error (encoder - reference) in arc-minutes (and in LSB when the
 encoder's resolution is known), then the harmonic orders of largest
 amplitude of the error as a function of the encoder angle.
 With --json, prints one JSON object instead.
 """
 
+import argparse
 import json
 
 import numpy as np
@@ -76,8 +77,6 @@ def _report(cal, stats, analysis, top):
 
 
 def _count(text):
-    import argparse
-
     try:
         value = int(text)
     except ValueError:

@@ -194,7 +194,8 @@ def _dumps(value, indent):
                  for key, item in value.items()]
         return "{\n" + ",\n".join(items) + "\n" + indent + "}"
     if isinstance(value, list) and any(isinstance(item, (list, dict)) for item in value):
-        return "[\n" + ",\n".join(inner + _dumps(item, inner) for item in value) + "\n" + indent + "]"
+        rows = ",\n".join(inner + _dumps(item, inner) for item in value)
+        return "[\n" + rows + "\n" + indent + "]"
     return json.dumps(value, ensure_ascii=False, allow_nan=False, separators=(", ", ": "))
 
 

@@ -1,9 +1,9 @@
 """Correct encoder angles from an encal model file with the Python standard library alone.
 
 This one file is meant to be copied into a data acquisition program: it reads
-a model file written by ``encal fit`` (any kind: ``fourier``, ``lut``,
-``ann``, ``hybrid``, ``directional``), verifies its checksum and structure, and evaluates the
-model one angle at a time. It imports nothing but ``json``, ``math``,
+a model file written by ``encal fit`` (any kind: ``fourier``, ``lut``, ``ann``,
+``hybrid``, ``directional``), verifies its checksum and structure, and
+evaluates the model one angle at a time. It imports nothing but ``json``, ``math``,
 ``bisect`` and ``hashlib``; NumPy and encal need not be installed.
 
 >>> model = load("enc1.json")                        # doctest: +SKIP
@@ -119,7 +119,8 @@ def check_document(document, where, *, verify_checksum=True):
     if document.get("format") != FORMAT:
         got = ("no 'format' field" if "format" not in document
                else f"format {_describe(document['format'])}")
-        raise ModelFileError(f"{where}: expected an encal model file (format {FORMAT!r}), got {got}")
+        raise ModelFileError(f"{where}: expected an encal model file (format {FORMAT!r}), "
+                             f"got {got}")
     version = document.get("version")
     if not _is_int(version) or version < 1:
         raise ModelFileError(f"{where}: expected a format version number (an integer >= 1), "
@@ -132,7 +133,7 @@ def check_document(document, where, *, verify_checksum=True):
     missing = [name for name in FIELDS if name not in document and name != "sha256"]
     if missing:
         raise ModelFileError(f"{where}: expected the fields {', '.join(FIELDS)}, "
-                             f"but {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing")
+                             f"but {_listed(missing)} missing")
     _check_header(document, where)
     check_parameters(document["kind"], document["parameters"], where)
     check_uncertainty(document.get("uncertainty"), where)
@@ -182,7 +183,7 @@ def _check_header(document, where):
     missing = [name for name in TRAINING_FIELDS if name not in training]
     if missing:
         raise ModelFileError(f"{where}: expected the training fields {', '.join(TRAINING_FIELDS)}, "
-                             f"but {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing")
+                             f"but {_listed(missing)} missing")
 
 
 def check_parameters(kind, parameters, where, field="parameters"):
@@ -212,7 +213,7 @@ def check_uncertainty(uncertainty, where, field="uncertainty"):
     missing = [name for name in _UNCERTAINTY_FIELDS if name not in uncertainty]
     if missing:
         raise ModelFileError(f"{where}: expected {field} to hold {', '.join(_UNCERTAINTY_FIELDS)}, "
-                             f"but {', '.join(missing)} {'is' if len(missing) == 1 else 'are'} missing")
+                             f"but {_listed(missing)} missing")
     step = uncertainty["grid_step_deg"]
     size = round(360.0 / step) if _is_number(step) and step > 0 else 0
     if size < 1 or abs(size * step - 360.0) >= 1e-9:
@@ -311,6 +312,10 @@ def normalisation_of(kind, parameters):
     return {name: network[name] for name in _SCALING_FIELDS}
 
 
+def _listed(names):
+    return f"{', '.join(names)} {'is' if len(names) == 1 else 'are'}"
+
+
 def _is_int(value):
     return isinstance(value, int) and not isinstance(value, bool)
 
@@ -385,10 +390,10 @@ def _fourier(p):
 def _lut(p):
     breaks = p["breaks_deg"]
     columns = list(zip(*p["coefficients"]))  # one tuple of coefficients per interval
-    start, period, last = breaks[0], breaks[-1] - breaks[0], len(breaks) - 2
+    start, last = breaks[0], len(breaks) - 2
 
     def predict(theta_deg):
-        x = start + (theta_deg - start) % period
+        x = theta_deg - 360.0 * math.floor((theta_deg - start) / 360.0)  # into [x_0, x_0 + 360)
         i = min(max(bisect.bisect_right(breaks, x) - 1, 0), last)
         dx = x - breaks[i]
         value = 0.0
@@ -409,7 +414,7 @@ def _logsig(z):
 def _ann(p):
     periodic = p["encoding"] == "periodic"
     offsets, gains = p["input_offset"], p["input_gain"]
-    nodes = [(row, b, w) for row, b, w in zip(p["W1"], p["b1"], p["W2"])]
+    nodes = list(zip(p["W1"], p["b1"], p["W2"]))
     activation = math.tanh if p["activation"] == "tansig" else _logsig
     b2, target_offset, target_gain = p["b2"], p["target_offset"], p["target_gain"]
 

@@ -167,7 +167,9 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
         chosen = harmonics(theta, error, min(limit, stable)).top(counts[best])
         training = {"select": "cv", "folds": folds, "cv_rms_arcmin": [float(r) for r in cv_rms]}
     else:
-        raise InputError(f"The 'select' parameter of fit_fourier must be 'top' or 'cv'. Got {select!r} instead.")
+        raise InputError(
+            f"The 'select' parameter of fit_fourier must be 'top' or 'cv'. Got {select!r} instead."
+        )
     cos, sin = fit_harmonic_series(theta, error, chosen, caller="fit_fourier")
     training.update(orders=[int(k) for k in chosen], max_order=int(limit))
     return FourierModel(chosen, cos, sin, training=training)

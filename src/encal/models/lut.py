@@ -144,7 +144,8 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear"):
     """
     if interpolation not in DEGREE:
         raise InputError(
-            f"The 'interpolation' parameter of fit_lut must be 'linear' or 'cubic'. Got {interpolation!r} instead."
+            "The 'interpolation' parameter of fit_lut must be 'linear' or 'cubic'. "
+            f"Got {interpolation!r} instead."
         )
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_lut")
     angles, group = distinct_angles(theta)

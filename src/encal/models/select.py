@@ -42,6 +42,7 @@ __all__ = [
     "cross_validate",
     "choose",
     "fit_auto",
+    "format_selection",
 ]
 
 #: family -> (module, fit function) of the families auto can choose from
@@ -400,3 +401,32 @@ def _final_fit(theta, error, chosen, seeds):
         if chosen.candidate.family not in _RANDOMISED or fitted_rms <= chosen.rms_arcmin:
             return model, attempt
     return best[1], len(seeds)
+
+
+def format_selection(selection):
+    """The CV table and the reason of an auto fit, as text for a terminal.
+
+    Parameters
+    ----------
+    selection : dict
+        ``model.training['selection']`` of a model made by :func:`fit_auto` (also after a
+        save/load round trip).
+
+    Returns
+    -------
+    str
+        One line per candidate, lowest CV RMS first, the chosen one marked ``*``, then the reason.
+    """
+    rows = sorted(selection["table"], key=lambda row: (row["cv_rms_arcmin"] is None, row["cv_rms_arcmin"] or 0.0))
+    width = max(len(row["label"]) for row in rows)
+    lines = [f"cross-validation over {selection['folds']} interleaved folds (arcmin):",
+             f"    {'candidate':<{width}}  {'CV RMS':>9}  {'CV MAE':>9}  {'params':>6}  {'time':>7}"]
+    for row in rows:
+        mark = "*" if row["label"] == selection["chosen"] else " "
+        if row["cv_rms_arcmin"] is None:
+            lines.append(f"  {mark} {row['label']:<{width}}  failed: {row.get('error', 'no finite prediction')}")
+            continue
+        lines.append(f"  {mark} {row['label']:<{width}}  {row['cv_rms_arcmin']:9.4g}  {row['cv_mae_arcmin']:9.4g}  "
+                     f"{row['n_parameters']:6.0f}  {row['time_s']:6.2f}s")
+    lines.append(f"chosen: {selection['reason']}")
+    return "\n".join(lines)

@@ -100,7 +100,8 @@ class Monitor:
         if count_epoch:
             self.epoch += 1
         mse = float(mse)
-        grad_norm = float(np.linalg.norm(grad)) if grad is not None else math.nan
+        with np.errstate(over="ignore", invalid="ignore"):
+            grad_norm = float(np.linalg.norm(grad)) if grad is not None else math.nan
         if not (math.isfinite(mse) and np.all(np.isfinite(w))):
             self.reason = "non_finite"
             return True
@@ -141,8 +142,9 @@ class Monitor:
         return new_rms > old_rms * (1.0 - self.plateau_tol)
 
     def final_weights(self, w):
-        """The weights to return: best validation weights after ``max_fail``, else ``w`` (if finite)."""
-        if self.reason == "max_fail" and self.best_w is not None:
+        """The weights to return: with a validation problem, those of the best validation epoch (as MATLAB
+        does); otherwise ``w``, or the last finite weights if ``w`` is not finite."""
+        if self.best_w is not None:
             return self.best_w
         if self.reason == "non_finite" or not np.all(np.isfinite(w)):
             return self.last_finite_w

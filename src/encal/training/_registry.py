@@ -114,6 +114,9 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
     if monitor.reason is None:  # a back end that ran out of epochs without saying so
         monitor.reason = "epochs"
     x = monitor.final_weights(x)
+    if x is None:
+        raise InputError("the initial weights x0 give a NaN or infinite error; expected finite "
+                         "performance at x0 (check the data and the initial weights)")
     return TrainResult(
         x=x,
         algorithm=algorithm,

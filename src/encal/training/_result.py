@@ -28,7 +28,7 @@ class TrainResult:
     Attributes
     ----------
     x : ndarray of shape (n_params,)
-        Final weights (for ``max_fail``: the weights of the best validation epoch).
+        Final weights (with a validation problem: the weights of the best validation epoch).
     algorithm : str
         MATLAB name of the algorithm (``'trainlm'``, ...).
     reason : str

@@ -1,0 +1,249 @@
+"""Automatic model choice (encal.models.select): folds, tie rule, known-truth choices, records."""
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import encal
+from encal.cli import main
+from encal.errors import InputError
+from encal.models import select
+from encal.models.select import (
+    DEFAULT_CANDIDATES,
+    Candidate,
+    CVScore,
+    choose,
+    cross_validate,
+    fit_auto,
+    format_selection,
+    interleaved_folds,
+)
+
+GRID = np.arange(0.0, 360.0, 2.0)  # the paper's training grid
+
+
+def harmonic_profile(theta_deg):
+    """A noise-free resolver-like profile: orders 0, 1, 2 and 16, arcmin."""
+    r = np.radians(theta_deg)
+    return 0.4 + 3.0 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) + 0.7 * np.sin(16 * r + 1.0)
+
+
+def narrow_bump(theta_deg, centre=100.0, width=3.0, height=3.0):
+    """A local defect: a Gaussian bump of ``height`` arcmin and ``width`` degrees (sigma)."""
+    distance = (np.asarray(theta_deg) - centre + 180.0) % 360.0 - 180.0
+    return height * np.exp(-0.5 * (distance / width) ** 2)
+
+
+def per_step_pattern(theta_deg, seed, step=10.0):
+    """Linear within each ``step`` of the circle, a random kink (arcmin) at every step boundary."""
+    knots = np.arange(0.0, 360.0 + step, step)
+    values = np.random.default_rng(seed).normal(size=knots.size)
+    values[-1] = values[0]
+    return np.interp(theta_deg, knots, values) + 3.0 * np.sin(np.radians(theta_deg))
+
+
+def score(family, rms, n_parameters, options=None):
+    return CVScore(Candidate(family, options or {}), rms, rms, rms, n_parameters, 0.0)
+
+
+# --------------------------------------------------------------------------- folds
+
+
+def test_interleaved_folds_deal_points_round_robin_by_angle():
+    theta = np.array([350.0, 10.0, 90.0, 30.0, 270.0, 180.0])
+    # increasing order 10, 30, 90, 180, 270, 350 -> folds 0, 1, 2, 0, 1, 2
+    assert interleaved_folds(theta, 3).tolist() == [2, 0, 2, 1, 1, 0]
+
+
+@settings(max_examples=50, deadline=None)
+@given(n=st.integers(8, 400), folds=st.integers(2, 8), offset=st.floats(0.0, 360.0))
+def test_every_fold_is_spread_round_the_circle(n, folds, offset):
+    theta = (offset + np.linspace(0.0, 360.0, n, endpoint=False)) % 360.0
+    fold = interleaved_folds(theta, folds)
+    sizes = np.bincount(fold, minlength=folds)
+    assert sizes.max() - sizes.min() <= 1
+    # Consecutive held-out points of a fold are exactly `folds` points apart, except across the
+    # seam where the dealing restarts (fewer than 2 * folds when n is not a multiple of folds).
+    order = np.argsort(theta)
+    for k in range(folds):
+        position = np.flatnonzero(fold[order] == k)
+        assert np.all(np.diff(position) == folds)
+        assert position[0] + n - position[-1] < 2 * folds
+
+
+def test_repeated_readings_of_one_angle_share_a_fold():
+    theta = np.r_[GRID, GRID[::3]]
+    fold = interleaved_folds(theta, 5)
+    assert np.array_equal(fold[GRID.size:], fold[:GRID.size][::3])
+
+
+def test_every_fold_fit_sees_exactly_the_other_folds(monkeypatch):
+    seen = []
+
+    def spy(theta_deg, error_arcmin, **options):
+        seen.append(np.sort(theta_deg))
+        return encal.models.fourier.FourierModel([0], [float(np.mean(error_arcmin))], [0.0])
+
+    import encal.models.fourier
+
+    monkeypatch.setitem(select.FAMILIES, "fourier", ("encal.models.fourier", "spy_fit"))
+    monkeypatch.setattr(encal.models.fourier, "spy_fit", spy, raising=False)
+    fold = interleaved_folds(GRID, 5)
+    seeds = np.random.SeedSequence(0).spawn(5)
+    cross_validate(GRID, harmonic_profile(GRID), Candidate("fourier"), fold, seeds=seeds)
+    assert len(seen) == 5
+    for k, training in enumerate(seen):
+        assert np.array_equal(training, GRID[fold != k])
+
+
+# --------------------------------------------------------------------------- tie rule
+
+
+def test_the_lowest_cv_rms_wins_outside_the_tolerance():
+    chosen, reason = choose([score("fourier", 1.05, 10), score("ann", 1.0, 50)], tolerance=0.01)
+    assert chosen.candidate.family == "ann"
+    assert "lowest CV RMS" in reason
+
+
+def test_the_simplest_family_wins_within_the_tolerance():
+    scores = [score("ann", 1.0, 25), score("lut", 1.008, 180), score("fourier", 1.009, 20),
+              score("hybrid", 1.0, 40)]
+    chosen, reason = choose(scores, tolerance=0.01)
+    assert chosen.candidate.family == "fourier"
+    assert "simpler" in reason and "within 1%" in reason
+
+
+def test_within_a_family_fewer_parameters_win_a_tie():
+    chosen, _ = choose([score("fourier", 1.0, 40), score("fourier", 1.005, 12)], tolerance=0.01)
+    assert chosen.n_parameters == 12
+
+
+def test_failed_candidates_are_skipped_and_all_failing_is_an_error():
+    failed = CVScore(Candidate("ann"), np.inf, np.inf, np.inf, np.inf, 0.0, error="no")
+    assert choose([failed, score("lut", 2.0, 180)])[0].candidate.family == "lut"
+    with pytest.raises(InputError, match="no candidate model could be fitted"):
+        choose([failed])
+
+
+# --------------------------------------------------------------------------- known truth
+
+
+def test_noise_free_fourier_profile_picks_fourier_and_recovers_it():
+    model = fit_auto(GRID, harmonic_profile(GRID), rng=0)
+    assert model.kind == "fourier"
+    dense = np.linspace(0.0, 360.0, 1441)
+    np.testing.assert_allclose(model.predict(dense), harmonic_profile(dense), rtol=0, atol=1e-10)
+    assert sorted(model.orders.tolist()) == [0, 1, 2, 16]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_narrow_local_defect_is_not_left_to_a_low_order_fourier_series(seed):
+    truth = lambda t: harmonic_profile(t) + narrow_bump(t)  # noqa: E731
+    noisy = truth(GRID) + 0.05 * np.random.default_rng(seed).normal(size=GRID.size)
+    model = fit_auto(GRID, noisy, rng=seed)
+    assert not (model.kind == "fourier" and model.orders.max() <= 16)
+    near_defect = np.arange(85.0, 115.0, 0.25)
+    # A low-order series misses the 3-arcmin bump by about 1 arcmin; the chosen model follows it.
+    assert np.max(np.abs(model.predict(near_defect) - truth(near_defect))) < 0.3
+    fourier_top10 = encal.models.fourier.fit_fourier(GRID, noisy, n_orders=10)
+    assert np.max(np.abs(fourier_top10.predict(near_defect) - truth(near_defect))) > 0.6
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_piecewise_linear_per_step_pattern_picks_the_lookup_table(seed):
+    theta = np.arange(0.0, 360.0, 1.0)
+    model = fit_auto(theta, per_step_pattern(theta, seed), rng=seed)
+    assert model.kind == "lut"
+
+
+def test_same_seed_gives_the_same_choice_and_predictions():
+    noisy = harmonic_profile(GRID) + narrow_bump(GRID) + 0.05 * np.random.default_rng(5).normal(size=GRID.size)
+    first, second = (fit_auto(GRID, noisy, rng=7) for _ in range(2))
+    assert first.training["selection"]["chosen"] == second.training["selection"]["chosen"]
+    dense = np.linspace(0.0, 360.0, 721)
+    assert np.array_equal(first.predict(dense), second.predict(dense))
+    strip = lambda table: [{k: v for k, v in row.items() if k != "time_s"} for row in table]  # noqa: E731
+    assert strip(first.training["selection"]["table"]) == strip(second.training["selection"]["table"])
+
+
+def test_a_generator_is_accepted_as_rng():
+    model = fit_auto(GRID, harmonic_profile(GRID), rng=np.random.default_rng(3),
+                     candidates=[Candidate("fourier", {"select": "cv"}), Candidate("ann", {"hidden": 3, "epochs": 5})])
+    assert model.kind == "fourier"
+    assert model.training["seed"] is None
+
+
+# --------------------------------------------------------------------------- records
+
+
+def test_the_cv_table_and_reason_are_recorded():
+    candidates = DEFAULT_CANDIDATES[:4]
+    model = fit_auto(GRID, harmonic_profile(GRID), rng=0, candidates=candidates)
+    selection = model.training["selection"]
+    assert selection["folds"] == 5
+    assert [row["label"] for row in selection["table"]] == [c.label for c in candidates]
+    for row in selection["table"]:
+        assert set(row) >= {"family", "options", "label", "cv_rms_arcmin", "cv_mae_arcmin", "n_parameters",
+                            "time_s"}
+        assert row["cv_mae_arcmin"] <= row["cv_rms_arcmin"]
+    assert selection["chosen"] in selection["reason"]
+    json.dumps(selection)  # JSON data only
+
+
+def test_a_candidate_that_cannot_be_fitted_is_reported_not_fatal():
+    bad = Candidate("fourier", {"n_orders": 0})
+    model = fit_auto(GRID, harmonic_profile(GRID), rng=0, candidates=[bad, Candidate("lut")])
+    assert model.kind == "lut"
+    row = model.training["selection"]["table"][0]
+    assert row["cv_rms_arcmin"] is None and "n_orders" in row["error"]
+
+
+def test_fit_with_method_auto_records_the_method_and_seed():
+    cal = encal.Calibration(GRID, GRID + harmonic_profile(GRID) / 60.0, name="enc")
+    model = encal.fit(cal, method="auto", rng=4)
+    assert model.training["method"] == "auto"
+    assert model.training["seed"] == 4
+    assert model.training["selection"]["chosen"]
+
+
+def test_the_cv_table_survives_save_and_load(tmp_path):
+    cal = encal.Calibration(GRID, GRID + harmonic_profile(GRID) / 60.0, name="enc")
+    model = encal.fit(cal, method="auto", rng=0)
+    loaded = encal.load_model(model.save(tmp_path / "m.json"))
+    assert loaded.training["selection"] == json.loads(json.dumps(model.training["selection"]))
+    assert format_selection(loaded.training["selection"]) == format_selection(model.training["selection"])
+
+
+def test_encal_fit_prints_the_table_and_the_reason(tmp_path, capsys):
+    path = tmp_path / "cal.csv"
+    rows = [f"{r!r},{r + e / 60.0!r}" for r, e in zip(GRID.tolist(), harmonic_profile(GRID).tolist())]
+    path.write_text("reference_deg,encoder_deg\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--seed", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "cross-validation over 5 interleaved folds" in out
+    assert "* fourier" in out and "chosen: fourier" in out
+
+
+# --------------------------------------------------------------------------- bad options
+
+
+@pytest.mark.parametrize("folds", [1, 46, 2.5, True])
+def test_folds_out_of_range_is_refused(folds):
+    with pytest.raises(InputError, match="'folds' parameter of fit_auto must be an int from 2 to 45"):
+        fit_auto(GRID, harmonic_profile(GRID), folds=folds)
+
+
+@pytest.mark.parametrize("candidates", [[], ["fourier"]])
+def test_candidates_must_be_candidate_objects(candidates):
+    with pytest.raises(InputError, match="'candidates' parameter of fit_auto"):
+        fit_auto(GRID, harmonic_profile(GRID), candidates=candidates)
+
+
+def test_unknown_family_and_bad_tolerance_are_refused():
+    with pytest.raises(InputError, match="family must be one of"):
+        Candidate("spline")
+    with pytest.raises(InputError, match="'tolerance' parameter"):
+        fit_auto(GRID, harmonic_profile(GRID), tolerance=1.5)
