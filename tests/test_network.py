@@ -66,6 +66,14 @@ def test_gradient_matches_finite_differences_and_jacobian(seed, activation, enco
     assert_allclose(grad, central_differences(problem.mse, w), rtol=1e-6, atol=1e-8)
 
 
+@pytest.mark.parametrize("activation", sorted(ACTIVATIONS))
+@pytest.mark.parametrize("encoding", sorted(ENCODINGS))
+def test_jacobian_outer_is_j_j_transpose(encoding, activation):
+    problem, w = random_problem(0, encoding, activation)
+    J = problem.residuals_and_jacobian(w)[1]
+    assert_allclose(np.tril(problem.jacobian_outer(w)), np.tril(J @ J.T), rtol=1e-12, atol=1e-12)
+
+
 @pytest.mark.parametrize(("encoding", "expected"), [("raw", 241), ("periodic", 321)])
 def test_paper_network_sizes(encoding, expected):
     problem = NetworkProblem.from_angles(TRAINING_GRID, np.sin(np.radians(TRAINING_GRID)), 80,

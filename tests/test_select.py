@@ -23,6 +23,8 @@ from encal.models.select import (
 )
 
 GRID = np.arange(0.0, 360.0, 2.0)  # the paper's training grid
+#: Fourier and lookup tables only: fast, for the tests of what is recorded rather than what is chosen.
+CLOSED_FORM = DEFAULT_CANDIDATES[:4]
 
 
 def harmonic_profile(theta_deg):
@@ -161,7 +163,9 @@ def test_a_piecewise_linear_per_step_pattern_picks_the_lookup_table(seed):
 
 def test_same_seed_gives_the_same_choice_and_predictions():
     noisy = harmonic_profile(GRID) + narrow_bump(GRID) + 0.05 * np.random.default_rng(5).normal(size=GRID.size)
-    first, second = (fit_auto(GRID, noisy, rng=7) for _ in range(2))
+    candidates = [c for c in DEFAULT_CANDIDATES if c.family in ("fourier", "hybrid")] + [
+        Candidate("ann", {"hidden": 6, "epochs": 100})]
+    first, second = (fit_auto(GRID, noisy, rng=7, candidates=candidates) for _ in range(2))
     assert first.training["selection"]["chosen"] == second.training["selection"]["chosen"]
     dense = np.linspace(0.0, 360.0, 721)
     assert np.array_equal(first.predict(dense), second.predict(dense))
@@ -180,7 +184,7 @@ def test_a_generator_is_accepted_as_rng():
 
 
 def test_the_cv_table_and_reason_are_recorded():
-    candidates = DEFAULT_CANDIDATES[:4]
+    candidates = CLOSED_FORM
     model = fit_auto(GRID, harmonic_profile(GRID), rng=0, candidates=candidates)
     selection = model.training["selection"]
     assert selection["folds"] == 5
@@ -201,9 +205,15 @@ def test_a_candidate_that_cannot_be_fitted_is_reported_not_fatal():
     assert row["cv_rms_arcmin"] is None and "n_orders" in row["error"]
 
 
+def test_candidates_may_be_given_as_dicts_and_are_recorded_as_such():
+    model = fit_auto(GRID, harmonic_profile(GRID), candidates=[{"family": "lut", "options": {"interpolation": "cubic"}}])
+    assert model.kind == "lut" and model.interpolation == "cubic"
+    assert model.training["fit_options"]["candidates"] == [{"family": "lut", "options": {"interpolation": "cubic"}}]
+
+
 def test_fit_with_method_auto_records_the_method_and_seed():
     cal = encal.Calibration(GRID, GRID + harmonic_profile(GRID) / 60.0, name="enc")
-    model = encal.fit(cal, method="auto", rng=4)
+    model = encal.fit(cal, method="auto", rng=4, candidates=CLOSED_FORM)
     assert model.training["method"] == "auto"
     assert model.training["seed"] == 4
     assert model.training["selection"]["chosen"]
@@ -211,7 +221,7 @@ def test_fit_with_method_auto_records_the_method_and_seed():
 
 def test_the_cv_table_survives_save_and_load(tmp_path):
     cal = encal.Calibration(GRID, GRID + harmonic_profile(GRID) / 60.0, name="enc")
-    model = encal.fit(cal, method="auto", rng=0)
+    model = encal.fit(cal, method="auto", rng=0, candidates=CLOSED_FORM)
     loaded = encal.load_model(model.save(tmp_path / "m.json"))
     assert loaded.training["selection"] == json.loads(json.dumps(model.training["selection"]))
     assert format_selection(loaded.training["selection"]) == format_selection(model.training["selection"])
@@ -236,7 +246,7 @@ def test_folds_out_of_range_is_refused(folds):
         fit_auto(GRID, harmonic_profile(GRID), folds=folds)
 
 
-@pytest.mark.parametrize("candidates", [[], ["fourier"]])
+@pytest.mark.parametrize("candidates", [[], ["fourier"], [{"family": "lut", "interpolation": "linear"}]])
 def test_candidates_must_be_candidate_objects(candidates):
     with pytest.raises(InputError, match="'candidates' parameter of fit_auto"):
         fit_auto(GRID, harmonic_profile(GRID), candidates=candidates)

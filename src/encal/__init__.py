@@ -21,6 +21,7 @@ _PUBLIC = {
     "Harmonics": "profile",
     "fit": "fitting", "evaluate": "fitting", "Evaluation": "fitting",
     "Model": "models",
+    "demo_fleet": "simulate", "simulate_fleet": "simulate", "measurement_floor": "simulate",
     "save_model": "deploy", "load_model": "deploy", "Compensator": "deploy",
     "EncalError": "errors", "CalibrationError": "errors", "ModelFileError": "errors",
     "InputError": "errors",

@@ -243,7 +243,7 @@ def run_demo(out="encal-demo", *, quick=False, settings=None, workers=None, seed
             results = run_tasks(_encoder_study, tasks, workers=pool, progress=progress,
                                 label="per-encoder fits (Table 3, pruning, repeats)")
         with _stage(timings, "sweep"):
-            sweep = hidden_node_sweep(first.train.calibration, hidden=settings.hidden,
+            sweep = hidden_node_sweep(first.train.calibration, first.test.calibration, hidden=settings.hidden,
                                       epochs=settings.sweep_epochs, seeds=settings.sweep_seeds,
                                       curve_hidden=80 if 80 in settings.hidden else None, rng=seed,
                                       workers=pool, progress=progress)

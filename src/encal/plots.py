@@ -292,25 +292,31 @@ def plot_harmonics(harmonics, *, n_label=10, ax=None, title=None):
 def plot_sweep(sweep, ax=None):
     """Fig. 2a: final training MSE (arcmin²) against the number of hidden nodes, per algorithm.
 
-    Error bars span ± one standard deviation over seeds (none for a single seed).
+    Error bars span ± one standard deviation over seeds (none for a single seed). When the sweep measured a
+    test calibration, the final test MSE is drawn dashed in the same colour.
     """
     ax = new_axes(ax)
-    for algorithm in sweep.algorithms:
+    for index, algorithm in enumerate(sweep.algorithms):
+        colour = f"C{index % 10}"
         mean, std = sweep.mse_mean(algorithm), sweep.mse_std(algorithm)
         ax.errorbar(sweep.hidden, mean, yerr=std if sweep.n_seeds > 1 else None, marker="o", ms=4,
-                    capsize=2, lw=1.2, label=algorithm)
+                    capsize=2, lw=1.2, color=colour, label=f"{algorithm}, training")
+        test = sweep.test_mse_mean(algorithm)
+        if test is not None:
+            ax.plot(sweep.hidden, test, "--", marker="s", ms=3, mfc="none", lw=1.0, color=colour,
+                    label=f"{algorithm}, test")
     if 80 in sweep.hidden:
         ax.axvline(80, color=_FLOOR_COLOUR, ls=":", lw=1, label="paper's choice, N = 80")
     ax.set_yscale("log")
     ax.set_xlabel("hidden nodes N")
-    ax.set_ylabel("final training MSE (arcmin²)")
+    ax.set_ylabel("final MSE (arcmin²)")
     ax.set_title(f"1:N:1 network, {sweep.encoding} input, {sweep.encoder}")
     ax.legend(fontsize="x-small", frameon=False)
     return ax
 
 
-def plot_training_curves(curves, *, hidden=None, ax=None):
-    """Fig. 2b: training MSE (arcmin²) against epoch, one line per algorithm (first seed solid).
+def plot_training_curves(curves, *, hidden=None, test=None, ax=None):
+    """Fig. 2b: training MSE (arcmin²) against epoch, one colour per algorithm (first seed bold).
 
     Parameters
     ----------
@@ -318,16 +324,21 @@ def plot_training_curves(curves, *, hidden=None, ax=None):
         Algorithm -> MSE per epoch (epoch 0 first) of each seed's fit.
     hidden : int, optional
         Hidden-node count, for the title.
+    test : mapping of str to list of ndarray, optional
+        The same fits' MSE on test points per epoch, drawn dashed.
+    ax : matplotlib.axes.Axes, optional
     """
     ax = new_axes(ax)
     for index, (algorithm, runs) in enumerate(curves.items()):
         colour = f"C{index % 10}"
-        for k, curve in enumerate(r for r in runs if r is not None):
-            ax.plot(np.arange(curve.size), curve, color=colour, lw=1.2 if k == 0 else 0.6,
-                    alpha=1.0 if k == 0 else 0.4, label=algorithm if k == 0 else None)
+        for kind, style, series in (("training", "-", runs), ("test", "--", (test or {}).get(algorithm))):
+            for k, curve in enumerate(r for r in (series or []) if r is not None):
+                label = (f"{algorithm}, {kind}" if test else algorithm) if k == 0 else None
+                ax.plot(np.arange(curve.size), curve, style, color=colour, lw=1.2 if k == 0 else 0.6,
+                        alpha=1.0 if k == 0 else 0.4, label=label)
     ax.set_yscale("log")
     ax.set_xlabel("epoch")
-    ax.set_ylabel("training MSE (arcmin²)")
+    ax.set_ylabel("MSE (arcmin²)")
     if hidden is not None:
         ax.set_title(f"1:{hidden}:1 network")
     ax.legend(fontsize="x-small", frameon=False, ncols=2)

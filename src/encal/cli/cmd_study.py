@@ -46,8 +46,8 @@ def add_arguments(parser):
                         help="comma-separated MATLAB names (default: sweep trainlm,traingd; algorithms all ten)")
     parser.add_argument("--encoding", choices=["raw", "periodic"], default="raw",
                         help="network input: the raw angle (the paper's, default) or cos/sin")
-    parser.add_argument("--threshold", type=float, default=1e-3,
-                        help="prune: relative threshold of a significant singular value (default: 1e-3)")
+    parser.add_argument("--threshold", type=float, default=1e-2,
+                        help="prune: relative threshold of a significant singular value (default: 1e-2)")
     parser.add_argument("--seed", type=_nonnegative, default=0, help="study seed (default: 0)")
     parser.add_argument("--workers", type=_nonnegative, metavar="N",
                         help="worker processes (default: CPU count, at most 2; 0: none)")

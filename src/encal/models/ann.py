@@ -88,6 +88,8 @@ class ANNModel(Model):
         self.activation = activation
         self.W1 = _array(W1, "W1", ndim=2)
         self.hidden = self.W1.shape[0]
+        if self.hidden == 0:
+            raise InputError("W1 must have one row per hidden neuron (at least one). Got no rows instead.")
         shapes = {
             "W1": (self.W1, (self.hidden, n_inputs)),
             "b1": (_array(b1, "b1", ndim=1), (self.hidden,)),
@@ -96,7 +98,7 @@ class ANNModel(Model):
             "input_gain": (_array(input_gain, "input_gain", ndim=1), (n_inputs,)),
         }
         for name, (value, shape) in shapes.items():
-            if value.shape != shape or self.hidden == 0:
+            if value.shape != shape:
                 raise InputError(
                     f"{name} of a {encoding} 1:N:1 network with N = {self.hidden} must have shape {shape}. "
                     f"Got shape {value.shape} instead."

@@ -90,6 +90,10 @@ class Candidate:
             raise InputError(f"a candidate's family must be one of {', '.join(FAMILIES)}. "
                              f"Got {self.family!r} instead.")
 
+    def as_dict(self):
+        """``{'family': ..., 'options': {...}}``, JSON-ready; ``Candidate(**d)`` rebuilds it."""
+        return {"family": self.family, "options": dict(self.options)}
+
     @property
     def label(self):
         """Short name, e.g. ``'ann hidden=10 algorithm=trainbr'``."""
@@ -298,6 +302,15 @@ def choose(scores, tolerance=0.01, resolution_arcmin=0.0):
     return chosen, reason
 
 
+def _as_candidate(item):
+    if isinstance(item, Candidate):
+        return item
+    if isinstance(item, dict) and set(item) <= {"family", "options"} and "family" in item:
+        return Candidate(item["family"], dict(item.get("options") or {}))
+    raise InputError("The 'candidates' parameter of fit_auto must hold Candidate objects or "
+                     f"{{'family': ..., 'options': {{...}}}} dicts. Got {item!r} instead.")
+
+
 def _seed_sequence(rng):
     if isinstance(rng, np.random.Generator):
         return np.random.SeedSequence(int(rng.integers(2**63)))
@@ -320,8 +333,9 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None,
     folds : int, default=5
         Number of interleaved, circular cross-validation folds, from 2 to a quarter of the
         number of distinct encoder angles.
-    candidates : sequence of Candidate, optional
-        Families and options to choose from; :data:`DEFAULT_CANDIDATES` by default.
+    candidates : sequence of Candidate or dict, optional
+        Families and options to choose from, as :class:`Candidate` objects or
+        ``{'family': ..., 'options': {...}}`` dicts; :data:`DEFAULT_CANDIDATES` by default.
     tolerance : float, default=0.01
         Tie rule: the simplest candidate whose CV RMS is within this fraction of the lowest wins.
 
@@ -350,10 +364,11 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None,
     if not (isinstance(tolerance, (int, float)) and 0.0 <= tolerance < 1.0):
         raise InputError(f"The 'tolerance' parameter of fit_auto must be a float in [0, 1). "
                          f"Got {tolerance!r} instead.")
-    candidates = tuple(DEFAULT_CANDIDATES if candidates is None else candidates)
-    if not candidates or not all(isinstance(c, Candidate) for c in candidates):
+    given = candidates
+    candidates = tuple(_as_candidate(c) for c in (DEFAULT_CANDIDATES if candidates is None else candidates))
+    if not candidates:
         raise InputError("The 'candidates' parameter of fit_auto must be a non-empty sequence of Candidate. "
-                         f"Got {candidates!r} instead.")
+                         "Got an empty sequence instead.")
 
     fold = interleaved_folds(theta, folds)
     # One seed stream per candidate (k fold fits, then the final fit and its retries),
@@ -367,6 +382,9 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None,
     model, attempts = _final_fit(theta, error, chosen, final_seeds)
     # The auto seed regenerates the whole choice; a part's own seed would not.
     model.training["seed"] = int(rng) if isinstance(rng, (int, np.integer)) else None
+    model.training["fit_options"] = {"folds": int(folds), "tolerance": float(tolerance)}
+    if given is not None:
+        model.training["fit_options"]["candidates"] = [c.as_dict() for c in candidates]
     model.training["selection"] = {
         "folds": int(folds),
         "scheme": "interleaved circular: i-th distinct angle in increasing order in fold i mod folds",

@@ -143,8 +143,8 @@ def demo_fleet(n_encoders=4):
     """The built-in demo fleet: encoders 'enc1'..'enc4' that look like the paper's.
 
     Each encoder comes from a fixed seed (:data:`DEMO_SEEDS`), so the fleet is
-    the same on every machine and every call. Training-run MAE spans about
-    0.6-1.7 arcmin and the extremes reach about -4 / +3.5 arcmin (measured
+    the same on every machine and every call. Training-run MAE spans
+    0.56-1.73 arcmin and the extremes are -4.43 / +3.11 arcmin (all measured
     values in docs/simulator.md).
 
     Parameters

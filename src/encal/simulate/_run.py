@@ -16,6 +16,8 @@ __all__ = ["TRAINING_GRID_DEG", "TEST_GRID_DEG", "SimulatedRun", "calibration_ru
 TRAINING_GRID_DEG = np.arange(0.0, 360.0, 2.0)
 #: The paper's test grid, 1, 3, ..., 359 degrees.
 TEST_GRID_DEG = np.arange(1.0, 360.0, 2.0)
+TRAINING_GRID_DEG.flags.writeable = False
+TEST_GRID_DEG.flags.writeable = False
 
 
 @dataclass(frozen=True, eq=False)

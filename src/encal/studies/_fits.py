@@ -42,10 +42,13 @@ def training_mse_arcmin2(model, theta_deg, error_arcmin):
     return float(np.mean(residual**2))
 
 
-def mse_history_arcmin2(model):
-    """Training MSE after every epoch (epoch 0 first), converted from normalised units to arcmin^2."""
+def mse_history_arcmin2(model, which="mse"):
+    """MSE after every epoch (epoch 0 first), converted from normalised units to arcmin^2.
+
+    ``which`` is ``'mse'`` (training points) or ``'val_mse'`` (the validation points given to the fit).
+    """
     gain = float(model.parameters()["target_gain"])
-    return np.asarray(model.train_result.history["mse"], dtype=float) / gain**2
+    return np.asarray(model.train_result.history[which], dtype=float) / gain**2
 
 
 def hidden_layer(model, theta_deg):
@@ -73,25 +76,40 @@ def hidden_layer(model, theta_deg):
 
 
 def train_once(task):
-    """One fit of a study (runs in a worker process): returns its final MSE, epochs, reason and curve.
+    """One fit of a study (runs in a worker process): its final MSE, epochs, stop reason, times and curves.
 
-    ``task`` is a dict with ``theta_deg``, ``error_arcmin``, ``hidden``, ``algorithm``, ``encoding``,
-    ``seed``, ``epochs``, ``keep_curve`` and optionally ``test`` (encoder angles and errors of test points).
+    Parameters
+    ----------
+    task : dict
+        ``theta_deg``, ``error_arcmin`` (training points), ``hidden``, ``algorithm``, ``encoding``,
+        ``seed``, ``epochs``, ``keep_curve`` (keep the MSE of every epoch), and optionally ``test``, a pair
+        (encoder angles, errors) of test points. The test points never steer training (MATLAB's
+        ``max_fail`` is disabled); they are only measured after every epoch.
+
+    Returns
+    -------
+    dict
+        ``mse_arcmin2``, ``epochs``, ``reason``, ``time_s``, ``cpu_s``, ``curve`` (arcmin^2 per epoch or
+        None) and, with test points, ``test_mse_arcmin2``, ``test_rms_arcmin`` and ``test_curve``.
     """
-    start = time.perf_counter()
+    options = {"epochs": task["epochs"]}
+    test = task.get("test")
+    if test is not None:
+        options.update(validation=test, max_fail=task["epochs"] + 1)
+    start, cpu_start = time.perf_counter(), time.process_time()
     model = fit_network(task["theta_deg"], task["error_arcmin"], hidden=task["hidden"],
-                        algorithm=task["algorithm"], encoding=task["encoding"], seed=task["seed"],
-                        epochs=task["epochs"])
-    elapsed = time.perf_counter() - start
+                        algorithm=task["algorithm"], encoding=task["encoding"], seed=task["seed"], **options)
     result = {
         "mse_arcmin2": training_mse_arcmin2(model, task["theta_deg"], task["error_arcmin"]),
         "epochs": int(model.train_result.epochs),
         "reason": model.train_result.reason,
-        "time_s": elapsed,
+        "time_s": time.perf_counter() - start,
+        "cpu_s": time.process_time() - cpu_start,
         "curve": mse_history_arcmin2(model) if task["keep_curve"] else None,
     }
-    if task.get("test") is not None:
-        theta, error = task["test"]
-        residual = np.asarray(error) - model.predict(theta)
-        result["test_rms_arcmin"] = float(np.sqrt(np.mean(residual**2)))
+    if test is not None:
+        theta, error = test
+        result["test_mse_arcmin2"] = training_mse_arcmin2(model, theta, error)
+        result["test_rms_arcmin"] = float(np.sqrt(result["test_mse_arcmin2"]))
+        result["test_curve"] = mse_history_arcmin2(model, "val_mse") if task["keep_curve"] else None
     return result

@@ -57,6 +57,10 @@ class AlgorithmRow:
         RMS of each network's residual on the test points, arcmin.
     curve_arcmin2 : ndarray
         Training MSE after every epoch of the first seed's fit, arcmin^2.
+    test_curve_arcmin2 : ndarray or None
+        Test MSE after every epoch of the same fit, arcmin^2.
+    cpu_s : ndarray of shape (n_seeds,)
+        CPU time of each fit, seconds.
     """
 
     algorithm: str
@@ -67,6 +71,8 @@ class AlgorithmRow:
     time_s: np.ndarray
     test_rms_arcmin: np.ndarray | None
     curve_arcmin2: np.ndarray
+    test_curve_arcmin2: np.ndarray | None = None
+    cpu_s: np.ndarray | None = None
 
     @property
     def mse_mean(self):
@@ -223,6 +229,8 @@ def compare_algorithms(cal, test=None, *, algorithms=(*PAPER_ALGORITHMS, *EXTRA_
             time_s=np.array([r["time_s"] for r in mine]),
             test_rms_arcmin=None if test is None else np.array([r["test_rms_arcmin"] for r in mine]),
             curve_arcmin2=mine[0]["curve"],
+            test_curve_arcmin2=None if test is None else mine[0]["test_curve"],
+            cpu_s=np.array([r["cpu_s"] for r in mine]),
         ))
     return AlgorithmStudy(encoder=cal.name, hidden=hidden, encoding=encoding, epochs=int(epochs),
                           seeds=seeds_used, rows=tuple(rows))

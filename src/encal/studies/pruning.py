@@ -14,8 +14,18 @@ training inputs, and then H has a small singular value. The number of
 significant singular values of H is the number of hidden nodes the network
 can use; :func:`svd_pruning` counts those above ``threshold`` times the
 largest, retrains a network of that size, and reports both networks' MSE and
-test RMS. The figure shows both spectra. ``docs/paper.md`` discusses the
-threshold (default 1e-3).
+test RMS. The figure shows both spectra.
+
+The threshold, 1e-2 of the largest singular value: the output is
+``Σ σ_i (v_iᵀ w2) u_i``, so with output weights no larger along direction i
+than along the first, direction i adds a pattern at most ``σ_i / σ_1`` times
+the dominant one. For a profile of a few arc-minutes, 1 % is a few hundredths
+of an arc-minute, well under one 16-bit LSB (0.33 arcmin); a direction that
+matters only through much larger output weights is one that fits noise.
+It is also what "non-zero" means on a linear plot of singular values like the
+paper's Fig. 3, where anything under about 1 % of the largest lies on the
+axis. The counts at 1e-3 and 1e-4 are reported too
+(:data:`SENSITIVITY_THRESHOLDS`); ``docs/paper.md`` discusses them.
 """
 
 from dataclasses import dataclass
@@ -29,8 +39,8 @@ from ._fits import fit_network, hidden_layer, task_seed, training_mse_arcmin2
 __all__ = ["DEFAULT_THRESHOLD", "SENSITIVITY_THRESHOLDS", "PruningResult", "significant_count",
            "svd_pruning"]
 
-#: Relative threshold: singular values of H above 1e-3 times the largest are significant.
-DEFAULT_THRESHOLD = 1e-3
+#: Relative threshold: singular values of H above 1e-2 times the largest are significant.
+DEFAULT_THRESHOLD = 1e-2
 
 #: Thresholds at which the count is also reported, to show how much it depends on the choice.
 SENSITIVITY_THRESHOLDS = (1e-2, 1e-3, 1e-4)
@@ -110,7 +120,7 @@ def _test_rms(model, test):
 
 
 def svd_pruning(cal, test=None, *, hidden=80, encoding="raw", algorithm="trainlm", epochs=1000,
-                threshold=DEFAULT_THRESHOLD, rng=0, model=None):
+                threshold=DEFAULT_THRESHOLD, rng=0, model=None, **train_options):
     """Count the significant hidden nodes of a trained 1:N:1 network by SVD, and retrain at that size.
 
     Parameters
@@ -125,15 +135,17 @@ def svd_pruning(cal, test=None, *, hidden=80, encoding="raw", algorithm="trainlm
     algorithm : str, default='trainlm'
     epochs : int, default=1000
         Epoch budget of both trainings.
-    threshold : float, default=1e-3
+    threshold : float, default=1e-2
         A singular value of H is significant above ``threshold`` times the largest.
     rng : int, default=0
         Study seed; the network of N nodes starts from the weights seeded by ``(rng, N, 0)``, the same as
         the first seed of :func:`~encal.studies.sweep.hidden_node_sweep` and
         :func:`~encal.studies.algorithms.compare_algorithms`.
     model : ANNModel, optional
-        An already trained network to analyse instead of training one (``hidden`` and ``encoding`` are
-        then taken from it).
+        An already trained network to analyse instead of training one. The pruned network is then trained
+        the way it was (its encoding, algorithm and options, recorded in ``model.training``).
+    **train_options
+        More options of the training (``plateau_patience``, ...), for both networks.
 
     Returns
     -------
@@ -147,17 +159,21 @@ def svd_pruning(cal, test=None, *, hidden=80, encoding="raw", algorithm="trainlm
     seed = check_seed(rng)
     epochs = int(check_counts([epochs], "epochs")[0])
     theta, error = cal.encoder_deg, cal.errors_arcmin
+    train_options["epochs"] = epochs
     if model is None:
         hidden = int(check_counts([hidden], "hidden")[0])
         model = fit_network(theta, error, hidden=hidden, algorithm=algorithm, encoding=encoding,
-                            seed=task_seed(seed, hidden, 0), epochs=epochs)
+                            seed=task_seed(seed, hidden, 0), **train_options)
+    else:
+        algorithm = model.training.get("algorithm", algorithm)
+        train_options = {**model.training.get("options", {}), **train_options}
     hidden, encoding = model.hidden, model.encoding
     before, after = hidden_layer(model, theta)
     singular_before = np.linalg.svd(before, compute_uv=False)
     singular_after = np.linalg.svd(after, compute_uv=False)
     significant = max(significant_count(singular_after, threshold), 1)
     pruned = fit_network(theta, error, hidden=significant, algorithm=algorithm, encoding=encoding,
-                         seed=task_seed(seed, significant, 0), epochs=epochs)
+                         seed=task_seed(seed, significant, 0), **train_options)
     return PruningResult(
         encoder=cal.name, hidden=hidden, encoding=encoding, threshold=float(threshold),
         singular_before=singular_before, singular_after=singular_after,

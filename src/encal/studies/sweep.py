@@ -47,10 +47,16 @@ class SweepResult:
         Epochs each fit ran before it stopped.
     time_s : dict of str to ndarray of shape (n_hidden, n_seeds)
         Wall-clock training time of each fit, seconds.
+    cpu_s : dict of str to ndarray of shape (n_hidden, n_seeds)
+        CPU time of each fit, seconds.
     curve_hidden : int or None
         N whose training curves are kept (80, the paper's Fig. 2b).
     curves_arcmin2 : dict of str to list of ndarray
         Training MSE after every epoch (arcmin^2) at ``curve_hidden``, one array per seed.
+    test_mse_arcmin2 : dict of str to ndarray of shape (n_hidden, n_seeds), or None
+        Final MSE on the test points, arcmin^2, when a test calibration was given.
+    test_curves_arcmin2 : dict of str to list of ndarray, or None
+        Test MSE after every epoch at ``curve_hidden`` (arcmin^2).
     """
 
     encoder: str
@@ -62,8 +68,11 @@ class SweepResult:
     mse_arcmin2: dict
     epochs_run: dict
     time_s: dict
+    cpu_s: dict
     curve_hidden: int | None
     curves_arcmin2: dict
+    test_mse_arcmin2: dict | None = None
+    test_curves_arcmin2: dict | None = None
 
     @property
     def n_seeds(self):
@@ -77,6 +86,10 @@ class SweepResult:
     def mse_std(self, algorithm):
         """Population standard deviation of the final MSE over seeds for every N, arcmin^2 (0 for one seed)."""
         return self.mse_arcmin2[algorithm].std(axis=1)
+
+    def test_mse_mean(self, algorithm):
+        """Mean final test MSE over seeds for every N, arcmin^2 (None without a test calibration)."""
+        return None if self.test_mse_arcmin2 is None else self.test_mse_arcmin2[algorithm].mean(axis=1)
 
     def knee(self, algorithm="trainlm", fraction=0.1):
         """Smallest N whose mean MSE is within ``fraction`` of the way from the best to the worst mean MSE.
@@ -104,10 +117,11 @@ class SweepResult:
         """Fig. 2b: MSE against epoch at ``curve_hidden`` (see :func:`encal.plots.plot_training_curves`)."""
         from ..plots import plot_training_curves
 
-        return plot_training_curves(self.curves_arcmin2, hidden=self.curve_hidden, ax=ax)
+        return plot_training_curves(self.curves_arcmin2, hidden=self.curve_hidden, test=self.test_curves_arcmin2,
+                                    ax=ax)
 
 
-def hidden_node_sweep(cal, *, hidden=PAPER_HIDDEN, algorithms=("trainlm", "traingd"), encoding="raw",
+def hidden_node_sweep(cal, test=None, *, hidden=PAPER_HIDDEN, algorithms=("trainlm", "traingd"), encoding="raw",
                       epochs=1000, seeds=1, curve_hidden=80, rng=0, workers=None, progress=False):
     """Train the 1:N:1 network for every N and algorithm; record the final MSE (Fig. 2a) and curves (Fig. 2b).
 
@@ -115,6 +129,9 @@ def hidden_node_sweep(cal, *, hidden=PAPER_HIDDEN, algorithms=("trainlm", "train
     ----------
     cal : Calibration
         Training calibration (the paper uses one encoder's 0:2:358 grid).
+    test : Calibration, optional
+        Test calibration: every network's MSE on it is recorded after every epoch (it never steers training),
+        to show what the training MSE does not: where a larger network stops generalising.
     hidden : sequence of int, default=(10, 20, ..., 110)
         Hidden-node counts N.
     algorithms : sequence of str, default=('trainlm', 'traingd')
@@ -141,6 +158,9 @@ def hidden_node_sweep(cal, *, hidden=PAPER_HIDDEN, algorithms=("trainlm", "train
     SweepResult
     """
     cal = check_calibration(cal)
+    if test is not None:
+        test = check_calibration(test, "test")
+    test_points = None if test is None else (test.encoder_deg, test.errors_arcmin)
     hidden = check_counts(hidden, "hidden")
     n_seeds = int(check_counts([seeds], "seeds")[0])
     algorithms = tuple(algorithms)
@@ -159,21 +179,31 @@ def hidden_node_sweep(cal, *, hidden=PAPER_HIDDEN, algorithms=("trainlm", "train
                 tasks.append({"theta_deg": theta, "error_arcmin": error, "hidden": int(n),
                               "algorithm": algorithm, "encoding": encoding, "seed": int(seeds_grid[i, k]),
                               "epochs": budget[algorithm],
-                              "keep_curve": curve_hidden is not None and int(n) == int(curve_hidden)})
+                              "keep_curve": curve_hidden is not None and int(n) == int(curve_hidden),
+                              "test": test_points})
     results = run_tasks(train_once, tasks, workers=workers, label="hidden-node sweep", progress=progress)
     shape = (hidden.size, n_seeds)
     mse = {a: np.empty(shape) for a in algorithms}
     epochs_run = {a: np.empty(shape, dtype=int) for a in algorithms}
     time_s = {a: np.empty(shape) for a in algorithms}
+    cpu_s = {a: np.empty(shape) for a in algorithms}
+    test_mse = None if test is None else {a: np.empty(shape) for a in algorithms}
     curves = {a: [None] * n_seeds for a in algorithms}
+    test_curves = None if test is None else {a: [None] * n_seeds for a in algorithms}
     for (algorithm, i, k), result in zip(keys, results):
         mse[algorithm][i, k] = result["mse_arcmin2"]
         epochs_run[algorithm][i, k] = result["epochs"]
         time_s[algorithm][i, k] = result["time_s"]
+        cpu_s[algorithm][i, k] = result["cpu_s"]
         if result["curve"] is not None:
             curves[algorithm][k] = result["curve"]
+        if test is not None:
+            test_mse[algorithm][i, k] = result["test_mse_arcmin2"]
+            if result["test_curve"] is not None:
+                test_curves[algorithm][k] = result["test_curve"]
     if curve_hidden is None:
-        curves = {}
+        curves, test_curves = {}, None
     return SweepResult(encoder=cal.name, hidden=hidden, algorithms=algorithms, encoding=encoding,
                        seeds=seeds_grid, epochs=budget, mse_arcmin2=mse, epochs_run=epochs_run, time_s=time_s,
-                       curve_hidden=None if curve_hidden is None else int(curve_hidden), curves_arcmin2=curves)
+                       cpu_s=cpu_s, curve_hidden=None if curve_hidden is None else int(curve_hidden),
+                       curves_arcmin2=curves, test_mse_arcmin2=test_mse, test_curves_arcmin2=test_curves)

@@ -217,21 +217,32 @@ def profile_table(stats, harmonics, n_orders=10, paper=None):
 
 
 def sweep_table(sweep):
-    """The hidden-node sweep: final training MSE (arcmin^2) per hidden-node count and algorithm."""
+    """The hidden-node sweep: final training MSE (arcmin^2) per hidden-node count and algorithm.
+
+    With a test calibration, the final test MSE (mean over seeds) follows each algorithm's training columns.
+    """
+    with_test = sweep.test_mse_arcmin2 is not None
     columns = [Column("hidden", "N", "{:d}")]
     for algorithm in sweep.algorithms:
         columns += [Column(f"{algorithm}_mse_arcmin2", f"{algorithm} MSE", "{:.4g}"),
                     Column(f"{algorithm}_spread_arcmin2", "+/-", "{:.2g}")]
+        if with_test:
+            columns.append(Column(f"{algorithm}_test_mse_arcmin2", "test MSE", "{:.4g}"))
     rows = []
     for i, hidden in enumerate(sweep.hidden):
         row = [int(hidden)]
         for algorithm in sweep.algorithms:
             row += [float(sweep.mse_mean(algorithm)[i]), float(sweep.mse_std(algorithm)[i])]
+            if with_test:
+                row.append(float(sweep.test_mse_mean(algorithm)[i]))
         rows.append(row)
     notes = [f"{sweep.encoding} encoding, {sweep.n_seeds} seed(s) per point (mean +/- standard deviation), "
              f"at most {_budget_text(sweep.epochs)} epochs per fit; encoder {sweep.encoder}."]
-    return Table("fig2a_sweep", f"Hidden-node sweep (Fig. 2a): final training MSE (arcmin^2), "
-                 f"1:N:1 network, {sweep.encoder}", columns, rows, notes)
+    if with_test:
+        notes.append("test MSE: mean squared residual on the test grid (points never used in training), "
+                     "mean over seeds.")
+    return Table("fig2a_sweep", f"Hidden-node sweep (Fig. 2a): final MSE (arcmin^2) of the 1:N:1 network, "
+                 f"{sweep.encoder}", columns, rows, notes)
 
 
 def _budget_text(epochs):
@@ -266,21 +277,33 @@ def algorithm_table(study):
 
 
 def pruning_table(results):
-    """SVD pruning per encoder: significant singular values and the pruned network's accuracy."""
+    """SVD pruning per encoder: significant singular values and the pruned network's accuracy.
+
+    Parameters
+    ----------
+    results : mapping of str to PruningResult
+    """
+    others = sorted({t for r in results.values() for t in r.counts if t != r.threshold}, reverse=True)
     columns = [Column("encoder", "encoder", "{}"), Column("hidden", "N", "{:d}"),
-               Column("rank_before_activation", "rank pre-act.", "{:d}"),
-               Column("significant_after_activation", "significant", "{:d}"),
+               Column("rank_before_activation", "rank of X", "{:d}"),
                Column("threshold", "threshold", "{:.0e}"),
-               Column("mse_full_arcmin2", "MSE full", "{:.4f}"),
-               Column("mse_pruned_arcmin2", "MSE pruned", "{:.4f}"),
-               Column("test_rms_full_arcmin", "test RMS full", "{:.3f}"),
-               Column("test_rms_pruned_arcmin", "test RMS pruned", "{:.3f}")]
-    rows = [[name, r.hidden, r.rank_before_activation, r.significant, r.threshold, r.full_mse,
-             r.pruned_mse, r.full_test_rms, r.pruned_test_rms] for name, r in results.items()]
-    notes = ["rank pre-act.: numerical rank of the paper's X (hidden-node inputs before the sigmoid); "
-             "significant: singular values of the hidden-layer outputs after the sigmoid above "
-             "threshold x the largest. The pruned network (N = significant) is trained afresh.",
-             "MSE in arcmin^2 on the training grid; test RMS in arcmin on the test grid."]
+               Column("significant", "significant", "{:d}")]
+    columns += [Column(f"significant_at_{t:.0e}", f"at {t:.0e}", "{:d}") for t in others]
+    columns += [Column("epochs_full", "epochs", "{:d}"), Column("mse_full_arcmin2", "MSE full", "{:.4f}"),
+                Column("mse_pruned_arcmin2", "MSE pruned", "{:.4f}"),
+                Column("test_rms_full_arcmin", "test RMS full", "{:.3f}"),
+                Column("test_rms_pruned_arcmin", "test RMS pruned", "{:.3f}")]
+    rows = []
+    for name, r in results.items():
+        epochs = getattr(getattr(r.full_model, "train_result", None), "epochs", None)
+        rows.append([name, r.hidden, r.rank_before_activation, r.threshold, r.significant,
+                     *[r.counts.get(t) for t in others], epochs, r.full_mse, r.pruned_mse, r.full_test_rms,
+                     r.pruned_test_rms])
+    notes = ["rank of X: numerical rank of the paper's matrix (hidden-node net inputs, before the sigmoid), 2 "
+             "at most for one input. significant: singular values of the hidden-node outputs after the sigmoid "
+             "above threshold x the largest; 'at' columns: the same count at other thresholds.",
+             "The pruned network (N = significant) is trained afresh, the same way as the full one. MSE in "
+             "arcmin^2 on the training grid; test RMS in arcmin on the test grid."]
     return Table("fig3_pruning", "SVD pruning (Fig. 3) of the 1:N:1 network", columns, rows, notes)
 
 

@@ -36,6 +36,7 @@ input vector ``x_n``; ``docs/model-file.md`` stores the same arrays.
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg.blas import dsyrk
 from scipy.special import expit
 
 from ..errors import InputError
@@ -258,6 +259,7 @@ class NetworkProblem:
         self.input_scaling = None
         self.target_scaling = None
         self._last = (None, None, None)
+        self._input_outer = None
 
     @classmethod
     def from_angles(cls, theta_deg, error_arcmin, hidden, *, encoding="periodic",
@@ -319,6 +321,25 @@ class NetworkProblem:
         J[:, n_w1 + N:n_w1 + 2 * N] = h
         J[:, -1] = 1.0
         return y - self.targets, J
+
+    def jacobian_outer(self, w):
+        """``J Jᵀ`` (m × m, lower triangle only), without forming J.
+
+        Row i of the first-layer blocks of J is ``d_i ⊗ [x_i, 1]`` (``d_i`` the
+        back-propagated slopes), so ``J Jᵀ = (D Dᵀ) ∘ (X Xᵀ + 1) + H Hᵀ + 1``:
+        two rank-N products instead of one of rank ``n_params`` (about half the work).
+        Levenberg-Marquardt uses it when the network has more weights than points.
+        """
+        h, _ = self._forward(w)
+        d_hidden = self._slope(h) * self.unpack(w)[2]
+        if self._input_outer is None:
+            self._input_outer = self.inputs @ self.inputs.T + 1.0
+        # C-ordered (m, N) arrays transposed are Fortran-ordered: BLAS reads them in place.
+        outer = dsyrk(1.0, d_hidden.T, trans=1, lower=1)
+        outer *= self._input_outer
+        outer = dsyrk(1.0, h.T, trans=1, lower=1, beta=1.0, c=outer, overwrite_c=1)
+        outer += 1.0
+        return outer
 
     def mse(self, w):
         r = self.residuals(w)

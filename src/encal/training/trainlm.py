@@ -15,9 +15,10 @@ Speed: the Gram matrix is formed once per epoch and every μ retry costs
 one Cholesky factorisation of it. When the network has more weights ``n``
 than points ``m`` (1:80:1 on 180 points) the identity
 ``(JᵀJ + μI)⁻¹ Jᵀ = Jᵀ (JJᵀ + μI)⁻¹`` replaces the n × n system by an
-m × m one. A Cholesky factorisation per retry measured several times faster
-than one eigendecomposition per epoch (see ``benchmarks/bench_trainlm.py``),
-because an epoch rarely needs more than two tries.
+m × m one, and a problem that can form ``JJᵀ`` more cheaply than from J
+(the network's ``jacobian_outer``) is asked to. A Cholesky factorisation per
+try measured about four times faster than one eigendecomposition per epoch
+(``benchmarks/bench_trainlm.py``, Table 2): an epoch takes two tries on average.
 """
 
 import math
@@ -48,17 +49,23 @@ class DampedGaussNewton:
         Jacobian of the residuals.
     e : ndarray of shape (m,)
         Residuals.
+    outer : callable, optional
+        Returns ``J Jᵀ`` (lower triangle suffices) faster than from J; used
+        when ``m < n`` (a problem's optional ``jacobian_outer``).
     """
 
-    def __init__(self, J, e):
+    def __init__(self, J, e, outer=None):
         self.J = J
         self.e = e
         m, n = J.shape
         #: True when the m × m matrix JJᵀ is used (more weights than residuals).
         self.dual = m < n
-        # J.T is J's memory in Fortran order, so BLAS reads it without a copy;
-        # syrk fills only the lower triangle, all that Cholesky reads.
-        self.gram = dsyrk(1.0, J.T, trans=1 if self.dual else 0, lower=1)
+        if self.dual and outer is not None:
+            self.gram = outer()
+        else:
+            # J.T is J's memory in Fortran order, so BLAS reads it without a copy;
+            # syrk fills only the lower triangle, all that Cholesky reads.
+            self.gram = dsyrk(1.0, J.T, trans=1 if self.dual else 0, lower=1)
         self._Jte = None if self.dual else J.T @ e
 
     def factor(self, scale, shift):
@@ -150,8 +157,9 @@ def trainlm(problem, x0, monitor, *, mu=0.001, mu_dec=0.1, mu_inc=10.0, mu_max=1
     monitor.record("mu", mu)
     if monitor.start(x, sse / m, (2.0 / m) * (J.T @ e)):
         return x
+    outer = getattr(problem, "jacobian_outer", None)
     while True:
-        system = DampedGaussNewton(J, e)
+        system = DampedGaussNewton(J, e, outer and (lambda: outer(x)))
         while True:
             dx = system.step(mu)
             if dx is not None:
