@@ -29,7 +29,7 @@ import numpy as np  # noqa: E402
 import encal  # noqa: E402
 from encal.bidirectional import fit_bidirectional, reversal  # noqa: E402
 from encal.simulate import TEST_GRID_DEG, TRAINING_GRID_DEG, calibration_run  # noqa: E402
-from encal.simulate._fleet import demo_fleet  # noqa: E402
+from encal.simulate import demo_fleet  # noqa: E402
 from encal.uncertainty import add_uncertainty, coverage  # noqa: E402
 
 
