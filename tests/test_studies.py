@@ -134,6 +134,13 @@ def test_sweep_records_every_fit_and_the_curves(train, test):
     assert "Fig. 2a" in sweep.table().title
 
 
+def test_measuring_the_test_points_does_not_change_the_networks(train, test):
+    kwargs = {"hidden": (6,), "algorithms": ("trainlm",), "epochs": 30, "curve_hidden": 6, "workers": 0}
+    blind, watched = hidden_node_sweep(train, **kwargs), hidden_node_sweep(train, test, **kwargs)
+    assert_array_equal(blind.mse_arcmin2["trainlm"], watched.mse_arcmin2["trainlm"])
+    assert_array_equal(blind.curves_arcmin2["trainlm"][0], watched.curves_arcmin2["trainlm"][0])
+
+
 def test_sweep_is_reproducible(train):
     a = hidden_node_sweep(train, hidden=(4,), algorithms=("trainlm",), epochs=5, seeds=2, curve_hidden=None,
                           workers=0)

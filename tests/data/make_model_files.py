@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from encal._atomic import atomic_write
 from encal.deploy import runtime
 from encal.deploy.modelfile import dumps, model_to_dict
 from encal.models.base import Model
@@ -126,7 +127,7 @@ def main():
         model = StoredModel(kind, parameters, uncertainty=spread, training=record,
                             encoder={"name": f"v1-{name}", "resolution_bits": 16})
         path = HERE / f"model_v1_{name}.json"
-        path.write_text(dumps(model_to_dict(model)), encoding="utf-8")
+        atomic_write(path, dumps(model_to_dict(model)))
         stored = runtime.load(path)
         expected[path.name] = {
             "theta_deg": ANGLES,
@@ -134,7 +135,7 @@ def main():
             "correct_deg": [stored.correct_deg(t) for t in ANGLES],
         }
         print(f"wrote {path.name}", file=sys.stderr)
-    (HERE / "expected_v1.json").write_text(json.dumps(expected, indent=1) + "\n", encoding="utf-8")
+    atomic_write(HERE / "expected_v1.json", json.dumps(expected, indent=1) + "\n")
 
 
 if __name__ == "__main__":

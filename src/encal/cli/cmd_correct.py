@@ -1,19 +1,19 @@
 """Correct encoder angles with a model file, streaming.
 
 Reads encoder angles in degrees, one per line, or a CSV file whose header names
-an ``encoder_deg`` column; blank lines and ``#`` comments are skipped. Writes one
+an encoder_deg column; blank lines and ``#`` comments are skipped. Writes one
 corrected angle per line, in degrees in [0, 360), exactly (Python's shortest
-round-tripping ``repr``: parse it as a double and you get the library's value).
+round-tripping repr: parse it as a double and you get the library's value).
 
 Memory stays constant however long the input. Each block of input is answered
 as soon as it is read, and a pipe that delivers one line gives one answer at
-once, so ``encal correct`` can sit in a live acquisition chain:
+once, so encal correct can sit in a live acquisition chain:
 
     acquire | encal correct enc1.json | log
 
 A malformed line stops the command with status 1 and a message naming the
 line (the answers to the lines before it are already written); with
-``--skip-bad`` it gets ``nan`` and the stream goes on.
+--skip-bad it gets ``nan`` and the stream goes on.
 """
 
 import os

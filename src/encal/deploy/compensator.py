@@ -29,9 +29,10 @@ class Compensator:
 
     Examples
     --------
-    >>> comp = Compensator("enc1.json")                  # doctest: +SKIP
-    >>> comp.correct([10.0, 20.0])                       # doctest: +SKIP
-    array([ 9.99..., 19.99...])
+    >>> from encal.models.fourier import FourierModel
+    >>> comp = Compensator(FourierModel([0], [30.0], [0.0]))   # a constant +30 arcmin
+    >>> comp.correct([10.0, 0.25]).tolist()
+    [9.5, 359.75]
     """
 
     def __init__(self, model):

@@ -6,9 +6,10 @@ a model file written by ``encal fit`` (any kind: ``fourier``, ``lut``, ``ann``,
 evaluates the model one angle at a time. It imports nothing but ``json``, ``math``,
 ``bisect`` and ``hashlib``; NumPy and encal need not be installed.
 
->>> model = load("enc1.json")                        # doctest: +SKIP
->>> model.correct_deg(123.456)                       # doctest: +SKIP
-123.4412...
+    import runtime                          # this file, copied and renamed as you like
+    model = runtime.load("enc1.json")       # checks the file; raises ModelFileError
+    theta_cor = model.correct_deg(123.456)  # degrees in [0, 360)
+    error = model.predict_arcmin(123.456)   # arc-minutes
 
 Conventions (those of encal): angles in degrees, errors in arc-minutes, the
 error is ``encoder - reference``; the corrected angle is

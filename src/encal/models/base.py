@@ -76,7 +76,7 @@ class Model(ABC):
 
     @abstractmethod
     def _predict(self, theta_deg):
-        """Predicted error in arcmin at angles ``theta_deg`` (finite ndarray)."""
+        """Predicted error in arcmin at angles ``theta_deg`` (finite 1-D ndarray, degrees in [0, 360))."""
 
     @abstractmethod
     def parameters(self):
@@ -107,7 +107,8 @@ class Model(ABC):
             same shape.
         """
         theta = as_angles(theta_enc_deg)
-        mean = np.asarray(self._predict(wrap360(theta)), dtype=float).reshape(theta.shape)[()]
+        # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
+        mean = np.asarray(self._predict(wrap360(theta).reshape(-1)), dtype=float).reshape(theta.shape)[()]
         if not return_std:
             return mean
         from ..uncertainty import predictive_std

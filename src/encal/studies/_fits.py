@@ -10,10 +10,10 @@ import time
 
 import numpy as np
 
-from ..training.network import ACTIVATIONS, encode_angles
+from ..training.network import ACTIVATIONS, NetworkProblem, encode_angles
 
 __all__ = ["task_seed", "fit_network", "training_mse_arcmin2", "mse_history_arcmin2", "hidden_layer",
-           "train_once"]
+           "held_out_problem", "train_once"]
 
 
 def task_seed(base_seed, *key):
@@ -42,13 +42,22 @@ def training_mse_arcmin2(model, theta_deg, error_arcmin):
     return float(np.mean(residual**2))
 
 
-def mse_history_arcmin2(model, which="mse"):
-    """MSE after every epoch (epoch 0 first), converted from normalised units to arcmin^2.
-
-    ``which`` is ``'mse'`` (training points) or ``'val_mse'`` (the validation points given to the fit).
-    """
+def mse_history_arcmin2(model):
+    """Training MSE after every epoch (epoch 0 first), converted from normalised units to arcmin^2."""
     gain = float(model.parameters()["target_gain"])
-    return np.asarray(model.train_result.history[which], dtype=float) / gain**2
+    return np.asarray(model.train_result.history["mse"], dtype=float) / gain**2
+
+
+def held_out_problem(theta_deg, error_arcmin, test_theta_deg, test_error_arcmin, *, hidden, encoding,
+                 activation="tansig"):
+    """The training problem of the test points, scaled as a network trained on the training points scales.
+
+    Its ``mse(w)`` is the test MSE (normalised units) of the network with weights ``w``.
+    """
+    train = NetworkProblem.from_angles(theta_deg, error_arcmin, hidden, encoding=encoding, activation=activation)
+    return NetworkProblem.from_angles(test_theta_deg, test_error_arcmin, hidden, encoding=encoding,
+                                      activation=activation, input_scaling=train.input_scaling,
+                                      target_scaling=train.target_scaling)
 
 
 def hidden_layer(model, theta_deg):
@@ -83,8 +92,8 @@ def train_once(task):
     task : dict
         ``theta_deg``, ``error_arcmin`` (training points), ``hidden``, ``algorithm``, ``encoding``,
         ``seed``, ``epochs``, ``keep_curve`` (keep the MSE of every epoch), and optionally ``test``, a pair
-        (encoder angles, errors) of test points. The test points never steer training (MATLAB's
-        ``max_fail`` is disabled); they are only measured after every epoch.
+        (encoder angles, errors) of test points. The test points never steer training; they are only
+        measured, after every epoch when ``keep_curve``.
 
     Returns
     -------
@@ -94,8 +103,13 @@ def train_once(task):
     """
     options = {"epochs": task["epochs"]}
     test = task.get("test")
-    if test is not None:
-        options.update(validation=test, max_fail=task["epochs"] + 1)
+    test_curve = []
+    if test is not None and task["keep_curve"]:
+        # Measured through a callback, not as MATLAB's validation set: given one, training returns the weights
+        # of the best validation epoch, and the test points would steer which network is reported.
+        problem = held_out_problem(task["theta_deg"], task["error_arcmin"], *test, hidden=task["hidden"],
+                               encoding=task["encoding"])
+        options["callback"] = lambda epoch, w, mse: test_curve.append(problem.mse(w))
     start, cpu_start = time.perf_counter(), time.process_time()
     model = fit_network(task["theta_deg"], task["error_arcmin"], hidden=task["hidden"],
                         algorithm=task["algorithm"], encoding=task["encoding"], seed=task["seed"], **options)
@@ -111,5 +125,6 @@ def train_once(task):
         theta, error = test
         result["test_mse_arcmin2"] = training_mse_arcmin2(model, theta, error)
         result["test_rms_arcmin"] = float(np.sqrt(result["test_mse_arcmin2"]))
-        result["test_curve"] = mse_history_arcmin2(model, "val_mse") if task["keep_curve"] else None
+        gain = float(model.parameters()["target_gain"])
+        result["test_curve"] = np.asarray(test_curve) / gain**2 if task["keep_curve"] else None
     return result

@@ -99,37 +99,54 @@ class Reproducibility:
         return plot_repeats(self, ax=ax)
 
 
-def matched_difference(first, repeat, tolerance_deg=1e-6):
+def matched_difference(first, repeat, tolerance_deg=1e-3):
     """Error of ``repeat`` minus error of ``first`` at the reference angles both contain.
+
+    Each point of ``repeat`` is paired with the point of ``first`` whose reference angle is nearest (round the
+    circle); pairs further apart than ``tolerance_deg`` are left out.
 
     Parameters
     ----------
     first, repeat : Calibration
-    tolerance_deg : float, default=1e-6
-        Reference angles closer than this are the same point.
+    tolerance_deg : float, default=1e-3
+        Largest difference of reference angles (degrees, 3.6 arcsec) that counts as the same point.
 
     Returns
     -------
     reference_deg : ndarray of shape (m,)
-        The common reference angles, increasing, degrees.
+        Reference angles of the paired points of ``repeat``, increasing, degrees.
     difference_arcmin : ndarray of shape (m,)
 
     Raises
     ------
     InputError
-        If fewer than 8 reference angles are common to both.
-    """
-    def keyed(cal):
-        keys = np.round(cal.reference_deg / tolerance_deg).astype(np.int64)
-        return dict(zip(keys.tolist(), cal.errors_arcmin))
+        If fewer than 8 points pair up.
 
-    a, b = keyed(first), keyed(repeat)
-    common = sorted(set(a) & set(b))
-    if len(common) < 8:
-        raise InputError(f"the repeat calibration {repeat.name or ''!s} shares {len(common)} reference angles with "
-                         "the first one; expected at least 8 common angles to compare the profiles")
-    return (np.array(common) * tolerance_deg,
-            np.array([b[k] for k in common]) - np.array([a[k] for k in common]))
+    Examples
+    --------
+    >>> from encal import Calibration
+    >>> ref = np.arange(0.0, 360.0, 10.0)
+    >>> a, b = Calibration(ref, ref), Calibration(ref + 1e-5, ref + 1e-5 + 1 / 60)
+    >>> float(matched_difference(a, b)[1].max())
+    1.0
+    """
+    order = np.argsort(first.reference_deg)
+    angles = first.reference_deg[order]
+    errors = first.errors_arcmin[order]
+    wanted = repeat.reference_deg
+    right = np.searchsorted(angles, wanted) % angles.size
+    left = (right - 1) % angles.size
+    gap = lambda index: np.abs((wanted - angles[index] + 180.0) % 360.0 - 180.0)  # noqa: E731
+    nearest = np.where(gap(left) <= gap(right), left, right)
+    paired = gap(nearest) <= tolerance_deg
+    if np.count_nonzero(paired) < 8:
+        raise InputError(f"the repeat calibration {repeat.name or ''!s} shares {np.count_nonzero(paired)} "
+                         f"reference angles (within {tolerance_deg:g} deg) with the first one; expected at least "
+                         "8 common angles to compare the profiles")
+    reference = wanted[paired]
+    difference = repeat.errors_arcmin[paired] - errors[nearest[paired]]
+    sort = np.argsort(reference)
+    return reference[sort], difference[sort]
 
 
 def reproducibility(first, repeats, *, model=None, test=None, resolution_bits=None, floors=None, rng=0):

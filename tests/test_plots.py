@@ -1,0 +1,165 @@
+"""Figures (encal.plots): every plot draws on the axes it is given, or on a new pyplot-free figure."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from numpy.testing import assert_allclose  # noqa: E402
+
+from encal import Calibration, harmonics  # noqa: E402
+from encal import plots  # noqa: E402
+from encal.errors import InputError  # noqa: E402
+from encal.studies import compare_algorithms, compare_models, hidden_node_sweep, reproducibility, svd_pruning  # noqa: E402
+from encal.studies.comparison import DEFAULT_MODELS  # noqa: E402
+
+GRID = np.arange(0.0, 360.0, 2.0)
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def profile(theta_deg):
+    t = np.radians(theta_deg)
+    return 1.2 * np.sin(t) + 0.5 * np.cos(2 * t - 0.4) + 0.3 * np.sin(16 * t)
+
+
+def calibration(grid, seed):
+    """Table angles on ``grid`` and encoder readings off by the profile plus noise (arcmin)."""
+    error = profile(grid) + np.random.default_rng(seed).normal(0, 0.05, grid.size)
+    return Calibration(grid, grid + error / 60.0, name="enc1", resolution_bits=16)
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return calibration(GRID, 1), calibration(GRID + 1.0, 2)
+
+
+@pytest.fixture(scope="module")
+def studies(runs):
+    train, test = runs
+    sweep = hidden_node_sweep(train, test, hidden=(4, 80), algorithms=("trainlm", "traingd"), epochs=3, seeds=2,
+                              workers=0)
+    algorithms = compare_algorithms(train, test, algorithms=("trainlm", "trainrp"), hidden=6, epochs=3, seeds=2,
+                                    workers=0)
+    pruning = svd_pruning(train, test, hidden=10, epochs=3)
+    comparison = compare_models(train, test, models=DEFAULT_MODELS[:2], floor_arcmin=0.05)
+    repeats = reproducibility(train, {"epoch2": calibration(GRID, 3)},
+                              model=comparison.entry("fourier").model)
+    return {"sweep": sweep, "algorithms": algorithms, "pruning": pruning, "comparison": comparison,
+            "repeats": repeats}
+
+
+# --------------------------------------------------------------------------- smoothing spline
+
+
+def test_smoothing_spline_reproduces_a_noise_free_trigonometric_polynomial():
+    spline = plots.periodic_smoothing_spline(GRID, profile(GRID))
+    fine = np.linspace(0.0, 360.0, 721)
+    assert_allclose(spline(fine), profile(fine), atol=1e-4)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_smoothing_spline_removes_noise(seed):
+    theta = np.r_[GRID, GRID + 1.0]
+    noisy = profile(theta) + np.random.default_rng(seed).normal(0, 0.2, theta.size)
+    spline = plots.periodic_smoothing_spline(theta, noisy)
+    error = np.sqrt(np.mean((spline(theta) - profile(theta)) ** 2))
+    assert error < 0.1  # half the noise RMS; typically a third of that
+    assert 5 < spline.edf < 100
+
+
+SPLINE = plots.periodic_smoothing_spline(GRID, profile(GRID) + np.cos(np.radians(GRID)) ** 7)
+
+
+@settings(max_examples=50, deadline=None)
+@given(theta=st.floats(-1e4, 1e4, allow_nan=False), turns=st.integers(-3, 3))
+def test_smoothing_spline_is_periodic(theta, turns):
+    assert_allclose(SPLINE(theta + 360.0 * turns), SPLINE(theta), atol=1e-9)
+
+
+def test_smoothing_spline_needs_enough_points():
+    with pytest.raises(InputError, match="at least 8 finite values"):
+        plots.periodic_smoothing_spline([0.0, 90.0], [1.0, 2.0])
+
+
+# --------------------------------------------------------------------------- axes-level plots
+
+
+def _draw_all(runs, studies):
+    train, test = runs
+    h = harmonics(train.encoder_deg, train.errors_arcmin)
+    return {
+        "profile": lambda ax: plots.plot_profile(train.encoder_deg, train.errors_arcmin,
+                                                 test=(test.encoder_deg, test.errors_arcmin), ax=ax, title="enc1"),
+        "harmonics": lambda ax: plots.plot_harmonics(h, ax=ax),
+        "sweep": lambda ax: plots.plot_sweep(studies["sweep"], ax=ax),
+        "curves": lambda ax: studies["sweep"].plot_curves(ax=ax),
+        "algorithms": lambda ax: plots.plot_algorithms(studies["algorithms"], ax=ax),
+        "algorithm curves": lambda ax: studies["algorithms"].plot_curves(ax=ax),
+        "singular values": lambda ax: plots.plot_singular_values(studies["pruning"], ax=ax),
+        "residuals": lambda ax: plots.plot_residuals(studies["comparison"], key="fourier", ax=ax),
+        "repeats": lambda ax: plots.plot_repeats(studies["repeats"], ax=ax),
+    }
+
+
+def test_every_plot_draws_on_the_axes_it_is_given(runs, studies):
+    for name, draw in _draw_all(runs, studies).items():
+        fig = Figure()
+        ax = fig.add_subplot()
+        assert draw(ax) is ax, name
+        assert ax.lines or ax.collections, name
+
+
+def test_every_plot_without_axes_makes_a_figure_pyplot_does_not_manage(runs, studies):
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums()
+    for name, draw in _draw_all(runs, studies).items():
+        ax = draw(None)
+        assert isinstance(ax, Axes) and isinstance(ax.figure, Figure), name
+        assert plots.figure_png(ax.figure).startswith(PNG_MAGIC), name
+    assert plt.get_fignums() == before
+
+
+def test_singular_value_plot_shows_both_matrices_and_the_count(studies):
+    ax = plots.plot_singular_values(studies["pruning"])
+    labels = [text.get_text() for text in ax.get_legend().get_texts()]
+    assert any("before sigmoid" in label and "rank" in label for label in labels)
+    assert any(f"{studies['pruning'].significant} significant" in label for label in labels)
+    assert ax.get_yscale() == "log"
+
+
+def test_residual_plot_names_the_model_and_its_rms(studies):
+    entry = studies["comparison"].entry("fourier")
+    ax = plots.plot_residuals(studies["comparison"], key="fourier")
+    assert entry.label in ax.get_title() and f"{entry.stats.rms:.3f}" in ax.get_title()
+
+
+# --------------------------------------------------------------------------- figures and files
+
+
+def test_panel_figure_labels_panels_and_hides_the_spare_one(runs):
+    train, _ = runs
+    items = {f"enc{k}": train for k in range(1, 4)}
+    fig = plots.panel_figure(items, lambda cal, ax: plots.plot_profile(cal.encoder_deg, cal.errors_arcmin, ax=ax,
+                                                                        title=cal.name), title="Fig. 1")
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    assert [ax.get_title()[:3] for ax in visible] == ["(a)", "(b)", "(c)"]
+    assert len(fig.axes) == 4 and not fig.axes[3].get_visible()
+
+
+def test_panel_figure_needs_items():
+    with pytest.raises(InputError, match="at least one item"):
+        plots.panel_figure({}, lambda item, ax: None)
+
+
+def test_save_figure_writes_a_png(tmp_path):
+    ax = plots.new_axes()
+    ax.plot([0, 1], [0, 1])
+    path = plots.save_figure(ax.figure, tmp_path / "line.png")
+    assert path.read_bytes().startswith(PNG_MAGIC)
+    assert not list(tmp_path.glob(".*.tmp"))
