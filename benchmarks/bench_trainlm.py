@@ -59,12 +59,10 @@ def demo_run():
 class EigenSystem:
     """trainlm's damped step from one eigendecomposition of the Gram matrix per epoch."""
 
-    def __init__(self, J, e, outer=None):
+    def __init__(self, J, e, gram=None):
         self.J, self.dual = J, J.shape[0] < J.shape[1]
-        if self.dual:
-            gram = outer() if outer is not None else J @ J.T
-        else:
-            gram = J.T @ J
+        if gram is None:
+            gram = J @ J.T if self.dual else J.T @ J
         self.eigenvalues, self.vectors = np.linalg.eigh(gram, UPLO="L")
         self.projected = self.vectors.T @ (e if self.dual else J.T @ e)
 

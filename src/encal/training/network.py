@@ -272,8 +272,10 @@ class NetworkProblem:
         """
         inputs = encode_angles(theta_deg, encoding)
         targets = np.asarray(error_arcmin, dtype=float).reshape(-1)
-        input_scaling = input_scaling or MapMinMax.fit(inputs)
-        target_scaling = target_scaling or MapMinMax.fit(targets)
+        if input_scaling is None:
+            input_scaling = MapMinMax.fit(inputs)
+        if target_scaling is None:
+            target_scaling = MapMinMax.fit(targets)
         problem = cls(input_scaling.apply(inputs), target_scaling.apply(targets), hidden,
                       activation)
         problem.encoding = encoding

@@ -37,7 +37,7 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from ._registry import register_algorithm
-from .trainlm import MU_FLOOR, DampedGaussNewton, check_mu_options, sum_of_squares
+from .trainlm import MU_FLOOR, check_mu_options, damped_system, sum_of_squares
 
 __all__ = ["trainbr", "effective_parameters"]
 
@@ -82,15 +82,14 @@ def trainbr(problem, x0, monitor, *, mu=0.005, mu_dec=0.1, mu_inc=10.0, mu_max=1
 
     if monitor.start(x, sse / m, report(x, e, J)):
         return x
-    outer = getattr(problem, "jacobian_outer", None)
     while True:
         performance = beta * sse + alpha * ssw
-        system = DampedGaussNewton(J, e, outer and (lambda: outer(x)))
+        system = damped_system(problem, x, J, e)
         while True:
             dx = system.step(mu, beta, alpha, x)
             if dx is not None:
                 trial = x + dx
-                _, trial_sse = sum_of_squares(problem, trial)
+                trial_sse = sum_of_squares(problem, trial)
                 trial_ssw = float(trial @ trial)
                 if beta * trial_sse + alpha * trial_ssw < performance:
                     break

@@ -49,19 +49,19 @@ class DampedGaussNewton:
         Jacobian of the residuals.
     e : ndarray of shape (m,)
         Residuals.
-    outer : callable, optional
-        Returns ``J Jᵀ`` (lower triangle suffices) faster than from J; used
-        when ``m < n`` (a problem's optional ``jacobian_outer``).
+    gram : ndarray, optional
+        The Gram matrix if the caller has it: ``J Jᵀ`` when ``m < n``, else
+        ``JᵀJ``; only its lower triangle is read.
     """
 
-    def __init__(self, J, e, outer=None):
+    def __init__(self, J, e, gram=None):
         self.J = J
         self.e = e
         m, n = J.shape
         #: True when the m × m matrix JJᵀ is used (more weights than residuals).
         self.dual = m < n
-        if self.dual and outer is not None:
-            self.gram = outer()
+        if gram is not None:
+            self.gram = gram
         else:
             # J.T is J's memory in Fortran order, so BLAS reads it without a copy;
             # syrk fills only the lower triangle, all that Cholesky reads.
@@ -140,10 +140,17 @@ def check_mu_options(algorithm, mu, mu_dec, mu_inc, mu_max):
 
 
 def sum_of_squares(problem, x):
-    """``(e, Σe²)`` at trial weights, where overflow just means a bad step."""
+    """``Σe²`` at trial weights, where overflow just means a bad step."""
     with np.errstate(over="ignore", invalid="ignore"):
         e = problem.residuals(x)
-        return e, float(e @ e)
+        return float(e @ e)
+
+
+def damped_system(problem, x, J, e):
+    """:class:`DampedGaussNewton` at ``x``, with the problem's own ``jacobian_outer`` when it has one."""
+    outer = getattr(problem, "jacobian_outer", None)
+    dual = J.shape[0] < J.shape[1]
+    return DampedGaussNewton(J, e, gram=outer(x) if dual and outer is not None else None)
 
 
 @register_algorithm("trainlm")
@@ -157,14 +164,13 @@ def trainlm(problem, x0, monitor, *, mu=0.001, mu_dec=0.1, mu_inc=10.0, mu_max=1
     monitor.record("mu", mu)
     if monitor.start(x, sse / m, (2.0 / m) * (J.T @ e)):
         return x
-    outer = getattr(problem, "jacobian_outer", None)
     while True:
-        system = DampedGaussNewton(J, e, outer and (lambda: outer(x)))
+        system = damped_system(problem, x, J, e)
         while True:
             dx = system.step(mu)
             if dx is not None:
                 trial = x + dx
-                _, trial_sse = sum_of_squares(problem, trial)
+                trial_sse = sum_of_squares(problem, trial)
                 if trial_sse < sse:
                     break
             mu *= mu_inc

@@ -1,0 +1,91 @@
+"""`encal fit` and `encal evaluate` through the command line's main()."""
+
+import json
+
+import numpy as np
+import pytest
+
+import encal
+from encal.cli import main
+
+
+@pytest.fixture
+def train_and_test(tmp_path):
+    def write(name, offset):
+        ref = np.arange(0.0, 360.0, 2.0) + offset
+        theta = np.radians(ref)
+        error = 1.2 * np.sin(theta + 0.4) + 0.5 * np.cos(2 * theta) + 0.2 * np.sin(16 * theta)
+        path = tmp_path / name
+        encal.write_calibration(path, encal.Calibration(ref, ref + error / 60.0, resolution_bits=16))
+        return path
+
+    return write("train.csv", 0.0), write("test.csv", 1.0)
+
+
+def test_fit_then_evaluate_json(train_and_test, tmp_path, capsys):
+    train, test = train_and_test
+    model_path = tmp_path / "m.json"
+    assert main(["fit", str(train), "-o", str(model_path), "--method", "fourier", "--orders", "0,1,2,16"]) == 0
+    out = capsys.readouterr().out
+    assert "fourier model" in out and str(model_path) in out
+    assert main(["evaluate", str(model_path), str(test), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["n"] == 180
+    assert result["rms_arcmin"] < 0.01 < result["before"]["rms_arcmin"]
+    assert result["model_kind"] == "fourier"
+
+
+def test_evaluate_text_table(train_and_test, tmp_path, capsys):
+    train, test = train_and_test
+    model_path = tmp_path / "m.json"
+    main(["fit", str(train), "-o", str(model_path), "--method", "lut"])
+    capsys.readouterr()
+    assert main(["evaluate", str(model_path), str(test)]) == 0
+    out = capsys.readouterr().out
+    assert "before" in out and "after" in out and "RMS" in out
+
+
+def test_fit_ann_with_seed_is_reproducible(train_and_test, tmp_path, capsys):
+    train, _ = train_and_test
+    paths = [tmp_path / "a.json", tmp_path / "b.json"]
+    for path in paths:
+        assert main(["fit", str(train), "-o", str(path), "--method", "ann", "--hidden", "8",
+                     "--epochs", "30", "--seed", "3", "--reproducible"]) == 0
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--method", "fourier", "--hidden", "5"], "--hidden applies to --method ann or hybrid, not fourier"),
+    (["--method", "fourier", "--orders", "1,x"], "--orders must be whole numbers"),
+    (["--method", "lut", "--seed", "1"], "--seed applies to"),
+])
+def test_fit_refuses_options_of_another_method(train_and_test, tmp_path, capsys, argv, message):
+    train, _ = train_and_test
+    out = tmp_path / "m.json"
+    assert main(["fit", str(train), "-o", str(out), *argv]) == 1
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_fit_usage_errors_exit_2(train_and_test, tmp_path):
+    train, _ = train_and_test
+    with pytest.raises(SystemExit) as info:
+        main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--hidden", "0"])
+    assert info.value.code == 2
+    with pytest.raises(SystemExit) as info:
+        main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--method", "spline"])
+    assert info.value.code == 2
+
+
+def test_fit_into_missing_folder(train_and_test, tmp_path, capsys):
+    train, _ = train_and_test
+    assert main(["fit", str(train), "-o", str(tmp_path / "nope" / "m.json"), "--method", "lut"]) == 1
+    assert "does not exist" in capsys.readouterr().err
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"encal {encal.__version__}"

@@ -1,0 +1,80 @@
+"""encal.fit and encal.evaluate: dispatch, metadata, and the residual convention."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+import encal
+from encal.errors import InputError
+from encal.fitting import calibration_sha256
+
+
+def _calibration(error_arcmin, step=2.0, offset=0.0, name="enc"):
+    ref = np.arange(0.0, 360.0, step) + offset
+    return encal.Calibration(ref, ref + error_arcmin(ref) / 60.0, name=name, resolution_bits=16)
+
+
+def harmonic_profile(ref_deg):
+    theta = np.radians(ref_deg)
+    return 0.4 + 1.5 * np.sin(theta + 0.3) + 0.7 * np.cos(2 * theta) + 0.3 * np.sin(16 * theta + 1.0)
+
+
+def test_fit_records_encoder_and_provenance():
+    cal = _calibration(harmonic_profile, name="enc7")
+    model = encal.fit(cal, method="fourier", orders=[0, 1, 2, 16])
+    assert model.encoder == {"name": "enc7", "resolution_bits": 16}
+    assert model.training["method"] == "fourier"
+    assert model.training["n_points"] == 180
+    assert model.training["data_sha256"] == calibration_sha256(cal)
+    assert model.training["fit_options"] == {"orders": [0, 1, 2, 16]}
+
+
+def test_evaluate_residual_is_observed_minus_predicted():
+    train = _calibration(harmonic_profile)
+    test = _calibration(harmonic_profile, offset=1.0)
+    model = encal.fit(train, method="fourier", orders=[0, 1, 2, 16])
+    result = encal.evaluate(model, test)
+    # The profile is exactly a Fourier series of those orders: the correction is exact on the test grid,
+    # where the error depends on the reference angle but the model on the encoder angle.
+    assert result.after.rms < 0.05
+    assert result.before.rms > 1.0
+    assert_allclose(result.residual_arcmin, test.errors_arcmin - model.predict(test.encoder_deg), atol=1e-9)
+    as_dict = result.as_dict()
+    for key in ("n", "mae_arcmin", "rms_arcmin", "max_abs_arcmin", "min_arcmin", "max_arcmin"):
+        assert key in as_dict and key in as_dict["before"]
+
+
+def test_corrected_angle_error_is_the_residual():
+    train = _calibration(harmonic_profile)
+    model = encal.fit(train, method="lut", interpolation="cubic")
+    test = _calibration(harmonic_profile, offset=1.0)
+    corrected = model.correct(test.encoder_deg)
+    error = encal.angle_difference(corrected, test.reference_deg) * 60.0
+    assert_allclose(error, encal.evaluate(model, test).residual_arcmin, atol=1e-9)
+
+
+@pytest.mark.parametrize("method, options", [("fourier", {}), ("lut", {}), ("ann", {"hidden": 6, "epochs": 50})])
+def test_every_method_lowers_the_error(method, options):
+    cal = _calibration(harmonic_profile)
+    model = encal.fit(cal, method=method, **options, **({"rng": 0} if method == "ann" else {}))
+    result = encal.evaluate(model, _calibration(harmonic_profile, offset=1.0))
+    assert result.after.rms < 0.5 * result.before.rms
+
+
+def test_large_offset_near_180_degrees_is_modelled():
+    cal = _calibration(lambda r: 179.5 * 60 + 3.0 * np.sin(np.radians(r)))
+    model = encal.fit(cal, method="fourier", orders=[0, 1])
+    result = encal.evaluate(model, _calibration(lambda r: 179.5 * 60 + 3.0 * np.sin(np.radians(r)), offset=1))
+    assert result.after.max_abs < 0.01
+
+
+def test_unknown_method_and_wrong_arguments():
+    cal = _calibration(harmonic_profile)
+    with pytest.raises(InputError, match="method must be one of .*Got 'spline' instead"):
+        encal.fit(cal, method="spline")
+    with pytest.raises(InputError, match="fit expects a Calibration"):
+        encal.fit(np.zeros(10), method="fourier")
+    with pytest.raises(InputError, match="draws no random numbers"):
+        encal.fit(cal, method="fourier", rng=1)
+    with pytest.raises(InputError, match="evaluate expects a Calibration"):
+        encal.evaluate(encal.fit(cal, method="lut"), [1, 2, 3])
