@@ -15,7 +15,13 @@ from numpy.testing import assert_allclose  # noqa: E402
 from encal import Calibration, harmonics  # noqa: E402
 from encal import plots  # noqa: E402
 from encal.errors import InputError  # noqa: E402
-from encal.studies import compare_algorithms, compare_models, hidden_node_sweep, reproducibility, svd_pruning  # noqa: E402
+from encal.studies import (  # noqa: E402
+    compare_algorithms,
+    compare_models,
+    hidden_node_sweep,
+    reproducibility,
+    svd_pruning,
+)
 from encal.studies.comparison import DEFAULT_MODELS  # noqa: E402
 
 GRID = np.arange(0.0, 360.0, 2.0)

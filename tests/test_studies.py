@@ -178,15 +178,16 @@ def test_sweep_refuses_what_is_not_a_calibration():
         hidden_node_sweep(np.zeros(10), workers=0)
 
 
-def test_knee_is_where_the_mse_stops_falling():
+def test_sweep_statistics_over_seeds():
     from encal.studies import SweepResult
 
     mse = np.array([[1.0], [0.1], [0.011], [0.01]])
     sweep = SweepResult(encoder="enc", hidden=np.array([10, 20, 30, 40]), algorithms=("trainlm",), encoding="raw",
                         seeds=np.zeros((4, 1), dtype=int), epochs={"trainlm": 1}, mse_arcmin2={"trainlm": mse},
                         epochs_run={}, time_s={}, cpu_s={}, curve_hidden=None, curves_arcmin2={})
-    assert sweep.knee("trainlm", fraction=0.1) == 30
-    assert sweep.test_mse_mean("trainlm") is None
+    assert_allclose(sweep.mse_mean("trainlm"), mse[:, 0])
+    assert_allclose(sweep.mse_std("trainlm"), 0.0)
+    assert sweep.test_mse_median("trainlm") is None
 
 
 # --------------------------------------------------------------------------- algorithm table

@@ -109,3 +109,15 @@ def test_stops_at_mu_max_when_no_step_lowers_the_performance():
     result = train(problem, "trainbr", x0=np.zeros(3), min_grad=0.0)
     assert result.reason == "mu_max"
     assert np.all(result.x == 0)
+
+
+def test_network_with_more_weights_than_points():
+    # 321 weights on 180 points: the step and γ come from the 180 × 180 system JJᵀ.
+    rng = np.random.default_rng(0)
+    error = few_harmonics(TRAINING_GRID) + 0.1 * rng.standard_normal(TRAINING_GRID.size)
+    problem = NetworkProblem.from_angles(TRAINING_GRID, error, 80)
+    result = train(problem, "trainbr", x0=problem.initial_weights(0), epochs=20)
+    assert problem.n_params == 321
+    assert np.all(np.isfinite(result.x))
+    assert np.all(result.history["gamma"][1:] < problem.n_samples)
+    assert result.history["mse"][-1] < 0.05 * result.history["mse"][0]

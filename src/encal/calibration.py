@@ -1,13 +1,14 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .angles import ARCMIN_PER_DEG, wrap180, wrap360
-from .errors import CalibrationError
+from .errors import CalibrationError, EncalWarning
 
-__all__ = ["Calibration", "read_calibration", "write_calibration"]
+__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +52,11 @@ class Calibration:
             )
         if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(enc))):
             raise CalibrationError("calibration angles must be finite numbers (found NaN or infinity)")
+        bits = self.resolution_bits
+        if bits is not None and (isinstance(bits, bool) or not isinstance(bits, (int, np.integer))
+                                 or not 1 <= bits <= MAX_BITS):
+            raise CalibrationError(f"resolution_bits must be a whole number of bits from 1 to {MAX_BITS} or None. "
+                                   f"Got {bits!r} instead.")
         object.__setattr__(self, "reference_deg", wrap360(ref).reshape(-1))
         object.__setattr__(self, "encoder_deg", wrap360(enc).reshape(-1))
         if self.direction is not None:
@@ -104,6 +110,14 @@ _REQUIRED = ("reference_deg", "encoder_deg")
 _DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
 MIN_POINTS = 8
 MAX_GAP_DEG = 30.0
+#: Encoder resolutions a calibration may declare, in bits.
+MAX_BITS = 32
+#: Largest |angle| read from a file, in degrees (2.8 million turns): up to it a double keeps the angle to
+#: better than 1e-5 arcmin after wrapping to [0, 360); far beyond it the column is not angles in degrees.
+MAX_ABS_DEG = 1e9
+#: Largest backward travel of the encoder, in degrees, while the reference moves forward, taken for
+#: reading noise (see :func:`check_folds`).
+MAX_FOLD_DEG = 0.5
 
 
 def _fail(path, line, message, column=None):
@@ -131,6 +145,10 @@ def _parse_float(path, line, column, name, cell):
         _fail(path, line, f"{name} is {shown!r}, expected a number of degrees", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {cell.strip()!r}, expected a finite number of degrees", column)
+    if abs(value) > MAX_ABS_DEG:
+        _fail(path, line, f"{name} is {cell.strip()!r}, expected an angle in degrees within +-{MAX_ABS_DEG:g} "
+                          "(beyond that a double cannot hold the angle within a turn to 1e-5 arcmin; "
+                          "is this column counts or time stamps?)", column)
     return value
 
 
@@ -140,8 +158,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
 
     The file is UTF-8 text (a byte-order mark is accepted), comma-separated, with one header row naming at
     least ``reference_deg`` and ``encoder_deg`` (any letter case, any order, other columns ignored),
-    ``#`` comment lines, and LF or CRLF line ends. Angles may be any finite numbers of degrees; they are
-    wrapped into [0, 360).
+    ``#`` comment lines, and LF or CRLF line ends. Angles may be any finite numbers of degrees within
+    +-1e9 (2.8 million turns); they are wrapped into [0, 360).
 
     Parameters
     ----------
@@ -155,7 +173,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     name : str, optional
         Encoder name; by default the file's stem.
     resolution_bits : int, optional
-        Encoder resolution in bits, if known; read from a ``# resolution_bits: B`` comment otherwise.
+        Encoder resolution in bits (1 to 32), if known; read from a ``# resolution_bits: B`` comment
+        otherwise.
     duplicates : {'refuse', 'average'}, default='refuse'
         What to do with repeated reference angles whose readings disagree (points of one direction and
         epoch). Identical repeats are always kept as they are.
@@ -168,9 +187,17 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ------
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
-        header without the two columns, a semicolon- or tab-separated file, non-numeric, NaN or infinite
-        values, fewer than 8 points, a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that
-        counts against the reference (unless ``reverse``), conflicting repeated reference angles.
+        header without the two columns, a semicolon- or tab-separated file, non-numeric, NaN, infinite or
+        absurdly large (beyond +-1e9 degrees) values, a resolution outside 1 to 32 bits, fewer than 8 points,
+        a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
+        (unless ``reverse``), an encoder that goes back while the reference goes forward (see
+        :func:`check_folds`), conflicting repeated reference angles.
+
+    Warns
+    -----
+    EncalWarning
+        When a column's values all lie within one turn measured in radians and span most of it: angles
+        in radians over a full revolution, probably, where degrees were expected.
     """
     from pathlib import Path
 
@@ -184,7 +211,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     records = [(number, line) for number, line in enumerate(lines, start=1)
                if line.strip() and not line.lstrip().startswith("#")]
     if resolution_bits is None:
-        resolution_bits = _resolution_from_comments(lines)
+        resolution_bits = _resolution_from_comments(path, lines)
     if not records:
         raise CalibrationError(f"{path}: the file is empty; expected a header row "
                                "'reference_deg,encoder_deg' and at least 8 rows of angles")
@@ -197,8 +224,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     for number, line in records[1:]:
         cells = line.split(",")
         if len(cells) < n_columns:
-            _fail(path, number, f"has {len(cells)} fields, expected {n_columns} as in the header "
-                                "(is the file truncated?)")
+            separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
+            why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
+            _fail(path, number, f"has {len(cells)} fields, expected {n_columns} as in the header ({why})")
         reference.append(_parse_float(path, number, ref_col + 1, "reference_deg", cells[ref_col]))
         encoder.append(_parse_float(path, number, enc_col + 1, "encoder_deg", cells[enc_col]))
         if dir_col is not None:
@@ -213,6 +241,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         raise CalibrationError(f"{path}: has {len(reference)} calibration points, expected at least "
                                f"{MIN_POINTS} to model an error profile")
     encoder = np.asarray(encoder)
+    _warn_if_radians(path, {"reference_deg": np.asarray(reference), "encoder_deg": encoder})
     if reverse:
         encoder = -encoder
     cal = Calibration(
@@ -225,18 +254,47 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     )
     cal = _check_duplicates(path, cal, duplicates, first_data_line=records[1][0])
     _check_direction_of_count(path, cal, reverse)
+    check_folds(cal, where=str(path))
     _check_coverage(path, cal, allow_gaps)
     return cal
 
 
-def _resolution_from_comments(lines):
-    for line in lines:
+def _resolution_from_comments(path, lines):
+    for number, line in enumerate(lines, start=1):
+        if not line.lstrip().startswith("#"):
+            continue
         stripped = line.strip().lstrip("#").strip().lower()
         if stripped.startswith("resolution_bits"):
             value = stripped.split(":", 1)[-1].split("=", 1)[-1].strip()
-            if value.isdigit():
+            if value.isdigit() and 1 <= int(value) <= MAX_BITS:
                 return int(value)
+            _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
+                                f"{MAX_BITS}")
     return None
+
+
+def _warn_if_radians(path, columns):
+    """Warn when angle columns look like radians over a full revolution (see :func:`_looks_like_radians`)."""
+    suspects = [name for name, values in columns.items() if _looks_like_radians(values)]
+    if suspects:
+        values = np.concatenate([columns[name] for name in suspects])
+        warnings.warn(
+            f"{path}: {' and '.join(suspects)} all lie between {values.min():.4g} and {values.max():.4g}, as "
+            "radians over a full revolution would; expected degrees (radians times 57.29578)",
+            EncalWarning, stacklevel=3)
+
+
+def _looks_like_radians(values):
+    """True if all ``values`` lie within one turn measured in radians (0..2 pi or -pi..pi) and span most of it.
+
+    A calibration in degrees spanning so little (under 13 degrees) would leave a coverage gap of over 340
+    degrees, so the test is safe; for radians over a whole revolution it always holds.
+    """
+    if values.size == 0:
+        return False
+    lowest, highest = float(values.min()), float(values.max())
+    margin = 0.1  # radians: an offset or an error does not take radians far outside one turn
+    return -np.pi - margin <= lowest and highest <= 2 * np.pi + margin and highest - lowest >= 1.5 * np.pi
 
 
 def _header_columns(path, line, header):
@@ -292,8 +350,8 @@ def _check_duplicates(path, cal, duplicates, first_data_line):
         first, index = conflicts[0]
         raise CalibrationError(
             f"{path}: reference angle {cal.reference_deg[index]:g} deg appears more than once with "
-            f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, the "
-            f"{first + 1}th and {index + 1}th data rows); expected one reading per reference angle "
+            f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, data rows "
+            f"{first + 1} and {index + 1}); expected one reading per reference angle "
             "(use --average-duplicates to average them)")
     keep, encoder = [], []
     for indices in seen.values():
@@ -324,6 +382,51 @@ def _check_direction_of_count(path, cal, reverse):
             f"{path}: the encoder angle decreases as the reference angle increases (it counts against the "
             "reference); expected both to increase together - use --reverse (reverse=True) to negate the "
             "encoder angles")
+
+
+def check_folds(cal, where="calibration"):
+    """Refuse a calibration whose encoder goes back while the reference goes forward.
+
+    Within each run (points of one direction and epoch), sorted by reference angle, the encoder angle
+    must not fall more than :data:`MAX_FOLD_DEG` (0.5 degrees) below a reading taken at a smaller
+    reference angle. Where it does, one encoder angle is read at two shaft positions, so the error is
+    not a function of the encoder angle and no model of it can correct the encoder (a folded error of
+    tens of degrees, a slipping coupling or a glitch). Each encoder step is taken as the reference step
+    plus the wrapped difference, so steps across 0/360 and coverage gaps are measured correctly.
+
+    Parameters
+    ----------
+    cal : Calibration
+    where : str, default='calibration'
+        Name of the data, for the message.
+
+    Raises
+    ------
+    CalibrationError
+        Naming both points and how far the encoder went back.
+    """
+    runs = np.zeros(len(cal), dtype=int)
+    for labels in (cal.direction, cal.epoch):
+        if labels is not None:
+            runs = runs * (len(cal) + 1) + np.unique(labels, return_inverse=True)[1].reshape(-1)
+    for run in np.unique(runs):
+        members = np.flatnonzero(runs == run)
+        order = members[np.argsort(cal.reference_deg[members], kind="stable")]
+        ref, enc = cal.reference_deg[order], cal.encoder_deg[order]
+        if ref.size < 2:
+            continue
+        step_ref = np.diff(ref)
+        travel = np.concatenate([[0.0], np.cumsum(step_ref + wrap180(np.diff(enc) - step_ref))])
+        drop = np.maximum.accumulate(travel) - travel
+        last = int(np.argmax(drop))
+        if drop[last] > MAX_FOLD_DEG:
+            first = int(np.argmax(travel[: last + 1]))
+            raise CalibrationError(
+                f"{where}: the encoder reads {enc[first]:.4g} deg at reference {ref[first]:.4g} deg but "
+                f"{enc[last]:.4g} deg at reference {ref[last]:.4g} deg, {drop[last]:.3g} deg back although the "
+                f"reference went forward; expected the encoder angle to increase with the reference (within "
+                f"{MAX_FOLD_DEG:g} deg of noise), since otherwise the error is not a function of the encoder "
+                "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch)")
 
 
 def _check_coverage(path, cal, allow_gaps):

@@ -107,6 +107,8 @@ class EncoderResult:
         SVD pruning of the paper's 1:80:1 network.
     reproducibility : Reproducibility
         Later epoch and second decoder against the first calibration.
+    cpu_s : float
+        CPU time of this encoder's fits and analyses, seconds.
     """
 
     name: str
@@ -118,6 +120,7 @@ class EncoderResult:
     comparison: object
     pruning: object
     reproducibility: object
+    cpu_s: float = 0.0
 
 
 @dataclass(eq=False)
@@ -155,6 +158,7 @@ class DemoResult:
 
 def _encoder_study(task):
     """Table 3, SVD pruning and reproducibility of one encoder (runs in a worker process)."""
+    cpu_start = time.process_time()
     settings, seed = task["settings"], task["seed"]
     train, test = task["train"], task["test"]
     comparison = compare_models(train, test, floor_arcmin=task["floors"]["test"],
@@ -168,7 +172,8 @@ def _encoder_study(task):
     return EncoderResult(
         name=train.name, train=train, test=test, profile=error_stats(both),
         harmonics=harmonics(train.encoder_deg, train.errors_arcmin),
-        floor_arcmin=task["floors"]["test"], comparison=comparison, pruning=pruning, reproducibility=repro)
+        floor_arcmin=task["floors"]["test"], comparison=comparison, pruning=pruning, reproducibility=repro,
+        cpu_s=time.process_time() - cpu_start)
 
 
 def _stage(timings, name):

@@ -271,10 +271,14 @@ def plot_harmonics(harmonics, *, n_label=10, ax=None, title=None):
     shown = np.maximum(amplitude, floor)
     ax.vlines(orders, floor, shown, color=_TRAIN_COLOUR, lw=0.8)
     top = harmonics.top(n_label)
-    ax.plot(top, shown[top], "o", ms=4, color=_TEST_COLOUR, label=f"top {len(top)}")
-    for k in top:
-        ax.annotate(str(k), (k, shown[k]), textcoords="offset points", xytext=(0, 4), ha="center",
-                    fontsize="x-small")
+    ax.plot(top, shown[top], "o", ms=4, color=_TEST_COLOUR,
+            label=f"top {len(top)}: {' '.join(str(k) for k in top)}")
+    labelled = []
+    for k in top:  # largest first; skip a label that would overlap a larger one's
+        if all(abs(k - other) >= 0.04 * orders.max() for other in labelled):
+            ax.annotate(str(k), (k, shown[k]), textcoords="offset points", xytext=(0, 4), ha="center",
+                        fontsize="x-small")
+            labelled.append(k)
     ax.set_yscale("log")
     ax.set_ylim(floor, amplitude.max() * 3)
     ax.set_xlim(-1, orders.max() + 1)
@@ -293,7 +297,7 @@ def plot_sweep(sweep, ax=None):
     """Fig. 2a: final training MSE (arcmin²) against the number of hidden nodes, per algorithm.
 
     Error bars span ± one standard deviation over seeds (none for a single seed). When the sweep measured a
-    test calibration, the final test MSE is drawn dashed in the same colour.
+    test calibration, the median final test MSE is drawn dashed in the same colour.
     """
     ax = new_axes(ax)
     for index, algorithm in enumerate(sweep.algorithms):
@@ -301,10 +305,10 @@ def plot_sweep(sweep, ax=None):
         mean, std = sweep.mse_mean(algorithm), sweep.mse_std(algorithm)
         ax.errorbar(sweep.hidden, mean, yerr=std if sweep.n_seeds > 1 else None, marker="o", ms=4,
                     capsize=2, lw=1.2, color=colour, label=f"{algorithm}, training")
-        test = sweep.test_mse_mean(algorithm)
+        test = sweep.test_mse_median(algorithm)
         if test is not None:
             ax.plot(sweep.hidden, test, "--", marker="s", ms=3, mfc="none", lw=1.0, color=colour,
-                    label=f"{algorithm}, test")
+                    label=f"{algorithm}, test (median)")
     if 80 in sweep.hidden:
         ax.axvline(80, color=_FLOOR_COLOUR, ls=":", lw=1, label="paper's choice, N = 80")
     ax.set_yscale("log")

@@ -52,8 +52,11 @@ def main(argv=None):
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2
+    from ._common import warnings_as_lines
+
     try:
-        return int(args._run(args) or 0)
+        with warnings_as_lines(args.command):
+            return int(args._run(args) or 0)
     except EncalError as exc:
         print(f"encal {args.command}: error: {exc}", file=sys.stderr)
         return 1

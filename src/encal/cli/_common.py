@@ -1,9 +1,14 @@
 """Helpers shared by the command modules."""
 
+import contextlib
 import json
 import sys
+import warnings
 
-__all__ = ["add_calibration_options", "read_calibration_from_args", "positive_int", "print_json"]
+from ..errors import EncalWarning
+
+__all__ = ["add_calibration_options", "read_calibration_from_args", "positive_int", "print_json",
+           "warnings_as_lines"]
 
 
 def add_calibration_options(parser):
@@ -45,3 +50,24 @@ def print_json(data, stream=None):
     """Print one JSON object on one line."""
     stream = stream or sys.stdout
     stream.write(json.dumps(data, allow_nan=False) + "\n")
+
+
+@contextlib.contextmanager
+def warnings_as_lines(command, stream=None):
+    """Print every :class:`~encal.errors.EncalWarning` raised in the block as one line on stderr.
+
+    The line reads ``encal COMMAND: warning: <message>``; other warnings are shown as Python shows them.
+    """
+    stream = stream or sys.stderr
+    with warnings.catch_warnings():
+        warnings.simplefilter("always", EncalWarning)
+        shown = warnings.showwarning
+
+        def show(message, category, filename, lineno, file=None, line=None):
+            if issubclass(category, EncalWarning):
+                print(f"encal {command}: warning: {message}", file=stream)
+            else:
+                shown(message, category, filename, lineno, file, line)
+
+        warnings.showwarning = show
+        yield

@@ -294,7 +294,7 @@ def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", en
             "hidden": hidden,
             "encoding": encoding,
             "activation": activation,
-            "options": {key: _plain(value) for key, value in train_options.items()},
+            "options": {key: _plain(value) for key, value in train_options.items() if key != "callback"},
         },
     )
     model.train_result = result

@@ -76,31 +76,48 @@ class AlgorithmRow:
 
     @property
     def mse_mean(self):
+        """Mean final MSE over seeds, arcmin^2."""
         return float(self.mse_arcmin2.mean())
 
     @property
     def mse_std(self):
+        """Population standard deviation of the final MSE over seeds, arcmin^2."""
         return float(self.mse_arcmin2.std())
 
     @property
     def mse_min(self):
+        """Lowest final MSE, arcmin^2."""
         return float(self.mse_arcmin2.min())
 
     @property
     def mse_max(self):
+        """Highest final MSE, arcmin^2."""
         return float(self.mse_arcmin2.max())
 
     @property
     def epochs_median(self):
+        """Median number of epochs run."""
         return float(np.median(self.epochs))
 
     @property
     def time_mean_s(self):
+        """Mean training time, seconds."""
         return float(self.time_s.mean())
 
     @property
-    def test_rms_mean(self):
-        return None if self.test_rms_arcmin is None else float(self.test_rms_arcmin.mean())
+    def cpu_mean_s(self):
+        """Mean CPU time of one fit, seconds (None if not measured)."""
+        return None if self.cpu_s is None else float(self.cpu_s.mean())
+
+    @property
+    def test_rms_median(self):
+        """Median test RMS over seeds, arcmin (None without test points)."""
+        return None if self.test_rms_arcmin is None else float(np.median(self.test_rms_arcmin))
+
+    @property
+    def test_rms_worst(self):
+        """Largest test RMS over seeds, arcmin (None without test points)."""
+        return None if self.test_rms_arcmin is None else float(self.test_rms_arcmin.max())
 
     @property
     def stop_reasons(self):

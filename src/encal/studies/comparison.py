@@ -22,7 +22,8 @@ from ..profile import error_stats
 from ._checks import check_calibration, check_counts, check_seed
 from ._fits import task_seed
 
-__all__ = ["ModelSpec", "PAPER_STOPPING", "PAPER_NETWORK", "DEFAULT_MODELS", "ComparisonEntry", "Comparison", "compare_models"]
+__all__ = ["ModelSpec", "PAPER_STOPPING", "PAPER_NETWORK", "DEFAULT_MODELS", "ComparisonEntry", "Comparison",
+           "compare_models"]
 
 
 @dataclass(frozen=True)
