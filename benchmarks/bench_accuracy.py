@@ -35,6 +35,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import encal  # noqa: E402
+from encal.studies.comparison import PAPER_NETWORK  # noqa: E402  (1:80:1 raw, trainlm, the paper's stopping rule)
 from encal.models.select import DEFAULT_CANDIDATES  # noqa: E402
 from encal.simulate import measurement_floor  # noqa: E402
 from encal.simulate._fleet import demo_fleet  # noqa: E402
@@ -46,7 +47,7 @@ METHODS = {
     "lut linear": ("lut", {"interpolation": "linear"}),
     "lut cubic": ("lut", {"interpolation": "cubic"}),
     "ann periodic": ("ann", {}),
-    "ann raw 1:80:1 lm": ("ann", {"encoding": "raw", "hidden": 80, "algorithm": "trainlm"}),
+    "ann raw 1:80:1 lm": (PAPER_NETWORK.method, PAPER_NETWORK.options),
     "hybrid": ("hybrid", {}),
     "auto": ("auto", {}),
 }

@@ -41,6 +41,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import encal  # noqa: E402
+from encal.studies.comparison import PAPER_NETWORK  # noqa: E402  (1:80:1 raw, trainlm, the paper's stopping rule)
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "mechaduino"
 
@@ -51,7 +52,7 @@ METHODS = {
     "lut linear": ("lut", {"interpolation": "linear"}),
     "lut cubic": ("lut", {"interpolation": "cubic"}),
     "ann periodic": ("ann", {}),
-    "ann raw 1:80:1 lm": ("ann", {"encoding": "raw", "hidden": 80, "algorithm": "trainlm"}),
+    "ann raw 1:80:1 lm": (PAPER_NETWORK.method, PAPER_NETWORK.options),
     "hybrid": ("hybrid", {}),
     "auto": ("auto", {}),
 }

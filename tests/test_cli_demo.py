@@ -55,7 +55,7 @@ def test_demo_prints_tables_on_stdout_and_progress_on_stderr(quick_demo):
 
 
 def test_demo_model_file_corrects_its_test_run_as_the_table_states(quick_demo):
-    from encal.simulate._fleet import demo_fleet
+    from encal.simulate import demo_fleet
 
     out, _, _, _ = quick_demo
     with open(out / "tables" / "table3_comparison.csv", newline="") as handle:

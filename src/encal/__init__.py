@@ -21,6 +21,8 @@ _PUBLIC = {
     "Harmonics": "profile",
     "fit": "fitting", "evaluate": "fitting", "Evaluation": "fitting",
     "Model": "models",
+    "hidden_node_sweep": "studies", "compare_algorithms": "studies", "svd_pruning": "studies",
+    "compare_models": "studies", "reproducibility": "studies",
     "demo_fleet": "simulate", "simulate_fleet": "simulate", "measurement_floor": "simulate",
     "save_model": "deploy", "load_model": "deploy", "Compensator": "deploy",
     "EncalError": "errors", "CalibrationError": "errors", "ModelFileError": "errors",

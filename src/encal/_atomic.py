@@ -29,7 +29,7 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
     Raises
     ------
     InputError
-        If the destination folder does not exist.
+        If the destination folder does not exist, or the destination is a folder.
     """
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
@@ -37,6 +37,8 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
         raise InputError(
             f"cannot write {path}: the folder {folder} does not exist"
         )
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder; expected the path of a file")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     try:
         kwargs = {} if "b" in mode else {"encoding": encoding, "newline": newline}

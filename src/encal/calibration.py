@@ -226,7 +226,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         if len(cells) < n_columns:
             separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
             why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
-            _fail(path, number, f"has {len(cells)} fields, expected {n_columns} as in the header ({why})")
+            fields = f"{len(cells)} field" + ("s" if len(cells) != 1 else "")
+            _fail(path, number, f"has {fields}, expected {n_columns} as in the header ({why})")
         reference.append(_parse_float(path, number, ref_col + 1, "reference_deg", cells[ref_col]))
         encoder.append(_parse_float(path, number, enc_col + 1, "encoder_deg", cells[enc_col]))
         if dir_col is not None:

@@ -224,8 +224,7 @@ def run_demo(out="encal-demo", *, quick=False, settings=None, workers=None, seed
     EncalError
         If a model file, loaded back, does not reproduce the reported accuracy.
     """
-    from .simulate import measurement_floor
-    from .simulate._fleet import demo_fleet
+    from .simulate import demo_fleet, measurement_floor
 
     settings = settings or (QUICK if quick else FULL)
     stream = sys.stdout if stdout is None else stdout

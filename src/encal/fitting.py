@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .angles import ARCMIN_PER_DEG, wrap180
-from .calibration import Calibration
+from .calibration import Calibration, check_folds
 from .errors import InputError
 from .profile import ErrorStats, error_stats
 
@@ -76,6 +76,14 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     Model
         Predicts the error ``encoder - reference`` in arc-minutes from the encoder angle in degrees.
 
+    Raises
+    ------
+    InputError
+        If the method or an option is invalid.
+    CalibrationError
+        If the encoder goes back while the reference goes forward, so that the error is not a function
+        of the encoder angle (see :func:`~encal.calibration.check_folds`).
+
     Examples
     --------
     >>> import numpy as np, encal
@@ -88,6 +96,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     if not isinstance(cal, Calibration):
         raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
     fit_family = fitter(method)
+    check_folds(cal, where=cal.source or cal.name or "calibration")
     fit_options = dict(options)
     if method in RANDOMISED_METHODS:
         options["rng"] = rng

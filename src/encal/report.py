@@ -195,7 +195,8 @@ def _summary(result):
         items.append(
             f"<li><b>{html.escape(name)}</b>: before compensation its readings are off by up to "
             f"{before.max_abs:.2f} arcmin (RMS {before.rms:.2f}). Corrected with its model file "
-            f"<code>{html.escape(name)}.json</code> ({html.escape(label)}), readings at the 180 test angles, "
+            f"<code>{html.escape(name)}.json</code> (the row &ldquo;{html.escape(label)}&rdquo; of Table 3), "
+            f"readings at the {after.n} test angles, "
             f"which the model never saw, are off by at most {after.max_abs:.2f} arcmin (RMS {after.rms:.3f}): "
             f"{before.rms / after.rms:.1f} times smaller in RMS. No model can beat the measurement floor of this "
             f"run, {floor:.3f} arcmin RMS; this one is at {after.rms / floor:.2f} times the floor.</li>")

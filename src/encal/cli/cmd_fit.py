@@ -58,16 +58,33 @@ def _options(args):
     return options
 
 
+def _check_output(output, calibration):
+    """Refuse an output path that cannot be written, before a fit that may take minutes."""
+    from pathlib import Path
+
+    from ..errors import InputError
+
+    path = Path(output)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"cannot write {path}: the folder {folder} does not exist")
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder; expected the path of a model file")
+    if path.exists() and Path(calibration).exists() and path.samefile(calibration):
+        raise InputError(f"-o {path} is the calibration being fitted; expected another file for the model")
+
+
 def run(args):
     from ..fitting import evaluate, fit
 
+    _check_output(args.output, args.calibration)
     cal = read_calibration_from_args(args.calibration, args)
     options = _options(args)
     if args.seed is not None:
         options["rng"] = args.seed
     model = fit(cal, method=args.method, **options)
-    model.save(args.output, reproducible=args.reproducible)
     fitted = evaluate(model, cal)
+    model.save(args.output, reproducible=args.reproducible)
     report = getattr(model, "report", None)
     if callable(report):
         print(report())

@@ -33,7 +33,7 @@ def add_arguments(parser):
     parser.add_argument("study", choices=["sweep", "algorithms", "prune"], help="which study")
     parser.add_argument("train", metavar="TRAIN.csv", help="calibration the networks are trained on")
     parser.add_argument("--test", metavar="TEST.csv",
-                        help="calibration to measure test RMS on (algorithms, prune)")
+                        help="calibration to measure each network on (never used for training)")
     parser.add_argument("--out", metavar="DIR", help="write the table as CSV and the figure(s) as PNG here")
     parser.add_argument("--seeds", type=positive_int,
                         help="fits per point from different initial weights (default: sweep 1, algorithms 5)")
@@ -87,47 +87,53 @@ def _check_algorithms(names):
     return names
 
 
+def _sweep(args, train, test):
+    from ..studies.sweep import PAPER_HIDDEN, hidden_node_sweep
+
+    hidden = _counts(args.hidden, PAPER_HIDDEN, single=False)
+    algorithms = _check_algorithms(_names(args.algorithms, ("trainlm", "traingd")))
+    result = hidden_node_sweep(train, test, hidden=hidden, algorithms=algorithms, encoding=args.encoding,
+                               epochs=args.epochs, seeds=args.seeds or 1,
+                               curve_hidden=80 if 80 in hidden else hidden[-1], rng=args.seed,
+                               workers=args.workers, progress=not args.no_progress)
+    return result.table(), {"fig2a_sweep": result.plot, "fig2b_training": result.plot_curves}
+
+
+def _algorithms(args, train, test):
+    from ..studies.algorithms import EXTRA_ALGORITHMS, PAPER_ALGORITHMS, compare_algorithms
+
+    algorithms = _check_algorithms(_names(args.algorithms, (*PAPER_ALGORITHMS, *EXTRA_ALGORITHMS)))
+    result = compare_algorithms(train, test, algorithms=algorithms, hidden=_counts(args.hidden, 80, single=True),
+                                encoding=args.encoding, epochs=args.epochs, seeds=args.seeds or 5, rng=args.seed,
+                                workers=args.workers, progress=not args.no_progress)
+    return result.table(), {"table2_algorithms": result.plot, "table2_training": result.plot_curves}
+
+
+def _prune(args, train, test):
+    from ..studies.pruning import svd_pruning
+    from ..studies.tables import pruning_table
+
+    result = svd_pruning(train, test, hidden=_counts(args.hidden, 80, single=True), encoding=args.encoding,
+                         epochs=args.epochs, threshold=args.threshold, rng=args.seed)
+    return pruning_table({train.name: result}), {"fig3_singular_values": result.plot}
+
+
+_STUDIES = {"sweep": _sweep, "algorithms": _algorithms, "prune": _prune}
+
+
 def run(args):
     from pathlib import Path
+
+    from ..errors import InputError
 
     train = read_calibration_from_args(args.train, args)
     test = read_calibration_from_args(args.test, args) if args.test else None
     out = Path(args.out) if args.out else None
     if out is not None:
-        from ..errors import InputError
-
         if out.exists() and not out.is_dir():
             raise InputError(f"--out {out} is a file; expected a folder")
         out.mkdir(parents=True, exist_ok=True)
-    common = {"rng": args.seed}
-    figures = {}
-    if args.study == "sweep":
-        from ..studies.sweep import PAPER_HIDDEN, hidden_node_sweep
-
-        hidden = _counts(args.hidden, PAPER_HIDDEN, single=False)
-        result = hidden_node_sweep(train, hidden=hidden, algorithms=_check_algorithms(_names(
-            args.algorithms, ("trainlm", "traingd"))), encoding=args.encoding, epochs=args.epochs,
-            seeds=args.seeds or 1, curve_hidden=80 if 80 in hidden else hidden[-1], workers=args.workers,
-            progress=not args.no_progress, **common)
-        table = result.table()
-        figures = {"fig2a_sweep": result.plot, "fig2b_training": result.plot_curves}
-    elif args.study == "algorithms":
-        from ..studies.algorithms import EXTRA_ALGORITHMS, PAPER_ALGORITHMS, compare_algorithms
-
-        result = compare_algorithms(train, test, algorithms=_check_algorithms(_names(
-            args.algorithms, (*PAPER_ALGORITHMS, *EXTRA_ALGORITHMS))), hidden=_counts(args.hidden, 80, True),
-            encoding=args.encoding, epochs=args.epochs, seeds=args.seeds or 5, workers=args.workers,
-            progress=not args.no_progress, **common)
-        table = result.table()
-        figures = {"table2_algorithms": result.plot, "table2_training": result.plot_curves}
-    else:
-        from ..studies.pruning import svd_pruning
-        from ..studies.tables import pruning_table
-
-        result = svd_pruning(train, test, hidden=_counts(args.hidden, 80, True), encoding=args.encoding,
-                             epochs=args.epochs, threshold=args.threshold, **common)
-        table = pruning_table({train.name: result})
-        figures = {"fig3_singular_values": result.plot}
+    table, figures = _STUDIES[args.study](args, train, test)
     print(table.to_text())
     if out is not None:
         from ..plots import save_figure
@@ -135,5 +141,5 @@ def run(args):
         table.write_csv(out / f"{table.name}.csv")
         for name, plot in figures.items():
             save_figure(plot().figure, out / f"{name}.png")
-        print(f"wrote {out / (table.name + '.csv')} and {', '.join(name + '.png' for name in figures)} in {out}")
+        print(f"wrote {table.name}.csv and {', '.join(name + '.png' for name in figures)} in {out}")
     return 0

@@ -13,7 +13,7 @@ input, 1:30:1, chosen by measurement (``benchmarks/bench_trainlm.py --sweep``,
 recorded in ``BENCHMARKS.md``, section "trainlm"): on four simulated encoders
 (3 seeds each, trainlm, test RMS on the interleaved 1, 3, ..., 359° grid) the
 error falls from 0.39' at N = 8 to 0.21' at N = 30 and stays there at 40 and
-80, while 80 neurons take about three times as long to train. The paper's raw
+80, while 80 neurons take two and a half times as long to train. The paper's raw
 1:80:1 reaches 0.30' on the same encoders.
 """
 

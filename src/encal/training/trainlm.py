@@ -17,7 +17,7 @@ than points ``m`` (1:80:1 on 180 points) the identity
 ``(JᵀJ + μI)⁻¹ Jᵀ = Jᵀ (JJᵀ + μI)⁻¹`` replaces the n × n system by an
 m × m one, and a problem that can form ``JJᵀ`` more cheaply than from J
 (the network's ``jacobian_outer``) is asked to. A Cholesky factorisation per
-try measured about four times faster than one eigendecomposition per epoch
+try measured about three times faster than one eigendecomposition per epoch
 (``benchmarks/bench_trainlm.py``, Table 2): an epoch takes two tries on average.
 """
 
