@@ -153,7 +153,8 @@ def unpack_weights(w, n_inputs, hidden):
 
 def pack_weights(W1, b1, W2, b2):
     """The flat weight vector of the arrays ``W1`` (N × n_inputs), ``b1`` (N), ``W2`` (N), ``b2``."""
-    return np.concatenate([np.ravel(np.transpose(W1)), np.ravel(b1), np.ravel(W2), np.ravel(b2)]).astype(float)
+    parts = (np.transpose(W1), b1, W2, b2)
+    return np.concatenate([np.ravel(np.asarray(part, dtype=float)) for part in parts])
 
 
 def nguyen_widrow(n_inputs, hidden, activation="tansig", rng=None):

@@ -19,6 +19,8 @@ m × m one, and a problem that can form ``JJᵀ`` more cheaply than from J
 (the network's ``jacobian_outer``) is asked to. A Cholesky factorisation per
 try measured about three times faster than one eigendecomposition per epoch
 (``benchmarks/bench_trainlm.py``, Table 2): an epoch takes two tries on average.
+A damped matrix that is not numerically positive definite, or a trial step
+whose error is not finite, counts as a failed try.
 """
 
 import math
@@ -69,9 +71,10 @@ class DampedGaussNewton:
         self._Jte = None if self.dual else J.T @ e
 
     def factor(self, scale, shift):
-        """Lower Cholesky factor of ``scale · G + shift · I`` (G the Gram matrix), or None if not positive definite.
+        """Lower Cholesky factor of ``scale · G + shift · I`` (G the Gram matrix).
 
-        Only the lower triangle of the result is meaningful.
+        Only the lower triangle of the result is meaningful; None when the
+        matrix is not numerically positive definite.
         """
         A = scale * self.gram
         A.flat[::A.shape[0] + 1] += shift
