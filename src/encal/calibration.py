@@ -437,7 +437,7 @@ def _check_coverage(path, cal, allow_gaps):
     else:
         gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
         gap = float(gaps.max())
-    if gap > MAX_GAP_DEG and not allow_gaps:
+    if gap > MAX_GAP_DEG + 1e-9 and not allow_gaps:  # a 30-degree grid is not refused for a rounding error
         start = angles[np.argmax(np.diff(np.concatenate([angles, angles[:1] + 360.0])))] if angles.size > 1 \
             else angles[0]
         raise CalibrationError(
