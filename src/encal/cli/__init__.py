@@ -49,14 +49,20 @@ def build_parser():
         cmd = sub.add_parser(name, help=module.HELP, description=module.__doc__ or module.HELP,
                              formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(cmd)
-        cmd.set_defaults(_run=module.run)
+        cmd.set_defaults(_run=module.run, _claim_extras=getattr(module, "claim_extras", None))
     return parser
 
 
 def main(argv=None):
     """Run the command line; returns the exit status."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        # argparse binds an optional positional (`encal correct MODEL [FILE]`) before it sees later options,
+        # so `encal correct M.json --skip-bad FILE` leaves FILE over; a command may claim such leftovers.
+        claim = getattr(args, "_claim_extras", None)
+        if claim is None or not claim(args, extras):
+            parser.error(f"unrecognized arguments: {' '.join(extras)}")
     if args.command is None:
         parser.print_help(sys.stderr)
         return 2

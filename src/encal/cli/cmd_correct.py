@@ -34,6 +34,14 @@ def add_arguments(parser):
                         help="write 'nan' for a malformed line and go on instead of stopping")
 
 
+def claim_extras(args, extras):
+    """Take a FILE given after an option (``encal correct M.json --skip-bad FILE``)."""
+    if args.input == "-" and len(extras) == 1 and not extras[0].startswith("-"):
+        args.input = extras[0]
+        return True
+    return False
+
+
 def run(args):
     compensator = Compensator(args.model)
     sink = getattr(sys.stdout, "buffer", None) or _TextSink(sys.stdout)

@@ -14,6 +14,7 @@ The encoder resolution (--bits) defaults to the one recorded in the model file.
 from pathlib import Path
 
 from ..deploy import Compensator, compile_table, save_table, write_c
+from ..errors import InputError
 
 HELP = "export a model as a dense correction table or as C source for firmware"
 
@@ -38,8 +39,11 @@ def add_arguments(parser):
 
 
 def run(args):
-    compensator = Compensator(args.model)
     output = Path(args.output)
+    if output.exists() and output.resolve() == Path(args.model).resolve():
+        raise InputError(f"-o {output} is the model file being exported; expected a different output path "
+                         "(the export would overwrite the model)")
+    compensator = Compensator(args.model)
     if args.format == "table":
         table = compile_table(compensator, args.bits, dtype=args.dtype)
         save_table(table, output)

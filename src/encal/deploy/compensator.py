@@ -106,7 +106,7 @@ class Compensator:
         float or ndarray
             Corrected angles in degrees, in [0, 360), same shape.
         """
-        theta = as_angles(theta_enc_deg)
+        theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
         return wrap360(theta - self.predict(theta, direction) / ARCMIN_PER_DEG)[()]
 
     __call__ = correct

@@ -321,9 +321,15 @@ def _is_int(value):
     return isinstance(value, int) and not isinstance(value, bool)
 
 
+#: Largest magnitude a parameter may have. Real models stay many orders below it; a file beyond it (made
+#: by hand and re-signed) could overflow to inf or NaN in double precision, a wrong number that looks like
+#: an answer, so it is refused as 'not a finite number' at load time.
+MAX_PARAMETER_MAGNITUDE = 1e100
+
+
 def _is_number(value):
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value))
+            and math.isfinite(value) and abs(value) <= MAX_PARAMETER_MAGNITUDE)
 
 
 def _require_object(value, where, field):
@@ -335,13 +341,13 @@ def _require_object(value, where, field):
 
 def _require_number(value, where, field):
     if not _is_number(value):
-        raise ModelFileError(f"{where}: expected {field} to be a finite number, "
+        raise ModelFileError(f"{where}: expected {field} to be a finite number (|x| <= 1e100), "
                              f"got {_describe(value)}")
 
 
 def _require_numbers(value, n, where, field):
     if not (isinstance(value, list) and len(value) == n and all(map(_is_number, value))):
-        raise ModelFileError(f"{where}: expected {field} to be a list of {n} finite numbers, "
+        raise ModelFileError(f"{where}: expected {field} to be a list of {n} finite numbers (|x| <= 1e100), "
                              f"got {_describe(value)}")
 
 
@@ -499,7 +505,8 @@ class RuntimeModel:
 
         ``direction`` is as for :meth:`predict_arcmin`.
         """
-        theta = _finite(theta_deg)
+        # Wrap first: for a multi-turn reading of 1e15 degrees the correction would be lost to rounding.
+        theta = _wrap360(_finite(theta_deg))
         return _wrap360(theta - self.predict_arcmin(theta, direction) / 60.0)
 
     def __repr__(self):

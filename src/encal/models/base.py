@@ -117,7 +117,7 @@ class Model(ABC):
 
     def correct(self, theta_enc_deg):
         """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``, in degrees."""
-        theta = as_angles(theta_enc_deg)
+        theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
         return wrap360(theta - self.predict(theta) / ARCMIN_PER_DEG)
 
     def save(self, path, **options):

@@ -98,7 +98,7 @@ class DirectionalModel(Model):
 
     def correct(self, theta_enc_deg, direction=None):
         """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees."""
-        theta = as_angles(theta_enc_deg)
+        theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
         return wrap360(theta - self.predict(theta, direction=direction) / ARCMIN_PER_DEG)
 
     @staticmethod
