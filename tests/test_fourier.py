@@ -242,3 +242,13 @@ def test_save_and_load_give_the_same_model(tmp_path):
     assert type(again) is type(model)
     assert np.array_equal(again.predict(angles), model.predict(angles))
     assert again.parameters() == model.parameters()
+
+
+def test_orders_that_alias_on_a_slightly_irregular_grid_are_refused():
+    """Encoder readings of the 2-degree grid: 179 is not rank-deficient with 1 there, but aliases it."""
+    encoder = TRAIN + 2.0 / 60.0 * np.sin(np.radians(TRAIN) + 0.3)
+    error = 2.0 * np.sin(np.radians(TRAIN) + 0.3)
+    with pytest.raises(InputError, match=r"fit_fourier cannot identify harmonic order 179 .* highest order they "
+                                         r"determine is 90, .* order 179 looks like order 1"):
+        fit_fourier(encoder, error, orders=[0, 1, 179])
+    assert fit_fourier(encoder, error, orders=[0, 1, 90]).orders.tolist() == [0, 1, 90]

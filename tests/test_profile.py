@@ -252,3 +252,65 @@ def test_harmonic_amplitudes_do_not_depend_on_where_the_grid_starts(n, offset, r
     theta = offset + 360.0 * np.arange(n) / n + 360.0 * rotation
     _, amplitude = dft_amplitudes(errors)
     assert_allclose(harmonics(theta, errors).amplitude_arcmin, amplitude, atol=1e-9)
+
+
+# --------------------------------------------------------------------------- how the least squares is solved
+
+
+def _encoder_grid(n, error_amplitude_arcmin):
+    """Encoder readings of a uniform reference grid with a first-harmonic error: a smooth, irregular grid."""
+    reference = 360.0 * np.arange(n) / n
+    return reference + error_amplitude_arcmin / 60.0 * np.sin(np.radians(reference) + 0.3)
+
+
+GRIDS = {
+    "regular, even (Nyquist term)": _encoder_grid(600, 2.0),
+    "regular, odd": _encoder_grid(601, 2.0),
+    "irregular, smooth": _encoder_grid(1000, 20.0),
+    "irregular, one extra angle": np.r_[np.arange(0.0, 360.0, 2.0), 1.0],
+    "random": np.random.default_rng(5).uniform(0.0, 360.0, 500),
+    "clustered": np.r_[np.random.default_rng(6).uniform(0.0, 10.0, 900), np.linspace(10.0, 360.0, 100, False)],
+    "uniform, unequal repeats": np.r_[np.arange(0.0, 360.0, 2.0), np.arange(0.0, 180.0, 2.0)],
+    "uniform, shifted": 0.37 + np.arange(0.0, 360.0, 2.0),
+}
+
+
+@pytest.mark.parametrize("grid", GRIDS)
+@pytest.mark.parametrize("below", [0, 3])
+def test_harmonics_equal_the_qr_least_squares(grid, below):
+    """The FFT and the normal equations give the least-squares answer of the QR (fit_harmonic_series)."""
+    theta = GRIDS[grid]
+    errors = np.random.default_rng(below).normal(size=theta.size) + 3.0 * np.cos(np.radians(theta))
+    max_order = identifiable_order(theta) - below
+    result = harmonics(theta, errors, max_order)
+    cos, sin = fit_harmonic_series(theta, errors, range(max_order + 1))
+    assert_allclose(result.cos_arcmin, cos, rtol=0, atol=1e-12)
+    assert_allclose(result.sin_arcmin, sin, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("error_amplitude_arcmin", [0.0, 2.0])
+def test_harmonics_of_ten_thousand_points_recover_a_noise_free_profile(error_amplitude_arcmin):
+    """10,000 points, uniform (FFT) or with a 2 arcmin error that makes the grid irregular (normal equations)."""
+    theta = _encoder_grid(10_000, error_amplitude_arcmin)
+    orders = np.array([0, 1, 2, 16, 1024, 4000])
+    cos = np.array([0.5, 2.0, -1.0, 0.3, 0.2, 0.1])
+    sin = np.array([0.0, 1.0, 0.25, -0.7, 0.05, -0.1])
+    phase = np.radians(np.outer(theta, orders))
+    result = harmonics(theta, np.cos(phase) @ cos + np.sin(phase) @ sin)
+    assert result.max_order >= 4997
+    expected_cos, expected_sin = np.zeros(result.max_order + 1), np.zeros(result.max_order + 1)
+    expected_cos[orders], expected_sin[orders] = cos, sin
+    assert_allclose(result.cos_arcmin, expected_cos, rtol=0, atol=1e-10)
+    assert_allclose(result.sin_arcmin, expected_sin, rtol=0, atol=1e-10)
+
+
+def test_orders_above_what_the_angles_determine_are_refused_with_the_limit():
+    theta = _encoder_grid(180, 2.0)  # regular, not uniform: the QR alone would accept order 179
+    with pytest.raises(InputError, match=r"order 179 from 180 .* is 90, .* order 179 looks like order 1\)"):
+        fit_harmonic_series(theta, np.zeros(180), [0, 1, 179])
+    with pytest.raises(InputError, match=r"orders \[91, 120\] .* is 90"):
+        fit_harmonic_series(theta, np.zeros(180), [1, 91, 120])
+    irregular = np.random.default_rng(0).uniform(0.0, 360.0, 50)
+    with pytest.raises(InputError, match=r"order 30 from 50 distinct encoder angles: the highest order they "
+                                         r"determine is 24, and above it an order aliases a lower one$"):
+        fit_harmonic_series(irregular, np.zeros(50), [1, 30])

@@ -7,8 +7,9 @@ analysis the paper uses to choose the terms of its Fourier-series model.
 
 The harmonic analysis is a least-squares fit of ``a_k cos(k θ) + b_k sin(k θ)``,
 so it works on any set of angles; on a uniform grid it equals the discrete
-Fourier transform. How many orders a set of angles can identify is decided by
-:func:`identifiable_order`; ``docs/statistics.md`` explains the rules.
+Fourier transform, and is computed with the FFT. How many orders a set of
+angles can identify is decided by :func:`identifiable_order`;
+``docs/statistics.md`` explains the rules.
 """
 
 from dataclasses import dataclass
@@ -41,6 +42,11 @@ _RCOND = 1e-8
 #: A grid is regular when each angle lies within this fraction of the spacing
 #: of its own node of a uniform grid (Kadec's 1/4 bound).
 _REGULAR_DEVIATION = 0.25
+
+#: Conjugate gradients on the normal equations stop when the residual is below
+#: this fraction of the right-hand side, and give up (for the QR) after so many steps.
+_CG_RTOL = 1e-14
+_CG_MAX_ITER = 1000
 
 
 # --------------------------------------------------------------------------- statistics
@@ -212,6 +218,7 @@ class _Grid:
     n_distinct: int
     phase_rad: float | None  # phase of the uniform grid the angles match, if they match one
     largest_gap_deg: float
+    uniform: bool  # every angle within ANGLE_TOLERANCE_DEG of its node of that grid
 
     @property
     def nyquist_order(self):
@@ -244,12 +251,11 @@ def _grid(theta_deg):
     phase = float(np.angle(np.sum(np.exp(1j * m * theta)))) / m
     position = (theta - phase) * m / (2.0 * np.pi)  # in grid spacings
     node = np.round(position)
-    regular = (
-        np.unique(np.mod(node, m)).size == m
-        and np.max(np.abs(position - node)) < _REGULAR_DEVIATION
-    )
+    deviation = float(np.max(np.abs(position - node)))  # in grid spacings
+    regular = np.unique(np.mod(node, m)).size == m and deviation < _REGULAR_DEVIATION
+    uniform = regular and deviation * 360.0 / m <= ANGLE_TOLERANCE_DEG
     largest_gap = float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0])))
-    return _Grid(m, phase if regular else None, largest_gap)
+    return _Grid(m, phase if regular else None, largest_gap, uniform)
 
 
 def identifiable_order(theta_deg):
@@ -348,8 +354,10 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     Raises
     ------
     InputError
-        If the angles cannot identify the orders (numerically rank-deficient
-        least squares).
+        If an order exceeds the highest order the angles determine at all
+        (see :func:`identifiable_order`; above it an order aliases a lower
+        one), or the angles cannot identify the orders together
+        (numerically rank-deficient least squares).
 
     Examples
     --------
@@ -361,6 +369,9 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     theta, error = profile_arrays(theta_deg, error_arcmin, caller)
     orders = [int(k) for k in orders]
     grid = _grid(theta)
+    too_high = [k for k in orders if k > grid.max_order]
+    if too_high:
+        raise InputError(_aliasing_message(caller, too_high, grid))
     design, owners = _design(theta, orders, grid)
     # QR with column pivoting (gelsy): rank-revealing, and much faster than the SVD.
     solution, _, rank, _ = scipy.linalg.lstsq(design, error, cond=_RCOND, lapack_driver="gelsy",
@@ -432,6 +443,20 @@ def _coefficients(solution, owners, orders, grid):
             cos_arcmin[index] = value * np.cos(shift)
             sin_arcmin[index] = value * np.sin(shift)
     return cos_arcmin, sin_arcmin
+
+
+def _aliasing_message(caller, orders, grid):
+    """One sentence refusing orders above ``grid.max_order``."""
+    m = grid.n_distinct
+    named = f"order {orders[0]}" if len(orders) == 1 else f"orders {_short_list(orders)}"
+    example = ""
+    if grid.phase_rad is not None:  # on a regular grid order k looks like order ±k mod m
+        folded = orders[0] % m
+        example = f" (here order {orders[0]} looks like order {min(folded, m - folded)})"
+    return (
+        f"{caller} cannot identify harmonic {named} from {m} distinct encoder angles: the highest "
+        f"order they determine is {grid.max_order}, and above it an order aliases a lower one{example}"
+    )
 
 
 def _short_list(orders, limit=12):
@@ -544,6 +569,23 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     InputError
         If ``max_order`` exceeds what the angles can determine.
 
+    Notes
+    -----
+    The least squares is solved by the cheapest route that gives its answer
+    (``K`` is ``max_order``):
+
+    - on a uniform grid (every angle within 1e-9° of its node), with the
+      Nyquist order or with as many readings at every angle: the FFT of the
+      mean error at each angle, O(n log n);
+    - otherwise, up to :func:`identifiable_order`: the normal equations. For
+      this basis they are a Toeplitz system in the sums ``Σ_i e^{imθ_i}``,
+      ``m <= 2K``, formed in O(n K) by two small matrix products and solved by
+      conjugate gradients with FFT products, O(K log K) a step. Below the
+      identifiable order the system is well conditioned and a few dozen steps
+      reach the QR answer to rounding;
+    - above it, or if the gradients do not converge: the rank-revealing QR
+      of :func:`fit_harmonic_series`, O(n K²).
+
     Examples
     --------
     >>> theta = np.arange(0.0, 360.0, 2.0)
@@ -562,6 +604,142 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
             f"harmonics expects max_order between 0 and {grid.max_order}, the highest order "
             f"{grid.n_distinct} distinct encoder angles can determine; got {max_order!r}"
         )
-    orders = np.arange(int(max_order) + 1)
-    cos_arcmin, sin_arcmin = fit_harmonic_series(theta, error, orders, caller="harmonics")
-    return Harmonics(orders, cos_arcmin, sin_arcmin, int(theta.size))
+    max_order = int(max_order)
+    series = None
+    if grid.uniform:
+        series = _series_by_fft(theta, error, max_order, grid)
+    if series is None and max_order <= grid.stable_order:
+        series = _series_by_normal_equations(theta, error, max_order, grid)
+    if series is None:
+        series = fit_harmonic_series(theta, error, range(max_order + 1), caller="harmonics")
+    return Harmonics(np.arange(max_order + 1), *series, int(theta.size))
+
+
+def _series_by_fft(theta_deg, error_arcmin, max_order, grid):
+    """Least-squares ``(a_k, b_k)``, k <= max_order, on a uniform grid, from the FFT.
+
+    The least squares fits the mean error at each node, equally weighted when
+    every node has as many readings or when the series has as many terms as
+    there are nodes (it then interpolates the means). Returns None otherwise.
+    """
+    m = grid.n_distinct
+    node = np.round((np.radians(theta_deg) - grid.phase_rad) * m / (2.0 * np.pi)).astype(int) % m
+    readings = np.bincount(node, minlength=m)
+    if max_order < m // 2 and readings.min() != readings.max():
+        return None
+    mean = np.bincount(node, weights=error_arcmin, minlength=m) / readings
+    spectrum = np.fft.rfft(mean)[: max_order + 1] / m  # X_k of the means at φ + 2πj/m
+    coefficient = 2.0 * spectrum * np.exp(-1j * np.arange(max_order + 1) * grid.phase_rad)  # a_k - i b_k
+    cos_arcmin, sin_arcmin = coefficient.real.copy(), -coefficient.imag
+    cos_arcmin[0], sin_arcmin[0] = spectrum[0].real, 0.0
+    if max_order == grid.nyquist_order:  # the single term c cos(k(θ - φ)); the means alternate: c = X_k
+        shift = max_order * grid.phase_rad
+        cos_arcmin[-1], sin_arcmin[-1] = spectrum[-1].real * np.cos(shift), spectrum[-1].real * np.sin(shift)
+    return cos_arcmin, sin_arcmin
+
+
+def _series_by_normal_equations(theta_deg, error_arcmin, max_order, grid):
+    """Least-squares ``(a_k, b_k)``, k <= max_order, from the normal equations.
+
+    In complex form the series is ``Σ_{|k| <= L} c_k e^{ikθ}`` with
+    ``c_{-k} = conj(c_k)`` and ``a_k - i b_k = 2 c_k``, plus, when
+    ``K = max_order`` is the Nyquist order (then ``L = K - 1``), the real
+    term ``d cos(K(θ - φ))``. With ``s_m = Σ_i e^{imθ_i}`` and
+    ``r_j = Σ_i ε_i e^{-ijθ_i}`` the normal equations are
+
+        Σ_k s_{k-j} c_k + u_j d = r_j                 (|j| <= L)
+        Σ_k conj(u_k) c_k + v d = Re(e^{iKφ} r_K)
+
+    with ``u_j = (e^{-iKφ} s_{K-j} + e^{iKφ} s_{-K-j}) / 2`` and
+    ``v = (n + Re(e^{-2iKφ} s_{2K})) / 2``: a Hermitian Toeplitz matrix,
+    bordered by one row and column for ``d``. Returns None if conjugate
+    gradients do not converge.
+    """
+    theta = np.radians(theta_deg)
+    order = max_order
+    nyquist = order > 0 and order == grid.nyquist_order
+    half = order - 1 if nyquist else order  # L
+    moments, projections = _trigonometric_sums(theta, error_arcmin, 2 * order + 1, order + 1)
+    size = 2 * half + 1
+    toeplitz = (np.conj(moments[:size]), moments[:size])  # first column s_{-p}, first row s_q
+    rhs = np.r_[np.conj(projections[half:0:-1]), projections[: half + 1]]  # r_j, j = -L..L
+    diagonal = np.full(size, float(theta.size))  # s_0 = n
+
+    def product(x):
+        return scipy.linalg.matmul_toeplitz(toeplitz, x, check_finite=False)
+
+    if nyquist:
+        j = np.arange(-half, half + 1)
+        turn = np.exp(1j * order * grid.phase_rad)
+        border = 0.5 * (moments[order - j] / turn + turn * np.conj(moments[order + j]))
+        corner = 0.5 * (theta.size + np.real(moments[2 * order] / turn**2))
+        rhs = np.r_[rhs, np.real(turn * projections[order])]
+        diagonal = np.r_[diagonal, corner]
+        toeplitz_product = product
+
+        def product(z):
+            x, d = z[:-1], z[-1]
+            return np.r_[toeplitz_product(x) + border * d, np.vdot(border, x) + corner * d]
+
+    solution = _conjugate_gradients(product, rhs, diagonal)
+    if solution is None:
+        return None
+    c = solution[half : 2 * half + 1]  # c_0 .. c_L
+    cos_arcmin, sin_arcmin = np.zeros(order + 1), np.zeros(order + 1)
+    cos_arcmin[: half + 1], sin_arcmin[: half + 1] = 2.0 * c.real, -2.0 * c.imag
+    cos_arcmin[0], sin_arcmin[0] = c[0].real, 0.0
+    if nyquist:
+        shift = order * grid.phase_rad
+        cos_arcmin[-1], sin_arcmin[-1] = solution[-1].real * np.cos(shift), solution[-1].real * np.sin(shift)
+    return cos_arcmin, sin_arcmin
+
+
+def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk=4096):
+    """``s_m = Σ_i e^{imθ_i}`` for m < n_moments and ``r_j = Σ_i ε_i e^{-ijθ_i}`` for j < n_projections.
+
+    With ``m = pB + q`` and ``B ≈ √M``, ``e^{imθ} = e^{ipBθ} e^{iqθ}``, so the
+    sums are products of an ``(M/B, n)`` and an ``(n, B)`` matrix: O(n M)
+    multiply-adds in BLAS, O(n √M) exponentials. Points go in chunks of
+    ``chunk`` to bound the memory.
+    """
+    block = int(np.ceil(np.sqrt(n_moments)))
+    coarse = np.arange(-(-n_moments // block)) * block
+    fine = np.arange(block)
+    projected_rows = -(-n_projections // block)
+    moments = np.zeros((coarse.size, block), dtype=complex)
+    projections = np.zeros((projected_rows, block), dtype=complex)
+    for start in range(0, theta_rad.size, chunk):
+        theta = theta_rad[start : start + chunk]
+        outer = np.exp(1j * np.outer(coarse, theta))
+        inner = np.exp(1j * np.outer(theta, fine))
+        moments += outer @ inner
+        projections += (outer[:projected_rows] * error_arcmin[start : start + chunk]) @ inner
+    return moments.reshape(-1)[:n_moments], np.conj(projections.reshape(-1)[:n_projections])
+
+
+def _conjugate_gradients(product, rhs, diagonal):
+    """Solve ``product(x) = rhs``, Hermitian positive definite, by Jacobi-preconditioned CG.
+
+    Returns None if the residual is not below ``_CG_RTOL`` of ``rhs`` within
+    ``_CG_MAX_ITER`` steps (an ill-conditioned system: the QR is then used).
+    """
+    x = np.zeros_like(rhs)
+    residual = rhs.copy()
+    target = _CG_RTOL * np.linalg.norm(rhs)
+    preconditioned = residual / diagonal
+    direction = preconditioned.copy()
+    energy = np.vdot(residual, preconditioned).real
+    for _ in range(_CG_MAX_ITER):
+        if np.linalg.norm(residual) <= target:
+            return x
+        image = product(direction)
+        curvature = np.vdot(direction, image).real
+        if not curvature > 0.0:
+            return None
+        step = energy / curvature
+        x += step * direction
+        residual -= step * image
+        preconditioned = residual / diagonal
+        energy, previous = np.vdot(residual, preconditioned).real, energy
+        direction = preconditioned + (energy / previous) * direction
+    return None

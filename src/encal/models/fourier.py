@@ -111,8 +111,12 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
         Errors ``encoder - reference`` in arc-minutes.
     orders : sequence of int, optional
         Harmonic orders to fit: distinct ints >= 0 (at most ``max_order`` if
-        that is given) that the angles identify together. When given,
-        ``select`` and ``n_orders`` are not used.
+        that is given) that the angles identify together. None may exceed
+        the highest order ``m`` distinct angles determine, ``m // 2`` on a
+        regular grid and ``(m - 1) // 2`` otherwise (see
+        :func:`~encal.profile.identifiable_order`): above it an order aliases
+        a lower one, and a fit that is exact at the points is wrong between
+        them. When given, ``select`` and ``n_orders`` are not used.
     n_orders : int, default=10
         With ``select='top'``: how many orders to keep (fewer if the angles
         identify fewer).
@@ -140,7 +144,8 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
     Raises
     ------
     InputError
-        If an option is invalid or the angles cannot identify the orders.
+        If an option is invalid or the angles cannot identify the orders
+        (an order above the limit of ``orders``, or orders that alias one another).
 
     Examples
     --------
