@@ -33,17 +33,28 @@ def read_calibration_from_args(path, args):
     )
 
 
-def positive_int(text):
-    """argparse type: an int >= 1."""
+def int_in_range(low, high=None):
+    """argparse type: a whole number in [low, high] (no upper bound when ``high`` is None)."""
     import argparse
 
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {value}")
-    return value
+    expected = f"a whole number >= {low}" if high is None else f"a whole number from {low} to {high}"
+
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {value}")
+        return value
+
+    parse.__name__ = "int"  # argparse names the type in its messages
+    return parse
+
+
+#: argparse types: an int >= 1, an int >= 0
+positive_int = int_in_range(1)
+nonnegative_int = int_in_range(0)
 
 
 def print_json(data, stream=None):

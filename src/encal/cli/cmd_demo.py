@@ -11,21 +11,11 @@ Examples:
   encal demo --out /tmp/demo --quick
 """
 
-from ._common import positive_int
+from ._common import nonnegative_int, positive_int
 
 HELP = "the paper's whole procedure on the built-in demo fleet (tables, figures, report, model files)"
 
 
-def _workers(text):
-    import argparse
-
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
-    return value
 
 
 def add_arguments(parser):
@@ -33,7 +23,7 @@ def add_arguments(parser):
                         help="folder for the report, tables, figures and model files (default: encal-demo)")
     parser.add_argument("--quick", action="store_true",
                         help="a small sweep and few epochs: seconds instead of a minute (for tests)")
-    parser.add_argument("--workers", type=_workers, metavar="N",
+    parser.add_argument("--workers", type=nonnegative_int, metavar="N",
                         help="worker processes for the fits (default: CPU count, at most 2; 0: none)")
     parser.add_argument("--seed", type=int, default=0, help="study seed of every fit (default: 0)")
     parser.add_argument("--encoders", type=positive_int, default=4, metavar="N",

@@ -7,14 +7,13 @@ amplitude of the error as a function of the encoder angle.
 With --json, prints one JSON object instead.
 """
 
-import argparse
 import json
 
 import numpy as np
 
 from ..angles import lsb_arcmin
-from ..calibration import read_calibration
 from ..profile import error_stats, harmonics
+from ._common import add_calibration_options, nonnegative_int, read_calibration_from_args
 
 HELP = "error statistics and harmonic analysis of one calibration"
 
@@ -32,19 +31,13 @@ _ROWS = [
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--top", metavar="N", type=_count, default=10,
+    parser.add_argument("--top", metavar="N", type=nonnegative_int, default=10,
                         help="list the N harmonic orders of largest amplitude (default 10; 0 lists all)")
-    parser.add_argument("--allow-gaps", action="store_true",
-                        help="accept encoder angles that leave a gap over 30 degrees")
-    parser.add_argument("--reverse", action="store_true",
-                        help="the encoder counts against the reference: negate its angles")
-    parser.add_argument("--average-duplicates", action="store_true",
-                        help="average repeated reference angles whose readings disagree")
+    add_calibration_options(parser)
 
 
 def run(args):
-    cal = read_calibration(args.calibration, allow_gaps=args.allow_gaps, reverse=args.reverse,
-                           duplicates="average" if args.average_duplicates else "refuse")
+    cal = read_calibration_from_args(args.calibration, args)
     stats = error_stats(cal)
     analysis = harmonics(cal.encoder_deg, cal.errors_arcmin)
     top = analysis.as_list(args.top or None)
@@ -76,11 +69,3 @@ def _report(cal, stats, analysis, top):
     return "\n".join(lines)
 
 
-def _count(text):
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
-    return value

@@ -15,7 +15,6 @@ error without per-reading noise and with quantisation replaced by its mean
 (readers of calibrations ignore it).
 """
 
-import argparse
 from pathlib import Path
 
 import numpy as np
@@ -23,6 +22,7 @@ import numpy as np
 from .._version import __version__
 from ..calibration import write_calibration
 from ..errors import InputError
+from ._common import int_in_range, nonnegative_int
 
 HELP = "write simulated calibration CSVs (train, test, epoch2, decoder2) of resolver encoders"
 
@@ -36,30 +36,14 @@ _RUN_DESCRIPTIONS = {
 }
 
 
-def _encoder_count(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number from 1 to {MAX_ENCODERS}, got {text!r}") from None
-    if not 1 <= value <= MAX_ENCODERS:
-        raise argparse.ArgumentTypeError(f"expected a whole number from 1 to {MAX_ENCODERS}, got {value}")
-    return value
 
 
-def _seed(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
-    return value
 
 
 def add_arguments(parser):
-    parser.add_argument("--encoders", metavar="N", type=_encoder_count, default=4,
+    parser.add_argument("--encoders", metavar="N", type=int_in_range(1, MAX_ENCODERS), default=4,
                         help=f"number of encoders, 1 to {MAX_ENCODERS} (default 4)")
-    parser.add_argument("--seed", metavar="S", type=_seed, default=None,
+    parser.add_argument("--seed", metavar="S", type=nonnegative_int, default=None,
                         help="draw the encoders from this seed (default: the built-in demo fleet)")
     parser.add_argument("--out", metavar="DIR", default="encal-sim",
                         help="folder for the CSV files, created if missing (default encal-sim)")

@@ -12,21 +12,11 @@ Examples:
   encal study prune enc1_train.csv --test enc1_test.csv
 """
 
-from ._common import add_calibration_options, positive_int, read_calibration_from_args
+from ._common import add_calibration_options, nonnegative_int, positive_int, read_calibration_from_args
 
 HELP = "hidden-node sweep, training-algorithm table or SVD pruning of the network on a calibration"
 
 
-def _nonnegative(text):
-    import argparse
-
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {value}")
-    return value
 
 
 def add_arguments(parser):
@@ -48,8 +38,8 @@ def add_arguments(parser):
                         help="network input: the raw angle (the paper's, default) or cos/sin")
     parser.add_argument("--threshold", type=float, default=1e-2,
                         help="prune: relative threshold of a significant singular value (default: 1e-2)")
-    parser.add_argument("--seed", type=_nonnegative, default=0, help="study seed (default: 0)")
-    parser.add_argument("--workers", type=_nonnegative, metavar="N",
+    parser.add_argument("--seed", type=nonnegative_int, default=0, help="study seed (default: 0)")
+    parser.add_argument("--workers", type=nonnegative_int, metavar="N",
                         help="worker processes (default: CPU count, at most 2; 0: none)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     add_calibration_options(parser)
