@@ -634,3 +634,70 @@ def test_failed_export_writes_nothing(argv, files, tmp_path, capsys):
     assert not target.exists()
     assert _leftovers(tmp_path) == []
 
+
+
+# --------------------------------------------------------------------------- the same judgements in Python
+
+def _write(tmp_path, reference, encoder, extra=None, name="cal.csv"):
+    header = "reference_deg,encoder_deg" + "".join(f",{key}" for key in (extra or {}))
+    rows = [",".join([repr(float(r)), repr(float(e)), *(str(v[i]) for v in (extra or {}).values())])
+            for i, (r, e) in enumerate(zip(reference, encoder))]
+    path = tmp_path / name
+    path.write_text(header + "\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("convention", ["0..2pi", "-pi..pi"])
+def test_radians_warn_in_python(convention, tmp_path):
+    """read_calibration warns with an EncalWarning naming the likely unit; with allow_gaps it goes on."""
+    radians = np.radians(GRID_TRAIN) - (np.pi if convention == "-pi..pi" else 0.0)
+    path = _write(tmp_path, radians, radians + 1e-4)
+    with pytest.warns(encal.errors.EncalWarning, match="radians"):
+        cal = encal.read_calibration(path, allow_gaps=True)
+    assert len(cal) == GRID_TRAIN.size
+
+
+def test_degrees_never_warn(tmp_path):
+    """A calibration over a whole turn in degrees reads without any warning (warnings are errors here)."""
+    path = _write(tmp_path, GRID_TRAIN, GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0)
+    assert len(encal.read_calibration(path)) == GRID_TRAIN.size
+
+
+def test_hysteresis_between_directions_is_not_a_fold(tmp_path):
+    """Forward and reverse runs 0.8 degree apart at the same targets: each run increases, nothing folds."""
+    reference = np.concatenate([GRID_TRAIN, GRID_TRAIN])
+    direction = np.repeat([1, -1], GRID_TRAIN.size)
+    encoder = reference + 0.4 * direction
+    path = _write(tmp_path, reference, encoder, extra={"direction": [f"{d:+d}" for d in direction]})
+    assert len(encal.read_calibration(path)) == reference.size
+
+
+def test_epochs_with_different_offsets_are_not_a_fold(tmp_path):
+    reference = np.concatenate([GRID_TRAIN, GRID_TRAIN + 1.0])
+    epoch = ["a"] * GRID_TRAIN.size + ["b"] * GRID_TRAIN.size
+    encoder = reference + np.where(np.array(epoch) == "a", 0.0, 2.0)
+    path = _write(tmp_path, reference, encoder, extra={"epoch": epoch})
+    assert len(encal.read_calibration(path)) == reference.size
+
+
+def test_a_single_glitch_is_refused_and_named(tmp_path):
+    """One reading 5 degrees off: refused, naming the reference angles around it."""
+    encoder = GRID_TRAIN + 0.01
+    encoder[50] -= 5.0
+    path = _write(tmp_path, GRID_TRAIN, encoder)
+    with pytest.raises(encal.CalibrationError, match="reference 100 deg"):
+        encal.read_calibration(path)
+
+
+def test_noise_below_the_fold_threshold_is_accepted(tmp_path):
+    """Dense, noisy readings (0.1 degree apart, 0.05 degree noise) go back a little now and then: accepted."""
+    reference = np.arange(0.0, 360.0, 0.1)
+    noise = np.random.default_rng(0).normal(0.0, 0.05, reference.size)
+    path = _write(tmp_path, reference, reference + noise)
+    assert len(encal.read_calibration(path)) == reference.size
+
+
+@pytest.mark.parametrize("bits", [0, 33, -1, 2.5, True])
+def test_calibration_refuses_impossible_resolutions(bits):
+    with pytest.raises(encal.CalibrationError, match="resolution_bits"):
+        encal.Calibration(GRID_TRAIN, GRID_TRAIN, resolution_bits=bits)

@@ -206,9 +206,10 @@ def test_a_candidate_that_cannot_be_fitted_is_reported_not_fatal():
 
 
 def test_candidates_may_be_given_as_dicts_and_are_recorded_as_such():
-    model = fit_auto(GRID, harmonic_profile(GRID), candidates=[{"family": "lut", "options": {"interpolation": "cubic"}}])
+    cubic_table = {"family": "lut", "options": {"interpolation": "cubic"}}
+    model = fit_auto(GRID, harmonic_profile(GRID), candidates=[cubic_table])
     assert model.kind == "lut" and model.interpolation == "cubic"
-    assert model.training["fit_options"]["candidates"] == [{"family": "lut", "options": {"interpolation": "cubic"}}]
+    assert model.training["fit_options"]["candidates"] == [cubic_table]
 
 
 def test_fit_with_method_auto_records_the_method_and_seed():

@@ -1,23 +1,24 @@
 """Choose the model family by cross-validation: ``fit(cal, method='auto')``.
 
 No family wins everywhere. A few Fourier orders describe a resolver's smooth
-error and average out its noise; a lookup table follows a reference with a
-per-step pattern that no low-order series can; a network or a Fourier series
-plus a network follows a local defect. :func:`fit_auto` measures, instead of
-guessing, which one predicts the error *between* calibration points best:
+error and average out its noise; a lookup table follows kinks that no short
+series can; a network, or a Fourier series plus a network, follows a local
+defect. :func:`fit_auto` measures, instead of guessing, which one predicts the
+error *between* calibration points best:
 
-1. Sort the points by encoder angle and deal them round-robin into ``k`` folds
-   (point ``i`` goes to fold ``i mod k``), so every fold is spread evenly round
-   the circle and holding it out opens gaps of ``k`` grid steps at most between
-   the remaining points. Predicting a held-out fold is then interpolation
-   between calibration points, which is what correcting a live reading is.
+1. Sort the distinct encoder angles and deal them round-robin into ``k`` folds
+   (the ``i``-th goes to fold ``i mod k``), so every fold is spread evenly round
+   the circle and holding it out removes isolated points: each held-out point
+   is predicted from neighbours on both sides, two grid steps apart. That is
+   interpolation between calibration points, which is what correcting a live
+   reading is.
 2. Fit every candidate on ``k - 1`` folds and predict the held-out one; each
    candidate's data-driven choices (the Fourier order set, the network's
    weights) are made inside the fold, from the training folds alone.
 3. Pool the held-out residuals of all folds into a CV RMS and MAE per
    candidate, pick the lowest RMS, but prefer the simplest candidate whose RMS
    is within ``tolerance`` of it (see :data:`SIMPLICITY`), and refit that
-   candidate on all points.
+   candidate on all points (see :func:`_final_fit`).
 
 The CV table and the reason for the choice are kept in
 ``model.training['selection']``. See ``docs/model-selection.md``.
@@ -29,8 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import EncalError, InputError
 from ..angles import wrap360
+from ..errors import EncalError, InputError
 from ..profile import distinct_angles, profile_arrays
 
 __all__ = [
@@ -38,6 +39,7 @@ __all__ = [
     "DEFAULT_CANDIDATES",
     "SIMPLICITY",
     "CVScore",
+    "free_parameters",
     "interleaved_folds",
     "cross_validate",
     "choose",
@@ -447,7 +449,7 @@ def format_selection(selection):
         if row["cv_rms_arcmin"] is None:
             lines.append(f"  {mark} {row['label']:<{width}}  failed: {row.get('error', 'no finite prediction')}")
             continue
-        lines.append(f"  {mark} {row['label']:<{width}}  {row['cv_rms_arcmin']:9.4g}  {row['cv_mae_arcmin']:9.4g}  "
+        lines.append(f"  {mark} {row['label']:<{width}}  {row['cv_rms_arcmin']:#9.4g}  {row['cv_mae_arcmin']:#9.4g}  "
                      f"{row['n_parameters']:6.0f}  {row['time_s']:6.2f}s")
     lines.append(f"chosen: {selection['reason']}")
     return "\n".join(lines)
