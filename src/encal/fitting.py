@@ -116,7 +116,12 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     if uncertainty:
         from .uncertainty import add_uncertainty
 
-        add_uncertainty(model, cal, method=method, options=fit_options, rng=rng)
+        refit_method, refit_options = method, fit_options
+        if method == "auto":  # bootstrap the chosen family, not the whole selection (70 auto fits)
+            chosen = next(row for row in model.training["selection"]["table"]
+                          if row["label"] == model.training["selection"]["chosen"])
+            refit_method, refit_options = chosen["family"], dict(chosen["options"])
+        add_uncertainty(model, cal, method=refit_method, options=refit_options, rng=rng)
     return model
 
 

@@ -279,6 +279,9 @@ def identifiable_order(theta_deg):
     Higher orders, up to ``(m - 1) // 2`` (``2K + 1`` distinct angles
     determine a trigonometric polynomial of order ``K``), can be asked for
     explicitly; they are refused when the least squares is rank-deficient.
+    Orders above that limit (``m // 2`` on a regular grid) are always
+    refused: there an order aliases a lower one, even where rounding or a
+    slightly irregular grid keeps the least squares full-rank.
 
     Parameters
     ----------

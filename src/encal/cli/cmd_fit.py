@@ -5,7 +5,7 @@ Examples:
   encal fit enc1_train.csv -o enc1.json --method ann --hidden 80 --algorithm trainlm --encoding raw --seed 0
 """
 
-from ._common import add_calibration_options, positive_int, read_calibration_from_args
+from ._common import add_calibration_options, int_in_range, positive_int, read_calibration_from_args
 
 HELP = "fit an error model to a calibration and save it"
 
@@ -23,6 +23,9 @@ def add_arguments(parser):
     parser.add_argument("--orders", help="Fourier orders, comma-separated, e.g. 0,1,2,16 (fourier)")
     parser.add_argument("--n-orders", type=positive_int, help="keep the N largest harmonics (fourier)")
     parser.add_argument("--interpolation", choices=["linear", "cubic"], help="lookup-table interpolation (lut)")
+    parser.add_argument("--folds", type=int_in_range(2), metavar="K",
+                        help="cross-validation folds of the automatic choice (auto; default 5, fewer for small "
+                             "calibrations)")
     parser.add_argument("--seed", type=int, help="random seed (ann, auto): same seed, identical model file")
     parser.add_argument("--reproducible", action="store_true",
                         help="fix the date field so the same inputs give a byte-identical file")
@@ -33,7 +36,7 @@ def add_arguments(parser):
 _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
-    "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"),
+    "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
 }
 
 
@@ -45,7 +48,7 @@ def _options(args):
             flag = "--" + name.replace("_", "-")
             raise InputError(f"{flag} applies to --method {' or '.join(methods)}, not {args.method}")
     options = {}
-    for name in ("hidden", "algorithm", "encoding", "epochs", "interpolation", "n_orders"):
+    for name in ("hidden", "algorithm", "encoding", "epochs", "interpolation", "n_orders", "folds"):
         value = getattr(args, name)
         if value is not None:
             options[name] = value

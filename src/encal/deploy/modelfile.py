@@ -42,7 +42,8 @@ def model_to_dict(model, *, reproducible=False):
         Any registered model kind.
     reproducible : bool, default=False
         Write a fixed training date (SOURCE_DATE_EPOCH if set, else
-        1970-01-01T00:00:00Z), so the same model gives the same bytes.
+        1970-01-01T00:00:00Z) and no wall-clock timings (``time_s`` entries
+        become null), so the same model gives the same bytes.
 
     Returns
     -------
@@ -229,7 +230,18 @@ def _training_metadata(model, reproducible):
     }
     fixed = _fixed_date(reproducible)
     training["date"] = fixed or training["date"] or _utc_iso(datetime.datetime.now(datetime.UTC))
+    if fixed:
+        training = _without_timings(training)
     return training
+
+
+def _without_timings(data):
+    """``data`` with every wall-clock timing (a ``time_s`` entry) set to None: they differ run to run."""
+    if isinstance(data, dict):
+        return {key: None if key == "time_s" else _without_timings(value) for key, value in data.items()}
+    if isinstance(data, list):
+        return [_without_timings(value) for value in data]
+    return data
 
 
 def _fixed_date(reproducible):

@@ -55,6 +55,9 @@ FAMILIES = {
     "hybrid": ("encal.models.hybrid", "fit_hybrid"),
 }
 
+#: Folds when the caller names none (see docs/model-selection.md for why 5).
+DEFAULT_FOLDS = 5
+
 #: Fewest distinct angles per fold that ``folds`` may leave.
 MIN_POINTS_PER_FOLD = 4
 
@@ -324,7 +327,7 @@ def _seed_sequence(rng):
     raise InputError(f"rng must be None, an int or a numpy.random.Generator. Got {type(rng).__name__} instead.")
 
 
-def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None, tolerance=0.01):
+def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=None, tolerance=0.01):
     """Fit the model family that cross-validates best.
 
     Parameters
@@ -335,8 +338,9 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None,
         Errors ``encoder - reference`` at those points, arc-minutes.
     rng : int or numpy.random.Generator, optional
         Seed of the networks' initial weights; the same seed gives the same choice and model.
-    folds : int, default=5
-        Number of interleaved, circular cross-validation folds, from 2 to a quarter of the
+    folds : int, optional
+        Number of interleaved, circular cross-validation folds. By default 5, or fewer (down to 2) when
+        the calibration has fewer than 20 distinct angles. From 2 to a quarter of the
         number of distinct encoder angles.
     candidates : sequence of Candidate or dict, optional
         Families and options to choose from, as :class:`Candidate` objects or
@@ -363,6 +367,8 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=5, candidates=None,
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_auto")
     most = max(distinct_angles(theta)[0].size // MIN_POINTS_PER_FOLD, 2)
+    if folds is None:
+        folds = min(DEFAULT_FOLDS, most)
     if isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or not 2 <= folds <= most:
         raise InputError(f"The 'folds' parameter of fit_auto must be an int from 2 to {most} (at least "
                          f"{MIN_POINTS_PER_FOLD} distinct encoder angles per fold). Got {folds!r} instead.")
@@ -450,6 +456,11 @@ def format_selection(selection):
             lines.append(f"  {mark} {row['label']:<{width}}  failed: {row.get('error', 'no finite prediction')}")
             continue
         lines.append(f"  {mark} {row['label']:<{width}}  {row['cv_rms_arcmin']:#9.4g}  {row['cv_mae_arcmin']:#9.4g}  "
-                     f"{row['n_parameters']:6.0f}  {row['time_s']:6.2f}s")
+                     f"{row['n_parameters']:6.0f}  {_seconds(row['time_s'])}")
     lines.append(f"chosen: {selection['reason']}")
     return "\n".join(lines)
+
+
+def _seconds(time_s):
+    """A CV-table time; reproducible model files store none."""
+    return "      -" if time_s is None else f"{time_s:6.2f}s"
