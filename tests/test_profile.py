@@ -314,3 +314,13 @@ def test_orders_above_what_the_angles_determine_are_refused_with_the_limit():
     with pytest.raises(InputError, match=r"order 30 from 50 distinct encoder angles: the highest order they "
                                          r"determine is 24, and above it an order aliases a lower one$"):
         fit_harmonic_series(irregular, np.zeros(50), [1, 30])
+
+
+def test_harmonics_fall_back_on_the_qr_when_conjugate_gradients_do_not_converge(monkeypatch):
+    theta = GRIDS["random"]
+    errors = np.cos(np.radians(3.0 * theta))
+    expected = harmonics(theta, errors)
+    monkeypatch.setattr("encal.profile._CG_MAX_ITER", 1)
+    result = harmonics(theta, errors)
+    assert_allclose(result.cos_arcmin, expected.cos_arcmin, rtol=0, atol=1e-12)
+    assert_allclose(result.sin_arcmin, expected.sin_arcmin, rtol=0, atol=1e-12)

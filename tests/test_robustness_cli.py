@@ -98,7 +98,7 @@ def _make_files(folder):
         "reversed": _csv_text(GRID_TRAIN, -(GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0)),
         "gap": _csv_text(GRID_TRAIN[GRID_TRAIN < 300], (GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60)[GRID_TRAIN < 300]),
         "fold": _csv_text(GRID_TRAIN, GRID_TRAIN + 45.0 * np.sin(np.radians(2 * GRID_TRAIN))),
-        "twelve_points": _csv_text(GRID_TRAIN[::15], GRID_TRAIN[::15] + _profile_arcmin(GRID_TRAIN[::15]) / 60),
+        "fifteen_points": _csv_text(GRID_TRAIN[::12], GRID_TRAIN[::12] + _profile_arcmin(GRID_TRAIN[::12]) / 60),
         "angles": "10\n20\nabc\n30\n",
         "angles_ok": "# encoder angles\n10\n20.5\n\n-3\n725\n",
         "afile": "not a folder\n",
@@ -258,6 +258,11 @@ CASES = [
          1, ("orders",)),
     Case("fit-option-of-another-method", ("fit", "{train}", "-o", "{out}/m.json", "--method", "lut", "--hidden",
                                           "3"), 1, ("--hidden",)),
+    Case("fit-folds-1", ("fit", "{train}", "-o", "{out}/m.json", "--folds", "1"), 2),
+    Case("fit-too-many-folds", ("fit", "{train}", "-o", "{out}/m.json", "--folds", "100", "--seed", "0"), 1,
+         ("folds", "100")),
+    Case("fit-folds-with-lut", ("fit", "{train}", "-o", "{out}/m.json", "--method", "lut", "--folds", "3"), 1,
+         ("--folds",)),
     Case("fit-negative-seed", ("fit", "{train}", "-o", "{out}/m.json", "--method", "ann", "--epochs", "2",
                                "--seed", "-1"), 1, ("-1",)),
     Case("fit-aliasing-orders", ("fit", "{train}", "-o", "{scratch}/alias.json", "--method", "fourier", "--orders",
@@ -323,6 +328,9 @@ CASES = [
          ("afile",)),
     Case("export-unknown-format", ("export", "{model}", "--format", "hex", "-o", "{out}/t"), 2),
     Case("export-no-format", ("export", "{model}", "-o", "{out}/t"), 2),
+    Case("export-unknown-dtype", ("export", "{model}", "--format", "table", "-o", "{out}/t", "--dtype", "int8"), 2),
+    Case("export-unknown-constants", ("export", "{model}", "--format", "c", "-o", "{out}/c", "--constants",
+                                      "half"), 2),
     Case("export-bits-not-a-number", ("export", "{model}", "--format", "table", "-o", "{out}/t", "--bits", "x"), 2),
     Case("export-over-its-own-model", ("export", "{model_copy}", "--format", "table", "-o", "{model_copy}",
                                        "--bits", "8"), 1, ("model_copy.json",)),
@@ -510,11 +518,9 @@ def test_real_process(case_id, files, tmp_path):
     check_outcome(case, process.returncode, process.stdout.decode(), process.stderr.decode())
 
 
-@pytest.mark.xfail(strict=True, reason="models/select.py fit_auto refuses fewer than 20 distinct angles with a "
-                   "message about its 'folds' parameter, which the user of `encal fit` never set")
 def test_auto_on_few_points_does_not_blame_an_unset_option(files, tmp_path, capsys):
-    """`encal fit` (method auto) on 12 points either fits or says what to do without naming an unset option."""
-    status = main(["fit", files["twelve_points"], "-o", str(tmp_path / "few.json")])
+    """`encal fit` (method auto) on 15 points either fits or says what to do without naming an unset option."""
+    status = main(["fit", files["fifteen_points"], "-o", str(tmp_path / "few.json")])
     err = capsys.readouterr().err
     assert status == 0 or (status == 1 and "folds" not in err and "--method" in err), err
 
