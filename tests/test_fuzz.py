@@ -338,9 +338,6 @@ def test_re_signed_huge_parameters(scratch, model_texts, kind):
         load_model(path)
 
 
-@pytest.mark.xfail(strict=True, reason="deploy/runtime.py _check_ann and _check_lut look a field up in a dict "
-                   "({'raw': 1, ...}.get(value)), so an 'encoding' or 'interpolation' that is a JSON list or "
-                   "object raises TypeError (unhashable) instead of ModelFileError")
 @pytest.mark.parametrize("kind, field", [("ann", "encoding"), ("lut-cubic", "interpolation")])
 def test_re_signed_unhashable_choice(scratch, model_texts, kind, field):
     document = json.loads(model_texts[kind])

@@ -74,6 +74,7 @@ def _make_files(folder):
     folder = Path(folder)
     good = _good_csv()
     train_lines = good.splitlines()
+    encoder = GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0
     texts = {
         "train": good,
         "test": _good_csv(GRID_TEST),
@@ -94,11 +95,11 @@ def _make_files(folder):
         "bad_bits": "# resolution_bits: 99\n" + good,
         "seven_points": _csv_text(GRID_TRAIN[::26][:7], GRID_TRAIN[::26][:7]),
         "duplicate": good + "10.0,10.5\n",
-        "radians": _csv_text(np.radians(GRID_TRAIN), np.radians(GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60)),
-        "reversed": _csv_text(GRID_TRAIN, -(GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0)),
-        "gap": _csv_text(GRID_TRAIN[GRID_TRAIN < 300], (GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60)[GRID_TRAIN < 300]),
-        "fold": _csv_text(GRID_TRAIN, GRID_TRAIN + 45.0 * np.sin(np.radians(2 * GRID_TRAIN))),
-        "fifteen_points": _csv_text(GRID_TRAIN[::12], GRID_TRAIN[::12] + _profile_arcmin(GRID_TRAIN[::12]) / 60),
+        "radians": _csv_text(np.radians(GRID_TRAIN), np.radians(encoder)),
+        "reversed": _csv_text(GRID_TRAIN, -encoder),
+        "gap": _csv_text(GRID_TRAIN[GRID_TRAIN < 300], encoder[GRID_TRAIN < 300]),
+        "fold": _csv_text(GRID_TRAIN, GRID_TRAIN + 45.0 * np.sin(np.radians(2 * GRID_TRAIN))),  # folds back
+        "fifteen_points": _csv_text(GRID_TRAIN[::12], encoder[::12]),
         "angles": "10\n20\nabc\n30\n",
         "angles_ok": "# encoder angles\n10\n20.5\n\n-3\n725\n",
         "afile": "not a folder\n",

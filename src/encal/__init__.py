@@ -26,7 +26,7 @@ _PUBLIC = {
     "demo_fleet": "simulate", "simulate_fleet": "simulate", "measurement_floor": "simulate",
     "save_model": "deploy", "load_model": "deploy", "Compensator": "deploy",
     "EncalError": "errors", "CalibrationError": "errors", "ModelFileError": "errors",
-    "InputError": "errors",
+    "InputError": "errors", "EncalWarning": "errors",
 }
 
 __all__ = ["__version__", *_PUBLIC]

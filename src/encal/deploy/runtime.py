@@ -239,7 +239,7 @@ def _check_fourier(p, where, field):
 
 
 def _check_lut(p, where, field):
-    degree = {"linear": 1, "cubic": 3}.get(p.get("interpolation"))
+    degree = _lookup({"linear": 1, "cubic": 3}, p.get("interpolation"))
     if degree is None:
         raise ModelFileError(f"{where}: expected {field}.interpolation to be 'linear' or 'cubic', "
                              f"got {_describe(p.get('interpolation'))}")
@@ -259,7 +259,7 @@ def _check_lut(p, where, field):
 
 
 def _check_ann(p, where, field):
-    n_inputs = {"raw": 1, "periodic": 2}.get(p.get("encoding"))
+    n_inputs = _lookup({"raw": 1, "periodic": 2}, p.get("encoding"))
     if n_inputs is None:
         raise ModelFileError(f"{where}: expected {field}.encoding to be 'raw' or 'periodic', "
                              f"got {_describe(p.get('encoding'))}")
@@ -315,6 +315,11 @@ def normalisation_of(kind, parameters):
 
 def _listed(names):
     return f"{', '.join(names)} {'is' if len(names) == 1 else 'are'}"
+
+
+def _lookup(choices, value):
+    """``choices[value]`` for a string key, else None (a JSON list or object as key is unhashable)."""
+    return choices.get(value) if isinstance(value, str) else None
 
 
 def _is_int(value):
