@@ -214,3 +214,27 @@ def test_ten_million_lines_in_constant_memory(compensator):
     assert float(last) == float(compensator.correct(last_input))
     # The whole input would take > 500 MB as Python floats and strings: memory must not grow.
     assert rss - small_rss < 16 * 1024, (small_rss, rss)
+
+
+def test_direction_option_selects_a_directional_models_part(tmp_path, capsys):
+    """`--direction` corrects with one direction's model; without it, the mean of both."""
+    from pathlib import Path
+
+    import encal
+
+    model_path = Path(__file__).parent / "data" / "model_v1_directional.json"
+    model = encal.load_model(model_path)
+    angles = tmp_path / "a.txt"
+    theta = [0.0, 10.5, 123.25, 359.9]
+    angles.write_text("".join(f"{t}\n" for t in theta), encoding="utf-8")
+    results = {}
+    for direction in (1, -1, None):
+        argv = ["correct", str(model_path), str(angles)]
+        if direction is not None:
+            argv += ["--direction", str(direction)]
+        assert main(argv) == 0
+        out = [float(v) for v in capsys.readouterr().out.split()]
+        expected = model.correct(theta, direction=direction) if direction else model.correct(theta)
+        assert out == [float(v) for v in expected]
+        results[direction] = out
+    assert results[1] != results[-1]  # the two directions' models differ by arc-minutes here

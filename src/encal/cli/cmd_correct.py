@@ -32,6 +32,9 @@ def add_arguments(parser):
                              "encoder_deg column; '-' (default) reads standard input")
     parser.add_argument("--skip-bad", action="store_true",
                         help="write 'nan' for a malformed line and go on instead of stopping")
+    parser.add_argument("--direction", type=int, choices=[1, -1], metavar="{+1,-1}",
+                        help="direction of travel of the readings, for a bidirectional model fitted per "
+                             "direction (default: the mean of both directions; other models ignore it)")
 
 
 def claim_extras(args, extras):
@@ -47,11 +50,12 @@ def run(args):
     sink = getattr(sys.stdout, "buffer", None) or _TextSink(sys.stdout)
     try:
         if args.input == "-":
-            correct_stream(compensator, sys.stdin.buffer, sink, skip_bad=args.skip_bad)
+            correct_stream(compensator, sys.stdin.buffer, sink, skip_bad=args.skip_bad,
+                           direction=args.direction)
         else:
             with open(args.input, "rb") as source:
                 correct_stream(compensator, source, sink, skip_bad=args.skip_bad,
-                               name=args.input)
+                               name=args.input, direction=args.direction)
     except BrokenPipeError:
         # The reader went away (`encal correct ... | head`): stop quietly, and keep
         # Python from failing again when it flushes stdout at exit.

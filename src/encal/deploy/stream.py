@@ -25,7 +25,7 @@ MAX_LINE_BYTES = 1 << 16
 _HEADER_COLUMN = b"encoder_deg"
 
 
-def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin"):
+def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None):
     """Read encoder angles from ``source``, write corrected angles to ``sink``.
 
     Parameters
@@ -40,6 +40,9 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin"):
         Write ``nan`` for a malformed line and go on, instead of stopping.
     name : str, default='stdin'
         Name of the input in messages.
+    direction : {+1, -1}, optional
+        Direction of travel of every reading, for bidirectional (``directional``) models; other
+        models ignore it. None: the mean of the two directions.
 
     Returns
     -------
@@ -65,7 +68,7 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin"):
                              f"lines of at most {MAX_LINE_BYTES} bytes, got a longer one")
         values, error = parser.parse(lines)
         if values.size:
-            sink.write(_format(_correct(compensator, values)))
+            sink.write(_format(_correct(compensator, values, direction)))
             sink.flush()
             written += values.size
         if error is not None:
@@ -74,12 +77,14 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin"):
             return written
 
 
-def _correct(compensator, values):
+def _correct(compensator, values, direction=None):
+    correct = compensator.correct if direction is None else (
+        lambda theta: compensator.correct(theta, direction))
     good = np.isfinite(values)
     if good.all():
-        return compensator.correct(values)
+        return correct(values)
     corrected = np.full(values.shape, np.nan)
-    corrected[good] = compensator.correct(values[good])
+    corrected[good] = correct(values[good])
     return corrected
 
 
