@@ -35,23 +35,9 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import encal  # noqa: E402
-from encal.studies.comparison import PAPER_NETWORK  # noqa: E402  (1:80:1 raw, trainlm, the paper's stopping rule)
+from _methods import METHODS, RANDOMISED  # noqa: E402  (benchmarks/_methods.py)
 from encal.models.select import DEFAULT_CANDIDATES  # noqa: E402
-from encal.simulate import measurement_floor  # noqa: E402
-from encal.simulate._fleet import demo_fleet  # noqa: E402
-
-#: benchmark name -> (method of encal.fit, options)
-METHODS = {
-    "fourier top10": ("fourier", {"select": "top", "n_orders": 10}),
-    "fourier cv": ("fourier", {"select": "cv"}),
-    "lut linear": ("lut", {"interpolation": "linear"}),
-    "lut cubic": ("lut", {"interpolation": "cubic"}),
-    "ann periodic": ("ann", {}),
-    "ann raw 1:80:1 lm": (PAPER_NETWORK.method, PAPER_NETWORK.options),
-    "hybrid": ("hybrid", {}),
-    "auto": ("auto", {}),
-}
-RANDOMISED = {"ann", "hybrid", "auto"}
+from encal.simulate import demo_fleet, measurement_floor  # noqa: E402
 
 
 def fit_and_test(cal, test_cal, method, options, seed):

@@ -47,23 +47,11 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import encal  # noqa: E402
-from encal.studies.comparison import PAPER_NETWORK  # noqa: E402  (1:80:1 raw, trainlm, the paper's stopping rule)
+from _methods import METHODS, RANDOMISED  # noqa: E402  (benchmarks/_methods.py)
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "mechaduino"
 
-#: benchmark name -> (method of encal.fit, options); the same list as bench_accuracy.py
-METHODS = {
-    "fourier top10": ("fourier", {"select": "top", "n_orders": 10}),
-    "fourier cv": ("fourier", {"select": "cv"}),
-    "lut linear": ("lut", {"interpolation": "linear"}),
-    "lut cubic": ("lut", {"interpolation": "cubic"}),
-    "ann periodic": ("ann", {}),
-    "ann raw 1:80:1 lm": (PAPER_NETWORK.method, PAPER_NETWORK.options),
-    "hybrid": ("hybrid", {}),
-    "auto": ("auto", {}),
-}
 SINGLE = [name for name in METHODS if name != "auto"]
-RANDOMISED = {"ann", "hybrid", "auto"}
 #: auto may be this much worse than the best single method (fraction of RMS)
 GOAL = 0.02
 
