@@ -97,11 +97,17 @@ def test_a_saved_model_is_judged(capsys, files, tmp_path):
 
 @pytest.mark.parametrize("argv, message", [
     (["{first}"], "at least two calibrations"),
+    (["{first}", "{repeat}", "--model", "{model}", "--method", "lut"],
+     "--method chooses the model fitted on the first calibration and cannot be used with --model"),
+    (["{first}", "{repeat}", "--model", "{model}", "--seed", "3"], "--seed chooses the model fitted"),
     (["{first}", "{missing}"], "no such file"),
     (["{first}", "{repeat}", "--tolerance", "-1"], "tolerance_arcmin"),
 ])
 def test_bad_input_exits_1_with_one_line(capsys, files, tmp_path, argv, message):
-    names = {**{k: str(v) for k, v in files.items()}, "missing": str(tmp_path / "nope.csv")}
+    model = tmp_path / "model.json"
+    assert main(["fit", str(files["first"]), "-o", str(model), "--method", "fourier"]) == 0
+    capsys.readouterr()
+    names = {**{k: str(v) for k, v in files.items()}, "missing": str(tmp_path / "nope.csv"), "model": str(model)}
     status, out, err = run(capsys, *[a.format(**names) for a in argv])
     assert status == 1 and out == ""
     assert message in err and len(err.strip().splitlines()) == 1

@@ -15,6 +15,7 @@ Examples:
 import argparse
 from pathlib import Path
 
+from ..errors import InputError
 from ._common import add_calibration_options, print_json, read_calibration_from_args
 
 HELP = "drift of repeated calibrations and whether the first one's model still holds"
@@ -32,13 +33,14 @@ def add_arguments(parser):
                         help="the first calibration, then later ones (or one file with an epoch column)")
     parser.add_argument("--tolerance", metavar="ARCMIN", type=_number, default=None,
                         help="allowed increase of the residual RMS (default: max(1 LSB, 10%%))")
-    parser.add_argument("--method", default="fourier",
-                        help="model fitted on the first calibration (default: fourier)")
+    parser.add_argument("--method", default=None,
+                        help="model fitted on the first calibration (default: fourier; not with --model)")
     parser.add_argument("--model", metavar="MODEL.json", default=None,
                         help="judge this model file instead of fitting one on the first calibration")
     parser.add_argument("--keep-offset", action="store_true",
                         help="compare errors as measured, without removing each calibration's zero offset")
-    parser.add_argument("--seed", type=int, default=None, help="seed of a randomised method")
+    parser.add_argument("--seed", type=int, default=None,
+                        help="seed of a randomised --method (not with --model)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     add_calibration_options(parser)
 
@@ -56,8 +58,15 @@ def run(args):
     if args.model is not None:
         from ..deploy import load_model
 
+        fitting_options = [flag for flag, value in (("--method", args.method), ("--seed", args.seed))
+                           if value is not None]
+        if fitting_options:
+            verb = "choose" if len(fitting_options) > 1 else "chooses"
+            raise InputError(f"{' and '.join(fitting_options)} {verb} the model fitted on the first calibration "
+                             f"and cannot be used with --model {args.model}.")
         model = load_model(args.model)
-    report = compare_calibrations(cals, tolerance_arcmin=args.tolerance, model=model, method=args.method,
+    report = compare_calibrations(cals, tolerance_arcmin=args.tolerance, model=model,
+                                  method=args.method or "fourier",
                                   offset="keep" if args.keep_offset else "remove", labels=labels,
                                   rng=args.seed)
     if args.json:
