@@ -3,16 +3,65 @@
 A file is written to a temporary file in the destination folder and then
 renamed over the destination, so a reader never sees half a file and a
 failure never leaves one behind.
+
+A command that writes several files (``encal simulate``, ``encal demo``,
+``encal export c``) wraps its writes in :func:`atomic_file_set`: every file is
+written to its temporary file first and the renames happen together at the
+end, so a failure part-way leaves none of the new files and every old one.
 """
 
 import contextlib
+import contextvars
 import os
 import tempfile
 from pathlib import Path
 
 from .errors import InputError
 
-__all__ = ["atomic_write", "atomic_open"]
+__all__ = ["atomic_write", "atomic_open", "atomic_file_set", "staged_path"]
+
+#: (temporary path, destination) pairs of the innermost open file set, or None.
+_PENDING = contextvars.ContextVar("encal_pending_renames", default=None)
+
+
+@contextlib.contextmanager
+def atomic_file_set():
+    """Defer the renames of every :func:`atomic_open` in the block to its successful end.
+
+    On success the temporary files replace their destinations in the order
+    they were written; on any exception they are deleted and no destination
+    is touched. Sets nest: an inner set joins the outer one.
+    """
+    if _PENDING.get() is not None:
+        yield
+        return
+    pending = []
+    token = _PENDING.set(pending)
+    try:
+        yield
+    except BaseException:
+        for tmp, _ in pending:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+        raise
+    else:
+        for tmp, path in pending:
+            os.replace(tmp, path)
+    finally:
+        _PENDING.reset(token)
+
+
+def staged_path(path):
+    """Where the content written for ``path`` is now: its temporary file while a set defers its rename.
+
+    Lets a command read back a file it wrote inside :func:`atomic_file_set`
+    (``encal demo`` reloads each saved model to check it).
+    """
+    path = Path(path)
+    for tmp, destination in reversed(_PENDING.get() or ()):
+        if destination == path:
+            return Path(tmp)
+    return path
 
 
 @contextlib.contextmanager
@@ -47,7 +96,11 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
             handle.flush()
             os.fsync(handle.fileno())
         os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
+        pending = _PENDING.get()
+        if pending is None:
+            os.replace(tmp, path)
+        else:
+            pending.append((tmp, path))
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)

@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._atomic import atomic_write
+from ._atomic import atomic_file_set, atomic_write, staged_path
 from .errors import EncalError, InputError
 from .profile import error_stats, harmonics
 from .studies._pool import Workers, run_tasks
@@ -264,12 +264,13 @@ def run_demo(out="encal-demo", *, quick=False, settings=None, workers=None, seed
             stream.write(table.to_text() + "\n\n")
         stream.flush()
         if out is not None:
-            with _stage(timings, "files"):
-                _write_tables(result, out)
-                _write_models(result, out)
-            if report:
-                with _stage(timings, "report"):
-                    _write_report(result, out, pool, progress)
+            with atomic_file_set():  # all the files, or none of them
+                with _stage(timings, "files"):
+                    _write_tables(result, out)
+                    _write_models(result, out)
+                if report:
+                    with _stage(timings, "report"):
+                        _write_report(result, out, pool, progress)
     timings["total"] = time.perf_counter() - total_start
     _print_summary(result, stream)
     return result
@@ -307,7 +308,7 @@ def _write_models(result, out):
         path = out / f"{name}.json"
         entry.model.save(path, reproducible=True)
         result.files[f"model:{name}"] = path
-        reloaded = evaluate(load_model(path), encoder.test).after
+        reloaded = evaluate(load_model(staged_path(path)), encoder.test).after
         reported = entry.stats
         result.checks[name] = {"model": entry.label, "file": str(path), "rms_arcmin": reloaded.rms,
                                "max_abs_arcmin": reloaded.max_abs, "reported_rms_arcmin": reported.rms,

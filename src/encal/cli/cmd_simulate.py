@@ -19,6 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._atomic import atomic_file_set
 from .._version import __version__
 from ..calibration import write_calibration
 from ..errors import InputError
@@ -81,19 +82,22 @@ def run(args):
     folder = _output_folder(args.out)
     demo = args.seed is None
     fleet = demo_fleet(args.encoders) if demo else simulate_fleet(args.encoders, args.seed)
-    for member in fleet:
-        for run_name, sim_run in member.runs.items():
-            write_calibration(
+    summaries = []
+    with atomic_file_set():  # every file of the fleet, or none
+        for member in fleet:
+            for run_name, sim_run in member.runs.items():
+                write_calibration(
                 folder / f"{member.name}_{run_name}.csv",
-                sim_run.calibration,
-                extra_columns={"noise_free_error_arcmin": sim_run.noise_free_error_arcmin},
-                comments=[
-                    f"encal {__version__} simulate: simulated 16-bit resolver encoder (docs/simulator.md)",
-                    _seed_comment(member, demo),
-                    f"encoder: {member.name}",
-                    f"run: {run_name} ({_RUN_DESCRIPTIONS[run_name]})",
-                    "noise_free_error_arcmin: error without per-reading noise, quantisation at its mean",
-                ],
-            )
-        print(_summary(member, folder / f"{member.name}_*.csv"))
+                    sim_run.calibration,
+                    extra_columns={"noise_free_error_arcmin": sim_run.noise_free_error_arcmin},
+                    comments=[
+                        f"encal {__version__} simulate: simulated 16-bit resolver encoder (docs/simulator.md)",
+                        _seed_comment(member, demo),
+                        f"encoder: {member.name}",
+                        f"run: {run_name} ({_RUN_DESCRIPTIONS[run_name]})",
+                        "noise_free_error_arcmin: error without per-reading noise, quantisation at its mean",
+                    ],
+                )
+            summaries.append(_summary(member, folder / f"{member.name}_*.csv"))
+    print("\n".join(summaries))
     return 0

@@ -126,10 +126,12 @@ def run(args):
     table, figures = _STUDIES[args.study](args, train, test)
     print(table.to_text())
     if out is not None:
+        from .._atomic import atomic_file_set
         from ..plots import save_figure
 
-        table.write_csv(out / f"{table.name}.csv")
-        for name, plot in figures.items():
-            save_figure(plot().figure, out / f"{name}.png")
+        with atomic_file_set():  # the table and every figure, or none of them
+            table.write_csv(out / f"{table.name}.csv")
+            for name, plot in figures.items():
+                save_figure(plot().figure, out / f"{name}.png")
         print(f"wrote {table.name}.csv and {', '.join(name + '.png' for name in figures)} in {out}")
     return 0

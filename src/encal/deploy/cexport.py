@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_write
+from .._atomic import atomic_file_set, atomic_write
 from .._version import __version__
 from ..errors import InputError
 from .compensator import Compensator
@@ -102,15 +102,19 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
 
 
 def write_c(model, directory, **options):
-    """Write the files of :func:`export_c` into ``directory`` (created if missing, files
-    written atomically); return their paths."""
+    """Write the files of :func:`export_c` into ``directory`` (created if missing); return their paths.
+
+    The header and the source are written as one set (see
+    :func:`encal._atomic.atomic_file_set`): both or neither.
+    """
     files = export_c(model, **options)
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     paths = []
-    for name, text in files.items():
-        paths.append(directory / name)
-        atomic_write(paths[-1], text)
+    with atomic_file_set():
+        for name, text in files.items():
+            paths.append(directory / name)
+            atomic_write(paths[-1], text)
     return paths
 
 

@@ -1,0 +1,98 @@
+"""Whole-or-nothing writes: single files and sets of files (encal._atomic)."""
+
+import pytest
+
+import encal._atomic as atomic
+from encal._atomic import atomic_file_set, atomic_write, staged_path
+from encal.cli import main
+
+
+class _Boom(Exception):
+    pass
+
+
+def _leftovers(folder):
+    return sorted(p.name for p in folder.rglob("*.tmp"))
+
+
+def test_a_set_renames_every_file_at_its_end(tmp_path):
+    first, second = tmp_path / "a.txt", tmp_path / "b.txt"
+    with atomic_file_set():
+        atomic_write(first, "one")
+        assert not first.exists()
+        assert staged_path(first).read_text() == "one"
+        atomic_write(second, "two")
+    assert first.read_text() == "one" and second.read_text() == "two"
+    assert staged_path(first) == first
+    assert _leftovers(tmp_path) == []
+
+
+def test_a_failed_set_writes_nothing_and_keeps_the_old_files(tmp_path):
+    first, second = tmp_path / "a.txt", tmp_path / "b.txt"
+    first.write_text("old a")
+    with pytest.raises(_Boom):
+        with atomic_file_set():
+            atomic_write(first, "new a")
+            atomic_write(second, "new b")
+            raise _Boom
+    assert first.read_text() == "old a" and not second.exists()
+    assert _leftovers(tmp_path) == []
+
+
+def test_an_inner_set_joins_the_outer_one(tmp_path):
+    path = tmp_path / "a.txt"
+    with pytest.raises(_Boom):
+        with atomic_file_set():
+            with atomic_file_set():
+                atomic_write(path, "inner")
+            assert not path.exists()
+            raise _Boom
+    assert not path.exists() and _leftovers(tmp_path) == []
+
+
+def test_writing_one_path_twice_keeps_the_last(tmp_path):
+    path = tmp_path / "a.txt"
+    with atomic_file_set():
+        atomic_write(path, "first")
+        atomic_write(path, "second")
+        assert staged_path(path).read_text() == "second"
+    assert path.read_text() == "second" and _leftovers(tmp_path) == []
+
+
+def _fail_on_nth_write(monkeypatch, n):
+    """Make the n-th (1-based) atomic_write of the process raise OSError."""
+    real = atomic.atomic_open
+    count = iter(range(1, 10**6))
+
+    def failing(path, *args, **kwargs):
+        if next(count) == n:
+            raise OSError(28, "No space left on device")
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(atomic, "atomic_open", failing)
+
+
+def test_simulate_failing_part_way_leaves_the_old_fleet(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "fleet"
+    assert main(["simulate", "--encoders", "1", "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert len(before) == 4
+    _fail_on_nth_write(monkeypatch, 3)
+    assert main(["simulate", "--encoders", "2", "--seed", "7", "--out", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "No space left" in err[0]
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert _leftovers(tmp_path) == []
+
+
+def test_c_export_failing_on_the_source_leaves_no_header(tmp_path, monkeypatch, capsys):
+    model = tmp_path / "m.json"
+    cal = tmp_path / "cal.csv"
+    cal.write_text("reference_deg,encoder_deg\n" + "".join(f"{k * 10.0},{k * 10.0 + 0.01 * (k % 3)}\n"
+                                                           for k in range(36)))
+    assert main(["fit", str(cal), "--method", "fourier", "-o", str(model)]) == 0
+    _fail_on_nth_write(monkeypatch, 2)
+    target = tmp_path / "c"
+    assert main(["export", str(model), "--format", "c", "--bits", "16", "-o", str(target)]) == 1
+    assert "No space left" in capsys.readouterr().err
+    assert list(target.iterdir()) == [] and _leftovers(tmp_path) == []
