@@ -10,9 +10,10 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
 from encal.errors import InputError, ModelFileError
-from encal.models.ann import DEFAULT_HIDDEN, ANNModel, fit_ann
+from encal.models.ann import DEFAULT_HIDDEN, DEFAULT_STOPPING, ANNModel, fit_ann
 from encal.models.base import model_class
-from encal.training import TrainResult
+from encal.training import TrainResult, train
+from encal.training.network import NetworkProblem
 
 TRAINING_GRID = np.arange(0.0, 360.0, 2.0)
 TEST_GRID = TRAINING_GRID + 1.0
@@ -27,6 +28,10 @@ def smooth_profile(theta_deg):
 
 def rms(values):
     return float(np.sqrt(np.mean(np.square(values))))
+
+
+#: 0.1 arcmin of white measurement noise on the training grid (fixed draw).
+NOISE_ARCMIN = np.random.default_rng(2024).normal(0.0, 0.1, TRAINING_GRID.size)
 
 
 @pytest.fixture(scope="module")
@@ -138,6 +143,91 @@ def test_trainbr_and_validation_stopping():
     validated = fit_ann(TRAINING_GRID, error, hidden=6, rng=0,
                         validation=(TEST_GRID, smooth_profile(TEST_GRID) + 1.0))
     assert validated.training["stop_reason"] == "max_fail"
+
+
+# --------------------------------------------------------------------------- default stop
+
+PAPER_RULE = {"plateau_patience": 20, "plateau_tol": 0.01}
+
+
+def test_default_stop_of_trainlm_is_the_papers_plateau_rule():
+    assert DEFAULT_STOPPING == {"trainlm": PAPER_RULE}
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_default_fit_stops_at_the_first_plateau_on_a_noisy_profile(seed):
+    # Known truth plus 0.1' of noise: the training RMS levels off near the noise within a few hundred
+    # epochs (measured: 28-112 epochs over seeds 0-5), and the network stopped there is nearer the truth
+    # between the training points than the noise (measured 0.057-0.064'), where 1000 epochs give 0.08-0.10'.
+    model = fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID) + NOISE_ARCMIN, rng=seed)
+    t, result = model.training, model.train_result
+    assert model.hidden == DEFAULT_HIDDEN["periodic"]
+    assert t["stop_reason"] == "plateau" and t["epochs"] < 300
+    assert t["options"] == PAPER_RULE
+    train_rms = np.sqrt(result.history["mse"])  # epoch 0 first
+    k = PAPER_RULE["plateau_patience"]
+    holds = train_rms[k:] > train_rms[:-k] * (1.0 - PAPER_RULE["plateau_tol"])
+    assert holds[-1] and not holds[:-1].any()  # stopped at the first epoch the rule held
+    assert len(train_rms) == t["epochs"] + 1
+    assert rms(model.predict(TEST_GRID) - smooth_profile(TEST_GRID)) < 0.075
+
+
+def test_default_stop_is_deterministic_and_equals_the_explicit_rule():
+    error = smooth_profile(TRAINING_GRID) + NOISE_ARCMIN
+    default = fit_ann(TRAINING_GRID, error, hidden=12, rng=3)
+    assert fit_ann(TRAINING_GRID, error, hidden=12, rng=3).parameters() == default.parameters()
+    explicit = fit_ann(TRAINING_GRID, error, hidden=12, rng=3, **PAPER_RULE)
+    assert explicit.parameters() == default.parameters()
+    assert explicit.training["epochs"] == default.training["epochs"]
+
+
+@pytest.mark.parametrize(("options", "recorded"), [
+    ({"epochs": 150}, {"epochs": 150}),
+    ({"plateau_patience": None}, {"plateau_patience": None}),
+    ({"goal": 0.0}, {"goal": 0.0}),
+    ({"plateau_patience": 5, "plateau_tol": 1.0}, {"plateau_patience": 5, "plateau_tol": 1.0}),
+])
+def test_any_stopping_parameter_replaces_the_default_stop(options, recorded):
+    error = smooth_profile(TRAINING_GRID) + NOISE_ARCMIN
+    model = fit_ann(TRAINING_GRID, error, hidden=12, rng=0, **options)
+    assert model.training["options"] == recorded
+    history = model.train_result.history["mse"]
+    if "plateau_patience" in options and options["plateau_patience"] is not None:
+        # tol 1: any RMS counts as not falling enough, so the rule holds as soon as 5 epochs have run
+        assert model.training["stop_reason"] == "plateau" and model.training["epochs"] == 5
+    else:  # MATLAB's rule: no plateau stop (the default stops seed 0 after 63 epochs)
+        assert model.training["stop_reason"] in ("epochs", "min_grad")
+        assert model.training["epochs"] == options.get("epochs", model.training["epochs"])
+        assert len(history) > 100
+
+
+def test_algorithm_options_alone_keep_the_default_stop():
+    error = smooth_profile(TRAINING_GRID) + NOISE_ARCMIN
+    model = fit_ann(TRAINING_GRID, error, hidden=12, rng=0, mu=0.01)
+    assert model.training["options"] == {**PAPER_RULE, "mu": 0.01}
+    assert model.training["stop_reason"] == "plateau"
+
+
+def test_other_algorithms_keep_matlabs_stopping_rule():
+    error = smooth_profile(TRAINING_GRID) + NOISE_ARCMIN
+    model = fit_ann(TRAINING_GRID, error, hidden=6, algorithm="trainrp", rng=0)
+    assert model.training["options"] == {}
+    assert (model.training["stop_reason"], model.training["epochs"]) == ("epochs", 1000)
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_train_keeps_matlabs_1000_epoch_default(seed):
+    # The same problem and initial weights as the default fit_ann, which stops by the plateau rule;
+    # encal.training.train itself keeps MATLAB's documented defaults and runs all 1000 epochs.
+    error = smooth_profile(TRAINING_GRID) + NOISE_ARCMIN
+    hidden = DEFAULT_HIDDEN["periodic"]
+    problem = NetworkProblem.from_angles(TRAINING_GRID, error, hidden, encoding="periodic")
+    result = train(problem, "trainlm", x0=problem.initial_weights(np.random.default_rng(seed)))
+    assert (result.reason, result.epochs) == ("epochs", 1000)
+    stopped = fit_ann(TRAINING_GRID, error, rng=seed)
+    assert stopped.training["stop_reason"] == "plateau"
+    assert_array_equal(stopped.train_result.history["mse"],
+                       result.history["mse"][:stopped.training["epochs"] + 1])
 
 
 def test_constant_profile_gives_a_finite_constant_model():

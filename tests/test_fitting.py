@@ -78,3 +78,18 @@ def test_unknown_method_and_wrong_arguments():
         encal.fit(cal, method="fourier", rng=1)
     with pytest.raises(InputError, match="evaluate expects a Calibration"):
         encal.evaluate(encal.fit(cal, method="lut"), [1, 2, 3])
+
+
+def test_ann_fit_defaults_to_the_papers_stop_and_records_it():
+    # 0.05' of noise on the profile: the training RMS levels off, and the default trainlm run stops by
+    # the paper's plateau rule well before MATLAB's 1000 epochs (measured: 41-97 epochs, seeds 0-5).
+    noise = np.random.default_rng(7).normal(0.0, 0.05, 180)
+    ref = np.arange(0.0, 360.0, 2.0)
+    cal = encal.Calibration(ref, ref + (harmonic_profile(ref) + noise) / 60.0, name="enc")
+    model = encal.fit(cal, method="ann", rng=0)
+    assert model.training["fit_options"] == {}
+    assert model.training["options"] == {"plateau_patience": 20, "plateau_tol": 0.01}
+    assert model.training["stop_reason"] == "plateau" and model.training["epochs"] < 1000
+    capped = encal.fit(cal, method="ann", rng=0, epochs=1000)
+    assert capped.training["options"] == {"epochs": 1000}
+    assert capped.training["stop_reason"] != "plateau"
