@@ -66,7 +66,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
         Seed for the methods that draw random numbers (network initialisation).
     uncertainty : bool, default=False
         Also estimate the prediction uncertainty (bootstrap refits; see :mod:`encal.uncertainty`), so that
-        ``model.predict(theta, return_std=True)`` works. Costs about 70 refits.
+        ``model.predict(theta, return_std=True)`` works. Costs 30 (Fourier) to 100 (lookup table, networks) refits.
     **options
         Passed to the family's fit function (``hidden``, ``algorithm``, ``encoding`` for ``'ann'``;
         ``orders``, ``n_orders``, ``select`` for ``'fourier'``; ``interpolation`` for ``'lut'``).

@@ -12,20 +12,37 @@ uncertainty of the corrected angle is ``U = k · std`` (``k = 2`` by default).
 
 How they are estimated (:func:`add_uncertainty`), with the same method and options as the model:
 
-1. ``n_folds``-fold interleaved cross-validation on the calibration gives held-out residuals ``r``.
-   Their mean square is ``σ_noise² (1 + g)``: the noise plus the variance of the fold models' own
-   predictions at the held-out points, ``g σ_noise²``.
-2. A parametric bootstrap refits the model ``n_boot`` times to its own prediction plus Gaussian noise of
-   the cross-validated size. The spread of the refits on a 1-degree grid is ``σ_model(θ)``. As many
-   refits on ``n_folds - 1`` folds, in pairs with independent noise, measure the fold models' noise gain
-   ``g`` (half the mean squared difference of a pair at its held-out points).
-3. ``σ_noise² = mean(r²) / (1 + g)``, and ``σ_model`` is rescaled from the trial noise to ``σ_noise``.
+1. A parametric bootstrap refits the model ``n_boot`` times to its own prediction plus Gaussian trial noise of
+   size ``s``, each randomised refit (a network) from a new random start: the refits are an ensemble over
+   seeds *and* noise. Their spread on a 1-degree grid is ``σ_model(θ)``; at the calibration points their
+   covariance with the trial noise and their variance give the fit's residual degrees of freedom
+   ``ν = n − 2 Σ cov(ŷ*_i, y*_i) / s² + Σ var(ŷ*_i) / s²`` (for a linear smoother ``S``, ``n − 2 tr S + tr SSᵀ``;
+   for a network, Ye's generalised degrees of freedom, seed spread included).
+2. The noise, when ``ν ≥ n / 4``: ``σ_noise² = Σ r² / ν`` from the model's residuals ``r`` on its calibration
+   (the classical unbiased estimate for a linear smoother, and ``RSS / (n − p)`` for least squares). For a
+   randomised method ``Σ r²`` is averaged over the model and ``ceil(n_boot / 3)`` refits to the same data
+   from other seeds, because ``ν`` is an average over random starts and one network's ``Σ r²`` varies with
+   its start about as much as with the noise. The bootstrap is then repeated at ``s = σ_noise`` (at most
+   three rounds in all) until ``s`` is within 10 % of it: a network's spread is not proportional to the noise
+   (its seed spread does not shrink with it), so it must be measured at the noise of the data.
+3. The noise, when ``ν < n / 4`` (a model that nearly reproduces its points, such as a lookup table, whose
+   residuals hold almost nothing of the noise): ``n_folds``-fold interleaved cross-validation gives held-out
+   residuals whose mean square is ``σ_noise² (1 + g)``, the noise plus the fold models' own variance at the
+   held-out points; ``g`` is measured by pairs of bootstrap refits on ``n_folds - 1`` folds that differ only
+   in their noise, and ``σ_noise² = mean(r_cv²) / (1 + g)``.
 
-Step 3 treats the fit as linear in the data, which is exact for ``fourier`` with fixed orders and for
-``lut``, and a first-order approximation for order selection and for networks. The cross-validated
-residuals fall between calibration points, so ``σ_noise`` includes the part of the profile the model
-cannot follow there; it also includes the reference's own noise, which makes it conservative for readings
-in service. ``docs/uncertainty.md`` gives measured coverage on the demo fleet.
+``σ_model`` is rescaled from ``s`` to ``σ_noise``. Why not cross-validation for every model: a network that
+nearly interpolates its points wiggles far more across the double gaps that cross-validation leaves (on the
+demo fleet its fold models miss the held-out points by 0.34–0.50 arcmin, against 0.13–0.17 for the full
+model between its points), so ``g`` is 7 to 20, ``σ_noise`` is a small remainder of two large, noisy terms,
+and it came out 2–23 % low (measured with MATLAB's 1000 epochs). The residual estimator needs no fold
+models: its error is that of ``ν`` degrees of freedom, about ``1 / sqrt(2ν)`` relative, plus the spread of
+the seed average.
+
+Both estimates include the squared bias of the model at its points (the part of the profile it does not
+follow), which a new reading also meets; the cross-validated one includes it at the held-out points, midway
+in gaps of two grid steps, which overstates it for a table. Both include the reference's own noise, which
+makes them conservative for readings in service. ``docs/uncertainty.md`` gives measured coverage.
 
 The result is stored with the model as :attr:`Model.uncertainty`, JSON data that the model file keeps::
 
@@ -227,9 +244,12 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
         else ``model.training['options']``, else none. Pass the options you gave :func:`encal.fit`: the refits
         must be made the same way as the model.
     n_boot : int, default=30
-        Bootstrap refits on all points (and as many on ``n_folds - 1`` folds for the noise gain).
+        Bootstrap refits on all points per round (one round for a linear fit, up to three for a network),
+        plus ``ceil(n_boot / 3)`` refits to the data from other seeds for a randomised method; when the noise
+        is cross-validated, ``n_folds`` and ``n_boot`` more for the noise gain.
     n_folds : int, default=10
-        Cross-validation folds, ``2 <= n_folds <= n / 2``.
+        Cross-validation folds, ``2 <= n_folds <= n / 2``; used only for a model that nearly reproduces
+        its points (see the module docstring).
     grid_step_deg : float, default=1.0
         Step of the stored ``σ_model`` table; must divide 360.
     rng : int or numpy.random.Generator, optional
@@ -289,8 +309,32 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
     Returns
     -------
     dict
-        JSON-ready: ``method``, ``grid_step_deg``, ``model_std_arcmin``, ``noise_std_arcmin``, ``n_boot``,
-        ``n_folds``, ``cv_rms_arcmin``, ``noise_gain``, ``fit_method``, ``refit_warnings``.
+        JSON-ready: ``method``, ``grid_step_deg``, ``model_std_arcmin``, ``noise_std_arcmin``,
+        ``noise_estimator`` (``'residual'`` or ``'cross-validation'``), ``residual_dof``, ``trial_std_arcmin``,
+        ``bootstrap_rounds``, ``seed_refits``, ``n_boot``, ``n_folds``, ``cv_rms_arcmin`` and ``noise_gain``
+        (``None`` unless cross-validated), ``fit_method``, ``refit_warnings``.
+
+    Notes
+    -----
+    With ``r`` the residuals of the model on its own calibration, a parametric bootstrap at trial noise
+    ``s`` (refits to the model's prediction plus ``N(0, s²)``, each from a new random start) gives the
+    residual degrees of freedom
+
+    ``ν = n − 2 Σ cov(ŷ*_i, y*_i) / s² + Σ var(ŷ*_i) / s²``
+
+    (for a linear smoother ``S``: ``n − 2 tr S + tr SSᵀ``, whose ``E[Σ r²] = σ² ν`` plus the squared bias;
+    for a network the covariances and variances are those of the bootstrap, random start included). Then:
+
+    - ``ν ≥ n / 4`` (the fit leaves at least a quarter of the data's degrees of freedom in its residuals):
+      ``σ_noise² = Σ r² / ν`` (``Σ r²`` averaged over the model and ``ceil(n_boot / 3)`` refits to the same
+      data from other seeds for a randomised method), and the bootstrap is repeated at ``s = σ_noise`` (at
+      most twice more) until the two agree within 10 %, because a network's spread is not proportional to
+      the noise.
+    - ``ν < n / 4`` (a model that nearly reproduces its points, such as a table): the residuals hold too
+      little of the noise, and ``σ_noise² = mean(r_cv²) / (1 + g)`` from ``n_folds``-fold
+      cross-validation, as described in the module docstring.
+
+    ``σ_model`` is the bootstrap spread on the grid, times ``σ_noise / s``.
     """
     theta = np.asarray(theta_enc_deg, dtype=float).reshape(-1)
     error = np.asarray(error_arcmin, dtype=float).reshape(-1)
@@ -304,33 +348,85 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
     grid = np.arange(size) * float(grid_step_deg)
     method = method or model.training.get("method") or model.kind
     refit = _Refitter(method, recorded_options(model) if options is None else options, rng)
-    cv_mean_square = float(np.mean(np.square(_held_out_residuals(refit, theta, error, fold))))
 
-    # Trial noise of the cross-validated size (a tiny floor keeps an exact fit from collapsing the trials).
-    trial_std = math.sqrt(cv_mean_square) or 1e-9 * max(1.0, float(np.max(np.abs(error))))
     fitted = model.predict(theta)
-    spread = _bootstrap_spread(refit, theta, fitted, grid, trial_std, n_boot)
-    noise_gain = _fold_noise_gain(refit, theta, fitted, fold, trial_std, math.ceil(n_boot / 2))
-    noise_var = cv_mean_square / (1.0 + noise_gain)
-    scale = math.sqrt(noise_var) / trial_std
+    residual_square = float(np.sum(np.square(_wrapped_arcmin(error - fitted))))
+    seed_refits = 0
+    if refit.randomised:
+        # One network's residual sum of squares depends on its random start as much as on the noise (on the
+        # demo fleet, the training RMS of four seeds on the same data spans 0.10-0.16 arcmin); nu is an
+        # average over starts, so the numerator is averaged over the model and refits to the same data.
+        seed_refits = math.ceil(n_boot / 3)
+        squares = [residual_square]
+        for _ in range(seed_refits):
+            squares.append(float(np.sum(np.square(_wrapped_arcmin(error - refit(theta, error).predict(theta))))))
+        residual_square = float(np.mean(squares))
+    # A tiny floor on the trial noise keeps an exact fit from collapsing the trials into rounding error.
+    floor = 1e-9 * max(1.0, float(np.max(np.abs(error))))
+    trial_std = max(math.sqrt(residual_square / theta.size), floor)
+    cv_rms = noise_gain = None
+    for round_ in range(1, _MAX_BOOTSTRAP_ROUNDS + 1):
+        spread, dof = _bootstrap(refit, theta, fitted, grid, trial_std, n_boot)
+        if dof >= _MIN_DOF_SHARE * theta.size:
+            estimator, noise_std = "residual", math.sqrt(residual_square / dof)
+        else:
+            if cv_rms is None:
+                cv_mean_square = float(np.mean(np.square(_held_out_residuals(refit, theta, error, fold))))
+                cv_rms = math.sqrt(cv_mean_square)
+                noise_gain = _fold_noise_gain(refit, theta, fitted, fold, max(cv_rms, floor),
+                                              math.ceil(n_boot / 2))
+            estimator, noise_std = "cross-validation", math.sqrt(cv_mean_square / (1.0 + noise_gain))
+        settled = abs(max(noise_std, floor) / trial_std - 1.0) <= _TRIAL_TOLERANCE
+        if settled or round_ == _MAX_BOOTSTRAP_ROUNDS:
+            break
+        trial_std = max(noise_std, floor)
     return {
         "method": UNCERTAINTY_METHOD,
         "grid_step_deg": float(grid_step_deg),
-        "model_std_arcmin": [float(s) for s in np.round(spread * scale, 9)],
-        "noise_std_arcmin": float(math.sqrt(noise_var)),
+        "model_std_arcmin": [float(s) for s in np.round(spread * (noise_std / trial_std), 9)],
+        "noise_std_arcmin": float(noise_std),
+        "noise_estimator": estimator,
+        "residual_dof": float(dof),
+        "trial_std_arcmin": float(trial_std),
+        "bootstrap_rounds": round_,
+        "seed_refits": seed_refits,
         "n_boot": n_boot,
         "n_folds": n_folds,
-        "cv_rms_arcmin": math.sqrt(cv_mean_square),
+        "cv_rms_arcmin": cv_rms,
         "noise_gain": noise_gain,
         "fit_method": method,
         "refit_warnings": refit.warnings,
     }
 
 
-def _bootstrap_spread(refit, theta, fitted, grid, trial_std, n_boot):
-    """Standard deviation over the grid of refits to ``fitted`` plus trial noise (arcmin)."""
-    replicates = [refit(theta, fitted + refit.noise(theta.size, trial_std)).predict(grid) for _ in range(n_boot)]
-    return np.std(replicates, axis=0, ddof=1)
+#: The residual estimator of the noise is used when the fit leaves at least this share of the points'
+#: degrees of freedom in its residuals (below it, cross-validation).
+_MIN_DOF_SHARE = 0.25
+#: The bootstrap is repeated at the estimated noise until the trial noise is within this relative distance.
+_TRIAL_TOLERANCE = 0.10
+_MAX_BOOTSTRAP_ROUNDS = 3
+
+
+def _bootstrap(refit, theta, fitted, grid, trial_std, n_boot):
+    """Parametric bootstrap at trial noise ``trial_std``: the refits' spread on ``grid`` and the residual dof.
+
+    Each refit is fitted to ``fitted + e*`` with ``e* ~ N(0, trial_std²)`` (and, for a randomised method, a
+    new seed). ``ν = n − 2 Σ_i cov(ŷ*_i, e*_i) / s² + Σ_i var(ŷ*_i) / s²`` at the calibration points: the
+    expected residual sum of squares of the fit per unit noise variance.
+    """
+    at_points, on_grid, noises = [], [], []
+    for _ in range(n_boot):
+        noise = refit.noise(theta.size, trial_std)
+        replicate = refit(theta, fitted + noise)
+        at_points.append(replicate.predict(theta))
+        on_grid.append(replicate.predict(grid))
+        noises.append(noise)
+    at_points, noises = np.asarray(at_points), np.asarray(noises)
+    # The trial noise has known mean zero, so centring the predictions alone gives an unbiased covariance.
+    covariance = np.sum((at_points - at_points.mean(axis=0)) * noises, axis=0) / (n_boot - 1)
+    variance = np.var(at_points, axis=0, ddof=1)
+    dof = theta.size + (float(np.sum(variance)) - 2.0 * float(np.sum(covariance))) / trial_std**2
+    return np.std(on_grid, axis=0, ddof=1), dof
 
 
 def _fold_noise_gain(refit, theta, fitted, fold, trial_std, n_pairs):
