@@ -252,3 +252,106 @@ def test_orders_that_alias_on_a_slightly_irregular_grid_are_refused():
                                          r"determine is 90, .* order 179 looks like order 1"):
         fit_fourier(encoder, error, orders=[0, 1, 179])
     assert fit_fourier(encoder, error, orders=[0, 1, 90]).orders.tolist() == [0, 1, 90]
+
+
+# --------------------------------------------------------------------------- grid of the whole calibration
+
+STEPS = np.arange(200) * 1.8  # a stepper's 200 full steps: the Nyquist order is 100
+
+
+def stepped_profile(rng, sigma=0.05, parity=2.0):
+    """Readings near 200 full steps (within 0.02°, 1 % of a step); low orders + a ±parity
+    alternation (-1)^k + white noise of sigma, arcmin. Returns (angles, errors, noise-free errors)."""
+    theta = STEPS + rng.normal(0.0, 0.02, STEPS.size)
+    r = np.radians(STEPS)
+    truth = 3.0 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) + 0.7 * np.sin(16 * r) + parity * (-1.0) ** np.arange(200)
+    return theta, truth + rng.normal(0.0, sigma, STEPS.size), truth
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_fold_told_its_grid_fits_the_per_step_pattern_it_cannot_see_alone(seed):
+    # A cross-validation fold's training part: every fifth step missing. Alone, its largest gap
+    # (3.6°) allows orders up to 49; told it lies on the 200-step grid, it may use order 100,
+    # and predicts the held-out steps' alternation.
+    theta, observed, truth = stepped_profile(np.random.default_rng(seed))
+    held_out = np.arange(200) % 5 == 0
+    told = fit_fourier(theta[~held_out], observed[~held_out], select="cv", grid_points=200)
+    alone = fit_fourier(theta[~held_out], observed[~held_out], select="cv")
+    assert sorted(told.orders.tolist()) == [1, 2, 16, 100]
+    assert told.training["max_order"] == 100 and told.training["grid_points"] == 200
+    assert alone.training["max_order"] == 49 and 100 not in alone.orders.tolist()
+    # The fit of 7 terms to 160 points with noise 0.05: within 0.05 of the truth at the held-out steps
+    # (the projected noise is 0.05 * sqrt(7/160) = 0.01 RMS); alone it misses the ±2 alternation.
+    assert np.sqrt(np.mean((told.predict(theta[held_out]) - truth[held_out]) ** 2)) < 0.05
+    assert np.sqrt(np.mean((alone.predict(theta[held_out]) - truth[held_out]) ** 2)) > 1.5
+
+
+def test_the_top_rule_on_a_grid_subset_is_not_misled_by_leakage():
+    # With a fifth of the nodes missing, the zero-filled DFT leaks a 20-arcmin order 1 into
+    # orders 39, 41, 79 and 81 at 4 arcmin, above the 1-arcmin orders 5 and 100 that are there.
+    # Forward selection fits order 1 first, so its leakage never competes.
+    r = np.radians(STEPS)
+    truth = 20.0 * np.cos(r) + np.sin(5 * r) + 1.0 * (-1.0) ** np.arange(200)
+    keep = np.arange(200) % 5 != 2
+    model = fit_fourier(STEPS[keep], truth[keep], n_orders=3, grid_points=200)
+    assert sorted(model.orders.tolist()) == [1, 5, 100]
+    assert_allclose(model.predict(STEPS), truth, atol=1e-9)
+
+
+def test_orders_that_the_occupied_nodes_cannot_identify_are_refused():
+    # With every fifth step missing, the terms of orders 20, 60 and the Nyquist order 100 are five
+    # functions of the step index that all vanish on the missing steps up to one combination: at the
+    # 160 nodes they are linearly dependent. Readings 0.02° off the nodes make the design full-rank,
+    # but a fit there would follow the offsets, not the profile; it is refused.
+    theta = STEPS + np.random.default_rng(1).normal(0.0, 0.02, STEPS.size)
+    keep = np.arange(200) % 5 != 0
+    errors = np.cos(np.radians(20 * STEPS))[keep]
+    with pytest.raises(InputError, match="rank-deficient"):
+        fit_fourier(theta[keep], errors, orders=[20, 60, 100], grid_points=200)
+    fit_fourier(theta[keep], errors, orders=[20, 60], grid_points=200)  # two of them are identified
+
+
+def test_cross_validation_leaves_out_orders_a_fold_cannot_identify():
+    # The whole grid identifies [20, 60, 100]; each fold (every fifth step missing) does not, and
+    # leaves the last of them out of its fits instead of extrapolating an undetermined combination.
+    theta = STEPS + np.random.default_rng(2).normal(0.0, 0.02, STEPS.size)
+    truth = np.cos(np.radians(20 * STEPS)) + 0.5 * np.cos(np.radians(60 * STEPS)) + 0.8 * (-1.0) ** np.arange(200)
+    predicted = encal.profile.nested_harmonic_predictions(
+        theta[np.arange(200) % 5 != 0], truth[np.arange(200) % 5 != 0], [20, 100, 60],
+        theta[::5], grid_deg=STEPS)
+    assert np.all(np.isfinite(predicted)) and np.max(np.abs(predicted)) < 3.0
+    assert_allclose(predicted[2], predicted[1])  # order 60 left out of the fold's fit
+
+
+def test_a_grid_of_the_even_steps_is_its_own_grid():
+    # The 100 even rows of a 200-step calibration lie on a 100-point grid (3.6°): the alternation
+    # of the full steps is a constant there, and the Nyquist order is 50, not 100.
+    theta, observed, _ = stepped_profile(np.random.default_rng(3))
+    even = np.arange(200) % 2 == 0
+    model = fit_fourier(theta[even], observed[even], select="cv")
+    assert model.training["max_order"] == 50
+    assert 0 in model.orders.tolist() and abs(model.cos[model.orders.tolist().index(0)] - 2.0) < 0.05
+    with pytest.raises(InputError, match="uniform grid of 100"):  # one odd row: half a spacing off
+        fit_fourier(np.r_[theta[even], theta[1]], np.r_[observed[even], observed[1]], grid_points=100)
+
+
+def test_irregular_angles_keep_the_identifiable_order_and_refuse_a_grid():
+    rng = np.random.default_rng(4)
+    theta = np.sort(rng.uniform(0.0, 360.0, 150))
+    observed = np.cos(np.radians(theta)) + rng.normal(0.0, 0.05, theta.size)
+    model = fit_fourier(theta, observed, select="cv")
+    assert model.training["max_order"] == encal.profile.identifiable_order(theta)
+    with pytest.raises(InputError, match="uniform grid"):
+        fit_fourier(theta, observed, grid_points=200)
+
+
+def test_the_count_range_grows_only_while_the_curve_needs_it():
+    # 3 orders + noise on the 2° grid: the first 64 counts hold the minimum, and the curve is the
+    # prefix of the one over every count (each count's fold fits do not depend on later orders).
+    rng = np.random.default_rng(0)
+    observed = 3.0 * np.cos(np.radians(TRAIN)) + np.sin(np.radians(2 * TRAIN)) + rng.normal(0.0, 0.1, TRAIN.size)
+    counts, rms, se = cross_validate_order_count(TRAIN, observed)
+    assert counts.size == 64
+    full = encal.models.fourier._cv_curve(TRAIN, observed, np.arange(TRAIN.size) % 5,
+                                          encal.profile.rank_orders(TRAIN, observed), TRAIN)
+    assert_allclose(rms, full[0][:64], rtol=1e-12)

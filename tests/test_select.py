@@ -161,6 +161,66 @@ def test_a_piecewise_linear_per_step_pattern_picks_the_lookup_table(seed):
     assert model.kind == "lut"
 
 
+def stepped_profile(seed, sigma=0.05):
+    """Readings within 0.02° of a stepper's 200 full steps: orders 1, 2, 16, a ±2-arcmin
+    alternation (-1)^k from step to step, and white noise. Returns (angles, errors, truth at the steps)."""
+    rng = np.random.default_rng(seed)
+    steps = np.arange(200) * 1.8
+    r = np.radians(steps)
+    truth = 3.0 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) + 0.7 * np.sin(16 * r) + 2.0 * (-1.0) ** np.arange(200)
+    return steps + rng.normal(0.0, 0.02, 200), truth + rng.normal(0.0, sigma, 200), truth
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_per_step_alternation_is_cross_validated_at_the_grid_nyquist_order(seed):
+    # Each fold's training part misses every fifth step; the Fourier candidates are told the
+    # calibration's 200-step grid, so they may fit order 100 and predict the held-out steps'
+    # alternation. Measured over seeds 0-5: CV RMS of the chosen (Fourier) candidate 1.07-1.38
+    # times the noise (0.05), its error at the steps 0.024-0.030 arcmin; bounds 1.5x and 0.04.
+    theta, observed, truth = stepped_profile(seed)
+    model = fit_auto(theta, observed, rng=seed, use_grid=True)
+    selection = model.training["selection"]
+    table = {row["label"]: row["cv_rms_arcmin"] for row in selection["table"]}
+    assert model.kind == "fourier" and 100 in model.orders.tolist()
+    assert table[selection["chosen"]] < 1.5 * 0.05
+    assert min(table[label] for label in table if not label.startswith("fourier")) > 1.0  # none sees it
+    assert np.sqrt(np.mean((model.predict(np.arange(200) * 1.8) - truth) ** 2)) < 0.04
+
+
+def test_the_even_steps_of_a_stepped_calibration_are_a_grid_of_their_own():
+    # 100 rows at 3.6°: the fold fits may go up to order 50 (the alternation is an offset there).
+    theta, observed, _ = stepped_profile(3)
+    model = fit_auto(theta[::2], observed[::2], rng=0, candidates=CLOSED_FORM[:2], use_grid=True)
+    assert model.kind == "fourier" and model.orders.max() <= 50 and 0 in model.orders.tolist()
+
+
+def test_fold_fits_are_told_the_grid_only_for_a_calibration_on_one(monkeypatch):
+    told = []
+
+    def spy(theta_deg, error_arcmin, **options):
+        told.append(options.get("grid_points"))
+        return encal.models.fourier.FourierModel([0], [float(np.mean(error_arcmin))], [0.0])
+
+    import encal.models.fourier
+
+    monkeypatch.setitem(select.FAMILIES, "fourier", ("encal.models.fourier", "spy_fit"))
+    monkeypatch.setattr(encal.models.fourier, "spy_fit", spy, raising=False)
+    irregular = np.sort(np.random.default_rng(0).uniform(0.0, 360.0, 180))
+    for theta, use_grid in ((GRID, True), (irregular, True), (GRID, False)):
+        fit_auto(theta, harmonic_profile(theta), candidates=[Candidate("fourier")], use_grid=use_grid)
+    assert told == [180] * 5 + [None] + [None] * 12  # 5 folds and the refit, three times
+
+
+def test_by_default_the_alternation_is_not_validated_at_the_steps():
+    # Readings between the steps are the default use: the folds keep the limit of their gaps
+    # (order 49), so no Fourier fold fit predicts the alternation and the smooth fit is kept.
+    theta, observed, _ = stepped_profile(0)
+    model = fit_auto(theta, observed, rng=0, candidates=CLOSED_FORM[:2])
+    table = {row["label"]: row["cv_rms_arcmin"] for row in model.training["selection"]["table"]}
+    assert table["fourier select=cv"] > 1.5  # the ±2-arcmin alternation is in every residual
+    assert "use_grid" not in model.training["fit_options"]
+
+
 def test_same_seed_gives_the_same_choice_and_predictions():
     noisy = harmonic_profile(GRID) + narrow_bump(GRID) + 0.05 * np.random.default_rng(5).normal(size=GRID.size)
     candidates = [c for c in DEFAULT_CANDIDATES if c.family in ("fourier", "hybrid")] + [

@@ -27,7 +27,9 @@ __all__ = [
     "harmonics",
     "identifiable_order",
     "fit_harmonic_series",
-    "nested_harmonic_fits",
+    "nested_harmonic_predictions",
+    "rank_orders",
+    "uniform_grid",
     "distinct_angles",
 ]
 
@@ -246,16 +248,81 @@ class _Grid:
 def _grid(theta_deg):
     distinct, _ = distinct_angles(theta_deg)
     m = distinct.size
-    theta = np.radians(distinct)
-    # Best-fitting phase of a uniform m-point grid: every node has m θ ≡ m φ (mod 2π).
-    phase = float(np.angle(np.sum(np.exp(1j * m * theta)))) / m
-    position = (theta - phase) * m / (2.0 * np.pi)  # in grid spacings
-    node = np.round(position)
-    deviation = float(np.max(np.abs(position - node)))  # in grid spacings
-    regular = np.unique(np.mod(node, m)).size == m and deviation < _REGULAR_DEVIATION
+    phase, deviation, regular = _fit_grid(distinct, m)
     uniform = regular and deviation * 360.0 / m <= ANGLE_TOLERANCE_DEG
     largest_gap = float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0])))
     return _Grid(m, phase if regular else None, largest_gap, uniform)
+
+
+def _fit_grid(distinct_deg, points):
+    """Phase (rad) of the uniform ``points``-node grid nearest the angles, their largest
+    deviation from their nodes (in spacings), and whether they lie on it (one per node,
+    each within a quarter spacing)."""
+    theta = np.radians(distinct_deg)
+    # Best-fitting phase: every node has points·θ ≡ points·φ (mod 2π).
+    phase = float(np.angle(np.sum(np.exp(1j * points * theta)))) / points
+    position = (theta - phase) * points / (2.0 * np.pi)  # in grid spacings
+    node = np.round(position)
+    deviation = float(np.max(np.abs(position - node)))
+    on_grid = np.unique(np.mod(node, points)).size == theta.size and deviation < _REGULAR_DEVIATION
+    return phase, deviation, bool(on_grid)
+
+
+def uniform_grid(theta_deg, points=None):
+    """The nodes of the uniform grid a set of angles lies on, or None.
+
+    The angles lie on a uniform grid of ``points`` nodes per revolution when
+    every distinct angle is within a quarter of the spacing of its own node
+    (the regular grid of :func:`identifiable_order`), at most one per node.
+    A calibration on ``N`` motor steps lies on a grid of ``N`` nodes, and so
+    does any subset of it, such as the training part of a cross-validation
+    fold: at the nodes, orders up to ``N // 2`` are distinguishable.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    points : int, optional
+        Nodes per revolution; default the number of distinct angles (the
+        angles must then fill the grid).
+
+    Returns
+    -------
+    ndarray of shape (points,) or None
+        The node angles in degrees, ``φ + 360° j / points``, or None when the
+        angles do not lie on such a grid.
+
+    Examples
+    --------
+    >>> uniform_grid(np.arange(0.0, 360.0, 90.0)).tolist()
+    [0.0, 90.0, 180.0, 270.0]
+    >>> uniform_grid([0.0, 3.6, 10.8], points=100).size   # three nodes of a 3.6° grid
+    100
+    >>> uniform_grid([0.0, 3.6, 5.0], points=100) is None  # 5.0° is 0.39 spacings off
+    True
+    """
+    theta = wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
+    distinct, _ = distinct_angles(theta)
+    if points is None:
+        points = distinct.size
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < distinct.size:
+        raise InputError(f"uniform_grid expects points to be an int >= the {distinct.size} distinct "
+                         f"encoder angles. Got {points!r} instead.")
+    phase, _, on_grid = _fit_grid(distinct, int(points))
+    if not on_grid:
+        return None
+    return wrap360(np.degrees(phase) + 360.0 * np.arange(points) / points)
+
+
+def _angles(theta_deg):
+    return wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
+
+
+def _snap(theta_deg, grid):
+    """The angles moved to their nodes of a regular grid (degrees)."""
+    spacing = 360.0 / grid.n_distinct
+    phase = np.degrees(grid.phase_rad)
+    return phase + spacing * np.round((np.asarray(theta_deg) - phase) / spacing)
 
 
 def identifiable_order(theta_deg):
@@ -329,7 +396,7 @@ def _design(theta_deg, orders, grid):
     return np.column_stack(columns), owners
 
 
-def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic_series"):
+def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic_series", grid_deg=None):
     """Least-squares coefficients of chosen harmonic orders.
 
     Fits ``ε(θ) = Σ a_k cos(k θ) + b_k sin(k θ)`` (θ in radians) to the
@@ -348,6 +415,13 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
         Distinct non-negative harmonic orders.
     caller : str, default='fit_harmonic_series'
         Function named in error messages.
+    grid_deg : array-like, optional
+        The nodes of a uniform grid the angles are a subset of (see
+        :func:`uniform_grid`): the orders then may go up to its Nyquist
+        order, whose single term is locked to its phase, and the orders
+        must be identifiable at the nodes the angles occupy, not merely at
+        the angles (which a small deviation from the nodes can make
+        full-rank where the nodes are not). Default: the angles' own grid.
 
     Returns
     -------
@@ -371,7 +445,7 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, caller)
     orders = [int(k) for k in orders]
-    grid = _grid(theta)
+    grid = _grid(theta if grid_deg is None else _angles(grid_deg))
     too_high = [k for k in orders if k > grid.max_order]
     if too_high:
         raise InputError(_aliasing_message(caller, too_high, grid))
@@ -379,6 +453,9 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     # QR with column pivoting (gelsy): rank-revealing, and much faster than the SVD.
     solution, _, rank, _ = scipy.linalg.lstsq(design, error, cond=_RCOND, lapack_driver="gelsy",
                                               check_finite=False)
+    if grid_deg is not None and grid.phase_rad is not None and rank == design.shape[1]:
+        at_nodes = _design(_snap(theta, grid), orders, grid)[0]
+        rank = np.linalg.matrix_rank(at_nodes, tol=_RCOND * np.linalg.norm(at_nodes, 2))
     if rank < design.shape[1]:
         raise InputError(
             f"{caller} cannot identify harmonic orders {_short_list(orders)} from "
@@ -388,49 +465,109 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     return _coefficients(solution, owners, orders, grid)
 
 
-def nested_harmonic_fits(theta_deg, error_arcmin, ranked_orders, *, grid_deg=None):
-    """Least-squares fits of the first 1, 2, 3, ... orders of a ranking, from one QR.
+def nested_harmonic_predictions(theta_deg, error_arcmin, ranked_orders, predict_deg, *, grid_deg=None):
+    """Predictions of the least-squares fits of the first 1, 2, 3, ... orders of a ranking.
+
+    One QR of the design serves every prefix: with ``A = QR`` the fit of the
+    first ``p`` columns predicts ``X[:, :p] R[:p, :p]⁻¹ (Qᵀε)[:p]``, and
+    ``X R⁻¹`` restricted to its first ``p`` columns is exactly
+    ``X[:, :p] R[:p, :p]⁻¹`` (``R⁻¹`` is upper triangular), so all prefixes
+    are the cumulative sums of one product: O(n p²) for ``p`` columns.
+
+    An order whose terms the angles cannot identify together with the
+    orders before it (its columns numerically in their span, judged at the
+    grid nodes when the angles lie on a regular grid) is left out of every
+    prefix that contains it, so each prefix's fit is well defined; once the
+    kept terms interpolate the points, every further order is left out.
 
     Parameters
     ----------
     theta_deg : array-like of shape (n,)
-        Encoder angles in degrees.
+        Encoder angles of the fitted points, degrees.
     error_arcmin : array-like of shape (n,)
-        Errors in arc-minutes.
+        Their errors, arc-minutes.
     ranked_orders : sequence of int
         Distinct orders in the order they are added.
+    predict_deg : array-like of shape (m,)
+        Angles to predict at, degrees.
     grid_deg : array-like, optional
         The angles whose grid fixes the terms of each order (the single
-        term of a Nyquist order, see :func:`fit_harmonic_series`); default
-        ``theta_deg``. Cross-validation passes the whole calibration here so
-        that each fold fits the same series as the whole data.
+        term of a Nyquist order, see :func:`fit_harmonic_series`) and at
+        whose nodes identifiability is judged; default ``theta_deg``.
+        Cross-validation passes the whole calibration (or the nodes of its
+        grid) so that each fold fits the same series as the whole data.
 
     Returns
     -------
-    cos_arcmin, sin_arcmin : ndarray of shape (C, len(ranked_orders))
-        Row ``c - 1`` holds the coefficients of the fit of the first ``c``
-        orders (zero for the others). ``C`` is the longest prefix of the
-        ranking that the angles identify.
+    ndarray of shape (len(ranked_orders), m)
+        Row ``c - 1``: prediction (arcmin) of the fit of the first ``c`` orders.
     """
-    theta, error = profile_arrays(theta_deg, error_arcmin, "nested_harmonic_fits")
+    theta, error = profile_arrays(theta_deg, error_arcmin, "nested_harmonic_predictions")
+    predict = wrap360(np.asarray(predict_deg, dtype=float).reshape(-1))
     orders = [int(k) for k in ranked_orders]
-    grid = _grid(theta if grid_deg is None else wrap360(np.asarray(grid_deg, dtype=float).reshape(-1)))
+    grid = _grid(theta if grid_deg is None else _angles(grid_deg))
     design, owners = _design(theta, orders, grid)
-    n_columns = np.cumsum(np.bincount([index for index, _ in owners], minlength=len(orders)))
-    design = design[:, : min(design.shape)]  # never more unknowns than points
-    q, r = np.linalg.qr(design)
+    owner = np.array([index for index, _ in owners])
+    check = design if grid.phase_rad is None else _design(_snap(theta, grid), orders, grid)[0]
+    kept_orders = _identifiable_orders(check, owner, len(orders))
+    kept = kept_orders[owner]
+    q, r = np.linalg.qr(design[:, kept])
     projected = q.T @ error
-    # Column j adds nothing new when it (nearly) lies in the span of the columns before it.
-    independent = np.abs(np.diag(r)) > _RCOND * np.linalg.norm(design, axis=0)
-    first_dependent = design.shape[1] if independent.all() else int(np.argmin(independent))
-    identified = int(np.searchsorted(n_columns, first_dependent, side="right"))
-    cos_arcmin = np.zeros((identified, len(orders)))
-    sin_arcmin = np.zeros((identified, len(orders)))
-    for c in range(1, identified + 1):
-        p = n_columns[c - 1]
-        solution = scipy.linalg.solve_triangular(r[:p, :p], projected[:p], check_finite=False)
-        cos_arcmin[c - 1], sin_arcmin[c - 1] = _coefficients(solution, owners[:p], orders, grid)
-    return cos_arcmin, sin_arcmin
+    # (X R^-1)^T, one row per kept column: its cumulative sums weighted by Qᵀε are the prefixes' predictions.
+    weights = scipy.linalg.solve_triangular(r, _design(predict, orders, grid)[0][:, kept].T, trans="T",
+                                            check_finite=False)
+    cumulative = np.vstack([np.zeros(predict.size), np.cumsum(weights * projected[:, np.newaxis], axis=0)])
+    columns_in_prefix = np.cumsum(np.bincount(owner[kept], minlength=len(orders)))
+    return cumulative[columns_in_prefix]
+
+
+def _identifiable_orders(design, owner, n_orders, block=64):
+    """Greedy: which orders add columns independent of those of the kept orders before them.
+
+    An order is kept whole or left out whole. Columns are orthogonalised in
+    blocks against the kept ones (two passes of Gram-Schmidt) and a block
+    whose QR shows no dependent column is kept whole (BLAS-3, the common
+    case); otherwise it is taken order by order: O(n p²) for ``p`` columns.
+    """
+    n = design.shape[0]
+    kept = np.zeros(n_orders, dtype=bool)
+    norms = np.linalg.norm(design, axis=0)
+    width = min(n, design.shape[1])
+    if owner[width - 1] == owner[min(width, design.shape[1] - 1)] and width < design.shape[1]:
+        width -= 1  # never split an order's two columns
+    diagonal = np.abs(np.diag(np.linalg.qr(design[:, :width], mode="r")))
+    if np.all(diagonal > _RCOND * norms[:width]):  # the common case: one LAPACK QR
+        kept[np.unique(owner[:width])] = True
+        return kept
+    basis = np.empty((n, min(n, design.shape[1])), order="F")
+    rank = 0
+    start = 0
+    while start < design.shape[1] and rank < n:
+        stop = min(start + block, design.shape[1])
+        while stop < design.shape[1] and owner[stop] == owner[stop - 1]:
+            stop += 1  # an order's two columns in one block
+        chunk = design[:, start:stop].copy()
+        for _ in range(2):  # twice is enough (Giraud et al. 2005)
+            chunk -= basis[:, :rank] @ (basis[:, :rank].T @ chunk)
+        q, r = np.linalg.qr(chunk)
+        if rank + chunk.shape[1] <= n and np.all(np.abs(np.diag(r)) > _RCOND * norms[start:stop]):
+            basis[:, rank : rank + chunk.shape[1]] = q
+            rank += chunk.shape[1]
+            kept[np.unique(owner[start:stop])] = True
+        else:
+            # The chunk is already orthogonal to the basis: the greedy works within the chunk.
+            accepted = np.empty((n, chunk.shape[1]), order="F")
+            done = 0
+            for index in np.unique(owner[start:stop]):
+                columns = np.flatnonzero(owner[start:stop] == index)
+                extended = _extend_basis(accepted, done, chunk[:, columns], norms[start + columns],
+                                         room=n - rank)
+                kept[index] = extended > done
+                done = extended
+            basis[:, rank : rank + done] = accepted[:, :done]
+            rank += done
+        start = stop
+    return kept
 
 
 def _coefficients(solution, owners, orders, grid):
@@ -616,6 +753,109 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     if series is None:
         series = fit_harmonic_series(theta, error, range(max_order + 1), caller="harmonics")
     return Harmonics(np.arange(max_order + 1), *series, int(theta.size))
+
+
+def rank_orders(theta_deg, error_arcmin, max_order=None, *, grid_deg=None, count=None):
+    """Harmonic orders, most important first, as the Fourier model adds them.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors in arc-minutes.
+    max_order : int, optional
+        Highest order ranked; default :func:`identifiable_order` of the
+        angles, or with ``grid_deg`` the Nyquist order of that grid.
+    grid_deg : array-like, optional
+        Nodes of a uniform grid the angles lie on (:func:`uniform_grid`).
+    count : int, optional
+        Rank only the first ``count`` orders (default all).
+
+    Returns
+    -------
+    list of int
+
+    Notes
+    -----
+    Without ``grid_deg``, or when the angles occupy every node of it, this
+    is the paper's ranking, :meth:`Harmonics.ranked`: by the amplitude of
+    the harmonic analysis. On a proper subset of the grid (the training part
+    of a cross-validation fold of a step-by-step calibration) the analysis up
+    to the grid's Nyquist order has more unknowns than points; its
+    minimum-norm solution is the DFT of the errors with the missing nodes set
+    to zero, whose amplitudes leak a strong order into the orders that alias
+    it at the missing nodes. The orders are therefore chosen by forward
+    selection: each step takes the order of largest amplitude in the DFT of
+    the zero-filled *residual* of the fit of the orders taken so far, and
+    skips orders that the occupied nodes cannot identify together with
+    them. On a complete grid the terms are orthogonal and forward selection
+    gives the ranking by amplitude. Each step costs an FFT of the grid and
+    one Gram-Schmidt step, O(N log N + n c) for ``c`` orders taken.
+    """
+    theta, error = profile_arrays(theta_deg, error_arcmin, "rank_orders")
+    grid = None if grid_deg is None else _grid(_angles(grid_deg))
+    if grid is None or grid.phase_rad is None or _grid(theta).n_distinct == grid.n_distinct:
+        ranking = harmonics(theta, error, max_order).ranked()
+        return [int(k) for k in ranking[:count]]
+    max_order = grid.max_order if max_order is None else min(int(max_order), grid.max_order)
+    return _forward_selection(theta, error, grid, max_order, max_order + 1 if count is None else count)
+
+
+def _forward_selection(theta_deg, error_arcmin, grid, max_order, count):
+    """Orders by forward selection on a proper subset of a regular grid (see :func:`rank_orders`)."""
+    nodes = grid.n_distinct
+    node = np.round((np.radians(theta_deg) - grid.phase_rad) * nodes / (2.0 * np.pi)).astype(int) % nodes
+    snapped = _snap(theta_deg, grid)
+    weight = np.full(max_order + 1, 2.0)  # amplitude 2|X_k|, but |X_0| and |X_{N/2}| (one term)
+    weight[0] = 1.0
+    if grid.nyquist_order == max_order:
+        weight[-1] = 1.0
+    residual = error_arcmin.astype(float)
+    basis_fit = np.empty((theta_deg.size, min(theta_deg.size, 2 * count)), order="F")  # at the angles: the residual
+    basis_nodes = np.empty_like(basis_fit)  # at the nodes: identifiability
+    rank = 0
+    available = np.ones(max_order + 1, dtype=bool)
+    ranking, scale = [], None
+    while len(ranking) < count and available.any() and rank < basis_fit.shape[1]:
+        spectrum = np.fft.rfft(np.bincount(node, weights=residual, minlength=nodes))[: max_order + 1]
+        amplitude = weight * np.abs(spectrum) / theta_deg.size
+        scale = scale or float(amplitude.max()) or 1.0
+        key = np.where(available, np.round(amplitude / scale, 12), -1.0)
+        order = int(np.argmax(key))  # ties: the lower order
+        available[order] = False
+        at_nodes = _design(snapped, [order], grid)[0]
+        at_angles = _design(theta_deg, [order], grid)[0]
+        extended = _extend_basis(basis_nodes, rank, at_nodes, np.linalg.norm(at_nodes, axis=0))
+        if extended == rank or _extend_basis(basis_fit, rank, at_angles,
+                                             np.linalg.norm(at_angles, axis=0)) != extended:
+            continue  # not identifiable with the orders taken: skip it
+        rank = extended
+        residual = error_arcmin - basis_fit[:, :rank] @ (basis_fit[:, :rank].T @ error_arcmin)
+        ranking.append(order)
+    return ranking
+
+
+def _extend_basis(basis, rank, columns, lengths, room=None):
+    """Append the orthonormalised ``columns`` to ``basis[:, :rank]`` in place, all or none.
+
+    ``lengths`` are the norms the columns had before any orthogonalisation. Returns the new
+    rank, or ``rank`` unchanged if a column is (nearly) in the span of the others or the rank
+    would exceed ``room`` (default the basis's width).
+    """
+    if rank + columns.shape[1] > min(basis.shape[1], basis.shape[1] if room is None else room):
+        return rank
+    new = []
+    for column, length in zip(columns.T, lengths):
+        for _ in range(2):  # Gram-Schmidt twice is enough (Giraud et al. 2005)
+            column = column - basis[:, :rank] @ (basis[:, :rank].T @ column)
+            for vector in new:
+                column = column - vector * (vector @ column)
+        if np.linalg.norm(column) <= _RCOND * length:
+            return rank
+        new.append(column / np.linalg.norm(column))
+    basis[:, rank : rank + len(new)] = np.column_stack(new)
+    return rank + len(new)
 
 
 def _series_by_fft(theta_deg, error_arcmin, max_order, grid):

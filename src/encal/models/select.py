@@ -14,7 +14,11 @@ error *between* calibration points best:
    reading is.
 2. Fit every candidate on ``k - 1`` folds and predict the held-out one; each
    candidate's data-driven choices (the Fourier order set, the network's
-   weights) are made inside the fold, from the training folds alone.
+   weights) are made inside the fold, from the training folds alone. With
+   ``use_grid=True`` and a calibration on a uniform grid of ``N`` points (a
+   motor's full steps), the Fourier candidates are told so (``grid_points=N``):
+   a fold's training part is a subset of that grid, and orders up to ``N / 2``
+   stay distinguishable at its nodes, the per-step alternation among them.
 3. Pool the held-out residuals of all folds into a CV RMS and MAE per
    candidate, pick the lowest RMS, but prefer the simplest candidate whose RMS
    is within ``tolerance`` of it (see :data:`SIMPLICITY`), and refit that
@@ -32,7 +36,7 @@ import numpy as np
 
 from ..angles import wrap360
 from ..errors import EncalError, InputError
-from ..profile import distinct_angles, profile_arrays
+from ..profile import distinct_angles, profile_arrays, uniform_grid
 
 __all__ = [
     "Candidate",
@@ -66,6 +70,9 @@ FINAL_FIT_ATTEMPTS = 3
 
 #: Families that draw random numbers (their fit takes ``rng``).
 _RANDOMISED = {"ann", "hybrid"}
+
+#: Families whose fit takes ``grid_points`` (the grid of the whole calibration, for fold fits).
+_GRID_AWARE = {"fourier"}
 
 #: Families from simplest to most complex, for the tie rule. A Fourier series is a
 #: closed-form least-squares fit of a few physically meaningful coefficients; a
@@ -104,13 +111,20 @@ class Candidate:
         """Short name, e.g. ``'ann hidden=10 algorithm=trainbr'``."""
         return " ".join([self.family, *(f"{key}={value}" for key, value in self.options.items())])
 
-    def fit(self, theta_deg, error_arcmin, rng=None):
-        """Fit this candidate; ``rng`` is passed only to the families that draw random numbers."""
+    def fit(self, theta_deg, error_arcmin, rng=None, grid_points=None):
+        """Fit this candidate.
+
+        ``rng`` is passed only to the families that draw random numbers; ``grid_points`` (the
+        uniform grid the whole calibration lies on, for a fold's fit) only to those that use it,
+        and only if the options do not set it.
+        """
         module, function = FAMILIES[self.family]
         fitter = getattr(importlib.import_module(module), function)
         options = dict(self.options)
         if self.family in _RANDOMISED:
             options["rng"] = rng
+        if grid_points is not None and self.family in _GRID_AWARE:
+            options.setdefault("grid_points", grid_points)
         return fitter(theta_deg, error_arcmin, **options)
 
 
@@ -231,7 +245,7 @@ def interleaved_folds(theta_deg, folds):
     return (np.arange(distinct.size) % folds)[group]
 
 
-def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds):
+def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds, grid_points=None):
     """Held-out accuracy of one candidate over the given folds.
 
     Parameters
@@ -243,6 +257,10 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds):
         Fold of each point, from :func:`interleaved_folds`.
     seeds : sequence of numpy.random.SeedSequence
         One per fold, for the randomised families.
+    grid_points : int, optional
+        The calibration lies on a uniform grid of so many points per revolution
+        (:func:`~encal.profile.uniform_grid`): the Fourier fold fits may use orders up
+        to its Nyquist order although each fold's training part has gaps.
 
     Returns
     -------
@@ -254,7 +272,8 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds):
     try:
         for k, seed in zip(range(fold.max() + 1), seeds):
             test = fold == k
-            model = candidate.fit(theta_deg[~test], error_arcmin[~test], rng=np.random.default_rng(seed))
+            model = candidate.fit(theta_deg[~test], error_arcmin[~test], rng=np.random.default_rng(seed),
+                                  grid_points=grid_points)
             held_out[test] = error_arcmin[test] - model.predict(theta_deg[test])
             n_parameters.append(free_parameters(model.parameters(), model.kind))
     except EncalError as exc:  # e.g. too few points for this family
@@ -327,7 +346,8 @@ def _seed_sequence(rng):
     raise InputError(f"rng must be None, an int or a numpy.random.Generator. Got {type(rng).__name__} instead.")
 
 
-def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=None, tolerance=0.01):
+def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=None, tolerance=0.01,
+             use_grid=False):
     """Fit the model family that cross-validates best.
 
     Parameters
@@ -347,6 +367,14 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
         ``{'family': ..., 'options': {...}}`` dicts; :data:`DEFAULT_CANDIDATES` by default.
     tolerance : float, default=0.01
         Tie rule: the simplest candidate whose CV RMS is within this fraction of the lowest wins.
+    use_grid : bool, default=False
+        Validate for readings *at the calibrated steps*: when the calibration lies on a uniform
+        grid of ``N`` points, the Fourier candidates' fold fits are told so (``grid_points=N``),
+        may use orders up to ``N / 2`` and are scored at the held-out grid nodes, so a per-step
+        pattern that repeats at the steps (a stepper's alternation) can win. By default the
+        folds are validated for readings *between* the points (orders up to what each fold's
+        gaps allow), which favours smooth models; see docs/model-selection.md for what each
+        costs on the other use.
 
     Returns
     -------
@@ -372,6 +400,8 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     if isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or not 2 <= folds <= most:
         raise InputError(f"The 'folds' parameter of fit_auto must be an int from 2 to {most} (at least "
                          f"{MIN_POINTS_PER_FOLD} distinct encoder angles per fold). Got {folds!r} instead.")
+    if not isinstance(use_grid, bool):
+        raise InputError(f"The 'use_grid' parameter of fit_auto must be True or False. Got {use_grid!r} instead.")
     if not (isinstance(tolerance, (int, float)) and 0.0 <= tolerance < 1.0):
         raise InputError(f"The 'tolerance' parameter of fit_auto must be a float in [0, 1). "
                          f"Got {tolerance!r} instead.")
@@ -382,10 +412,16 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
                          "Got an empty sequence instead.")
 
     fold = interleaved_folds(theta, folds)
+    # A calibration on N steps: each fold's training part is a subset of that grid, and at its
+    # nodes orders up to N/2 stay distinguishable (docs/model-selection.md, the per-step pattern);
+    # scored at the nodes, which is right for readings at the steps, optimistic between them.
+    nodes = uniform_grid(theta) if use_grid else None
+    grid_points = None if nodes is None else nodes.size
     # One seed stream per candidate (k fold fits, then the final fit and its retries),
     # so a candidate's result does not depend on which other candidates were tried.
     streams = [seq.spawn(folds + FINAL_FIT_ATTEMPTS) for seq in _seed_sequence(rng).spawn(len(candidates))]
-    scores = [cross_validate(theta, error, c, fold, seeds=s[:folds]) for c, s in zip(candidates, streams)]
+    scores = [cross_validate(theta, error, c, fold, seeds=s[:folds], grid_points=grid_points)
+              for c, s in zip(candidates, streams)]
     # Differences below 1e-9 of the profile's RMS are rounding error, not accuracy.
     chosen, reason = choose(scores, tolerance, resolution_arcmin=1e-9 * float(np.sqrt(np.mean(error**2))))
 
@@ -394,6 +430,8 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     # The auto seed regenerates the whole choice; a part's own seed would not.
     model.training["seed"] = int(rng) if isinstance(rng, (int, np.integer)) else None
     model.training["fit_options"] = {"folds": int(folds), "tolerance": float(tolerance)}
+    if use_grid:
+        model.training["fit_options"]["use_grid"] = True
     if given is not None:
         model.training["fit_options"]["candidates"] = [c.as_dict() for c in candidates]
     model.training["selection"] = {
