@@ -89,3 +89,33 @@ def test_version(capsys):
         main(["--version"])
     assert info.value.code == 0
     assert capsys.readouterr().out.strip() == f"encal {encal.__version__}"
+
+
+def test_at_steps_lets_auto_keep_a_per_step_alternation(tmp_path, capsys):
+    """A 200-step calibration whose reference alternates by ±2 arcmin between steps: with
+    --at-steps auto validates at the steps and keeps the alternation (order 100); without it the
+    alternation is invisible to cross-validation between the points."""
+    ref = np.arange(200) * 1.8
+    theta = np.radians(ref)
+    noise = np.random.default_rng(0).normal(0.0, 0.1, ref.size)
+    error = 6.0 * np.sin(theta + 0.3) + 2.0 * np.cos(2 * theta) + 2.0 * (-1.0) ** np.arange(200) + noise
+    cal = tmp_path / "steps.csv"
+    encal.write_calibration(cal, encal.Calibration(ref, ref + error / 60.0))
+    orders = {}
+    for flag in ((), ("--at-steps",)):
+        model_path = tmp_path / f"m{len(flag)}.json"
+        assert main(["fit", str(cal), "-o", str(model_path), "--seed", "0", *flag]) == 0
+        capsys.readouterr()
+        model = encal.load_model(model_path)
+        orders[bool(flag)] = set(model.training.get("orders", ())) if model.kind == "fourier" else set()
+        if flag:
+            assert model.kind == "fourier" and model.training["fit_options"]["use_grid"] is True
+            residual = error - model.predict(ref)
+            assert np.sqrt(np.mean(residual**2)) < 0.15  # the noise is 0.1 arcmin
+    assert 100 in orders[True] and 100 not in orders[False]
+
+
+def test_at_steps_is_an_option_of_auto_only(train_and_test, tmp_path, capsys):
+    train, _ = train_and_test
+    assert main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--method", "lut", "--at-steps"]) == 1
+    assert "--at-steps applies to --method auto, not lut" in capsys.readouterr().err

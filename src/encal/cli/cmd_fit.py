@@ -26,6 +26,10 @@ def add_arguments(parser):
     parser.add_argument("--folds", type=int_in_range(2), metavar="K",
                         help="cross-validation folds of the automatic choice (auto; default 5, fewer for small "
                              "calibrations)")
+    parser.add_argument("--at-steps", action="store_const", const=True, default=None,
+                        help="the encoder will be read only at the calibrated angles (a motor's full steps): "
+                             "validate the candidates there, so a per-step pattern of the reference counts "
+                             "(auto; docs/model-selection.md)")
     parser.add_argument("--seed", type=int, help="random seed (ann, auto): same seed, identical model file")
     parser.add_argument("--reproducible", action="store_true",
                         help="fix the date field so the same inputs give a byte-identical file")
@@ -37,6 +41,7 @@ _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
+    "at_steps": ("auto",),
 }
 
 
@@ -52,6 +57,8 @@ def _options(args):
         value = getattr(args, name)
         if value is not None:
             options[name] = value
+    if args.at_steps:
+        options["use_grid"] = True
     if args.orders is not None:
         try:
             options["orders"] = [int(o) for o in args.orders.split(",") if o.strip()]
