@@ -119,3 +119,13 @@ def test_at_steps_is_an_option_of_auto_only(train_and_test, tmp_path, capsys):
     train, _ = train_and_test
     assert main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--method", "lut", "--at-steps"]) == 1
     assert "--at-steps applies to --method auto, not lut" in capsys.readouterr().err
+
+
+def test_at_steps_off_the_grid_warns_in_one_line(tmp_path, capsys):
+    ref = np.sort(np.random.default_rng(1).uniform(0.0, 360.0, 90))
+    error = 2.0 * np.sin(np.radians(ref))
+    cal = tmp_path / "irregular.csv"
+    encal.write_calibration(cal, encal.Calibration(ref, ref + error / 60.0))
+    assert main(["fit", str(cal), "-o", str(tmp_path / "m.json"), "--at-steps", "--seed", "0"]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "use_grid (--at-steps) has no effect" in err[0]

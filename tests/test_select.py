@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 import encal
 from encal.cli import main
-from encal.errors import InputError
+from encal.errors import EncalWarning, InputError
 from encal.models import select
 from encal.models.select import (
     DEFAULT_CANDIDATES,
@@ -206,8 +206,11 @@ def test_fold_fits_are_told_the_grid_only_for_a_calibration_on_one(monkeypatch):
     monkeypatch.setitem(select.FAMILIES, "fourier", ("encal.models.fourier", "spy_fit"))
     monkeypatch.setattr(encal.models.fourier, "spy_fit", spy, raising=False)
     irregular = np.sort(np.random.default_rng(0).uniform(0.0, 360.0, 180))
-    for theta, use_grid in ((GRID, True), (irregular, True), (GRID, False)):
-        fit_auto(theta, harmonic_profile(theta), candidates=[Candidate("fourier")], use_grid=use_grid)
+    fit_auto(GRID, harmonic_profile(GRID), candidates=[Candidate("fourier")], use_grid=True)
+    with pytest.warns(EncalWarning, match=r"use_grid \(--at-steps\) has no effect: the 180 encoder angles do not lie on a "
+                                          "uniform grid"):
+        fit_auto(irregular, harmonic_profile(irregular), candidates=[Candidate("fourier")], use_grid=True)
+    fit_auto(GRID, harmonic_profile(GRID), candidates=[Candidate("fourier")], use_grid=False)
     assert told == [180] * 5 + [None] + [None] * 12  # 5 folds and the refit, three times
 
 

@@ -30,12 +30,13 @@ The CV table and the reason for the choice are kept in
 
 import importlib
 import time
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..angles import wrap360
-from ..errors import EncalError, InputError
+from ..errors import EncalError, EncalWarning, InputError
 from ..profile import distinct_angles, profile_arrays, uniform_grid
 
 __all__ = [
@@ -417,6 +418,11 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     # scored at the nodes, which is right for readings at the steps, optimistic between them.
     nodes = uniform_grid(theta) if use_grid else None
     grid_points = None if nodes is None else nodes.size
+    if use_grid and nodes is None:
+        warnings.warn(EncalWarning(
+            f"use_grid (--at-steps) has no effect: the {np.unique(theta).size} encoder angles do not lie on a uniform grid "
+            "(each within a quarter step of its own node), so the candidates are validated between the "
+            "points as by default"), stacklevel=3)
     # One seed stream per candidate (k fold fits, then the final fit and its retries),
     # so a candidate's result does not depend on which other candidates were tried.
     streams = [seq.spawn(folds + FINAL_FIT_ATTEMPTS) for seq in _seed_sequence(rng).spawn(len(candidates))]
