@@ -420,7 +420,8 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     grid_points = None if nodes is None else nodes.size
     if use_grid and nodes is None:
         warnings.warn(EncalWarning(
-            f"use_grid (--at-steps) has no effect: the {distinct_angles(theta)[0].size} encoder angles do not lie on a uniform grid "
+            f"use_grid (--at-steps) has no effect: the {distinct_angles(theta)[0].size} encoder angles "
+            "do not lie on a uniform grid "
             "(each within a quarter step of its own node), so the candidates are validated between the "
             "points as by default"), stacklevel=3)
     # One seed stream per candidate (k fold fits, then the final fit and its retries),
