@@ -25,10 +25,11 @@ METHODS = {
     "lut": ("encal.models.lut", "fit_lut"),
     "ann": ("encal.models.ann", "fit_ann"),
     "hybrid": ("encal.models.hybrid", "fit_hybrid"),
+    "stack": ("encal.models.stack", "fit_stack"),
 }
 
 #: methods whose fit takes a random generator or seed
-RANDOMISED_METHODS = {"auto", "ann", "hybrid"}
+RANDOMISED_METHODS = {"auto", "ann", "hybrid", "stack"}
 
 
 def calibration_sha256(cal):
@@ -60,8 +61,9 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     ----------
     cal : Calibration
         The calibration run (encoder readings and reference angles in degrees).
-    method : {'auto', 'fourier', 'lut', 'ann', 'hybrid'}, default='auto'
-        Model family; ``'auto'`` chooses by cross-validation.
+    method : {'auto', 'fourier', 'lut', 'ann', 'hybrid', 'stack'}, default='auto'
+        Model family; ``'auto'`` chooses by cross-validation; ``'stack'`` is a weighted mean of
+        members of the other families.
     rng : int or numpy.random.Generator, optional
         Seed for the methods that draw random numbers (network initialisation).
     uncertainty : bool, default=False
@@ -69,7 +71,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
         ``model.predict(theta, return_std=True)`` works. Costs 30 (Fourier) to 100 (lookup table, networks) refits.
     **options
         Passed to the family's fit function (``hidden``, ``algorithm``, ``encoding`` for ``'ann'``;
-        ``orders``, ``n_orders``, ``select`` for ``'fourier'``; ``interpolation`` for ``'lut'``).
+        ``orders``, ``n_orders``, ``select`` for ``'fourier'``; ``interpolation`` for ``'lut'``;
+        ``members`` and ``weights`` for ``'stack'``).
 
     Returns
     -------

@@ -10,7 +10,8 @@ defines, for a prefix such as ``encal``::
 Two ways of evaluating the model:
 
 - the model's formula (Fourier series, piecewise polynomial, 1:N:1 network
-  with its input and output scaling, or their sum), computed in ``double``.
+  with its input and output scaling, their sum, or a stack's weighted sum),
+  computed in ``double``.
   Angles are reduced before any trigonometry: a Fourier phase ``k * theta``
   is taken modulo 360 degrees in double (exact, as ``theta`` is a float and
   ``k`` a small integer) before it is turned into radians, so orders of
@@ -35,6 +36,7 @@ import numpy as np
 from .._atomic import atomic_file_set, atomic_write
 from .._version import __version__
 from ..errors import InputError
+from ..models.base import model_class
 from .compensator import Compensator
 from .table import compile_table
 
@@ -145,11 +147,12 @@ def _constant_type(comp, constants):
     if constants == "double":
         return "double", 0.0
     theta = np.arange(_CHECK_POINTS) * (360.0 / _CHECK_POINTS)
+    parameters = comp.model.parameters()
     with np.errstate(all="ignore"):
-        rounded = _map_floats(comp.model.parameters(), lambda v: float(np.float32(v)))
+        rounded = _map_floats(parameters, lambda v: float(np.float32(v)))
         try:
-            approximate = type(comp.model).from_parameters(rounded).predict(theta)
-            deviation = float(np.max(np.abs(approximate - comp.model.predict(theta))))
+            deviation = max(float(np.max(np.abs(approximate - exact))) for approximate, exact in
+                            zip(_profiles(comp.kind, rounded, theta), _profiles(comp.kind, parameters, theta)))
         except ValueError:  # a constant beyond float32's range became infinite
             deviation = np.inf
     if constants == "float":
@@ -158,6 +161,21 @@ def _constant_type(comp, constants):
                              "ones; use constants='double'")
         return "float", deviation
     return ("float", deviation) if deviation <= FLOAT32_BUDGET_ARCMIN else ("double", deviation)
+
+
+def _profiles(kind, parameters, theta):
+    """The error profiles (arcmin at ``theta``) that the C formula evaluates: one per direction of travel."""
+    if kind == "directional":
+        return [_profile(parameters[part]["kind"], parameters[part]["parameters"], theta)
+                for part in ("forward", "reverse")]
+    return [_profile(kind, parameters, theta)]
+
+
+def _profile(kind, parameters, theta):
+    if kind == "stack":  # float32 weights need not sum to 1 as a StackModel's must: add them up as the C does
+        return sum(weight * _profile(member["kind"], member["parameters"], theta)
+                   for member, weight in zip(parameters["members"], parameters["weights"]))
+    return model_class(kind).from_parameters(parameters).predict(theta)
 
 
 def _map_floats(value, function):
@@ -289,6 +307,20 @@ static double {tag}_error_arcmin(double theta)
 """)
 
 
+def _stack_source(p, literals, tag):
+    members = [_FORMULA[member["kind"]](member["parameters"], literals, f"{tag}_m{i}")
+               for i, member in enumerate(p["members"])]
+    terms = "\n        + ".join(f"(double){tag}_weight[{i}] * {tag}_m{i}_error_arcmin(theta)"
+                                for i in range(len(members)))
+    return "\n".join(members) + f"""
+{literals.array(f"{tag}_weight", p["weights"])}
+static double {tag}_error_arcmin(double theta)
+{{
+    return {terms};
+}}
+"""
+
+
 def _directional_source(p, literals, tag):
     parts = [_FORMULA[p[part]["kind"]](p[part]["parameters"], literals, f"{tag}_{part}")
              for part in ("forward", "reverse")]
@@ -309,7 +341,7 @@ static double {tag}_error_arcmin(double theta)
 
 
 _FORMULA = {"fourier": _fourier_source, "lut": _lut_source, "ann": _ann_source,
-            "hybrid": _hybrid_source, "directional": _directional_source}
+            "hybrid": _hybrid_source, "stack": _stack_source, "directional": _directional_source}
 
 
 def _formula_source(kind, parameters, literals):

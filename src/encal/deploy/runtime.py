@@ -2,7 +2,7 @@
 
 This one file is meant to be copied into a data acquisition program: it reads
 a model file written by ``encal fit`` (any kind: ``fourier``, ``lut``, ``ann``,
-``hybrid``, ``directional``), verifies its checksum and structure, and
+``hybrid``, ``stack``, ``directional``), verifies its checksum and structure, and
 evaluates the model one angle at a time. It imports nothing but ``json``, ``math``,
 ``bisect`` and ``hashlib``; NumPy and encal need not be installed.
 
@@ -33,9 +33,13 @@ FORMAT = "encal.model"
 #: The newest format version this reader understands.
 VERSION = 1
 #: Model kinds whose parameters format version 1 specifies.
-KINDS = ("ann", "directional", "fourier", "hybrid", "lut")
+KINDS = ("ann", "directional", "fourier", "hybrid", "lut", "stack")
 #: Kinds that can be one direction's part of a ``directional`` model.
-PART_KINDS = ("ann", "fourier", "hybrid", "lut")
+PART_KINDS = ("ann", "fourier", "hybrid", "lut", "stack")
+#: Kinds that can be a member of a ``stack`` model.
+MEMBER_KINDS = ("ann", "fourier", "hybrid", "lut")
+#: Largest distance of a stack's weights' sum from 1.
+WEIGHT_SUM_TOLERANCE = 1e-9
 UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}
 FIELDS = ("format", "version", "kind", "encoder", "units", "normalisation", "parameters",
           "training", "sha256")
@@ -197,7 +201,7 @@ def check_parameters(kind, parameters, where, field="parameters"):
     """
     _require_object(parameters, where, field)
     check = {"fourier": _check_fourier, "lut": _check_lut, "ann": _check_ann,
-             "hybrid": _check_hybrid, "directional": _check_directional}[kind]
+             "hybrid": _check_hybrid, "stack": _check_stack, "directional": _check_directional}[kind]
     check(parameters, where, field)
 
 
@@ -287,6 +291,28 @@ def _check_hybrid(p, where, field):
         check(_require_object(p.get(part), where, f"{field}.{part}"), where, f"{field}.{part}")
 
 
+def _check_stack(p, where, field):
+    members, weights = p.get("members"), p.get("weights")
+    if not isinstance(members, list) or not members:
+        raise ModelFileError(f"{where}: expected {field}.members to be a non-empty list of "
+                             f"{{kind, parameters}} objects, got {_describe(members)}")
+    for i, member in enumerate(members):
+        name = f"{field}.members[{i}]"
+        _require_object(member, where, name)
+        if member.get("kind") not in MEMBER_KINDS:
+            raise ModelFileError(f"{where}: expected {name}.kind to be one of "
+                                 f"{', '.join(MEMBER_KINDS)}, got {_describe(member.get('kind'))}")
+        check_parameters(member["kind"], member.get("parameters"), where, f"{name}.parameters")
+    _require_numbers(weights, len(members), where, f"{field}.weights")
+    if min(weights) <= 0:
+        raise ModelFileError(f"{where}: expected every one of {field}.weights to be > 0, "
+                             f"got {min(weights)!r} among them")
+    total = math.fsum(weights)
+    if abs(total - 1.0) > WEIGHT_SUM_TOLERANCE:
+        raise ModelFileError(f"{where}: expected {field}.weights to sum to 1 (within "
+                             f"{WEIGHT_SUM_TOLERANCE:g}), got a sum of {total!r}")
+
+
 def _check_directional(p, where, field):
     for part in ("forward", "reverse"):
         name = f"{field}.{part}"
@@ -302,11 +328,15 @@ def normalisation_of(kind, parameters):
     """The ``normalisation`` field for a model: its networks' mapminmax settings, else ``{}``.
 
     ``ann`` and ``hybrid``: the network's four settings; ``directional``:
-    ``{"forward": ..., "reverse": ...}`` with each part's normalisation.
+    ``{"forward": ..., "reverse": ...}`` with each part's normalisation; ``stack``:
+    ``{"members": [...]}`` with each member's normalisation.
     """
     if kind == "directional":
         return {part: normalisation_of(parameters[part]["kind"], parameters[part]["parameters"])
                 for part in ("forward", "reverse")}
+    if kind == "stack":
+        return {"members": [normalisation_of(member["kind"], member["parameters"])
+                            for member in parameters["members"]]}
     network = {"ann": parameters, "hybrid": parameters.get("ann")}.get(kind)
     if network is None:
         return {}
@@ -453,6 +483,19 @@ def _hybrid(p):
     return lambda theta_deg: fourier(theta_deg) + ann(theta_deg)
 
 
+def _stack(p):
+    terms = [(weight, _EVALUATORS[member["kind"]](member["parameters"]))
+             for member, weight in zip(p["members"], p["weights"])]
+
+    def predict(theta_deg):
+        total = 0.0
+        for weight, member in terms:  # in order, as encal adds them
+            total += weight * member(theta_deg)
+        return total
+
+    return predict
+
+
 def _directional(p):
     forward = _EVALUATORS[p["forward"]["kind"]](p["forward"]["parameters"])
     reverse = _EVALUATORS[p["reverse"]["kind"]](p["reverse"]["parameters"])
@@ -466,7 +509,7 @@ def _directional(p):
 
 
 _EVALUATORS = {"fourier": _fourier, "lut": _lut, "ann": _ann, "hybrid": _hybrid,
-               "directional": _directional}
+               "stack": _stack, "directional": _directional}
 
 
 class RuntimeModel:
