@@ -30,6 +30,8 @@ def add_arguments(parser):
                         help="the encoder will be read only at the calibrated angles (a motor's full steps): "
                              "validate the candidates there, so a per-step pattern of the reference counts "
                              "(auto; docs/model-selection.md)")
+    parser.add_argument("--no-stack", dest="stack", action="store_const", const=False, default=None,
+                        help="choose one model family, never a weighted mean of several (auto)")
     parser.add_argument("--seed", type=int, help="random seed (ann, auto): same seed, identical model file")
     parser.add_argument("--reproducible", action="store_true",
                         help="fix the date field so the same inputs give a byte-identical file")
@@ -41,7 +43,7 @@ _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
-    "at_steps": ("auto",),
+    "at_steps": ("auto",), "stack": ("auto",),
 }
 
 
@@ -50,10 +52,10 @@ def _options(args):
 
     for name, methods in _APPLIES_TO.items():
         if getattr(args, name) is not None and args.method not in methods:
-            flag = "--" + name.replace("_", "-")
+            flag = "--no-stack" if name == "stack" else "--" + name.replace("_", "-")
             raise InputError(f"{flag} applies to --method {' or '.join(methods)}, not {args.method}")
     options = {}
-    for name in ("hidden", "algorithm", "encoding", "epochs", "interpolation", "n_orders", "folds"):
+    for name in ("hidden", "algorithm", "encoding", "epochs", "interpolation", "n_orders", "folds", "stack"):
         value = getattr(args, name)
         if value is not None:
             options[name] = value

@@ -20,9 +20,16 @@ error *between* calibration points best:
    a fold's training part is a subset of that grid, and orders up to ``N / 2``
    stay distinguishable at its nodes, the per-step alternation among them.
 3. Pool the held-out residuals of all folds into a CV RMS and MAE per
-   candidate, pick the lowest RMS, but prefer the simplest candidate whose RMS
-   is within ``tolerance`` of it (see :data:`SIMPLICITY`), and refit that
-   candidate on all points (see :func:`_final_fit`).
+   candidate.
+4. Stack: the convex combination of at most three candidates whose held-out
+   predictions best fit the measured errors is one more candidate, its own
+   accuracy cross-validated over the same folds (:func:`cross_validate_stack`).
+   Candidates that err differently, a Fourier series smooth between the points
+   and a lookup table through them, average to a better prediction than either.
+5. Pick the lowest RMS, but prefer the simplest candidate whose RMS is within
+   ``tolerance`` of it (see :data:`SIMPLICITY`; a stack is the least simple),
+   and refit that candidate, or every member of the stack, on all points (see
+   :func:`_final_fit`).
 
 The CV table and the reason for the choice are kept in
 ``model.training['selection']``. See ``docs/model-selection.md``.
@@ -47,6 +54,8 @@ __all__ = [
     "free_parameters",
     "interleaved_folds",
     "cross_validate",
+    "stack_weights",
+    "cross_validate_stack",
     "choose",
     "fit_auto",
     "format_selection",
@@ -58,6 +67,7 @@ FAMILIES = {
     "lut": ("encal.models.lut", "fit_lut"),
     "ann": ("encal.models.ann", "fit_ann"),
     "hybrid": ("encal.models.hybrid", "fit_hybrid"),
+    "stack": ("encal.models.stack", "fit_stack"),
 }
 
 #: Folds when the caller names none (see docs/model-selection.md for why 5).
@@ -70,7 +80,7 @@ MIN_POINTS_PER_FOLD = 4
 FINAL_FIT_ATTEMPTS = 3
 
 #: Families that draw random numbers (their fit takes ``rng``).
-_RANDOMISED = {"ann", "hybrid"}
+_RANDOMISED = {"ann", "hybrid", "stack"}
 
 #: Families whose fit takes ``grid_points`` (the grid of the whole calibration, for fold fits).
 _GRID_AWARE = {"fourier"}
@@ -79,8 +89,15 @@ _GRID_AWARE = {"fourier"}
 #: closed-form least-squares fit of a few physically meaningful coefficients; a
 #: lookup table is closed-form too but keeps one value per point; a hybrid and a
 #: network are trained iteratively from a random start, the network with the most
-#: free weights of all. Within a family, fewer free parameters is simpler.
-SIMPLICITY = ("fourier", "lut", "hybrid", "ann")
+#: free weights of all; a stack needs all of its members. Within a family, fewer free
+#: parameters is simpler.
+SIMPLICITY = ("fourier", "lut", "hybrid", "ann", "stack")
+
+#: A stacked candidate combines at most this many candidates ...
+STACK_MAX_MEMBERS = 3
+#: ... each with at least this weight (a smaller share changes the prediction by less than
+#: the spread of the fold models, and costs a whole member in firmware).
+STACK_MIN_WEIGHT = 0.05
 
 
 @dataclass(frozen=True)
@@ -109,7 +126,12 @@ class Candidate:
 
     @property
     def label(self):
-        """Short name, e.g. ``'ann hidden=10 algorithm=trainbr'``."""
+        """Short name, e.g. ``'ann hidden=10 algorithm=trainbr'``, or for a stack
+        ``'stack 0.62 fourier select=cv + 0.38 lut interpolation=cubic'``."""
+        if self.family == "stack" and set(self.options) >= {"members", "weights"}:
+            parts = (f"{weight:.2f} {_as_candidate(member).label}"
+                     for member, weight in zip(self.options["members"], self.options["weights"]))
+            return "stack " + " + ".join(parts)
         return " ".join([self.family, *(f"{key}={value}" for key, value in self.options.items())])
 
     def fit(self, theta_deg, error_arcmin, rng=None, grid_points=None):
@@ -166,6 +188,9 @@ class CVScore:
         Wall-clock time of the ``k`` fold fits, seconds.
     error : str or None
         Why the candidate could not be fitted (its score is then infinite), else None.
+    predictions : ndarray of shape (n,) or None
+        Held-out prediction of every point, arcmin (None if the candidate failed); the
+        stacked candidate is made from these. Not part of the CV table.
     """
 
     candidate: Candidate
@@ -175,6 +200,7 @@ class CVScore:
     n_parameters: float
     time_s: float
     error: str | None = None
+    predictions: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def simplicity(self):
@@ -212,7 +238,10 @@ def free_parameters(parameters, kind):
         return len(parameters["W1"]) * (len(parameters["W1"][0]) + 2) + 1
     if kind == "hybrid":
         return free_parameters(parameters["fourier"], "fourier") + free_parameters(parameters["ann"], "ann")
-    raise InputError(f"free_parameters expects a model kind among fourier, lut, ann, hybrid. Got {kind!r} instead.")
+    if kind == "stack":
+        return sum(free_parameters(member["parameters"], member["kind"]) for member in parameters["members"])
+    raise InputError("free_parameters expects a model kind among fourier, lut, ann, hybrid, stack. "
+                     f"Got {kind!r} instead.")
 
 
 def _finite_or_none(value):
@@ -289,6 +318,104 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds, grid_poin
         max_abs_arcmin=float(np.max(np.abs(held_out))),
         n_parameters=float(np.mean(n_parameters)),
         time_s=elapsed,
+        predictions=error_arcmin - held_out,
+    )
+
+
+def stack_weights(predictions, error_arcmin, *, max_members=STACK_MAX_MEMBERS, min_weight=STACK_MIN_WEIGHT):
+    """Convex weights that best combine held-out predictions (stacked generalisation).
+
+    Minimises ``||error - weights @ predictions||`` over weights ``>= 0`` that sum to 1 (Breiman's
+    stacked regression with the super learner's convex constraint), then drops the candidate of
+    smallest weight and solves again while a weight is below ``min_weight`` or more than
+    ``max_members`` are left.
+
+    Parameters
+    ----------
+    predictions : ndarray of shape (m, n)
+        Held-out predictions of ``m`` candidates at ``n`` points, arcmin.
+    error_arcmin : ndarray of shape (n,)
+        Measured errors at those points, arcmin.
+    max_members : int, default=STACK_MAX_MEMBERS
+    min_weight : float, default=STACK_MIN_WEIGHT
+
+    Returns
+    -------
+    ndarray of shape (m,)
+        Weights, ``>= 0``, summing to 1; at most ``max_members`` are non-zero.
+
+    Examples
+    --------
+    >>> a, b = np.array([1.0, 0.0, 1.0]), np.array([0.0, 1.0, 1.0])
+    >>> stack_weights(np.array([a, b]), 0.25 * a + 0.75 * b).round(12).tolist()
+    [0.25, 0.75]
+    """
+    import scipy.optimize
+
+    predictions = np.asarray(predictions, dtype=float)
+    error = np.asarray(error_arcmin, dtype=float)
+    active = np.arange(predictions.shape[0])
+    # The sum-to-one constraint as one heavily weighted extra equation of the non-negative fit.
+    penalty = 1e3 * max(float(np.sqrt(np.mean(predictions**2))), float(np.sqrt(np.mean(error**2))), 1e-300)
+    while True:
+        system = np.vstack([predictions[active].T, np.full((1, active.size), penalty)])
+        solution, _ = scipy.optimize.nnls(system, np.append(error, penalty))
+        solution = solution / solution.sum()
+        if active.size == 1 or (solution.min() >= min_weight and active.size <= max_members):
+            break
+        active = np.delete(active, np.argmin(solution))
+    weights = np.zeros(predictions.shape[0])
+    weights[active] = solution
+    return weights
+
+
+def cross_validate_stack(error_arcmin, scores, fold):
+    """The stacked candidate of ``scores`` and its held-out accuracy, or None if it has one member.
+
+    The weights are fitted to the candidates' held-out predictions of all points
+    (:func:`stack_weights`). Their accuracy is cross-validated over the same folds: the
+    weights of fold ``k`` are fitted to the held-out predictions of the other folds and
+    applied to fold ``k``, so the stacked RMS is measured on points its weights did not see.
+
+    Parameters
+    ----------
+    error_arcmin : ndarray of shape (n,)
+        Measured errors, arcmin.
+    scores : sequence of CVScore
+        The candidates' scores from :func:`cross_validate` (with their ``predictions``).
+    fold : ndarray of int of shape (n,)
+        The folds the scores were made with.
+
+    Returns
+    -------
+    CVScore or None
+        A ``'stack'`` candidate whose options name its members (``Candidate.as_dict`` form)
+        and weights.
+    """
+    usable = [score for score in scores if score.predictions is not None and np.isfinite(score.rms_arcmin)]
+    if len(usable) < 2:
+        return None
+    start = time.perf_counter()
+    predictions = np.array([score.predictions for score in usable])
+    weights = stack_weights(predictions, error_arcmin)
+    if np.count_nonzero(weights) < 2:
+        return None
+    held_out = np.empty_like(error_arcmin)
+    for k in range(fold.max() + 1):
+        test = fold == k
+        held_out[test] = error_arcmin[test] - stack_weights(predictions[:, ~test], error_arcmin[~test]) \
+            @ predictions[:, test]
+    members = [(score, weight) for score, weight in zip(usable, weights) if weight > 0]
+    candidate = Candidate("stack", {"members": [score.candidate.as_dict() for score, _ in members],
+                                    "weights": [float(weight) for _, weight in members]})
+    return CVScore(
+        candidate,
+        rms_arcmin=float(np.sqrt(np.mean(held_out**2))),
+        mae_arcmin=float(np.mean(np.abs(held_out))),
+        max_abs_arcmin=float(np.max(np.abs(held_out))),
+        n_parameters=float(sum(score.n_parameters for score, _ in members)),
+        time_s=sum(score.time_s for score, _ in members) + time.perf_counter() - start,
+        predictions=error_arcmin - held_out,
     )
 
 
@@ -348,7 +475,7 @@ def _seed_sequence(rng):
 
 
 def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=None, tolerance=0.01,
-             use_grid=False):
+             use_grid=False, stack=True):
     """Fit the model family that cross-validates best.
 
     Parameters
@@ -376,6 +503,11 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
         folds are validated for readings *between* the points (orders up to what each fold's
         gaps allow), which favours smooth models; see docs/model-selection.md for what each
         costs on the other use.
+    stack : bool, default=True
+        Also try the convex combination of at most :data:`STACK_MAX_MEMBERS` candidates that best
+        predicts the held-out points (:func:`cross_validate_stack`), cross-validated like the rest
+        and last in the tie rule: a single candidate within ``tolerance`` of it wins. The
+        chosen stack is a :class:`~encal.models.stack.StackModel`. ``False`` chooses one family.
 
     Returns
     -------
@@ -403,6 +535,8 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
                          f"{MIN_POINTS_PER_FOLD} distinct encoder angles per fold). Got {folds!r} instead.")
     if not isinstance(use_grid, bool):
         raise InputError(f"The 'use_grid' parameter of fit_auto must be True or False. Got {use_grid!r} instead.")
+    if not isinstance(stack, bool):
+        raise InputError(f"The 'stack' parameter of fit_auto must be True or False. Got {stack!r} instead.")
     if not (isinstance(tolerance, (int, float)) and 0.0 <= tolerance < 1.0):
         raise InputError(f"The 'tolerance' parameter of fit_auto must be a float in [0, 1). "
                          f"Got {tolerance!r} instead.")
@@ -429,16 +563,24 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     streams = [seq.spawn(folds + FINAL_FIT_ATTEMPTS) for seq in _seed_sequence(rng).spawn(len(candidates))]
     scores = [cross_validate(theta, error, c, fold, seeds=s[:folds], grid_points=grid_points)
               for c, s in zip(candidates, streams)]
+    final_seeds = {id(score): stream[folds:] for score, stream in zip(scores, streams)}
+    stacked = cross_validate_stack(error, scores, fold) if stack else None
+    if stacked is not None:
+        scores.append(stacked)
     # Differences below 1e-9 of the profile's RMS are rounding error, not accuracy.
     chosen, reason = choose(scores, tolerance, resolution_arcmin=1e-9 * float(np.sqrt(np.mean(error**2))))
 
-    final_seeds = streams[next(i for i, score in enumerate(scores) if score is chosen)][folds:]
-    model, attempts = _final_fit(theta, error, chosen, final_seeds)
+    if chosen is stacked:
+        model, attempts = _final_stack(theta, error, stacked, scores, final_seeds)
+    else:
+        model, attempts = _final_fit(theta, error, chosen, final_seeds[id(chosen)])
     # The auto seed regenerates the whole choice; a part's own seed would not.
     model.training["seed"] = int(rng) if isinstance(rng, (int, np.integer)) else None
     model.training["fit_options"] = {"folds": int(folds), "tolerance": float(tolerance)}
     if use_grid:
         model.training["fit_options"]["use_grid"] = True
+    if not stack:
+        model.training["fit_options"]["stack"] = False
     if given is not None:
         model.training["fit_options"]["candidates"] = [c.as_dict() for c in candidates]
     model.training["selection"] = {
@@ -451,6 +593,30 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
         "final_fit_attempts": attempts,
     }
     return model
+
+
+def _final_stack(theta, error, stacked, scores, final_seeds):
+    """Refit every member of the chosen stack on all points (:func:`_final_fit`) and combine them.
+
+    Returns
+    -------
+    (StackModel, int)
+        The model and the number of fits made, all members together.
+    """
+    from .stack import StackModel
+
+    by_label = {score.candidate.label: score for score in scores if score is not stacked}
+    members, trainings, attempts = [], [], 0
+    for member in stacked.candidate.options["members"]:
+        score = by_label[_as_candidate(member).label]
+        model, made = _final_fit(theta, error, score, final_seeds[id(score)])
+        members.append(model)
+        trainings.append(model.training)
+        model.training = {}
+        attempts += made
+    training = {"options": {key: list(value) for key, value in stacked.candidate.options.items()},
+                "members": trainings}
+    return StackModel(members, stacked.candidate.options["weights"], training=training), attempts
 
 
 def _final_fit(theta, error, chosen, seeds):
