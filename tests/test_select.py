@@ -435,3 +435,15 @@ def test_encal_fit_no_stack_applies_to_auto_only(tmp_path, capsys):
     assert "cross-validation over" in out and " stack 0." not in out
     assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--no-stack", "--method", "fourier"]) == 1
     assert "--no-stack applies to --method auto, not fourier" in capsys.readouterr().err
+
+
+def test_the_printed_table_names_a_stack_briefly_and_lists_its_members(resolver):
+    train, _ = resolver
+    model = fit_auto(train.encoder_deg, train.errors_arcmin, rng=0, candidates=CLOSED_FORM)
+    text = format_selection(model.training["selection"])
+    weights = model.training["options"]["weights"]
+    members = model.training["options"]["members"]
+    assert f"  * stack of {len(members)} (below)" in text
+    listed = " + ".join(f"{w:.2f} x ({Candidate(**m).label})" for w, m in zip(weights, members))
+    assert f"stack of {len(members)}: {listed}" in text
+    assert f"chosen: the stack of {len(members)} has the lowest CV RMS" in text

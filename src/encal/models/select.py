@@ -448,13 +448,20 @@ def choose(scores, tolerance=0.01, resolution_arcmin=0.0):
     if chosen is best:
         runner_up = min((s for s in finite if s is not best), key=lambda s: s.rms_arcmin, default=None)
         margin = "" if runner_up is None else (
-            f"; the next best, {runner_up.candidate.label}, has {runner_up.rms_arcmin:.4g} arcmin")
-        reason = f"{best.candidate.label} has the lowest CV RMS, {best.rms_arcmin:.4g} arcmin{margin}"
+            f"; the next best, {_name(runner_up.candidate)}, has {runner_up.rms_arcmin:.4g} arcmin")
+        reason = f"{_name(best.candidate)} has the lowest CV RMS, {best.rms_arcmin:.4g} arcmin{margin}"
     else:
-        reason = (f"{chosen.candidate.label} (CV RMS {chosen.rms_arcmin:.4g} arcmin) is within "
-                  f"{tolerance:.0%} of the lowest, {best.candidate.label} ({best.rms_arcmin:.4g} arcmin), "
+        reason = (f"{_name(chosen.candidate)} (CV RMS {chosen.rms_arcmin:.4g} arcmin) is within "
+                  f"{tolerance:.0%} of the lowest, {_name(best.candidate)} ({best.rms_arcmin:.4g} arcmin), "
                   "and simpler")
     return chosen, reason
+
+
+def _name(candidate):
+    """A candidate's label, or for a stack (whose label lists every member) ``'the stack of 3'``."""
+    if candidate.family == "stack" and "members" in candidate.options:
+        return f"the stack of {len(candidate.options['members'])}"
+    return candidate.label
 
 
 def _as_candidate(item):
@@ -658,16 +665,25 @@ def format_selection(selection):
         One line per candidate, lowest CV RMS first, the chosen one marked ``*``, then the reason.
     """
     rows = sorted(selection["table"], key=lambda row: (row["cv_rms_arcmin"] is None, row["cv_rms_arcmin"] or 0.0))
-    width = max(len(row["label"]) for row in rows)
+    # A stack's label names all its members; the table shows a short name and lists them below it.
+    shown = {id(row): (f"stack of {len(row['options']['members'])} (below)" if row["family"] == "stack"
+                       else row["label"]) for row in rows}
+    width = max(len(name) for name in shown.values())
     lines = [f"cross-validation over {selection['folds']} interleaved folds (arcmin):",
              f"    {'candidate':<{width}}  {'CV RMS':>9}  {'CV MAE':>9}  {'params':>6}  {'time':>7}"]
     for row in rows:
         mark = "*" if row["label"] == selection["chosen"] else " "
+        name = shown[id(row)]
         if row["cv_rms_arcmin"] is None:
-            lines.append(f"  {mark} {row['label']:<{width}}  failed: {row.get('error', 'no finite prediction')}")
+            lines.append(f"  {mark} {name:<{width}}  failed: {row.get('error', 'no finite prediction')}")
             continue
-        lines.append(f"  {mark} {row['label']:<{width}}  {row['cv_rms_arcmin']:#9.4g}  {row['cv_mae_arcmin']:#9.4g}  "
+        lines.append(f"  {mark} {name:<{width}}  {row['cv_rms_arcmin']:#9.4g}  {row['cv_mae_arcmin']:#9.4g}  "
                      f"{row['n_parameters']:6.0f}  {_seconds(row['time_s'])}")
+    for row in rows:
+        if row["family"] == "stack":
+            members = zip(row["options"]["weights"], row["options"]["members"])
+            lines.append("stack of {}: {}".format(len(row["options"]["members"]), " + ".join(
+                f"{weight:.2f} x ({_as_candidate(member).label})" for weight, member in members)))
     lines.append(f"chosen: {selection['reason']}")
     return "\n".join(lines)
 
