@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 import encal
 from encal.deploy import load_model, model_from_dict, model_to_dict, read_model, save_model
 from encal.deploy.modelfile import dumps
+from encal.deploy import runtime
 from encal.deploy.runtime import content_sha256
 from encal.errors import InputError, ModelFileError
 from encal.models.base import Model
@@ -427,7 +428,8 @@ def test_missing_file_is_an_os_error(tmp_path):
 
 def test_stored_files_cover_every_kind():
     kinds = {json.loads(p.read_text(encoding="utf-8"))["kind"] for p in V1_FILES}
-    assert kinds == {"fourier", "lut", "ann", "hybrid", "directional"}
+    assert kinds == {"fourier", "lut", "ann", "hybrid", "directional", "stack"}
+    assert kinds == set(runtime.KINDS)
 
 
 @pytest.mark.parametrize("path", V1_FILES, ids=lambda p: p.name)

@@ -2,7 +2,10 @@
 
 Run once per format version (``python tests/data/make_model_files.py``) and commit
 the output; never regenerate the files of an older version: the tests check that
-today's encal still reads them and predicts what they predicted when written.
+today's encal still reads them and predicts what they predicted when written. A kind
+added to a version later (``stack``) is drawn last, so the earlier files come out
+byte-identical; commit only its file and its entry of ``expected_v1.json``, keeping the
+entries written before (a rerun may differ from them in the last bit).
 
 The models are hand-made (realistic sizes and magnitudes, no calibration data
 behind them). The expected values are computed by the standalone runtime, in
@@ -118,6 +121,16 @@ def models():
                         "uncertainty": uncertainty(10.0, 0.1)},
             "reverse": {"kind": "lut", "parameters": lut_parameters("linear", grid)}},
            training("directional", treatment="per-direction"), uncertainty(5.0, 0.08))
+    # Added with the stack kind (still format version 1); drawn last so the files above do not change.
+    yield ("stack", "stack",
+           {"members": [{"kind": "fourier", "parameters": fourier_parameters(rng, [0, 1, 2, 16])},
+                        {"kind": "lut", "parameters": lut_parameters("cubic", grid)},
+                        {"kind": "ann", "parameters": ann_parameters(rng, 4, "periodic", "tansig")}],
+            "weights": [0.45, 0.4, 0.15]},
+           training("stack", "trainlm", 100, 3, members=[{"family": "fourier", "options": {"orders": [0, 1, 2, 16]}},
+                                                         {"family": "lut", "options": {"interpolation": "cubic"}},
+                                                         {"family": "ann", "options": {"hidden": 4}}],
+                    weights=[0.45, 0.4, 0.15]), uncertainty(2.0, 0.06))
 
 
 def main():
