@@ -119,13 +119,22 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     if uncertainty:
         from .uncertainty import add_uncertainty
 
-        refit_method, refit_options = method, fit_options
-        if method == "auto":  # bootstrap the chosen family, not the whole selection (70 auto fits)
-            chosen = next(row for row in model.training["selection"]["table"]
-                          if row["label"] == model.training["selection"]["chosen"])
-            refit_method, refit_options = chosen["family"], dict(chosen["options"])
+        refit_method, refit_options = refit_spec(model, method, fit_options)
         add_uncertainty(model, cal, method=refit_method, options=refit_options, rng=rng)
     return model
+
+
+def refit_spec(model, method, options):
+    """``(method, options)`` that refit ``model`` the way it was made, for the uncertainty's bootstrap.
+
+    A model made by ``method='auto'`` is refitted as the family it chose (a stack as its members and
+    weights), not by the whole selection, which would cost about 70 fits per refit.
+    """
+    selection = model.training.get("selection")
+    if method != "auto" or selection is None:
+        return method, dict(options)
+    chosen = next(row for row in selection["table"] if row["label"] == selection["chosen"])
+    return chosen["family"], dict(chosen["options"])
 
 
 @dataclass(frozen=True)
