@@ -40,7 +40,8 @@ DATA = ROOT / "tests" / "data"
 STORED = {"fourier (9 orders)": "model_v1_fourier.json",
           "lut (cubic, 180 points)": "model_v1_lut.json",
           "ann (periodic 1:8:1)": "model_v1_ann.json",
-          "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json"}
+          "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json",
+          "stack (4 orders + cubic lut + 1:4:1)": "model_v1_stack.json"}
 
 C_BENCH = """\
 #define _POSIX_C_SOURCE 199309L
