@@ -337,7 +337,9 @@ def stack_weights(predictions, error_arcmin, *, max_members=STACK_MAX_MEMBERS, m
     error_arcmin : ndarray of shape (n,)
         Measured errors at those points, arcmin.
     max_members : int, default=STACK_MAX_MEMBERS
+        Most candidates left with a non-zero weight.
     min_weight : float, default=STACK_MIN_WEIGHT
+        Smallest weight a candidate may keep (a fraction of 1).
 
     Returns
     -------
