@@ -1,6 +1,7 @@
 # Two commands on a fresh machine: `make demo` and `make test`.
 # Each creates (or refreshes, when pyproject.toml changed) a local virtual
-# environment in .venv and installs encal into it from PyPI.
+# environment in .venv, installs encal into it from this checkout and its
+# dependencies from PyPI.
 
 PYTHON ?= python3
 VENV := .venv

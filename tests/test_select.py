@@ -1,6 +1,7 @@
 """Automatic model choice (encal.models.select): folds, tie rule, known-truth choices, records."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -244,6 +245,13 @@ def test_a_generator_is_accepted_as_rng():
                      candidates=[Candidate("fourier", {"select": "cv"}), Candidate("ann", {"hidden": 3, "epochs": 5})])
     assert model.kind == "fourier"
     assert model.training["seed"] is None
+
+
+@pytest.mark.parametrize("rng", [-1, True, 1.5, "0"])
+def test_an_invalid_rng_is_refused_in_one_sentence(rng):
+    with pytest.raises(InputError, match=rf"^rng must be None, an int >= 0 or a numpy.random.Generator. "
+                                         rf"Got {re.escape(repr(rng))} instead.$"):
+        fit_auto(GRID, harmonic_profile(GRID), rng=rng, candidates=CLOSED_FORM)
 
 
 # --------------------------------------------------------------------------- records

@@ -225,6 +225,17 @@ def test_same_seed_same_uncertainty():
     assert first == second
 
 
+@pytest.mark.parametrize("method", ["fourier", "lut"])
+def test_fit_seeds_the_bootstrap_of_a_deterministic_method(method):
+    cal = noisy_calibration(np.arange(0.0, 360.0, 4.0), np.random.default_rng(6))
+    first, second, other = (encal.fit(cal, method, uncertainty=True, rng=seed).uncertainty for seed in (1, 1, 2))
+    assert first == second
+    assert first["model_std_arcmin"] != other["model_std_arcmin"]
+    with pytest.raises(InputError, match=f"method '{method}' draws no random numbers; rng must be None "
+                                         r"\(it seeds only the bootstrap of uncertainty=True\)"):
+        encal.fit(cal, method, rng=1)
+
+
 def test_options_are_taken_from_the_model_when_not_given():
     cal = noisy_calibration(np.arange(0.0, 360.0, 4.0), np.random.default_rng(5))
     model = encal.fit(cal, "fourier", orders=[0, 1])

@@ -65,7 +65,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
         Model family; ``'auto'`` chooses by cross-validation; ``'stack'`` is a weighted mean of
         members of the other families.
     rng : int or numpy.random.Generator, optional
-        Seed for the methods that draw random numbers (network initialisation).
+        Seed for the methods that draw random numbers (network initialisation) and, with
+        ``uncertainty=True``, for the bootstrap; for ``'fourier'`` and ``'lut'`` only then.
     uncertainty : bool, default=False
         Also estimate the prediction uncertainty (bootstrap refits; see :mod:`encal.uncertainty`), so that
         ``model.predict(theta, return_std=True)`` works. Costs 30 (Fourier) to 100 (lookup table, networks) refits.
@@ -103,8 +104,9 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     fit_options = dict(options)
     if method in RANDOMISED_METHODS:
         options["rng"] = rng
-    elif rng is not None:
-        raise InputError(f"method {method!r} draws no random numbers; rng must be None")
+    elif rng is not None and not uncertainty:
+        raise InputError(f"method {method!r} draws no random numbers; rng must be None "
+                         "(it seeds only the bootstrap of uncertainty=True)")
     model = fit_family(cal.encoder_deg, cal.errors_arcmin, **options)
     model.encoder = {"name": cal.name, "resolution_bits": cal.resolution_bits}
     model.training = {

@@ -36,6 +36,7 @@ The CV table and the reason for the choice are kept in
 """
 
 import importlib
+import numbers
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -478,9 +479,11 @@ def _as_candidate(item):
 def _seed_sequence(rng):
     if isinstance(rng, np.random.Generator):
         return np.random.SeedSequence(int(rng.integers(2**63)))
-    if rng is None or isinstance(rng, (int, np.integer)):
-        return np.random.SeedSequence(None if rng is None else int(rng))
-    raise InputError(f"rng must be None, an int or a numpy.random.Generator. Got {type(rng).__name__} instead.")
+    if rng is None:
+        return np.random.SeedSequence()
+    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and rng >= 0:
+        return np.random.SeedSequence(int(rng))
+    raise InputError(f"rng must be None, an int >= 0 or a numpy.random.Generator. Got {rng!r} instead.")
 
 
 def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=None, tolerance=0.01,
