@@ -32,7 +32,9 @@ GCC = shutil.which("gcc")
 CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wshadow",
           "-Wdouble-promotion", "-Wconversion", "-O2"]
 BITS = 16
-EXTRA_ANGLES = [-1.0, 360.0, 720.5, -359.75, 1e6, 359.99997, -1e-3]
+# Far from 0 a float's spacing (64 degrees at 1e9, 2^36 at 1e15) dwarfs the correction: the angle
+# must be wrapped before the correction is subtracted, or the correction is lost.
+EXTRA_ANGLES = [-1.0, 360.0, 720.5, -359.75, 1e6, 359.99997, -1e-3, 1e9, 1e15, -3e38]
 
 needs_gcc = pytest.mark.skipif(GCC is None, reason="gcc is not installed")
 
@@ -147,15 +149,54 @@ def test_formula_agrees_with_python_on_every_code(tmp_path, path, constants):
 def test_table_agrees_with_the_python_table(tmp_path, path, dtype):
     comp = compensator_of(path)
     write_c(comp, tmp_path, prefix="tab", table=dtype)
-    at_codes, _ = build_and_run(tmp_path, "tab")
+    at_codes, at_extra = build_and_run(tmp_path, "tab")
     codes, theta = inputs()
     table = compile_table(comp, BITS, dtype=dtype)
     expected = table.predict_counts(codes)
     assert np.abs(at_codes[:, 0] - expected).max() <= 2.0**-24 * np.abs(expected).max()
     assert circular(at_codes[:, 2], table.correct_counts(codes)).max() <= 2.0**-16
     assert circular(at_codes[:, 1], table.correct(theta)).max() <= 2.0**-16
+    extra = np.array(EXTRA_ANGLES, dtype=np.float32).astype(float)
+    assert circular(at_extra[:, 1], table.correct(extra)).max() <= 2.0**-16
     model_error = np.abs(at_codes[:, 0] - comp.predict(theta)).max()
     assert model_error <= table.quantisation_arcmin + 2.0**-23 * np.abs(expected).max()
+
+
+NON_FINITE_DRIVER = """\
+#include <math.h>
+#include <stdio.h>
+#include "{prefix}.h"
+
+int main(void)
+{{
+    const float bad[3] = {{NAN, INFINITY, -INFINITY}};
+    int k;
+    for (k = 0; k < 3; ++k)
+        printf("%d %d\\n", isnan({prefix}_predict_arcmin(bad[k])) != 0, isnan({prefix}_correct_deg(bad[k])) != 0);
+    return 0;
+}}
+"""
+
+
+@needs_gcc
+@pytest.mark.parametrize("table", [None, "int16", "float32"])
+@pytest.mark.parametrize("name", ["fourier", "lut", "directional"])
+def test_a_non_finite_reading_gives_nan_without_undefined_behaviour(tmp_path, name, table):
+    # gcc's -fsanitize=undefined leaves out float-cast-overflow: NaN cast to an integer is caught only with it.
+    write_c(DATA / f"model_v1_{name}.json", tmp_path, prefix="nf", table=table)
+    driver = tmp_path / "driver.c"
+    driver.write_text(NON_FINITE_DRIVER.format(prefix="nf"))
+    program = tmp_path / "driver"
+    sanitize = ["-fsanitize=undefined,float-cast-overflow", "-fno-sanitize-recover=all"]
+    compiled = subprocess.run([GCC, *CFLAGS, *sanitize, "-I", str(tmp_path), str(driver),
+                               str(tmp_path / "nf.c"), "-lm", "-o", str(program)],
+                              capture_output=True, text=True, timeout=300)
+    if compiled.returncode != 0 and "sanitize" in compiled.stderr:
+        pytest.skip(f"gcc cannot link the sanitizer runtime: {compiled.stderr.strip()[:200]}")
+    assert compiled.returncode == 0, compiled.stderr
+    run = subprocess.run([str(program)], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    assert run.stdout.split("\n")[:3] == ["1 1"] * 3
 
 
 @needs_gcc

@@ -79,6 +79,16 @@ def test_corrected_angles_are_in_range():
     assert np.all((corrected >= 0) & (corrected < 360))
 
 
+def test_far_readings_keep_their_correction():
+    # At 4e14 degrees neighbouring doubles are 0.0625 degrees apart, more than a 1 arcmin correction:
+    # subtracting it before wrapping would lose it. The correction must hold at any turn.
+    model = FourierModel([0], [1.0], [0.0])
+    table = compile_table(model, 16)
+    for turns in (0, 2**20, 2**40, -(2**40)):
+        reading = 90.0 + 360.0 * turns
+        assert table.correct(reading) == pytest.approx(90.0 - 1.0 / 60.0, abs=1e-9)
+
+
 @pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int32, np.int64, np.uint64])
 def test_any_integer_code_type(dtype):
     table = compile_table(FILES["fourier"], 8)

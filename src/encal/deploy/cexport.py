@@ -377,6 +377,7 @@ static double code_error_arcmin(uint32_t code)
 
 static double error_arcmin(double theta)
 {{
+    if (isnan(theta)) return theta; /* a NaN or infinite reading, wrapped: no code to look up */
     return code_error_arcmin((uint32_t)floor(theta / STEP_DEG + 0.5)); /* nearest code */
 }}
 """
@@ -421,7 +422,8 @@ extern "C" {{
 /* Resolution of the encoder codes taken by {prefix}_correct_counts, in bits. */
 #define {macro}_BITS {bits}u
 
-/* Predicted error (arc-minutes) at the encoder reading theta_deg (degrees, any value). */
+/* Predicted error (arc-minutes) at the encoder reading theta_deg (degrees, any finite value).
+   A NaN or infinite theta_deg gives NaN, here and in {prefix}_correct_deg. */
 float {prefix}_predict_arcmin(float theta_deg);
 
 /* Corrected angle, in [0, 360) degrees, of the encoder reading theta_deg (degrees). */
@@ -444,9 +446,8 @@ def _source(prefix, bits, banner, body, directed):
     directed_api = "" if not directed else f"""
 float {prefix}_correct_deg_directed(float theta_deg, int direction)
 {{
-    const double theta = (double)theta_deg;
-    return to_float_angle(wrap360(theta - model_directed_error_arcmin(wrap360(theta), direction)
-                                  / 60.0));
+    const double theta = wrap360((double)theta_deg);
+    return to_float_angle(wrap360(theta - model_directed_error_arcmin(theta, direction) / 60.0));
 }}
 
 float {prefix}_correct_counts_directed(uint32_t code, int direction)
@@ -489,8 +490,9 @@ float {prefix}_predict_arcmin(float theta_deg)
 
 float {prefix}_correct_deg(float theta_deg)
 {{
-    const double theta = (double)theta_deg;
-    return to_float_angle(wrap360(theta - error_arcmin(wrap360(theta)) / 60.0));
+    /* Wrap first: far from 0 a float's spacing exceeds the correction, which would be lost. */
+    const double theta = wrap360((double)theta_deg);
+    return to_float_angle(wrap360(theta - error_arcmin(theta) / 60.0));
 }}
 
 float {prefix}_correct_counts(uint32_t code)

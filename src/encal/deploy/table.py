@@ -127,7 +127,8 @@ class CorrectionTable:
 
     def correct(self, theta_deg):
         """Corrected angles (degrees), subtracting the error stored at the nearest code."""
-        theta = as_angles(theta_deg)
+        # Wrap first: far from 0 a reading's spacing can exceed the correction, which would be lost.
+        theta = wrap360(as_angles(theta_deg))
         return wrap360(theta - self.predict(theta) / ARCMIN_PER_DEG)
 
     def _index(self, codes):
