@@ -26,6 +26,7 @@ from encal.deploy.cexport import FLOAT32_BUDGET_ARCMIN
 from encal.errors import InputError
 from encal.models.ann import fit_ann
 from encal.models.fourier import FourierModel
+from encal.models.lut import fit_lut
 
 DATA = Path(__file__).parent / "data"
 GCC = shutil.which("gcc")
@@ -112,8 +113,19 @@ def trained_ann(encoding):
     return model
 
 
+def offgrid_lut():
+    """A cubic table through angles that float32 cannot hold, such as a calibration read off its grid."""
+    theta = np.sort(np.random.default_rng(5).uniform(0.0, 360.0, 90))
+    r = np.radians(theta)
+    model = fit_lut(theta, 3.0 * np.sin(r) + 0.5 * np.cos(3 * r), interpolation="cubic")
+    model.encoder["resolution_bits"] = BITS
+    assert any(float(np.float32(b)) != b for b in model.parameters()["breaks_deg"])
+    return model
+
+
 TRAINED = {"trained_ann_raw": lambda: trained_ann("raw"),
-           "trained_ann_periodic": lambda: trained_ann("periodic")}
+           "trained_ann_periodic": lambda: trained_ann("periodic"),
+           "offgrid_lut": offgrid_lut}
 
 
 def compensator_of(source):
@@ -122,7 +134,8 @@ def compensator_of(source):
 
 @needs_gcc
 @pytest.mark.parametrize("path, constants", [
-    *cases(EVERY_KIND, "auto"), *cases(["lut", "hybrid", "trained_ann_raw"], "double")])
+    *cases(EVERY_KIND, "auto"), *cases(["lut", "hybrid", "trained_ann_raw"], "double"),
+    *cases(["offgrid_lut"], "float")])
 def test_formula_agrees_with_python_on_every_code(tmp_path, path, constants):
     comp = compensator_of(path)
     write_c(comp, tmp_path, prefix="enc", constants=constants)
@@ -262,6 +275,18 @@ def test_auto_constants_fall_back_to_double_when_float32_is_not_enough():
     model = FourierModel([1, 2], [1e6 + 0.1, 0.0], [0.0, 1e6], encoder={"resolution_bits": 12})
     assert "static const double model_cos" in export_c(model)["encal.c"]
     assert "static const float model_cos" in export_c(DATA / "model_v1_fourier.json")["encal.c"]
+
+
+def test_the_banner_states_what_float_constants_would_change():
+    huge = FourierModel([1], [1e39], [0.0], encoder={"resolution_bits": 12})
+    assert "constants stored as double (float32 cannot hold them)" in export_c(huge)["encal.c"]
+    with pytest.raises(InputError, match="expected model constants within float32's range"):
+        export_c(huge, constants="float")
+    cancelling = FourierModel([1, 2], [1e6 + 0.1, 0.0], [0.0, 1e6], encoder={"resolution_bits": 12})
+    assert re.search(r"constants stored as double \(float would change the model by at most 0\.0\d+ arcmin",
+                     export_c(cancelling)["encal.c"])
+    assert re.search(r"constants stored as float \(they change the model by at most \S+ arcmin",
+                     export_c(offgrid_lut())["encal.c"])
 
 
 def test_encoder_names_cannot_end_the_banner_comment():

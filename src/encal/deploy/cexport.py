@@ -89,8 +89,12 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
     if table is None:
         ctype, deviation = _constant_type(comp, constants)
         body = _formula_source(comp.kind, comp.model.parameters(), _Literals(ctype))
-        how = (f"the model's formula in double; constants stored as {ctype} (they change "
-               f"the model by at most {deviation:.3g} arcmin on {_CHECK_POINTS} angles)")
+        if ctype == "float" or np.isfinite(deviation):
+            change = f"{'they change' if ctype == 'float' else 'float would change'} the model by at most " \
+                     f"{deviation:.3g} arcmin on {_CHECK_POINTS} angles"
+        else:
+            change = "float32 cannot hold them"
+        how = f"the model's formula in double; constants stored as {ctype} ({change})"
     else:
         compiled = compile_table(comp, bits, dtype=table)
         body = _table_source(compiled)
@@ -175,6 +179,12 @@ def _profile(kind, parameters, theta):
     if kind == "stack":  # float32 weights need not sum to 1 as a StackModel's must: add them up as the C does
         return sum(weight * _profile(member["kind"], member["parameters"], theta)
                    for member, weight in zip(parameters["members"], parameters["weights"]))
+    if kind == "lut":
+        # float32 breaks need not span exactly 360 degrees as a LookupTableModel's must. The C code wraps
+        # with the first break and 360 and finds the segment by bisection, so the last break only ends the
+        # last segment, where the pieces meet: closing the span at first + 360 changes nothing measurable.
+        breaks = list(parameters["breaks_deg"])
+        parameters = {**parameters, "breaks_deg": breaks[:-1] + [breaks[0] + 360.0]}
     return model_class(kind).from_parameters(parameters).predict(theta)
 
 
