@@ -393,6 +393,31 @@ def test_refuses_wrong_parameter_shapes(saved, change, field):
     assert field in refusal(write_document(path, document))
 
 
+@pytest.mark.parametrize("orders", [[1, 1], [1, 32768], [1, 10**30]])
+def test_runtime_and_encal_refuse_the_same_fourier_orders(saved, orders):
+    # Repeated orders would be summed by one reader and refused by the other; orders beyond a C int
+    # would be exported wrongly. Both readers refuse them, in the same sentence naming the file.
+    path, document = saved
+    document["parameters"].update(orders=orders, cos=[1.0, 2.0], sin=[0.0, 0.5])
+    message = refusal(write_document(path, document))
+    assert "parameters.orders to be a non-empty list of distinct integers from 0 to 32767" in message
+    with pytest.raises(runtime.ModelFileError) as info:
+        runtime.load(path)
+    assert str(info.value) == message
+    assert runtime.MAX_FOURIER_ORDER == encal.models.fourier.MAX_ORDER
+    with pytest.raises(InputError, match="distinct integer orders from 0 to 32767"):
+        FourierModel(orders[:2] if orders[1] != 10**30 else [1, 32768], [1.0, 2.0], [0.0, 0.5])
+
+
+def test_a_model_class_refusal_names_the_file(saved, monkeypatch):
+    path, _ = saved
+
+    def refuse(cls, parameters, **kwargs):
+        raise ModelFileError("fourier model parameters are odd")
+    monkeypatch.setattr(FourierModel, "from_parameters", classmethod(refuse))
+    assert refusal(path) == f"{path}: fourier model parameters are odd"
+
+
 def test_refuses_non_finite_numbers(saved):
     path, document = saved
     text = path.read_text(encoding="utf-8").replace("3.25", "NaN")

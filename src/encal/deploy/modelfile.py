@@ -120,8 +120,11 @@ def model_from_dict(document, *, source="model file", verify_checksum=True):
     if cls is None:
         raise ModelFileError(f"{source}: expected a model kind this installation can evaluate, "
                              f"got {kind!r}, which has no registered model class")
-    model = cls.from_parameters(document["parameters"], encoder=document["encoder"],
-                                training=document["training"])
+    try:
+        model = cls.from_parameters(document["parameters"], encoder=document["encoder"],
+                                    training=document["training"])
+    except ModelFileError as exc:
+        raise ModelFileError(f"{source}: {exc}") from None
     if document.get("uncertainty") is not None:
         model.uncertainty = document["uncertainty"]
     return model

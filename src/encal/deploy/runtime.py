@@ -235,9 +235,11 @@ def check_uncertainty(uncertainty, where, field="uncertainty"):
 
 def _check_fourier(p, where, field):
     orders = p.get("orders")
-    if not (isinstance(orders, list) and orders and all(_is_int(k) and k >= 0 for k in orders)):
-        raise ModelFileError(f"{where}: expected {field}.orders to be a non-empty list of "
-                             f"integers >= 0, got {_describe(orders)}")
+    if not (isinstance(orders, list) and orders
+            and all(_is_int(k) and 0 <= k <= MAX_FOURIER_ORDER for k in orders)
+            and len(set(orders)) == len(orders)):
+        raise ModelFileError(f"{where}: expected {field}.orders to be a non-empty list of distinct "
+                             f"integers from 0 to {MAX_FOURIER_ORDER}, got {_describe(orders)}")
     for name in ("cos", "sin"):
         _require_numbers(p.get(name), len(orders), where, f"{field}.{name}")
 
@@ -355,6 +357,10 @@ def _lookup(choices, value):
 def _is_int(value):
     return isinstance(value, int) and not isinstance(value, bool)
 
+
+#: Largest Fourier order: the highest a C ``int`` holds on every platform (C99 guarantees 16 bits), and
+#: beyond the Nyquist order of any calibration of fewer than 65,536 points.
+MAX_FOURIER_ORDER = 32767
 
 #: Largest magnitude a parameter may have. Real models stay many orders below it; a file beyond it (made
 #: by hand and re-signed) could overflow to inf or NaN in double precision, a wrong number that looks like

@@ -20,7 +20,11 @@ from ..profile import (
 )
 from .base import Model, register_model
 
-__all__ = ["FourierModel", "fit_fourier"]
+__all__ = ["FourierModel", "fit_fourier", "MAX_ORDER"]
+
+#: Largest order a model may hold: the highest a C ``int`` holds on every platform, which the C export
+#: stores orders in. The model file's reader applies the same bound.
+MAX_ORDER = 32767
 
 
 @register_model
@@ -58,10 +62,11 @@ class FourierModel(Model):
         if orders.size and (
             not np.issubdtype(orders.dtype, np.integer) and not np.all(orders == np.round(orders))
             or np.any(orders < 0)
+            or np.any(orders > MAX_ORDER)
             or np.unique(orders).size != orders.size
         ):
             raise InputError(
-                f"FourierModel expects distinct non-negative integer orders; got {orders.tolist()}"
+                f"FourierModel expects distinct integer orders from 0 to {MAX_ORDER}; got {orders.tolist()}"
             )
         if not (np.all(np.isfinite(cos)) and np.all(np.isfinite(sin))):
             raise InputError("FourierModel expects finite coefficients in arc-minutes; got NaN or infinity")
