@@ -32,9 +32,11 @@ def evaluate_from_parameters(parameters, theta_deg):
 
 
 def scattered_profile(seed, n=90):
+    """Noise at n irregular angles, shuffled: a grid of n cells, one angle anywhere in the first half of
+    each cell, so neighbours are 0.5 to 1.5 cells apart (never close enough for the cubic table to merge)."""
     rng = np.random.default_rng(seed)
-    theta = rng.uniform(0.0, 360.0, n)
-    return theta, rng.normal(0.0, 2.0, n)
+    theta = (np.arange(n) + rng.uniform(0.0, 0.5, n)) * (360.0 / n)
+    return rng.permutation(theta), rng.normal(0.0, 2.0, n)
 
 
 @pytest.mark.parametrize("interpolation", INTERPOLATIONS)
@@ -54,6 +56,39 @@ def test_repeated_angles_become_one_entry_with_their_mean(interpolation):
     assert model.table_deg.tolist() == [10.0, 100.0, 200.0]
     assert model.table_arcmin.tolist() == [3.0, 5.0, -1.0]
     assert model.predict(10.0) == 3.0
+
+
+def test_cubic_table_merges_readings_far_closer_than_their_spacing():
+    # A 2° grid plus a second reading 1 LSB of a 24-bit encoder after 90°, 0.5 arcmin apart: through both,
+    # the spline would take a slope of 0.5 arcmin per 2e-5° and swing by thousands of arc-minutes.
+    theta = np.arange(0.0, 360.0, 2.0)
+    errors = np.sin(np.radians(theta))
+    extra = 90.0 + 360.0 / 2**24
+    cubic = fit_lut(np.r_[theta, extra], np.r_[errors, errors[45] + 0.5], interpolation="cubic")
+    assert cubic.training["n_entries"] == 180
+    assert cubic.predict((90.0 + extra) / 2) == pytest.approx(errors[45] + 0.25, abs=1e-9)
+    dense = np.linspace(0.0, 360.0, 72001)
+    assert np.abs(cubic.predict(dense)).max() < 1.3
+    linear = fit_lut(np.r_[theta, extra], np.r_[errors, errors[45] + 0.5], interpolation="linear")
+    assert linear.training["n_entries"] == 181 and linear.predict(extra) == errors[45] + 0.5
+
+
+def test_cubic_table_of_dense_random_readings_stays_near_the_data():
+    rng = np.random.default_rng(1)  # any seed: 2000 uniform angles always hold pairs 1e-3 of a spacing apart
+    theta = rng.uniform(0.0, 360.0, 2000)
+    errors = 3.0 * np.sin(np.radians(theta)) + rng.normal(0.0, 0.1, theta.size)
+    model = fit_lut(theta, errors, interpolation="cubic")
+    assert model.training["n_entries"] < 2000
+    assert np.abs(model.predict(np.linspace(0.0, 360.0, 360001))).max() < 2.0 * np.abs(errors).max()
+
+
+def test_a_run_of_close_readings_across_zero_becomes_one_entry():
+    theta = np.r_[359.99995, 0.00001, np.arange(2.0, 360.0, 2.0)]
+    errors = np.r_[1.0, 2.0, np.zeros(179)]
+    model = fit_lut(theta, errors, interpolation="cubic")
+    assert model.training["n_entries"] == 180
+    assert model.table_deg[-1] == pytest.approx(359.99998, abs=1e-9)
+    assert model.predict(359.99998) == pytest.approx(1.5, abs=1e-9)
 
 
 def test_linear_table_interpolates_across_the_wrap():
