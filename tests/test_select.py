@@ -361,6 +361,18 @@ def test_stack_weights_drop_small_shares_and_keep_at_most_three_members():
     assert weights.sum() == pytest.approx(1.0, abs=1e-12) and np.all(weights[weights > 0] >= select.STACK_MIN_WEIGHT)
 
 
+def test_stack_weights_of_an_all_zero_profile_are_one_member():
+    weights = stack_weights(np.zeros((3, 10)), np.zeros(10))
+    assert weights.tolist() == [1.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("constant", [0.0, 30.0])
+def test_auto_on_few_points_of_a_constant_profile_is_that_constant(constant):
+    theta = np.arange(8) * 45.0
+    model = fit_auto(theta, np.full(8, constant), rng=0)
+    np.testing.assert_allclose(model.predict(np.linspace(0.0, 360.0, 3601)), constant, rtol=0, atol=1e-12)
+
+
 def test_the_stack_of_two_independent_errors_halves_their_variance_in_cross_validation():
     n = 4000
     theta = np.arange(n) * 360.0 / n

@@ -359,7 +359,9 @@ def stack_weights(predictions, error_arcmin, *, max_members=STACK_MAX_MEMBERS, m
     error = np.asarray(error_arcmin, dtype=float)
     active = np.arange(predictions.shape[0])
     # The sum-to-one constraint as one heavily weighted extra equation of the non-negative fit.
-    penalty = 1e3 * max(float(np.sqrt(np.mean(predictions**2))), float(np.sqrt(np.mean(error**2))), 1e-300)
+    # Its scale follows the data's; where predictions and errors are all zero any convex weights fit them.
+    scale = max(float(np.sqrt(np.mean(predictions**2))), float(np.sqrt(np.mean(error**2))))
+    penalty = 1e3 * (scale if scale > 0.0 else 1.0)
     while True:
         system = np.vstack([predictions[active].T, np.full((1, active.size), penalty)])
         solution, _ = scipy.optimize.nnls(system, np.append(error, penalty))
