@@ -361,6 +361,15 @@ def test_stack_weights_drop_small_shares_and_keep_at_most_three_members():
     assert weights.sum() == pytest.approx(1.0, abs=1e-12) and np.all(weights[weights > 0] >= select.STACK_MIN_WEIGHT)
 
 
+def test_readings_at_one_angle_cannot_be_cross_validated():
+    with pytest.raises(InputError, match=r"^fit_auto expects at least 2 distinct encoder angles to cross-validate; "
+                                         r"got 20 readings all at 45 degrees$"):
+        fit_auto(np.full(20, 45.0), np.linspace(0.5, 0.6, 20), rng=0)
+    with pytest.raises(InputError, match=r"^cross-validation expects at least 2 distinct encoder angles; "
+                                         r"got 20 readings all at 45 degrees$"):
+        encal.models.fourier.fit_fourier(np.full(20, 45.0), np.linspace(0.5, 0.6, 20), select="cv")
+
+
 def test_stack_weights_of_an_all_zero_profile_are_one_member():
     weights = stack_weights(np.zeros((3, 10)), np.zeros(10))
     assert weights.tolist() == [1.0, 0.0, 0.0]

@@ -283,6 +283,9 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "cross_validate_order_count")
     distinct, group = distinct_angles(theta)
+    if distinct.size < 2:
+        raise InputError("cross-validation expects at least 2 distinct encoder angles; "
+                         f"got {theta.size} readings all at {distinct[0]:.9g} degrees")
     if not 2 <= folds <= distinct.size:
         raise InputError(
             f"cross-validation expects between 2 and {distinct.size} folds for "

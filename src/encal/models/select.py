@@ -541,7 +541,11 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     ('fourier select=cv', [1, 4])
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_auto")
-    most = max(distinct_angles(theta)[0].size // MIN_POINTS_PER_FOLD, 2)
+    distinct = distinct_angles(theta)[0]
+    if distinct.size < 2:
+        raise InputError("fit_auto expects at least 2 distinct encoder angles to cross-validate; "
+                         f"got {theta.size} readings all at {distinct[0]:.9g} degrees")
+    most = max(distinct.size // MIN_POINTS_PER_FOLD, 2)
     if folds is None:
         folds = min(DEFAULT_FOLDS, most)
     if isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or not 2 <= folds <= most:
