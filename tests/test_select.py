@@ -12,6 +12,7 @@ import encal
 from encal.cli import main
 from encal.errors import EncalWarning, InputError
 from encal.models import select
+from encal.models.fourier import fit_fourier
 from encal.models.select import (
     DEFAULT_CANDIDATES,
     Candidate,
@@ -367,7 +368,7 @@ def test_readings_at_one_angle_cannot_be_cross_validated():
         fit_auto(np.full(20, 45.0), np.linspace(0.5, 0.6, 20), rng=0)
     with pytest.raises(InputError, match=r"^cross-validation expects at least 2 distinct encoder angles; "
                                          r"got 20 readings all at 45 degrees$"):
-        encal.models.fourier.fit_fourier(np.full(20, 45.0), np.linspace(0.5, 0.6, 20), select="cv")
+        fit_fourier(np.full(20, 45.0), np.linspace(0.5, 0.6, 20), select="cv")
 
 
 def test_stack_weights_of_an_all_zero_profile_are_one_member():
