@@ -222,8 +222,9 @@ def _data_cases(command, *before, after=()):
 CASES = [
     # ---------------------------------------------------------------- profile
     *_data_cases("profile"),
+    # The repeat of 10 degrees reads 30 arcmin off the first: averaged on request, and named as a misread.
     Case("profile-duplicates-averaged", ("profile", "{duplicate}", "--average-duplicates"), 0,
-         prints=("180 points",)),
+         prints=("180 points",), warns=("line 182 (encoder 10.500 deg)", "misread")),
     Case("profile-reversed-accepted", ("profile", "{reversed}", "--reverse"), 0),
     Case("profile-gap-accepted", ("profile", "{gap}", "--allow-gaps"), 0),
     Case("profile-radians-accepted-with-warning", ("profile", "{radians}", "--allow-gaps", "--json"), 0,
@@ -234,7 +235,8 @@ CASES = [
     # ---------------------------------------------------------------- fit
     *_data_cases("fit", after=("-o", "{out}/m.json", "--method", "fourier")),
     Case("fit-duplicates-averaged", ("fit", "{duplicate}", "-o", "{scratch}/avg.json", "--method", "lut",
-                                     "--average-duplicates"), 0, prints=("180 points",)),
+                                     "--average-duplicates"), 0, prints=("180 points",),
+         warns=("line 182 (encoder 10.500 deg)", "misread")),
     Case("fit-reversed-accepted", ("fit", "{reversed}", "-o", "{scratch}/rev.json", "--method", "fourier",
                                    "--reverse"), 0),
     Case("fit-output-folder-missing", ("fit", "{train}", "-o", "{nodir}/m.json"), 1, ("does not exist",)),

@@ -253,11 +253,39 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         resolution_bits=resolution_bits,
         source=str(path),
     )
+    rows = cal
     cal = _check_duplicates(path, cal, duplicates, first_data_line=records[1][0])
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
     _check_coverage(path, cal, allow_gaps)
+    _warn_if_isolated(path, rows, [number for number, _ in records[1:]])
     return cal
+
+
+def _warn_if_isolated(path, cal, line_numbers):
+    """Warn about readings far off their neighbours on both sides (:mod:`encal.outliers`), per direction and epoch."""
+    from .outliers import ISOLATION_FACTOR, isolated_points
+
+    quantum = None if cal.resolution_bits is None else 360.0 * ARCMIN_PER_DEG / 2**cal.resolution_bits
+    keys = list(zip(*(labels for labels in (cal.direction, cal.epoch) if labels is not None))) or [()] * len(cal)
+    errors = cal.errors_arcmin
+    found = []
+    for key in dict.fromkeys(keys):
+        members = np.flatnonzero([k == key for k in keys])
+        isolated = isolated_points(cal.encoder_deg[members], errors[members], quantum_arcmin=quantum)
+        found += [(members[i], d, isolated.typical_step_arcmin)
+                  for i, d in zip(isolated.index, isolated.deviation_arcmin)]
+    if not found:
+        return
+    found.sort()
+    index, deviation, step = found[0]
+    where = f"line {line_numbers[index]} (encoder {cal.encoder_deg[index]:.3f} deg)"
+    more = f", and {len(found) - 1} more reading{'s' if len(found) > 2 else ''} like it" if len(found) > 1 else ""
+    warnings.warn(
+        f"{path}: {where} has an error of {errors[index]:.4g} arcmin, {abs(deviation):.4g} arcmin off its "
+        f"neighbours on both sides, over {ISOLATION_FACTOR:g} times their typical step of {step:.3g} arcmin"
+        f"{more}: a misread? Every model follows it; measure it again or remove the line",
+        EncalWarning, stacklevel=3)
 
 
 def _resolution_from_comments(path, lines):
