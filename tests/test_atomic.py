@@ -1,10 +1,14 @@
 """Whole-or-nothing writes: single files and sets of files (encal._atomic)."""
 
+import os
+import stat
+
 import pytest
 
 import encal._atomic as atomic
 from encal._atomic import atomic_file_set, atomic_write, staged_path
 from encal.cli import main
+from encal.errors import InputError
 
 
 class _Boom(Exception):
@@ -96,3 +100,36 @@ def test_c_export_failing_on_the_source_leaves_no_header(tmp_path, monkeypatch, 
     assert main(["export", str(model), "--format", "c", "--bits", "16", "-o", str(target)]) == 1
     assert "No space left" in capsys.readouterr().err
     assert list(target.iterdir()) == [] and _leftovers(tmp_path) == []
+
+
+def test_a_symbolic_link_is_written_through(tmp_path):
+    target = tmp_path / "target.json"
+    target.write_text("old")
+    link = tmp_path / "link.json"
+    link.symlink_to(target)
+    atomic_write(link, "new")
+    assert link.is_symlink() and target.read_text() == "new"
+    with atomic_file_set():
+        atomic_write(link, "newer")
+        assert staged_path(link).read_text() == "newer"
+    assert link.is_symlink() and target.read_text() == "newer"
+
+
+def test_a_pipe_or_device_is_not_replaced(tmp_path):
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    with pytest.raises(InputError, match=r"cannot write .*fifo: it is not a regular file \(a device, pipe or "
+                                         r"socket\); expected the path of a file"):
+        atomic_write(fifo, "data")
+    assert stat.S_ISFIFO(fifo.lstat().st_mode)
+    assert [p.name for p in tmp_path.iterdir()] == ["fifo"]
+    with pytest.raises(InputError, match="not a regular file"):
+        atomic_write("/dev/null", "data")
+    assert stat.S_ISCHR(os.lstat("/dev/null").st_mode)
+
+
+def test_a_folder_that_cannot_be_written_is_named_not_the_temporary_file(tmp_path):
+    with pytest.raises(InputError) as info:
+        atomic_write("/proc/encal-model.json", "data")
+    message = str(info.value)
+    assert message.startswith("cannot write /proc/encal-model.json: ") and ".tmp" not in message

@@ -57,7 +57,7 @@ def staged_path(path):
     Lets a command read back a file it wrote inside :func:`atomic_file_set`
     (``encal demo`` reloads each saved model to check it).
     """
-    path = Path(path)
+    path = Path(os.path.realpath(path)) if Path(path).is_symlink() else Path(path)
     for tmp, destination in reversed(_PENDING.get() or ()):
         if destination == path:
             return Path(tmp)
@@ -78,17 +78,31 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
     Raises
     ------
     InputError
-        If the destination folder does not exist, or the destination is a folder.
+        If the destination folder does not exist or cannot be written, the destination is a folder
+        or not a regular file (a device, pipe or socket), or writing fails (the disk is full).
+
+    Notes
+    -----
+    A symbolic link is followed: the file it points to is replaced, and the link stays.
     """
-    path = Path(path)
+    given = Path(path)
+    path = Path(os.path.realpath(given)) if given.is_symlink() else given
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(
-            f"cannot write {path}: the folder {folder} does not exist"
+            f"cannot write {given}: the folder {folder} does not exist"
         )
     if path.is_dir():
-        raise InputError(f"cannot write {path}: it is a folder; expected the path of a file")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        raise InputError(f"cannot write {given}: it is a folder; expected the path of a file")
+    if path.exists() and not path.is_file():
+        # Renaming over /dev/null or a pipe would replace it with a regular file.
+        raise InputError(f"cannot write {given}: it is not a regular file (a device, pipe or socket); "
+                         "expected the path of a file")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise InputError(f"cannot write {given}: {exc.strerror or exc}; expected a folder where files "
+                         "can be written") from None
     try:
         kwargs = {} if "b" in mode else {"encoding": encoding, "newline": newline}
         with os.fdopen(fd, mode, **kwargs) as handle:
@@ -101,6 +115,10 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
             os.replace(tmp, path)
         else:
             pending.append((tmp, path))
+    except OSError as exc:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise InputError(f"cannot write {given}: {exc.strerror or exc}") from None
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
