@@ -206,3 +206,24 @@ def test_calibration_validation():
         Calibration([0, np.nan], [0, 1])
     with pytest.raises(CalibrationError, match=r"\+1 or -1"):
         Calibration([0, 1], [0, 1], direction=[1, 0])
+
+
+def test_a_column_named_twice_is_refused(write_csv):
+    lines = grid_csv().splitlines()
+    text = "reference_deg,encoder_deg,Encoder_deg\n" + "\n".join(f"{row},{float(row.split(',')[1]) + 1}"
+                                                               for row in lines[1:]) + "\n"
+    message = _refused(write_csv(text), "line 1: the header names encoder_deg 2 times")
+    assert message.endswith("(columns 2, 3); expected each column once, so that it is clear which to read")
+
+
+@pytest.mark.parametrize("cell", ["1" * 100_000, "x" * 100_000])
+def test_a_huge_cell_is_shown_shortened(write_csv, cell):
+    lines = grid_csv().splitlines()
+    lines[5] = lines[5].split(",")[0] + "," + cell
+    message = _refused(write_csv("\n".join(lines) + "\n"), "line 6, column 2: encoder_deg is '")
+    assert len(message) < 300 and "...'" in message
+
+
+def test_a_huge_header_is_shown_shortened(write_csv):
+    message = _refused(write_csv("[" * 100_000 + "\n" + "1,2\n" * 10), "the header lacks")
+    assert len(message) < 500

@@ -477,3 +477,15 @@ def test_refuses_malformed_directional_models(tmp_path, change, field):
     document = json.loads((DATA / "model_v1_directional.json").read_text(encoding="utf-8"))
     change(document["parameters"])  # the parameters are checked before the normalisation
     assert field in refusal(write_document(tmp_path / "d.json", document))
+
+
+@pytest.mark.parametrize("text, words", [
+    ("[" * 100_000 + "]" * 100_000, "nested too deeply to read"),
+    ('{"format": "encal.model", "version": 1' + "0" * 5000 + "}", "a number too long to read"),
+])
+def test_json_that_the_parser_cannot_hold_is_refused_in_one_sentence(tmp_path, text, words):
+    path = tmp_path / "odd.json"
+    path.write_text(text, encoding="utf-8")
+    assert words in refusal(path)
+    with pytest.raises(runtime.ModelFileError, match=words):
+        runtime.load(path)

@@ -137,16 +137,20 @@ def _decode(path, raw):
     return text
 
 
+def _shown(text, limit=40):
+    """``text`` for a message: whole if short, else its start and '...' (a cell may be megabytes long)."""
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def _parse_float(path, line, column, name, cell):
     try:
         value = float(cell)
     except ValueError:
-        shown = cell if len(cell) <= 40 else cell[:37] + "..."
-        _fail(path, line, f"{name} is {shown!r}, expected a number of degrees", column)
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of degrees", column)
     if not np.isfinite(value):
-        _fail(path, line, f"{name} is {cell.strip()!r}, expected a finite number of degrees", column)
+        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of degrees", column)
     if abs(value) > MAX_ABS_DEG:
-        _fail(path, line, f"{name} is {cell.strip()!r}, expected an angle in degrees within +-{MAX_ABS_DEG:g} "
+        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected an angle in degrees within +-{MAX_ABS_DEG:g} "
                           "(beyond that a double cannot hold the angle within a turn to 1e-5 arcmin; "
                           "is this column counts or time stamps?)", column)
     return value
@@ -335,10 +339,16 @@ def _header_columns(path, line, header):
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
+    for name in (*_REQUIRED, "direction", "epoch"):
+        where = [index + 1 for index, cell in enumerate(names) if cell == name]
+        if len(where) > 1:
+            _fail(path, line, f"the header names {name} {len(where)} times (columns "
+                              f"{', '.join(map(str, where))}); expected each column once, so that it is clear "
+                              "which to read")
     missing = [name for name in _REQUIRED if name not in columns]
     if missing:
         looks_numeric = all(_is_number(cell) for cell in names if cell)
-        found = "a row of numbers" if looks_numeric else f"columns {', '.join(names)}"
+        found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
         _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
                           f"reference_deg and encoder_deg, found {found}")
     return columns

@@ -97,7 +97,17 @@ def read_document(path):
     except json.JSONDecodeError as exc:
         raise ModelFileError(f"{path}: expected a JSON model file, but line {exc.lineno} "
                              f"column {exc.colno} is not valid JSON ({exc.msg})") from None
-    check_document(document, path)
+    except ValueError as exc:  # an integer of more digits than Python converts
+        raise ModelFileError(f"{path}: expected a JSON model file, but it holds a number too long to read "
+                             f"({exc})") from None
+    except RecursionError:
+        raise ModelFileError(f"{path}: expected a JSON model file, but its arrays or objects are nested "
+                             "too deeply to read") from None
+    try:
+        check_document(document, path)
+    except RecursionError:
+        raise ModelFileError(f"{path}: expected an encal model file, but its arrays or objects are nested "
+                             "too deeply") from None
     return document
 
 
