@@ -499,3 +499,20 @@ def test_runtime_and_encal_share_the_weight_tolerance(tmp_path, excess, accepted
             runtime.load(path)
         with pytest.raises(ModelFileError, match="sum to 1"):
             load_model(path)
+
+
+def test_a_stack_without_members_or_weights_is_refused_in_one_sentence():
+    theta = np.arange(0.0, 360.0, 10.0)
+    for options in ({}, {"members": [{"family": "lut"}]}):
+        with pytest.raises(InputError, match=r"^fit_stack expects members and weights: "):
+            fit_stack(theta, np.sin(np.radians(theta)), **options)
+
+
+def test_drift_offers_no_stack_method(tmp_path, capsys):
+    from encal.cli import main
+    theta = np.arange(0.0, 360.0, 10.0)
+    path = tmp_path / "a.csv"
+    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{t},{t + 0.01}\n" for t in theta))
+    with pytest.raises(SystemExit) as info:
+        main(["drift", str(path), str(path), "--method", "stack"])
+    assert info.value.code == 2 and "invalid choice: 'stack'" in capsys.readouterr().err

@@ -33,7 +33,7 @@ def add_arguments(parser):
                         help="the first calibration, then later ones (or one file with an epoch column)")
     parser.add_argument("--tolerance", metavar="ARCMIN", type=_number, default=None,
                         help="allowed increase of the residual RMS (default: max(1 LSB, 10%%))")
-    parser.add_argument("--method", default=None,
+    parser.add_argument("--method", default=None, choices=("auto", "fourier", "lut", "ann", "hybrid"),
                         help="model fitted on the first calibration (default: fourier; not with --model)")
     parser.add_argument("--model", metavar="MODEL.json", default=None,
                         help="judge this model file instead of fitting one on the first calibration")

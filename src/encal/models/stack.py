@@ -110,7 +110,7 @@ class StackModel(Model):
         return f"<StackModel {terms} for {name}>"
 
 
-def fit_stack(theta_enc_deg, error_arcmin, *, members, weights, rng=None):
+def fit_stack(theta_enc_deg, error_arcmin, *, members=None, weights=None, rng=None):
     """Fit every member on all points and combine them with the given weights.
 
     Parameters
@@ -152,6 +152,9 @@ def fit_stack(theta_enc_deg, error_arcmin, *, members, weights, rng=None):
     >>> round(float(model.predict(90.0)), 9)
     2.0
     """
+    if members is None or weights is None:
+        raise InputError("fit_stack expects members and weights: which models to average, and how much of "
+                         "each (docs/model-selection.md, 'Stacking')")
     specs = _check_specs(members)
     weights = _check_weights(weights, len(specs), "fit_stack")
     generators, seed = _member_generators(rng, len(specs))
