@@ -101,3 +101,13 @@ def test_exported_table_corrects_like_the_model(tmp_path, capsys):
     expected = Compensator(MODEL).correct(codes * (360.0 / 2**16))
     difference = (table.correct_counts(codes) - expected + 180.0) % 360.0 - 180.0
     assert np.abs(difference).max() <= table.quantisation_arcmin / 60 + 1e-12
+
+
+def test_c_refuses_to_overwrite_the_model_it_exports(tmp_path, capsys):
+    model = tmp_path / "axis.h"
+    model.write_bytes((DATA / "model_v1_fourier.json").read_bytes())
+    before = model.read_bytes()
+    assert main(["export", str(model), "--format", "c", "-o", str(tmp_path), "--name", "axis"]) == 1
+    err = capsys.readouterr().err
+    assert f"would write {model}, the model file being exported" in err and err.count("\n") == 1
+    assert model.read_bytes() == before and not (tmp_path / "axis.c").exists()

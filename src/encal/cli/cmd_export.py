@@ -43,6 +43,12 @@ def run(args):
     if output.exists() and output.resolve() == Path(args.model).resolve():
         raise InputError(f"-o {output} is the model file being exported; expected a different output path "
                          "(the export would overwrite the model)")
+    if args.format == "c":
+        model = Path(args.model).resolve()
+        for written in (output / f"{args.name}.h", output / f"{args.name}.c"):
+            if written.exists() and written.resolve() == model:
+                raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
+                                 "a different folder or --name (the export would overwrite the model)")
     compensator = Compensator(args.model)
     if args.format == "table":
         table = compile_table(compensator, args.bits, dtype=args.dtype)
