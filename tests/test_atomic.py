@@ -1,6 +1,7 @@
 """Whole-or-nothing writes: single files and sets of files (encal._atomic)."""
 
 import os
+import signal
 import stat
 
 import pytest
@@ -133,3 +134,25 @@ def test_a_folder_that_cannot_be_written_is_named_not_the_temporary_file(tmp_pat
         atomic_write("/proc/encal-model.json", "data")
     message = str(info.value)
     assert message.startswith("cannot write /proc/encal-model.json: ") and ".tmp" not in message
+
+
+def test_sigterm_part_way_cleans_up_like_ctrl_c(tmp_path, monkeypatch, capsys):
+    # SIGTERM (kill, timeout, a CI runner) arriving during the third file of a set: exit 143, no new file,
+    # no temporary file, the old files intact.
+    out = tmp_path / "fleet"
+    assert main(["simulate", "--encoders", "1", "--out", str(out)]) == 0
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    real = atomic.atomic_open
+    count = iter(range(1, 10**6))
+
+    def terminated(path, *args, **kwargs):
+        if next(count) == 3:
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(atomic, "atomic_open", terminated)
+    assert main(["simulate", "--encoders", "2", "--seed", "7", "--out", str(out)]) == 143
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "encal simulate: terminated"
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    assert _leftovers(tmp_path) == []
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL

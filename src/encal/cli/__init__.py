@@ -5,7 +5,8 @@ Each command lives in a module ``cmd_<name>.py`` of this package with
 modules are found at start-up, so adding a command means adding a file.
 
 Exit status: 0 on success, 1 on bad data or a failed operation (one line on
-stderr, no traceback), 2 on wrong usage (argparse).
+stderr, no traceback), 2 on wrong usage (argparse), 130 on Ctrl-C and 143 on
+SIGTERM (both clean up as a failure does).
 """
 
 import os
@@ -19,7 +20,9 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import importlib  # noqa: E402
 import pkgutil  # noqa: E402
+import signal  # noqa: E402
 import sys  # noqa: E402
+import threading  # noqa: E402
 
 from .._version import __version__
 from ..errors import EncalError
@@ -68,6 +71,7 @@ def main(argv=None):
         return 2
     from ._common import warnings_as_lines
 
+    previous = _terminate_like_interrupt()
     try:
         with warnings_as_lines(args.command):
             return int(args._run(args) or 0)
@@ -80,9 +84,28 @@ def main(argv=None):
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
         print(f"encal {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"encal {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        print(f"encal {args.command}: {'terminated' if isinstance(exc, _Terminated) else 'interrupted'}",
+              file=sys.stderr)
+        return 143 if isinstance(exc, _Terminated) else 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, ``timeout``, a CI runner), handled as Ctrl-C: temporary files removed, workers stopped."""
+
+
+def _raise_terminated(signum, frame):
+    raise _Terminated()
+
+
+def _terminate_like_interrupt():
+    """Make SIGTERM raise :class:`_Terminated` while a command runs; return the handler to restore, or None."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 if __name__ == "__main__":  # pragma: no cover
