@@ -238,3 +238,14 @@ def test_direction_option_selects_a_directional_models_part(tmp_path, capsys):
         assert out == [float(v) for v in expected]
         results[direction] = out
     assert results[1] != results[-1]  # the two directions' models differ by arc-minutes here
+
+
+def test_closed_standard_output_is_one_sentence(tmp_path):
+    readings = tmp_path / "angles.txt"
+    readings.write_text("10\n20\n")
+    done = subprocess.run([sys.executable, "-m", "encal", "correct", str(DATA / "model_v1_fourier.json"),
+                           str(readings)], preexec_fn=lambda: os.close(1), capture_output=False,
+                          stderr=subprocess.PIPE, text=True, timeout=120)
+    assert done.returncode == 1
+    assert done.stderr == ("encal correct: error: standard output is closed; expected somewhere to write the "
+                           "corrected angles\n")

@@ -169,3 +169,9 @@ def test_save_figure_writes_a_png(tmp_path):
     path = plots.save_figure(ax.figure, tmp_path / "line.png")
     assert path.read_bytes().startswith(PNG_MAGIC)
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_panels_past_z_are_labelled_aa_ab_and_so_on():
+    from encal.plots import _panel_label
+    assert [_panel_label(i) for i in (0, 25, 26, 27, 51, 52, 701, 702)] == \
+        ["a", "z", "aa", "ab", "az", "ba", "zz", "aaa"]

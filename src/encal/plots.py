@@ -189,7 +189,7 @@ def panel_figure(items, draw, *, title=None, ncols=2, panel_size=(4.6, 3.0), sha
     axes = np.atleast_1d(fig.subplots(nrows, ncols, sharey=sharey, squeeze=False).ravel())
     for index, (name, ax) in enumerate(zip(names, axes)):
         draw(items[name], ax)
-        ax.set_title(f"({chr(ord('a') + index)}) {ax.get_title()}", fontsize="medium")
+        ax.set_title(f"({_panel_label(index)}) {ax.get_title()}", fontsize="medium")
     for ax in axes[len(names):]:
         ax.set_visible(False)
     if title:
@@ -462,3 +462,13 @@ def _angle_axis(ax):
     ax.set_xlim(0.0, 360.0)
     ax.set_xticks(np.arange(0, 361, 60))
     ax.set_xlabel("encoder angle θ_enc (deg)")
+
+
+def _panel_label(index):
+    """Panel label of the index-th panel: a ... z, then aa, ab, ... (a fleet may have hundreds of encoders)."""
+    label = ""
+    index += 1
+    while index:
+        index, letter = divmod(index - 1, 26)
+        label = chr(ord("a") + letter) + label
+    return label

@@ -21,6 +21,7 @@ import sys
 
 from ..deploy import Compensator
 from ..deploy.stream import correct_stream
+from ..errors import InputError
 
 HELP = "correct encoder angles (one per line, degrees) with a model file"
 
@@ -47,6 +48,10 @@ def claim_extras(args, extras):
 
 def run(args):
     compensator = Compensator(args.model)
+    if sys.stdout is None:  # started with standard output closed (`>&-`)
+        raise InputError("standard output is closed; expected somewhere to write the corrected angles")
+    if args.input == "-" and sys.stdin is None:
+        raise InputError("standard input is closed; expected encoder angles on it, or give a FILE")
     sink = getattr(sys.stdout, "buffer", None) or _TextSink(sys.stdout)
     try:
         if args.input == "-":
