@@ -268,6 +268,8 @@ CASES = [
          ("--folds",)),
     Case("fit-negative-seed", ("fit", "{train}", "-o", "{out}/m.json", "--method", "ann", "--epochs", "2",
                                "--seed", "-1"), 1, ("-1",)),
+    Case("fit-orders-and-n-orders", ("fit", "{train}", "-o", "{out}/m.json", "--method", "fourier", "--orders",
+                                     "1", "--n-orders", "2"), 1, ("--orders and --n-orders",)),
     Case("fit-negative-seed-auto", ("fit", "{train}", "-o", "{out}/m.json", "--seed", "-1"), 1, ("-1",)),
     Case("fit-aliasing-orders", ("fit", "{train}", "-o", "{scratch}/alias.json", "--method", "fourier", "--orders",
                                  "0,1,179"), 1, ("179",)),

@@ -54,6 +54,8 @@ def _options(args):
         if getattr(args, name) is not None and args.method not in methods:
             flag = "--no-stack" if name == "stack" else "--" + name.replace("_", "-")
             raise InputError(f"{flag} applies to --method {' or '.join(methods)}, not {args.method}")
+    if args.orders is not None and args.n_orders is not None:
+        raise InputError("--orders and --n-orders both choose the Fourier orders; expected one of them")
     options = {}
     for name in ("hidden", "algorithm", "encoding", "epochs", "interpolation", "n_orders", "folds", "stack"):
         value = getattr(args, name)
