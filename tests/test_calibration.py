@@ -227,3 +227,13 @@ def test_a_huge_cell_is_shown_shortened(write_csv, cell):
 def test_a_huge_header_is_shown_shortened(write_csv):
     message = _refused(write_csv("[" * 100_000 + "\n" + "1,2\n" * 10), "the header lacks")
     assert len(message) < 500
+
+
+def test_quoted_fields_are_read_as_csv(write_csv):
+    lines = grid_csv().splitlines()
+    rows = [f'"run 1, table A",{row}' if i % 2 else f'"note",{",".join(f"{chr(34)}{c}{chr(34)}" for c in row.split(","))}'
+            for i, row in enumerate(lines[1:])]
+    cal = read_calibration(write_csv("note,\"reference_deg\",encoder_deg\n" + "\n".join(rows) + "\n"))
+    plain = read_calibration(write_csv(grid_csv(), name="plain.csv"))
+    assert np.array_equal(cal.reference_deg, plain.reference_deg)
+    assert np.array_equal(cal.encoder_deg, plain.encoder_deg)

@@ -385,7 +385,7 @@ CASES = [
     Case("drift-one-run", ("drift", "{train}"), 1, ("two",)),
     Case("drift-negative-tolerance", ("drift", "{train}", "{test}", "--tolerance", "-1"), 1, ("tolerance",)),
     Case("drift-nan-tolerance", ("drift", "{train}", "{test}", "--tolerance", "nan"), 1, ("tolerance",)),
-    Case("drift-unknown-method", ("drift", "{train}", "{test}", "--method", "spline"), 1, ("spline",)),
+    Case("drift-unknown-method", ("drift", "{train}", "{test}", "--method", "spline"), 2),
     Case("drift-model-altered", ("drift", "{train}", "{test}", "--model", "{altered}"), 1, ("checksum",)),
     Case("drift-model-missing", ("drift", "{train}", "{test}", "--model", "{out}/none.json"), 1, ("none.json",)),
     Case("drift-tolerance-not-a-number", ("drift", "{train}", "{test}", "--tolerance", "abc"), 2),

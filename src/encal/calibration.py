@@ -1,5 +1,6 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import csv
 import warnings
 from dataclasses import dataclass, field
 
@@ -137,6 +138,11 @@ def _decode(path, raw):
     return text
 
 
+def _cells(line):
+    """The fields of one CSV line; a field in double quotes may hold commas (RFC 4180)."""
+    return next(csv.reader([line])) if '"' in line else line.split(",")
+
+
 def _shown(text, limit=40):
     """``text`` for a message: whole if short, else its start and '...' (a cell may be megabytes long)."""
     return text if len(text) <= limit else text[:limit - 3] + "..."
@@ -221,12 +227,12 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                                "'reference_deg,encoder_deg' and at least 8 rows of angles")
     header_line, header = records[0]
     columns = _header_columns(path, header_line, header)
-    n_columns = len(header.split(","))
+    n_columns = len(_cells(header))
     ref_col, enc_col = columns["reference_deg"], columns["encoder_deg"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
     reference, encoder, direction, epoch = [], [], [], []
     for number, line in records[1:]:
-        cells = line.split(",")
+        cells = _cells(line)
         if len(cells) < n_columns:
             separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
             why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
@@ -335,7 +341,7 @@ def _header_columns(path, line, header):
         if separator in header and "," not in header:
             _fail(path, line, f"fields are separated by {label}; expected commas "
                               "(save the file as comma-separated CSV)")
-    names = [cell.strip().strip('"').lower() for cell in header.split(",")]
+    names = [cell.strip().strip('"').lower() for cell in _cells(header)]
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
