@@ -157,8 +157,8 @@ def _parse_float(path, line, column, name, cell):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of degrees", column)
     if abs(value) > MAX_ABS_DEG:
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected an angle in degrees within "
-                          f"+-{MAX_ABS_DEG:g} (beyond that a double cannot hold the angle within a turn to 1e-5 arcmin; "
-                          "is this column counts or time stamps?)", column)
+                          f"+-{MAX_ABS_DEG:g} (beyond that a double cannot hold the angle within a turn to "
+                          "1e-5 arcmin; is this column counts or time stamps?)", column)
     return value
 
 
