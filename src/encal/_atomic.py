@@ -51,13 +51,19 @@ def atomic_file_set():
         _PENDING.reset(token)
 
 
+def _destination(path):
+    """The file a write to ``path`` replaces: the target of a symbolic link, else ``path`` itself."""
+    path = Path(path)
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
+
+
 def staged_path(path):
     """Where the content written for ``path`` is now: its temporary file while a set defers its rename.
 
     Lets a command read back a file it wrote inside :func:`atomic_file_set`
     (``encal demo`` reloads each saved model to check it).
     """
-    path = Path(os.path.realpath(path)) if Path(path).is_symlink() else Path(path)
+    path = _destination(path)
     for tmp, destination in reversed(_PENDING.get() or ()):
         if destination == path:
             return Path(tmp)
@@ -86,7 +92,7 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
     A symbolic link is followed: the file it points to is replaced, and the link stays.
     """
     given = Path(path)
-    path = Path(os.path.realpath(given)) if given.is_symlink() else given
+    path = _destination(given)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(
