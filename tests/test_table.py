@@ -161,7 +161,8 @@ def test_unknown_model_checksum_is_stored_as_zeros(tmp_path):
     (lambda raw: b"NOTATABL" + raw[8:], "ENCALTAB"),
     (lambda raw: raw[:-2], "truncated"),
     (lambda raw: raw[:-1] + bytes([raw[-1] ^ 1]), "CRC-32"),
-    (lambda raw: raw[:8] + struct.pack("<H", 2) + raw[10:], "newer"),
+    (lambda raw: raw[:8] + struct.pack("<H", 3) + raw[10:], "newer"),
+    (lambda raw: raw[:8] + struct.pack("<H", 2) + raw[10:], "header of at least 88 bytes"),
     (lambda raw: raw[:11] + bytes([7]) + raw[12:], "dtype code"),
     (lambda raw: raw[:20], "ENCALTAB"),
 ])

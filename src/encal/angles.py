@@ -15,6 +15,8 @@ __all__ = [
     "arcmin_to_deg",
     "lsb_arcmin",
     "arcmin_to_lsb",
+    "READING_SIGNS",
+    "model_input",
 ]
 
 ARCMIN_PER_DEG = 60.0
@@ -43,6 +45,38 @@ def wrap360(angle_deg):
     wrapped = np.mod(angle_deg, 360.0)
     # np.mod(-1e-17, 360) rounds to 360.0 exactly; keep the half-open interval.
     return np.where(wrapped >= 360.0, 0.0, wrapped)[()]
+
+
+#: Orientations of an encoder relative to its reference: 1, it counts with the reference; -1, against it
+#: (a calibration read with ``reverse=True``). A model records it as ``reading_sign``.
+READING_SIGNS = (1, -1)
+
+
+def model_input(theta_enc_deg, reading_sign=1):
+    """The angle at which a model is evaluated for an encoder reading: ``(reading_sign * theta) mod 360``.
+
+    A model of an encoder that counts against its reference was fitted on negated readings, so every
+    consumer of raw readings maps them with this first. The map is its own inverse: applied to model
+    inputs it gives back the readings (mod 360).
+
+    Parameters
+    ----------
+    theta_enc_deg : float or array-like
+        Encoder readings in degrees.
+    reading_sign : {1, -1}, default=1
+        The model's ``reading_sign``.
+
+    Returns
+    -------
+    float or ndarray
+        Degrees in [0, 360), same shape.
+
+    Examples
+    --------
+    >>> float(model_input(10.0, -1)), float(model_input(10.0))
+    (350.0, 10.0)
+    """
+    return wrap360(reading_sign * np.asarray(theta_enc_deg, dtype=float))
 
 
 def wrap180(angle_deg):

@@ -183,7 +183,8 @@ def direction_subset(cal, direction):
     keep = cal.direction == direction
     part = cal.subset(keep)
     return Calibration(part.reference_deg, part.encoder_deg, epoch=part.epoch, name=cal.name,
-                       resolution_bits=cal.resolution_bits, source=cal.source, metadata=dict(cal.metadata))
+                       resolution_bits=cal.resolution_bits, source=cal.source, metadata=dict(cal.metadata),
+                       reading_sign=cal.reading_sign)
 
 
 def reversal(cal):
@@ -262,7 +263,7 @@ def mean_calibration(cal):
     reference = analysis.target_deg
     return Calibration(reference, reference + analysis.mean_bidirectional_arcmin / ARCMIN_PER_DEG,
                        name=cal.name, resolution_bits=cal.resolution_bits, source=cal.source,
-                       metadata={**cal.metadata, "bidirectional": "mean"})
+                       metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign)
 
 
 def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **options):
@@ -328,7 +329,10 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
         model.training.update(record)
     else:
         parts = [fit(direction_subset(cal, sign), method, rng=generator, **options) for sign in (1, -1)]
+        for part in parts:
+            part.reading_sign = 1  # the directional model maps readings before its parts see them
         model = DirectionalModel(*parts)
+        model.reading_sign = cal.reading_sign
         model.training = {"method": method, **record, "n_points": len(cal)}
     model.encoder = {"name": cal.name, "resolution_bits": cal.resolution_bits}
     if isinstance(rng, (int, np.integer)):

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .angles import ARCMIN_PER_DEG, wrap180, wrap360
+from .angles import ARCMIN_PER_DEG, READING_SIGNS, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds"]
@@ -32,6 +32,11 @@ class Calibration:
         Encoder resolution in bits, if known.
     source : str, optional
         File the calibration was read from.
+    metadata : dict, optional
+        Anything else known about the run.
+    reading_sign : {1, -1}, default=1
+        -1 when the encoder counts against the reference: ``encoder_deg`` then holds the negated readings
+        (see ``reverse`` of :func:`read_calibration`), and models fitted to it record it.
     """
 
     reference_deg: np.ndarray
@@ -42,6 +47,7 @@ class Calibration:
     resolution_bits: int | None = None
     source: str | None = None
     metadata: dict = field(default_factory=dict)
+    reading_sign: int = 1
 
     def __post_init__(self):
         ref = np.asarray(self.reference_deg, dtype=float).reshape(-1)
@@ -58,6 +64,8 @@ class Calibration:
                                  or not 1 <= bits <= MAX_BITS):
             raise CalibrationError(f"resolution_bits must be a whole number of bits from 1 to {MAX_BITS} or None. "
                                    f"Got {bits!r} instead.")
+        if self.reading_sign not in READING_SIGNS or isinstance(self.reading_sign, bool):
+            raise CalibrationError(f"reading_sign must be 1 or -1. Got {self.reading_sign!r} instead.")
         object.__setattr__(self, "reference_deg", wrap360(ref).reshape(-1))
         object.__setattr__(self, "encoder_deg", wrap360(enc).reshape(-1))
         if self.direction is not None:
@@ -90,6 +98,11 @@ class Calibration:
         delta = wrap180(self.encoder_deg - self.reference_deg - centre)
         return (centre + delta) * ARCMIN_PER_DEG
 
+    @property
+    def readings_deg(self):
+        """The encoder readings as the encoder gave them, in degrees in [0, 360) (``encoder_deg`` un-negated)."""
+        return model_input(self.encoder_deg, self.reading_sign)
+
     def subset(self, index):
         """A calibration holding only the points selected by ``index`` (mask or indices)."""
         pick = lambda a: None if a is None else a[index]  # noqa: E731
@@ -102,6 +115,7 @@ class Calibration:
             resolution_bits=self.resolution_bits,
             source=self.source,
             metadata=dict(self.metadata),
+            reading_sign=self.reading_sign,
         )
 
 
@@ -262,6 +276,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         name=name if name is not None else path.stem,
         resolution_bits=resolution_bits,
         source=str(path),
+        reading_sign=-1 if reverse else 1,
     )
     rows = cal
     cal = _check_duplicates(path, cal, duplicates, first_data_line=records[1][0])
@@ -409,7 +424,8 @@ def _check_duplicates(path, cal, duplicates, first_data_line):
     averaged = cal.subset(keep[order])
     return Calibration(averaged.reference_deg, np.asarray(encoder)[order], direction=averaged.direction,
                        epoch=averaged.epoch, name=cal.name, resolution_bits=cal.resolution_bits,
-                       source=cal.source, metadata={"averaged_duplicates": len(cal) - len(keep)})
+                       source=cal.source, metadata={"averaged_duplicates": len(cal) - len(keep)},
+                       reading_sign=cal.reading_sign)
 
 
 def _check_direction_of_count(path, cal, reverse):

@@ -268,7 +268,7 @@ def _match(angle_deg, value, at_deg):
 
 
 def _residual_rms(model, cal, offset):
-    residual = wrap180((cal.errors_arcmin - model.predict(cal.encoder_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
+    residual = wrap180((cal.errors_arcmin - model.predict(cal.readings_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
     if offset == "remove":
         residual = residual - residual.mean()
     return float(np.sqrt(np.mean(np.square(residual))))

@@ -123,6 +123,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
 
         refit_method, refit_options = refit_spec(model, method, fit_options)
         add_uncertainty(model, cal, method=refit_method, options=refit_options, rng=rng)
+    model.reading_sign = cal.reading_sign
     return model
 
 
@@ -180,5 +181,6 @@ def evaluate(model, cal):
     if not isinstance(cal, Calibration):
         raise InputError(f"evaluate expects a Calibration. Got {type(cal).__name__} instead.")
     observed = cal.errors_arcmin
-    residual = wrap180((observed - model.predict(cal.encoder_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
+    # The model maps readings to its input itself (a model of a reversed encoder negates them).
+    residual = wrap180((observed - model.predict(cal.readings_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
     return Evaluation(error_stats(observed), error_stats(residual), cal.encoder_deg.copy(), residual)

@@ -57,7 +57,7 @@ import warnings
 
 import numpy as np
 
-from .angles import ARCMIN_PER_DEG, wrap180, wrap360
+from .angles import ARCMIN_PER_DEG, model_input, wrap180, wrap360
 from .calibration import Calibration
 from .errors import InputError, ModelFileError
 
@@ -218,7 +218,7 @@ def coverage(model, cal, *, coverage_factor=2.0):
     """
     k = _positive(coverage_factor, "coverage_factor", "coverage")
     options = {"direction": cal.direction} if getattr(model, "kind", None) == "directional" else {}
-    mean, std = model.predict(cal.encoder_deg, return_std=True, **options)
+    mean, std = model.predict(cal.readings_deg, return_std=True, **options)
     residual = _wrapped_arcmin(cal.errors_arcmin - mean)
     return float(np.mean(np.abs(residual) <= k * std))
 
@@ -349,7 +349,7 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
     method = method or model.training.get("method") or model.kind
     refit = _Refitter(method, recorded_options(model) if options is None else options, rng)
 
-    fitted = model.predict(theta)
+    fitted = model.predict(model_input(theta, model.reading_sign))  # theta are model inputs; the map is its own inverse
     residual_square = float(np.sum(np.square(_wrapped_arcmin(error - fitted))))
     seed_refits = 0
     if refit.randomised:

@@ -27,6 +27,7 @@ Only the return value is a float: the corrected angle is rounded once, to
 float32, at the end (at most 2^-16 degrees = 0.00092 arcmin near 360).
 """
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -96,15 +97,30 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
             change = "float32 cannot hold them"
         how = f"the model's formula in double; constants stored as {ctype} ({change})"
     else:
-        compiled = compile_table(comp, bits, dtype=table)
+        compiled = _in_model_input_order(compile_table(comp, bits, dtype=table))
         body = _table_source(compiled)
         how = (f"a {bits}-bit {table} table: {compiled.quantisation_arcmin:.3g} arcmin from the "
                f"model at the codes, plus up to {compiled.between_codes_arcmin:.3g} arcmin "
                "for angles between codes (looked up at the nearest code)")
+    if comp.reading_sign == -1:
+        how += ("; the encoder counts against its reference (reading_sign -1): readings are negated "
+                "before the model sees them, and corrected angles are in the reference's sense")
     banner = _banner(comp, prefix, how)
     directed = table is None and comp.kind == "directional"
     return {f"{prefix}.h": _header(prefix, bits, banner, directed),
-            f"{prefix}.c": _source(prefix, bits, banner, body, directed)}
+            f"{prefix}.c": _source(prefix, bits, banner, body, directed, comp.reading_sign)}
+
+
+def _in_model_input_order(table):
+    """``table`` indexed by the model's input code: the C maps a reading to the model's input first.
+
+    Entry ``k`` of a table is the error at raw code ``k``; for a model that negates readings the
+    model's input for code ``k`` is code ``-k mod 2^B``, so the entries are permuted, not re-evaluated.
+    """
+    if table.reading_sign == 1:
+        return table
+    values = table.values[(-np.arange(table.values.size)) % table.values.size]
+    return dataclasses.replace(table, values=values, reading_sign=1)
 
 
 def write_c(model, directory, **options):
@@ -451,18 +467,21 @@ float {prefix}_correct_counts(uint32_t code);
 """
 
 
-def _source(prefix, bits, banner, body, directed):
+def _source(prefix, bits, banner, body, directed, reading_sign=1):
     step = _Literals("double").number(360.0 / 2**bits)
+    # The model's input is the reading, or its negative when the encoder counts against its reference.
+    negate = "-" if reading_sign == -1 else ""
+    input_code = "(0u - code)" if reading_sign == -1 else "code"
     directed_api = "" if not directed else f"""
 float {prefix}_correct_deg_directed(float theta_deg, int direction)
 {{
-    const double theta = wrap360((double)theta_deg);
+    const double theta = wrap360({negate}(double)theta_deg);
     return to_float_angle(wrap360(theta - model_directed_error_arcmin(theta, direction) / 60.0));
 }}
 
 float {prefix}_correct_counts_directed(uint32_t code, int direction)
 {{
-    const double theta = (double)(code & CODE_MASK) * STEP_DEG;
+    const double theta = (double)({input_code} & CODE_MASK) * STEP_DEG;
     return to_float_angle(wrap360(theta - model_directed_error_arcmin(theta, direction) / 60.0));
 }}
 """
@@ -495,19 +514,19 @@ static float to_float_angle(double angle)
 {body}
 float {prefix}_predict_arcmin(float theta_deg)
 {{
-    return (float)error_arcmin(wrap360((double)theta_deg));
+    return (float)error_arcmin(wrap360({negate}(double)theta_deg));
 }}
 
 float {prefix}_correct_deg(float theta_deg)
 {{
     /* Wrap first: far from 0 a float's spacing exceeds the correction, which would be lost. */
-    const double theta = wrap360((double)theta_deg);
+    const double theta = wrap360({negate}(double)theta_deg);
     return to_float_angle(wrap360(theta - error_arcmin(theta) / 60.0));
 }}
 
 float {prefix}_correct_counts(uint32_t code)
 {{
-    const uint32_t k = code & CODE_MASK;
+    const uint32_t k = {input_code} & CODE_MASK;
     const double theta = (double)k * STEP_DEG;
     return to_float_angle(wrap360(theta - {counts_error} / 60.0));
 }}

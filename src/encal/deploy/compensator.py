@@ -5,7 +5,7 @@ import os
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, wrap360
+from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
 from ..models.base import Model, as_angles
 from .modelfile import model_to_dict, read_model
@@ -61,6 +61,11 @@ class Compensator:
     def encoder(self):
         return self.model.encoder
 
+    @property
+    def reading_sign(self):
+        """1, or -1 when the model negates readings first (see :func:`encal.angles.model_input`)."""
+        return self.model.reading_sign
+
     def predict(self, theta_enc_deg, direction=None, return_std=False):
         """Predicted error at encoder readings.
 
@@ -97,8 +102,10 @@ class Compensator:
         return np.reshape(result, theta.shape)[()]
 
     def correct(self, theta_enc_deg, direction=None):
-        """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``.
+        """Corrected angles ``(theta_in - predict(theta_enc) / 60) mod 360``.
 
+        ``theta_in`` is the reading, negated when the model's ``reading_sign`` is -1 (an encoder
+        counting against its reference; the corrected angle is then in the reference's sense).
         Parameters are those of :meth:`predict`.
 
         Returns
@@ -107,7 +114,7 @@ class Compensator:
             Corrected angles in degrees, in [0, 360), same shape.
         """
         theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
-        return wrap360(theta - self.predict(theta, direction) / ARCMIN_PER_DEG)[()]
+        return wrap360(model_input(theta, self.reading_sign) - self.predict(theta, direction) / ARCMIN_PER_DEG)[()]
 
     __call__ = correct
 

@@ -48,7 +48,8 @@ def model_to_dict(model, *, reproducible=False):
     Returns
     -------
     dict
-        ``format, version, kind, encoder, units, normalisation, parameters,
+        ``format, version, kind, encoder``, ``reading_sign`` when it is -1
+        (then version 2, else 1), ``units, normalisation, parameters,
         training``, ``uncertainty`` when the model has one, and ``sha256``, in
         that order.
 
@@ -69,12 +70,16 @@ def model_to_dict(model, *, reproducible=False):
     with _encal_errors():
         runtime.check_parameters(model.kind, parameters, where)
     encoder = _json_data(model.encoder, "encoder", finite=False)
+    sign = model.reading_sign
+    if isinstance(sign, bool) or sign not in runtime.READING_SIGNS:
+        raise ModelFileError(f"{where}: expected reading_sign 1 or -1, got {sign!r}")
     document = {
         "format": FORMAT,
-        "version": VERSION,
+        "version": runtime.version_for(sign),
         "kind": model.kind,
         "encoder": {"name": encoder.pop("name", None) or "",
                     "resolution_bits": encoder.pop("resolution_bits", None), **encoder},
+        **({} if sign == 1 else {"reading_sign": int(sign)}),
         "units": dict(runtime.UNITS),
         "normalisation": runtime.normalisation_of(model.kind, parameters),
         "parameters": parameters,
@@ -127,6 +132,7 @@ def model_from_dict(document, *, source="model file", verify_checksum=True):
         raise ModelFileError(f"{source}: {exc}") from None
     if document.get("uncertainty") is not None:
         model.uncertainty = document["uncertainty"]
+    model.reading_sign = runtime.reading_sign_of(document)
     return model
 
 

@@ -13,7 +13,10 @@ evaluates the model one angle at a time. It imports nothing but ``json``, ``math
 
 Conventions (those of encal): angles in degrees, errors in arc-minutes, the
 error is ``encoder - reference``; the corrected angle is
-``(theta_enc - predict_arcmin(theta_enc) / 60) mod 360``, in [0, 360).
+``(theta_in - predict_arcmin(theta_enc) / 60) mod 360``, in [0, 360), where
+``theta_in = model_input_deg(theta_enc, reading_sign)`` is the reading itself,
+or its negative for an encoder that counts against its reference (a model
+file with ``"reading_sign": -1``, format version 2).
 
 The file format is specified in encal's ``docs/model-file.md``. encal itself
 uses the checks below when it loads a file, so this reader and encal accept
@@ -25,13 +28,17 @@ import hashlib
 import json
 import math
 
-__all__ = ["load", "read_document", "RuntimeModel", "ModelFileError",
+__all__ = ["load", "read_document", "RuntimeModel", "ModelFileError", "model_input_deg", "reading_sign_of",
+           "version_for",
            "canonical_json", "content_sha256", "check_document", "check_parameters",
            "check_uncertainty", "normalisation_of", "FORMAT", "VERSION", "KINDS"]
 
 FORMAT = "encal.model"
-#: The newest format version this reader understands.
-VERSION = 1
+#: The newest format version this reader understands. Version 2 is version 1 plus ``reading_sign``; a
+#: writer uses the oldest version that holds the model, so a file of version 1 means what it always meant.
+VERSION = 2
+#: ``reading_sign`` values: 1, the encoder counts with its reference; -1, against it.
+READING_SIGNS = (1, -1)
 #: Model kinds whose parameters format version 1 specifies.
 KINDS = ("ann", "directional", "fourier", "hybrid", "lut", "stack")
 #: Kinds that can be one direction's part of a ``directional`` model.
@@ -43,7 +50,7 @@ WEIGHT_SUM_TOLERANCE = 1e-9
 UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}
 FIELDS = ("format", "version", "kind", "encoder", "units", "normalisation", "parameters",
           "training", "sha256")
-OPTIONAL_FIELDS = ("uncertainty",)
+OPTIONAL_FIELDS = ("uncertainty", "reading_sign")
 TRAINING_FIELDS = ("method", "algorithm", "epochs", "seed", "data_sha256", "n_points", "date",
                    "encal_version", "options")
 _SCALING_FIELDS = ("input_offset", "input_gain", "target_offset", "target_gain")
@@ -145,6 +152,7 @@ def check_document(document, where, *, verify_checksum=True):
                              f"version {VERSION} that this encal reads; upgrade encal to read it")
     if verify_checksum:
         _check_checksum(document, where)
+    _check_reading_sign(document, version, where)
     missing = [name for name in FIELDS if name not in document and name != "sha256"]
     if missing:
         raise ModelFileError(f"{where}: expected the fields {', '.join(FIELDS)}, "
@@ -157,6 +165,39 @@ def check_document(document, where, *, verify_checksum=True):
         raise ModelFileError(f"{where}: expected 'normalisation' to repeat the scaling held in "
                              f"'parameters' ({_describe(expected)}), got "
                              f"{_describe(document['normalisation'])}")
+
+
+def _check_reading_sign(document, version, where):
+    # Version 1 has no reading_sign: a version-1 reader would ignore one and apply the model to
+    # un-negated readings, so a file that needs it must say version 2, which such readers refuse.
+    if version < 2:
+        if "reading_sign" in document:
+            raise ModelFileError(f"{where}: format version {version} has no 'reading_sign' field, got one; "
+                                 "expected version 2 for a file that records it")
+        return
+    sign = document.get("reading_sign")
+    if not (_is_int(sign) and sign in READING_SIGNS):
+        raise ModelFileError(f"{where}: expected 'reading_sign' to be 1 or -1 (format version {version}), "
+                             f"got {'nothing' if 'reading_sign' not in document else _describe(sign)}")
+
+
+def reading_sign_of(document):
+    """The ``reading_sign`` of a checked model file: 1 (absent, version 1) or -1."""
+    return document.get("reading_sign", 1)
+
+
+def version_for(reading_sign):
+    """The format version a writer uses: the oldest that holds ``reading_sign``."""
+    return 1 if reading_sign == 1 else 2
+
+
+def model_input_deg(theta_deg, reading_sign=1):
+    """The angle at which a model is evaluated for the encoder reading ``theta_deg`` (degrees).
+
+    ``(reading_sign * theta_deg) mod 360``, in [0, 360): the reading itself, or its negative for an
+    encoder that counts against its reference.
+    """
+    return _wrap360(reading_sign * theta_deg)
 
 
 def _check_checksum(document, where):
@@ -543,6 +584,9 @@ class RuntimeModel:
         ``{'name': str, 'resolution_bits': int or None}``.
     sha256 : str
         Checksum of the file's content: identifies the model.
+    reading_sign : {1, -1}
+        -1 when the encoder counts against its reference: readings are negated before the model sees
+        them, and corrected angles are in the reference's sense.
     """
 
     def __init__(self, document):
@@ -550,6 +594,7 @@ class RuntimeModel:
         self.encoder = document["encoder"]
         self.sha256 = document["sha256"]
         self.directional = self.kind == "directional"
+        self.reading_sign = reading_sign_of(document)
         self._predict = _EVALUATORS[self.kind](document["parameters"])
 
     def predict_arcmin(self, theta_deg, direction=None):
@@ -559,7 +604,7 @@ class RuntimeModel:
         ``directional`` model; ``None`` (unknown) gives the mean of both parts.
         Other kinds have one profile and ignore it.
         """
-        theta = _wrap360(_finite(theta_deg))
+        theta = model_input_deg(_finite(theta_deg), self.reading_sign)
         if self.directional:
             return float(self._predict(theta, _direction(direction)))
         return float(self._predict(theta))
@@ -570,8 +615,8 @@ class RuntimeModel:
         ``direction`` is as for :meth:`predict_arcmin`.
         """
         # Wrap first: for a multi-turn reading of 1e15 degrees the correction would be lost to rounding.
-        theta = _wrap360(_finite(theta_deg))
-        return _wrap360(theta - self.predict_arcmin(theta, direction) / 60.0)
+        theta = _finite(theta_deg)
+        return _wrap360(model_input_deg(theta, self.reading_sign) - self.predict_arcmin(theta, direction) / 60.0)
 
     def __repr__(self):
         return f"<RuntimeModel kind={self.kind!r} for {self.encoder.get('name')!r}>"

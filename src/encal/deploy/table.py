@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .._atomic import atomic_write
-from ..angles import ARCMIN_PER_DEG, wrap360
+from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError, ModelFileError
 from ..models.base import as_angles
 from .compensator import Compensator
@@ -41,13 +41,17 @@ __all__ = ["CorrectionTable", "compile_table", "save_table", "load_table",
            "TABLE_MAGIC", "TABLE_VERSION", "TABLE_DTYPES", "MAX_TABLE_BITS"]
 
 TABLE_MAGIC = b"ENCALTAB"
-TABLE_VERSION = 1
+#: Newest table format this reader understands. Version 2 adds ``reading_sign`` after the 80-byte header;
+#: a writer uses version 1 unless the model negates readings, so version-1 readers refuse only such tables.
+TABLE_VERSION = 2
 #: dtype name -> (code in the file header, little-endian NumPy dtype)
 TABLE_DTYPES = {"int16": (1, np.dtype("<i2")), "float32": (2, np.dtype("<f4"))}
 MAX_TABLE_BITS = 24
 # magic, version, bits, dtype code, header size, entries, crc32 of the data,
 # scale, quantisation, between codes (arcmin), model sha256 (raw bytes)
 _HEADER = struct.Struct("<8sHBBIIIddd32s")
+# version 2 only: reading_sign (int8, 1 or -1), 7 reserved zero bytes
+_SIGN_HEADER = struct.Struct("<b7x")
 _INT16_MAX = 32767
 _CHUNK = 1 << 16  # angles per model evaluation, to bound memory for large tables
 
@@ -71,6 +75,9 @@ class CorrectionTable:
         nearest code, in arc-minutes (measured at the midpoints).
     model_sha256 : str or None
         Checksum of the model file the table was compiled from.
+    reading_sign : {1, -1}
+        The model's ``reading_sign``: -1 when the encoder counts against its reference. Entry ``k`` is
+        still the error at raw code ``k``; the corrected angle is ``(-k * step - error) mod 360``.
     """
 
     bits: int
@@ -79,6 +86,7 @@ class CorrectionTable:
     quantisation_arcmin: float
     between_codes_arcmin: float
     model_sha256: str | None = None
+    reading_sign: int = 1
 
     @property
     def dtype(self):
@@ -99,7 +107,7 @@ class CorrectionTable:
     def _corrected_deg(self):
         # The corrected angle of every code, computed once: a reading is then one lookup.
         codes = np.arange(self.values.size, dtype=float)
-        return wrap360(codes * self.step_deg - self.error_arcmin / ARCMIN_PER_DEG)
+        return wrap360(model_input(codes * self.step_deg, self.reading_sign) - self.error_arcmin / ARCMIN_PER_DEG)
 
     def predict_counts(self, codes):
         """Predicted error in arc-minutes at encoder codes.
@@ -129,7 +137,7 @@ class CorrectionTable:
         """Corrected angles (degrees), subtracting the error stored at the nearest code."""
         # Wrap first: far from 0 a reading's spacing can exceed the correction, which would be lost.
         theta = wrap360(as_angles(theta_deg))
-        return wrap360(theta - self.predict(theta) / ARCMIN_PER_DEG)
+        return wrap360(model_input(theta, self.reading_sign) - self.predict(theta) / ARCMIN_PER_DEG)
 
     def _index(self, codes):
         codes = np.asarray(codes)
@@ -188,7 +196,8 @@ def compile_table(model, bits=None, *, dtype="int16"):
         scale = 1.0
         values = error.astype("<f4")
     quantisation = float(np.max(np.abs(values * scale - error)))
-    return CorrectionTable(bits, values, scale, quantisation, float(between), comp.sha256)
+    return CorrectionTable(bits, values, scale, quantisation, float(between), comp.sha256,
+                           comp.reading_sign)
 
 
 def _evaluate(comp, angles):
@@ -238,7 +247,10 @@ def save_table(table, path):
         48  32  SHA-256 of the model file (raw bytes; zeros if unknown)
         80      2^B values, int16 or float32; entry k is the error at code k
 
-    The predicted error at code ``k`` is ``value[k] * scale_arcmin`` arcmin.
+    The predicted error at code ``k`` is ``value[k] * scale_arcmin`` arcmin. A table of a model with
+    ``reading_sign`` -1 (an encoder counting against its reference) is written as version 2, whose
+    header is 88 bytes: the 80 above, then int8 ``reading_sign`` and 7 zero bytes; its corrected
+    angle at code ``k`` is ``(-k * 360 / 2^B - value[k] * scale_arcmin / 60) mod 360``.
 
     Returns
     -------
@@ -247,9 +259,13 @@ def save_table(table, path):
     code, dtype = TABLE_DTYPES[table.dtype]
     data = np.ascontiguousarray(table.values, dtype=dtype).tobytes()
     sha = bytes.fromhex(table.model_sha256) if table.model_sha256 else bytes(32)
-    header = _HEADER.pack(TABLE_MAGIC, TABLE_VERSION, table.bits, code, _HEADER.size,
+    reversed_ = table.reading_sign == -1
+    size = _HEADER.size + (_SIGN_HEADER.size if reversed_ else 0)
+    header = _HEADER.pack(TABLE_MAGIC, 2 if reversed_ else 1, table.bits, code, size,
                           table.values.size, zlib.crc32(data), table.scale_arcmin,
                           table.quantisation_arcmin, table.between_codes_arcmin, sha)
+    if reversed_:
+        header += _SIGN_HEADER.pack(-1)
     path = Path(path)
     atomic_write(path, header + data)
     return path
@@ -279,12 +295,20 @@ def load_table(path):
                              f"{entries} entries, dtype code {code}")
     dtype = dtypes[code][1]
     data = raw[header_size:]
-    if header_size < _HEADER.size or len(data) != entries * dtype.itemsize:
+    smallest = _HEADER.size + (_SIGN_HEADER.size if version >= 2 else 0)
+    if header_size < smallest:
+        raise ModelFileError(f"{path}: expected a header of at least {smallest} bytes for table format "
+                             f"version {version}, got {header_size}; the file is damaged")
+    if len(data) != entries * dtype.itemsize:
         raise ModelFileError(f"{path}: expected {entries * dtype.itemsize} bytes of table data, "
                              f"got {len(data)}; the file is truncated or damaged")
     if zlib.crc32(data) != crc:
         raise ModelFileError(f"{path}: the CRC-32 of the table data does not match its header, "
                              "so the file was damaged or altered")
+    reading_sign = _SIGN_HEADER.unpack_from(raw, _HEADER.size)[0] if version >= 2 else 1
+    if reading_sign not in (1, -1):
+        raise ModelFileError(f"{path}: expected a reading sign of 1 or -1 in the version-{version} table "
+                             f"header, got {reading_sign}")
     values = np.frombuffer(data, dtype=dtype).astype(dtype.newbyteorder("="))
     model_sha256 = sha.hex() if any(sha) else None
-    return CorrectionTable(bits, values, scale, quantisation, between, model_sha256)
+    return CorrectionTable(bits, values, scale, quantisation, between, model_sha256, reading_sign)

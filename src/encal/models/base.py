@@ -14,7 +14,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, wrap360
+from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
 
 __all__ = ["Model", "register_model", "model_class", "MODEL_KINDS"]
@@ -65,10 +65,15 @@ class Model(ABC):
     uncertainty : dict or None
         Prediction uncertainty as JSON-ready data (see :mod:`encal.uncertainty`), or ``None`` when the
         model has none. The model file stores it as its ``uncertainty`` field.
+    reading_sign : {1, -1}
+        -1 when the encoder counts against its reference (the calibration was read with ``reverse=True``):
+        the model is then evaluated at ``-theta_enc`` (see :func:`encal.angles.model_input`) and the
+        corrected angle is in the reference's sense. Set by :func:`encal.fit`; stored in the model file.
     """
 
     kind = "abstract"
     uncertainty = None
+    reading_sign = 1
 
     def __init__(self, *, encoder=None, training=None):
         self.encoder = dict(encoder or {})
@@ -93,7 +98,8 @@ class Model(ABC):
         Parameters
         ----------
         theta_enc_deg : float or array-like
-            Encoder readings in degrees (any real value; the model is periodic).
+            Encoder readings in degrees (any real value; the model is periodic), as the encoder gives
+            them: a model with ``reading_sign=-1`` negates them first.
         return_std : bool, default=False
             Also return the standard uncertainty of a new reading's residual
             (needs :attr:`uncertainty`, see :func:`encal.uncertainty.add_uncertainty`).
@@ -106,9 +112,9 @@ class Model(ABC):
             Only with ``return_std=True``: ``sqrt(sigma_model**2 + sigma_noise**2)`` in arc-minutes,
             same shape.
         """
-        theta = as_angles(theta_enc_deg)
+        theta = model_input(as_angles(theta_enc_deg), self.reading_sign)
         # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
-        mean = np.asarray(self._predict(wrap360(theta).reshape(-1)), dtype=float).reshape(theta.shape)[()]
+        mean = np.asarray(self._predict(theta.reshape(-1)), dtype=float).reshape(theta.shape)[()]
         if not return_std:
             return mean
         from ..uncertainty import predictive_std
@@ -116,9 +122,14 @@ class Model(ABC):
         return mean, predictive_std(self.uncertainty, theta)
 
     def correct(self, theta_enc_deg):
-        """Corrected angles ``(theta_enc - predict(theta_enc) / 60) mod 360``, in degrees."""
-        theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
-        return wrap360(theta - self.predict(theta) / ARCMIN_PER_DEG)
+        """Corrected angles ``(theta_in - predict(theta_enc) / 60) mod 360``, in degrees.
+
+        ``theta_in = model_input(theta_enc, reading_sign)``: the reading itself unless the encoder counts
+        against its reference.
+        """
+        theta = as_angles(theta_enc_deg)
+        # model_input wraps first: multi-turn readings keep their precision
+        return wrap360(model_input(theta, self.reading_sign) - self.predict(theta) / ARCMIN_PER_DEG)
 
     def save(self, path, **options):
         """Write the model file (see :func:`encal.deploy.save_model`)."""

@@ -11,7 +11,7 @@ import importlib
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, wrap360
+from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError, ModelFileError
 from .base import MODEL_KINDS, Model, as_angles, model_class, register_model
 
@@ -78,7 +78,7 @@ class DirectionalModel(Model):
         std : float or ndarray
             Only with ``return_std=True``; arc-minutes.
         """
-        theta = as_angles(theta_enc_deg)
+        theta = model_input(as_angles(theta_enc_deg), self.reading_sign)  # the parts count with the reference
         forward = self.forward.predict(theta, return_std=return_std)
         reverse = self.reverse.predict(theta, return_std=return_std)
         if not return_std:
@@ -98,8 +98,9 @@ class DirectionalModel(Model):
 
     def correct(self, theta_enc_deg, direction=None):
         """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees."""
-        theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
-        return wrap360(theta - self.predict(theta, direction=direction) / ARCMIN_PER_DEG)
+        theta = as_angles(theta_enc_deg)
+        return wrap360(model_input(theta, self.reading_sign) - self.predict(theta, direction=direction)
+                       / ARCMIN_PER_DEG)
 
     @staticmethod
     def _direction_mask(direction, shape):
