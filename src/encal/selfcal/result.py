@@ -1,0 +1,126 @@
+"""The result of a self-calibration: the recovered error, its uncertainty, and what was not separable."""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..angles import ARCMIN_PER_DEG
+from ..calibration import Calibration
+
+__all__ = ["SelfCalibration"]
+
+#: Points of the calibration grid written by default (every degree of the encoder reading).
+DEFAULT_POINTS = 360
+
+
+@dataclass(frozen=True)
+class SelfCalibration:
+    """An encoder error profile recovered without a precision reference.
+
+    Attributes
+    ----------
+    method : {'spin', 'sweep', 'steps'}
+        How the reference was made.
+    series : HarmonicSeries
+        The recovered error as a Fourier series of the encoder reading, arc-minutes, with the covariance
+        of its coefficients. The constant is not part of it: without a reference the zero is arbitrary.
+    removed_orders : tuple of int
+        Orders the method cannot separate from the reference's own error and left out of ``series``.
+    confounded : str
+        One paragraph saying what the method cannot separate.
+    details : dict
+        Method-specific findings (speeds and speed ripple, lag, turn angle, the stepper's error, ...).
+    name : str
+        Name of the encoder (the input's stem).
+    """
+
+    method: str
+    series: object
+    removed_orders: tuple = ()
+    confounded: str = ""
+    details: dict = field(default_factory=dict)
+    name: str = ""
+
+    def error_arcmin(self, encoder_deg):
+        """The recovered error in arc-minutes at encoder readings ``encoder_deg`` (degrees)."""
+        return self.series.evaluate(encoder_deg)
+
+    def sigma_arcmin(self, encoder_deg):
+        """Standard uncertainty (one sigma) of :meth:`error_arcmin` in arc-minutes."""
+        return self.series.sigma(encoder_deg)
+
+    def grid(self, points=DEFAULT_POINTS):
+        """Encoder readings ``0, 360/points, ...`` in degrees."""
+        return np.arange(points) * (360.0 / points)
+
+    def calibration(self, points=DEFAULT_POINTS):
+        """The recovered error as a :class:`~encal.calibration.Calibration` on a uniform grid of readings.
+
+        ``reference_deg = encoder_deg - error/60``, so a model fitted to it (``encal fit``) predicts the
+        recovered error; its zero offset is zero.
+        """
+        encoder = self.grid(points)
+        reference = encoder - self.error_arcmin(encoder) / ARCMIN_PER_DEG
+        return Calibration(reference, encoder, name=self.name,
+                           metadata={"selfcal": self.method, "removed_orders": list(self.removed_orders)})
+
+    def write(self, path, points=DEFAULT_POINTS, resolution_bits=None):
+        """Write the calibration CSV (atomically) with the columns ``error_arcmin`` and ``sigma_arcmin``.
+
+        The comment lines say the method, the orders left out and what could not be separated.
+        """
+        from ..calibration import write_calibration
+
+        cal = self.calibration(points)
+        if resolution_bits is not None:
+            cal = Calibration(cal.reference_deg, cal.encoder_deg, name=cal.name, resolution_bits=resolution_bits)
+        encoder = cal.encoder_deg
+        comments = [f"encal selfcal {self.method}: encoder error recovered without a precision reference",
+                    "error_arcmin = encoder - reference; sigma_arcmin = its standard uncertainty (1 sigma)"]
+        if self.removed_orders:
+            comments.append("orders left out (not separable): " + _orders_text(self.removed_orders))
+        comments += [f"not separable: {line}" for line in _wrap(self.confounded)]
+        write_calibration(path, cal, comments=comments, extra_columns={
+            "error_arcmin": [float(v) for v in self.error_arcmin(encoder)],
+            "sigma_arcmin": [float(v) for v in self.sigma_arcmin(encoder)],
+        })
+
+    def summary(self, top=8):
+        """A few lines of text: the largest recovered harmonics with +-2 sigma, what is not separable."""
+        grid = self.grid()
+        error = self.error_arcmin(grid)
+        sigma = self.sigma_arcmin(grid)
+        lines = [f"{self.name or 'encoder'}: self-calibration by {self.method}; recovered error RMS "
+                 f"{np.sqrt(np.mean(error ** 2)):.4g} arcmin, peak-to-peak {np.ptp(error):.4g} arcmin, "
+                 f"uncertainty RMS {np.sqrt(np.mean(sigma ** 2)):.3g} arcmin (1 sigma)"]
+        series = self.series
+        order = np.argsort(series.amplitude_arcmin)[::-1][:top]
+        lines.append(f"{'order':>5}{'amplitude/arcmin':>18}{'+-2 sigma':>11}")
+        for i in order:
+            lines.append(f"{series.orders[i]:>5d}{series.amplitude_arcmin[i]:>18.3f}"
+                         f"{2 * series.amplitude_sigma_arcmin[i]:>11.3f}")
+        for key, value in self.details.items():
+            if isinstance(value, (str, int, float, np.floating)):
+                shown = f"{value:.4g}" if isinstance(value, (float, np.floating)) else value
+                lines.append(f"{key.replace('_', ' ')}: {shown}")
+        if self.removed_orders:
+            lines.append("orders left out: " + _orders_text(self.removed_orders))
+        if self.confounded:
+            lines.append("not separable: " + self.confounded)
+        return "\n".join(lines)
+
+
+def _orders_text(orders):
+    orders = list(orders)
+    return ", ".join(map(str, orders[:20])) + (f", ... ({len(orders)} orders)" if len(orders) > 20 else "")
+
+
+def _wrap(text, width=100):
+    words, lines, line = text.split(), [], ""
+    for word in words:
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}".strip()
+    return lines + ([line] if line else [])

@@ -1,0 +1,220 @@
+"""Inertial spin: the rotor's inertia as the reference.
+
+A motor spinning at a nearly constant drive turns at a nearly constant speed: over many revolutions
+its angle is a smooth function of time. The encoder's reading minus that smooth phase is the
+encoder's error plus the rotor's speed ripple; one least-squares fit of a spline in time (the
+smooth phase) and a Fourier series in the reading averages them over revolutions as a function of
+the angle. The ripple comes from torque ripple (cogging, the drive, an
+unbalanced load): its effect on the angle falls as 1/speed^2 while the encoder error does not, so
+spins at two or more speeds separate them; with one speed, the orders at which the motor makes
+torque ripple are left out. See docs/self-calibration.md.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import BSpline
+
+from ..angles import ARCMIN_PER_DEG
+from ..errors import InputError
+from ._series import HarmonicSeries, design_matrix
+from .result import SelfCalibration
+
+__all__ = ["SpinLog", "spin", "motor_ripple_orders"]
+
+#: Fewest revolutions of one run: the smooth phase needs several to tell a turn's pattern from drift.
+MIN_REVOLUTIONS = 4.0
+#: Smallest ratio of the fastest to the slowest speed for separating speed ripple from encoder error.
+MIN_SPEED_RATIO = 1.2
+#: Samples per block when the normal equations are accumulated (bounds the memory used).
+CHUNK = 20000
+#: Groups of consecutive samples of a run, left out one at a time to measure the uncertainty (jackknife).
+GROUPS = 10
+
+
+@dataclass(frozen=True)
+class SpinLog:
+    """Encoder readings of one spin at a nearly constant drive.
+
+    Parameters
+    ----------
+    time_s : array-like of shape (n,)
+        Sample times in seconds, increasing.
+    encoder_deg : array-like of shape (n,)
+        Readings in degrees (any turn; they are unwrapped).
+    label : str, default=''
+        Name of the run, for messages.
+    """
+
+    time_s: np.ndarray
+    encoder_deg: np.ndarray
+    label: str = ""
+
+
+def motor_ripple_orders(max_order, pole_pairs=None, slots=None):
+    """Orders up to ``max_order`` at which a motor makes torque ripple: multiples of the pole pairs and slots.
+
+    Cogging has lcm(slots, 2 pole pairs) periods per turn (a multiple of the pole pairs); the drive's
+    torque ripple is periodic in the electrical angle (multiples of the pole pairs); unequal slots add
+    multiples of the slot count.
+    """
+    orders = set()
+    for base in (pole_pairs, slots):
+        if base:
+            orders.update(range(base, max_order + 1, base))
+    return tuple(sorted(orders))
+
+
+def spin(runs, *, pole_pairs=None, slots=None, max_order=32, ripple_orders=(), knot_revolutions=4.0, name=""):
+    """Recover the encoder error from spins at one or more (nearly) constant speeds.
+
+    Parameters
+    ----------
+    runs : sequence of SpinLog
+        One log per speed (at least 4 revolutions each, any direction).
+    pole_pairs : int, optional
+        Pole pairs of the motor; with one speed, multiples of it are left out (torque ripple).
+    slots : int, optional
+        Slots of the motor; with one speed, multiples of it are left out too.
+    max_order : int, default=32
+        Highest harmonic order of the encoder error to recover.
+    ripple_orders : sequence of int, default=()
+        More orders to leave out with one speed (e.g. 1 for an unbalanced load on a horizontal shaft).
+    knot_revolutions : float, default=4
+        Revolutions between the knots of the cubic spline that models the smooth phase in time.
+    name : str, default=''
+
+    Returns
+    -------
+    SelfCalibration
+        ``details`` holds the speeds (rev/s), the RMS speed ripple found at each (arcmin, with two or more
+        speeds) and the revolutions used.
+
+    Raises
+    ------
+    InputError
+        For a run that is too short, goes back and forth, samples too coarsely for ``max_order``, or
+        speeds too close together to separate.
+    """
+    runs = list(runs)
+    if not runs:
+        raise InputError("spin needs at least one log of (time, encoder reading)")
+    if isinstance(max_order, bool) or not isinstance(max_order, (int, np.integer)) or max_order < 1:
+        raise InputError(f"The 'max_order' parameter of spin must be an int >= 1. Got {max_order!r} instead.")
+    orders = np.arange(1, max_order + 1)
+    estimates = [_run_coefficients(run, orders, knot_revolutions) for run in runs]
+    speeds = np.array([e["speed_rev_s"] for e in estimates])
+    details = {"speeds_rev_s": ", ".join(f"{s:.4g}" for s in speeds),
+               "revolutions": ", ".join(f"{e['revolutions']:.1f}" for e in estimates)}
+    if len(runs) == 1:
+        vector, covariance = estimates[0]["vector"], estimates[0]["covariance"]
+        removed = tuple(sorted(set(motor_ripple_orders(max_order, pole_pairs, slots))
+                               | {int(k) for k in ripple_orders if 1 <= int(k) <= max_order}))
+        series = HarmonicSeries.from_vector(orders, vector, covariance).without(removed)
+        confounded = _one_speed_text(pole_pairs, slots, removed, max_order)
+    else:
+        series, ripple = _separate(estimates, orders, speeds)
+        removed = ()
+        for speed, rms in zip(speeds, ripple):
+            details[f"speed_ripple_rms_arcmin_at_{speed:.4g}_rev_s"] = float(rms)
+        confounded = (f"nothing periodic in the angle, as long as the speed ripple scales as 1/speed^2 (a "
+                      f"current- or torque-controlled drive, inertia-dominated); orders above {max_order} are "
+                      "not estimated")
+    return SelfCalibration("spin", series, removed, confounded, details, name)
+
+
+def _one_speed_text(pole_pairs, slots, removed, max_order):
+    if removed:
+        why = ("multiples of the pole pairs" + (" and of the slots" if slots else "")) if (pole_pairs or slots) \
+            else "the orders given"
+        text = (f"with one speed the speed ripple from torque ripple is confounded with the encoder error; the "
+                f"{why} were left out; an unbalanced load on a horizontal shaft would add order 1, which is kept; "
+                "spin at a second speed to separate everything")
+    else:
+        text = ("with one speed and no pole-pair count every order may hold speed ripple from torque ripple; "
+                "nothing was left out; give --pole-pairs or spin at a second speed")
+    return text + f"; orders above {max_order} are not estimated"
+
+
+def _run_coefficients(run, orders, knot_revolutions):
+    """Fourier coefficients (degrees) of reading minus smooth phase for one run, with jackknife covariance."""
+    time = np.asarray(run.time_s, dtype=float).reshape(-1)
+    reading = np.asarray(run.encoder_deg, dtype=float).reshape(-1)
+    where = f"spin log {run.label}".strip()
+    if time.size != reading.size:
+        raise InputError(f"{where}: {time.size} times but {reading.size} readings; expected one reading per time")
+    if time.size < 64:
+        raise InputError(f"{where}: has {time.size} samples; expected at least 64")
+    if not (np.all(np.isfinite(time)) and np.all(np.isfinite(reading))):
+        raise InputError(f"{where}: times and readings must be finite numbers")
+    if np.any(np.diff(time) <= 0):
+        row = int(np.flatnonzero(np.diff(time) <= 0)[0]) + 2
+        raise InputError(f"{where}: time does not increase at sample {row}; expected increasing sample times")
+    phase = np.unwrap(reading, period=360.0)
+    step = np.diff(phase)
+    if np.median(np.abs(step)) > 90.0:
+        raise InputError(f"{where}: the encoder moves {np.median(np.abs(step)):.0f} deg between samples; expected "
+                         "under 90 deg (sample faster) so that the turns can be counted")
+    travel = phase[-1] - phase[0]
+    revolutions = abs(travel) / 360.0
+    if revolutions < MIN_REVOLUTIONS:
+        raise InputError(f"{where}: covers {revolutions:.2f} revolutions; expected at least {MIN_REVOLUTIONS:g} "
+                         "at a constant drive")
+    backwards = np.mean(np.sign(step) == -np.sign(travel))
+    if backwards > 0.25:
+        raise InputError(f"{where}: the encoder goes back in {100 * backwards:.0f} % of the samples; expected a "
+                         "spin in one direction")
+    angles = np.sort(np.mod(phase, 360.0))
+    gap = float(np.max(np.diff(np.concatenate([angles, angles[:1] + 360.0]))))
+    if gap > 90.0 / orders[-1]:
+        raise InputError(f"{where}: the readings leave a gap of {gap:.3g} deg in the turn; expected samples all "
+                         f"around it, no gap over {90.0 / orders[-1]:.3g} deg for order {orders[-1]} (log longer, "
+                         "faster, or at a sample rate not locked to the speed; or lower max_order)")
+    # one least-squares fit: a cubic spline in time (the smooth phase) plus a Fourier series in the reading
+    n_intervals = max(1, int(revolutions // knot_revolutions))
+    inner = np.linspace(time[0], time[-1], n_intervals + 1)[1:-1]
+    knots = np.concatenate([[time[0]] * 4, inner, [time[-1]] * 4])
+    groups = min(GROUPS, max(2, int(revolutions)))
+    bounds = np.linspace(0, time.size, groups + 1).astype(int)
+    n_smooth = knots.size - 4
+    normal = np.zeros((groups, n_smooth + 2 * orders.size, n_smooth + 2 * orders.size))
+    right = np.zeros((groups, n_smooth + 2 * orders.size))
+    origin = phase[0]
+    for g in range(groups):
+        for start in range(bounds[g], bounds[g + 1], CHUNK):
+            stop = min(start + CHUNK, bounds[g + 1])
+            smooth = BSpline.design_matrix(time[start:stop], knots, 3).toarray()
+            x = np.hstack([smooth, design_matrix(phase[start:stop], orders)])
+            normal[g] += x.T @ x
+            right[g] += x.T @ (phase[start:stop] - origin)
+    total_normal, total_right = normal.sum(axis=0), right.sum(axis=0)
+    fourier = slice(n_smooth, None)
+    full = np.linalg.solve(total_normal, total_right)[fourier]
+    replicates = np.stack([np.linalg.solve(total_normal - normal[g], total_right - right[g])[fourier]
+                           for g in range(groups)]) * ARCMIN_PER_DEG
+    deviation = replicates - replicates.mean(axis=0)
+    covariance = (groups - 1) / groups * deviation.T @ deviation
+    speed = travel / 360.0 / (time[-1] - time[0])
+    return {"vector": full * ARCMIN_PER_DEG, "covariance": covariance, "speed_rev_s": float(speed),
+            "revolutions": float(revolutions)}
+
+
+def _separate(estimates, orders, speeds):
+    """Encoder error and speed ripple from runs at several speeds: ``c_i = e + g / speed_i^2`` for every order."""
+    magnitude = np.abs(speeds)
+    if magnitude.max() / magnitude.min() < MIN_SPEED_RATIO:
+        raise InputError(f"the spins' speeds ({', '.join(f'{s:.4g}' for s in speeds)} rev/s) differ by less than a "
+                         f"factor {MIN_SPEED_RATIO:g}; expected speeds far enough apart to separate speed ripple "
+                         "(which falls as 1/speed^2) from the encoder error, e.g. a factor 2")
+    scale = magnitude.min() ** 2
+    design = np.column_stack([np.ones(speeds.size), scale / magnitude ** 2])
+    variance = np.array([max(np.trace(e["covariance"]) / e["covariance"].shape[0], 1e-30) for e in estimates])
+    weights = 1.0 / variance
+    normal = design.T @ (weights[:, None] * design)
+    mixing = np.linalg.solve(normal, design.T * weights)  # (2, runs)
+    vectors = np.stack([e["vector"] for e in estimates])
+    error = mixing[0] @ vectors
+    ripple = mixing[1] @ vectors
+    covariance = sum(m ** 2 * e["covariance"] for m, e in zip(mixing[0], estimates))
+    ripple_rms = [np.sqrt(np.sum(ripple ** 2) / 2) * scale / s ** 2 for s in magnitude]
+    return HarmonicSeries.from_vector(orders, error, covariance), ripple_rms
