@@ -1,6 +1,6 @@
 """The methods the accuracy benchmarks compare, shared by bench_accuracy.py and bench_real_data.py."""
 
-from encal.fitting import RANDOMISED_METHODS
+from encal.models import kind_names
 from encal.studies.comparison import PAPER_NETWORK  # 1:80:1 raw, trainlm, the paper's stopping rule
 
 #: benchmark name -> (method of encal.fit, options)
@@ -16,4 +16,4 @@ METHODS = {
 }
 
 #: methods whose fit draws random numbers (they take a seed)
-RANDOMISED = RANDOMISED_METHODS
+RANDOMISED = set(kind_names(randomised=True))

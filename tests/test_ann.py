@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from encal.errors import InputError, ModelFileError
 from encal.models.ann import DEFAULT_HIDDEN, DEFAULT_STOPPING, ANNModel, fit_ann
-from encal.models.base import model_class
+from encal.models import model_kind
 from encal.training import TrainResult, train
 from encal.training.network import NetworkProblem
 
@@ -95,7 +95,7 @@ def test_raw_encoding_maps_degrees_with_mapminmax(raw_model):
 
 def test_parameters_survive_json_exactly(periodic_model, raw_model):
     for model in (periodic_model, raw_model):
-        copy = model_class("ann").from_parameters(json.loads(json.dumps(model.parameters())))
+        copy = model_kind("ann").read(json.loads(json.dumps(model.parameters())))
         assert_array_equal(copy.predict(TEST_GRID), model.predict(TEST_GRID))
         assert copy.parameters() == model.parameters()
 

@@ -117,7 +117,7 @@ def test_the_graph_sees_deferred_and_by_name_imports(tmp_path):
     assert import_cycles(graph) == [["pkg.a", "pkg.c", "pkg.sub.b"]]
 
 
-@pytest.mark.xfail(strict=True, reason="the 12-module cycle of issue 19 is being taken apart")
+@pytest.mark.xfail(strict=True, reason="the import cycle of issue 19 is being taken apart")
 def test_no_import_cycle_among_encal_modules():
     cycles = import_cycles(import_graph(PACKAGE_ROOT))
     assert cycles == [], "import cycles: " + "; ".join(" <-> ".join(cycle) for cycle in cycles)

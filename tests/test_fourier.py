@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose
 
 import encal
 from encal.errors import InputError, ModelFileError
-from encal.models import MODEL_KINDS
+from encal.models import model_kind
 from encal.models.fourier import FourierModel, cross_validate_order_count, fit_fourier
 
 TRAIN = np.arange(0.0, 360.0, 2.0)  # the paper's training grid
@@ -186,7 +186,7 @@ def test_parameters_follow_the_model_file_layout_and_round_trip():
     assert_allclose(series(angles, **parameters), model.predict(angles), rtol=0, atol=1e-12)
     again = FourierModel.from_parameters(parameters)
     assert np.array_equal(again.predict(angles), model.predict(angles))
-    assert MODEL_KINDS["fourier"] is FourierModel
+    assert model_kind("fourier").model_class is FourierModel
 
 
 def test_predict_and_correct_keep_the_shape_of_the_input():

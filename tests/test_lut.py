@@ -11,7 +11,7 @@ from numpy.testing import assert_allclose
 
 import encal
 from encal.errors import InputError, ModelFileError
-from encal.models import MODEL_KINDS
+from encal.models import model_kind
 from encal.models.lut import LookupTableModel, fit_lut
 
 INTERPOLATIONS = ["linear", "cubic"]
@@ -159,7 +159,7 @@ def test_parameters_follow_the_model_file_layout_and_round_trip(interpolation):
     assert_allclose(evaluate_from_parameters(parameters, angles), model.predict(angles), rtol=0, atol=1e-9)
     again = LookupTableModel.from_parameters(parameters)
     assert np.array_equal(again.predict(angles), model.predict(angles))
-    assert MODEL_KINDS["lut"] is LookupTableModel
+    assert model_kind("lut").model_class is LookupTableModel
 
 
 @settings(max_examples=60, deadline=None)

@@ -244,6 +244,9 @@ class _OtherKind(Model):
     def parameters(self):
         return {}
 
+    def free_parameters(self):
+        return 0
+
     @classmethod
     def from_parameters(cls, parameters, *, encoder=None, training=None):
         return cls(encoder=encoder, training=training)

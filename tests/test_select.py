@@ -1,5 +1,6 @@
 """Automatic model choice (encal.models.select): folds, tie rule, known-truth choices, records."""
 
+import dataclasses
 import json
 import re
 
@@ -13,6 +14,7 @@ from encal.cli import main
 from encal.errors import EncalWarning, InputError
 from encal.models import select
 from encal.models.fourier import fit_fourier
+from encal.models.kind import REGISTERED
 from encal.models.select import (
     DEFAULT_CANDIDATES,
     Candidate,
@@ -96,8 +98,7 @@ def test_every_fold_fit_sees_exactly_the_other_folds(monkeypatch):
 
     import encal.models.fourier
 
-    monkeypatch.setitem(select.FAMILIES, "fourier", ("encal.models.fourier", "spy_fit"))
-    monkeypatch.setattr(encal.models.fourier, "spy_fit", spy, raising=False)
+    monkeypatch.setitem(REGISTERED, "fourier", dataclasses.replace(REGISTERED["fourier"], fit=spy))
     fold = interleaved_folds(GRID, 5)
     seeds = np.random.SeedSequence(0).spawn(5)
     cross_validate(GRID, harmonic_profile(GRID), Candidate("fourier"), fold, seeds=seeds)
@@ -208,8 +209,7 @@ def test_fold_fits_are_told_the_grid_only_for_a_calibration_on_one(monkeypatch):
 
     import encal.models.fourier
 
-    monkeypatch.setitem(select.FAMILIES, "fourier", ("encal.models.fourier", "spy_fit"))
-    monkeypatch.setattr(encal.models.fourier, "spy_fit", spy, raising=False)
+    monkeypatch.setitem(REGISTERED, "fourier", dataclasses.replace(REGISTERED["fourier"], fit=spy))
     irregular = np.sort(np.random.default_rng(0).uniform(0.0, 360.0, 180))
     fit_auto(GRID, harmonic_profile(GRID), candidates=[Candidate("fourier")], use_grid=True)
     with pytest.warns(EncalWarning, match=r"use_grid \(--at-steps\) has no effect: the 180 encoder angles do not lie on a "
@@ -330,8 +330,8 @@ def test_candidates_must_be_candidate_objects(candidates):
 
 
 def test_unknown_family_and_bad_tolerance_are_refused():
-    with pytest.raises(InputError, match="family must be one of"):
-        Candidate("spline")
+    with pytest.raises(InputError, match="family must be one of fourier, lut, hybrid, ann, stack. Got 'spline'"):
+        fit_auto(GRID, harmonic_profile(GRID), candidates=[Candidate("spline")])
     with pytest.raises(InputError, match="'tolerance' parameter"):
         fit_auto(GRID, harmonic_profile(GRID), tolerance=1.5)
 

@@ -1,12 +1,12 @@
 """``fit`` and ``evaluate``: the public entry points from a calibration to a model and back.
 
-Each model family provides ``fit_<kind>(theta_enc_deg, error_arcmin, **options) -> Model`` on plain
-arrays; :func:`fit` takes a :class:`~encal.calibration.Calibration`, dispatches on ``method``, and records
-the encoder and where the model came from.
+Each model kind provides ``fit_<kind>(theta_enc_deg, error_arcmin, **options) -> Model`` on plain
+arrays, listed in the registry of kinds (:mod:`encal.models.registry`); :func:`fit` takes a
+:class:`~encal.calibration.Calibration`, looks ``method`` up there, and records the encoder and where the
+model came from.
 """
 
 import hashlib
-import importlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,22 +14,10 @@ import numpy as np
 from .angles import ARCMIN_PER_DEG, wrap180
 from .calibration import Calibration, check_folds
 from .errors import InputError
+from .models import kind_names, model_kind
 from .profile import ErrorStats, error_stats
 
-__all__ = ["fit", "evaluate", "Evaluation", "METHODS", "RANDOMISED_METHODS", "fitter", "calibration_sha256"]
-
-#: method name -> (module, fit function). Modules are imported on first use.
-METHODS = {
-    "auto": ("encal.models.select", "fit_auto"),
-    "fourier": ("encal.models.fourier", "fit_fourier"),
-    "lut": ("encal.models.lut", "fit_lut"),
-    "ann": ("encal.models.ann", "fit_ann"),
-    "hybrid": ("encal.models.hybrid", "fit_hybrid"),
-    "stack": ("encal.models.stack", "fit_stack"),
-}
-
-#: methods whose fit takes a random generator or seed
-RANDOMISED_METHODS = {"auto", "ann", "hybrid", "stack"}
+__all__ = ["fit", "evaluate", "Evaluation", "fitter", "calibration_sha256"]
 
 
 def calibration_sha256(cal):
@@ -44,14 +32,11 @@ def calibration_sha256(cal):
 
 def fitter(method):
     """The fit function of a method: ``fit_<kind>(theta_enc_deg, error_arcmin, **options) -> Model``."""
-    if method not in METHODS:
-        raise InputError(f"method must be one of {', '.join(sorted(METHODS))}. Got {method!r} instead.")
-    module_name, function = METHODS[method]
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as exc:  # a family not built yet
-        raise InputError(f"method {method!r} is not available in this version of encal") from exc
-    return getattr(module, function)
+    methods = [name for name in kind_names() if model_kind(name).fit is not None]
+    if method not in methods:
+        raise InputError(f"The 'method' parameter of fit must be one of {', '.join(methods)}. "
+                         f"Got {method!r} instead.")
+    return model_kind(method).fit
 
 
 def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
@@ -102,7 +87,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     fit_family = fitter(method)
     check_folds(cal, where=cal.source or cal.name or "calibration")
     fit_options = dict(options)
-    if method in RANDOMISED_METHODS:
+    if model_kind(method).randomised:
         options["rng"] = rng
     elif rng is not None and not uncertainty:
         raise InputError(f"method {method!r} draws no random numbers; rng must be None "

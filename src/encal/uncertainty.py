@@ -57,9 +57,11 @@ import warnings
 
 import numpy as np
 
-from .angles import ARCMIN_PER_DEG, model_input, wrap180, wrap360
+from .angles import ARCMIN_PER_DEG, model_input, wrap180
 from .calibration import Calibration
-from .errors import InputError, ModelFileError
+from .errors import InputError
+from .models import model_kind
+from .models.stored_uncertainty import check_uncertainty, grid_size, predictive_std
 
 __all__ = [
     "UNCERTAINTY_METHOD",
@@ -75,99 +77,7 @@ __all__ = [
 
 UNCERTAINTY_METHOD = "parametric-bootstrap"
 
-#: Keys every stored uncertainty has; the model file may keep more (they are informative only).
-_REQUIRED_KEYS = ("method", "grid_step_deg", "model_std_arcmin", "noise_std_arcmin")
-
-
 # --------------------------------------------------------------------------- evaluation
-
-
-def check_uncertainty(uncertainty, where="model uncertainty"):
-    """Check stored uncertainty data and return it as a plain dict.
-
-    Parameters
-    ----------
-    uncertainty : dict
-        As made by :func:`add_uncertainty` or read from a model file.
-    where : str
-        Names the data in error messages (a file name, for instance).
-
-    Returns
-    -------
-    dict
-
-    Raises
-    ------
-    ModelFileError
-        If a key is missing, the grid step does not divide 360 degrees, the table does not hold one
-        finite value >= 0 per grid angle, or the noise is not a finite number >= 0.
-    """
-    if not isinstance(uncertainty, dict):
-        raise ModelFileError(f"{where}: expected an object of uncertainty data, got {type(uncertainty).__name__}")
-    missing = [key for key in _REQUIRED_KEYS if key not in uncertainty]
-    if missing:
-        raise ModelFileError(f"{where}: expected the keys {', '.join(_REQUIRED_KEYS)}, "
-                             f"got none for {', '.join(missing)}")
-    step = uncertainty["grid_step_deg"]
-    size = _grid_size(step)
-    if size is None:
-        raise ModelFileError(f"{where}: expected grid_step_deg to divide 360 degrees, got {step!r}")
-    table = uncertainty["model_std_arcmin"]
-    values = np.asarray(table, dtype=float) if isinstance(table, list) else None
-    if values is None or values.shape != (size,) or not np.all(np.isfinite(values)) or np.any(values < 0):
-        raise ModelFileError(f"{where}: expected model_std_arcmin to be a list of {size} finite numbers "
-                             "of arc-minutes >= 0, one per grid angle")
-    noise = uncertainty["noise_std_arcmin"]
-    if isinstance(noise, bool) or not isinstance(noise, (int, float)) or not math.isfinite(noise) or noise < 0:
-        raise ModelFileError(f"{where}: expected noise_std_arcmin to be a finite number >= 0, got {noise!r}")
-    return dict(uncertainty)
-
-
-def _grid_size(step):
-    if isinstance(step, bool) or not isinstance(step, (int, float)) or not math.isfinite(step) or step <= 0:
-        return None
-    size = round(360.0 / step)
-    return size if size >= 1 and abs(size * step - 360.0) < 1e-9 else None
-
-
-def predictive_std(uncertainty, theta_enc_deg):
-    """Standard uncertainty of a new reading's residual, ``sqrt(σ_model(θ)² + σ_noise²)``.
-
-    Parameters
-    ----------
-    uncertainty : dict or None
-        A model's :attr:`~encal.models.base.Model.uncertainty`.
-    theta_enc_deg : float or array-like
-        Encoder readings in degrees.
-
-    Returns
-    -------
-    float or ndarray
-        Arc-minutes, same shape as ``theta_enc_deg``.
-
-    Raises
-    ------
-    InputError
-        If the model has no uncertainty.
-
-    Examples
-    --------
-    >>> u = {"method": "given", "grid_step_deg": 90.0, "model_std_arcmin": [0.3, 0.0, 0.3, 0.0],
-    ...      "noise_std_arcmin": 0.4}
-    >>> round(float(predictive_std(u, 360.0)), 6), round(float(predictive_std(u, 90.0)), 6)
-    (0.5, 0.4)
-    """
-    if uncertainty is None:
-        raise InputError("return_std=True needs a model with an uncertainty; this model has none "
-                         "(add one with encal.uncertainty.add_uncertainty or fit(..., uncertainty=True))")
-    uncertainty = check_uncertainty(uncertainty)
-    theta = np.asarray(theta_enc_deg, dtype=float)
-    step = float(uncertainty["grid_step_deg"])
-    table = np.asarray(uncertainty["model_std_arcmin"], dtype=float)
-    grid = np.arange(table.size) * step
-    model_std = np.interp(wrap360(theta), grid, table, period=360.0)
-    noise = float(uncertainty["noise_std_arcmin"])
-    return np.sqrt(np.square(model_std) + noise**2).reshape(theta.shape)[()]
 
 
 def expanded_uncertainty(model, theta_enc_deg, *, coverage_factor=2.0, **predict_options):
@@ -341,7 +251,7 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
     n_boot = _count(n_boot, "n_boot", 2)
     fold = _folds(theta, n_folds)
     n_folds = int(fold.max()) + 1
-    size = _grid_size(grid_step_deg)
+    size = grid_size(grid_step_deg)
     if size is None:
         raise InputError("The 'grid_step_deg' parameter of add_uncertainty must be a number of degrees that "
                          f"divides 360. Got {grid_step_deg!r} instead.")
@@ -501,11 +411,11 @@ class _Refitter:
     """Refit the model's method with its options on new data, each randomised refit with a new seed."""
 
     def __init__(self, method, options, rng):
-        from .fitting import RANDOMISED_METHODS, fitter
+        from .fitting import fitter
 
         self.fit = fitter(method)
         self.options = {key: value for key, value in dict(options or {}).items() if key != "rng"}
-        self.randomised = method in RANDOMISED_METHODS
+        self.randomised = model_kind(method).randomised
         self.method = method
         self.generator = np.random.default_rng(rng)
         self.warnings = 0

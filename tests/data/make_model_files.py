@@ -46,6 +46,9 @@ class StoredModel(Model):
     def parameters(self):
         return self._parameters
 
+    def free_parameters(self):
+        raise NotImplementedError
+
     @classmethod
     def from_parameters(cls, parameters, *, encoder=None, training=None):
         raise NotImplementedError

@@ -37,7 +37,7 @@ import numpy as np
 from .._atomic import atomic_file_set, atomic_write
 from .._version import __version__
 from ..errors import InputError
-from ..models.base import model_class
+from ..models import model_kind
 from .compensator import Compensator
 from .table import compile_table
 
@@ -201,7 +201,7 @@ def _profile(kind, parameters, theta):
         # last segment, where the pieces meet: closing the span at first + 360 changes nothing measurable.
         breaks = list(parameters["breaks_deg"])
         parameters = {**parameters, "breaks_deg": breaks[:-1] + [breaks[0] + 360.0]}
-    return model_class(kind).from_parameters(parameters).predict(theta)
+    return model_kind(kind).read(parameters).predict(theta)
 
 
 def _map_floats(value, function):

@@ -9,7 +9,6 @@ and back.
 
 import contextlib
 import datetime
-import importlib
 import json
 import math
 import os
@@ -20,7 +19,7 @@ import numpy as np
 from .._atomic import atomic_write
 from .._version import __version__
 from ..errors import InputError, ModelFileError
-from ..models.base import MODEL_KINDS, Model
+from ..models import Model, kind_names, model_kind
 from . import runtime
 
 __all__ = ["save_model", "load_model", "read_model", "model_to_dict", "model_from_dict", "dumps",
@@ -121,7 +120,7 @@ def model_from_dict(document, *, source="model file", verify_checksum=True):
     with _encal_errors():
         runtime.check_document(document, source, verify_checksum=verify_checksum)
     kind = document["kind"]
-    cls = _registered_class(kind)
+    cls = model_kind(kind).model_class if kind in kind_names() else None
     if cls is None:
         raise ModelFileError(f"{source}: expected a model kind this installation can evaluate, "
                              f"got {kind!r}, which has no registered model class")
@@ -216,18 +215,6 @@ def _encal_errors():
         yield
     except runtime.ModelFileError as exc:
         raise ModelFileError(str(exc)) from None
-
-
-def _registered_class(kind):
-    """The model class of ``kind``, importing ``encal.models.<kind>`` on first use."""
-    if kind not in MODEL_KINDS:
-        module = f"encal.models.{kind}"
-        try:
-            importlib.import_module(module)
-        except ModuleNotFoundError as exc:
-            if exc.name != module:  # the module exists but something it needs does not
-                raise
-    return MODEL_KINDS.get(kind)
 
 
 def _training_metadata(model, reproducible):

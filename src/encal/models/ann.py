@@ -43,7 +43,7 @@ from ..training.network import (
     forward,
     pack_weights,
 )
-from .base import Model, register_model
+from .base import Model
 
 __all__ = ["ANNModel", "fit_ann", "DEFAULT_HIDDEN", "DEFAULT_STOPPING"]
 
@@ -56,7 +56,6 @@ DEFAULT_HIDDEN = {"raw": 80, "periodic": 30}
 DEFAULT_STOPPING = {"trainlm": {"plateau_patience": 20, "plateau_tol": 0.01}}
 
 
-@register_model
 class ANNModel(Model):
     """A 1:N:1 network predicting the error (arc-minutes) from the encoder angle (degrees).
 
@@ -137,6 +136,9 @@ class ANNModel(Model):
         inputs = self.input_scaling.apply(encode_angles(np.ravel(theta_deg), self.encoding))
         y = forward(inputs, self.W1, self.b1, self.W2, self.b2, self.activation)
         return self.target_scaling.reverse(y)
+
+    def free_parameters(self):
+        return self.hidden * (self.W1.shape[1] + 2) + 1
 
     def parameters(self):
         return {

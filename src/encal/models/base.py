@@ -4,9 +4,9 @@ A model is a periodic function of the encoder reading: it predicts the error
 ``encoder - reference`` in arc-minutes from the encoder angle in degrees. The
 corrected angle is ``(encoder - predicted / 60) mod 360``.
 
-Each model kind is a subclass registered under its ``kind`` name; its
-``parameters()`` are plain JSON data (lists and floats) from which
-``from_parameters`` rebuilds it exactly. The model file (``encal.deploy``)
+Each model kind is a subclass with a ``kind`` name, listed in
+:mod:`encal.models.registry`; its ``parameters()`` are plain JSON data (lists
+and floats) from which ``from_parameters`` rebuilds it exactly. The model file
 stores ``kind``, ``parameters()`` and the metadata dicts.
 """
 
@@ -16,31 +16,9 @@ import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
+from .stored_uncertainty import predictive_std
 
-__all__ = ["Model", "register_model", "model_class", "MODEL_KINDS"]
-
-MODEL_KINDS = {}
-
-
-def register_model(cls):
-    """Class decorator: make ``cls`` loadable from a model file by its ``kind``."""
-    MODEL_KINDS[cls.kind] = cls
-    return cls
-
-
-def model_class(kind):
-    """The registered model class for ``kind``.
-
-    Raises
-    ------
-    InputError
-        If no model kind of that name exists.
-    """
-    try:
-        return MODEL_KINDS[kind]
-    except KeyError:
-        known = ", ".join(sorted(MODEL_KINDS))
-        raise InputError(f"unknown model kind {kind!r}; expected one of: {known}") from None
+__all__ = ["Model", "as_angles"]
 
 
 def as_angles(theta_enc_deg):
@@ -87,6 +65,10 @@ class Model(ABC):
     def parameters(self):
         """Everything needed to evaluate the model, as JSON-ready data."""
 
+    @abstractmethod
+    def free_parameters(self):
+        """Number of fitted values (``int``): what the tie rule of ``fit(method='auto')`` counts."""
+
     @classmethod
     @abstractmethod
     def from_parameters(cls, parameters, *, encoder=None, training=None):
@@ -117,8 +99,6 @@ class Model(ABC):
         mean = np.asarray(self._predict(theta.reshape(-1)), dtype=float).reshape(theta.shape)[()]
         if not return_std:
             return mean
-        from ..uncertainty import predictive_std
-
         return mean, predictive_std(self.uncertainty, theta)
 
     def correct(self, theta_enc_deg):

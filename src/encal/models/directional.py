@@ -6,21 +6,19 @@ any kind for each direction; it uses the one of the known direction, and the mea
 direction is not known. Fit one with :func:`encal.bidirectional.fit_bidirectional`.
 """
 
-import contextlib
-import importlib
-
 import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError, ModelFileError
-from .base import MODEL_KINDS, Model, as_angles, model_class, register_model
+from .base import Model, as_angles
+from .kind import model_kind
+from .stored_uncertainty import check_uncertainty
 
 __all__ = ["DirectionalModel"]
 
 _PARTS = ("forward", "reverse")
 
 
-@register_model
 class DirectionalModel(Model):
     """Two error models, one per direction of travel.
 
@@ -114,6 +112,9 @@ class DirectionalModel(Model):
             raise InputError(f"direction has shape {values.shape}, expected one value or the shape "
                              f"{shape} of the encoder angles") from None
 
+    def free_parameters(self):
+        return self.forward.free_parameters() + self.reverse.free_parameters()
+
     def parameters(self):
         return {name: self._part_data(getattr(self, name)) for name in _PARTS}
 
@@ -135,19 +136,14 @@ class DirectionalModel(Model):
 
     @staticmethod
     def _part_from_data(data):
-        from ..uncertainty import check_uncertainty
-
         kind = data["kind"]
         if kind == DirectionalModel.kind:
             raise ModelFileError("directional parameters: expected one-direction parts, got a directional part")
-        if kind not in MODEL_KINDS and isinstance(kind, str) and kind.isidentifier():
-            with contextlib.suppress(ModuleNotFoundError):
-                importlib.import_module(f"encal.models.{kind}")
         try:
-            cls = model_class(kind)
+            part_kind = model_kind(kind, role="kind of a directional model's part", directional_part=True)
         except InputError as exc:
             raise ModelFileError(f"directional parameters: {exc}") from None
-        part = cls.from_parameters(data["parameters"])
+        part = part_kind.read(data["parameters"])
         if data.get("uncertainty") is not None:
             part.uncertainty = check_uncertainty(data["uncertainty"], "directional part uncertainty")
         return part

@@ -18,7 +18,7 @@ from ..profile import (
     rank_orders,
     uniform_grid,
 )
-from .base import Model, register_model
+from .base import Model
 
 __all__ = ["FourierModel", "fit_fourier", "MAX_ORDER"]
 
@@ -27,7 +27,6 @@ __all__ = ["FourierModel", "fit_fourier", "MAX_ORDER"]
 MAX_ORDER = 32767
 
 
-@register_model
 class FourierModel(Model):
     """A truncated Fourier series of the encoder angle.
 
@@ -77,6 +76,9 @@ class FourierModel(Model):
     def _predict(self, theta_deg):
         phase = np.multiply.outer(np.radians(theta_deg), self.orders)
         return np.cos(phase) @ self.cos + np.sin(phase) @ self.sin
+
+    def free_parameters(self):
+        return sum(1 if k == 0 else 2 for k in self.orders.tolist())
 
     def parameters(self):
         return {

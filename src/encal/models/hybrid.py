@@ -21,13 +21,12 @@ import numpy as np
 from ..errors import InputError, ModelFileError
 from ..profile import profile_arrays
 from .ann import ANNModel, fit_ann
-from .base import Model, register_model
+from .base import Model
 from .fourier import FourierModel, fit_fourier
 
 __all__ = ["HybridModel", "fit_hybrid"]
 
 
-@register_model
 class HybridModel(Model):
     """The sum of a Fourier-series model and a network model.
 
@@ -50,6 +49,9 @@ class HybridModel(Model):
 
     def _predict(self, theta_deg):
         return self.fourier._predict(theta_deg) + self.ann._predict(theta_deg)
+
+    def free_parameters(self):
+        return self.fourier.free_parameters() + self.ann.free_parameters()
 
     def parameters(self):
         return {"fourier": self.fourier.parameters(), "ann": self.ann.parameters()}

@@ -12,7 +12,7 @@ from scipy.interpolate import CubicSpline, PPoly
 
 from ..errors import InputError, ModelFileError
 from ..profile import distinct_angles, profile_arrays
-from .base import Model, register_model
+from .base import Model
 
 __all__ = ["LookupTableModel", "fit_lut"]
 
@@ -27,7 +27,6 @@ DEGREE = {"linear": 1, "cubic": 3}
 CUBIC_MERGE_FRACTION = 0.1
 
 
-@register_model
 class LookupTableModel(Model):
     """A periodic piecewise polynomial of the encoder angle.
 
@@ -97,6 +96,9 @@ class LookupTableModel(Model):
         # Into [x_0, x_0 + 360) without touching angles already there (table points stay exact).
         inside = theta_deg - 360.0 * np.floor((theta_deg - first) / 360.0)
         return self._ppoly(inside)
+
+    def free_parameters(self):
+        return self.breaks_deg.size - 1
 
     def parameters(self):
         return {

@@ -27,7 +27,7 @@ error *between* calibration points best:
    Candidates that err differently, a Fourier series smooth between the points
    and a lookup table through them, average to a better prediction than either.
 5. Pick the lowest RMS, but prefer the simplest candidate whose RMS is within
-   ``tolerance`` of it (see :data:`SIMPLICITY`; a stack is the least simple),
+   ``tolerance`` of it (see :func:`families`; a stack is the least simple),
    and refit that candidate, or every member of the stack, on all points (see
    :func:`_final_fit`).
 
@@ -35,7 +35,6 @@ The CV table and the reason for the choice are kept in
 ``model.training['selection']``. See ``docs/model-selection.md``.
 """
 
-import importlib
 import numbers
 import time
 import warnings
@@ -46,11 +45,12 @@ import numpy as np
 from ..angles import wrap360
 from ..errors import EncalError, EncalWarning, InputError
 from ..profile import distinct_angles, profile_arrays, uniform_grid
+from .kind import kind_names, model_kind
 
 __all__ = [
     "Candidate",
     "DEFAULT_CANDIDATES",
-    "SIMPLICITY",
+    "families",
     "CVScore",
     "free_parameters",
     "interleaved_folds",
@@ -62,15 +62,6 @@ __all__ = [
     "format_selection",
 ]
 
-#: family -> (module, fit function) of the families auto can choose from
-FAMILIES = {
-    "fourier": ("encal.models.fourier", "fit_fourier"),
-    "lut": ("encal.models.lut", "fit_lut"),
-    "ann": ("encal.models.ann", "fit_ann"),
-    "hybrid": ("encal.models.hybrid", "fit_hybrid"),
-    "stack": ("encal.models.stack", "fit_stack"),
-}
-
 #: Folds when the caller names none (see docs/model-selection.md for why 5).
 DEFAULT_FOLDS = 5
 
@@ -80,19 +71,17 @@ MIN_POINTS_PER_FOLD = 4
 #: Most fits of the chosen candidate on all points (see :func:`_final_fit`).
 FINAL_FIT_ATTEMPTS = 3
 
-#: Families that draw random numbers (their fit takes ``rng``).
-_RANDOMISED = {"ann", "hybrid", "stack"}
+def families():
+    """The families auto can choose from, simplest first: the registered kinds with a ``simplicity`` rank.
 
-#: Families whose fit takes ``grid_points`` (the grid of the whole calibration, for fold fits).
-_GRID_AWARE = {"fourier"}
+    A Fourier series is a closed-form least-squares fit of a few physically meaningful
+    coefficients; a lookup table is closed-form too but keeps one value per point; a hybrid and a
+    network are trained iteratively from a random start, the network with the most free weights of
+    all; a stack needs all of its members. Within a family, fewer free parameters is simpler.
+    """
+    ranked = [model_kind(name) for name in kind_names() if model_kind(name).simplicity is not None]
+    return tuple(kind.name for kind in sorted(ranked, key=lambda kind: kind.simplicity))
 
-#: Families from simplest to most complex, for the tie rule. A Fourier series is a
-#: closed-form least-squares fit of a few physically meaningful coefficients; a
-#: lookup table is closed-form too but keeps one value per point; a hybrid and a
-#: network are trained iteratively from a random start, the network with the most
-#: free weights of all; a stack needs all of its members. Within a family, fewer free
-#: parameters is simpler.
-SIMPLICITY = ("fourier", "lut", "hybrid", "ann", "stack")
 
 #: A stacked candidate combines at most this many candidates ...
 STACK_MAX_MEMBERS = 3
@@ -107,8 +96,8 @@ class Candidate:
 
     Parameters
     ----------
-    family : {'fourier', 'lut', 'ann', 'hybrid'}
-        Model family.
+    family : str
+        Model family, one of :func:`families` (``'fourier'``, ``'lut'``, ``'hybrid'``, ``'ann'``, ``'stack'``).
     options : dict, optional
         Keyword options of the family's fit function (``fit_fourier``, ...).
     """
@@ -117,9 +106,10 @@ class Candidate:
     options: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        if self.family not in FAMILIES:
-            raise InputError(f"a candidate's family must be one of {', '.join(FAMILIES)}. "
-                             f"Got {self.family!r} instead.")
+        # The family is checked where the candidate is used (:func:`fit_auto`): the registry of kinds
+        # is filled after this module is imported.
+        if not isinstance(self.family, str):
+            raise InputError(f"a candidate's family must be a name (str). Got {self.family!r} instead.")
 
     def as_dict(self):
         """``{'family': ..., 'options': {...}}``, JSON-ready; ``Candidate(**d)`` rebuilds it."""
@@ -142,14 +132,13 @@ class Candidate:
         uniform grid the whole calibration lies on, for a fold's fit) only to those that use it,
         and only if the options do not set it.
         """
-        module, function = FAMILIES[self.family]
-        fitter = getattr(importlib.import_module(module), function)
+        kind = model_kind(self.family)
         options = dict(self.options)
-        if self.family in _RANDOMISED:
+        if kind.randomised:
             options["rng"] = rng
-        if grid_points is not None and self.family in _GRID_AWARE:
+        if grid_points is not None and kind.grid_aware:
             options.setdefault("grid_points", grid_points)
-        return fitter(theta_deg, error_arcmin, **options)
+        return kind.fit(theta_deg, error_arcmin, **options)
 
 
 #: The candidates of ``fit_auto`` when none are given: the paper's Fourier model and
@@ -205,8 +194,8 @@ class CVScore:
 
     @property
     def simplicity(self):
-        """Sort key of the tie rule: family rank in :data:`SIMPLICITY`, then free parameters."""
-        return (SIMPLICITY.index(self.candidate.family), self.n_parameters)
+        """Sort key of the tie rule: the family's rank (:func:`families`), then free parameters."""
+        return (model_kind(self.candidate.family).simplicity, self.n_parameters)
 
     def as_dict(self):
         """One row of the CV table, JSON-ready."""
@@ -229,20 +218,10 @@ def free_parameters(parameters, kind):
     """Number of fitted values in a model's ``parameters()`` (layout of ``docs/model-file.md``).
 
     Fourier: its coefficients (order 0 has one); lookup table: its entries (the interpolation
-    derives the rest); network: its weights and biases; hybrid: the sum of its parts.
+    derives the rest); network: its weights and biases; hybrid and stack: the sum of their parts
+    (see each kind's :meth:`~encal.models.base.Model.free_parameters`).
     """
-    if kind == "fourier":
-        return sum(1 if k == 0 else 2 for k in parameters["orders"])
-    if kind == "lut":
-        return len(parameters["breaks_deg"]) - 1
-    if kind == "ann":
-        return len(parameters["W1"]) * (len(parameters["W1"][0]) + 2) + 1
-    if kind == "hybrid":
-        return free_parameters(parameters["fourier"], "fourier") + free_parameters(parameters["ann"], "ann")
-    if kind == "stack":
-        return sum(free_parameters(member["parameters"], member["kind"]) for member in parameters["members"])
-    raise InputError("free_parameters expects a model kind among fourier, lut, ann, hybrid, stack. "
-                     f"Got {kind!r} instead.")
+    return model_kind(kind, role="kind of free_parameters").read(parameters).free_parameters()
 
 
 def _finite_or_none(value):
@@ -306,7 +285,7 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds, grid_poin
             model = candidate.fit(theta_deg[~test], error_arcmin[~test], rng=np.random.default_rng(seed),
                                   grid_points=grid_points)
             held_out[test] = error_arcmin[test] - model.predict(theta_deg[test])
-            n_parameters.append(free_parameters(model.parameters(), model.kind))
+            n_parameters.append(model.free_parameters())
     except EncalError as exc:  # e.g. too few points for this family
         return CVScore(candidate, np.inf, np.inf, np.inf, np.inf, time.perf_counter() - start, error=str(exc))
     elapsed = time.perf_counter() - start
@@ -471,9 +450,12 @@ def _name(candidate):
 
 def _as_candidate(item):
     if isinstance(item, Candidate):
+        if item.family not in families():
+            raise InputError(f"a candidate's family must be one of {', '.join(families())}. "
+                             f"Got {item.family!r} instead.")
         return item
     if isinstance(item, dict) and set(item) <= {"family", "options"} and "family" in item:
-        return Candidate(item["family"], dict(item.get("options") or {}))
+        return _as_candidate(Candidate(item["family"], dict(item.get("options") or {})))
     raise InputError("The 'candidates' parameter of fit_auto must hold Candidate objects or "
                      f"{{'family': ..., 'options': {{...}}}} dicts. Got {item!r} instead.")
 
@@ -621,8 +603,6 @@ def _final_stack(theta, error, stacked, scores, final_seeds):
     (StackModel, int)
         The model and the number of fits made, all members together.
     """
-    from .stack import StackModel
-
     by_label = {score.candidate.label: score for score in scores if score is not stacked}
     members, trainings, attempts = [], [], 0
     for member in stacked.candidate.options["members"]:
@@ -634,7 +614,8 @@ def _final_stack(theta, error, stacked, scores, final_seeds):
         attempts += made
     training = {"options": {key: list(value) for key, value in stacked.candidate.options.items()},
                 "members": trainings}
-    return StackModel(members, stacked.candidate.options["weights"], training=training), attempts
+    stack_class = model_kind("stack").model_class
+    return stack_class(members, stacked.candidate.options["weights"], training=training), attempts
 
 
 def _final_fit(theta, error, chosen, seeds):
@@ -656,7 +637,7 @@ def _final_fit(theta, error, chosen, seeds):
         fitted_rms = float(np.sqrt(np.mean((error - model.predict(theta)) ** 2)))
         if best is None or fitted_rms < best[0]:
             best = (fitted_rms, model, attempt)
-        if chosen.candidate.family not in _RANDOMISED or fitted_rms <= chosen.rms_arcmin:
+        if not model_kind(chosen.candidate.family).randomised or fitted_rms <= chosen.rms_arcmin:
             return model, attempt
     return best[1], len(seeds)
 

@@ -8,7 +8,8 @@ average to a better prediction than either. The weights come from the
 members' held-out predictions (see :mod:`encal.models.select`); this module
 holds the model and fits its members for given weights.
 
-Members are single-profile models of the kinds in :data:`MEMBER_KINDS`. A
+Members are single-profile models of the kinds registered as stack members
+(:func:`member_kinds`; :mod:`encal.models.registry`). A
 stack of stacks would be a flat stack with the products of the weights, so
 members may not be stacks; an encoder whose error depends on the direction of
 travel gets a ``directional`` model whose parts may be stacks.
@@ -21,33 +22,28 @@ import numbers
 import numpy as np
 
 from ..errors import InputError, ModelFileError
-from ..fitting import RANDOMISED_METHODS, fitter
 from ..profile import profile_arrays
-from .ann import ANNModel
-from .base import Model, register_model
-from .fourier import FourierModel
-from .hybrid import HybridModel
-from .lut import LookupTableModel
+from .base import Model
+from .kind import kind_names, model_kind
 
-__all__ = ["StackModel", "fit_stack", "MEMBER_KINDS", "WEIGHT_SUM_TOLERANCE"]
+__all__ = ["StackModel", "fit_stack", "member_kinds", "WEIGHT_SUM_TOLERANCE"]
 
-_MEMBER_CLASSES = {cls.kind: cls for cls in (FourierModel, LookupTableModel, ANNModel, HybridModel)}
 
-#: Kinds a member of a stack may have.
-MEMBER_KINDS = tuple(_MEMBER_CLASSES)
+def member_kinds():
+    """Names of the kinds a member of a stack may have (``stack_member`` in the registry)."""
+    return kind_names(stack_member=True)
 
 #: Largest distance of the weights' sum from 1. The model file's reader applies the same bound.
 WEIGHT_SUM_TOLERANCE = 1e-9
 
 
-@register_model
 class StackModel(Model):
     """A convex combination of member models: ``Σ weights[i] · members[i](θ)``.
 
     Parameters
     ----------
     members : sequence of Model
-        Models of the kinds in :data:`MEMBER_KINDS` (``'fourier'``, ``'lut'``, ``'ann'``,
+        Models of the kinds in :func:`member_kinds` (``'fourier'``, ``'lut'``, ``'ann'``,
         ``'hybrid'``), each predicting the error in arc-minutes.
     weights : sequence of float
         One weight per member, each > 0, summing to 1 within :data:`WEIGHT_SUM_TOLERANCE`.
@@ -61,6 +57,7 @@ class StackModel(Model):
 
     Examples
     --------
+    >>> from encal.models.fourier import FourierModel
     >>> stack = StackModel([FourierModel([0], [1.0], [0.0]), FourierModel([0], [2.0], [0.0])], [0.25, 0.75])
     >>> float(stack.predict(10.0))
     1.75
@@ -80,6 +77,9 @@ class StackModel(Model):
         # Left to right, member by member: the order the runtime reader and the C export add in.
         return sum(weight * member._predict(theta_deg) for weight, member in zip(self.weights, self.members))
 
+    def free_parameters(self):
+        return sum(member.free_parameters() for member in self.members)
+
     def parameters(self):
         return {"members": [{"kind": member.kind, "parameters": member.parameters()} for member in self.members],
                 "weights": [float(weight) for weight in self.weights]}
@@ -94,11 +94,11 @@ class StackModel(Model):
                                  "{'kind', 'parameters'} objects and a list 'weights' (docs/model-file.md). "
                                  f"Got {shown} instead.")
         kinds = [member["kind"] for member in members]
-        wrong = [kind for kind in kinds if not isinstance(kind, str) or kind not in _MEMBER_CLASSES]
+        wrong = [kind for kind in kinds if kind not in member_kinds()]
         if wrong:
-            raise ModelFileError(f"stack model members must be of kind {', '.join(MEMBER_KINDS)}. "
+            raise ModelFileError(f"stack model members must be of kind {', '.join(member_kinds())}. "
                                  f"Got {wrong[0]!r} instead.")
-        built = [_MEMBER_CLASSES[kind].from_parameters(member["parameters"]) for kind, member in zip(kinds, members)]
+        built = [model_kind(kind).read(member["parameters"]) for kind, member in zip(kinds, members)]
         try:
             return cls(built, parameters["weights"], encoder=encoder, training=training)
         except InputError as exc:
@@ -121,8 +121,8 @@ def fit_stack(theta_enc_deg, error_arcmin, *, members=None, weights=None, rng=No
         Errors ``encoder - reference`` in arc-minutes.
     members : sequence of dict
         One ``{'family': str, 'options': dict}`` per member: ``family`` one of
-        :data:`MEMBER_KINDS`, ``options`` the keyword options of its fit function
-        (:func:`encal.fitting.fitter`); ``options`` may be left out.
+        :func:`member_kinds`, ``options`` the keyword options of its fit function
+        (:attr:`ModelKind.fit <encal.models.kind.ModelKind>`); ``options`` may be left out.
     weights : sequence of float
         One weight per member, each > 0, summing to 1 within :data:`WEIGHT_SUM_TOLERANCE`.
     rng : None, int >= 0 or numpy.random.Generator
@@ -161,8 +161,9 @@ def fit_stack(theta_enc_deg, error_arcmin, *, members=None, weights=None, rng=No
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_stack")
     fitted = []
     for spec, generator in zip(specs, generators):
-        randomised = {"rng": generator} if spec["family"] in RANDOMISED_METHODS else {}
-        fitted.append(fitter(spec["family"])(theta, error, **spec["options"], **randomised))
+        kind = model_kind(spec["family"])
+        randomised = {"rng": generator} if kind.randomised else {}
+        fitted.append(kind.fit(theta, error, **spec["options"], **randomised))
     training = {
         "seed": seed,
         "options": {"members": specs, "weights": [float(weight) for weight in weights]},
@@ -179,10 +180,10 @@ def _check_members(members):
                          f"Got {type(members).__name__} instead.")
     members = tuple(members)
     for member in members:
-        if not isinstance(member, Model) or member.kind not in _MEMBER_CLASSES:
+        if not isinstance(member, Model) or member.kind not in member_kinds():
             got = f"a {member.kind!r} model" if isinstance(member, Model) else f"a {type(member).__name__}"
             raise InputError(f"The 'members' parameter of StackModel must hold models of kind "
-                             f"{', '.join(MEMBER_KINDS)}. Got {got} instead.")
+                             f"{', '.join(member_kinds())}. Got {got} instead.")
     if not members:
         raise InputError("The 'members' parameter of StackModel must hold at least one model. Got none instead.")
     return members
@@ -214,7 +215,7 @@ def _check_specs(members):
     """The members of :func:`fit_stack` as ``[{'family': str, 'options': dict}, ...]``, the options copied
     so that the training record keeps what was fitted."""
     expected = (f"The 'members' parameter of fit_stack must be a non-empty list of {{'family': ..., "
-                f"'options': {{...}}}} with family one of {', '.join(MEMBER_KINDS)} and no 'rng' option")
+                f"'options': {{...}}}} with family one of {', '.join(member_kinds())} and no 'rng' option")
     if isinstance(members, (str, bytes, dict)) or not hasattr(members, "__iter__"):
         raise InputError(f"{expected}. Got {type(members).__name__} instead.")
     specs = []
@@ -222,7 +223,7 @@ def _check_specs(members):
         if not isinstance(member, dict) or not set(member) <= {"family", "options"}:
             raise InputError(f"{expected}. Got {member!r:.80} for member {i} instead.")
         family, options = member.get("family"), member.get("options", {})
-        if not isinstance(family, str) or family not in _MEMBER_CLASSES:
+        if family not in member_kinds():
             raise InputError(f"{expected}. Got family {family!r} for member {i} instead.")
         if not isinstance(options, dict) or "rng" in options:
             raise InputError(f"{expected}. Got options {options!r:.80} for member {i} instead.")
