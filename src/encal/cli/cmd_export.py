@@ -7,13 +7,24 @@
                  PREFIX_correct_deg(float) and PREFIX_correct_counts(uint32_t);
                  -o is a folder (created if missing). The model's formula is
                  evaluated in double, or, with --table, a dense table is looked up.
+--format c --target cortex-m4f
+                 float32 only (no double anywhere): a compact table of N nodes
+                 (a power of two, the fewest that meet --tolerance; --nodes,
+                 --dtype int8|int16|float32), or --form formula for a Fourier
+                 series. Angle functions and code functions (PREFIX_error_lsb,
+                 PREFIX_correct_code, PREFIX_correct_counts).
+--format c --target fixed
+                 int32/int16 arithmetic only: a compact integer table; angles
+                 as 32-bit binary angles, codes in and out.
 
 The encoder resolution (--bits) defaults to the one recorded in the model file.
 """
 
+import sys
 from pathlib import Path
 
-from ..deploy import Compensator, compile_table, save_table, write_c
+from ..deploy import Compensator, compile_table, save_table
+from ..deploy.targets import FORMS, TARGETS, describe, write_target
 from ..errors import InputError
 
 HELP = "export a model as a dense correction table or as C source for firmware"
@@ -27,8 +38,21 @@ def add_arguments(parser):
                         help="table file (--format table) or folder for the C files (--format c)")
     parser.add_argument("--bits", type=int, metavar="B",
                         help="encoder resolution in bits (default: from the model file)")
-    parser.add_argument("--dtype", choices=("int16", "float32"), default="int16",
-                        help="storage of the table's errors (default: int16)")
+    parser.add_argument("--dtype", choices=("int8", "int16", "float32"),
+                        help="storage of the table's errors (dense table: int16 or float32, default int16; "
+                             "compact table: default the cheapest that meets --tolerance)")
+    parser.add_argument("--target", choices=TARGETS, default="host",
+                        help="C: host (double), cortex-m4f (float32 only) or fixed (integers only); "
+                             "default host")
+    parser.add_argument("--form", choices=FORMS, default="table",
+                        help="C for cortex-m4f: a compact table (every kind; default) or the formula "
+                             "(a Fourier series)")
+    parser.add_argument("--nodes", type=int, metavar="N",
+                        help="C for cortex-m4f/fixed: nodes of the compact table, a power of two "
+                             "(default: the fewest that meet --tolerance)")
+    parser.add_argument("--tolerance", type=float, metavar="ARCMIN",
+                        help="C for cortex-m4f/fixed: largest deployed error against the model "
+                             "(default: a tenth of an LSB)")
     parser.add_argument("--name", default="encal", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
     parser.add_argument("--table", action="store_true",
@@ -38,7 +62,28 @@ def add_arguments(parser):
                              "changes the model by at most 1e-4 arcmin, else double)")
 
 
+def _usage_error(message):
+    """Options that do not go together: one line on stderr, exit status 2 (as argparse's own)."""
+    print(f"encal export: error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def _check_combinations(args):
+    if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
+        _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
+                     "a dense table is int16 or float32")
+    if args.target == "host" and (args.nodes is not None or args.tolerance is not None or args.form != "table"):
+        _usage_error("--nodes, --tolerance and --form apply to --target cortex-m4f or fixed, not host "
+                     "(its C evaluates the formula in double, or --table)")
+    if args.target != "host" and (args.table or args.constants != "auto"):
+        _usage_error(f"--table and --constants apply to --target host, not {args.target}")
+    if args.target == "fixed" and (args.dtype == "float32" or args.form == "formula"):
+        _usage_error("--target fixed computes in integers: a compact int8 or int16 table, not "
+                     f"{'--dtype float32' if args.dtype == 'float32' else '--form formula'}")
+
+
 def run(args):
+    _check_combinations(args)
     output = Path(args.output)
     if output.exists() and output.resolve() == Path(args.model).resolve():
         raise InputError(f"-o {output} is the model file being exported; expected a different output path "
@@ -51,13 +96,20 @@ def run(args):
                                  "a different folder or --name (the export would overwrite the model)")
     compensator = Compensator(args.model)
     if args.format == "table":
-        table = compile_table(compensator, args.bits, dtype=args.dtype)
+        table = compile_table(compensator, args.bits, dtype=args.dtype or "int16")
         save_table(table, output)
         print(f"wrote {output}: {table.bits}-bit {table.dtype} table, {output.stat().st_size} "
               f"bytes; deviation from the model {table.quantisation_arcmin:.3g} arcmin at the "
               f"codes, up to {table.between_codes_arcmin:.3g} arcmin more between codes")
         return 0
-    paths = write_c(compensator, output, prefix=args.name, bits=args.bits,
-                    table=args.dtype if args.table else None, constants=args.constants)
-    print(f"wrote {', '.join(map(str, paths))}")
+    if args.target == "host":
+        options = {"table": (args.dtype or "int16") if args.table else None, "constants": args.constants}
+        compact = {}
+    else:
+        options = {}
+        compact = {"nodes": args.nodes, "tolerance_arcmin": args.tolerance, "form": args.form,
+                   "dtype": args.dtype}
+    paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
+                                  **{k: v for k, v in compact.items() if v is not None}, **options)
+    print(f"wrote {', '.join(map(str, paths))}: {describe(summary)}")
     return 0

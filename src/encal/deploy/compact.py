@@ -1,0 +1,361 @@
+"""Compact periodic tables: a model as N nodes with linear interpolation and wrap.
+
+A compact table holds the model's error at ``N`` evenly spaced angles
+``i * 360 / N`` degrees (``N`` a power of two); between nodes the error is
+interpolated linearly, and node ``N - 1`` interpolates towards node 0. The
+node values are a least-squares fit of that piecewise-linear curve to the
+model at every code of the encoder (the curve through the model's own values
+at the nodes would be about twice as far from it), then stored as
+
+- ``int8`` or ``int16`` in a unit of ``2^e`` turns / 2^32 (a power of two
+  of a 32-bit binary angle, ``BAM_ARCMIN`` arc-minutes): the smallest such
+  unit with which every node fits, so that a fixed-point processor converts to
+  encoder counts with shifts alone, and a float one with one exact multiply; or
+- ``float32`` arc-minutes.
+
+Each table states its *deployed* error: the largest and the RMS difference
+between what the run-time rule of a target (:func:`predict_float32` for a
+processor with a single-precision FPU, :func:`predict_fixed` for integer
+arithmetic) returns and the model, over all ``2^B`` codes of the encoder
+(65,536 evenly spaced angles when the resolution is unknown). The rules here
+are the exact arithmetic of the exported C (:mod:`encal.deploy.targets`),
+rounding step by rounding step, so the stated error is that of the firmware.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .compensator import Compensator
+
+__all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
+           "NODE_DTYPES", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
+           "default_tolerance_arcmin", "evaluation_bits", "model_on_codes"]
+
+NODE_DTYPES = ("int8", "int16", "float32")
+_INT_LIMIT = {"int8": 127, "int16": 32767}
+#: One unit of a 32-bit binary angle (2^32 per turn), in arc-minutes.
+BAM_ARCMIN = 21600.0 / 2**32
+#: Bits of the interpolation fraction in the fixed-point rule (products stay below 2^31).
+FIXED_FRACTION_BITS = 14
+MIN_NODES = 4
+MAX_NODES = 1 << 16
+_UNKNOWN_RESOLUTION_BITS = 16  # angles on which a table is measured when the resolution is unknown
+_MAX_EVALUATION_BITS = 20      # beyond, the error is measured on 2^20 evenly spaced codes
+
+
+@dataclass(frozen=True, eq=False)
+class CompactTable:
+    """A model as ``N`` nodes, interpolated linearly with wrap.
+
+    Attributes
+    ----------
+    values : ndarray of shape (N,), int8, int16 or float32
+        Stored node values; node ``i`` is the error at ``i * 360 / N`` degrees.
+    scale_exponent : int or None
+        Integer tables: a stored unit is ``2^scale_exponent * BAM_ARCMIN``
+        arc-minutes. None for float32 tables (arc-minutes).
+    bits : int or None
+        Encoder resolution on whose codes the table was fitted and measured.
+    max_error_arcmin, rms_error_arcmin : float
+        Deployed error of the float32 rule against the model, over all codes.
+    fixed_max_error_arcmin, fixed_rms_error_arcmin : float or None
+        The same for the integer rule (integer tables only).
+    model_sha256 : str or None
+    """
+
+    values: np.ndarray
+    scale_exponent: int | None
+    bits: int | None
+    max_error_arcmin: float
+    rms_error_arcmin: float
+    fixed_max_error_arcmin: float | None = None
+    fixed_rms_error_arcmin: float | None = None
+    model_sha256: str | None = None
+
+    @property
+    def nodes(self):
+        """Number of nodes N."""
+        return int(self.values.size)
+
+    @property
+    def dtype(self):
+        """``'int8'``, ``'int16'`` or ``'float32'``."""
+        return self.values.dtype.name
+
+    @property
+    def scale_arcmin(self):
+        """Arc-minutes per stored unit (exact in float32)."""
+        return 1.0 if self.scale_exponent is None else math.ldexp(BAM_ARCMIN, self.scale_exponent)
+
+    @property
+    def table_bytes(self):
+        """Bytes of the node array in flash."""
+        return int(self.values.nbytes)
+
+    @property
+    def error_arcmin(self):
+        """Node values in arc-minutes (float64)."""
+        return self.values.astype(float) * self.scale_arcmin
+
+    def describe(self):
+        """One line: nodes, storage, bytes and deployed error."""
+        where = f"all {2**self.bits} codes" if self.bits else f"{2**_UNKNOWN_RESOLUTION_BITS} angles"
+        return (f"{self.nodes}-node {self.dtype} table, {self.table_bytes} bytes; deployed error against "
+                f"the model over {where}: max {self.max_error_arcmin:.3g}, RMS {self.rms_error_arcmin:.3g} "
+                "arcmin")
+
+
+def evaluation_bits(bits):
+    """Bits of the code grid on which tables are fitted and measured."""
+    return _UNKNOWN_RESOLUTION_BITS if bits is None else min(int(bits), _MAX_EVALUATION_BITS)
+
+
+def model_on_codes(model, bits):
+    """The model's error (arcmin) at every code of the evaluation grid of ``bits``."""
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    grid = evaluation_bits(bits)
+    theta = np.arange(2**grid, dtype=float) * (360.0 / 2**grid)
+    chunk = 1 << 16
+    return np.concatenate([np.asarray(comp.predict(theta[i:i + chunk]), dtype=float)
+                           for i in range(0, theta.size, chunk)])
+
+
+def default_tolerance_arcmin(bits):
+    """The default deployed-error tolerance: a tenth of an LSB, or 0.01 arcmin when the resolution is unknown."""
+    return 0.01 if bits is None else 0.1 * 21600.0 / 2**bits
+
+
+def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
+    """Fit a compact table of ``nodes`` nodes to a model and measure its deployed error.
+
+    Parameters
+    ----------
+    model : Model, Compensator, str or os.PathLike
+    nodes : int
+        N, a power of two from 4 to 65,536 (and at most 2^B).
+    dtype : {'int8', 'int16', 'float32'}, default='int16'
+    bits : int, optional
+        Encoder resolution; default the model file's. Without one the table is
+        fitted and measured on 65,536 evenly spaced angles.
+    reference : ndarray, optional
+        The model at every code (:func:`model_on_codes`), when already computed.
+
+    Returns
+    -------
+    CompactTable
+    """
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    bits = _resolution(comp, bits)
+    nodes = _check_nodes(nodes, bits)
+    if dtype not in NODE_DTYPES:
+        raise InputError(f"expected a node dtype among {', '.join(NODE_DTYPES)}, got {dtype!r}")
+    grid = evaluation_bits(bits)
+    if nodes > 2**grid:
+        raise InputError(f"expected at most {2**grid} nodes for a {grid}-bit evaluation grid, got {nodes}")
+    target = model_on_codes(comp, bits) if reference is None else reference
+    fitted = _least_squares_nodes(target, nodes)
+    if dtype == "float32":
+        values, exponent = fitted.astype(np.float32), None
+    else:
+        # at least 2^-16: the fixed-point rule shifts by FIXED_FRACTION_BITS - e <= 30
+        exponent = max(_scale_exponent(np.max(np.abs(fitted)) / BAM_ARCMIN, _INT_LIMIT[dtype]),
+                       FIXED_FRACTION_BITS - 30)
+        values = np.rint(fitted / math.ldexp(BAM_ARCMIN, exponent)).astype(dtype)
+    table = CompactTable(values, exponent, bits, 0.0, 0.0, model_sha256=comp.sha256)
+    codes = np.arange(2**grid, dtype=np.int64)
+    deployed = predict_float32(table, codes, grid).astype(float)
+    stats = {"max_error_arcmin": float(np.max(np.abs(deployed - target))),
+             "rms_error_arcmin": float(np.sqrt(np.mean((deployed - target) ** 2)))}
+    if dtype != "float32":
+        fixed = predict_fixed(table, codes, grid)
+        stats.update(fixed_max_error_arcmin=float(np.max(np.abs(fixed - target))),
+                     fixed_rms_error_arcmin=float(np.sqrt(np.mean((fixed - target) ** 2))))
+    return CompactTable(values, exponent, bits, model_sha256=comp.sha256, **stats)
+
+
+def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dtypes=NODE_DTYPES,
+                   target="cortex-m4f"):
+    """The cheapest compact table whose deployed error stays within a tolerance of the model.
+
+    Parameters
+    ----------
+    model : Model, Compensator, str or os.PathLike
+    tolerance_arcmin : float, optional
+        Largest deployed error (max over all codes) allowed, arc-minutes.
+        Default :func:`default_tolerance_arcmin` (a tenth of an LSB).
+    bits : int, optional
+        Encoder resolution; default the model file's.
+    cost : {'bytes', 'entries'}, default='bytes'
+        What "cheapest" means: flash bytes of the table, or its number of nodes
+        (ties go to the smaller table in bytes). The operations per reading of
+        a table do not depend on N.
+    dtypes : sequence of str, default=NODE_DTYPES
+    target : {'cortex-m4f', 'fixed'}, default='cortex-m4f'
+        Whose run-time rule's error counts (fixed allows integer dtypes only).
+
+    Returns
+    -------
+    table : CompactTable
+        The cheapest table within the tolerance, or the most accurate one tried
+        when none is.
+    met : bool
+        Whether the tolerance is met.
+    """
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    bits = _resolution(comp, bits)
+    tolerance = default_tolerance_arcmin(bits) if tolerance_arcmin is None else float(tolerance_arcmin)
+    if not tolerance > 0.0 or not math.isfinite(tolerance):
+        raise InputError(f"expected a positive tolerance in arcmin, got {tolerance_arcmin!r}")
+    if cost not in ("bytes", "entries"):
+        raise InputError(f"expected cost 'bytes' or 'entries', got {cost!r}")
+    if target == "fixed":
+        dtypes = [d for d in dtypes if d != "float32"]
+    reference = model_on_codes(comp, bits)
+    largest = min(MAX_NODES, 2**evaluation_bits(bits))
+    best, met = None, False
+    candidates = []
+    for dtype in dtypes:
+        nodes = MIN_NODES
+        while nodes <= largest:
+            table = compile_compact(comp, nodes, dtype=dtype, bits=bits, reference=reference)
+            error = table.fixed_max_error_arcmin if target == "fixed" else table.max_error_arcmin
+            if best is None or error < _error(best, target):
+                best = table
+            if error <= tolerance:
+                candidates.append(table)
+                break
+            nodes *= 2
+    if candidates:
+        key = (lambda t: (t.table_bytes, t.nodes)) if cost == "bytes" else (lambda t: (t.nodes, t.table_bytes))
+        best, met = min(candidates, key=key), True
+    return best, met
+
+
+def _error(table, target):
+    return table.fixed_max_error_arcmin if target == "fixed" else table.max_error_arcmin
+
+
+def _resolution(comp, bits):
+    bits = comp.encoder.get("resolution_bits") if bits is None else bits
+    if bits is None:
+        return None
+    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= 32:
+        raise InputError(f"expected an encoder resolution from 1 to 32 bits, got {bits!r}")
+    return int(bits)
+
+
+def _check_nodes(nodes, bits):
+    valid = isinstance(nodes, (int, np.integer)) and not isinstance(nodes, bool) \
+        and MIN_NODES <= nodes <= MAX_NODES and nodes & (nodes - 1) == 0
+    if not valid:
+        raise InputError(f"expected a power of two from {MIN_NODES} to {MAX_NODES} nodes, got {nodes!r}")
+    if bits is not None and nodes > 2**bits:
+        raise InputError(f"expected at most 2^{bits} = {2**bits} nodes for a {bits}-bit encoder, got {nodes}")
+    return int(nodes)
+
+
+def _least_squares_nodes(target, nodes):
+    """Node values of the periodic piecewise-linear curve closest (least squares) to ``target``.
+
+    ``target`` holds ``M`` evenly spaced samples, ``M`` a multiple of ``nodes``:
+    every segment sees the same sample positions, so the normal equations are
+    circulant and are solved with two FFTs.
+    """
+    per_segment = target.size // nodes
+    t = np.arange(per_segment) / per_segment
+    samples = target.reshape(nodes, per_segment)
+    right = samples @ t               # each segment's weight on its right node
+    left = samples @ (1.0 - t)        # ... on its left node
+    rhs = left + np.roll(right, 1)
+    diagonal = np.sum((1.0 - t) ** 2) + np.sum(t**2)
+    off = np.sum(t * (1.0 - t))
+    row = np.zeros(nodes)
+    row[0] = diagonal
+    row[1] += off
+    row[-1] += off
+    return np.real(np.fft.ifft(np.fft.fft(rhs) / np.fft.fft(row)))
+
+
+def _scale_exponent(largest_units, limit):
+    """The smallest ``e`` with ``rint(largest / 2^e) <= limit``: every rounded node fits."""
+    if largest_units == 0.0:
+        return 0
+    exponent = math.floor(math.log2(largest_units / limit)) - 1
+    while np.rint(largest_units / 2.0**exponent) > limit:
+        exponent += 1
+    return exponent
+
+
+# -- the run-time rules, exactly as the exported C computes them ----------------------------
+
+def units_float32(table, codes, bits):
+    """The float32 rule's interpolated node value (stored units, float32) at codes of a ``bits``-bit encoder.
+
+    ``i = k >> (B - n)``, ``f = (k & (2^(B-n) - 1)) * 2^-(B-n)``,
+    ``u = t[i] + f * (t[(i+1) mod N] - t[i])``, every step in float32.
+    """
+    codes = np.asarray(codes, dtype=np.int64)
+    n = table.nodes.bit_length() - 1
+    shift = bits - n
+    index = codes >> shift
+    following = (index + 1) & (table.nodes - 1)
+    fraction = (codes & ((1 << shift) - 1)).astype(np.float32) * np.float32(2.0**-shift)
+    stored = table.values.astype(np.float32)
+    left = stored[index]
+    return left + fraction * (stored[following] - left)
+
+
+def predict_float32(table, codes, bits):
+    """The float32 rule: error in arcmin (float32) at codes, ``units * scale_arcmin``."""
+    return units_float32(table, codes, bits) * np.float32(table.scale_arcmin)
+
+
+def predict_float32_angle(table, theta_deg):
+    """The float32 rule for an angle in degrees (float32 in [0, 360)); error in arcmin (float32)."""
+    theta = np.asarray(theta_deg, dtype=np.float32)
+    x = theta * np.float32(table.nodes / 360.0)
+    index = x.astype(np.int64)
+    fraction = x - index.astype(np.float32)
+    wrapped = index >= table.nodes
+    index = np.where(wrapped, 0, index)
+    fraction = np.where(wrapped, np.float32(0.0), fraction).astype(np.float32)
+    following = (index + 1) & (table.nodes - 1)
+    stored = table.values.astype(np.float32)
+    left = stored[index]
+    units = left + fraction * (stored[following] - left)
+    return units * np.float32(table.scale_arcmin)
+
+
+def shift_round(value, shift):
+    """``round(value / 2^shift)`` (halves up) for integers, as the C helper computes it."""
+    value = np.asarray(value, dtype=np.int64)
+    if shift <= 0:
+        return value << -shift
+    return (value + (1 << (shift - 1))) >> shift
+
+
+def correction_bam(table, angles):
+    """The integer rule: the error in units of a 32-bit binary angle at 32-bit angles."""
+    angles = np.asarray(angles, dtype=np.int64) & 0xFFFFFFFF
+    n = table.nodes.bit_length() - 1
+    index = angles >> (32 - n)
+    fraction = (angles >> (32 - n - FIXED_FRACTION_BITS)) & ((1 << FIXED_FRACTION_BITS) - 1)
+    stored = table.values.astype(np.int64)
+    left = stored[index]
+    right = stored[(index + 1) & (table.nodes - 1)]
+    scaled = left * (1 << FIXED_FRACTION_BITS) + (right - left) * fraction
+    return shift_round(scaled, FIXED_FRACTION_BITS - table.scale_exponent)
+
+
+def correction_lsb_q8(table, codes, bits):
+    """The integer rule at codes: the error in 1/256 of an LSB."""
+    angles = np.asarray(codes, dtype=np.int64) << (32 - bits)
+    return shift_round(correction_bam(table, angles), 32 - bits - 8)
+
+
+def predict_fixed(table, codes, bits):
+    """The integer rule: error (arcmin, float64 of the integer result) at codes of a ``bits``-bit encoder."""
+    return correction_lsb_q8(table, codes, bits).astype(float) * (21600.0 / 2**bits / 256.0)

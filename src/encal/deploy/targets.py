@@ -1,0 +1,580 @@
+"""C for a deployment target: ``host`` (double), ``cortex-m4f`` (float32 only), ``fixed`` (integers only).
+
+- ``host``: :func:`encal.deploy.cexport.export_c`, the model's formula in double
+  (or its dense per-code table).
+- ``cortex-m4f``: single precision only, for processors whose FPU has no
+  double (Cortex-M4F, M33, ESP32): no ``double`` anywhere; it compiles
+  with ``-Wdouble-promotion -Werror``. Either a compact table
+  (:mod:`encal.deploy.compact`; every kind) or, for a Fourier series, the
+  series itself (``form='formula'``), its phases taken exactly as 32-bit
+  binary angles (``k * theta`` modulo one turn is an integer product).
+- ``fixed``: int32/int16 arithmetic only, for processors without an FPU: a
+  compact integer table interpolated in fixed point.
+
+Every target takes and returns encoder codes as well as angles::
+
+    cortex-m4f                                   fixed
+    float P_predict_arcmin(float theta_deg);     int32_t  P_error_bam32(uint32_t angle);
+    float P_correct_deg(float theta_deg);        uint32_t P_correct_bam32(uint32_t angle);
+    float P_error_lsb(uint32_t code);            int32_t  P_error_lsb_q8(uint32_t code);
+    uint32_t P_correct_code(uint32_t code);      uint32_t P_correct_code(uint32_t code);
+    float P_correct_counts(uint32_t code);
+
+(a 32-bit binary angle is a fraction of a turn times 2^32; ``q8``: 1/256 LSB).
+The code functions need the encoder resolution; without it they are left
+out and the banner says so. The arithmetic here is exactly what
+:func:`encal.deploy.compact.predict_float32`, :func:`~encal.deploy.compact.predict_fixed`
+and :func:`fourier_float32` compute, step by step, so their stated deployed
+errors are those of the compiled code.
+"""
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .._atomic import atomic_file_set, atomic_write
+from ..errors import InputError
+from .cexport import _banner, _check_identifier, export_c
+from .compact import FIXED_FRACTION_BITS, choose_compact, compile_compact, evaluation_bits, model_on_codes
+from .compensator import Compensator
+
+__all__ = ["TARGETS", "FORMS", "export_target", "write_target", "fourier_terms", "fourier_float32",
+           "OPERATIONS"]
+
+TARGETS = ("host", "cortex-m4f", "fixed")
+FORMS = ("table", "formula")
+_MAX_FIXED_COUNT_BITS = 24
+
+#: C operations per reading (loads, integer and float arithmetic, conversions, compares; calls
+#: to sinf/cosf counted apart), by target, form and function. Instruction counts on a
+#: Cortex-M4F build are measured by benchmarks/bench_mcu.py.
+OPERATIONS = {
+    ("cortex-m4f", "table", "error_lsb"): 15,
+    ("cortex-m4f", "table", "correct_code"): 22,
+    ("cortex-m4f", "table", "correct_deg"): 21,
+    ("fixed", "table", "error_bam32"): 14,
+    ("fixed", "table", "correct_code"): 23,
+    ("cortex-m4f", "formula", "per_term"): 11,
+}
+
+
+def fourier_terms(model):
+    """``(orders, cos, sin)`` of a model that is a Fourier series, else None.
+
+    A model kind whose prediction is a Fourier series says so with a
+    ``fourier_series()`` method returning the same triple.
+    """
+    model = model.model if isinstance(model, Compensator) else model
+    series = getattr(model, "fourier_series", None)
+    if callable(series):
+        orders, cos, sin = series()
+    elif model.kind == "fourier":
+        orders, cos, sin = model.orders, model.cos, model.sin
+    else:
+        return None
+    return (np.asarray(orders, dtype=np.int64), np.asarray(cos, dtype=float),
+            np.asarray(sin, dtype=float))
+
+
+def fourier_float32(orders, cos, sin, angles):
+    """The cortex-m4f Fourier rule: error (arcmin, float32) at 32-bit binary angles.
+
+    Per term: ``p = k * angle mod 2^32`` (exact), ``phase = (p >> 8) * 2 pi / 2^24``
+    in float32, ``sum += c * cosf(phase) + s * sinf(phase)``. NumPy's float32 sine
+    and cosine may differ from a C library's by an ulp.
+    """
+    angles = np.asarray(angles, dtype=np.int64) & 0xFFFFFFFF
+    total = np.zeros(angles.shape, dtype=np.float32)
+    step = np.float32(2.0 * math.pi / 2**24)
+    for order, c, s in zip(orders, cos, sin):
+        p = (int(order) * angles) & 0xFFFFFFFF
+        phase = (p >> 8).astype(np.float32) * step
+        total = total + (np.float32(c) * np.cos(phase) + np.float32(s) * np.sin(phase))
+    return total
+
+
+def export_target(model, target="host", *, prefix="encal", bits=None, form="table", nodes=None,
+                  dtype=None, tolerance_arcmin=None, **host_options):
+    """C source for a deployment target.
+
+    Parameters
+    ----------
+    model : Model, Compensator, str or os.PathLike
+    target : {'host', 'cortex-m4f', 'fixed'}, default='host'
+    prefix : str, default='encal'
+        Prefix of the files and exported identifiers; a C identifier.
+    bits : int, optional
+        Encoder resolution; default the model file's. Without it (cortex-m4f,
+        fixed) the code functions are left out.
+    form : {'table', 'formula'}, default='table'
+        cortex-m4f: a compact table, or the model's Fourier series itself.
+    nodes : int, optional
+        Nodes of the compact table (a power of two); default the fewest that
+        meet ``tolerance_arcmin``.
+    dtype : {'int8', 'int16', 'float32'}, optional
+        Storage of the nodes; default the cheapest in bytes that meets the tolerance.
+    tolerance_arcmin : float, optional
+        Largest deployed error allowed when choosing the table (default a tenth of an LSB).
+    **host_options
+        ``table`` and ``constants`` of :func:`~encal.deploy.cexport.export_c` (host only).
+
+    Returns
+    -------
+    files : dict of str to str
+        ``{'<prefix>.h': ..., '<prefix>.c': ...}``.
+    summary : dict
+        What was exported: ``target, form, nodes, dtype, table_bytes,
+        max_error_arcmin, rms_error_arcmin, operations, bits, note``.
+    """
+    if target not in TARGETS:
+        raise InputError(f"expected a target among {', '.join(TARGETS)}, got {target!r}")
+    if form not in FORMS:
+        raise InputError(f"expected a form among {', '.join(FORMS)}, got {form!r}")
+    _check_identifier(prefix)
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    if target == "host":
+        if nodes is not None or tolerance_arcmin is not None or form != "table":
+            raise InputError("--nodes, --tolerance and --form apply to the cortex-m4f and fixed targets, "
+                             "not host (its C evaluates the formula in double, or --table)")
+        files = export_c(comp, prefix=prefix, bits=bits, **host_options)
+        return files, {"target": "host", "form": "table" if host_options.get("table") else "formula"}
+    if host_options:
+        raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
+    bits = _bits(comp, bits, target)
+    note = None if bits is not None else (
+        "the encoder resolution is unknown (pass bits=, --bits): only the angle functions are "
+        "exported, without the code functions")
+    if form == "formula":
+        if target != "cortex-m4f":
+            raise InputError("form='formula' is for the cortex-m4f target; the fixed target uses a table")
+        terms = fourier_terms(comp)
+        if terms is None:
+            raise InputError(f"expected a Fourier series for form='formula' on cortex-m4f, got a "
+                             f"{comp.kind} model; use form='table' (a compact table serves every kind)")
+        return _fourier_files(comp, prefix, bits, terms, note)
+    table, met = _table(comp, target, bits, nodes, dtype, tolerance_arcmin)
+    files = (_float_table_files if target == "cortex-m4f" else _fixed_table_files)(comp, prefix, bits, table)
+    fixed = target == "fixed"
+    summary = {"target": target, "form": "table", "nodes": table.nodes, "dtype": table.dtype,
+               "table_bytes": table.table_bytes, "bits": bits, "note": note, "tolerance_met": met,
+               "max_error_arcmin": table.fixed_max_error_arcmin if fixed else table.max_error_arcmin,
+               "rms_error_arcmin": table.fixed_rms_error_arcmin if fixed else table.rms_error_arcmin,
+               "operations": OPERATIONS[(target, "table", "error_bam32" if fixed else "error_lsb")],
+               "table": table}
+    return files, summary
+
+
+def write_target(model, directory, target="host", **options):
+    """Write the files of :func:`export_target` into ``directory`` (created if missing), both or neither.
+
+    Returns
+    -------
+    paths : list of pathlib.Path
+    summary : dict
+        As :func:`export_target`.
+    """
+    files, summary = export_target(model, target, **options)
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = []
+    with atomic_file_set():
+        for name, text in files.items():
+            paths.append(directory / name)
+            atomic_write(paths[-1], text)
+    return paths, summary
+
+
+def describe(summary):
+    """One line about an export (what it is, bytes, operations, deployed error)."""
+    if summary["target"] == "host":
+        return f"host C ({summary['form']}, double precision)"
+    bits = summary.get("bits")
+    where = f"all {2**evaluation_bits(bits)} codes" if bits else "65536 angles"
+    if summary["form"] == "formula":
+        what = f"{summary['terms']}-term Fourier series in float32"
+        cost = f"{summary['operations']} operations and 2 sinf/cosf calls per term"
+    else:
+        what = f"{summary['nodes']}-node {summary['dtype']} table, {summary['table_bytes']} bytes"
+        cost = f"{summary['operations']} operations per reading"
+    text = (f"{summary['target']}: {what}, {cost}; deployed error against the model over {where}: "
+            f"max {summary['max_error_arcmin']:.3g}, RMS {summary['rms_error_arcmin']:.3g} arcmin")
+    if summary.get("tolerance_met") is False:
+        text += " (more than the tolerance: no table tried meets it)"
+    if summary.get("note"):
+        text += f"; note: {summary['note']}"
+    return text
+
+
+def _bits(comp, bits, target):
+    bits = comp.encoder.get("resolution_bits") if bits is None else bits
+    if bits is None:
+        return None
+    limit = _MAX_FIXED_COUNT_BITS if target == "fixed" else 32
+    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= limit:
+        raise InputError(f"expected an encoder resolution from 1 to {limit} bits for the {target} target, "
+                         f"got {bits!r}")
+    return int(bits)
+
+
+def _table(comp, target, bits, nodes, dtype, tolerance):
+    if dtype is not None and target == "fixed" and dtype == "float32":
+        raise InputError("expected an integer node dtype (int8 or int16) for the fixed target, got float32")
+    if nodes is not None:
+        return compile_compact(comp, nodes, dtype=dtype or "int16", bits=bits), None
+    dtypes = (dtype,) if dtype else ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
+    return choose_compact(comp, tolerance_arcmin=tolerance, bits=bits, dtypes=dtypes, target=target)
+
+
+# -- C text ----------------------------------------------------------------------------------
+
+def _float(value):
+    """A float32 C literal that reads back to float32(value)."""
+    text = f"{float(np.float32(value)):.9g}"
+    if not any(c in text for c in ".eEn"):
+        text += ".0"
+    return text + "f"
+
+
+def _rows(items, per_line):
+    return ",\n    ".join(", ".join(items[i:i + per_line]) for i in range(0, len(items), per_line))
+
+
+def _node_array(table):
+    if table.dtype == "float32":
+        items, ctype, per_line = [_float(v) for v in table.values], "float", 6
+    else:
+        items, ctype, per_line = [str(int(v)) for v in table.values], f"{table.dtype}_t", 16
+    return f"static const {ctype} node[{table.nodes}] = {{\n    {_rows(items, per_line)}\n}};\n"
+
+
+def _header(prefix, bits, banner, declarations):
+    guard = f"{prefix.upper()}_H"
+    resolution = "" if bits is None else (f"\n/* Resolution of the encoder codes, in bits. */\n"
+                                          f"#define {prefix.upper()}_BITS {bits}u\n")
+    return f"""\
+{banner}
+#ifndef {guard}
+#define {guard}
+
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {{
+#endif
+{resolution}
+{declarations}
+#ifdef __cplusplus
+}}
+#endif
+
+#endif /* {guard} */
+"""
+
+
+_FLOAT_ANGLE_DECLARATIONS = """\
+/* Predicted error (arc-minutes) at the encoder reading theta_deg (degrees, any finite value);
+   NaN for a NaN or infinite reading, here and in {p}_correct_deg. */
+float {p}_predict_arcmin(float theta_deg);
+
+/* Corrected angle, in [0, 360) degrees, of the encoder reading theta_deg (degrees). */
+float {p}_correct_deg(float theta_deg);
+"""
+
+_FLOAT_CODE_DECLARATIONS = """
+/* For a raw code of a {P}_BITS-bit encoder (higher bits ignored): */
+/* the predicted error in LSB (codes), */
+float {p}_error_lsb(uint32_t code);
+/* the corrected code, code - round(error), modulo 2^{P}_BITS, */
+uint32_t {p}_correct_code(uint32_t code);
+/* the corrected angle in [0, 360) degrees. */
+float {p}_correct_counts(uint32_t code);
+"""
+
+_FLOAT_COMMON = """\
+#define TWO_TO_32_PER_DEG 11930464.7f /* 2^32 / 360: degrees to a 32-bit binary angle */
+
+/* theta in [0, 360); NaN stays NaN */
+static float wrap360f(float angle)
+{
+    float t = angle;
+    if (!(t >= 0.0f && t < 360.0f)) {
+        t = fmodf(t, 360.0f);
+        if (t < 0.0f) t += 360.0f;
+        if (t >= 360.0f) t = 0.0f; /* -1e-9 + 360 rounds to 360 */
+    }
+    return t;
+}
+
+/* (angle - error / 60) wrapped to [0, 360) */
+static float corrected_deg(float theta, float error_arcmin)
+{
+    float c = theta - error_arcmin * (1.0f / 60.0f);
+    if (c < 0.0f) c += 360.0f;
+    if (c >= 360.0f) c -= 360.0f;
+    return c >= 360.0f ? 0.0f : c;
+}
+"""
+
+_FLOAT_CODE_FUNCTIONS = """
+uint32_t {p}_correct_code(uint32_t code)
+{{
+    const float shifted = {p}_error_lsb(code) + 0.5f;
+    int32_t rounded = (int32_t)shifted; /* toward zero, then down: floor(error + 1/2) */
+    if ((float)rounded > shifted) rounded -= 1;
+    return ((code & CODE_MASK) - (uint32_t)rounded) & CODE_MASK;
+}}
+
+float {p}_correct_counts(uint32_t code)
+{{
+    const uint32_t k = code & CODE_MASK;
+    return corrected_deg((float)k * STEP_DEG, {p}_error_lsb(code) * LSB_ARCMIN);
+}}
+"""
+
+
+def _code_macros(bits):
+    mask = "0xFFFFFFFFu" if bits == 32 else f"0x{(1 << bits) - 1:X}u"
+    return (f"#define CODE_MASK {mask}\n"
+            f"#define STEP_DEG {_float(360.0 / 2**bits)} /* degrees per code */\n"
+            f"#define LSB_ARCMIN {_float(21600.0 / 2**bits)} /* arc-minutes per code */\n")
+
+
+def _float_table_files(comp, prefix, bits, table):
+    n = table.nodes.bit_length() - 1
+    how = (f"a {table.nodes}-node {table.dtype} table with linear interpolation in float32 "
+           f"({table.table_bytes} bytes; deployed error against the model max {table.max_error_arcmin:.3g}, "
+           f"RMS {table.rms_error_arcmin:.3g} arcmin)")
+    banner = _banner(comp, prefix, how)
+    declarations = _FLOAT_ANGLE_DECLARATIONS.format(p=prefix)
+    if bits is not None:
+        declarations += _FLOAT_CODE_DECLARATIONS.format(p=prefix, P=prefix.upper())
+    lsb_scale = table.scale_arcmin / (21600.0 / 2**bits) if bits else None
+    code_part = "" if bits is None else f"""
+{_code_macros(bits)}#define NODE_SHIFT {bits - n}u /* code bits below the node index */
+#define FRACTION_MASK 0x{(1 << (bits - n)) - 1:X}u
+#define FRACTION_SCALE {_float(2.0 ** -(bits - n))}
+#define SCALE_LSB {_float(lsb_scale)} /* LSB per stored unit */
+
+float {prefix}_error_lsb(uint32_t code)
+{{
+    const uint32_t k = code & CODE_MASK;
+    return node_value(k >> NODE_SHIFT, (float)(k & FRACTION_MASK) * FRACTION_SCALE) * SCALE_LSB;
+}}
+{_FLOAT_CODE_FUNCTIONS.format(p=prefix)}"""
+    source = f"""\
+{banner}
+#include "{prefix}.h"
+
+#include <math.h>
+#include <stdint.h>
+
+#define NODES {table.nodes}u
+#define NODES_PER_DEG {_float(table.nodes / 360.0)}
+#define SCALE_ARCMIN {_float(table.scale_arcmin)} /* arc-minutes per stored unit */
+
+/* node i: the error at i * 360 / NODES degrees, in stored units */
+{_node_array(table)}
+{_FLOAT_COMMON}
+/* linear interpolation between node i and the next, wrapping at NODES */
+static float node_value(uint32_t i, float fraction)
+{{
+    const float left = (float)node[i];
+    return left + fraction * ((float)node[(i + 1u) & (NODES - 1u)] - left);
+}}
+
+float {prefix}_predict_arcmin(float theta_deg)
+{{
+    const float t = wrap360f(theta_deg);
+    float x, fraction;
+    uint32_t i;
+    if (t != t) return t;
+    x = t * NODES_PER_DEG;
+    i = (uint32_t)x;
+    fraction = x - (float)i;
+    if (i >= NODES) {{ /* t just below 360 rounded up */
+        i = 0u;
+        fraction = 0.0f;
+    }}
+    return node_value(i, fraction) * SCALE_ARCMIN;
+}}
+
+float {prefix}_correct_deg(float theta_deg)
+{{
+    const float t = wrap360f(theta_deg);
+    if (t != t) return t;
+    return corrected_deg(t, {prefix}_predict_arcmin(t));
+}}
+{code_part}"""
+    return {f"{prefix}.h": _header(prefix, bits, banner, declarations), f"{prefix}.c": source}
+
+
+def _fourier_files(comp, prefix, bits, terms, note):
+    orders, cos, sin = terms
+    grid = evaluation_bits(bits)
+    codes = np.arange(2**grid, dtype=np.int64)
+    deployed = fourier_float32(orders, cos, sin, codes << (32 - grid)).astype(float)
+    reference = model_on_codes(comp, bits)
+    max_error = float(np.max(np.abs(deployed - reference)))
+    rms_error = float(np.sqrt(np.mean((deployed - reference) ** 2)))
+    how = (f"the model's {orders.size}-term Fourier series in float32 (deployed error against the model "
+           f"max {max_error:.3g}, RMS {rms_error:.3g} arcmin)")
+    banner = _banner(comp, prefix, how)
+    declarations = _FLOAT_ANGLE_DECLARATIONS.format(p=prefix)
+    if bits is not None:
+        declarations += _FLOAT_CODE_DECLARATIONS.format(p=prefix, P=prefix.upper())
+    order_items = [f"{int(k)}u" for k in orders]
+    code_part = "" if bits is None else f"""
+{_code_macros(bits)}
+float {prefix}_error_lsb(uint32_t code)
+{{
+    return series((code & CODE_MASK) << {32 - bits}u) * (1.0f / LSB_ARCMIN);
+}}
+{_FLOAT_CODE_FUNCTIONS.format(p=prefix)}"""
+    source = f"""\
+{banner}
+#include "{prefix}.h"
+
+#include <math.h>
+#include <stdint.h>
+
+#define TERMS {orders.size}
+#define PHASE_STEP {_float(2.0 * math.pi / 2**24)} /* radians per unit of a 24-bit phase */
+
+static const uint32_t order[TERMS] = {{
+    {_rows(order_items, 12)}
+}};
+static const float coef_cos[TERMS] = {{
+    {_rows([_float(v) for v in cos], 6)}
+}};
+static const float coef_sin[TERMS] = {{
+    {_rows([_float(v) for v in sin], 6)}
+}};
+
+{_FLOAT_COMMON}
+/* the error (arc-minutes) at a 32-bit binary angle: k * angle modulo one turn is an exact
+   integer product, so high orders lose nothing */
+static float series(uint32_t angle)
+{{
+    float sum = 0.0f;
+    int i;
+    for (i = 0; i < TERMS; ++i) {{
+        const float phase = (float)((order[i] * angle) >> 8) * PHASE_STEP;
+        sum += coef_cos[i] * cosf(phase) + coef_sin[i] * sinf(phase);
+    }}
+    return sum;
+}}
+
+static uint32_t binary_angle(float t) /* t in [0, 360) */
+{{
+    const float x = t * TWO_TO_32_PER_DEG;
+    return x >= 4294967296.0f ? 0u : (uint32_t)x;
+}}
+
+float {prefix}_predict_arcmin(float theta_deg)
+{{
+    const float t = wrap360f(theta_deg);
+    if (t != t) return t;
+    return series(binary_angle(t));
+}}
+
+float {prefix}_correct_deg(float theta_deg)
+{{
+    const float t = wrap360f(theta_deg);
+    if (t != t) return t;
+    return corrected_deg(t, series(binary_angle(t)));
+}}
+{code_part}"""
+    files = {f"{prefix}.h": _header(prefix, bits, banner, declarations), f"{prefix}.c": source}
+    summary = {"target": "cortex-m4f", "form": "formula", "terms": int(orders.size), "bits": bits,
+               "note": note, "max_error_arcmin": max_error, "rms_error_arcmin": rms_error,
+               "operations": OPERATIONS[("cortex-m4f", "formula", "per_term")] * int(orders.size),
+               "table_bytes": int(orders.size) * 12}
+    return files, summary
+
+
+_FIXED_DECLARATIONS = """\
+/* Angles as 32-bit binary angles: a fraction of a turn times 2^32 (degrees * 2^32 / 360). */
+/* The predicted error, in units of a 32-bit binary angle, at angle. */
+int32_t {p}_error_bam32(uint32_t angle);
+/* The corrected angle, angle - error, modulo one turn. */
+uint32_t {p}_correct_bam32(uint32_t angle);
+"""
+
+_FIXED_CODE_DECLARATIONS = """
+/* For a raw code of a {P}_BITS-bit encoder (higher bits ignored): */
+/* the predicted error in 1/256 LSB, */
+int32_t {p}_error_lsb_q8(uint32_t code);
+/* the corrected code, code - round(error), modulo 2^{P}_BITS. */
+uint32_t {p}_correct_code(uint32_t code);
+"""
+
+
+def _scale_by_power_of_two(expression, shift):
+    """C for round(expression / 2^shift) (a right shift), or expression * 2^-shift."""
+    if shift > 0:
+        return f"shift_round({expression}, {shift}u)"
+    if shift == 0:
+        return expression
+    return f"({expression}) * {1 << -shift}"
+
+
+def _fixed_table_files(comp, prefix, bits, table):
+    n = table.nodes.bit_length() - 1
+    how = (f"a {table.nodes}-node {table.dtype} table with linear interpolation in int32 fixed point "
+           f"({table.table_bytes} bytes; deployed error against the model max "
+           f"{table.fixed_max_error_arcmin:.3g}, RMS {table.fixed_rms_error_arcmin:.3g} arcmin)")
+    banner = _banner(comp, prefix, how)
+    declarations = _FIXED_DECLARATIONS.format(p=prefix)
+    if bits is not None:
+        declarations += _FIXED_CODE_DECLARATIONS.format(p=prefix, P=prefix.upper())
+    fb = FIXED_FRACTION_BITS
+    to_bam = _scale_by_power_of_two("scaled", fb - table.scale_exponent)
+    code_part = "" if bits is None else f"""
+#define CODE_MASK {"0xFFFFFFFFu" if bits == 32 else f"0x{(1 << bits) - 1:X}u"}
+
+int32_t {prefix}_error_lsb_q8(uint32_t code)
+{{
+    return {_scale_by_power_of_two(f"{prefix}_error_bam32((code & CODE_MASK) << {32 - bits}u)", 32 - bits - 8)};
+}}
+
+uint32_t {prefix}_correct_code(uint32_t code)
+{{
+    return ((code & CODE_MASK) - (uint32_t)shift_round({prefix}_error_lsb_q8(code), 8u)) & CODE_MASK;
+}}
+"""
+    source = f"""\
+{banner}
+#include "{prefix}.h"
+
+#include <stdint.h>
+
+#define NODES {table.nodes}u
+#define FRACTION_BITS {fb}u
+
+/* node i: the error at i * 360 / NODES degrees, in units of 2^{table.scale_exponent} / 2^32 turns */
+{_node_array(table)}
+/* round(value / 2^shift), halves up, for 1 <= shift <= 30, without shifting a negative number */
+static int32_t shift_round(int32_t value, uint32_t shift)
+{{
+    const uint32_t biased = (uint32_t)value + 0x80000000u + (1u << (shift - 1u));
+    return (int32_t)(biased >> shift) - (int32_t)(0x80000000u >> shift);
+}}
+
+int32_t {prefix}_error_bam32(uint32_t angle)
+{{
+    const uint32_t i = angle >> {32 - n}u;
+    const int32_t fraction = (int32_t)((angle >> {32 - n - fb}u) & ((1u << FRACTION_BITS) - 1u));
+    const int32_t left = node[i];
+    const int32_t step = (int32_t)node[(i + 1u) & (NODES - 1u)] - left;
+    const int32_t scaled = left * (1 << FRACTION_BITS) + step * fraction;
+    return {to_bam};
+}}
+
+uint32_t {prefix}_correct_bam32(uint32_t angle)
+{{
+    return angle - (uint32_t){prefix}_error_bam32(angle);
+}}
+{code_part}"""
+    return {f"{prefix}.h": _header(prefix, bits, banner, declarations), f"{prefix}.c": source}
+

@@ -1,0 +1,63 @@
+"""`encal export --format c --target cortex-m4f|fixed`: compact tables from the command line."""
+
+from pathlib import Path
+
+import pytest
+
+from encal.cli import main
+
+DATA = Path(__file__).parent / "data"
+MODEL = DATA / "model_v1_fourier.json"
+
+
+def export(capsys, *args):
+    status = main(["export", *map(str, args)])
+    out, err = capsys.readouterr()
+    return status, out, err
+
+
+@pytest.mark.parametrize("target", ["cortex-m4f", "fixed"])
+def test_target_writes_c_and_states_bytes_operations_and_error(tmp_path, capsys, target):
+    status, out, err = export(capsys, MODEL, "--format", "c", "--target", target, "-o", tmp_path, "--name", "axis")
+    assert status == 0 and err == ""
+    assert "bytes" in out and "operations per reading" in out and "deployed error" in out and "RMS" in out
+    source = (tmp_path / "axis.c").read_text()
+    assert "double" not in source.replace("no double", "") and "axis_correct_code" in source
+
+
+def test_tolerance_and_nodes(tmp_path, capsys):
+    status, out, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "-o", tmp_path,
+                            "--nodes", "128", "--dtype", "float32")
+    assert status == 0 and "128-node float32 table, 512 bytes" in out
+    status, loose, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "-o", tmp_path,
+                              "--tolerance", "0.5")
+    status, tight, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "-o", tmp_path,
+                              "--tolerance", "0.005")
+    bytes_of = lambda text: int(text.split(" bytes")[0].rsplit(" ", 1)[1])  # noqa: E731
+    assert bytes_of(loose) < bytes_of(tight)
+
+
+def test_formula(tmp_path, capsys):
+    status, out, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "--form", "formula",
+                            "-o", tmp_path)
+    assert status == 0 and "9-term Fourier series in float32" in out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--target", "cortex-m4f", "--table"], "--table and --constants apply to --target host"),
+    (["--nodes", "64"], "apply to --target cortex-m4f or fixed"),
+    (["--target", "fixed", "--dtype", "float32"], "not --dtype float32"),
+    (["--target", "fixed", "--form", "formula"], "not --form formula"),
+    (["--dtype", "int8"], "a dense table is int16 or float32"),
+])
+def test_options_that_do_not_go_together_are_usage_errors(tmp_path, capsys, args, message):
+    with pytest.raises(SystemExit) as info:
+        export(capsys, MODEL, "--format", "c", "-o", tmp_path, *args)
+    assert info.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "encal.c").exists()
+
+
+def test_formula_of_a_model_that_is_not_a_series_is_refused(tmp_path, capsys):
+    status, _, err = export(capsys, DATA / "model_v1_lut.json", "--format", "c", "--target", "cortex-m4f",
+                            "--form", "formula", "-o", tmp_path)
+    assert status == 1 and "expected a Fourier series" in err and "Traceback" not in err

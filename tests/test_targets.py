@@ -1,0 +1,210 @@
+"""C for the cortex-m4f and fixed targets: compiled on the host, checked on all 2^16 codes.
+
+The generated C is compiled with gcc -std=c99 -Wdouble-promotion -Werror (and, when the
+cross-compiler is installed, with arm-none-eabi-gcc for a Cortex-M4F, checking that the object
+has no double-precision instruction or helper). The float32 results must equal the Python
+emulation of the same arithmetic (encal.deploy.compact, encal.deploy.targets) bit for bit for
+the tables, within 4 float32 ulps of the sum of |coefficients| for the Fourier series (sinf and
+cosf differ between C libraries); and the deployed error against the model must stay within the
+error the export states.
+"""
+
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from encal.deploy import Compensator
+from encal.deploy.compact import (correction_bam, correction_lsb_q8, predict_float32_angle,
+                                  units_float32)
+from encal.deploy.targets import export_target, fourier_float32, fourier_terms, write_target
+from encal.errors import InputError
+from encal.models.fourier import FourierModel
+
+DATA = Path(__file__).parent / "data"
+GCC = shutil.which("gcc")
+ARM_GCC = shutil.which("arm-none-eabi-gcc")
+ARM_OBJDUMP = shutil.which("arm-none-eabi-objdump")
+CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wshadow", "-Wdouble-promotion",
+          "-Wconversion", "-O2"]
+BITS = 16
+N = 1 << BITS
+KINDS = ["fourier", "lut", "ann", "hybrid", "stack", "directional"]
+
+needs_gcc = pytest.mark.skipif(GCC is None, reason="gcc is not installed")
+needs_arm = pytest.mark.skipif(ARM_GCC is None or ARM_OBJDUMP is None,
+                               reason="arm-none-eabi-gcc is not installed (Debian: gcc-arm-none-eabi)")
+
+FLOAT_DRIVER = """\
+#include <stdio.h>
+#include <stdint.h>
+#include "enc.h"
+int main(void)
+{
+    uint32_t k;
+    for (k = 0; k < 65536u; ++k) {
+        const float theta = (float)k * (360.0f / 65536.0f);
+        const float out[4] = {enc_error_lsb(k), (float)enc_correct_code(k), enc_predict_arcmin(theta),
+                              enc_correct_deg(theta)};
+        fwrite(out, sizeof(float), 4, stdout);
+    }
+    return 0;
+}
+"""
+
+FIXED_DRIVER = """\
+#include <stdio.h>
+#include <stdint.h>
+#include "enc.h"
+int main(void)
+{
+    uint32_t k;
+    for (k = 0; k < 65536u; ++k) {
+        const int32_t out[4] = {enc_error_bam32(k << 16), enc_error_lsb_q8(k), (int32_t)enc_correct_code(k),
+                                (int32_t)enc_correct_bam32(k * 65537u)};
+        fwrite(out, sizeof(int32_t), 4, stdout);
+    }
+    return 0;
+}
+"""
+
+
+def run_c(folder, driver, dtype):
+    (folder / "driver.c").write_text(driver)
+    program = folder / "driver"
+    built = subprocess.run([GCC, *CFLAGS, "-I", str(folder), str(folder / "driver.c"), str(folder / "enc.c"),
+                            "-lm", "-o", str(program)], capture_output=True, text=True, timeout=300)
+    assert built.returncode == 0, built.stderr
+    raw = subprocess.run([str(program)], capture_output=True, timeout=60, check=True).stdout
+    return np.frombuffer(raw, dtype=dtype).reshape(-1, 4)
+
+
+def model_path(kind):
+    return DATA / f"model_v1_{kind}.json"
+
+
+def reference(kind):
+    comp = Compensator(model_path(kind))
+    return comp.predict(np.arange(N) * (360.0 / N))
+
+
+@needs_gcc
+@pytest.mark.parametrize("kind", KINDS)
+def test_cortex_m4f_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, kind):
+    _, summary = write_target(model_path(kind), tmp_path, "cortex-m4f", prefix="enc", bits=BITS)
+    table = summary["table"]
+    out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
+    codes = np.arange(N)
+    lsb = 21600.0 / N
+    expected_lsb = units_float32(table, codes, BITS) * np.float32(table.scale_arcmin / lsb)
+    np.testing.assert_array_equal(out[:, 0], expected_lsb)
+    np.testing.assert_array_equal(out[:, 1], (codes - np.floor(expected_lsb + np.float32(0.5))) % N)
+    theta = codes.astype(np.float32) * np.float32(360.0 / N)
+    np.testing.assert_array_equal(out[:, 2], predict_float32_angle(table, theta))
+    deployed = out[:, 0].astype(float) * lsb
+    error = np.abs(deployed - reference(kind))
+    assert error.max() <= summary["max_error_arcmin"] * (1 + 1e-6) + 1e-9
+    assert summary["max_error_arcmin"] <= 0.1 * lsb  # the default tolerance, met for these models
+    assert math.isclose(np.sqrt(np.mean(error**2)), summary["rms_error_arcmin"], rel_tol=1e-6, abs_tol=1e-12)
+    corrected = (theta.astype(float) - out[:, 2].astype(float) / 60.0) % 360.0
+    gap = np.abs((out[:, 3].astype(float) - corrected + 180.0) % 360.0 - 180.0)
+    assert gap.max() <= 2.0**-15  # float32 rounding of the returned angle
+
+
+@needs_gcc
+@pytest.mark.parametrize("kind", KINDS)
+def test_fixed_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, kind):
+    _, summary = write_target(model_path(kind), tmp_path, "fixed", prefix="enc", bits=BITS)
+    table = summary["table"]
+    out = run_c(tmp_path, FIXED_DRIVER, np.int32)
+    codes = np.arange(N, dtype=np.int64)
+    np.testing.assert_array_equal(out[:, 0], correction_bam(table, codes << 16))
+    q8 = correction_lsb_q8(table, codes, BITS)
+    np.testing.assert_array_equal(out[:, 1], q8)
+    np.testing.assert_array_equal(out[:, 2], (codes - ((q8 + 128) >> 8)) % N)
+    angles = (codes * 65537) & 0xFFFFFFFF
+    np.testing.assert_array_equal(out[:, 3].view(np.uint32), (angles - correction_bam(table, angles)) & 0xFFFFFFFF)
+    error = np.abs(q8 / 256.0 * (21600.0 / N) - reference(kind))
+    assert error.max() <= summary["max_error_arcmin"] + 1e-12
+    assert summary["max_error_arcmin"] <= 0.1 * 21600.0 / N
+
+
+@needs_gcc
+def test_cortex_m4f_fourier_formula(tmp_path):
+    _, summary = write_target(model_path("fourier"), tmp_path, "cortex-m4f", prefix="enc", bits=BITS,
+                              form="formula")
+    out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
+    orders, cos, sin = fourier_terms(Compensator(model_path("fourier")))
+    lsb = 21600.0 / N
+    emulated = fourier_float32(orders, cos, sin, np.arange(N, dtype=np.int64) << 16)
+    ulps = 4 * np.finfo(np.float32).eps * float(np.sum(np.abs(cos) + np.abs(sin)))
+    assert np.max(np.abs(out[:, 0].astype(float) * lsb - emulated)) <= ulps
+    error = np.abs(out[:, 0].astype(float) * lsb - reference("fourier"))
+    assert error.max() <= summary["max_error_arcmin"] + ulps
+    assert summary["max_error_arcmin"] < 1e-4
+    assert np.max(np.abs(out[:, 2].astype(float) - reference("fourier"))) < 1e-3
+
+
+def test_formula_high_orders_keep_their_phase():
+    # order 300 at angle 359.99 degrees: k * theta modulo a turn is exact in integers
+    model = FourierModel([300], [2.0], [1.0], encoder={"resolution_bits": 20})
+    _, summary = export_target(model, "cortex-m4f", form="formula", bits=20)
+    assert summary["max_error_arcmin"] < 2e-5
+
+
+def test_formula_needs_a_fourier_series():
+    with pytest.raises(InputError, match="expected a Fourier series"):
+        export_target(model_path("lut"), "cortex-m4f", form="formula")
+    with pytest.raises(InputError, match="fixed target uses a table"):
+        export_target(model_path("fourier"), "fixed", form="formula")
+
+
+def test_no_double_anywhere_in_cortex_m4f_source():
+    for form in ("table", "formula"):
+        files, _ = export_target(model_path("fourier"), "cortex-m4f", form=form, prefix="enc")
+        for text in files.values():
+            assert "double" not in text.replace("no double", "")
+
+
+def test_unknown_resolution_leaves_out_the_code_functions_with_a_note():
+    model = FourierModel([1, 2], [3.0, 0.5], [0.0, 1.0])
+    for target in ("cortex-m4f", "fixed"):
+        files, summary = export_target(model, target, prefix="enc")
+        assert "resolution is unknown" in summary["note"]
+        assert "correct_code" not in files["enc.h"] and "BITS" not in files["enc.h"]
+
+
+def test_explicit_nodes_and_dtype():
+    _, summary = export_target(model_path("lut"), "cortex-m4f", nodes=64, dtype="int8")
+    assert summary["nodes"] == 64 and summary["dtype"] == "int8" and summary["table_bytes"] == 64
+    with pytest.raises(InputError, match="integer node dtype"):
+        export_target(model_path("lut"), "fixed", dtype="float32")
+    with pytest.raises(InputError, match="power of two"):
+        export_target(model_path("lut"), "fixed", nodes=100)
+
+
+@needs_gcc
+def test_compiles_on_the_host_without_the_code_functions(tmp_path):
+    model = FourierModel([1, 2], [3.0, 0.5], [0.0, 1.0])
+    for target in ("cortex-m4f", "fixed"):
+        write_target(model, tmp_path / target, target, prefix="enc")
+        built = subprocess.run([GCC, *CFLAGS, "-c", str(tmp_path / target / "enc.c"), "-o",
+                                str(tmp_path / target / "enc.o")], capture_output=True, text=True, timeout=120)
+        assert built.returncode == 0, built.stderr
+
+
+@needs_arm
+@pytest.mark.parametrize("form", ["table", "formula"])
+def test_cortex_m4f_object_has_no_double_precision(tmp_path, form):
+    write_target(model_path("fourier"), tmp_path, "cortex-m4f", prefix="enc", bits=BITS, form=form)
+    obj = tmp_path / "enc.o"
+    built = subprocess.run([ARM_GCC, "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard",
+                            *CFLAGS, "-c", str(tmp_path / "enc.c"), "-o", str(obj)],
+                           capture_output=True, text=True, timeout=120)
+    assert built.returncode == 0, built.stderr
+    listing = subprocess.run([ARM_OBJDUMP, "-dr", str(obj)], capture_output=True, text=True, check=True).stdout
+    assert "vcvt.f32.f64" not in listing and "f64" not in listing
+    assert "__aeabi_d" not in listing  # software double helpers
