@@ -309,10 +309,24 @@ def test_valid_prefixes(prefix):
     assert f"{prefix}.c" in export_c(DATA / "model_v1_fourier.json", prefix=prefix)
 
 
-def test_bits_are_required_when_the_model_does_not_record_them():
-    with pytest.raises(InputError, match="pass bits"):
-        export_c(FourierModel([1], [1.0], [0.0]))
+def test_without_a_resolution_the_formula_is_exported_without_the_code_function_and_says_so():
+    files = export_c(FourierModel([1], [1.0], [0.0]))
+    assert "float encal_correct_counts(" not in files["encal.h"] + files["encal.c"]
+    assert "ENCAL_BITS" not in files["encal.h"] and "resolution is unknown" in files["encal.c"]
     assert "#define ENCAL_BITS 12u" in export_c(FourierModel([1], [1.0], [0.0]), bits=12)["encal.h"]
+    with pytest.raises(InputError, match="pass bits"):  # a per-code table needs the resolution
+        export_c(FourierModel([1], [1.0], [0.0]), table="int16")
+
+
+@needs_gcc
+@pytest.mark.parametrize("name", ["model_v1_fourier.json", "model_v1_directional.json"])
+def test_without_a_resolution_the_c_compiles(tmp_path, name):
+    model = encal.load_model(DATA / name)
+    model.encoder = {**model.encoder, "resolution_bits": None}
+    write_c(model, tmp_path, prefix="m")
+    built = subprocess.run([GCC, *CFLAGS, "-c", str(tmp_path / "m.c"), "-o", str(tmp_path / "m.o")],
+                           capture_output=True, text=True, timeout=120)
+    assert built.returncode == 0, built.stderr
 
 
 @pytest.mark.parametrize("options", [{"bits": 33}, {"bits": 21, "table": "int16"},

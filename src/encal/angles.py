@@ -17,6 +17,7 @@ __all__ = [
     "arcmin_to_lsb",
     "READING_SIGNS",
     "model_input",
+    "resolution_of_readings",
 ]
 
 ARCMIN_PER_DEG = 60.0
@@ -122,3 +123,40 @@ def lsb_arcmin(bits):
 def arcmin_to_lsb(angle_arcmin, bits):
     """Arc-minutes to LSB of a ``bits``-bit encoder."""
     return np.asarray(angle_arcmin, dtype=float)[()] / lsb_arcmin(bits)
+
+
+def resolution_of_readings(angles_deg, *, min_bits=8, max_bits=24, tolerance_counts=1e-3):
+    """Resolution of an encoder whose readings are whole codes, or None.
+
+    Parameters
+    ----------
+    angles_deg : array-like
+        Encoder readings in degrees.
+    min_bits, max_bits : int, default=8, 24
+        Resolutions considered.
+    tolerance_counts : float, default=1e-3
+        Largest distance of a reading from a multiple of ``360 / 2**bits``, in codes
+        (readings written with a few decimals are not exact multiples).
+
+    Returns
+    -------
+    int or None
+        The smallest ``bits`` for which every reading is within ``tolerance_counts`` of a
+        multiple of ``360 / 2**bits`` degrees; None when there is none.
+
+    Examples
+    --------
+    >>> resolution_of_readings(np.arange(0, 16384, 80) * (360 / 2**14))
+    10
+    >>> resolution_of_readings([0.5, 1.0, 100.123]) is None
+    True
+    """
+    angles = np.asarray(angles_deg, dtype=float).reshape(-1)
+    if angles.size == 0 or not np.all(np.isfinite(angles)):
+        return None
+    angles = np.mod(angles, 360.0)
+    for bits in range(min_bits, max_bits + 1):
+        counts = angles * (2**bits / 360.0)
+        if np.all(np.abs(counts - np.round(counts)) < tolerance_counts):
+            return bits
+    return None

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .angles import ARCMIN_PER_DEG, lsb_arcmin, wrap180, wrap360
+from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings, wrap180, wrap360
 from .calibration import Calibration
 from .errors import InputError
 from .profile import error_stats
@@ -232,11 +232,7 @@ def infer_resolution_bits(cal, *, max_bits=24):
     >>> infer_resolution_bits(encal.Calibration(ref, counts * 360 / 2**14))
     14
     """
-    for bits in range(8, max_bits + 1):
-        counts = cal.encoder_deg * (2**bits / 360.0)
-        if np.all(np.abs(counts - np.round(counts)) < 1e-3):
-            return bits
-    return None
+    return resolution_of_readings(cal.encoder_deg, max_bits=max_bits)
 
 
 def _profile(cal, offset, base_offset_arcmin):

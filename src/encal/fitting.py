@@ -11,13 +11,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .angles import ARCMIN_PER_DEG, wrap180
+from .angles import ARCMIN_PER_DEG, resolution_of_readings, wrap180
 from .calibration import Calibration, check_folds
 from .errors import InputError
 from .models import kind_names, model_kind
 from .profile import ErrorStats, error_stats
 
-__all__ = ["fit", "evaluate", "Evaluation", "fitter", "calibration_sha256"]
+__all__ = ["fit", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
 
 
 def calibration_sha256(cal):
@@ -93,7 +93,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
         raise InputError(f"method {method!r} draws no random numbers; rng must be None "
                          "(it seeds only the bootstrap of uncertainty=True)")
     model = fit_family(cal.encoder_deg, cal.errors_arcmin, **options)
-    model.encoder = {"name": cal.name, "resolution_bits": cal.resolution_bits}
+    model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
     model.training = {
         "method": method,
         **model.training,
@@ -110,6 +110,22 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
         add_uncertainty(model, cal, method=refit_method, options=refit_options, rng=rng)
     model.reading_sign = cal.reading_sign
     return model
+
+
+def resolution_bits(cal):
+    """The calibration's declared resolution, else the one its readings show (all whole codes), else None.
+
+    Examples
+    --------
+    >>> import numpy as np, encal
+    >>> ref = np.arange(0.0, 360.0, 1.8)
+    >>> codes = np.round((ref + 0.3 * np.sin(np.radians(ref))) * 2**14 / 360)
+    >>> resolution_bits(encal.Calibration(ref, codes * 360 / 2**14))
+    14
+    """
+    if cal.resolution_bits is not None:
+        return int(cal.resolution_bits)
+    return resolution_of_readings(cal.encoder_deg)
 
 
 def refit_spec(model, method, options):

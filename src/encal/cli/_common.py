@@ -30,6 +30,7 @@ def read_calibration_from_args(path, args):
         allow_gaps=getattr(args, "allow_gaps", False),
         reverse=getattr(args, "reverse", False),
         duplicates="average" if getattr(args, "average_duplicates", False) else "refuse",
+        resolution_bits=getattr(args, "bits", None),
     )
 
 

@@ -33,6 +33,10 @@ def add_arguments(parser):
     parser.add_argument("--no-stack", dest="stack", action="store_const", const=False, default=None,
                         help="choose one model family, never a weighted mean of several (auto)")
     parser.add_argument("--seed", type=int, help="random seed (ann, auto): same seed, identical model file")
+    parser.add_argument("--bits", type=int_in_range(1, 32), metavar="B",
+                        help="encoder resolution in bits, recorded in the model file (default: a "
+                             "'# resolution_bits: B' comment, else what the readings show when every one "
+                             "is a multiple of 360/2^B degrees)")
     parser.add_argument("--reproducible", action="store_true",
                         help="fix the date field so the same inputs give a byte-identical file")
     add_calibration_options(parser)
@@ -107,7 +111,18 @@ def run(args):
         from ..models.select import format_selection
 
         print(format_selection(selection))
+    print(_resolution_line(cal, model.encoder.get("resolution_bits")))
     print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS "
           f"{fitted.before.rms:.4g} -> {fitted.after.rms:.4g} arcmin (MAE {fitted.before.mae:.4g} -> "
           f"{fitted.after.mae:.4g}); wrote {args.output}")
     return 0
+
+
+def _resolution_line(cal, bits):
+    if bits is None:
+        return ("resolution: unknown (the readings are not all multiples of 360/2^B degrees for a B from 8 "
+                "to 24; pass --bits); the model file records none")
+    if cal.resolution_bits is not None:
+        return f"resolution: {bits} bits (declared), recorded in the model file"
+    return (f"resolution: {bits} bits (every reading is a multiple of 360/2^{bits} degrees), recorded in the "
+            "model file; --bits overrides")

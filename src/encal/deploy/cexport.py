@@ -84,7 +84,9 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
     """
     _check_identifier(prefix)
     comp = model if isinstance(model, Compensator) else Compensator(model)
-    bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits, table)
+    bits = comp.encoder.get("resolution_bits") if bits is None else bits
+    # Without a resolution, the formula is still exported: only the code functions are left out.
+    bits = None if bits is None and table is None else _check_bits(bits, table)
     if constants not in ("auto", "float", "double"):
         raise InputError(f"expected constants 'auto', 'float' or 'double', got {constants!r}")
     if table is None:
@@ -105,6 +107,9 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
     if comp.reading_sign == -1:
         how += ("; the encoder counts against its reference (reading_sign -1): readings are negated "
                 "before the model sees them, and corrected angles are in the reference's sense")
+    if bits is None:
+        how += (";\n * the encoder resolution is unknown (pass bits=, --bits), so the code function "
+                f"{prefix}_correct_counts is left out")
     banner = _banner(comp, prefix, how)
     directed = table is None and comp.kind == "directional"
     return {f"{prefix}.h": _header(prefix, bits, banner, directed),
@@ -432,7 +437,15 @@ def _header(prefix, bits, banner, directed):
 /* The same for a known direction of travel into the reading: +1 turning forward,
    -1 turning back, 0 unknown (the mean of both, as the functions above). */
 float {prefix}_correct_deg_directed(float theta_deg, int direction);
-float {prefix}_correct_counts_directed(uint32_t code, int direction);
+""" + ("" if bits is None else f"float {prefix}_correct_counts_directed(uint32_t code, int direction);\n")
+    counts_api = "" if bits is None else f"""
+/* Corrected angle, in [0, 360) degrees, of the raw code of a {macro}_BITS-bit encoder
+   (the angle code * 360 / 2^{macro}_BITS; higher bits are ignored). */
+float {prefix}_correct_counts(uint32_t code);
+"""
+    bits_macro = "" if bits is None else f"""
+/* Resolution of the encoder codes taken by {prefix}_correct_counts, in bits. */
+#define {macro}_BITS {bits}u
 """
     return f"""\
 {banner}
@@ -444,21 +457,14 @@ float {prefix}_correct_counts_directed(uint32_t code, int direction);
 #ifdef __cplusplus
 extern "C" {{
 #endif
-
-/* Resolution of the encoder codes taken by {prefix}_correct_counts, in bits. */
-#define {macro}_BITS {bits}u
-
+{bits_macro}
 /* Predicted error (arc-minutes) at the encoder reading theta_deg (degrees, any finite value).
    A NaN or infinite theta_deg gives NaN, here and in {prefix}_correct_deg. */
 float {prefix}_predict_arcmin(float theta_deg);
 
 /* Corrected angle, in [0, 360) degrees, of the encoder reading theta_deg (degrees). */
 float {prefix}_correct_deg(float theta_deg);
-
-/* Corrected angle, in [0, 360) degrees, of the raw code of a {macro}_BITS-bit encoder
-   (the angle code * 360 / 2^{macro}_BITS; higher bits are ignored). */
-float {prefix}_correct_counts(uint32_t code);
-{directed_api}
+{counts_api}{directed_api}
 #ifdef __cplusplus
 }}
 #endif
@@ -468,7 +474,7 @@ float {prefix}_correct_counts(uint32_t code);
 
 
 def _source(prefix, bits, banner, body, directed, reading_sign=1):
-    step = _Literals("double").number(360.0 / 2**bits)
+    step = None if bits is None else _Literals("double").number(360.0 / 2**bits)
     # The model's input is the reading, or its negative when the encoder counts against its reference.
     negate = "-" if reading_sign == -1 else ""
     input_code = "(0u - code)" if reading_sign == -1 else "code"
@@ -478,15 +484,26 @@ float {prefix}_correct_deg_directed(float theta_deg, int direction)
     const double theta = wrap360({negate}(double)theta_deg);
     return to_float_angle(wrap360(theta - model_directed_error_arcmin(theta, direction) / 60.0));
 }}
-
+""" + ("" if bits is None else f"""
 float {prefix}_correct_counts_directed(uint32_t code, int direction)
 {{
     const double theta = (double)({input_code} & CODE_MASK) * STEP_DEG;
     return to_float_angle(wrap360(theta - model_directed_error_arcmin(theta, direction) / 60.0));
 }}
-"""
+""")
     counts_error = ("code_error_arcmin(k)" if "code_error_arcmin" in body
                     else "error_arcmin(theta)")
+    code_macros = "" if bits is None else f"""
+#define CODE_MASK ((uint32_t)((((uint64_t)1) << {bits}) - 1u))
+#define STEP_DEG {step} /* 360 / 2^{bits} degrees per code */"""
+    counts_function = "" if bits is None else f"""
+float {prefix}_correct_counts(uint32_t code)
+{{
+    const uint32_t k = {input_code} & CODE_MASK;
+    const double theta = (double)k * STEP_DEG;
+    return to_float_angle(wrap360(theta - {counts_error} / 60.0));
+}}
+"""
     return f"""\
 {banner}
 #include "{prefix}.h"
@@ -494,9 +511,7 @@ float {prefix}_correct_counts_directed(uint32_t code, int direction)
 #include <math.h>
 #include <stdint.h>
 
-#define DEG_TO_RAD 0.017453292519943295
-#define CODE_MASK ((uint32_t)((((uint64_t)1) << {bits}) - 1u))
-#define STEP_DEG {step} /* 360 / 2^{bits} degrees per code */
+#define DEG_TO_RAD 0.017453292519943295{code_macros}
 
 static double wrap360(double angle)
 {{
@@ -523,11 +538,4 @@ float {prefix}_correct_deg(float theta_deg)
     const double theta = wrap360({negate}(double)theta_deg);
     return to_float_angle(wrap360(theta - error_arcmin(theta) / 60.0));
 }}
-
-float {prefix}_correct_counts(uint32_t code)
-{{
-    const uint32_t k = {input_code} & CODE_MASK;
-    const double theta = (double)k * STEP_DEG;
-    return to_float_angle(wrap360(theta - {counts_error} / 60.0));
-}}
-{directed_api}"""
+{counts_function}{directed_api}"""
