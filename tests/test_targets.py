@@ -20,7 +20,8 @@ import pytest
 from encal.deploy import Compensator
 from encal.deploy.compact import (correction_bam, correction_lsb_q8, predict_float32_angle,
                                   units_float32)
-from encal.deploy.targets import export_target, fourier_float32, fourier_terms, write_target
+from encal.deploy.series32 import fourier_float32, fourier_terms
+from encal.deploy.targets import export_target, write_target
 from encal.errors import InputError
 from encal.models.fourier import FourierModel
 

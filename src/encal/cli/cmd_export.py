@@ -20,7 +20,6 @@
 The encoder resolution (--bits) defaults to the one recorded in the model file.
 """
 
-import sys
 from pathlib import Path
 
 from ..deploy import Compensator, compile_table, save_table
@@ -51,8 +50,13 @@ def add_arguments(parser):
                         help="C for cortex-m4f/fixed: nodes of the compact table, a power of two "
                              "(default: the fewest that meet --tolerance)")
     parser.add_argument("--tolerance", type=float, metavar="ARCMIN",
-                        help="C for cortex-m4f/fixed: largest deployed error against the model "
-                             "(default: a tenth of an LSB)")
+                        help="C for cortex-m4f/fixed: pick the cheapest deployment (--cost) whose "
+                             "deployed error against the model stays within ARCMIN, and say what it "
+                             "gave up (default tolerance: a tenth of an LSB)")
+    parser.add_argument("--cost", choices=("bytes", "entries", "operations"),
+                        help="C for cortex-m4f/fixed: what 'cheapest' means for --tolerance "
+                             "(default: operations per reading, then bytes)")
+    parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", default="encal", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
     parser.add_argument("--table", action="store_true",
@@ -62,13 +66,8 @@ def add_arguments(parser):
                              "changes the model by at most 1e-4 arcmin, else double)")
 
 
-def _usage_error(message):
-    """Options that do not go together: one line on stderr, exit status 2 (as argparse's own)."""
-    print(f"encal export: error: {message}", file=sys.stderr)
-    raise SystemExit(2)
-
-
 def _check_combinations(args):
+    _usage_error = args.export_parser.error  # usage and one line on stderr, exit status 2
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
@@ -77,6 +76,8 @@ def _check_combinations(args):
                      "(its C evaluates the formula in double, or --table)")
     if args.target != "host" and (args.table or args.constants != "auto"):
         _usage_error(f"--table and --constants apply to --target host, not {args.target}")
+    if args.cost is not None and (args.nodes is not None or args.dtype is not None or args.form != "table"):
+        _usage_error("--cost chooses the deployment; expected it without --nodes, --dtype or --form")
     if args.target == "fixed" and (args.dtype == "float32" or args.form == "formula"):
         _usage_error("--target fixed computes in integers: a compact int8 or int16 table, not "
                      f"{'--dtype float32' if args.dtype == 'float32' else '--form formula'}")
@@ -108,7 +109,10 @@ def run(args):
     else:
         options = {}
         compact = {"nodes": args.nodes, "tolerance_arcmin": args.tolerance, "form": args.form,
-                   "dtype": args.dtype}
+                   "dtype": args.dtype, "cost": args.cost}
+        chooses = args.nodes is None and args.dtype is None and args.form == "table"
+        if chooses and args.tolerance is not None and args.cost is None:
+            compact["cost"] = "operations"
     paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
                                   **{k: v for k, v in compact.items() if v is not None}, **options)
     print(f"wrote {', '.join(map(str, paths))}: {describe(summary)}")

@@ -37,6 +37,12 @@ def add_arguments(parser):
                         help="encoder resolution in bits, recorded in the model file (default: a "
                              "'# resolution_bits: B' comment, else what the readings show when every one "
                              "is a multiple of 360/2^B degrees)")
+    parser.add_argument("--budget", type=_budget, metavar="COST",
+                        help="also choose the most accurate firmware deployment within this cost (e.g. 1KiB, "
+                             "256entries, 40ops), the cheapest one if several stay within a tenth of an LSB "
+                             "of the model; record it for 'encal export --target' and say what it gave up")
+    parser.add_argument("--target", choices=["cortex-m4f", "fixed"], default=None,
+                        help="the processor of --budget: cortex-m4f (float32, default) or fixed (integers)")
     parser.add_argument("--reproducible", action="store_true",
                         help="fix the date field so the same inputs give a byte-identical file")
     add_calibration_options(parser)
@@ -92,16 +98,50 @@ def _check_output(output, calibration):
         raise InputError(f"-o {path} is the calibration being fitted; expected another file for the model")
 
 
+def _budget(text):
+    import argparse
+
+    from ..deploy.choice import parse_budget
+    from ..errors import InputError
+
+    try:
+        cost, value = parse_budget(text)
+    except InputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return {"cost": cost, "value": value, "text": text}
+
+
+def _choose_deployment(model, args):
+    """Record in the model the deployment --budget chooses; return the line that says what it is."""
+    from ..deploy.choice import choose_deployment
+    from ..deploy.compact import default_tolerance_arcmin
+
+    bits = model.encoder.get("resolution_bits")
+    chosen, report = choose_deployment(model, budget=(args.budget["cost"], args.budget["value"]),
+                                       tolerance_arcmin=default_tolerance_arcmin(bits),
+                                       target=args.target or "cortex-m4f")
+    model.training["deployment"] = {**chosen.as_dict(), "budget": args.budget["text"]}
+    within = ("within a tenth of an LSB of the model" if bits else "within 0.01 arcmin of the model")
+    met = within if report["met"] else f"not {within}: the budget allows no more"
+    return (f"deployment within {args.budget['text']}: {chosen.describe()} ({met}); {report['gave_up']}; "
+            f"'encal export --format c --target {chosen.target}' uses it")
+
+
 def run(args):
     from ..fitting import evaluate, fit
 
     _check_output(args.output, args.calibration)
+    if args.target is not None and args.budget is None:
+        from ..errors import InputError
+
+        raise InputError("--target names the processor of --budget; expected it with --budget")
     cal = read_calibration_from_args(args.calibration, args)
     options = _options(args)
     if args.seed is not None:
         options["rng"] = args.seed
     model = fit(cal, method=args.method, **options)
     fitted = evaluate(model, cal)
+    deployment = _choose_deployment(model, args) if args.budget is not None else None
     model.save(args.output, reproducible=args.reproducible)
     report = getattr(model, "report", None)
     if callable(report):
@@ -115,6 +155,8 @@ def run(args):
     print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS "
           f"{fitted.before.rms:.4g} -> {fitted.after.rms:.4g} arcmin (MAE {fitted.before.mae:.4g} -> "
           f"{fitted.after.mae:.4g}); wrote {args.output}")
+    if deployment:
+        print(deployment)
     return 0
 
 

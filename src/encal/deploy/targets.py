@@ -36,66 +36,21 @@ import numpy as np
 from .._atomic import atomic_file_set, atomic_write
 from ..errors import InputError
 from .cexport import _banner, _check_identifier, export_c
-from .compact import FIXED_FRACTION_BITS, choose_compact, compile_compact, evaluation_bits, model_on_codes
+from .choice import choose_deployment
+from .compact import (FIXED_FRACTION_BITS, choose_compact, compile_compact, default_tolerance_arcmin,
+                      evaluation_bits, model_on_codes)
 from .compensator import Compensator
+from .costs import OPERATIONS
+from .series32 import fourier_float32, fourier_terms
 
-__all__ = ["TARGETS", "FORMS", "export_target", "write_target", "fourier_terms", "fourier_float32",
-           "OPERATIONS"]
+__all__ = ["TARGETS", "FORMS", "export_target", "write_target", "describe"]
 
 TARGETS = ("host", "cortex-m4f", "fixed")
 FORMS = ("table", "formula")
 _MAX_FIXED_COUNT_BITS = 24
 
-#: C operations per reading (loads, integer and float arithmetic, conversions, compares; calls
-#: to sinf/cosf counted apart), by target, form and function. Instruction counts on a
-#: Cortex-M4F build are measured by benchmarks/bench_mcu.py.
-OPERATIONS = {
-    ("cortex-m4f", "table", "error_lsb"): 15,
-    ("cortex-m4f", "table", "correct_code"): 22,
-    ("cortex-m4f", "table", "correct_deg"): 21,
-    ("fixed", "table", "error_bam32"): 14,
-    ("fixed", "table", "correct_code"): 23,
-    ("cortex-m4f", "formula", "per_term"): 11,
-}
-
-
-def fourier_terms(model):
-    """``(orders, cos, sin)`` of a model that is a Fourier series, else None.
-
-    A model kind whose prediction is a Fourier series says so with a
-    ``fourier_series()`` method returning the same triple.
-    """
-    model = model.model if isinstance(model, Compensator) else model
-    series = getattr(model, "fourier_series", None)
-    if callable(series):
-        orders, cos, sin = series()
-    elif model.kind == "fourier":
-        orders, cos, sin = model.orders, model.cos, model.sin
-    else:
-        return None
-    return (np.asarray(orders, dtype=np.int64), np.asarray(cos, dtype=float),
-            np.asarray(sin, dtype=float))
-
-
-def fourier_float32(orders, cos, sin, angles):
-    """The cortex-m4f Fourier rule: error (arcmin, float32) at 32-bit binary angles.
-
-    Per term: ``p = k * angle mod 2^32`` (exact), ``phase = (p >> 8) * 2 pi / 2^24``
-    in float32, ``sum += c * cosf(phase) + s * sinf(phase)``. NumPy's float32 sine
-    and cosine may differ from a C library's by an ulp.
-    """
-    angles = np.asarray(angles, dtype=np.int64) & 0xFFFFFFFF
-    total = np.zeros(angles.shape, dtype=np.float32)
-    step = np.float32(2.0 * math.pi / 2**24)
-    for order, c, s in zip(orders, cos, sin):
-        p = (int(order) * angles) & 0xFFFFFFFF
-        phase = (p >> 8).astype(np.float32) * step
-        total = total + (np.float32(c) * np.cos(phase) + np.float32(s) * np.sin(phase))
-    return total
-
-
 def export_target(model, target="host", *, prefix="encal", bits=None, form="table", nodes=None,
-                  dtype=None, tolerance_arcmin=None, **host_options):
+                  dtype=None, tolerance_arcmin=None, cost=None, **host_options):
     """C source for a deployment target.
 
     Parameters
@@ -116,6 +71,12 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         Storage of the nodes; default the cheapest in bytes that meets the tolerance.
     tolerance_arcmin : float, optional
         Largest deployed error allowed when choosing the table (default a tenth of an LSB).
+    cost : {'bytes', 'entries', 'operations'}, optional
+        Choose among every deployment of the target (tables and, for a Fourier series,
+        the formula) the cheapest in this cost within the tolerance
+        (:func:`encal.deploy.choice.choose_deployment`). Without it, and without
+        ``nodes``/``dtype``, the deployment recorded by ``encal fit --budget`` is used
+        when there is one for this target, else the smallest table within the tolerance.
     **host_options
         ``table`` and ``constants`` of :func:`~encal.deploy.cexport.export_c` (host only).
 
@@ -142,6 +103,9 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
     if host_options:
         raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
     bits = _bits(comp, bits, target)
+    chosen = _chosen(comp, target, bits, form, nodes, dtype, tolerance_arcmin, cost)
+    if chosen is not None:
+        form, nodes, dtype = chosen["form"], chosen["nodes"], chosen["dtype"]
     note = None if bits is not None else (
         "the encoder resolution is unknown (pass bits=, --bits): only the angle functions are "
         "exported, without the code functions")
@@ -152,7 +116,8 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         if terms is None:
             raise InputError(f"expected a Fourier series for form='formula' on cortex-m4f, got a "
                              f"{comp.kind} model; use form='table' (a compact table serves every kind)")
-        return _fourier_files(comp, prefix, bits, terms, note)
+        files, summary = _fourier_files(comp, prefix, bits, terms, note)
+        return files, {**summary, **(chosen or {})}
     table, met = _table(comp, target, bits, nodes, dtype, tolerance_arcmin)
     files = (_float_table_files if target == "cortex-m4f" else _fixed_table_files)(comp, prefix, bits, table)
     fixed = target == "fixed"
@@ -162,6 +127,9 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
                "rms_error_arcmin": table.fixed_rms_error_arcmin if fixed else table.rms_error_arcmin,
                "operations": OPERATIONS[(target, "table", "error_bam32" if fixed else "error_lsb")],
                "table": table}
+    if chosen is not None:
+        summary.update(tolerance_met=chosen.get("met", met), **{k: v for k, v in chosen.items()
+                                                                 if k in ("gave_up", "recorded")})
     return files, summary
 
 
@@ -193,14 +161,18 @@ def describe(summary):
     where = f"all {2**evaluation_bits(bits)} codes" if bits else "65536 angles"
     if summary["form"] == "formula":
         what = f"{summary['terms']}-term Fourier series in float32"
-        cost = f"{summary['operations']} operations and 2 sinf/cosf calls per term"
+        cost = f"{summary['operations']} operations and {2 * summary['terms']} sinf/cosf calls per reading"
     else:
         what = f"{summary['nodes']}-node {summary['dtype']} table, {summary['table_bytes']} bytes"
         cost = f"{summary['operations']} operations per reading"
     text = (f"{summary['target']}: {what}, {cost}; deployed error against the model over {where}: "
             f"max {summary['max_error_arcmin']:.3g}, RMS {summary['rms_error_arcmin']:.3g} arcmin")
     if summary.get("tolerance_met") is False:
-        text += " (more than the tolerance: no table tried meets it)"
+        text += " (more than the tolerance: no deployment tried meets it)"
+    if summary.get("recorded"):
+        text += f"; {summary['recorded']}"
+    if summary.get("gave_up"):
+        text += f"; {summary['gave_up']}"
     if summary.get("note"):
         text += f"; note: {summary['note']}"
     return text
@@ -215,6 +187,26 @@ def _bits(comp, bits, target):
         raise InputError(f"expected an encoder resolution from 1 to {limit} bits for the {target} target, "
                          f"got {bits!r}")
     return int(bits)
+
+
+def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost):
+    """The deployment to export when the caller left the choice to encal, or None for the default."""
+    if nodes is not None or dtype is not None or form != "table":
+        if cost is not None:
+            raise InputError("cost= chooses the deployment; expected it without nodes=, dtype= or form=")
+        return None
+    if cost is not None:
+        tolerance = default_tolerance_arcmin(bits) if tolerance is None else tolerance
+        deployment, report = choose_deployment(comp, tolerance_arcmin=tolerance, cost=cost, target=target,
+                                               bits=bits)
+        return {"form": deployment.form, "nodes": deployment.nodes, "dtype": deployment.dtype,
+                "met": report["met"], "gave_up": report["gave_up"]}
+    recorded = comp.model.training.get("deployment")
+    if tolerance is None and isinstance(recorded, dict) and recorded.get("target") == target \
+            and recorded.get("form") in FORMS:
+        return {"form": recorded["form"], "nodes": recorded.get("nodes"), "dtype": recorded.get("dtype"),
+                "recorded": f"the deployment chosen by encal fit --budget {recorded.get('budget', '')}".rstrip()}
+    return None
 
 
 def _table(comp, target, bits, nodes, dtype, tolerance):

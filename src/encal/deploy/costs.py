@@ -1,0 +1,24 @@
+"""What a reading costs on a microcontroller: C operations per reading of each deployed form.
+
+Counted in the generated C (:mod:`encal.deploy.targets`): loads, integer and float
+arithmetic, conversions and compares. Calls to ``sinf``/``cosf`` are counted apart
+(a call counts as :data:`CALL_OPERATIONS` when costs are compared). Instructions on
+a Cortex-M4F build are measured by ``benchmarks/bench_mcu.py`` (BENCHMARKS.md).
+"""
+
+__all__ = ["OPERATIONS", "CALL_OPERATIONS"]
+
+#: C operations per reading (loads, integer and float arithmetic, conversions, compares; calls
+#: to sinf/cosf counted apart), by target, form and function. Instruction counts on a
+#: Cortex-M4F build are measured by benchmarks/bench_mcu.py.
+OPERATIONS = {
+    ("cortex-m4f", "table", "error_lsb"): 15,
+    ("cortex-m4f", "table", "correct_code"): 22,
+    ("cortex-m4f", "table", "correct_deg"): 21,
+    ("fixed", "table", "error_bam32"): 14,
+    ("fixed", "table", "correct_code"): 23,
+    ("cortex-m4f", "formula", "per_term"): 11,
+}
+
+#: Operations a sinf or cosf call is counted as when deployments are compared.
+CALL_OPERATIONS = 50
