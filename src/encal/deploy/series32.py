@@ -14,12 +14,14 @@ __all__ = ["fourier_terms", "fourier_float32"]
 
 
 def fourier_terms(model):
-    """``(orders, cos, sin)`` of a model that is a Fourier series, else None.
+    """``(orders, cos, sin)`` of a model that is a Fourier series of the reading, else None.
 
     A model kind whose prediction is a Fourier series says so with a
-    ``fourier_series()`` method returning the same triple.
+    ``fourier_series()`` method returning the same triple. A model that negates
+    readings first (``reading_sign`` -1) is the series with its sine terms negated.
     """
     model = model.model if isinstance(model, Compensator) else model
+    sign = getattr(model, "reading_sign", 1)
     series = getattr(model, "fourier_series", None)
     if callable(series):
         orders, cos, sin = series()
@@ -28,7 +30,7 @@ def fourier_terms(model):
     else:
         return None
     return (np.asarray(orders, dtype=np.int64), np.asarray(cos, dtype=float),
-            np.asarray(sin, dtype=float))
+            sign * np.asarray(sin, dtype=float))
 
 
 def fourier_float32(orders, cos, sin, angles):

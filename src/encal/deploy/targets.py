@@ -314,15 +314,30 @@ uint32_t {p}_correct_code(uint32_t code)
     const float shifted = {p}_error_lsb(code) + 0.5f;
     int32_t rounded = (int32_t)shifted; /* toward zero, then down: floor(error + 1/2) */
     if ((float)rounded > shifted) rounded -= 1;
-    return ((code & CODE_MASK) - (uint32_t)rounded) & CODE_MASK;
+    return ({code_in} - (uint32_t)rounded) & CODE_MASK;
 }}
 
 float {p}_correct_counts(uint32_t code)
 {{
-    const uint32_t k = code & CODE_MASK;
+    const uint32_t k = {code_in} & CODE_MASK;
     return corrected_deg((float)k * STEP_DEG, {p}_error_lsb(code) * LSB_ARCMIN);
 }}
 """
+
+
+def _sign_parts(comp):
+    """C for the model's input of a reading: the reading, or its negative (reading_sign -1)."""
+    if comp.reading_sign == -1:
+        return {"code_in": "(0u - code)", "angle_in": "(t == 0.0f ? 0.0f : 360.0f - t)",
+                "bam_in": "(0u - angle)"}
+    return {"code_in": "code", "angle_in": "t", "bam_in": "angle"}
+
+
+def _sign_note(comp):
+    if comp.reading_sign == -1:
+        return ("; the encoder counts against its reference (reading_sign -1): corrected angles and "
+                "codes are of the negated reading, in the reference's sense")
+    return ""
 
 
 def _code_macros(bits):
@@ -334,9 +349,10 @@ def _code_macros(bits):
 
 def _float_table_files(comp, prefix, bits, table):
     n = table.nodes.bit_length() - 1
+    sign = _sign_parts(comp)
     how = (f"a {table.nodes}-node {table.dtype} table with linear interpolation in float32 "
            f"({table.table_bytes} bytes; deployed error against the model max {table.max_error_arcmin:.3g}, "
-           f"RMS {table.rms_error_arcmin:.3g} arcmin)")
+           f"RMS {table.rms_error_arcmin:.3g} arcmin){_sign_note(comp)}")
     banner = _banner(comp, prefix, how)
     declarations = _FLOAT_ANGLE_DECLARATIONS.format(p=prefix)
     if bits is not None:
@@ -353,7 +369,7 @@ float {prefix}_error_lsb(uint32_t code)
     const uint32_t k = code & CODE_MASK;
     return node_value(k >> NODE_SHIFT, (float)(k & FRACTION_MASK) * FRACTION_SCALE) * SCALE_LSB;
 }}
-{_FLOAT_CODE_FUNCTIONS.format(p=prefix)}"""
+{_FLOAT_CODE_FUNCTIONS.format(p=prefix, **sign)}"""
     source = f"""\
 {banner}
 #include "{prefix}.h"
@@ -395,7 +411,7 @@ float {prefix}_correct_deg(float theta_deg)
 {{
     const float t = wrap360f(theta_deg);
     if (t != t) return t;
-    return corrected_deg(t, {prefix}_predict_arcmin(t));
+    return corrected_deg({sign["angle_in"]}, {prefix}_predict_arcmin(t));
 }}
 {code_part}"""
     return {f"{prefix}.h": _header(prefix, bits, banner, declarations), f"{prefix}.c": source}
@@ -409,8 +425,9 @@ def _fourier_files(comp, prefix, bits, terms, note):
     reference = model_on_codes(comp, bits)
     max_error = float(np.max(np.abs(deployed - reference)))
     rms_error = float(np.sqrt(np.mean((deployed - reference) ** 2)))
+    sign = _sign_parts(comp)
     how = (f"the model's {orders.size}-term Fourier series in float32 (deployed error against the model "
-           f"max {max_error:.3g}, RMS {rms_error:.3g} arcmin)")
+           f"max {max_error:.3g}, RMS {rms_error:.3g} arcmin){_sign_note(comp)}")
     banner = _banner(comp, prefix, how)
     declarations = _FLOAT_ANGLE_DECLARATIONS.format(p=prefix)
     if bits is not None:
@@ -422,7 +439,7 @@ float {prefix}_error_lsb(uint32_t code)
 {{
     return series((code & CODE_MASK) << {32 - bits}u) * (1.0f / LSB_ARCMIN);
 }}
-{_FLOAT_CODE_FUNCTIONS.format(p=prefix)}"""
+{_FLOAT_CODE_FUNCTIONS.format(p=prefix, **sign)}"""
     source = f"""\
 {banner}
 #include "{prefix}.h"
@@ -474,7 +491,7 @@ float {prefix}_correct_deg(float theta_deg)
 {{
     const float t = wrap360f(theta_deg);
     if (t != t) return t;
-    return corrected_deg(t, series(binary_angle(t)));
+    return corrected_deg({sign["angle_in"]}, series(binary_angle(t)));
 }}
 {code_part}"""
     files = {f"{prefix}.h": _header(prefix, bits, banner, declarations), f"{prefix}.c": source}
@@ -513,9 +530,10 @@ def _scale_by_power_of_two(expression, shift):
 
 def _fixed_table_files(comp, prefix, bits, table):
     n = table.nodes.bit_length() - 1
+    sign = _sign_parts(comp)
     how = (f"a {table.nodes}-node {table.dtype} table with linear interpolation in int32 fixed point "
            f"({table.table_bytes} bytes; deployed error against the model max "
-           f"{table.fixed_max_error_arcmin:.3g}, RMS {table.fixed_rms_error_arcmin:.3g} arcmin)")
+           f"{table.fixed_max_error_arcmin:.3g}, RMS {table.fixed_rms_error_arcmin:.3g} arcmin){_sign_note(comp)}")
     banner = _banner(comp, prefix, how)
     declarations = _FIXED_DECLARATIONS.format(p=prefix)
     if bits is not None:
@@ -532,7 +550,7 @@ int32_t {prefix}_error_lsb_q8(uint32_t code)
 
 uint32_t {prefix}_correct_code(uint32_t code)
 {{
-    return ((code & CODE_MASK) - (uint32_t)shift_round({prefix}_error_lsb_q8(code), 8u)) & CODE_MASK;
+    return ({sign["code_in"]} - (uint32_t)shift_round({prefix}_error_lsb_q8(code), 8u)) & CODE_MASK;
 }}
 """
     source = f"""\
@@ -565,7 +583,7 @@ int32_t {prefix}_error_bam32(uint32_t angle)
 
 uint32_t {prefix}_correct_bam32(uint32_t angle)
 {{
-    return angle - (uint32_t){prefix}_error_bam32(angle);
+    return {sign["bam_in"]} - (uint32_t){prefix}_error_bam32(angle);
 }}
 {code_part}"""
     return {f"{prefix}.h": _header(prefix, bits, banner, declarations), f"{prefix}.c": source}
