@@ -13,6 +13,12 @@
                  --dtype int8|int16|float32), or --form formula for a Fourier
                  series. Angle functions and code functions (PREFIX_error_lsb,
                  PREFIX_correct_code, PREFIX_correct_counts).
+--format moteus|simplefoc|klipper|mechaduino|tinymovr
+                 the firmware's own table (moteus: conf set lines; SimpleFOC:
+                 calibrationLut; Klipper: the [angle] calibrate: list;
+                 Mechaduino: lookup[16384]; Tinymovr: rec_table[64]); -o is
+                 the file. Prints the round trip through that firmware's own
+                 run-time rule against the model, on every code.
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
@@ -23,7 +29,10 @@ The encoder resolution (--bits) defaults to the one recorded in the model file.
 from pathlib import Path
 
 from ..deploy import Compensator, compile_table, save_table
+from .._atomic import atomic_write
 from ..deploy.targets import FORMS, TARGETS, describe, write_target
+
+FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 from ..errors import InputError
 
 HELP = "export a model as a dense correction table or as C source for firmware"
@@ -31,7 +40,7 @@ HELP = "export a model as a dense correction table or as C source for firmware"
 
 def add_arguments(parser):
     parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")
-    parser.add_argument("--format", required=True, choices=("c", "table"),
+    parser.add_argument("--format", required=True, choices=("c", "table", *FIRMWARE),
                         help="what to write")
     parser.add_argument("-o", "--output", required=True, metavar="PATH",
                         help="table file (--format table) or folder for the C files (--format c)")
@@ -56,6 +65,10 @@ def add_arguments(parser):
     parser.add_argument("--cost", choices=("bytes", "entries", "operations"),
                         help="C for cortex-m4f/fixed: what 'cheapest' means for --tolerance "
                              "(default: operations per reading, then bytes)")
+    parser.add_argument("--source", type=int, default=0, metavar="K",
+                        help="moteus: motor_position.sources.K (default 0)")
+    parser.add_argument("--full-steps", type=int, default=200, metavar="N",
+                        help="klipper: full steps per turn of the stepper (default 200)")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", default="encal", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -68,6 +81,11 @@ def add_arguments(parser):
 
 def _check_combinations(args):
     _usage_error = args.export_parser.error  # usage and one line on stderr, exit status 2
+    firmware = args.format in FIRMWARE
+    if firmware and (args.target != "host" or args.table or args.nodes is not None or args.dtype is not None
+                     or args.tolerance is not None or args.cost is not None or args.form != "table"):
+        _usage_error(f"--format {args.format} writes that firmware's own table; --target, --table, --nodes, "
+                     "--dtype, --tolerance, --cost and --form are for --format c")
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
@@ -96,6 +114,16 @@ def run(args):
                 raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
                                  "a different folder or --name (the export would overwrite the model)")
     compensator = Compensator(args.model)
+    if args.format in FIRMWARE:
+        from ..deploy.firmware import EXPORTERS
+
+        options = {"moteus": {"source": args.source}, "klipper": {"full_steps": args.full_steps}}.get(args.format, {})
+        if args.format != "klipper":
+            options["bits"] = args.bits
+        written = EXPORTERS[args.format](compensator, **options)
+        atomic_write(output, written.text)
+        print(f"wrote {output}: {written.describe()}")
+        return 0
     if args.format == "table":
         table = compile_table(compensator, args.bits, dtype=args.dtype or "int16")
         save_table(table, output)

@@ -1,0 +1,53 @@
+"""Read a firmware's calibration output or correction table into encal.
+
+  encal import moteus-compare FILE -o CAL.csv     utils/compare_encoders.py -o output (revolutions)
+  encal import moteus-cal FILE -o CAL.csv         a raw 'CAL start' ... 'CAL done' capture [--pole-pairs P]
+  encal import klipper FILE -o CAL.csv            an [angle] calibrate: list (one angle per full step)
+  encal import mechaduino FILE -o CAL.csv         a lookup[16384] table (every count against its angle)
+  encal import moteus FILE -o MODEL.json          conf set ...compensation_table lines (an existing correction)
+  encal import simplefoc FILE -o MODEL.json       a calibrationLut[] (radians)
+  encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (ticks of a B-bit sensor)
+
+Calibrations can be fitted, profiled and compared; an existing correction becomes a
+model file that 'encal evaluate' scores on a calibration, beside encal's own models.
+"""
+
+from ._common import int_in_range
+
+HELP = "read a firmware's calibration output or correction table (moteus, Klipper, Mechaduino, ...)"
+
+CALIBRATIONS = ("moteus-compare", "moteus-cal", "klipper", "mechaduino")
+CORRECTIONS = ("moteus", "simplefoc", "tinymovr")
+
+
+def add_arguments(parser):
+    parser.add_argument("kind", choices=CALIBRATIONS + CORRECTIONS, help="what the file is")
+    parser.add_argument("input", metavar="FILE", help="the firmware's file")
+    parser.add_argument("-o", "--output", required=True, metavar="PATH",
+                        help="calibration CSV (calibrations) or model file (corrections) to write")
+    parser.add_argument("--pole-pairs", type=int_in_range(1), metavar="P",
+                        help="moteus-cal: motor pole pairs (default: from the capture)")
+    parser.add_argument("--bits", type=int_in_range(6, 24), metavar="B",
+                        help="tinymovr: sensor resolution in bits")
+    parser.set_defaults(import_parser=parser)
+
+
+def run(args):
+    from ..calibration import write_calibration
+    from ..deploy import firmware
+
+    if args.kind == "tinymovr" and args.bits is None:
+        args.import_parser.error("tinymovr tables are in ticks: --bits is required")
+    readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
+               "mechaduino": firmware.read_mechaduino,
+               "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),
+               "moteus": firmware.read_moteus_conf, "simplefoc": firmware.read_simplefoc,
+               "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
+    result = readers[args.kind](args.input)
+    if args.kind in CALIBRATIONS:
+        write_calibration(args.output, result, comments=[f"read by encal import {args.kind} from {args.input}"])
+        print(f"wrote {args.output}: {len(result)} points")
+    else:
+        result.save(args.output)
+        print(f"wrote {args.output}: the {args.kind} correction as a model file (kind {result.kind})")
+    return 0

@@ -1,0 +1,140 @@
+"""What the firmware formats share: the correction to store, the round-trip figures, C array text."""
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import InputError
+from ...models.lut import LookupTableModel
+from ..compact import _least_squares_nodes, evaluation_bits, model_on_codes
+from ..compensator import Compensator
+
+__all__ = ["FirmwareExport", "correction_on_codes", "correction_nodes", "correction_model", "read_c_array",
+           "round_trip", "read_text"]
+
+
+@dataclass(frozen=True)
+class FirmwareExport:
+    """A model written in a firmware's format.
+
+    Attributes
+    ----------
+    firmware : str
+    text : str
+        The file content.
+    max_error_arcmin, rms_error_arcmin : float
+        Round trip: that firmware's run-time rule applied to the written values, against
+        the model's correction, over every code (``codes`` of them).
+    quantisation_arcmin : float
+        The largest change that rounding the stored values can cause, a priori.
+    codes : int
+    note : str
+        What the format cannot hold, or how to load it.
+    """
+
+    firmware: str
+    text: str
+    max_error_arcmin: float
+    rms_error_arcmin: float
+    quantisation_arcmin: float
+    codes: int
+    note: str = ""
+
+    def describe(self):
+        return (f"{self.firmware}: round trip through its own run-time rule within max "
+                f"{self.max_error_arcmin:.3g}, RMS {self.rms_error_arcmin:.3g} arcmin of the model on all "
+                f"{self.codes} codes (storage rounding at most {self.quantisation_arcmin:.3g} arcmin)"
+                + (f"; {self.note}" if self.note else ""))
+
+
+def compensator(model):
+    return model if isinstance(model, Compensator) else Compensator(model)
+
+
+def correction_on_codes(comp, bits):
+    """The correction (arcmin) to add to each raw code's angle, in the reading's own sense.
+
+    ``-error`` for an encoder that counts with its reference; ``+error`` for one that counts
+    against it (``reading_sign`` -1: the corrected angle in the reading's sense is the
+    negated reference-sense one).
+    """
+    return -comp.reading_sign * model_on_codes(comp, bits)
+
+
+def correction_nodes(comp, nodes, bits):
+    """Least-squares node values (arcmin) of a periodic linear interpolation of the correction."""
+    target = correction_on_codes(comp, bits)
+    return _least_squares_nodes(target, nodes), target
+
+
+def round_trip(deployed_arcmin, target_arcmin):
+    """(max, RMS) of the difference, arcmin."""
+    gap = np.asarray(deployed_arcmin, dtype=float) - target_arcmin
+    return float(np.max(np.abs(gap))), float(np.sqrt(np.mean(gap**2)))
+
+
+def grid_bits(comp, bits, default=16):
+    bits = comp.encoder.get("resolution_bits") if bits is None else bits
+    return evaluation_bits(default if bits is None else int(bits))
+
+
+def correction_model(correction_arcmin, *, name="", note=""):
+    """An encal model of an existing firmware correction: nodes at ``i * 360 / N``, linear with wrap.
+
+    Parameters
+    ----------
+    correction_arcmin : array-like of shape (N,)
+        The correction the firmware adds at each node, arc-minutes.
+
+    Returns
+    -------
+    LookupTableModel
+        Predicts the error ``-correction`` (what the firmware assumes), so it can be
+        evaluated on a calibration or compared with another model.
+    """
+    error = -np.asarray(correction_arcmin, dtype=float).reshape(-1)
+    n = error.size
+    breaks = np.arange(n + 1) * (360.0 / n)
+    slopes = (np.roll(error, -1) - error) / (360.0 / n)
+    return LookupTableModel(breaks, [slopes, error], "linear",
+                            encoder={"name": name}, training={"method": "firmware", "note": note})
+
+
+def read_text(source):
+    """The text of a file (path) or the text itself (a str with a newline)."""
+    if isinstance(source, str) and "\n" in source:
+        return source, "text"
+    path = Path(source)
+    if not path.is_file():
+        raise InputError(f"{path}: no such file")
+    return path.read_text(encoding="utf-8", errors="replace"), str(path)
+
+
+def read_c_array(source, name):
+    """The numbers of the C array ``name`` (``... name[N] = { ... };``) in a file or text.
+
+    Raises
+    ------
+    InputError
+        If there is no such array, or an element is not a number (the message names the element).
+    """
+    text, where = read_text(source)
+    text = re.sub(r"/\*.*?\*/|//[^\n]*", " ", text, flags=re.S)
+    match = re.search(rf"\b{re.escape(name)}\s*\[\s*(\w*)\s*\]\s*=\s*\{{(.*?)\}}", text, flags=re.S)
+    if not match:
+        raise InputError(f"{where}: expected a C array '{name}[...] = {{...}};', found none")
+    items = [item.strip() for item in match.group(2).split(",")]
+    if items and items[-1] == "":
+        items.pop()
+    values = []
+    for index, item in enumerate(items):
+        try:
+            values.append(float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16)))
+        except ValueError:
+            raise InputError(f"{where}: element {index} of {name}[] is {item!r}, expected a number") from None
+    declared = match.group(1)
+    if declared.isdigit() and int(declared) != len(values):
+        raise InputError(f"{where}: {name}[{declared}] holds {len(values)} values, expected {declared}")
+    return np.asarray(values)

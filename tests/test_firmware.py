@@ -1,0 +1,295 @@
+"""Firmware formats: each written table, run through that firmware's own rule (re-implemented here from
+its source, independently of encal's copy), gives the model's correction within the stated error on
+every code; each format reads back.
+
+Sources: moteus fw/motor_position.h (lerp), SimpleFOC CalibratedSensor.cpp (getSensorAngle), Klipper
+klippy/extras/angle.py (load_calibration, apply_calibration), Mechaduino Controller.cpp
+(y = lookup[readEncoder()]), Tinymovr firmware/src/sensor/sensor.h (sensor_get_angle_rectified).
+"""
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from encal.deploy import Compensator
+from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
+                                   export_tinymovr, read_cal_capture, read_compare_encoders, read_klipper,
+                                   read_mechaduino, read_moteus_conf, read_simplefoc, read_tinymovr)
+from encal.errors import CalibrationError, InputError
+from encal.models.fourier import FourierModel
+
+DATA = Path(__file__).parent / "data"
+KINDS = ["fourier", "lut", "ann", "stack"]
+
+
+def model(kind):
+    return Compensator(DATA / f"model_v1_{kind}.json")
+
+
+def correction_arcmin(comp, angles_deg):
+    """What a firmware must add to the raw reading: minus the error (reading_sign 1)."""
+    return -np.asarray(comp.predict(angles_deg))
+
+
+# -- moteus: fw/motor_position.h ------------------------------------------------------------------------
+
+def moteus_lerp(array, scale, ratio):
+    """MotorPosition::lerp, float arithmetic as in C++."""
+    f = np.float32
+    size = len(array)
+    left = np.minimum(size - 1, (ratio * f(size)).astype(np.int64))
+    right = (left + 1) % size
+    fraction = (ratio - left.astype(f) / f(size)) * f(size)
+    a = np.asarray(array, dtype=f)
+    return (a[left] * scale) * (f(1) - fraction) + (a[right] * scale) * fraction
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_moteus_round_trip(kind):
+    comp = model(kind)
+    out = export_moteus(comp, source=1)
+    table = [0] * 256
+    scale = None
+    for line in out.text.splitlines():
+        match = re.fullmatch(r"conf set motor_position\.sources\.1\.compensation_(?:table\.(\d+) (-?\d+)|scale (\S+))",
+                             line)
+        assert match, line
+        if match.group(1):
+            table[int(match.group(1))] = int(match.group(2))
+        else:
+            scale = float(match.group(3))
+    assert max(abs(v) for v in table) == 127  # the scale is the largest node: full int8 range
+    cpr = 65536
+    offset_value = np.arange(cpr, dtype=np.float32)
+    revolutions = moteus_lerp(table, np.float32(scale) / np.float32(127.0), offset_value * np.float32(1.0 / cpr))
+    gap = np.abs(revolutions.astype(float) * 21600.0 - correction_arcmin(comp, np.arange(cpr) * 360.0 / cpr))
+    assert gap.max() <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
+    # the error is the int8 rounding plus 256-node interpolation; rounding alone is at most half a step
+    assert out.quantisation_arcmin == pytest.approx(0.5 * scale / 127 * 21600)
+    reread = read_moteus_conf(out.text)
+    theta = np.arange(0, 360, 0.25)
+    assert np.max(np.abs(reread.predict(theta) - comp.predict(theta))) <= out.max_error_arcmin + 1e-6
+
+
+def test_moteus_rounds_rather_than_truncates():
+    comp = Compensator(FourierModel([1], [5.0], [0.0], encoder={"resolution_bits": 14}))
+    out = export_moteus(comp)
+    values = [int(line.split()[-1]) for line in out.text.splitlines() if ".compensation_table." in line]
+    revolutions = -5.0 * np.cos(np.radians(np.arange(256) * 360 / 256)) / 21600
+    # least-squares nodes differ from the samples by under one int8 step; truncation would bias them
+    assert np.mean(np.asarray(values) - revolutions / np.max(np.abs(revolutions)) * 127) == pytest.approx(0, abs=0.1)
+
+
+def test_compare_encoders_output(tmp_path):
+    ref = np.linspace(0, 2, 400, endpoint=False)  # two revolutions
+    measured = ref + 0.001 * np.sin(2 * np.pi * ref) + 0.25
+    path = tmp_path / "cmp.txt"
+    path.write_text("".join(f"{r} {m}\n" for r, m in zip(ref, measured)))
+    cal = read_compare_encoders(path)
+    assert len(cal) == 400
+    error = cal.errors_arcmin - 0.25 * 21600
+    assert np.max(np.abs(error - 0.001 * 21600 * np.sin(2 * np.pi * ref))) < 1e-6
+    path.write_text("0.1 0.2\n0.2 x\n")
+    with pytest.raises(CalibrationError, match="line 2, column 2: expected a number"):
+        read_compare_encoders(path)
+
+
+def cal_capture(pole_pairs=7, error_amplitude_count=40.0):
+    """A moteus capture of a motor whose encoder has a first-harmonic error (counts)."""
+    lines = ["CAL start"]
+    electrical_turns = pole_pairs
+    steps = electrical_turns * 64
+    for direction, order in ((1, range(steps)), (2, range(steps - 1, -1, -1))):
+        for i in order:
+            phase = i * 65536.0 / 64  # 64 samples per electrical turn
+            mechanical = phase / 65536.0 / pole_pairs  # revolutions
+            encoder = (mechanical * 65536 + error_amplitude_count * math.sin(2 * math.pi * mechanical)) % 65536
+            lines.append(f"{direction} {int(phase) % 65536} {int(round(encoder))} i1=100 i2=-50 i3=-50")
+    lines.append("CAL done")
+    return "\n".join(lines) + "\n"
+
+
+def test_moteus_cal_capture_gives_the_encoder_error(tmp_path):
+    path = tmp_path / "cal.log"
+    path.write_text(cal_capture())
+    cal = read_cal_capture(path)
+    assert cal.metadata["pole_pairs"] == 7 and set(cal.direction.tolist()) == {1, -1}
+    truth = 40.0 * 21600 / 65536 * np.sin(np.radians(cal.reference_deg))
+    error = cal.errors_arcmin - np.mean(cal.errors_arcmin)
+    assert np.max(np.abs(error - truth)) <= 0.5 * 21600 / 65536 + 1e-9  # whole encoder counts
+
+
+def test_moteus_cal_capture_refusals(tmp_path):
+    path = tmp_path / "cal.log"
+    path.write_text("1 2 3\nCAL done\n")
+    with pytest.raises(CalibrationError, match="starting with 'CAL start'"):
+        read_cal_capture(path)
+    path.write_text(cal_capture().replace("CAL done\n", ""))
+    with pytest.raises(CalibrationError, match="end with 'CAL done'"):
+        read_cal_capture(path)
+    path.write_text("CAL start\n1 70000 3\nCAL done\n")
+    with pytest.raises(CalibrationError, match="line 2"):
+        read_cal_capture(path)
+
+
+# -- SimpleFOC: CalibratedSensor::getSensorAngle --------------------------------------------------------
+
+def simplefoc_offset(lut, raw):
+    f = np.float32
+    two_pi = f(6.28318530718)
+    n = len(lut)
+    width = two_pi / f(n)
+    bucket = np.floor(raw.astype(float) / float(width)).astype(np.int64)
+    remainder = raw - width * bucket.astype(f)
+    y0 = lut[bucket]
+    y1 = lut[(bucket + 1) % n]
+    return ((width - remainder) / width) * y0 + (remainder / width) * y1
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_simplefoc_round_trip(kind):
+    comp = model(kind)
+    out = export_simplefoc(comp)
+    lut = np.array([float(v.strip().rstrip("f")) for v in re.search(r"\{(.*)\}", out.text, re.S).group(1).split(",")],
+                   dtype=np.float32)
+    assert lut.size == 128 and "float calibrationLut[128]" in out.text
+    codes = np.arange(65536)
+    raw = (codes * (2 * np.pi / 65536)).astype(np.float32)
+    offset_arcmin = np.degrees(simplefoc_offset(lut, raw).astype(float)) * 60
+    gap = np.abs(offset_arcmin - correction_arcmin(comp, codes * 360.0 / 65536))
+    assert gap.max() <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
+    reread = read_simplefoc(out.text)
+    theta = np.arange(0, 360, 0.5)
+    assert np.max(np.abs(reread.predict(theta) - comp.predict(theta))) <= out.max_error_arcmin + 1e-5
+
+
+# -- Klipper: klippy/extras/angle.py ----------------------------------------------------------------------
+
+def klipper_calibration(angles):
+    angle_max, count = 1 << 16, 1 << 6
+    bucket_size = angle_max // count
+    full_steps = len(angles)
+    nominal_step = float(angle_max) / full_steps
+    reversed_ = angles[-2] > angles[-1]
+    if reversed_:
+        angles = list(reversed(angles))
+    first_step = angles.index(min(angles))
+    angles = angles[first_step:] + angles[:first_step]
+    eqs = np.zeros((full_steps, count))
+    ans = np.zeros((full_steps,))
+    for step, angle in enumerate(angles):
+        int_angle = int(angle + .5) % angle_max
+        bucket = int(int_angle / bucket_size)
+        ang_diff_per = (angle - bucket * bucket_size) / bucket_size
+        eqs[step][bucket] = 1. - ang_diff_per
+        eqs[step][(bucket + 1) % count] = ang_diff_per
+        ans[step] = float(step * nominal_step)
+        if bucket + 1 >= count:
+            ans[step] -= ang_diff_per * angle_max
+    sol = np.linalg.lstsq(eqs, ans, rcond=None)[0]
+    isol = [int(s + .5) for s in sol]
+    return isol + [isol[0] + angle_max], reversed_
+
+
+def klipper_new_angle(calibration, reversed_, angle):
+    bucket = (angle & 0xffff) >> 10
+    cal1, cal2 = calibration[bucket], calibration[bucket + 1]
+    adj = cal1 + (((angle & 0x3ff) * (cal2 - cal1) + 512) >> 10)
+    angle_diff = (adj - angle) & 0xffff
+    angle_diff -= (angle_diff & 0x8000) << 1
+    new_angle = angle + angle_diff
+    return -new_angle if reversed_ else new_angle
+
+
+@pytest.mark.parametrize("kind", ["fourier", "lut"])
+def test_klipper_round_trip(kind):
+    comp = model(kind)
+    out = export_klipper(comp, full_steps=200)
+    assert out.text.startswith("calibrate:\n")
+    angles = [float(v) for v in out.text.split(":", 1)[1].replace("\n", " ").split(",")]
+    assert len(angles) == 200
+    calibration, reversed_ = klipper_calibration(angles)
+    new = np.array([klipper_new_angle(calibration, reversed_, a) for a in range(65536)]) * (360 / 65536)
+    gap = (new - comp.correct(np.arange(65536) * 360 / 65536) + 180) % 360 - 180
+    gap = (gap - math.degrees(math.atan2(np.mean(np.sin(np.radians(gap))), np.mean(np.cos(np.radians(gap)))))) * 60
+    assert np.max(np.abs(gap)) <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
+    # what 64 buckets lose: under the profile's own size
+    assert out.max_error_arcmin < 0.5 * np.ptp(comp.predict(np.arange(0, 360, 0.1)))
+    cal = read_klipper(out.text)
+    assert len(cal) == 200
+    residual = cal.errors_arcmin - comp.predict(cal.encoder_deg)
+    assert np.ptp(residual) < 2 * 0.05 * 21600 / 65536 + 1e-6  # "%.1f" of 16-bit units
+
+
+def test_klipper_list_in_a_config_section(tmp_path):
+    path = tmp_path / "printer.cfg"
+    values = ", ".join(f"{i * 327.68 + 3:.1f}" for i in range(200))
+    path.write_text(f"[angle my_sensor]\nsensor_type: a1333\ncalibrate:\n    {values}\n[stepper_x]\nstep_pin: PA1\n")
+    cal = read_klipper(path)
+    assert len(cal) == 200 and cal.metadata["full_steps"] == 200
+    path.write_text("calibrate:\n    1.0, 2.0, banana\n")
+    with pytest.raises(InputError, match="line 2: expected a number"):
+        read_klipper(path)
+
+
+# -- Mechaduino: y = lookup[readEncoder()] ---------------------------------------------------------------
+
+def test_mechaduino_round_trip():
+    comp = Compensator(FourierModel([1, 2, 4], [30.0, -12.0, 3.0], [10.0, 4.0, -1.0],
+                                    encoder={"resolution_bits": 14}))
+    out = export_mechaduino(comp)
+    lookup = np.array([float(v) for v in re.search(r"\{(.*)\}", out.text, re.S).group(1).split(",")],
+                      dtype=np.float32)
+    assert lookup.size == 16384 and "lookup[16384]" in out.text
+    y = lookup[np.arange(16384)].astype(float)  # the firmware's rule: one entry per raw count
+    gap = ((y - comp.correct(np.arange(16384) * 360 / 16384) + 180) % 360 - 180) * 60
+    assert np.max(np.abs(gap)) <= out.max_error_arcmin + 1e-9 <= out.quantisation_arcmin
+    assert out.quantisation_arcmin == pytest.approx((0.0005 + 2**-16) * 60)  # 0.001 degree, then float32
+    cal = read_mechaduino(out.text)
+    assert len(cal) == 16384 and cal.resolution_bits == 14
+    assert np.max(np.abs(cal.errors_arcmin - comp.predict(cal.encoder_deg))) <= out.quantisation_arcmin
+
+
+def test_mechaduino_needs_14_bits():
+    with pytest.raises(InputError, match="14-bit"):
+        export_mechaduino(model("fourier"))
+
+
+# -- Tinymovr: sensor_get_angle_rectified -----------------------------------------------------------------
+
+def tinymovr_rectified(table, angle, bits):
+    offset_bits = bits - 6
+    off_1 = table[angle >> offset_bits]
+    off_2 = table[((angle >> offset_bits) + 1) % 64]
+    off_interp = off_1 + ((off_2 - off_1) * (angle - ((angle >> offset_bits) << offset_bits)) >> offset_bits)
+    return angle + off_interp
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_tinymovr_round_trip(kind):
+    comp = model(kind)
+    out = export_tinymovr(comp, bits=13)
+    table = np.array([int(v) for v in re.search(r"\{(.*)\}", out.text, re.S).group(1).split(",")])
+    assert table.size == 64 and "int16_t rec_table[64]" in out.text
+    angles = np.arange(1 << 13)
+    rectified = tinymovr_rectified(table, angles, 13)
+    gap = np.abs((rectified - angles) * (21600 / 8192) - correction_arcmin(comp, angles * 360 / 8192))
+    assert gap.max() <= out.max_error_arcmin + 1e-9
+    reread = read_tinymovr(out.text, bits=13)
+    theta = np.arange(0, 360, 0.5)
+    assert np.max(np.abs(reread.predict(theta) - comp.predict(theta))) <= out.max_error_arcmin + 1e-6
+
+
+def test_reading_sign_flips_the_correction():
+    forward = FourierModel([1], [3.0], [1.0], encoder={"resolution_bits": 14})
+    backward = FourierModel([1], [3.0], [1.0], encoder={"resolution_bits": 14})
+    backward.reading_sign = -1
+    a = read_moteus_conf(export_moteus(forward).text)
+    b = read_moteus_conf(export_moteus(backward).text)
+    theta = np.arange(0, 360, 1.0)
+    # the firmware adds +error in the reading's own sense when the encoder counts against the reference
+    assert np.max(np.abs(b.predict(theta) + Compensator(backward).predict(theta))) < 0.03
+    assert np.max(np.abs(a.predict(theta) - Compensator(forward).predict(theta))) < 0.03
