@@ -397,6 +397,16 @@ CASES = [
     Case("drift-model-missing", ("drift", "{train}", "{test}", "--model", "{out}/none.json"), 1, ("none.json",)),
     Case("drift-tolerance-not-a-number", ("drift", "{train}", "{test}", "--tolerance", "abc"), 2),
     Case("drift-no-file", ("drift",), 2),
+    # ---------------------------------------------------------------- selfcal
+    Case("selfcal-sweep-not-a-capture", ("selfcal", "sweep", "{train}", "--pole-pairs", "7", "-o", "{out}/c.csv"),
+         1, ("train.csv", "line 1", "CAL start")),
+    Case("selfcal-spin-not-a-log", ("selfcal", "spin", "{train}", "-o", "{out}/c.csv"), 1,
+         ("train.csv", "time_s")),
+    Case("selfcal-sweep-missing", ("selfcal", "sweep", "{out}/none.txt", "--pole-pairs", "7", "-o", "{out}/c.csv"),
+         1, ("none.txt",)),
+    Case("selfcal-no-method", ("selfcal",), 2),
+    Case("selfcal-sweep-no-pole-pairs", ("selfcal", "sweep", "{train}", "-o", "{out}/c.csv"), 2),
+    Case("selfcal-spin-no-output", ("selfcal", "spin", "{train}"), 2),
 ]
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.

@@ -166,9 +166,9 @@ def _run_coefficients(run, orders, knot_revolutions):
                          "spin in one direction")
     angles = np.sort(np.mod(phase, 360.0))
     gap = float(np.max(np.diff(np.concatenate([angles, angles[:1] + 360.0]))))
-    if gap > 90.0 / orders[-1]:
+    if gap > 180.0 / orders[-1]:
         raise InputError(f"{where}: the readings leave a gap of {gap:.3g} deg in the turn; expected samples all "
-                         f"around it, no gap over {90.0 / orders[-1]:.3g} deg for order {orders[-1]} (log longer, "
+                         f"around it, no gap over {180.0 / orders[-1]:.3g} deg for order {orders[-1]} (log longer, "
                          "faster, or at a sample rate not locked to the speed; or lower max_order)")
     # one least-squares fit: a cubic spline in time (the smooth phase) plus a Fourier series in the reading
     n_intervals = max(1, int(revolutions // knot_revolutions))

@@ -1,0 +1,95 @@
+"""Calibrate an encoder without a precision reference, from the motor it sits on.
+
+  encal selfcal spin LOG.csv [LOG2.csv ...] --pole-pairs 7 -o CAL.csv
+      a log of (time_s, encoder_deg) while the motor spins at a constant drive; two or more speeds
+      (files, or a 'run' column) separate the speed ripple from the encoder error
+  encal selfcal sweep CAPTURE.txt --pole-pairs 21 -o CAL.csv
+      a moteus raw calibration capture ('CAL start', lines 'dir phase encoder', 'CAL done')
+
+The output is a calibration CSV (reference_deg, encoder_deg on a grid of readings, with the columns
+error_arcmin and sigma_arcmin) for 'encal fit', 'encal profile' and 'encal report'. The summary printed
+says the recovered harmonics with +-2 sigma and what the method cannot separate.
+See docs/self-calibration.md.
+"""
+
+from pathlib import Path
+
+from ..errors import InputError
+from ._common import int_in_range, positive_int
+
+HELP = "calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps"
+
+
+def add_arguments(parser):
+    methods = parser.add_subparsers(dest="method", metavar="METHOD", required=True)
+    spin = methods.add_parser("spin", help="constant-drive spin(s): the rotor's inertia is the reference")
+    spin.add_argument("logs", nargs="+", metavar="LOG.csv", help="spin log(s): time_s, encoder_deg[, run]")
+    spin.add_argument("--pole-pairs", type=positive_int, metavar="P",
+                      help="motor pole pairs: with one speed, multiples of P are left out (torque ripple)")
+    spin.add_argument("--slots", type=positive_int, metavar="S",
+                      help="motor slots: with one speed, multiples of S are left out too")
+    spin.add_argument("--ripple-orders", metavar="K,...",
+                      help="more orders to leave out with one speed, e.g. 1 for an unbalanced load")
+    sweep = methods.add_parser("sweep", help="open-loop electrical-angle sweep (moteus raw capture)")
+    sweep.add_argument("capture", metavar="CAPTURE.txt", help="moteus raw capture: CAL start ... CAL done")
+    sweep.add_argument("--pole-pairs", type=positive_int, metavar="P", required=True, help="motor pole pairs")
+    sweep.add_argument("--slots", type=positive_int, metavar="S",
+                       help="also leave out multiples of the slot count (a motor with unequal slots)")
+    sweep.add_argument("--skip", type=int_in_range(0), default=4, metavar="N",
+                       help="samples left out at the start while the rotor settles (default 4)")
+    for sub in (spin, sweep):
+        sub.add_argument("-o", "--output", required=True, metavar="CAL.csv", help="calibration CSV to write")
+        sub.add_argument("--max-order", type=int_in_range(1, 180), default=32, metavar="K",
+                         help="highest harmonic order recovered (default 32)")
+        sub.add_argument("--points", type=int_in_range(8, 100000), default=360, metavar="N",
+                         help="readings in the calibration written (a uniform grid; default 360)")
+        sub.add_argument("--bits", type=int_in_range(1, 32), metavar="B",
+                         help="encoder resolution in bits, recorded in the calibration (sweep: default 16, the "
+                              "capture's counts)")
+
+
+def run(args):
+    inputs = args.logs if args.method == "spin" else [args.capture]
+    _check_output(args.output, inputs)
+    if args.method == "spin":
+        from ..selfcal.spin import spin
+        from ..selfcal.spin_log import read_spin_log
+
+        logs = [log for path in args.logs for log in read_spin_log(path)]
+        result = spin(logs, pole_pairs=args.pole_pairs, slots=args.slots, max_order=args.max_order,
+                      ripple_orders=_orders(args.ripple_orders), name=Path(args.logs[0]).stem)
+    else:
+        from ..selfcal.moteus_capture import read_moteus_capture
+        from ..selfcal.sweep import sweep_capture
+
+        result = sweep_capture(read_moteus_capture(args.capture), args.pole_pairs, max_order=args.max_order,
+                               slots=args.slots, skip=args.skip)
+    bits = args.bits if args.bits is not None or args.method != "sweep" else 16
+    result.write(args.output, points=args.points, resolution_bits=bits)
+    print(result.summary())
+    print(f"wrote {args.output}: {args.points} readings; fit it with 'encal fit {args.output} -o MODEL.json'")
+    return 0
+
+
+def _orders(text):
+    if not text:
+        return ()
+    try:
+        orders = tuple(int(cell) for cell in text.split(",") if cell.strip())
+    except ValueError:
+        raise InputError(f"--ripple-orders must be whole numbers separated by commas. Got {text!r} instead.") from None
+    if any(order < 1 for order in orders):
+        raise InputError(f"--ripple-orders must be orders >= 1. Got {text!r} instead.")
+    return orders
+
+
+def _check_output(output, inputs):
+    path = Path(output)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise InputError(f"cannot write {path}: the folder {folder} does not exist")
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder; expected the path of a calibration CSV")
+    for source in inputs:
+        if path.exists() and Path(source).exists() and path.samefile(source):
+            raise InputError(f"-o {path} is the input {source}; expected another file for the calibration")

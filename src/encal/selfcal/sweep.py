@@ -1,0 +1,143 @@
+"""Electrical-angle sweep: the commanded electrical angle as the reference.
+
+A motor driven open loop follows the commanded electrical angle: the reference is the unwrapped
+electrical angle divided by the pole pairs. The rotor lags the command by the friction's angle, in
+opposite directions going up and down: the mean of the two sweeps removes the lag (and half their
+difference measures it). Cogging and the distortion of the field's direction are periodic in the
+electrical angle: averaging the error over one electrical period (360/p degrees) filters them, and
+with them every order of the encoder's error that is a multiple of the pole pairs ``p``. The period
+average multiplies order ``k`` by ``sinc(k/p)``: zero at multiples of ``p``; dividing the other orders
+by that factor restores them, so the whole operation is leaving out the multiples of ``p``, which is
+how it is computed here. See docs/self-calibration.md.
+"""
+
+import numpy as np
+
+from ..angles import ARCMIN_PER_DEG
+from ..errors import InputError
+from ._series import HarmonicSeries, design_matrix
+from .result import SelfCalibration
+
+__all__ = ["sweep", "sweep_capture"]
+
+#: Largest relative mismatch between the encoder's travel and the commanded travel / pole pairs (and at
+#: most half a pole pair's worth).
+MAX_TRAVEL_MISMATCH = 0.1
+#: Samples at the start of a capture left out: the rotor is still settling on the first commanded angle.
+DEFAULT_SKIP = 4
+
+
+def sweep_capture(capture, pole_pairs, **options):
+    """:func:`sweep` of a :class:`~encal.selfcal.moteus_capture.MoteusCapture`."""
+    name = options.pop("name", None)
+    if name is None:
+        from pathlib import Path
+
+        name = Path(capture.source).stem if capture.source else ""
+    return sweep(capture.phase_deg_e, capture.encoder_deg, capture.travel, pole_pairs, name=name,
+                 where=capture.source or "sweep", **options)
+
+
+def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=None, skip=DEFAULT_SKIP, name="",
+          where="sweep"):
+    """Recover the encoder error from an open-loop sweep of the electrical angle, up and down.
+
+    Parameters
+    ----------
+    phase_deg_e : array-like of shape (n,)
+        Commanded electrical angle in electrical degrees, in the order of the sweep (wrapped or not).
+    encoder_deg : array-like of shape (n,)
+        Encoder readings in degrees.
+    travel : array-like of shape (n,) of {+1, -1}
+        +1 where the phase goes up, -1 where it goes down.
+    pole_pairs : int
+    max_order : int, default=32
+        Highest harmonic order recovered.
+    slots : int, optional
+        Also leave out multiples of the slot count (for a motor with unequal slots, whose ripple the period
+        average does not remove).
+    skip : int, default=4
+        Samples left out at the start (the rotor settling).
+    name : str, default=''
+    where : str, default='sweep'
+        Name of the input, for messages.
+
+    Returns
+    -------
+    SelfCalibration
+        ``details`` holds the lag (arcmin and electrical degrees), the RMS of its variation over the turn,
+        and whether the encoder counts against the phase.
+
+    Raises
+    ------
+    InputError
+        For a wrong pole-pair count (the encoder's travel does not match), a sweep that does not cover
+        the turn in both directions, or too few samples.
+    """
+    if isinstance(pole_pairs, bool) or not isinstance(pole_pairs, (int, np.integer)) or pole_pairs < 1:
+        raise InputError(f"The 'pole_pairs' parameter of sweep must be an int >= 1. Got {pole_pairs!r} instead.")
+    phase = np.asarray(phase_deg_e, dtype=float).reshape(-1)[skip:]
+    reading = np.asarray(encoder_deg, dtype=float).reshape(-1)[skip:]
+    travel = np.asarray(travel).reshape(-1)[skip:]
+    if not phase.size == reading.size == travel.size:
+        raise InputError(f"{where}: phase, encoder and direction differ in length; expected one of each per sample")
+    reference = np.unwrap(phase, period=360.0) / pole_pairs
+    encoder = np.unwrap(reading, period=360.0)
+    orders = np.arange(1, max_order + 1)
+    fits, counts_against = {}, False
+    for sign, label in ((1, "up"), (-1, "down")):
+        members = np.flatnonzero(travel == sign)
+        if members.size < 2 * orders.size + 8:
+            raise InputError(f"{where}: the sweep {label} has {members.size} samples; expected at least "
+                             f"{2 * orders.size + 8} for order {max_order}")
+        commanded = reference[members[-1]] - reference[members[0]]
+        moved = encoder[members[-1]] - encoder[members[0]]
+        tolerance = min(MAX_TRAVEL_MISMATCH, 0.5 / pole_pairs)  # a pole pair more or less is caught
+        if abs(commanded) < 1e-9 or abs(abs(moved / commanded) - 1) > tolerance:
+            suggestion = abs(moved) and abs(commanded) * pole_pairs / abs(moved)
+            raise InputError(f"{where}: the encoder turned {abs(moved):.1f} deg while the phase / {pole_pairs} pole "
+                             f"pairs turned {abs(commanded):.1f} deg in the sweep {label}; expected the same (is the "
+                             f"pole-pair count {max(1, round(suggestion))}?)")
+        counts_against = moved * commanded < 0
+        _check_coverage(where, label, reading[members], max_order)
+        fits[label] = members
+    sense = -1.0 if counts_against else 1.0
+    error = (encoder - sense * reference) * ARCMIN_PER_DEG
+    results = {}
+    for label, members in fits.items():
+        x = np.hstack([np.ones((members.size, 1)), design_matrix(reading[members], orders)])
+        coefficients, _, rank, _ = np.linalg.lstsq(x, error[members], rcond=None)
+        residual = error[members] - x @ coefficients
+        variance = residual @ residual / max(members.size - x.shape[1], 1)
+        results[label] = (coefficients, variance * np.linalg.inv(x.T @ x))
+    (up, cov_up), (down, cov_down) = results["up"], results["down"]
+    mean = 0.5 * (up + down)
+    covariance = 0.25 * (cov_up + cov_down)
+    lag = 0.5 * (down[0] - up[0]) * sense
+    hysteresis = 0.5 * (down[1:] - up[1:])
+    removed = set(range(pole_pairs, max_order + 1, pole_pairs))
+    if slots:
+        removed |= set(range(slots, max_order + 1, slots))
+    removed = tuple(sorted(removed))
+    series = HarmonicSeries.from_vector(orders, mean[1:], covariance[1:, 1:]).without(removed)
+    details = {"lag_arcmin": float(lag), "lag_deg_e": float(lag / ARCMIN_PER_DEG * pole_pairs),
+               "lag_variation_rms_arcmin": float(np.sqrt(np.sum(hysteresis ** 2) / 2)),
+               "encoder_counts_against_phase": bool(counts_against), "pole_pairs": int(pole_pairs)}
+    multiples = ", ".join(map(str, range(pole_pairs, min(max_order, 4 * pole_pairs) + 1, pole_pairs)))
+    confounded = (f"averaging over one electrical period (360/{pole_pairs} deg) removes the motor's cogging and field "
+                  f"distortion and with them the encoder's error at every multiple of {pole_pairs} ({multiples}, ...), "
+                  "which stays unknown"
+                  + (f"; multiples of the {slots} slots were left out too" if slots else
+                     "; torque ripple at other orders (unequal slots: multiples of the slot count; unequal magnets: "
+                     "low orders) is not removed and would stay in the result")
+                  + f"; orders above {max_order} are not estimated")
+    return SelfCalibration("sweep", series, removed, confounded, details, name)
+
+
+def _check_coverage(where, label, reading, max_order):
+    angles = np.sort(np.mod(reading, 360.0))
+    gap = float(np.max(np.diff(np.concatenate([angles, angles[:1] + 360.0]))))
+    if gap > 180.0 / max_order:
+        raise InputError(f"{where}: the sweep {label} leaves a gap of {gap:.3g} deg in the turn; expected it to "
+                         f"cover the whole turn with no gap over {180.0 / max_order:.3g} deg (sweep at least one "
+                         "revolution, or lower max_order)")
