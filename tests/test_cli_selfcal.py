@@ -83,3 +83,35 @@ def test_missing_method_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exit_:
         main(["selfcal"])
     assert exit_.value.code == 2
+
+
+def test_steps_with_two_calibrations_writes_the_calibration_and_the_stepper(tmp_path, capsys):
+    from encal.calibration import write_calibration
+    from encal.selfcal.simulate import draw_stepper, simulate_steps
+
+    stepper = draw_stepper(4)
+    paths = []
+    for turn, seed in ((0.0, 1), (137.5, 2)):
+        run = simulate_steps(stepper, ENCODER.turned(turn), rng=seed)
+        paths.append(tmp_path / f"cal{seed}.csv")
+        write_calibration(paths[-1], run.calibration)
+    out, stepper_csv = tmp_path / "enc.csv", tmp_path / "stepper.csv"
+    assert main(["selfcal", "steps", *map(str, paths), "-o", str(out), "--stepper-csv", str(stepper_csv)]) == 0
+    assert "turn deg: 137.5" in capsys.readouterr().out
+    cal = read_calibration(out)
+    assert cal.resolution_bits == 14
+    truth = truth_at_orders(ENCODER, range(1, 17), grid=cal.encoder_deg)
+    assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)
+    rows = stepper_csv.read_text().splitlines()
+    assert rows[0].startswith("step,reference_deg,stepper_error_arcmin") and len(rows) == 201
+
+
+def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
+    from encal.calibration import write_calibration
+    from encal.selfcal.simulate import draw_stepper, simulate_steps
+
+    path = tmp_path / "a.csv"
+    write_calibration(path, simulate_steps(draw_stepper(4), ENCODER, rng=1).calibration)
+    assert main(["selfcal", "steps", str(path), "--turn", "90", "-o", str(tmp_path / "o.csv")]) == 1
+    assert "need a second calibration" in capsys.readouterr().err
+    assert not (tmp_path / "o.csv").exists()

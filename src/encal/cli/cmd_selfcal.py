@@ -5,6 +5,9 @@
       (files, or a 'run' column) separate the speed ripple from the encoder error
   encal selfcal sweep CAPTURE.txt --pole-pairs 21 -o CAL.csv
       a moteus raw calibration capture ('CAL start', lines 'dir phase encoder', 'CAL done')
+  encal selfcal steps A.csv [B.csv] -o CAL.csv
+      full-step calibrations of a stepper (reference_deg = the full steps); with B, taken after turning
+      the magnet on the rotor, the stepper's own error is separated (the shift method)
 
 The output is a calibration CSV (reference_deg, encoder_deg on a grid of readings, with the columns
 error_arcmin and sigma_arcmin) for 'encal fit', 'encal profile' and 'encal report'. The summary printed
@@ -37,10 +40,19 @@ def add_arguments(parser):
                        help="also leave out multiples of the slot count (a motor with unequal slots)")
     sweep.add_argument("--skip", type=int_in_range(0), default=4, metavar="N",
                        help="samples left out at the start while the rotor settles (default 4)")
-    for sub in (spin, sweep):
+    steps = methods.add_parser("steps", help="full steps of a stepper; two calibrations with the magnet turned "
+                                              "separate the stepper's error")
+    steps.add_argument("calibrations", nargs="+", metavar="CAL.csv", help="one or two full-step calibrations")
+    steps.add_argument("--turn", type=float, metavar="DEG",
+                       help="the magnet's turn on the rotor from the first to the second calibration, if known")
+    steps.add_argument("--step-shift", type=int, metavar="M",
+                       help="full steps between the two calibrations' starts, if known")
+    steps.add_argument("--stepper-csv", metavar="FILE",
+                       help="also write the stepper's error at each full step (two calibrations)")
+    for sub, default in ((spin, 32), (sweep, 32), (steps, 16)):
         sub.add_argument("-o", "--output", required=True, metavar="CAL.csv", help="calibration CSV to write")
-        sub.add_argument("--max-order", type=int_in_range(1, 180), default=32, metavar="K",
-                         help="highest harmonic order recovered (default 32)")
+        sub.add_argument("--max-order", type=int_in_range(1, 180), default=default, metavar="K",
+                         help=f"highest harmonic order recovered (default {default})")
         sub.add_argument("--points", type=int_in_range(8, 100000), default=360, metavar="N",
                          help="readings in the calibration written (a uniform grid; default 360)")
         sub.add_argument("--bits", type=int_in_range(1, 32), metavar="B",
@@ -49,7 +61,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    inputs = args.logs if args.method == "spin" else [args.capture]
+    inputs = {"spin": getattr(args, "logs", None), "sweep": [getattr(args, "capture", None)],
+              "steps": getattr(args, "calibrations", None)}[args.method]
     _check_output(args.output, inputs)
     if args.method == "spin":
         from ..selfcal.spin import spin
@@ -58,17 +71,56 @@ def run(args):
         logs = [log for path in args.logs for log in read_spin_log(path)]
         result = spin(logs, pole_pairs=args.pole_pairs, slots=args.slots, max_order=args.max_order,
                       ripple_orders=_orders(args.ripple_orders), name=Path(args.logs[0]).stem)
+    elif args.method == "steps":
+        result = _steps(args)
     else:
         from ..selfcal.moteus_capture import read_moteus_capture
         from ..selfcal.sweep import sweep_capture
 
         result = sweep_capture(read_moteus_capture(args.capture), args.pole_pairs, max_order=args.max_order,
                                slots=args.slots, skip=args.skip)
+    from .._atomic import atomic_file_set
+
     bits = args.bits if args.bits is not None or args.method != "sweep" else 16
-    result.write(args.output, points=args.points, resolution_bits=bits)
+    with atomic_file_set():
+        result.write(args.output, points=args.points, resolution_bits=bits)
+        if getattr(args, "stepper_csv", None) is not None:
+            _write_stepper(args.stepper_csv, result.details)
     print(result.summary())
     print(f"wrote {args.output}: {args.points} readings; fit it with 'encal fit {args.output} -o MODEL.json'")
     return 0
+
+
+def _steps(args):
+    from ..selfcal.steps import steps
+    from ._common import read_calibration_from_args
+
+    if len(args.calibrations) > 2:
+        raise InputError(f"steps takes one or two calibrations; got {len(args.calibrations)}")
+    if len(args.calibrations) == 1 and (args.turn is not None or args.step_shift is not None
+                                        or args.stepper_csv is not None):
+        raise InputError("--turn, --step-shift and --stepper-csv need a second calibration (after turning the magnet)")
+    if args.stepper_csv is not None:
+        _check_output(args.stepper_csv, args.calibrations)
+    calibrations = [read_calibration_from_args(path, args) for path in args.calibrations]
+    result = steps(*calibrations, turn_deg=args.turn, step_shift=args.step_shift, max_order=args.max_order,
+                   name=Path(args.calibrations[0]).stem)
+    if args.bits is None and calibrations[0].resolution_bits is not None:
+        args.bits = calibrations[0].resolution_bits
+    return result
+
+
+def _write_stepper(path, details):
+    """The stepper's error at each full step of the first calibration, as a CSV."""
+    from .._atomic import atomic_open
+
+    error, sigma = details["stepper_error_arcmin"], details["stepper_sigma_arcmin"]
+    model, model_sigma = details["stepper_model_arcmin"], details["stepper_model_sigma_arcmin"]
+    n = len(error)
+    with atomic_open(path, "w", newline="\n") as handle:
+        handle.write("step,reference_deg,stepper_error_arcmin,sigma_arcmin,model_arcmin,model_sigma_arcmin\n")
+        for k in range(n):
+            handle.write(f"{k},{k * 360.0 / n!r},{error[k]:.6g},{sigma[k]:.6g},{model[k]:.6g},{model_sigma[k]:.6g}\n")
 
 
 def _orders(text):
