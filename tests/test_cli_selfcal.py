@@ -20,7 +20,7 @@ def _export_formats():
     return next(action.choices for action in export._actions if action.dest == "format")
 
 
-def test_moteus_capture_to_model_to_firmware_table(tmp_path, capsys):
+def test_moteus_capture_to_model_to_c_and_moteus_table(tmp_path, capsys):
     motor = make_motor(21, 36, 9)
     capture = simulate_sweep(motor, ENCODER, rng=10)
     raw = tmp_path / "moteus_raw.txt"
@@ -40,10 +40,10 @@ def test_moteus_capture_to_model_to_firmware_table(tmp_path, capsys):
     assert main(["export", str(model_path), "--format", "c", "-o", str(out)]) == 0
     source = (out / "encal.c").read_text()
     assert "encal_correct_deg" in source
-    if "moteus" in _export_formats():
-        moteus = tmp_path / "moteus.cfg"
-        assert main(["export", str(model_path), "--format", "moteus", "-o", str(moteus)]) == 0
-        assert "conf set" in moteus.read_text()
+    assert "moteus" in _export_formats()
+    moteus = tmp_path / "moteus.cfg"
+    assert main(["export", str(model_path), "--format", "moteus", "-o", str(moteus)]) == 0
+    assert "conf set" in moteus.read_text()
 
 
 def test_spin_at_two_speeds_from_one_log_file(tmp_path, capsys):

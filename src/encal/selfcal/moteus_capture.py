@@ -92,10 +92,10 @@ def read_moteus_capture(path):
         raise InputError(f"{path}: no such file; expected a moteus raw calibration capture")
     text = path.read_bytes().decode("latin-1")
     lines = [(number, line.strip()) for number, line in enumerate(text.splitlines(), start=1) if line.strip()]
-    if not lines or not lines[0][1].startswith("CAL start"):
+    if not lines or not lines[0][1].startswith(("CAL start", "CALI start")):
         found = repr(lines[0][1][:40]) if lines else "an empty file"
         _fail(path, lines[0][0] if lines else 1, f"expected the capture to begin with 'CAL start', found {found}")
-    if not lines[-1][1].startswith("CAL done"):
+    if not lines[-1][1].startswith(("CAL done", "CALI done")):
         _fail(path, lines[-1][0], "the capture ends without 'CAL done'; expected a whole capture (was it cut short?)")
     rows = []
     for number, line in lines[1:-1]:
