@@ -100,9 +100,10 @@ def bench_spin(seeds):
             logs = spin_logs(motor, encoder, seed)
             two = spin(logs, pole_pairs=7, slots=12).series
             one = spin(logs[1:], pole_pairs=7, slots=12).series
-            rows["two"].append((ecc, score(two, truth, floor_two)))
-            rows["one"].append((ecc, score(one, truth, floor_one)))
-            rows["one_but_1"].append((ecc, score(one.without([1]), truth, floor_one.without([1]))))
+            case = f"{ecc:g}°, seed {seed}"
+            rows["two"].append((case, score(two, truth, floor_two)))
+            rows["one"].append((case, score(one, truth, floor_one)))
+            rows["one_but_1"].append((case, score(one.without([1]), truth, floor_one.without([1]))))
     return rows
 
 
@@ -123,7 +124,7 @@ def bench_sweep(seeds):
             for ecc in ECCENTRICITIES:
                 encoder = draw_magnetic_encoder(seed, eccentricity_deg=ecc)
                 result = run(encoder, seed)
-                rows[(pole_pairs, slots)].append((ecc, score(result.series, encoder.error_at_reading(GRID), floor),
+                rows[(pole_pairs, slots)].append((f"{ecc:g}°, seed {seed}", score(result.series, encoder.error_at_reading(GRID), floor),
                                                   result.details["lag_arcmin"]))
     return rows
 
@@ -148,7 +149,8 @@ def bench_steps(seeds, turn=137.5):
                 miss = result.details[key] - truth
                 stepper_scores[key] = (rms(truth), rms(miss),
                                        float(np.mean(np.abs(miss) <= 2 * result.details[sigma_key])))
-            rows.append((ecc, score(result.series, encoder.error_at_reading(GRID), floor), stepper_scores,
+            rows.append((f"{ecc:g}°, seed {seed}", score(result.series, encoder.error_at_reading(GRID), floor),
+                         stepper_scores,
                          result.details["turn_deg"]))
     return rows
 
@@ -158,14 +160,15 @@ def bench_real():
     for a, b in REAL_PAIRS:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            first = read_calibration(next(REAL.glob(f"mech_{a}_*.csv")))
-            second = read_calibration(next(REAL.glob(f"mech_{b}_*.csv")))
+            first = read_calibration(next(REAL.glob(f"mech_{a}*.csv")))
+            second = read_calibration(next(REAL.glob(f"mech_{b}*.csv")))
         result = steps(first, second)
         d = result.details
-        kind = ("repeat (not turned)" if "not turned" in result.confounded else
+        kind = ("repeat (not turned)" if d["repeat"] else
                 f"turned {d['turn_deg']:.1f} deg, shift {d['step_shift']}")
         single = steps(first).details["stepper_pattern_rms_arcmin"]
-        lines.append(f"| {a} / {b} | {kind} | {d['difference_residual_rms_arcmin']:.2f} | "
+        offset = np.degrees(np.angle(np.mean(np.exp(1j * np.radians(second.encoder_deg - first.encoder_deg)))))
+        lines.append(f"| {a} / {b} | {offset / 1.8:.3f} | {kind} | {d['difference_residual_rms_arcmin']:.2f} | "
                      f"{single:.2f} | {d['stepper_error_rms_arcmin']:.2f} |")
     return lines
 
@@ -173,38 +176,52 @@ def bench_real():
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
+    parser.add_argument("--parts", nargs="+", choices=("spin", "sweep", "steps", "real"),
+                        default=("spin", "sweep", "steps", "real"))
     args = parser.parse_args()
     start = time.process_time()
     header = ("| case | true | miss | miss/true | floor | miss/floor | cover ±2σ |\n"
               "|---|---|---|---|---|---|---|")
     print(f"load average at start: {open('/proc/loadavg').read().split()[:3]}")
-    spin_rows = bench_spin(args.seeds)
+    if "spin" in args.parts:
+        print_spin(bench_spin(args.seeds), header)
+    if "sweep" in args.parts:
+        print_sweep(bench_sweep(args.seeds), header)
+    if "steps" in args.parts:
+        print_steps(bench_steps(args.seeds), header)
+    if "real" in args.parts and REAL.is_dir():
+        print("\n### Real Mechaduino repeat pairs\n\n| pair | offset (full steps) | found | difference residual RMS | "
+              "4-step pattern RMS (one calibration) | stepper error RMS |\n|---|---|---|---|---|---|")
+        print("\n".join(bench_real()))
+    print(f"\nCPU time {time.process_time() - start:.0f} s; load average at end: "
+          f"{open('/proc/loadavg').read().split()[:3]}")
+
+
+def print_spin(spin_rows, header):
     print("\n### Spin (arcmin)\n\n" + header)
     for key, label in (("two", "two speeds, all orders 1-32"), ("one", "one speed, orders kept"),
                        ("one_but_1", "one speed, orders kept but 1")):
         for ecc, s in spin_rows[key]:
-            print(row(f"{label}, {ecc:g}°", s))
-    sweep_rows = bench_sweep(args.seeds)
-    print("\n### Sweep (arcmin)\n\n" + header.replace("| case |", "| case |"))
+            print(row(f"{label}, {ecc}", s))
+
+
+def print_sweep(sweep_rows, header):
+    print("\n### Sweep (arcmin)\n\n" + header)
     for (p, slots), entries in sweep_rows.items():
         for ecc, s, lag in entries:
-            print(row(f"{p} pole pairs, {slots} slots, {ecc:g}° (lag {lag:.2f} arcmin)", s))
-    step_rows = bench_steps(args.seeds)
+            print(row(f"{p} pole pairs, {slots} slots, {ecc} (lag {lag:.2f} arcmin)", s))
+
+
+def print_steps(step_rows, header):
     print("\n### Steps, two calibrations turned 137.5° (arcmin)\n\n" + header)
     for ecc, s, _, turn in step_rows:
-        print(row(f"encoder, {ecc:g}° (turn found {turn:.2f}°)", s))
+        print(row(f"encoder, {ecc} (turn found {turn:.2f}°)", s))
     print("\n| stepper error | true RMS | miss RMS | miss/true | cover ±2σ |\n|---|---|---|---|---|")
     for ecc, _, stepper_scores, _ in step_rows:
         for key, label in (("stepper_error_arcmin", "per step"), ("stepper_model_arcmin", "pattern + tooth")):
             true, miss, cover = stepper_scores[key]
-            print(f"| {label}, encoder {ecc:g}° | {true:.2f} | {miss:.3f} | {100 * miss / true:.1f} % | "
+            print(f"| {label}, encoder {ecc} | {true:.2f} | {miss:.3f} | {100 * miss / true:.1f} % | "
                   f"{100 * cover:.0f} % |")
-    if REAL.is_dir():
-        print("\n### Real Mechaduino repeat pairs\n\n| pair | found | difference residual RMS | 4-step pattern RMS "
-              "(one calibration) | stepper error RMS |\n|---|---|---|---|---|")
-        print("\n".join(bench_real()))
-    print(f"\nCPU time {time.process_time() - start:.0f} s; load average at end: "
-          f"{open('/proc/loadavg').read().split()[:3]}")
 
 
 if __name__ == "__main__":

@@ -185,7 +185,7 @@ def _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, n
     tooth = np.array([(stepper - np.tile(pattern, n // 4))[4 * t:4 * t + 4].mean() for t in range(n // 4)])
     model = np.tile(pattern, n // 4) + np.repeat(tooth, 4)
     model_sigma = np.sqrt((0.25 + 4.0 / n) * noise ** 2 / 2 + series.sigma(reading_a) ** 2)
-    details = {"turn_deg": float(turn), "step_shift": int(shift),
+    details = {"turn_deg": float(turn), "step_shift": int(shift), "repeat": not visible.size,
                "difference_residual_rms_arcmin": float(np.sqrt(best["variance"])),
                "stepper_error_rms_arcmin": float(np.sqrt(np.mean(stepper ** 2))),
                "stepper_pattern_arcmin": ", ".join(f"{v:.3g}" for v in pattern),
