@@ -19,7 +19,7 @@ Sweep: a moteus-style capture of 64 samples per electrical period, one revolutio
 Steps: a 200-step stepper (4-step pattern of 4 arcmin RMS, tooth errors of 1 arcmin RMS), 10 readings per
 step averaged and truncated to whole counts; two calibrations with the magnet turned by 137.5 degrees
 (unknown to the method) starting at the same step. The stepper's error is scored per step, free and as
-the 4-step-pattern-plus-tooth model.
+the 4-step-pattern-plus-tooth model; its floor is the miss on the error-free encoder's pair.
 Real: the shift method on the Mechaduino repeat pairs of /work/shared/data/real (what it finds).
 
 Run:  .venv/bin/python benchmarks/bench_selfcal.py [--seeds 3]
@@ -136,7 +136,11 @@ def bench_steps(seeds, turn=137.5):
         stepper = draw_stepper(300 + seed)
         floor_a = simulate_steps(stepper, perfect, rng=3000 + seed)
         floor_b = simulate_steps(stepper, perfect.turned(turn), rng=4000 + seed)
-        floor = steps(floor_a.calibration, floor_b.calibration).series
+        floor_result = steps(floor_a.calibration, floor_b.calibration)
+        floor = floor_result.series
+        floor_truth = floor_a.stepper_error_arcmin - floor_a.stepper_error_arcmin.mean()
+        stepper_floor = {key: rms(floor_result.details[key] - floor_truth)
+                         for key in ("stepper_error_arcmin", "stepper_model_arcmin")}
         for ecc in ECCENTRICITIES:
             encoder = draw_magnetic_encoder(seed, eccentricity_deg=ecc)
             first = simulate_steps(stepper, encoder, rng=seed)
@@ -147,7 +151,7 @@ def bench_steps(seeds, turn=137.5):
             for key, sigma_key in (("stepper_error_arcmin", "stepper_sigma_arcmin"),
                                    ("stepper_model_arcmin", "stepper_model_sigma_arcmin")):
                 miss = result.details[key] - truth
-                stepper_scores[key] = (rms(truth), rms(miss),
+                stepper_scores[key] = (rms(truth), rms(miss), stepper_floor[key],
                                        float(np.mean(np.abs(miss) <= 2 * result.details[sigma_key])))
             rows.append((f"{ecc:g}°, seed {seed}", score(result.series, encoder.error_at_reading(GRID), floor),
                          stepper_scores,
@@ -216,12 +220,13 @@ def print_steps(step_rows, header):
     print("\n### Steps, two calibrations turned 137.5° (arcmin)\n\n" + header)
     for ecc, s, _, turn in step_rows:
         print(row(f"encoder, {ecc} (turn found {turn:.2f}°)", s))
-    print("\n| stepper error | true RMS | miss RMS | miss/true | cover ±2σ |\n|---|---|---|---|---|")
+    print("\n| stepper error | true RMS | miss RMS | miss/true | floor | miss/floor | cover ±2σ |\n"
+          "|---|---|---|---|---|---|---|")
     for ecc, _, stepper_scores, _ in step_rows:
         for key, label in (("stepper_error_arcmin", "per step"), ("stepper_model_arcmin", "pattern + tooth")):
-            true, miss, cover = stepper_scores[key]
-            print(f"| {label}, encoder {ecc} | {true:.2f} | {miss:.3f} | {100 * miss / true:.1f} % | "
-                  f"{100 * cover:.0f} % |")
+            true, miss, floor, cover = stepper_scores[key]
+            print(f"| {label}, encoder {ecc} | {true:.2f} | {miss:.3f} | {100 * miss / true:.1f} % | {floor:.3f} | "
+                  f"{miss / floor:.2f} | {100 * cover:.0f} % |")
 
 
 if __name__ == "__main__":

@@ -88,3 +88,16 @@ def test_real_repeats_of_one_board_are_recognised_as_repeats():
     assert "not turned" in result.confounded
     # the two agree to a few arcmin (the README: repeats agree to about 0.02..0.03 deg)
     assert result.details["difference_residual_rms_arcmin"] < 2.0
+
+
+def test_result_plots_itself_with_its_band():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    first, second = _pair(137.5)
+    ax = steps(first.calibration, second.calibration).plot(truth_arcmin=ENCODER.error_at_reading)
+    assert [line.get_label() for line in ax.get_lines()] == ["recovered (steps)", "true"]
+    assert ax.get_xlabel() == "encoder reading / deg"
+    plt.close(ax.figure)

@@ -85,6 +85,33 @@ class SelfCalibration:
             "sigma_arcmin": [float(v) for v in self.sigma_arcmin(encoder)],
         })
 
+    def plot(self, ax=None, truth_arcmin=None):
+        """Plot the recovered error with its +-2 sigma band against the reading; returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; new ones by default.
+        truth_arcmin : callable, optional
+            The true error (arcmin) as a function of the reading (degrees), drawn for comparison.
+        """
+        if ax is None:
+            import matplotlib.pyplot as plt
+
+            ax = plt.figure(figsize=(7, 3.5)).add_subplot()
+        grid = self.grid(720)
+        error, sigma = self.error_arcmin(grid), self.sigma_arcmin(grid)
+        ax.fill_between(grid, error - 2 * sigma, error + 2 * sigma, alpha=0.3, label="±2σ")
+        ax.plot(grid, error, label=f"recovered ({self.method})")
+        if truth_arcmin is not None:
+            truth = np.asarray(truth_arcmin(grid), dtype=float)
+            ax.plot(grid, truth - truth.mean(), "--", label="true")
+        ax.set_xlabel("encoder reading / deg")
+        ax.set_ylabel("error / arcmin")
+        ax.set_xlim(0, 360)
+        ax.legend(loc="best")
+        return ax
+
     def summary(self, top=8):
         """A few lines of text: the largest recovered harmonics with +-2 sigma, what is not separable."""
         grid = self.grid()
