@@ -1,5 +1,6 @@
 """`encal selfcal`: spin and sweep from the command line, and a moteus capture end to end to firmware."""
 
+import numpy as np
 import pytest
 
 from encal.calibration import read_calibration
@@ -115,3 +116,18 @@ def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
     assert main(["selfcal", "steps", str(path), "--turn", "90", "-o", str(tmp_path / "o.csv")]) == 1
     assert "need a second calibration" in capsys.readouterr().err
     assert not (tmp_path / "o.csv").exists()
+
+
+def test_sweep_from_a_csv_of_the_commanded_electrical_angle(tmp_path):
+    motor = make_motor(7, 12, 9)
+    capture = simulate_sweep(motor, ENCODER, rng=11)
+    log = tmp_path / "sweep.csv"
+    rows = ["electrical_deg,encoder_deg"]
+    electrical = np.unwrap(capture.phase * 360.0 / 65536, period=360.0)  # any turn: unwrapped or not
+    rows += [f"{float(p)!r},{float(e) * 360.0 / 65536!r}" for p, e in zip(electrical, capture.encoder)]
+    log.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "cal.csv"
+    assert main(["selfcal", "sweep", str(log), "--pole-pairs", "7", "-o", str(out)]) == 0
+    cal = read_calibration(out)
+    truth = truth_at_orders(ENCODER, [k for k in range(1, 33) if k % 7], grid=cal.encoder_deg)
+    assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)

@@ -83,3 +83,17 @@ def test_bad_captures_are_refused_in_one_sentence(tmp_path, text, message):
     path.write_text(text)
     with pytest.raises(InputError, match=message):
         read_moteus_capture(path)
+
+
+def test_sweep_log_directions(tmp_path):
+    from encal.selfcal.sweep_log import read_sweep_log
+
+    path = tmp_path / "s.csv"
+    path.write_text("electrical_deg,encoder_deg\n0,1\n10,2\n20,3\n10,2\n")
+    assert list(read_sweep_log(path).travel) == [1, 1, 1, -1]
+    path.write_text("electrical_deg,encoder_deg,direction\n0,1,1\n10,2,0\n")
+    with pytest.raises(InputError, match="data row 2 has direction 0, expected"):
+        read_sweep_log(path)
+    path.write_text("phase,encoder_deg\n0,1\n")
+    with pytest.raises(InputError, match="line 1: the header lacks electrical_deg"):
+        read_sweep_log(path)

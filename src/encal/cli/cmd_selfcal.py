@@ -4,7 +4,8 @@
       a log of (time_s, encoder_deg) while the motor spins at a constant drive; two or more speeds
       (files, or a 'run' column) separate the speed ripple from the encoder error
   encal selfcal sweep CAPTURE.txt --pole-pairs 21 -o CAL.csv
-      a moteus raw calibration capture ('CAL start', lines 'dir phase encoder', 'CAL done')
+      a moteus raw calibration capture ('CAL start', lines 'dir phase encoder', 'CAL done'), or a CSV
+      of the commanded electrical angle: electrical_deg, encoder_deg[, direction]
   encal selfcal steps A.csv [B.csv] -o CAL.csv
       full-step calibrations of a stepper (reference_deg = the full steps); with B, taken after turning
       the magnet on the rotor, the stepper's own error is separated (the shift method)
@@ -34,7 +35,8 @@ def add_arguments(parser):
     spin.add_argument("--ripple-orders", metavar="K,...",
                       help="more orders to leave out with one speed, e.g. 1 for an unbalanced load")
     sweep = methods.add_parser("sweep", help="open-loop electrical-angle sweep (moteus raw capture)")
-    sweep.add_argument("capture", metavar="CAPTURE.txt", help="moteus raw capture: CAL start ... CAL done")
+    sweep.add_argument("capture", metavar="CAPTURE", help="moteus raw capture (CAL start ... CAL done), or a CSV "
+                                                         "with electrical_deg, encoder_deg[, direction]")
     sweep.add_argument("--pole-pairs", type=positive_int, metavar="P", required=True, help="motor pole pairs")
     sweep.add_argument("--slots", type=positive_int, metavar="S",
                        help="also leave out multiples of the slot count (a motor with unequal slots)")
@@ -74,11 +76,7 @@ def run(args):
     elif args.method == "steps":
         result = _steps(args)
     else:
-        from ..selfcal.moteus_capture import read_moteus_capture
-        from ..selfcal.sweep import sweep_capture
-
-        result = sweep_capture(read_moteus_capture(args.capture), args.pole_pairs, max_order=args.max_order,
-                               slots=args.slots, skip=args.skip)
+        result = _sweep(args)
     from .._atomic import atomic_file_set
 
     bits = args.bits if args.bits is not None or args.method != "sweep" else 16
@@ -89,6 +87,31 @@ def run(args):
     print(result.summary())
     print(f"wrote {args.output}: {args.points} readings; fit it with 'encal fit {args.output} -o MODEL.json'")
     return 0
+
+
+def _sweep(args):
+    from ..selfcal.moteus_capture import read_moteus_capture
+    from ..selfcal.sweep import sweep, sweep_capture
+    from ..selfcal.sweep_log import read_sweep_log
+
+    options = {"max_order": args.max_order, "slots": args.slots, "skip": args.skip}
+    if _starts_with_cal(args.capture):
+        return sweep_capture(read_moteus_capture(args.capture), args.pole_pairs, **options)
+    log = read_sweep_log(args.capture)
+    return sweep(log.phase_deg_e, log.encoder_deg, log.travel, args.pole_pairs, name=Path(args.capture).stem,
+                 where=str(args.capture), **options)
+
+
+def _starts_with_cal(path):
+    """True if the first non-blank line of ``path`` begins with 'CAL' (a moteus capture), or it cannot be read."""
+    try:
+        with open(path, "rb") as handle:
+            for line in handle:
+                if line.strip():
+                    return line.lstrip().startswith(b"CAL")
+    except OSError:
+        return True  # the capture reader names the problem
+    return True
 
 
 def _steps(args):

@@ -2,19 +2,10 @@
 
 from pathlib import Path
 
-import numpy as np
-
-from ..errors import InputError
+from ._logfile import read_columns
 from .spin import SpinLog
 
 __all__ = ["read_spin_log", "write_spin_log"]
-
-_REQUIRED = ("time_s", "encoder_deg")
-
-
-def _fail(path, line, message, column=None):
-    where = f"{path}, line {line}" + (f", column {column}" if column is not None else "")
-    raise InputError(f"{where}: {message}")
 
 
 def read_spin_log(path):
@@ -39,48 +30,14 @@ def read_spin_log(path):
         For a missing file, a header without the two columns, a line with too few fields, or a value that
         is not a finite number; naming the file, line and column.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: no such file; expected a spin log CSV with columns time_s, encoder_deg")
-    try:
-        text = path.read_bytes().decode("utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not UTF-8 text; expected a spin log CSV with columns time_s, encoder_deg") from None
-    records = [(number, line) for number, line in enumerate(text.splitlines(), start=1)
-               if line.strip() and not line.lstrip().startswith("#")]
-    if not records:
-        raise InputError(f"{path}: the file is empty; expected a header 'time_s,encoder_deg' and rows of numbers")
-    header_line, header = records[0]
-    names = [cell.strip().strip('"').lower() for cell in header.split(",")]
-    missing = [name for name in _REQUIRED if name not in names]
-    if missing:
-        _fail(path, header_line, f"the header lacks {' and '.join(missing)}; expected columns time_s (seconds) and "
-                                 "encoder_deg (degrees), and optionally run")
-    columns = [names.index(name) for name in _REQUIRED]
-    run_column = names.index("run") if "run" in names else None
-    times, readings, labels = [], [], []
-    for number, line in records[1:]:
-        cells = line.split(",")
-        if len(cells) < len(names):
-            _fail(path, number, f"has {len(cells)} fields, expected {len(names)} as in the header")
-        for column, target, unit in ((columns[0], times, "seconds"), (columns[1], readings, "degrees")):
-            try:
-                value = float(cells[column])
-            except ValueError:
-                value = float("nan")
-            if not np.isfinite(value):
-                _fail(path, number, f"{names[column]} is {cells[column].strip()[:40]!r}, expected a finite number of "
-                                    f"{unit}", column + 1)
-            target.append(value)
-        labels.append(cells[run_column].strip() if run_column is not None else "")
-    if not times:
-        raise InputError(f"{path}: the file has a header but no rows; expected rows of time_s, encoder_deg")
-    times, readings, labels = np.asarray(times), np.asarray(readings), np.asarray(labels)
-    logs = []
-    for label in dict.fromkeys(labels):
-        members = labels == label
-        logs.append(SpinLog(times[members], readings[members], f"{path.name}" + (f" run {label}" if label else "")))
-    return logs
+    columns = read_columns(path, (("time_s", "seconds"), ("encoder_deg", "degrees")), what="spin log",
+                           labels=("run",))
+    labels = columns.get("run")
+    if labels is None:
+        return [SpinLog(columns["time_s"], columns["encoder_deg"], Path(path).name)]
+    return [SpinLog(columns["time_s"][labels == label], columns["encoder_deg"][labels == label],
+                    f"{Path(path).name}" + (f" run {label}" if label else ""))
+            for label in dict.fromkeys(labels)]
 
 
 def write_spin_log(path, logs):
