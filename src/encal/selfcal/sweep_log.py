@@ -33,7 +33,8 @@ def read_sweep_log(path):
         As :func:`~encal.selfcal.spin_log.read_spin_log` does, and for a direction other than +1 or -1.
     """
     columns = read_columns(path, (("electrical_deg", "electrical degrees"), ("encoder_deg", "degrees")),
-                           optional=(("direction", "+1 or -1"),), what="sweep log")
+                           optional=(("direction", "+1 or -1"),),
+                           what="sweep log (or a moteus capture beginning with 'CAL start')")
     phase, reading = columns["electrical_deg"], columns["encoder_deg"]
     if "direction" in columns:
         travel = columns["direction"]
