@@ -85,3 +85,16 @@ def test_speeds_too_close_are_refused(logs):
     faster = SpinLog(logs[2.0].time_s / 1.05, logs[2.0].encoder_deg)
     with pytest.raises(InputError, match="differ by less than"):
         spin([logs[2.0], faster])
+
+
+@pytest.mark.parametrize("damped", [False, True])
+def test_three_speeds_check_the_inverse_square_law(damped):
+    """A damped rotor (ripple falling as 1/speed, not 1/speed^2) is flagged; an inertia-dominated one is not."""
+    motor = make_motor(7, 12, 5, unbalance_nm=3e-4, viscous_nm_s=3e-3) if damped else MOTOR
+    logs = [_log(speed, seed, motor=motor) for speed, seed in ((1.5, 1), (3.0, 2), (6.0, 3))]
+    result = spin(logs, pole_pairs=7, slots=12)
+    law = result.details["ripple_law_chi2_per_dof"]
+    if damped:
+        assert law > 10 and "do not follow the 1/speed^2 law" in result.confounded
+    else:
+        assert law < 3 and "do not follow" not in result.confounded

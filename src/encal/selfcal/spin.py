@@ -26,6 +26,8 @@ __all__ = ["SpinLog", "spin", "motor_ripple_orders"]
 MIN_REVOLUTIONS = 4.0
 #: Smallest ratio of the fastest to the slowest speed for separating speed ripple from encoder error.
 MIN_SPEED_RATIO = 1.2
+#: Chi-square per degree of freedom of three or more speeds about the 1/speed^2 law above which it is said not to hold.
+MAX_LAW_CHI2 = 3.0
 #: Samples per block when the normal equations are accumulated (bounds the memory used).
 CHUNK = 20000
 #: Groups of consecutive samples of a run, left out one at a time to measure the uncertainty (jackknife).
@@ -88,7 +90,8 @@ def spin(runs, *, pole_pairs=None, slots=None, max_order=32, ripple_orders=(), k
     -------
     SelfCalibration
         ``details`` holds the speeds (rev/s), the RMS speed ripple found at each (arcmin, with two or more
-        speeds) and the revolutions used.
+        speeds), the revolutions used, and with three or more speeds the chi-square per degree of freedom
+        of the runs about the 1/speed^2 law (``ripple_law_chi2_per_dof``; over 3 it is said not to hold).
 
     Raises
     ------
@@ -113,13 +116,19 @@ def spin(runs, *, pole_pairs=None, slots=None, max_order=32, ripple_orders=(), k
         series = HarmonicSeries.from_vector(orders, vector, covariance).without(removed)
         confounded = _one_speed_text(pole_pairs, slots, removed, max_order)
     else:
-        series, ripple = _separate(estimates, orders, speeds)
+        series, ripple, law = _separate(estimates, orders, speeds)
         removed = ()
         for speed, rms in zip(speeds, ripple):
             details[f"speed_ripple_rms_arcmin_at_{speed:.4g}_rev_s"] = float(rms)
         confounded = (f"nothing periodic in the angle, as long as the speed ripple scales as 1/speed^2 (a "
                       f"current- or torque-controlled drive, inertia-dominated); orders above {max_order} are "
                       "not estimated")
+        if law is not None:
+            details["ripple_law_chi2_per_dof"] = law
+            if law > MAX_LAW_CHI2:
+                confounded += (f"; the {speeds.size} speeds do not follow the 1/speed^2 law (chi-square per degree "
+                               f"of freedom {law:.3g}): a damped, voltage-driven motor? part of the speed ripple "
+                               "stays in the result")
     return SelfCalibration("spin", series, removed, confounded, details, name)
 
 
@@ -217,4 +226,9 @@ def _separate(estimates, orders, speeds):
     ripple = mixing[1] @ vectors
     covariance = sum(m ** 2 * e["covariance"] for m, e in zip(mixing[0], estimates))
     ripple_rms = [np.sqrt(np.sum(ripple ** 2) / 2) * scale / s ** 2 for s in magnitude]
-    return HarmonicSeries.from_vector(orders, error, covariance), ripple_rms
+    law = None
+    if speeds.size > 2:  # is the ripple 1/speed^2? chi-square of the runs about the fit, per degree of freedom
+        residual = vectors - error[None, :] - design[:, 1:] * ripple[None, :]
+        variances = np.stack([np.maximum(np.diag(e["covariance"]), 1e-30) for e in estimates])
+        law = float(np.sum(residual ** 2 / variances) / ((speeds.size - 2) * vectors.shape[1]))
+    return HarmonicSeries.from_vector(orders, error, covariance), ripple_rms, law
