@@ -14,6 +14,9 @@ Spin: 12-slot 14-pole motor (cogging at order 84), an unbalanced load (order-1 t
 random drive torque of 1e-5 N m RMS; 20 revolutions at 2 and at 4 rev/s sampled at 2 kHz. One speed (4 rev/s)
 is scored outside the orders it leaves out (multiples of 7 and 12) twice: all other orders, and all but
 order 1, which the unbalanced load confounds.
+Law: three speeds (1.5, 3, 6 rev/s) of an inertia-dominated rotor and of a damped one (viscous friction
+3e-3 N m s, like the back-EMF damping of a voltage drive, and a larger unbalance): the chi-square of the
+1/speed^2 law, and the miss with three speeds and with the first two.
 Sweep: a moteus-style capture of 64 samples per electrical period, one revolution up and one down; a
 7-pole-pair 12-slot motor and a 21-pole-pair 36-slot motor; scored outside the multiples of the pole pairs.
 Steps: a 200-step stepper (4-step pattern of 4 arcmin RMS, tooth errors of 1 arcmin RMS), 10 readings per
@@ -107,6 +110,31 @@ def bench_spin(seeds):
     return rows
 
 
+def bench_law(seeds):
+    """Three speeds, inertia-dominated and damped (viscous 3e-3 N m s, as back-EMF damping of a voltage drive)."""
+    rows = []
+    for seed in range(seeds):
+        encoder = draw_magnetic_encoder(seed, eccentricity_deg=1.0)
+        truth = encoder.error_at_reading(GRID)
+        for label, motor in (("inertia-dominated", make_motor(7, 12, 100 + seed, unbalance_nm=3e-5)),
+                             ("damped", make_motor(7, 12, 100 + seed, unbalance_nm=3e-4, viscous_nm_s=3e-3))):
+            logs = spin_logs(motor, encoder, 500 + seed, speeds=(1.5, 3.0, 6.0))
+            three = spin(logs, pole_pairs=7, slots=12)
+            two = spin(logs[:2], pole_pairs=7, slots=12)
+            rows.append((f"{label}, seed {seed}", three.details["ripple_law_chi2_per_dof"],
+                         score(three.series, truth), score(two.series, truth)))
+    return rows
+
+
+def print_law(rows):
+    print("\n### Spin at three speeds: the 1/speed^2 law checked (encoder 1°, arcmin)\n\n"
+          "| rotor | chi2/dof | miss/true, 3 speeds | miss/true, 2 speeds (1.5, 3) | cover ±2σ, 3 speeds |\n"
+          "|---|---|---|---|---|")
+    for label, law, three, two in rows:
+        print(f"| {label} | {law:.3g} | {100 * three['miss'] / three['true']:.1f} % | "
+              f"{100 * two['miss'] / two['true']:.1f} % | {100 * three['cover']:.0f} % |")
+
+
 def bench_sweep(seeds):
     perfect = MagneticEncoder((), noise_arcmin=2.0, bits=14)
     rows = {}
@@ -115,17 +143,20 @@ def bench_sweep(seeds):
         for seed in range(seeds):
             motor = make_motor(pole_pairs, slots, 200 + seed)
 
-            def run(encoder, rng):
+            def run(encoder, rng, **options):
                 capture = simulate_sweep(motor, encoder, rng=rng)
                 return sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
-                             np.where(np.isin(capture.direction, (1, 3)), 1, -1), pole_pairs)
+                             np.where(np.isin(capture.direction, (1, 3)), 1, -1), pole_pairs, **options)
 
-            floor = run(perfect, 2000 + seed).series
-            for ecc in ECCENTRICITIES:
-                encoder = draw_magnetic_encoder(seed, eccentricity_deg=ecc)
-                result = run(encoder, seed)
-                rows[(pole_pairs, slots)].append((f"{ecc:g}°, seed {seed}", score(result.series, encoder.error_at_reading(GRID), floor),
-                                                  result.details["lag_arcmin"]))
+            variants = [("", {})] + ([(", --slots 12", {"slots": 12})] if slots == 12 else [])
+            for suffix, options in variants:
+                floor = run(perfect, 2000 + seed, **options).series
+                for ecc in ECCENTRICITIES:
+                    encoder = draw_magnetic_encoder(seed, eccentricity_deg=ecc)
+                    result = run(encoder, seed, **options)
+                    rows[(pole_pairs, slots)].append((f"{ecc:g}°, seed {seed}{suffix}",
+                                                      score(result.series, encoder.error_at_reading(GRID), floor),
+                                                      result.details["lag_arcmin"]))
     return rows
 
 
@@ -180,8 +211,8 @@ def bench_real():
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=3)
-    parser.add_argument("--parts", nargs="+", choices=("spin", "sweep", "steps", "real"),
-                        default=("spin", "sweep", "steps", "real"))
+    parser.add_argument("--parts", nargs="+", choices=("spin", "law", "sweep", "steps", "real"),
+                        default=("spin", "law", "sweep", "steps", "real"))
     args = parser.parse_args()
     start = time.process_time()
     header = ("| case | true | miss | miss/true | floor | miss/floor | cover ±2σ |\n"
@@ -189,6 +220,8 @@ def main():
     print(f"load average at start: {open('/proc/loadavg').read().split()[:3]}")
     if "spin" in args.parts:
         print_spin(bench_spin(args.seeds), header)
+    if "law" in args.parts:
+        print_law(bench_law(args.seeds))
     if "sweep" in args.parts:
         print_sweep(bench_sweep(args.seeds), header)
     if "steps" in args.parts:

@@ -12,13 +12,17 @@ from selfcal_truth import GRID, rms, truth_at_orders
 ENCODER = draw_magnetic_encoder(21, eccentricity_deg=1.5)
 
 
-@pytest.mark.parametrize("pole_pairs, slots", [(7, 12), (21, 36)])
-def test_sweep_recovers_the_error_outside_the_multiples_of_the_pole_pairs(pole_pairs, slots):
+@pytest.mark.parametrize("pole_pairs, slots, removed", [
+    (7, 12, (7, 12, 14, 21, 24, 28)),   # --slots 12: the per-slot ripple (order 12) is left out too
+    (21, 36, (21,)),
+])
+def test_sweep_recovers_the_error_outside_the_multiples_of_the_pole_pairs(pole_pairs, slots, removed):
     motor = make_motor(pole_pairs, slots, 4)
     capture = simulate_sweep(motor, ENCODER, rng=5, passes=2)
     result = sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
-                   np.where(np.isin(capture.direction, (1, 3)), 1, -1), pole_pairs)
-    assert result.removed_orders == tuple(range(pole_pairs, 33, pole_pairs))
+                   np.where(np.isin(capture.direction, (1, 3)), 1, -1), pole_pairs,
+                   slots=slots if pole_pairs == 7 else None)
+    assert result.removed_orders == removed
     assert not np.isin(result.series.orders, result.removed_orders).any()
     truth = truth_at_orders(ENCODER, result.series.orders)
     miss = result.error_arcmin(GRID) - truth
@@ -27,6 +31,18 @@ def test_sweep_recovers_the_error_outside_the_multiples_of_the_pole_pairs(pole_p
     # the lag is the Coulomb friction's angle: asin(friction / holding torque) electrical, / p mechanical
     lag = np.degrees(np.arcsin(motor.coulomb_nm / motor.holding_torque_nm)) / pole_pairs * 60
     assert result.details["lag_arcmin"] == pytest.approx(lag, rel=0.05)
+
+
+def test_without_the_slot_count_the_per_slot_ripple_stays_at_order_12():
+    motor = make_motor(7, 12, 4)
+    capture = simulate_sweep(motor, ENCODER, rng=5, passes=2)
+    args = (capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+            np.where(np.isin(capture.direction, (1, 3)), 1, -1), 7)
+    result = sweep(*args)
+    assert "multiples of the slot count" in result.confounded
+    at_12 = result.series.without([k for k in result.series.orders if k != 12])
+    miss_12 = rms(at_12.evaluate(GRID) - truth_at_orders(ENCODER, [12]))
+    assert miss_12 > 3 * rms(at_12.sigma(GRID))  # a confounded bias, not noise
 
 
 def test_an_encoder_counting_against_the_phase_is_calibrated_as_it_reads():

@@ -7,8 +7,10 @@ difference measures it). Cogging and the distortion of the field's direction are
 electrical angle: averaging the error over one electrical period (360/p degrees) filters them, and
 with them every order of the encoder's error that is a multiple of the pole pairs ``p``. The period
 average multiplies order ``k`` by ``sinc(k/p)``: zero at multiples of ``p``; dividing the other orders
-by that factor restores them, so the whole operation is leaving out the multiples of ``p``, which is
-how it is computed here. See docs/self-calibration.md.
+by that factor restores them, so the whole operation is leaving out the multiples of ``p``. It is
+computed so: the multiples of ``p`` (up to 12 p: cogging included) are fitted as functions of the
+reference angle, where the motor's error is periodic, and the other orders as functions of the
+reading, where the encoder's is. See docs/self-calibration.md.
 """
 
 import numpy as np
@@ -103,23 +105,31 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
         fits[label] = members
     sense = -1.0 if counts_against else 1.0
     error = (encoder - sense * reference) * ARCMIN_PER_DEG
+    removed = set(range(pole_pairs, max_order + 1, pole_pairs))
+    if slots:
+        removed |= set(range(slots, max_order + 1, slots))
+    removed = tuple(sorted(removed))
+    kept = np.array([k for k in orders if k not in removed])
     results = {}
     for label, members in fits.items():
-        x = np.hstack([np.ones((members.size, 1)), design_matrix(reading[members], orders)])
-        coefficients, _, rank, _ = np.linalg.lstsq(x, error[members], rcond=None)
+        # the motor's own error is periodic in the rotor's angle (the reference), the encoder's in its reading:
+        # the multiples of p (and of the slots) are fitted in the reference, so that the encoder's error, which
+        # shifts the reading, cannot smear the motor's cogging into the orders kept
+        motor = _motor_orders(pole_pairs, slots, members.size)
+        x = np.hstack([np.ones((members.size, 1)), design_matrix(reading[members], kept),
+                       design_matrix(sense * reference[members], motor)])
+        coefficients = np.linalg.lstsq(x, error[members], rcond=None)[0]
         residual = error[members] - x @ coefficients
         variance = residual @ residual / max(members.size - x.shape[1], 1)
-        results[label] = (coefficients, variance * np.linalg.inv(x.T @ x))
+        covariance = variance * np.linalg.pinv(x.T @ x)
+        n = 1 + 2 * kept.size
+        results[label] = (coefficients[:n], covariance[:n, :n])
     (up, cov_up), (down, cov_down) = results["up"], results["down"]
     mean = 0.5 * (up + down)
     covariance = 0.25 * (cov_up + cov_down)
     lag = 0.5 * (down[0] - up[0]) * sense
     hysteresis = 0.5 * (down[1:] - up[1:])
-    removed = set(range(pole_pairs, max_order + 1, pole_pairs))
-    if slots:
-        removed |= set(range(slots, max_order + 1, slots))
-    removed = tuple(sorted(removed))
-    series = HarmonicSeries.from_vector(orders, mean[1:], covariance[1:, 1:]).without(removed)
+    series = HarmonicSeries.from_vector(kept, mean[1:], covariance[1:, 1:])
     details = {"lag_arcmin": float(lag), "lag_deg_e": float(lag / ARCMIN_PER_DEG * pole_pairs),
                "lag_variation_rms_arcmin": float(np.sqrt(np.sum(hysteresis ** 2) / 2)),
                "encoder_counts_against_phase": bool(counts_against), "pole_pairs": int(pole_pairs)}
@@ -132,6 +142,16 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
                      "low orders) is not removed and would stay in the result")
                   + f"; orders above {max_order} are not estimated")
     return SelfCalibration("sweep", series, removed, confounded, details, name)
+
+
+def _motor_orders(pole_pairs, slots, samples):
+    """Orders of the motor's own error fitted in the reference: multiples of p (and of the slots) up to 12 p,
+    as many as a quarter of the samples can identify."""
+    highest = min(12 * pole_pairs, max(pole_pairs, samples // 8))
+    orders = set(range(pole_pairs, highest + 1, pole_pairs))
+    if slots:
+        orders |= set(range(slots, highest + 1, slots))
+    return np.array(sorted(orders), dtype=int)
 
 
 def _check_coverage(where, label, reading, max_order):
