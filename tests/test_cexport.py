@@ -96,7 +96,7 @@ def cases(names, option):
 
 
 EVERY_KIND = ["fourier", "lut", "lut_linear", "directional", "ann", "ann_raw", "hybrid",
-              "trained_ann_raw", "trained_ann_periodic"]
+              "trained_ann_raw", "trained_ann_periodic", "trained_spectral"]
 
 
 @functools.lru_cache(maxsize=None)
@@ -123,7 +123,19 @@ def offgrid_lut():
     return model
 
 
-TRAINED = {"trained_ann_raw": lambda: trained_ann("raw"),
+def trained_spectral():
+    """A spectral model (its posterior-mean series up to order 90) of a noisy synthetic profile."""
+    from encal.models.spectral import fit_spectral
+
+    theta = np.arange(0.0, 360.0, 2.0)
+    r = np.radians(theta)
+    error = 3.0 * np.sin(r) + 0.4 * np.cos(16 * r) + np.random.default_rng(2).normal(0.0, 0.1, theta.size)
+    model = fit_spectral(theta, error)
+    model.encoder["resolution_bits"] = BITS
+    return model
+
+
+TRAINED = {"trained_ann_raw": lambda: trained_ann("raw"), "trained_spectral": trained_spectral,
            "trained_ann_periodic": lambda: trained_ann("periodic"),
            "offgrid_lut": offgrid_lut}
 

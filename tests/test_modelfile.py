@@ -456,7 +456,7 @@ def test_missing_file_is_an_os_error(tmp_path):
 
 def test_stored_files_cover_every_kind():
     kinds = {json.loads(p.read_text(encoding="utf-8"))["kind"] for p in V1_FILES}
-    assert kinds == {"fourier", "lut", "ann", "hybrid", "directional", "stack"}
+    assert kinds == {"fourier", "lut", "ann", "hybrid", "directional", "stack", "spectral"}
     assert kinds == set(runtime.KINDS)
 
 

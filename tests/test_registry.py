@@ -30,7 +30,7 @@ def test_the_tie_rule_ranks_the_families_from_the_registry():
 
 
 def test_an_unknown_name_is_refused_with_the_known_ones():
-    with pytest.raises(InputError, match=r"^The stack member must be one of fourier, lut, hybrid, ann\. "
+    with pytest.raises(InputError, match=r"^The stack member must be one of fourier, spectral, lut, hybrid, ann\. "
                                          r"Got 'stack' instead\.$"):
         model_kind("stack", role="stack member", stack_member=True)
     with pytest.raises(InputError, match="must be a ModelKind"):

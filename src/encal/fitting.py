@@ -103,7 +103,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     model.training.setdefault("fit_options", fit_options)
     if isinstance(rng, (int, np.integer)):
         model.training.setdefault("seed", int(rng))
-    if uncertainty:
+    if uncertainty and model.uncertainty is None:  # a spectral model has its posterior already
         from .uncertainty import add_uncertainty
 
         refit_method, refit_options = refit_spec(model, method, fit_options)

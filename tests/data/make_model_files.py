@@ -134,6 +134,12 @@ def models():
                                                          {"family": "lut", "options": {"interpolation": "cubic"}},
                                                          {"family": "ann", "options": {"hidden": 4}}],
                     weights=[0.45, 0.4, 0.15]), uncertainty(2.0, 0.06))
+    # Added with the spectral kind (still format version 1): a posterior-mean series and its posterior std.
+    posterior = uncertainty(1.0, 0.03)
+    posterior["method"] = "posterior"
+    del posterior["n_boot"], posterior["n_folds"]
+    yield ("spectral", "spectral", fourier_parameters(rng, list(range(91))),
+           training("spectral", noise_arcmin=0.1), posterior)
 
 
 def main():

@@ -3,6 +3,8 @@
 Examples:
   encal fit enc1_train.csv -o enc1.json
   encal fit enc1_train.csv -o enc1.json --method ann --hidden 80 --algorithm trainlm --encoding raw --seed 0
+  encal fit enc1_train.csv -o enc1.json --method spectral --noise 0.15
+  encal fit enc1_train.csv -o enc1.json --method spectral --repeat enc1_pass2.csv
 """
 
 from ._common import add_calibration_options, int_in_range, positive_int, read_calibration_from_args
@@ -13,8 +15,14 @@ HELP = "fit an error model to a calibration and save it"
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV (reference_deg, encoder_deg)")
     parser.add_argument("-o", "--output", required=True, metavar="MODEL.json", help="model file to write")
-    parser.add_argument("--method", default="auto", choices=["auto", "fourier", "lut", "ann", "hybrid"],
-                        help="model family (default: auto, chosen by cross-validation)")
+    parser.add_argument("--method", default="auto", choices=["auto", "spectral", "fourier", "lut", "ann", "hybrid"],
+                        help="model family (default: auto); spectral: the empirical-Bayes Fourier model "
+                             "(docs/model-selection.md)")
+    parser.add_argument("--noise", type=_positive_float, metavar="ARCMIN",
+                        help="standard deviation of one reading's noise in arc-minutes, if known (spectral)")
+    parser.add_argument("--repeat", metavar="CAL2.csv",
+                        help="a second pass over the same reference angles: fitted together with the first, "
+                             "the noise is estimated from the two readings at each angle (spectral)")
     parser.add_argument("--hidden", type=positive_int, help="hidden nodes of the network (ann)")
     parser.add_argument("--algorithm", help="training algorithm of the network, MATLAB's name (ann)")
     parser.add_argument("--encoding", choices=["raw", "periodic"],
@@ -53,8 +61,21 @@ _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
-    "at_steps": ("auto",), "stack": ("auto",),
+    "at_steps": ("auto",), "stack": ("auto",), "noise": ("spectral",), "repeat": ("spectral",),
 }
+
+
+def _positive_float(text):
+    import argparse
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes > 0, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes > 0, got {text!r}")
+    return value
 
 
 def _options(args):
@@ -73,6 +94,8 @@ def _options(args):
             options[name] = value
     if args.at_steps:
         options["use_grid"] = True
+    if args.noise is not None:
+        options["noise_arcmin"] = args.noise
     if args.orders is not None:
         try:
             options["orders"] = [int(o) for o in args.orders.split(",") if o.strip()]
@@ -127,6 +150,17 @@ def _choose_deployment(model, args):
             f"'encal export --format c --target {chosen.target}' uses it")
 
 
+def _with_repeat(cal, second):
+    """Both passes as one calibration, each pass an epoch of its own."""
+    import numpy as np
+
+    from ..calibration import Calibration
+
+    return Calibration(np.r_[cal.reference_deg, second.reference_deg], np.r_[cal.encoder_deg, second.encoder_deg],
+                       epoch=np.r_[np.full(len(cal), "1"), np.full(len(second), "2")], name=cal.name,
+                       resolution_bits=cal.resolution_bits or second.resolution_bits, source=cal.source)
+
+
 def run(args):
     from ..fitting import evaluate, fit
 
@@ -137,6 +171,8 @@ def run(args):
         raise InputError("--target names the processor of --budget; expected it with --budget")
     cal = read_calibration_from_args(args.calibration, args)
     options = _options(args)
+    if args.repeat is not None:
+        cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args))
     if args.seed is not None:
         options["rng"] = args.seed
     model = fit(cal, method=args.method, **options)

@@ -371,7 +371,7 @@ static double {tag}_error_arcmin(double theta)
 """
 
 
-_FORMULA = {"fourier": _fourier_source, "lut": _lut_source, "ann": _ann_source,
+_FORMULA = {"fourier": _fourier_source, "spectral": _fourier_source, "lut": _lut_source, "ann": _ann_source,
             "hybrid": _hybrid_source, "stack": _stack_source, "directional": _directional_source}
 
 

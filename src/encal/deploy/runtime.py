@@ -1,7 +1,7 @@
 """Correct encoder angles from an encal model file with the Python standard library alone.
 
 This one file is meant to be copied into a data acquisition program: it reads
-a model file written by ``encal fit`` (any kind: ``fourier``, ``lut``, ``ann``,
+a model file written by ``encal fit`` (any kind: ``fourier``, ``spectral``, ``lut``, ``ann``,
 ``hybrid``, ``stack``, ``directional``), verifies its checksum and structure, and
 evaluates the model one angle at a time. It imports nothing but ``json``, ``math``,
 ``bisect`` and ``hashlib``; NumPy and encal need not be installed.
@@ -40,11 +40,11 @@ VERSION = 2
 #: ``reading_sign`` values: 1, the encoder counts with its reference; -1, against it.
 READING_SIGNS = (1, -1)
 #: Model kinds whose parameters format version 1 specifies.
-KINDS = ("ann", "directional", "fourier", "hybrid", "lut", "stack")
+KINDS = ("ann", "directional", "fourier", "hybrid", "lut", "spectral", "stack")
 #: Kinds that can be one direction's part of a ``directional`` model.
-PART_KINDS = ("ann", "fourier", "hybrid", "lut", "stack")
+PART_KINDS = ("ann", "fourier", "hybrid", "lut", "spectral", "stack")
 #: Kinds that can be a member of a ``stack`` model.
-MEMBER_KINDS = ("ann", "fourier", "hybrid", "lut")
+MEMBER_KINDS = ("ann", "fourier", "hybrid", "lut", "spectral")
 #: Largest distance of a stack's weights' sum from 1.
 WEIGHT_SUM_TOLERANCE = 1e-9
 UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}
@@ -251,7 +251,8 @@ def check_parameters(kind, parameters, where, field="parameters"):
         Naming ``where`` and the offending field.
     """
     _require_object(parameters, where, field)
-    check = {"fourier": _check_fourier, "lut": _check_lut, "ann": _check_ann,
+    # A spectral model is stored as its posterior-mean Fourier series.
+    check = {"fourier": _check_fourier, "spectral": _check_fourier, "lut": _check_lut, "ann": _check_ann,
              "hybrid": _check_hybrid, "stack": _check_stack, "directional": _check_directional}[kind]
     check(parameters, where, field)
 
@@ -565,7 +566,7 @@ def _directional(p):
     return predict
 
 
-_EVALUATORS = {"fourier": _fourier, "lut": _lut, "ann": _ann, "hybrid": _hybrid,
+_EVALUATORS = {"fourier": _fourier, "spectral": _fourier, "lut": _lut, "ann": _ann, "hybrid": _hybrid,
                "stack": _stack, "directional": _directional}
 
 

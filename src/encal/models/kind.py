@@ -86,7 +86,7 @@ def kind_names(**facts):
     --------
     >>> import encal.models
     >>> kind_names(stack_member=True)
-    ['fourier', 'lut', 'hybrid', 'ann']
+    ['fourier', 'spectral', 'lut', 'hybrid', 'ann']
     """
     return [name for name, kind in REGISTERED.items()
             if all(getattr(kind, fact) == value for fact, value in facts.items())]

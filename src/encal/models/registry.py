@@ -10,7 +10,7 @@ and a fit function on plain arrays) and add one :class:`~encal.models.kind.Model
 parameters specified in the model-file format (:mod:`encal.deploy.runtime`, ``docs/model-file.md``).
 """
 
-from . import ann, directional, fourier, hybrid, lut, select, stack
+from . import ann, directional, fourier, hybrid, lut, select, spectral, stack
 from .kind import ModelKind, register_kind
 
 __all__ = ["KINDS"]
@@ -19,6 +19,8 @@ __all__ = ["KINDS"]
 KINDS = (
     ModelKind("fourier", fourier.FourierModel, fourier.fit_fourier, grid_aware=True, simplicity=10,
               stack_member=True, directional_part=True),
+    ModelKind("spectral", spectral.SpectralModel, spectral.fit_spectral, stack_member=True,
+              directional_part=True),
     ModelKind("lut", lut.LookupTableModel, lut.fit_lut, simplicity=20, stack_member=True,
               directional_part=True),
     ModelKind("hybrid", hybrid.HybridModel, hybrid.fit_hybrid, randomised=True, simplicity=30,

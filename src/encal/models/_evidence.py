@@ -1,0 +1,446 @@
+"""Type-II maximum likelihood for a Fourier series with a spectral prior (the spectral model's numerics).
+
+The model (docs/model-selection.md): ``y = Φ c + e``, one column of ``Φ`` per cosine or sine
+term up to a highest order, independent priors ``c_j ~ N(0, s_j)`` with
+
+    s_j = A ν_j^(-β) + line(ν_j)   (ν_j ≥ 1, β ≥ 1),   s_0 vague,
+
+and white noise ``e ~ N(0, σ² I)``. The data enter only through the Gram matrix ``G = ΦᵀΦ``,
+the projections ``b = Φᵀy``, ``yᵀy`` and ``n``: on a uniform complete grid ``G`` is
+diagonal (the FFT path, everything O(P)); otherwise it is a dense ``P × P`` matrix built
+from trigonometric moments (the Fourier-feature path, O(P³) per evaluation).
+
+This module knows nothing of angles in degrees or of model files: it maximises the log
+marginal likelihood (the evidence) over ``A, β, σ²`` and the line variances, admitting a
+line where it raises the evidence by more than ``threshold`` nats, and returns the
+posterior of the coefficients.
+"""
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+__all__ = ["Design", "Hyper", "Posterior", "evidence", "fit_hyperparameters", "LINE_THRESHOLD_NATS"]
+
+#: A line is admitted when it raises the log marginal likelihood by more than this.
+LINE_THRESHOLD_NATS = 3.0
+#: Blind, the noise is raised along the evidence's ridge while the evidence stays within this (nats).
+NOISE_SLACK_NATS = 1.0
+#: Bounds of the background exponent β (the background must decay: safeguard 2).
+EXPONENT_BOUNDS = (1.0, 8.0)
+#: Prior variance of order 0, in units of the data's mean square: vague.
+_VAGUE = 100.0
+_MAX_ROUNDS = 40
+#: Objective (minus the evidence per reading) reported where the posterior cannot be computed.
+_FAILED_OBJECTIVE = 1e10
+_LINES_PER_ROUND = 8
+
+
+@dataclass
+class Design:
+    """Sufficient statistics of a Fourier-feature regression.
+
+    Attributes
+    ----------
+    orders : ndarray of int of shape (P,)
+        Order of each column.
+    shifts : ndarray of shape (P,)
+        Column ``j`` is ``cos(ν_j θ - ψ_j)``: 0 for a cosine, π/2 for a sine, ``ν φ`` for the
+        single Nyquist column of a regular grid of phase ``φ``.
+    gram : ndarray of shape (P,) or (P, P)
+        ``ΦᵀΦ`` (its diagonal when the columns are orthogonal).
+    projection : ndarray of shape (P,)
+        ``Φᵀy``.
+    yy : float
+        ``yᵀy``.
+    n : int
+        Number of readings.
+    lineable : ndarray of bool of shape (P,)
+        Columns whose order may carry a line (not order 0, not the single Nyquist column).
+    """
+
+    orders: np.ndarray
+    shifts: np.ndarray
+    gram: np.ndarray
+    projection: np.ndarray
+    yy: float
+    n: int
+    lineable: np.ndarray
+
+    @property
+    def diagonal(self):
+        return self.gram.ndim == 1
+
+    @property
+    def scale(self):
+        """Mean square of the data (a variance scale for bounds and the vague prior)."""
+        return max(self.yy / max(self.n, 1), 1e-300)
+
+
+@dataclass
+class Hyper:
+    """Hyperparameters: background ``A ν^-β``, noise variance, lines (order -> variance)."""
+
+    amplitude: float
+    exponent: float
+    noise_var: float
+    lines: dict = field(default_factory=dict)
+    noise_fixed: bool = False
+
+    def variances(self, design):
+        """Prior variance of every column."""
+        orders = design.orders
+        s = np.empty(orders.size)
+        positive = orders > 0
+        s[positive] = self.amplitude * orders[positive].astype(float) ** (-self.exponent)
+        s[~positive] = _VAGUE * design.scale
+        for order, variance in self.lines.items():
+            s[(orders == order) & design.lineable] += variance
+        return s
+
+
+@dataclass
+class Posterior:
+    """Evidence and posterior at fixed hyperparameters.
+
+    Attributes
+    ----------
+    log_evidence : float
+        ``log p(y | hyperparameters)`` in nats.
+    mean : ndarray of shape (P,)
+        Posterior mean of the coefficients.
+    covariance : ndarray of shape (P,) or (P, P)
+        Posterior covariance (its diagonal on the FFT path).
+    grad_log_variance : ndarray of shape (P,)
+        ``∂ log p / ∂ log s_j``.
+    grad_log_noise : float
+        ``∂ log p / ∂ log σ²``.
+    """
+
+    log_evidence: float
+    mean: np.ndarray
+    covariance: np.ndarray
+    grad_log_variance: np.ndarray
+    grad_log_noise: float
+
+
+def evidence(design, variances, noise_var):
+    """The log marginal likelihood, its gradient and the posterior (see the module docstring).
+
+    With ``d = √s`` and ``B = I + d G d / σ²`` (symmetric, eigenvalues >= 1):
+    ``log p = -½ [n log 2πσ² + log|B| + yᵀy/σ² - uᵀB⁻¹u]``, ``u = d b / σ²``;
+    posterior mean ``d B⁻¹ u``, covariance ``d B⁻¹ d``.
+    """
+    s, sigma2 = variances, noise_var
+    d = np.sqrt(s)
+    u = d * design.projection / sigma2
+    n, yy = design.n, design.yy
+    if design.diagonal:
+        g = design.gram
+        big_b = 1.0 + s * g / sigma2
+        z = u / big_b
+        inverse_diagonal = 1.0 / big_b
+        logdet = float(np.sum(np.log(big_b)))
+        mean = d * z
+        covariance = s * inverse_diagonal
+        residual2 = yy - 2.0 * design.projection @ mean + np.sum(g * mean**2)
+    else:
+        g = design.gram
+        big_b = np.eye(s.size) + (d[:, None] * g * d[None, :]) / sigma2
+        factor, info = scipy.linalg.lapack.dpotrf(big_b, lower=1)
+        if info != 0:
+            raise np.linalg.LinAlgError("the posterior precision is not positive definite")
+        z = scipy.linalg.cho_solve((factor, True), u)
+        inverse, info = scipy.linalg.lapack.dpotri(factor, lower=1)
+        inverse = np.tril(inverse) + np.tril(inverse, -1).T
+        inverse_diagonal = np.diag(inverse).copy()
+        logdet = 2.0 * float(np.sum(np.log(np.diag(factor))))
+        mean = d * z
+        covariance = d[:, None] * inverse * d[None, :]
+        residual2 = yy - 2.0 * design.projection @ mean + mean @ g @ mean
+    log_p = -0.5 * (n * math.log(2.0 * math.pi * sigma2) + logdet + yy / sigma2 - u @ z)
+    grad_s = 0.5 * (z**2 + inverse_diagonal - 1.0)
+    grad_noise = 0.5 * (max(residual2, 0.0) / sigma2 + s.size - float(np.sum(inverse_diagonal)) - n)
+    return Posterior(float(log_p), mean, covariance, grad_s, float(grad_noise))
+
+
+# -- hyperparameter search -----------------------------------------------------------------
+
+def _pack(hyper, line_orders):
+    x = [math.log(hyper.amplitude), hyper.exponent]
+    if not hyper.noise_fixed:
+        x.append(math.log(hyper.noise_var))
+    x.extend(math.log(hyper.lines[k]) for k in line_orders)
+    return np.array(x)
+
+
+def _unpack(x, hyper, line_orders):
+    i = 2
+    noise = hyper.noise_var
+    if not hyper.noise_fixed:
+        noise = math.exp(x[2])
+        i = 3
+    lines = {k: math.exp(v) for k, v in zip(line_orders, x[i:])}
+    return Hyper(math.exp(x[0]), float(x[1]), noise, lines, hyper.noise_fixed)
+
+
+def _objective(x, design, hyper, line_orders, background_parts):
+    trial = _unpack(x, hyper, line_orders)
+    s = trial.variances(design)
+    try:
+        post = evidence(design, s, trial.noise_var)
+    except np.linalg.LinAlgError:  # rounding at an extreme trial point: steer the line search back
+        return _FAILED_OBJECTIVE, np.zeros(x.size)
+    positive = design.orders > 0
+    background = np.zeros(s.size)
+    background[positive] = trial.amplitude * design.orders[positive].astype(float) ** (-trial.exponent)
+    weight = post.grad_log_variance * background / s  # ∂ log p / ∂ log A, per column
+    grad = [float(np.sum(weight)), float(-np.sum(weight * background_parts))]
+    if not hyper.noise_fixed:
+        grad.append(post.grad_log_noise)
+    for k in line_orders:
+        columns = (design.orders == k) & design.lineable
+        grad.append(float(np.sum(post.grad_log_variance[columns] * trial.lines[k] / s[columns])))
+    scale = 1.0 / max(design.n, 1)
+    return -post.log_evidence * scale, -np.array(grad) * scale
+
+
+def _optimise(design, hyper):
+    """Maximise the evidence over every free hyperparameter from ``hyper`` (L-BFGS-B, analytic gradient)."""
+    line_orders = sorted(hyper.lines)
+    scale = design.scale
+    log_scale = math.log(scale)
+    bounds = [(log_scale - 40.0, log_scale + 14.0), EXPONENT_BOUNDS]
+    if not hyper.noise_fixed:
+        bounds.append((log_scale - 32.0, log_scale + 3.0))
+    bounds.extend([(log_scale - 30.0, log_scale + 14.0)] * len(line_orders))
+    log_orders = np.log(np.maximum(design.orders, 1).astype(float))
+    x0 = np.clip(_pack(hyper, line_orders), [b[0] for b in bounds], [b[1] for b in bounds])
+    result = scipy.optimize.minimize(_objective, x0, args=(design, hyper, line_orders, log_orders),
+                                     jac=True, method="L-BFGS-B", bounds=bounds,
+                                     options={"maxiter": 500, "ftol": 1e-13, "gtol": 1e-8})
+    return _unpack(result.x, hyper, line_orders)
+
+
+def _line_gain(s_block, q, variance):
+    """Evidence gain (nats) of adding ``variance`` to a cos/sin pair.
+
+    ``S = ΦᵀC⁻¹Φ`` and ``q = ΦᵀC⁻¹y`` of the pair's columns under the current model.
+
+    Arrays of 2 × 2 blocks ``(m, 2, 2)``, vectors ``(m, 2)`` and variances ``(m, v)``.
+    """
+    eigenvalues, vectors = np.linalg.eigh(s_block)
+    projected = np.einsum("mij,mi->mj", vectors, q) ** 2
+    lam = np.maximum(eigenvalues, 0.0)[:, None, :]
+    v = variance[:, :, None]
+    return 0.5 * np.sum(v * projected[:, None, :] / (1.0 + v * lam) - np.log1p(v * lam), axis=2)
+
+
+def _pairs(design):
+    """Orders that may carry a line and the column index of their cosine and sine."""
+    lineable = np.flatnonzero(design.lineable)
+    orders = design.orders[lineable]
+    unique, first = np.unique(orders, return_index=True)
+    cos_index, sin_index = [], []
+    for k in unique:
+        columns = lineable[orders == k]
+        cos_index.append(columns[0])
+        sin_index.append(columns[-1])
+    return unique, np.array(cos_index, dtype=int), np.array(sin_index, dtype=int)
+
+
+def _blocks(design, post, noise_var, cos_index, sin_index):
+    """``S = ΦᵀC⁻¹Φ`` (2 × 2 blocks) and ``q = ΦᵀC⁻¹y`` of the given column pairs."""
+    sigma2 = noise_var
+    q_all = (design.projection - (design.gram * post.mean if design.diagonal else design.gram @ post.mean)) / sigma2
+    m = cos_index.size
+    blocks = np.zeros((m, 2, 2))
+    if design.diagonal:
+        g = design.gram
+        s_all = g / sigma2 - g**2 * post.covariance / sigma2**2
+        blocks[:, 0, 0] = s_all[cos_index]
+        blocks[:, 1, 1] = s_all[sin_index]
+    else:
+        h = design.gram / sigma2
+        w = post.covariance @ h  # Σ H
+        for a, ia in enumerate((cos_index, sin_index)):
+            for b, ib in enumerate((cos_index, sin_index)):
+                blocks[:, a, b] = h[ia, ib] - np.einsum("mj,jm->m", h[ia, :], w[:, ib])
+    q = np.stack([q_all[cos_index], q_all[sin_index]], axis=1)
+    same = cos_index == sin_index
+    if np.any(same):  # a single column: its second row is a copy; keep one
+        blocks[same, 1, :] = 0.0
+        blocks[same, :, 1] = 0.0
+        q[same, 1] = 0.0
+    return blocks, q
+
+
+def _best_gains(blocks, q, scale):
+    """Largest gain over a grid of line variances, and its variance, for every pair."""
+    grid = scale * np.logspace(-12, 6, 73)
+    gains = _line_gain(blocks, q, np.broadcast_to(grid, (blocks.shape[0], grid.size)))
+    best = np.argmax(gains, axis=1)
+    return gains[np.arange(best.size), best], grid[best]
+
+
+def _removal_gains(design, hyper, post, orders, cos_index, sin_index):
+    """Evidence each present line adds over the model without it (nats)."""
+    present = [i for i, k in enumerate(orders) if k in hyper.lines]
+    if not present:
+        return {}
+    present = np.array(present)
+    blocks, q = _blocks(design, post, hyper.noise_var, cos_index[present], sin_index[present])
+    gains = {}
+    for j, i in enumerate(present):
+        v = hyper.lines[int(orders[i])]
+        m = np.eye(2) - v * blocks[j]
+        try:
+            without = np.linalg.solve(m, blocks[j])
+            q_without = np.linalg.solve(m, q[j])
+        except np.linalg.LinAlgError:
+            gains[int(orders[i])] = np.inf
+            continue
+        without = 0.5 * (without + without.T)
+        gains[int(orders[i])] = float(_line_gain(without[None], q_without[None], np.array([[v]]))[0, 0])
+    return gains
+
+
+def _initial(design, noise_var, threshold):
+    """Safeguard 1: start from the periodogram (robust flat level, strong orders as lines)."""
+    orders, cos_index, sin_index = _pairs(design)
+    g = design.gram if design.diagonal else np.diag(design.gram)
+    coefficient = design.projection / np.maximum(g, 1e-300)
+    power = 0.5 * (coefficient[cos_index] ** 2 + coefficient[sin_index] ** 2)
+    power[cos_index == sin_index] *= 2.0
+    # The upper half of the orders is where white noise dominates a decaying profile.
+    upper = power[orders > np.median(orders)] if power.size > 1 else power
+    flat = float(np.median(upper)) / math.log(2.0) if upper.size else design.scale
+    flat = max(flat, 1e-30 * design.scale)
+    typical_gram = float(np.median(g[cos_index])) if power.size else max(design.n, 1)
+    if noise_var is None:
+        sigma2 = max(flat * typical_gram, 1e-20 * design.scale)
+        fixed = False
+    else:
+        sigma2, fixed = noise_var, True
+    noise_level = sigma2 / typical_gram
+    cut = noise_level * (math.log(max(power.size, 2)) + threshold)
+    strong = power > cut
+    lines = {int(k): float(p - noise_level) for k, p, st in zip(orders, power, strong) if st}
+    low = power[(~strong) & (orders <= 10)]
+    amplitude = max(float(np.median(low)) if low.size else noise_level, noise_level)
+    return Hyper(amplitude, 2.0, sigma2, lines, fixed)
+
+
+def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS, progress=None):
+    """Type-II maximum likelihood: background, noise (unless given) and lines admitted by evidence.
+
+    Parameters
+    ----------
+    design : Design
+    noise_var : float, optional
+        Known noise variance; default: estimated by maximum likelihood.
+    threshold : float, default=LINE_THRESHOLD_NATS
+        Nats a line must add to the log evidence to be kept.
+    progress : callable, optional
+        Called with no argument after each round (for a progress bar).
+
+    Returns
+    -------
+    (Hyper, Posterior)
+    """
+    if design.yy <= 0.0 or not np.any(design.projection):
+        hyper = Hyper(1e-30 * design.scale, 2.0, noise_var or 1e-30, {}, noise_var is not None)
+        return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
+    initial = _initial(design, noise_var, threshold)
+    hyper = _prefer_noise(design, _optimise(design, initial), initial.noise_var)
+    blind = not hyper.noise_fixed
+    hyper.noise_fixed = True  # the lines are chosen at this noise
+    hyper = _rounds(design, hyper, threshold, progress)
+    hyper.noise_fixed = not blind
+    return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
+
+
+def _rounds(design, hyper, threshold, progress):
+    """Drop the weakest line while it adds less than ``threshold``; else admit lines; re-optimise."""
+    orders, cos_index, sin_index = _pairs(design)
+    seen = set()
+    for _ in range(_MAX_ROUNDS):
+        if progress is not None:
+            progress()
+        post = evidence(design, hyper.variances(design), hyper.noise_var)
+        removal = _removal_gains(design, hyper, post, orders, cos_index, sin_index)
+        weakest = min(removal, key=removal.get) if removal else None
+        if weakest is not None and removal[weakest] < threshold:
+            del hyper.lines[weakest]
+            seen.add(weakest)
+            hyper = _optimise(design, hyper)
+            continue
+        if not _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
+            break
+        hyper = _optimise(design, hyper)
+    return hyper
+
+
+def _profile(design, hyper, noise_var):
+    """The hyperparameters that maximise the evidence at a fixed noise variance, and that evidence."""
+    fixed = _optimise(design, Hyper(hyper.amplitude, hyper.exponent, noise_var, dict(hyper.lines), True))
+    try:
+        value = evidence(design, fixed.variances(design), noise_var).log_evidence
+    except np.linalg.LinAlgError:
+        value = -np.inf
+    return Hyper(fixed.amplitude, fixed.exponent, noise_var, fixed.lines, False), value
+
+
+def _prefer_noise(design, hyper, flat_noise_var, slack=NOISE_SLACK_NATS, steps=4):
+    """The blind prior "all noise": the largest σ whose profile evidence is within ``slack`` of the best.
+
+    Along the ridge where a flat part of the spectrum is either signal or noise the evidence is
+    nearly constant (docs/model-selection.md); the maximum may then sit at σ → 0, where the model
+    interpolates the noise. Between the maximum and the periodogram's flat level, the noise is
+    raised as far as the evidence allows (bisection on log σ²).
+    """
+    if hyper.noise_fixed or flat_noise_var <= hyper.noise_var * 1.05:
+        return hyper
+    best = evidence(design, hyper.variances(design), hyper.noise_var).log_evidence
+    top, value = _profile(design, hyper, flat_noise_var)
+    if value >= best - slack:
+        return top
+    low, high, chosen = math.log(hyper.noise_var), math.log(flat_noise_var), hyper
+    for _ in range(steps):
+        middle = 0.5 * (low + high)
+        trial, value = _profile(design, chosen, math.exp(middle))
+        if value >= best - slack:
+            low, chosen = middle, trial
+        else:
+            high = middle
+    return chosen
+
+
+def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
+    """Add lines greedily (each raising the evidence by more than ``threshold``); return how many.
+
+    On the FFT path the orders are independent at fixed background and noise, so every order
+    that passes is added at once; otherwise one at a time, the posterior updated in between.
+    """
+    added = 0
+    for _ in range(orders.size if design.diagonal else _LINES_PER_ROUND):
+        free = np.array([int(k) not in hyper.lines and int(k) not in seen for k in orders])
+        if not np.any(free):
+            break
+        blocks, q = _blocks(design, post, hyper.noise_var, cos_index[free], sin_index[free])
+        gains, variances = _best_gains(blocks, q, design.scale)
+        if design.diagonal:
+            passing = gains > threshold
+            for k, v in zip(orders[free][passing], variances[passing]):
+                hyper.lines[int(k)] = float(v)
+            return int(passing.sum())
+        best = int(np.argmax(gains))
+        if gains[best] <= threshold:
+            break
+        hyper.lines[int(orders[free][best])] = float(variances[best])
+        added += 1
+        post = evidence(design, hyper.variances(design), hyper.noise_var)
+    return added

@@ -1,0 +1,443 @@
+"""The empirical-Bayes spectral model: a Fourier series up to the grid's Nyquist order, shrunk by evidence.
+
+``ε(θ) = a_0 + Σ_{ν=1..K} a_ν cos νθ + b_ν sin νθ`` with independent Gaussian priors on the
+coefficients whose variance is a decaying background ``A ν^-β`` (``β ≥ 1``) plus "lines" on the
+orders where a line raises the marginal likelihood by more than about 3 nats; white noise of
+variance ``σ²``; ``K`` the Nyquist order of the calibration's stops. Every hyperparameter is
+chosen by type-II maximum likelihood (``σ`` too, unless the noise is known); the model's
+prediction is the posterior mean, its uncertainty the posterior standard deviation, with or
+without the noise of a new reading. See docs/model-selection.md for what each prior assumes.
+
+Two paths compute the same thing: on a uniform complete grid with the same number of readings
+at every node the columns are orthogonal and everything is O(n log n) (one FFT); on any other
+grid the Gram matrix of the Fourier features comes from trigonometric moments in O(n) per order
+and each likelihood evaluation costs O(K³).
+
+The model is stored like a Fourier series (``orders``, ``cos``, ``sin``: the posterior mean)
+with its posterior standard deviation on a grid as the model file's ``uncertainty``.
+"""
+
+import math
+import time
+
+import numpy as np
+
+from ..angles import ARCMIN_PER_DEG, resolution_of_readings, wrap360
+from ..errors import InputError
+from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays, uniform_grid
+from . import _evidence
+from ._trigsums import trig_moments, trig_series
+from .fourier import MAX_ORDER, FourierModel
+
+__all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
+           "DEFAULT_MAX_ORDER_IRREGULAR", "BLIND_PRIOR"]
+
+#: Highest order of the Fourier-feature path when the caller names none (its cost is O(K³) per
+#: likelihood evaluation); the FFT path has no cap below the Nyquist order.
+DEFAULT_MAX_ORDER_IRREGULAR = 200
+#: What the blind fit assumes about the split of a flat spectrum between signal and noise.
+BLIND_PRIOR = ("blind: sigma by maximum likelihood under a decaying background (beta >= 1), so a flat "
+               "(white) part of the profile is counted as noise")
+#: Most orders stored in the model file; beyond, the smallest posterior-mean terms are dropped.
+STORED_ORDERS_LIMIT = 4096
+#: Fewest readings beyond the stops for the noise to be estimated from repeated readings.
+MIN_REPEAT_DOF = 10
+#: Largest posterior-std grid (points per revolution).
+_STD_GRID_LIMIT = 3600
+
+
+class SpectralModel(FourierModel):
+    """The posterior mean of the spectral model: a Fourier series, with its posterior uncertainty.
+
+    Parameters are those of :class:`~encal.models.fourier.FourierModel` (``orders``, ``cos``,
+    ``sin`` in arc-minutes); :attr:`uncertainty` holds the posterior standard deviation of the
+    profile on a grid and the noise standard deviation.
+
+    Examples
+    --------
+    >>> model = SpectralModel([0, 1], cos=[0.5, 0.0], sin=[0.0, 2.0])
+    >>> float(model.predict(90.0))
+    2.5
+    """
+
+    kind = "spectral"
+
+    def _predict(self, theta_deg):
+        if self.orders.size == 0:
+            return np.zeros(theta_deg.shape)
+        highest = int(self.orders.max())
+        complex_coefficients = np.zeros(highest + 1, dtype=complex)
+        np.add.at(complex_coefficients, self.orders, self.cos - 1j * self.sin)
+        return trig_series(complex_coefficients, np.radians(theta_deg))
+
+    def predict(self, theta_enc_deg, return_std=False, include_noise=True):
+        """Posterior mean of the error, and with ``return_std=True`` its posterior standard deviation.
+
+        Parameters
+        ----------
+        theta_enc_deg : float or array-like
+            Encoder readings in degrees.
+        return_std : bool, default=False
+            Also return the posterior standard deviation (arc-minutes).
+        include_noise : bool, default=True
+            With the noise of a new reading (the spread of ``measured - predicted`` at a new
+            reading), or without it (the uncertainty of the profile itself).
+
+        Returns
+        -------
+        mean : float or ndarray
+            Arc-minutes.
+        std : float or ndarray
+            Only with ``return_std=True``.
+        """
+        mean = super().predict(theta_enc_deg)
+        if not return_std:
+            return mean
+        if self.uncertainty is None:
+            raise InputError("return_std=True needs the model's posterior uncertainty, which this model "
+                             "does not hold")
+        theta = np.asarray(theta_enc_deg, dtype=float)
+        table = np.asarray(self.uncertainty["model_std_arcmin"], dtype=float)
+        grid = np.arange(table.size) * float(self.uncertainty["grid_step_deg"])
+        profile_std = np.interp(wrap360(theta), grid, table, period=360.0)
+        noise = float(self.uncertainty["noise_std_arcmin"]) if include_noise else 0.0
+        return mean, np.sqrt(profile_std**2 + noise**2).reshape(theta.shape)[()]
+
+    def expected_rms_between_points(self):
+        """The posterior's expected RMS error of a correction at angles not calibrated, arc-minutes.
+
+        ``sqrt(mean(σ_profile(θ)²) + σ²)`` over the circle: the error a new reading leaves after
+        correction, under the model's own prior (None without the posterior).
+        """
+        if self.uncertainty is None:
+            return None
+        table = np.asarray(self.uncertainty["model_std_arcmin"], dtype=float)
+        return float(np.sqrt(np.mean(table**2) + float(self.uncertainty["noise_std_arcmin"]) ** 2))
+
+    def report(self):
+        """What the fit assumed and found, as lines of text for a terminal."""
+        t = self.training
+        if "noise" not in t:
+            return f"spectral model, {self.orders.size} orders"
+        lines = t.get("lines", [])
+        shown = ", ".join(map(str, lines[:12])) + (", ..." if len(lines) > 12 else "")
+        background = t["background"]
+        text = [f"spectral model ({t['path']} path): orders 0..{t['max_order']} from {t['stops']} stops; "
+                f"background {background['amplitude_arcmin2']:.3g} nu^-{background['exponent']:.2f} arcmin^2; "
+                f"{len(lines)} line(s) admitted by more than {t['threshold_nats']:g} nats"
+                + (f": {shown}" if lines else "")]
+        sigma = t["noise"]["std_arcmin"]
+        text.append(f"noise: sigma {sigma:.4g} arcmin; prior: {t['prior']}")
+        bits = self.encoder.get("resolution_bits") or t.get("readings_resolution_bits")
+        if bits:
+            quantum = 21600.0 / 2**bits / math.sqrt(12.0)
+            text.append(f"sigma / (LSB/sqrt(12)) = {sigma:.4g} / {quantum:.4g} = {sigma / quantum:.2f} "
+                        f"({bits}-bit encoder): {_noise_meaning(sigma / quantum, t['noise']['source'])}")
+        expected = self.expected_rms_between_points()
+        if expected is not None:
+            text.append(f"held-out estimate (posterior, readings at angles not calibrated): RMS "
+                        f"{expected:.4g} arcmin after correction")
+        return "\n".join(text)
+
+    def __repr__(self):
+        name = self.encoder.get("name") or "unnamed encoder"
+        return f"<SpectralModel {self.orders.size} orders up to {int(self.orders.max(initial=0))} for {name}>"
+
+
+def _noise_meaning(ratio, source):
+    """What the noise's ratio to the quantisation noise says, in a sentence."""
+    if ratio < 1.5:
+        return "the noise is the encoder's quantisation; nothing finer is left to calibrate"
+    if source == "blind":
+        return ("well above the quantisation: reading noise, or structure finer than the calibration's spacing "
+                "that one pass cannot tell from noise; a second pass over the same angles (--repeat) or a known "
+                "noise (--noise) would separate them")
+    return "well above the quantisation: the reading noise of this encoder and its electronics"
+
+
+def repeat_noise(reference_deg, error_arcmin):
+    """Noise standard deviation from repeated readings at the same reference angle (a stop, a pass).
+
+    Parameters
+    ----------
+    reference_deg : array-like of shape (n,)
+        Reference angles in degrees; readings at one angle (within 1e-9°) are repeats.
+    error_arcmin : array-like of shape (n,)
+        Errors in arc-minutes.
+
+    Returns
+    -------
+    (float or None, int)
+        The pooled within-stop standard deviation in arc-minutes (None when fewer than
+        :data:`MIN_REPEAT_DOF` degrees of freedom), and its degrees of freedom ``n - stops``.
+    """
+    error = np.asarray(error_arcmin, dtype=float).reshape(-1)
+    _, group = distinct_angles(wrap360(np.asarray(reference_deg, dtype=float).reshape(-1)))
+    stops = int(group.max()) + 1
+    dof = error.size - stops
+    if dof < MIN_REPEAT_DOF:
+        return None, dof
+    counts = np.bincount(group, minlength=stops)
+    means = np.bincount(group, weights=error, minlength=stops) / counts
+    return float(np.sqrt(np.sum((error - means[group]) ** 2) / dof)), dof
+
+
+# -- the design: columns, Gram matrix, projections -----------------------------------------------
+
+def _columns(highest, regular_points, phase_rad):
+    """Orders, shifts and line eligibility of the columns ``cos(ν θ - ψ)``.
+
+    On a regular grid of an even number ``N`` of stops, the Nyquist order ``N / 2`` has one
+    column, ``cos(N/2 (θ - φ))``, its sine pinned to zero and no line (safeguard 3).
+    """
+    orders, shifts, lineable = [0], [0.0], [False]
+    for k in range(1, highest + 1):
+        if regular_points is not None and regular_points % 2 == 0 and 2 * k == regular_points:
+            orders.append(k)
+            shifts.append(k * phase_rad)
+            lineable.append(False)
+            continue
+        orders += [k, k]
+        shifts += [0.0, 0.5 * math.pi]
+        lineable += [True, True]
+    return np.array(orders, dtype=int), np.array(shifts), np.array(lineable, dtype=bool)
+
+
+def _uniform_nodes(theta_deg):
+    """``(phase_rad, node_index, nodes)`` when the readings lie exactly on a uniform grid with the same
+    number of readings at every node, else None."""
+    distinct, group = distinct_angles(theta_deg)
+    nodes = distinct.size
+    if nodes < 2:
+        return None
+    counts = np.bincount(group, minlength=nodes)
+    if np.any(counts != counts[0]):
+        return None
+    grid = uniform_grid(distinct)
+    if grid is None:
+        return None
+    spacing = 360.0 / nodes
+    position = (distinct - grid[0]) / spacing
+    if np.max(np.abs(position - np.round(position))) * spacing > ANGLE_TOLERANCE_DEG:
+        return None
+    index = np.mod(np.round(position).astype(int), nodes)
+    return math.radians(grid[0]), index[group], nodes
+
+
+def _fft_design(error, uniform, orders, shifts, lineable):
+    phase, node, nodes = uniform
+    sums = np.bincount(node, weights=error, minlength=nodes)
+    highest = int(orders.max())
+    moments = np.exp(1j * np.arange(highest + 1) * phase) * (np.fft.ifft(sums) * nodes)[: highest + 1]
+    projection = np.real(np.exp(-1j * shifts) * moments[orders])
+    n = error.size
+    gram = np.full(orders.size, 0.5 * n)
+    gram[orders == 0] = n
+    gram[(orders > 0) & ~lineable] = n  # the Nyquist column is ±1 at the nodes
+    return _evidence.Design(orders, shifts, gram, projection, float(error @ error), n, lineable)
+
+
+def _general_design(theta_rad, error, orders, shifts, lineable):
+    highest = int(orders.max())
+    weights = trig_moments(theta_rad, np.ones(theta_rad.size), 2 * highest)
+    moments = trig_moments(theta_rad, error, highest)
+    projection = np.real(np.exp(-1j * shifts) * moments[orders])
+    difference = orders[:, None] - orders[None, :]
+    total = orders[:, None] + orders[None, :]
+    s_diff = np.where(difference >= 0, weights[np.abs(difference)], np.conj(weights[np.abs(difference)]))
+    gram = 0.5 * np.real(np.exp(-1j * (shifts[:, None] - shifts[None, :])) * s_diff
+                         + np.exp(-1j * (shifts[:, None] + shifts[None, :])) * weights[total])
+    gram = 0.5 * (gram + gram.T)
+    return _evidence.Design(orders, shifts, gram, projection, float(error @ error), error.size, lineable)
+
+
+def _stops(theta, error):
+    """Distinct reference angles (the stops) and the mean encoder angle at each, degrees."""
+    reference = wrap360(theta - error / ARCMIN_PER_DEG)
+    _, group = distinct_angles(reference)
+    stops = int(group.max()) + 1
+    phasor = np.bincount(group, weights=np.cos(np.radians(theta)), minlength=stops) \
+        + 1j * np.bincount(group, weights=np.sin(np.radians(theta)), minlength=stops)
+    return wrap360(np.degrees(np.angle(phasor))), reference
+
+
+# -- the fit --------------------------------------------------------------------------------------
+
+def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=None,
+                 threshold_nats=_evidence.LINE_THRESHOLD_NATS, path="auto", progress=None):
+    """Fit the empirical-Bayes spectral model.
+
+    Parameters
+    ----------
+    theta_enc_deg : array-like of shape (n,)
+        Encoder angles in degrees.
+    error_arcmin : array-like of shape (n,)
+        Errors ``encoder - reference`` in arc-minutes.
+    noise_arcmin : float, optional
+        Standard deviation of one reading's noise, in arc-minutes, when known (from the
+        encoder's data sheet, a repeat pass, repeated readings). Default: from repeated
+        readings at the same reference angle when the calibration has at least
+        :data:`MIN_REPEAT_DOF` of them, else blind (:data:`BLIND_PRIOR`).
+    max_order : int, optional
+        Highest order of the series. Default: the Nyquist order of the stops, ``⌊m/2⌋`` for
+        ``m`` distinct reference angles, capped at :data:`DEFAULT_MAX_ORDER_IRREGULAR` on the
+        Fourier-feature path (a dense calibration off a uniform grid).
+    threshold_nats : float, default=3.0
+        Evidence (nats) a line must add to be kept.
+    path : {'auto', 'fft', 'features'}, default='auto'
+        ``'auto'``: the FFT path when the encoder angles are a uniform grid with the same number
+        of readings at each node, else the Fourier-feature path. ``'features'`` forces the
+        general path (for checks); ``'fft'`` refuses data it does not apply to.
+    progress : callable, optional
+        Called once per round of the hyperparameter search.
+
+    Returns
+    -------
+    SpectralModel
+        With ``uncertainty`` (posterior standard deviation) and ``training`` recording the
+        prior, the noise and where it came from, the background, the lines and the evidence.
+
+    Raises
+    ------
+    InputError
+        If an option is invalid or the calibration has fewer than 3 stops.
+    """
+    start = time.perf_counter()
+    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_spectral")
+    if path not in ("auto", "fft", "features"):
+        raise InputError(f"The 'path' parameter of fit_spectral must be 'auto', 'fft' or 'features'. "
+                         f"Got {path!r} instead.")
+    if noise_arcmin is not None and not (isinstance(noise_arcmin, (int, float, np.floating))
+                                         and not isinstance(noise_arcmin, bool)
+                                         and math.isfinite(noise_arcmin) and noise_arcmin > 0):
+        raise InputError("The 'noise_arcmin' parameter of fit_spectral must be a number of arc-minutes > 0. "
+                         f"Got {noise_arcmin!r} instead.")
+    if not (isinstance(threshold_nats, (int, float)) and threshold_nats >= 0):
+        raise InputError(f"The 'threshold_nats' parameter of fit_spectral must be a number >= 0. "
+                         f"Got {threshold_nats!r} instead.")
+    stop_angles, reference = _stops(theta, error)
+    m = stop_angles.size
+    if m < 3:
+        raise InputError(f"fit_spectral expects readings at 3 or more distinct reference angles; got {m}")
+    grid = uniform_grid(stop_angles)
+    regular_points = m if grid is not None else None
+    phase = math.radians(grid[0]) if grid is not None else 0.0
+    uniform = _uniform_nodes(theta) if path != "features" else None
+    if uniform is not None and uniform[2] != m:
+        uniform = None
+    if path == "fft" and uniform is None:
+        raise InputError("fit_spectral(path='fft') expects encoder angles on a uniform grid with the same "
+                         "number of readings at every node")
+    nyquist = m // 2
+    if max_order is None:
+        highest = nyquist if uniform is not None else min(nyquist, DEFAULT_MAX_ORDER_IRREGULAR)
+    else:
+        if isinstance(max_order, bool) or not isinstance(max_order, (int, np.integer)) or max_order < 1:
+            raise InputError(f"The 'max_order' parameter of fit_spectral must be an int >= 1. "
+                             f"Got {max_order!r} instead.")
+        highest = min(int(max_order), nyquist)
+    if highest < nyquist:
+        regular_points = None  # no Nyquist column below the cap
+
+    noise_source, repeat_dof = "supplied", None
+    noise_var = None if noise_arcmin is None else float(noise_arcmin) ** 2
+    if noise_var is None:
+        repeat_std, repeat_dof = repeat_noise(reference, error)
+        if repeat_std is not None and repeat_std > 0:
+            noise_var, noise_source = repeat_std**2, "repeated readings"
+        else:
+            noise_source, repeat_dof = "blind", None
+
+    offset = float(np.mean(error))
+    centred = error - offset
+    orders, shifts, lineable = _columns(highest, regular_points, phase)
+    if uniform is not None:
+        design = _fft_design(centred, uniform, orders, shifts, lineable)
+    else:
+        design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
+    hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
+                                                progress=progress)
+
+    cos = np.zeros(highest + 1)
+    sin = np.zeros(highest + 1)
+    np.add.at(cos, orders, post.mean * np.cos(shifts))
+    np.add.at(sin, orders, post.mean * np.sin(shifts))
+    cos[0] += offset
+    kept, dropped_rms = _stored_orders(cos, sin, math.sqrt(hyper.noise_var))
+    sigma = math.sqrt(hyper.noise_var)
+    training = {
+        "select": "evidence",
+        "path": "fft" if design.diagonal else "fourier-features",
+        "max_order": int(highest),
+        "stops": int(m),
+        "prior": _prior_text(noise_source),
+        "noise": {"source": noise_source, "std_arcmin": sigma,
+                  **({"repeat_dof": int(repeat_dof)} if repeat_dof is not None else {})},
+        "background": {"amplitude_arcmin2": hyper.amplitude, "exponent": hyper.exponent},
+        "lines": [int(k) for k in sorted(hyper.lines)],
+        "line_variances_arcmin2": [hyper.lines[k] for k in sorted(hyper.lines)],
+        "log_evidence_nats": post.log_evidence,
+        "threshold_nats": float(threshold_nats),
+        "dropped_rms_arcmin": dropped_rms,
+        "time_s": time.perf_counter() - start,
+    }
+    if noise_arcmin is not None:
+        training["noise_arcmin"] = float(noise_arcmin)
+    bits = resolution_of_readings(theta)
+    if bits is not None:
+        training["readings_resolution_bits"] = bits
+    model = SpectralModel(kept, cos[kept], sin[kept], training=training)
+    model.uncertainty = _posterior_std(design, post, highest, sigma)
+    return model
+
+
+def _prior_text(source):
+    if source == "supplied":
+        return "noise supplied by the user; background, lines by maximum likelihood"
+    if source == "repeated readings":
+        return "noise from repeated readings at the same reference angle; background, lines by maximum likelihood"
+    return BLIND_PRIOR
+
+
+def _stored_orders(cos, sin, sigma):
+    """Orders kept in the model file and the RMS (arcmin) of the posterior-mean terms left out.
+
+    Every order is kept up to :data:`STORED_ORDERS_LIMIT` orders; a longer series (a dense
+    calibration on the FFT path) keeps its largest terms while the RMS left out stays below
+    a thousandth of the noise, and never more than that limit (nor an order above the
+    model file's largest, :data:`~encal.models.fourier.MAX_ORDER`).
+    """
+    orders = np.arange(cos.size)
+    power = 0.5 * (cos**2 + sin**2)
+    power[0] = cos[0] ** 2
+    allowed = orders <= MAX_ORDER
+    if cos.size <= STORED_ORDERS_LIMIT:
+        return orders, 0.0
+    ranked = np.argsort(np.where(allowed, power, -1.0))[::-1]
+    tail = np.cumsum(power[ranked][::-1])[::-1]  # power of ranked[i:] for each i
+    budget = (1e-3 * sigma) ** 2
+    count = int(np.argmax(np.r_[tail[1:], 0.0] <= budget)) + 1
+    count = min(max(count, 1), STORED_ORDERS_LIMIT, int(allowed.sum()))
+    kept = np.sort(ranked[:count])
+    dropped = float(np.sqrt(max(power.sum() - power[kept].sum(), 0.0)))
+    return kept, dropped
+
+
+def _posterior_std(design, post, highest, sigma):
+    """The model file's uncertainty: posterior std of the profile on a uniform grid, and the noise."""
+    points = int(min(max(360, 4 * highest), _STD_GRID_LIMIT))
+    theta = 2.0 * math.pi * np.arange(points) / points
+    if design.diagonal:
+        # Σ_j v_j cos²(ν_j θ - ψ_j) = ½ Σ v_j + ½ Re Σ v_j e^{-2iψ_j} e^{2iν_j θ}, exactly on the grid.
+        spectrum = np.zeros(points, dtype=complex)
+        np.add.at(spectrum, (2 * design.orders) % points, post.covariance * np.exp(-2j * design.shifts))
+        variance = 0.5 * post.covariance.sum() + 0.5 * np.real(np.fft.ifft(spectrum) * points)
+    else:
+        features = np.cos(np.multiply.outer(theta, design.orders) - design.shifts)
+        variance = np.sum((features @ post.covariance) * features, axis=1)
+    return {
+        "method": "posterior",
+        "grid_step_deg": 360.0 / points,
+        "model_std_arcmin": [float(v) for v in np.sqrt(np.maximum(variance, 0.0))],
+        "noise_std_arcmin": float(sigma),
+    }

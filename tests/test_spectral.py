@@ -1,0 +1,251 @@
+"""The empirical-Bayes spectral model: known-truth recovery, noise supplied or blind, both paths, deployment."""
+
+import math
+
+import numpy as np
+import pytest
+
+import encal
+from encal.deploy import runtime
+from encal.errors import InputError
+from encal.models import _evidence
+from encal.models._trigsums import trig_moments, trig_series
+from encal.models.spectral import (
+    BLIND_PRIOR,
+    SpectralModel,
+    _columns,
+    _fft_design,
+    _general_design,
+    _uniform_nodes,
+    fit_spectral,
+    repeat_noise,
+)
+
+GRID = np.arange(0.0, 360.0, 2.0)
+MIDPOINTS = GRID + 1.0
+LINES = {1: (3.0, 0.4), 3: (0.8, -1.1), 16: (0.5, 0.2), 40: (0.3, 2.0)}  # order: (amplitude arcmin, phase rad)
+
+
+def line_profile(theta_deg, lines=LINES):
+    r = np.radians(theta_deg)
+    return sum(a * np.cos(k * r + p) for k, (a, p) in lines.items())
+
+
+def rms(values):
+    return float(np.sqrt(np.mean(np.square(values))))
+
+
+# -- trigonometric sums -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("n, highest", [(50, 7), (30_000, 300)])
+def test_trigonometric_sums_match_direct_evaluation(n, highest):
+    rng = np.random.default_rng(n)
+    theta = rng.uniform(-10.0, 10.0, n)
+    weights = rng.normal(size=n)
+    direct = np.exp(1j * np.outer(np.arange(highest + 1), theta)) @ weights
+    assert np.abs(trig_moments(theta, weights, highest) - direct).max() <= 1e-12 * np.abs(direct).max()
+    c = rng.normal(size=highest + 1) + 1j * rng.normal(size=highest + 1)
+    series = np.real(np.exp(1j * np.outer(theta, np.arange(highest + 1))) @ c)
+    assert np.abs(trig_series(c, theta) - series).max() <= 1e-12 * np.abs(series).max()
+
+
+# -- known truth ----------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_pure_line_spectrum_is_recovered(seed):
+    rng = np.random.default_rng(seed)
+    error = line_profile(GRID) + rng.normal(0.0, 0.05, GRID.size)
+    model = fit_spectral(GRID, error)
+    assert model.training["lines"] == sorted(LINES)
+    assert model.training["path"] == "fft"
+    assert abs(model.training["noise"]["std_arcmin"] - 0.05) < 0.012
+    # Only the 4 lines' 8 coefficients carry the truth; noise at 180 points leaves about 0.05 * sqrt(8/180).
+    assert rms(model.predict(MIDPOINTS) - line_profile(MIDPOINTS)) < 0.025
+
+
+def test_a_noise_free_line_spectrum_is_recovered_closely():
+    model = fit_spectral(GRID, line_profile(GRID))
+    assert {16, 40} <= set(model.training["lines"])  # orders 1 and 3 may sit in the background instead
+    assert rms(model.predict(MIDPOINTS) - line_profile(MIDPOINTS)) < 1e-5
+
+
+def test_fft_and_fourier_feature_paths_agree():
+    rng = np.random.default_rng(3)
+    error = line_profile(GRID) + 0.1 * rng.normal(size=GRID.size) + 0.05 * np.cos(np.radians(77 * GRID))
+    theta = np.radians(GRID)
+    orders, shifts, lineable = _columns(90, 180, 0.0)
+    fft = _fft_design(error, _uniform_nodes(GRID), orders, shifts, lineable)
+    general = _general_design(theta, error, orders, shifts, lineable)
+    hyper = _evidence.Hyper(0.01, 1.7, 0.012, {1: 4.0, 16: 0.1}, False)
+    a = _evidence.evidence(fft, hyper.variances(fft), hyper.noise_var)
+    b = _evidence.evidence(general, hyper.variances(general), hyper.noise_var)
+    assert a.log_evidence == pytest.approx(b.log_evidence, rel=1e-12, abs=1e-9)
+    np.testing.assert_allclose(a.mean, b.mean, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.grad_log_variance, b.grad_log_variance, rtol=0, atol=1e-9)
+    assert a.grad_log_noise == pytest.approx(b.grad_log_noise, abs=1e-9)
+    # The whole fit, hyperparameter search and line admission included: the two paths' rounding
+    # differs by 1e-13, the optimiser stops within its tolerance, so the fits agree to about 1e-8.
+    by_fft = fit_spectral(GRID, error, path="fft")
+    by_features = fit_spectral(GRID, error, path="features")
+    assert by_fft.training["path"] == "fft" and by_features.training["path"] == "fourier-features"
+    assert by_fft.training["lines"] == by_features.training["lines"]
+    angles = np.linspace(0.0, 360.0, 1001)
+    np.testing.assert_allclose(by_fft.predict(angles), by_features.predict(angles), rtol=0, atol=1e-7)
+    np.testing.assert_allclose(by_fft.predict(angles, return_std=True)[1],
+                               by_features.predict(angles, return_std=True)[1], rtol=0, atol=1e-7)
+
+
+def test_nyquist_sine_is_pinned_on_an_even_regular_grid():
+    # A step alternation (-1)^j at the nodes of a grid starting at 1 degree: the model may put it only
+    # in cos(90 (θ - 1°)), which is zero half-way between the nodes.
+    theta = GRID + 1.0
+    alternation = 0.5 * (-1.0) ** np.arange(GRID.size)
+    model = fit_spectral(theta, line_profile(theta) + alternation, noise_arcmin=0.01)
+    assert 90 not in model.training["lines"]
+    k = list(model.orders).index(90)
+    amplitude, sine = model.cos[k], model.sin[k]
+    assert math.atan2(sine, amplitude) == pytest.approx(math.radians(90.0) % math.pi - math.pi, abs=1e-9) \
+        or math.atan2(sine, amplitude) == pytest.approx(math.radians(90.0) % math.pi, abs=1e-9)
+    nyquist = SpectralModel([90], [amplitude], [sine])
+    assert np.abs(nyquist.predict(theta + 1.0)).max() < 1e-9
+
+
+# -- noise supplied, estimated, or blind -----------------------------------------------------------
+
+def roughness_case(seed, per_order_power=1.5):
+    """Lines plus a flat "roughness" spectrum up to order 90 of ``per_order_power`` times the noise's."""
+    rng = np.random.default_rng(seed)
+    sigma = 0.1
+    coefficient_std = math.sqrt(per_order_power * 2.0 * sigma**2 / GRID.size)
+    orders = np.arange(1, 91)
+    a, b = rng.normal(0.0, coefficient_std, (2, orders.size))
+
+    def truth(theta):
+        r = np.radians(theta)[:, None]
+        return line_profile(theta) + np.cos(orders * r) @ a + np.sin(orders * r) @ b
+
+    return truth, truth(GRID) + rng.normal(0.0, sigma, GRID.size), sigma
+
+
+def test_supplied_noise_is_used_and_blind_noise_absorbs_a_flat_spectrum():
+    blind_errors, supplied_errors = [], []
+    for seed in range(6):
+        truth, error, sigma = roughness_case(seed)
+        blind = fit_spectral(GRID, error)
+        supplied = fit_spectral(GRID, error, noise_arcmin=sigma)
+        assert supplied.training["noise"] == {"source": "supplied", "std_arcmin": sigma}
+        assert blind.training["noise"]["source"] == "blind"
+        assert blind.training["prior"] == BLIND_PRIOR
+        # Documented: blind, a flat signal counts as noise, so sigma-hat exceeds the noise.
+        assert blind.training["noise"]["std_arcmin"] > 1.15 * sigma
+        blind_errors.append(rms(blind.predict(MIDPOINTS) - truth(MIDPOINTS)))
+        supplied_errors.append(rms(supplied.predict(MIDPOINTS) - truth(MIDPOINTS)))
+    # Knowing the noise, the model follows the roughness between the points.
+    assert np.mean(supplied_errors) < 0.9 * np.mean(blind_errors)
+
+
+def test_blind_noise_estimate_on_a_line_spectrum():
+    estimates = [fit_spectral(GRID, line_profile(GRID) + np.random.default_rng(s).normal(0, 0.2, 180))
+                 .training["noise"]["std_arcmin"] for s in range(5)]
+    assert np.mean(estimates) == pytest.approx(0.2, rel=0.08)
+
+
+def test_noise_from_two_passes_over_the_same_grid():
+    rng = np.random.default_rng(7)
+    reference = np.r_[GRID, GRID]
+    error = line_profile(reference) + rng.normal(0.0, 0.1, reference.size)
+    std, dof = repeat_noise(reference, error)
+    assert dof == 180 and std == pytest.approx(0.1 * math.sqrt(0.5) * math.sqrt(2), rel=0.15)
+    model = fit_spectral(reference + error / 60.0, error)
+    assert model.training["noise"]["source"] == "repeated readings"
+    assert model.training["noise"]["std_arcmin"] == pytest.approx(std, rel=1e-12)
+    assert model.training["stops"] == 180
+    assert model.training["max_order"] == 90
+
+
+def test_posterior_intervals_cover_draws_from_the_prior():
+    covered, without_noise = [], []
+    orders = np.arange(1, 91)
+    for seed in range(8):
+        rng = np.random.default_rng(100 + seed)
+        coefficient_std = np.sqrt(0.5 * orders**-2.0)
+        a, b = rng.normal(0.0, 1.0, (2, orders.size)) * coefficient_std
+
+        def truth(theta):
+            r = np.radians(theta)[:, None]
+            return np.cos(orders * r) @ a + np.sin(orders * r) @ b
+
+        model = fit_spectral(GRID, truth(GRID) + rng.normal(0.0, 0.1, GRID.size))
+        test = truth(MIDPOINTS) + rng.normal(0.0, 0.1, GRID.size)
+        mean, std = model.predict(MIDPOINTS, return_std=True)
+        covered.append(np.mean(np.abs(test - mean) <= 2.0 * std))
+        _, profile_std = model.predict(MIDPOINTS, return_std=True, include_noise=False)
+        assert np.all(profile_std < std)
+        without_noise.append(np.mean(np.abs(truth(MIDPOINTS) - mean) <= 2.0 * profile_std))
+    assert 0.92 <= np.mean(covered) <= 0.98
+    assert 0.85 <= np.mean(without_noise) <= 1.0
+
+
+def test_irregular_angles_use_the_fourier_feature_path():
+    rng = np.random.default_rng(11)
+    theta = np.sort(rng.uniform(0.0, 360.0, 240))
+    model = fit_spectral(theta, line_profile(theta) + rng.normal(0.0, 0.05, theta.size))
+    assert model.training["path"] == "fourier-features"
+    assert model.training["max_order"] == 120
+    assert rms(model.predict(MIDPOINTS) - line_profile(MIDPOINTS)) < 0.04
+
+
+@pytest.mark.parametrize("options, message", [
+    ({"noise_arcmin": -1.0}, "noise_arcmin"), ({"noise_arcmin": float("nan")}, "noise_arcmin"),
+    ({"max_order": 0}, "max_order"), ({"path": "fast"}, "path"), ({"threshold_nats": -1}, "threshold_nats")])
+def test_invalid_options_are_refused_in_one_sentence(options, message):
+    with pytest.raises(InputError, match=message):
+        fit_spectral(GRID, line_profile(GRID), **options)
+
+
+def test_two_stops_are_too_few():
+    with pytest.raises(InputError, match="3 or more distinct reference angles"):
+        fit_spectral([0.0, 180.0, 0.0], [1.0, 2.0, 1.0])
+
+
+def test_fft_path_refuses_irregular_angles():
+    with pytest.raises(InputError, match="uniform grid"):
+        fit_spectral(GRID + np.r_[0.3, np.zeros(179)], line_profile(GRID), path="fft")
+
+
+# -- deployment -------------------------------------------------------------------------------------
+
+def fitted_calibration_model(**options):
+    rng = np.random.default_rng(5)
+    error = line_profile(GRID) + rng.normal(0.0, 0.05, GRID.size)
+    cal = encal.Calibration(GRID, GRID + error / 60.0, name="enc", resolution_bits=16)
+    return encal.fit(cal, method="spectral", **options)
+
+
+def test_model_file_round_trip_and_standalone_runtime(tmp_path):
+    model = fitted_calibration_model(noise_arcmin=0.05)
+    assert model.training["method"] == "spectral"
+    path = model.save(tmp_path / "enc.json")
+    loaded = encal.load_model(path)
+    assert isinstance(loaded, SpectralModel)
+    angles = np.linspace(-10.0, 370.0, 777)
+    np.testing.assert_array_equal(loaded.predict(angles), model.predict(angles))
+    np.testing.assert_array_equal(loaded.predict(angles, return_std=True)[1], model.predict(angles, return_std=True)[1])
+    standalone = runtime.load(path)
+    assert max(abs(standalone.predict_arcmin(a) - float(model.predict(a))) for a in angles) < 1e-11
+
+
+def test_uncertainty_option_keeps_the_posterior():
+    model = fitted_calibration_model(uncertainty=True)
+    assert model.uncertainty["method"] == "posterior"
+
+
+def test_dense_table_and_c_export_evaluate_the_series(tmp_path):
+    from encal.deploy import compile_table, export_c
+
+    model = fitted_calibration_model()
+    table = compile_table(model, 12, dtype="float32")
+    codes = np.arange(4096)
+    np.testing.assert_allclose(table.predict_counts(codes), model.predict(codes * 360.0 / 4096), atol=1e-5)
+    files = export_c(model, prefix="enc", bits=12)
+    assert "enc_predict_arcmin" in files["enc.h"] and "model_order[91]" in files["enc.c"]
