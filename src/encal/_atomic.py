@@ -16,6 +16,7 @@ import os
 import tempfile
 from pathlib import Path
 
+from ._signals import held
 from .errors import InputError
 
 __all__ = ["atomic_write", "atomic_open", "atomic_file_set", "staged_path"]
@@ -40,13 +41,16 @@ def atomic_file_set():
     try:
         yield
     except BaseException:
-        for tmp, _ in pending:
-            with contextlib.suppress(FileNotFoundError):
-                os.unlink(tmp)
+        with held():
+            for tmp, _ in pending:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(tmp)
         raise
     else:
-        for tmp, path in pending:
-            os.replace(tmp, path)
+        # A stop signal during the renames is held until they are all done: all new files or, above, none.
+        with held():
+            for tmp, path in pending:
+                os.replace(tmp, path)
     finally:
         _PENDING.reset(token)
 
@@ -104,12 +108,11 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
         # Renaming over /dev/null or a pipe would replace it with a regular file.
         raise InputError(f"cannot write {given}: it is not a regular file (a device, pipe or socket); "
                          "expected the path of a file")
+    tmp = None
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
-    except OSError as exc:
-        raise InputError(f"cannot write {given}: {exc.strerror or exc}; expected a folder where files "
-                         "can be written") from None
-    try:
+        # Held: a stop signal right after the file is created must find its name known, to remove it.
+        with held():
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
         kwargs = {} if "b" in mode else {"encoding": encoding, "newline": newline}
         with os.fdopen(fd, mode, **kwargs) as handle:
             yield handle
@@ -122,12 +125,16 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
         else:
             pending.append((tmp, path))
     except OSError as exc:
+        if tmp is None:
+            raise InputError(f"cannot write {given}: {exc.strerror or exc}; expected a folder where files "
+                             "can be written") from None
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise InputError(f"cannot write {given}: {exc.strerror or exc}") from None
     except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
         raise
 
 

@@ -1,11 +1,11 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
-import csv
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import _csv
 from .angles import ARCMIN_PER_DEG, READING_SIGNS, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 
@@ -133,11 +133,34 @@ MAX_ABS_DEG = 1e9
 #: Largest backward travel of the encoder, in degrees, while the reference moves forward, taken for
 #: reading noise (see :func:`check_folds`).
 MAX_FOLD_DEG = 0.5
+#: Largest calibration file read, in bytes (a million rows take about 40 MB): beyond it the input is not a
+#: calibration (``/dev/zero``, an endless pipe) and reading on would exhaust the memory.
+MAX_FILE_BYTES = 1 << 30
+_READ_CHUNK = 1 << 20
 
 
 def _fail(path, line, message, column=None):
     where = f"{path}, line {line}" + (f", column {column}" if column is not None else "")
     raise CalibrationError(f"{where}: {message}")
+
+
+def _read_bytes(path):
+    """The file's bytes, read in chunks: a binary or endless input is refused at its first NUL byte or at
+    :data:`MAX_FILE_BYTES`, not after it has filled the memory."""
+    chunks, size = [], 0
+    with open(path, "rb") as handle:
+        while chunk := handle.read(_READ_CHUNK):
+            if b"\x00" in chunk:
+                before = b"".join(chunks) + chunk[:chunk.index(b"\x00")]
+                _decode(path, before)  # UTF-16 and other encodings are named as such
+                _fail(path, before.count(b"\n") + 1, "contains NUL bytes (is this a binary file?); expected a "
+                                                      "calibration CSV")
+            size += len(chunk)
+            if size > MAX_FILE_BYTES:
+                raise CalibrationError(f"{path}: is larger than {MAX_FILE_BYTES >> 20} MiB; expected a calibration "
+                                       "CSV (is this an endless stream or a device?)")
+            chunks.append(chunk)
+    return b"".join(chunks)
 
 
 def _decode(path, raw):
@@ -152,9 +175,12 @@ def _decode(path, raw):
     return text
 
 
-def _cells(line):
-    """The fields of one CSV line; a field in double quotes may hold commas (RFC 4180)."""
-    return next(csv.reader([line])) if '"' in line else line.split(",")
+def _cells(path, number, line):
+    """The fields of line ``number`` in encal's CSV dialect (:mod:`encal._csv`)."""
+    try:
+        return _csv.fields(line)
+    except _csv.QuotingError as exc:
+        _fail(path, number, f"{exc}")
 
 
 def _shown(text, limit=40):
@@ -230,10 +256,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
-    text = _decode(path, path.read_bytes())
-    lines = text.splitlines()
-    records = [(number, line) for number, line in enumerate(lines, start=1)
-               if line.strip() and not line.lstrip().startswith("#")]
+    text = _decode(path, _read_bytes(path))
+    lines = _csv.split_lines(text)
+    records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
     if resolution_bits is None:
         resolution_bits = _resolution_from_comments(path, lines)
     if not records:
@@ -241,17 +266,14 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                                "'reference_deg,encoder_deg' and at least 8 rows of angles")
     header_line, header = records[0]
     columns = _header_columns(path, header_line, header)
-    n_columns = len(_cells(header))
+    n_columns = len(_cells(path, header_line, header))
     ref_col, enc_col = columns["reference_deg"], columns["encoder_deg"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
     reference, encoder, direction, epoch = [], [], [], []
     for number, line in records[1:]:
-        cells = _cells(line)
-        if len(cells) < n_columns:
-            separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
-            why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
-            fields = f"{len(cells)} field" + ("s" if len(cells) != 1 else "")
-            _fail(path, number, f"has {fields}, expected {n_columns} as in the header ({why})")
+        cells = _cells(path, number, line)
+        if len(cells) != n_columns:
+            _fail(path, number, _field_count_problem(line, len(cells), n_columns))
         reference.append(_parse_float(path, number, ref_col + 1, "reference_deg", cells[ref_col]))
         encoder.append(_parse_float(path, number, enc_col + 1, "encoder_deg", cells[enc_col]))
         if dir_col is not None:
@@ -287,6 +309,18 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     return cal
 
 
+def _field_count_problem(line, n_fields, n_columns):
+    """Why a row of ``n_fields`` fields does not fit a header of ``n_columns`` columns (a message)."""
+    fields = f"{n_fields} field" + ("s" if n_fields != 1 else "")
+    if n_fields > n_columns:
+        why = ("a decimal comma, or a value holding a comma that is not quoted? Name every extra column "
+               "in the header")
+    else:
+        separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
+        why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
+    return f"has {fields}, expected {n_columns} as in the header ({why})"
+
+
 def _warn_if_isolated(path, cal, line_numbers):
     """Warn about readings far off their neighbours on both sides (:mod:`encal.outliers`), per direction and epoch."""
     from .outliers import ISOLATION_FACTOR, isolated_points
@@ -320,7 +354,7 @@ def _resolution_from_comments(path, lines):
         stripped = line.strip().lstrip("#").strip().lower()
         if stripped.startswith("resolution_bits"):
             value = stripped.split(":", 1)[-1].split("=", 1)[-1].strip()
-            if value.isdigit() and 1 <= int(value) <= MAX_BITS:
+            if value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_BITS:  # not '²': int() refuses it
                 return int(value)
             _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
                                 f"{MAX_BITS}")
@@ -356,7 +390,7 @@ def _header_columns(path, line, header):
         if separator in header and "," not in header:
             _fail(path, line, f"fields are separated by {label}; expected commas "
                               "(save the file as comma-separated CSV)")
-    names = [cell.strip().strip('"').lower() for cell in _cells(header)]
+    names = [name.strip().lower() for name in _cells(path, line, header)]
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
@@ -539,10 +573,10 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
     with atomic_open(path, "w", newline="\n") as handle:
         for comment in comments:
             handle.write(f"# {comment}\n")
-        handle.write(",".join(columns) + "\n")
+        handle.write(_csv.join(columns) + "\n")
         cells = [[_cell(v) for v in values] for values in columns.values()]
         for row in zip(*cells):
-            handle.write(",".join(row) + "\n")
+            handle.write(_csv.join(row) + "\n")
 
 
 def _cell(value):

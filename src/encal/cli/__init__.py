@@ -5,8 +5,8 @@ Each command lives in a module ``cmd_<name>.py`` of this package with
 modules are found at start-up, so adding a command means adding a file.
 
 Exit status: 0 on success, 1 on bad data or a failed operation (one line on
-stderr, no traceback), 2 on wrong usage (argparse), 130 on Ctrl-C and 143 on
-SIGTERM (both clean up as a failure does).
+stderr, no traceback), 2 on wrong usage (argparse), 130 on Ctrl-C, 143 on
+SIGTERM and 129 on SIGHUP (all clean up as a failure does; see :mod:`encal._signals`).
 """
 
 import os
@@ -18,12 +18,13 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import importlib  # noqa: E402
 import pkgutil  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
-import threading  # noqa: E402
 
+from .. import _signals
 from .._version import __version__
 from ..errors import EncalError
 
@@ -58,54 +59,86 @@ def build_parser():
 
 def main(argv=None):
     """Run the command line; returns the exit status."""
-    parser = build_parser()
-    args, extras = parser.parse_known_args(argv)
-    if extras:
-        # argparse binds an optional positional (`encal correct MODEL [FILE]`) before it sees later options,
-        # so `encal correct M.json --skip-bad FILE` leaves FILE over; a command may claim such leftovers.
-        claim = getattr(args, "_claim_extras", None)
-        if claim is None or not claim(args, extras):
-            parser.error(f"unrecognized arguments: {' '.join(extras)}")
-    if args.command is None:
-        parser.print_help(sys.stderr)
-        return 2
-    from ._common import warnings_as_lines
-
-    previous = _terminate_like_interrupt()
+    command = None
+    restore = _signals.install()
+    stderr = sys.stderr
+    if stderr is None:
+        # Started with stderr closed (`2>&-`): argparse and print(file=None) would write messages to stdout,
+        # into the data. They go nowhere instead.
+        sys.stderr = open(os.devnull, "w", encoding="utf-8")  # noqa: SIM115 (closed below)
     try:
-        with warnings_as_lines(args.command):
+        _prepare_process()
+        from ._common import check_environment, output_that_may_close, warnings_as_lines
+
+        check_environment()
+        parser = build_parser()
+        args, extras = parser.parse_known_args(argv)
+        if extras:
+            # argparse binds an optional positional (`encal correct MODEL [FILE]`) before it sees later options,
+            # so `encal correct M.json --skip-bad FILE` leaves FILE over; a command may claim such leftovers.
+            claim = getattr(args, "_claim_extras", None)
+            if claim is None or not claim(args, extras):
+                parser.error(f"unrecognized arguments: {' '.join(extras)}")
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return 2
+        command = args.command
+        with warnings_as_lines(command), output_that_may_close(command):
             return int(args._run(args) or 0)
     except EncalError as exc:
-        print(f"encal {args.command}: error: {exc}", file=sys.stderr)
+        _say(f"{_prefix(command)}: error: {exc}")
         return 1
     except BrokenPipeError:
         return 0
     except OSError as exc:
         where = f"{exc.filename}: " if getattr(exc, "filename", None) else ""
-        print(f"encal {args.command}: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        _say(f"{_prefix(command)}: error: {where}{exc.strerror or exc}")
         return 1
     except KeyboardInterrupt as exc:
-        print(f"encal {args.command}: {'terminated' if isinstance(exc, _Terminated) else 'interrupted'}",
-              file=sys.stderr)
-        return 143 if isinstance(exc, _Terminated) else 130
+        what = "interrupted" if not isinstance(exc, _signals.Terminated) else (
+            "hung up" if exc.signum == getattr(signal, "SIGHUP", None) else "terminated")
+        _say(f"{_prefix(command)}: {what}")
+        return _signals.exit_status(exc)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        restore()
+        if stderr is None:
+            sys.stderr.close()
+            sys.stderr = None
 
 
-class _Terminated(KeyboardInterrupt):
-    """SIGTERM (``kill``, ``timeout``, a CI runner), handled as Ctrl-C: temporary files removed, workers stopped."""
+def _prefix(command):
+    return "encal" if command is None else f"encal {command}"
 
 
-def _raise_terminated(signum, frame):
-    raise _Terminated()
+def _say(line):
+    """Print one line on stderr (never on stdout: see main)."""
+    with contextlib.suppress(OSError, ValueError):
+        print(line, file=sys.stderr)
 
 
-def _terminate_like_interrupt():
-    """Make SIGTERM raise :class:`_Terminated` while a command runs; return the handler to restore, or None."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    return signal.signal(signal.SIGTERM, _raise_terminated)
+def _prepare_process():
+    """Make standard streams and the environment safe for any command (run before the commands are imported).
+
+    - A standard stream the process was started without (``2>&-``) gets /dev/null, so that no file
+      encal opens, nor a worker process, takes its number and receives what was meant for it.
+    - Text that the streams' encoding cannot hold (``PYTHONIOENCODING=ascii``) is escaped, not fatal.
+    - encal draws its figures on Matplotlib canvases for files and never opens a window, so
+      ``MPLBACKEND`` cannot change its output, but an invalid one stops Matplotlib's import: it is
+      replaced with ``agg`` for encal and its worker processes.
+    """
+    for number, mode in ((0, os.O_RDONLY), (1, os.O_WRONLY), (2, os.O_WRONLY)):
+        try:
+            os.fstat(number)
+        except OSError:
+            descriptor = os.open(os.devnull, mode)
+            if descriptor != number:
+                os.dup2(descriptor, number)
+                os.close(descriptor)
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(AttributeError, ValueError, OSError):
+            stream.reconfigure(errors="backslashreplace")
+    if "MPLBACKEND" in os.environ:
+        os.environ["MPLBACKEND"] = "agg"
 
 
 if __name__ == "__main__":  # pragma: no cover

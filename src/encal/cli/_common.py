@@ -2,13 +2,14 @@
 
 import contextlib
 import json
+import os
 import sys
 import warnings
 
 from ..errors import EncalWarning
 
 __all__ = ["add_calibration_options", "read_calibration_from_args", "positive_int", "print_json",
-           "warnings_as_lines"]
+           "warnings_as_lines", "check_environment", "output_that_may_close"]
 
 
 def add_calibration_options(parser):
@@ -76,6 +77,8 @@ def warnings_as_lines(command, stream=None):
         shown = warnings.showwarning
 
         def show(message, category, filename, lineno, file=None, line=None):
+            if stream is None:  # stderr closed: print(file=None) would write into the data on stdout
+                return
             if issubclass(category, EncalWarning):
                 print(f"encal {command}: warning: {message}", file=stream)
             else:
@@ -83,3 +86,68 @@ def warnings_as_lines(command, stream=None):
 
         warnings.showwarning = show
         yield
+
+
+def check_environment():
+    """Refuse, in one sentence, environment variables that would make a command fail or write wrong data.
+
+    ``SOURCE_DATE_EPOCH`` is checked before anything reads it (SciPy's import reads it, and a malformed
+    value stopped every command with a traceback).
+    """
+    from .._environment import source_date_epoch
+
+    source_date_epoch()
+
+
+class _ForgivingStdout:
+    """Standard output that stops writing, without failing, once its reader has gone away.
+
+    Used for commands whose product is files (``demo``, ``study --out``, ``fit``): a reader that
+    stops early (``encal demo | head``) must not stop the work half-way. ``encal correct``, whose
+    product is stdout, writes to ``sys.stdout.buffer`` and stops at a broken pipe itself.
+    """
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.broken = False
+
+    def write(self, text):
+        if not self.broken:
+            try:
+                return self._stream.write(text)
+            except BrokenPipeError:
+                self._discard()
+        return len(text)
+
+    def flush(self):
+        if not self.broken:
+            try:
+                self._stream.flush()
+            except BrokenPipeError:
+                self._discard()
+
+    def _discard(self):
+        self.broken = True
+        # What is still buffered would fail again when Python flushes stdout at exit.
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self._stream.fileno())
+            os.close(devnull)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def output_that_may_close(command):
+    """Run a command with a standard output whose early closing does not stop it (except ``correct``)."""
+    if command == "correct" or sys.stdout is None:
+        yield
+        return
+    original = sys.stdout
+    sys.stdout = _ForgivingStdout(original)
+    try:
+        yield
+        sys.stdout.flush()
+    finally:
+        sys.stdout = original

@@ -11,12 +11,12 @@ import contextlib
 import datetime
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 
 from .._atomic import atomic_write
+from .._environment import source_date_epoch
 from .._version import __version__
 from ..errors import InputError, ModelFileError
 from ..models import Model, kind_names, model_kind
@@ -242,13 +242,8 @@ def _without_timings(data):
 
 def _fixed_date(reproducible):
     """The date to write when builds must be reproducible, else None."""
-    epoch = os.environ.get("SOURCE_DATE_EPOCH")
-    if epoch is not None:
-        try:
-            seconds = int(epoch)
-        except ValueError:
-            raise InputError(f"expected SOURCE_DATE_EPOCH to be an integer number of seconds, "
-                             f"got {epoch!r}") from None
+    seconds = source_date_epoch()
+    if seconds is not None:
         return _utc_iso(datetime.datetime.fromtimestamp(seconds, datetime.UTC))
     return _REPRODUCIBLE_DATE if reproducible else None
 

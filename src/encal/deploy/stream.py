@@ -14,6 +14,7 @@ read, so the corrector can sit in a live acquisition chain.
 
 import numpy as np
 
+from .. import _csv
 from ..errors import InputError
 
 __all__ = ["correct_stream", "BLOCK_BYTES", "MAX_LINE_BYTES"]
@@ -22,7 +23,7 @@ __all__ = ["correct_stream", "BLOCK_BYTES", "MAX_LINE_BYTES"]
 BLOCK_BYTES = 1 << 16
 #: Longest line accepted, in bytes: bounds the memory when no newline comes.
 MAX_LINE_BYTES = 1 << 16
-_HEADER_COLUMN = b"encoder_deg"
+_HEADER_COLUMN = "encoder_deg"
 
 
 def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None):
@@ -93,13 +94,18 @@ def _format(values):
 
 
 class _LineParser:
-    """Turns blocks of lines into angles, remembering line numbers and the header."""
+    """Turns blocks of lines into angles, remembering line numbers and the header.
+
+    Lines are read in encal's one CSV dialect (:mod:`encal._csv`): ``#`` comments, quoted fields,
+    and every row of a CSV table with as many fields as its header.
+    """
 
     def __init__(self, skip_bad, name):
         self.skip_bad = skip_bad
         self.name = name
         self.line_number = 0
         self.column = None  # None: no data line seen yet; -1: one angle per line
+        self.n_fields = 1  # fields of every row: the header's
 
     def parse(self, lines):
         """Angles of the complete ``lines``, and the error to raise after writing them (or None)."""
@@ -111,57 +117,83 @@ class _LineParser:
         return self._slow(lines)
 
     def _fast(self, lines):
-        # The common case of a block: every line a finite number; else None.
+        # The common case of a block: every line a finite number (in the column) and no quotes; else None.
         try:
             if self.column < 0:
                 values = np.array([float(line) for line in lines])
             else:
-                values = np.array([float(line.split(b",")[self.column]) for line in lines])
-        except (ValueError, IndexError):
+                rows = [line.split(b",") for line in lines]
+                if any(len(row) != self.n_fields or b'"' in line for row, line in zip(rows, lines)):
+                    return None
+                values = np.array([float(row[self.column]) for row in rows])
+        except ValueError:
             return None
         return values if np.all(np.isfinite(values)) else None
 
     def _slow(self, lines):
         values = []
-        for line in lines:
-            self.line_number += 1
-            text = line.strip()
-            if self.line_number == 1:
-                text = text.removeprefix(b"\xef\xbb\xbf").strip()
-            if not text or text.startswith(b"#"):
+        for text in self._texts(lines):
+            if _csv.is_skipped(text):
                 continue
             if self.column is None and self._is_header(text):
                 continue
             if self.column is None:
                 self.column = -1
-            value = self._value(text)
+            value, problem = self._value(text)
             if value is None:
                 if not self.skip_bad:
-                    return np.array(values), self._error(text)
+                    return np.array(values), self._error(text, problem)
                 value = np.nan
             values.append(value)
         return np.array(values), None
 
+    def _texts(self, lines):
+        """The text of each line (split at LF), counting line numbers; a CR alone also ends a line."""
+        for line in lines:
+            text = line.decode("utf-8", "replace")
+            if self.line_number == 0:
+                text = text.removeprefix("\ufeff")
+            for part in (_csv.split_lines(text) if "\r" in text else [text]) or [""]:
+                self.line_number += 1
+                yield part
+
     def _is_header(self, text):
-        fields = [field.strip().strip(b'"').lower() for field in text.split(b",")]
-        if _HEADER_COLUMN in fields:
-            self.column = fields.index(_HEADER_COLUMN)
+        try:
+            names = _csv.column_names(text)
+        except _csv.QuotingError:
+            return False
+        if _HEADER_COLUMN in names:
+            self.column = names.index(_HEADER_COLUMN)
+            self.n_fields = len(names)
             return True
         return False
 
     def _value(self, text):
+        """The angle of a data line, or None and what is wrong with it (None: not a finite number)."""
+        if self.column < 0:
+            field = text
+        else:
+            try:
+                cells = _csv.fields(text)
+            except _csv.QuotingError as exc:
+                return None, str(exc)
+            if len(cells) != self.n_fields:
+                count = f"{len(cells)} field" + ("s" if len(cells) != 1 else "")
+                return None, (f"it has {count}, not {self.n_fields} as in the header"
+                              + (" (a decimal comma?)" if len(cells) > self.n_fields else ""))
+            field = cells[self.column]
         try:
-            field = text if self.column < 0 else text.split(b",")[self.column]
             value = float(field)
-        except (ValueError, IndexError):
-            return None
-        return value if np.isfinite(value) else None
+        except ValueError:
+            return None, None
+        return (value, None) if np.isfinite(value) else (None, None)
 
-    def _error(self, text):
-        shown = text.decode("utf-8", "replace")
+    def _error(self, text, problem=None):
+        shown = text.strip()
         shown = shown if len(shown) <= 60 else shown[:57] + "..."
         expected = ("an encoder angle in degrees (one number per line, or a CSV header with "
                     "an encoder_deg column first)" if self.column < 0
                     else f"a finite number of degrees in column {self.column + 1} (encoder_deg)")
+        why = f"; {problem}" if problem else ""
         return InputError(f"line {self.line_number} of {self.name}: expected {expected}, "
-                          f"got {shown!r}")
+                          f"got {shown!r}{why}")

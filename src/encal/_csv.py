@@ -1,0 +1,106 @@
+"""The one CSV dialect of every file encal reads or writes.
+
+- UTF-8 text; a byte-order mark at the start is ignored.
+- Lines end with LF, CRLF or CR, and nothing else: a form feed, a vertical tab or a Unicode line
+  separator (U+2028) inside a line is part of that line (``str.splitlines`` would split there and
+  shift every later line number).
+- A line whose first non-blank character is ``#`` is a comment; blank lines are skipped.
+- Fields are separated by commas. A field may be quoted with double quotes (RFC 4180): it may then
+  hold commas, and a doubled quote stands for one; spaces before the opening quote are ignored. A
+  quoted field does not span lines.
+- Column names are compared without surrounding spaces and without regard to letter case.
+- Every data row has exactly as many fields as the header: a row with more fields is a decimal
+  comma (``98,03``) or a shifted row, one with fewer a truncated file. Extra columns are named in
+  the header.
+
+Writers quote a field only when it needs it (it holds a comma, a quote, a line break or surrounding
+spaces), so a file written by encal reads back with the same fields.
+"""
+
+import re
+
+__all__ = ["split_lines", "is_skipped", "fields", "column_names", "quote", "join", "QuotingError"]
+
+_LINE_END = re.compile(r"\r\n|\r|\n")
+_NEEDS_QUOTES = re.compile(r'[",\r\n]|^\s|\s$')
+
+
+class QuotingError(ValueError):
+    """A line whose double quotes are not balanced (an opening quote never closed, text after a closing one)."""
+
+
+def split_lines(text):
+    """The lines of ``text``, split at LF, CRLF or CR only (see the module docstring)."""
+    lines = _LINE_END.split(text)
+    if lines and lines[-1] == "":
+        lines.pop()  # the line end of the last line does not start another one
+    return lines
+
+
+def is_skipped(line):
+    """True for a blank line or a ``#`` comment."""
+    stripped = line.strip()
+    return not stripped or stripped.startswith("#")
+
+
+def fields(line):
+    """The fields of one line, unquoted (spaces around a quoted field are dropped, others kept).
+
+    Raises
+    ------
+    QuotingError
+        If a quoted field is not closed, or text other than spaces follows its closing quote.
+    """
+    if '"' not in line:
+        return line.split(",")
+    result, start, end = [], 0, len(line)
+    while True:
+        first = start
+        while first < end and line[first] in " \t":
+            first += 1
+        if first == end or line[first] != '"':
+            comma = line.find(",", start)
+            if comma < 0:
+                result.append(line[start:])
+                return result
+            result.append(line[start:comma])
+            start = comma + 1
+            continue
+        parts, at = [], first + 1
+        while True:
+            closing = line.find('"', at)
+            if closing < 0:
+                raise QuotingError(f"the quoted field starting at character {first + 1} is not closed")
+            parts.append(line[at:closing])
+            if line.startswith('"', closing + 1):  # a doubled quote stands for one
+                parts.append('"')
+                at = closing + 2
+                continue
+            break
+        after = closing + 1
+        while after < end and line[after] in " \t":
+            after += 1
+        if after < end and line[after] != ",":
+            raise QuotingError(f"text follows the closing quote at character {closing + 1}; expected a comma")
+        result.append("".join(parts))
+        if after == end:
+            return result
+        start = after + 1
+
+
+def column_names(line):
+    """The header's column names: stripped and lower-case."""
+    return [name.strip().lower() for name in fields(line)]
+
+
+def quote(value):
+    """``value`` (text) as one field: quoted only if it needs it."""
+    text = str(value)
+    if _NEEDS_QUOTES.search(text):
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def join(values):
+    """One line of fields (without its line end)."""
+    return ",".join(quote(value) for value in values)

@@ -1,0 +1,302 @@
+"""Signals, closed streams and hostile environments: what a command leaves behind (issue 17, items 3, 5-7,
+9, 11, 13).
+
+Signals sent at a moment that depends on the machine's speed are judged by a verdict that does not:
+whatever the moment, the output ends with a whole line, a set of files is all there or not at all,
+no temporary file is left, and the exit status is the signal's.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from encal import _atomic, _signals
+from encal.cli import main
+from encal.models.fourier import FourierModel
+
+from conftest import grid_csv
+
+PYTHON = [sys.executable, "-m", "encal"]
+
+
+def _temporaries(folder):
+    return sorted(p.name for p in Path(folder).rglob("*.tmp"))
+
+
+@pytest.fixture
+def calibration(tmp_path):
+    path = tmp_path / "cal.csv"
+    path.write_text(grid_csv())
+    return path
+
+
+# ------------------------------------------------------------------ item 3: whole lines into a pipe
+
+@pytest.fixture(scope="module")
+def stream_files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("stream")
+    model = FourierModel([0, 1], [30.0, 1.0], [0.0, 0.7])
+    model.save(folder / "m.json")
+    angles = np.random.default_rng(1).uniform(0.0, 360.0, 300_000)
+    (folder / "in.txt").write_text("".join(f"{v!r}\n" for v in angles.tolist()))
+    expected = [repr(v) for v in model.correct(angles).tolist()]
+    return folder, expected
+
+
+@pytest.mark.parametrize("signum, delay_s", [
+    (signal.SIGTERM, 0.05), (signal.SIGTERM, 0.11), (signal.SIGTERM, 0.17),
+    (signal.SIGINT, 0.08), (signal.SIGINT, 0.14), (signal.SIGHUP, 0.1),
+])
+def test_a_signal_while_correct_writes_into_a_slow_pipe_leaves_whole_lines(stream_files, signum, delay_s):
+    """A slow reader keeps `correct` inside its writes, so the signal lands in one (the old code cut the
+    line it was writing about every second time)."""
+    folder, expected = stream_files
+    chunks = []
+    with subprocess.Popen([*PYTHON, "correct", "m.json", "in.txt"], cwd=folder, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE) as process:
+
+        def read_slowly():
+            while chunk := os.read(process.stdout.fileno(), 700):
+                chunks.append(chunk)
+                time.sleep(0.0005)
+
+        reader = threading.Thread(target=read_slowly)
+        reader.start()
+        while not chunks and process.poll() is None:
+            time.sleep(0.001)
+        time.sleep(delay_s)
+        process.send_signal(signum)
+        reader.join(timeout=120)
+        stderr = process.stderr.read().decode()
+        process.wait(timeout=120)
+    out = b"".join(chunks).decode()
+    assert process.returncode == 128 + signum, stderr
+    assert "Traceback" not in stderr
+    lines = out.split("\n")
+    assert lines[-1] == "", f"the output ends with a cut line: {lines[-1]!r}"
+    assert 0 < len(lines) - 1 < len(expected)
+    assert lines[:-1] == expected[:len(lines) - 1]
+
+
+# ------------------------------------------------------------------ items 5 and 11: held steps
+
+def _kill_self_on_call(function, call, signum=signal.SIGTERM):
+    """``function`` that sends ``signum`` to this process right after its ``call``-th call."""
+    calls = []
+
+    def wrapper(*args, **kwargs):
+        result = function(*args, **kwargs)
+        calls.append(1)
+        if len(calls) == call:
+            os.kill(os.getpid(), signum)
+        return result
+
+    return wrapper
+
+
+def test_sigterm_during_the_renames_of_a_set_leaves_all_files(tmp_path, monkeypatch):
+    monkeypatch.setattr(_atomic.os, "replace", _kill_self_on_call(os.replace, 10))
+    restore = _signals.install()
+    try:
+        with pytest.raises(_signals.Terminated):
+            with _atomic.atomic_file_set():
+                for i in range(60):
+                    _atomic.atomic_write(tmp_path / f"f{i}.txt", f"{i}\n")
+    finally:
+        restore()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(f"f{i}.txt" for i in range(60))
+
+
+def test_sigterm_during_the_clean_up_of_a_failed_set_leaves_nothing(tmp_path, monkeypatch):
+    monkeypatch.setattr(_atomic.os, "unlink", _kill_self_on_call(os.unlink, 3))
+    restore = _signals.install()
+    try:
+        with pytest.raises(_signals.Terminated):
+            with _atomic.atomic_file_set():
+                for i in range(20):
+                    _atomic.atomic_write(tmp_path / f"f{i}.txt", f"{i}\n")
+                raise RuntimeError("fails after writing")
+    finally:
+        restore()
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("signum, status", [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
+def test_a_signal_right_after_the_temporary_file_is_made_leaves_nothing(calibration, tmp_path, monkeypatch,
+                                                                        capsys, signum, status):
+    monkeypatch.setattr(_atomic.tempfile, "mkstemp", _kill_self_on_call(_atomic.tempfile.mkstemp, 1, signum))
+    assert main(["fit", str(calibration), "-o", str(tmp_path / "m.json"), "--method", "fourier"]) == status
+    assert _temporaries(tmp_path) == [] and not (tmp_path / "m.json").exists()
+    assert capsys.readouterr().err.strip().endswith(("terminated", "interrupted"))
+
+
+# ------------------------------------------------------------------ item 7: SIGHUP
+
+_HANG_UP_WHILE_SAVING = """
+import os, signal, sys
+from encal import _atomic
+from encal.cli import main
+fsync = os.fsync
+def hang_up(fd):
+    fsync(fd)
+    os.kill(os.getpid(), signal.SIGHUP)
+_atomic.os.fsync = hang_up
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sighup_while_saving_is_handled_like_sigterm(calibration, tmp_path):
+    process = subprocess.run([sys.executable, "-c", _HANG_UP_WHILE_SAVING, "fit", str(calibration), "-o",
+                              str(tmp_path / "m.json"), "--method", "fourier"], capture_output=True, text=True,
+                             timeout=120)
+    assert process.returncode == 129, process.stderr
+    assert process.stderr.strip() == "encal fit: hung up"
+    assert _temporaries(tmp_path) == [] and not (tmp_path / "m.json").exists()
+
+
+def test_a_signal_ignored_at_start_stays_ignored():
+    previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    try:
+        restore = _signals.install()
+        assert signal.getsignal(signal.SIGHUP) == signal.SIG_IGN
+        restore()
+    finally:
+        signal.signal(signal.SIGHUP, previous)
+
+
+def test_held_acts_on_a_second_signal_at_once():
+    restore = _signals.install()
+    reached = []
+    try:
+        with pytest.raises(_signals.Terminated):
+            with _signals.held():
+                os.kill(os.getpid(), signal.SIGTERM)
+                reached.append("after the first")
+                os.kill(os.getpid(), signal.SIGTERM)
+                reached.append("after the second")
+    finally:
+        restore()
+    assert reached == ["after the first"]
+
+
+# ------------------------------------------------------------------ item 6: stdout closed early
+
+def test_study_out_finishes_its_files_when_stdout_closes_early(calibration, tmp_path):
+    out = tmp_path / "study"
+    with subprocess.Popen([*PYTHON, "study", "prune", str(calibration), "--hidden", "3", "--epochs", "2",
+                           "--out", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE) as process:
+        process.stdout.close()  # the reader is gone before the first line (`| head -c 0`)
+        stderr = process.stderr.read().decode()
+        assert process.wait(timeout=300) == 0, stderr
+    assert stderr == ""
+    assert any(out.glob("*.csv")) and any(out.glob("*.png"))
+    assert _temporaries(out) == []
+
+
+def test_profile_exits_quietly_when_stdout_closes_early(calibration):
+    with subprocess.Popen([*PYTHON, "profile", str(calibration)], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE) as process:
+        process.stdout.close()
+        stderr = process.stderr.read().decode()
+        assert process.wait(timeout=120) == 0 and stderr == ""
+
+
+# ------------------------------------------------------------------ item 9: stderr closed
+
+def _without_stderr(argv, **options):
+    return subprocess.run([*PYTHON, *argv], capture_output=False, stdout=subprocess.PIPE,
+                          preexec_fn=lambda: os.close(2), timeout=120, **options)
+
+
+@pytest.mark.parametrize("argv, status", [
+    (["profile", "missing.csv"], 1),
+    (["profile", "--bogus"], 2),
+    ([], 2),
+    (["fit", "{cal}", "-o", "m.json", "--method", "spline"], 2),
+])
+def test_with_stderr_closed_messages_never_reach_stdout(calibration, argv, status):
+    process = _without_stderr([part.format(cal=calibration) for part in argv], cwd=calibration.parent)
+    assert process.returncode == status
+    assert process.stdout == b""
+
+
+def test_with_stderr_closed_a_warning_stays_out_of_the_data(tmp_path):
+    ref = np.arange(0.0, 360.0, 2.0)
+    text = "reference_deg,encoder_deg\n" + "".join(f"{float(r)!r},{float(r)!r}\n" for r in np.radians(ref))
+    (tmp_path / "rad.csv").write_text(text)
+    process = _without_stderr(["profile", "rad.csv", "--allow-gaps", "--json"], cwd=tmp_path)
+    assert process.returncode == 0
+    assert process.stdout.decode().lstrip().startswith("{") and b"warning" not in process.stdout
+
+
+def test_with_stderr_closed_no_file_takes_its_place(calibration, tmp_path):
+    """A file opened while descriptor 2 is free would take that number; nothing may write into it."""
+    process = _without_stderr(["fit", str(calibration), "-o", str(tmp_path / "m.json"), "--method", "spline"])
+    assert process.returncode == 2 and not (tmp_path / "m.json").exists()
+
+
+# ------------------------------------------------------------------ item 13: one sentence, not a traceback
+
+@pytest.mark.parametrize("value", ["abc", "-99999999999", "1e9", "", "99999999999999", "１２"])
+def test_a_malformed_source_date_epoch_is_one_sentence(calibration, tmp_path, value):
+    process = subprocess.run([*PYTHON, "profile", str(calibration)], capture_output=True, text=True,
+                             env={**os.environ, "SOURCE_DATE_EPOCH": value}, timeout=120)
+    assert process.returncode == 1
+    assert process.stderr.startswith("encal: error: expected SOURCE_DATE_EPOCH") and "Traceback" not in process.stderr
+    assert process.stderr.count("\n") == 1
+
+
+def test_a_good_source_date_epoch_fixes_the_date(calibration, tmp_path, monkeypatch):
+    monkeypatch.setenv("SOURCE_DATE_EPOCH", " 86400 ")
+    assert main(["fit", str(calibration), "-o", str(tmp_path / "m.json"), "--method", "fourier"]) == 0
+    assert '"date": "1970-01-02T00:00:00Z"' in (tmp_path / "m.json").read_text()
+
+
+def test_an_invalid_mplbackend_does_not_stop_a_command_that_draws(calibration, tmp_path):
+    out = tmp_path / "study"
+    process = subprocess.run([*PYTHON, "study", "prune", str(calibration), "--hidden", "3", "--epochs", "2",
+                              "--out", str(out)], capture_output=True, text=True, timeout=300,
+                             env={**os.environ, "MPLBACKEND": "bogus"})
+    assert process.returncode == 0, process.stderr
+    assert any(out.glob("*.png"))
+
+
+@pytest.mark.parametrize("argv", [
+    ["drift", "{cal}", "{cal}"],
+    ["fit", "{cal}", "-o", "{out}/m.json", "--method", "ann", "--hidden", "3", "--epochs", "3"],
+    ["profile", "{cal}"],
+])
+def test_an_ascii_only_output_encoding_is_not_fatal(calibration, tmp_path, argv):
+    argv = [part.format(cal=calibration, out=tmp_path) for part in argv]
+    process = subprocess.run([*PYTHON, *argv], capture_output=True, timeout=300,
+                             env={**os.environ, "PYTHONIOENCODING": "ascii"})
+    assert process.returncode == 0, process.stderr
+    assert b"Traceback" not in process.stderr
+    process.stdout.decode("ascii")
+
+
+def test_ctrl_c_while_the_commands_are_imported(monkeypatch, capsys):
+    import encal.cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(encal.cli, "build_parser", interrupted)
+    assert main(["profile", "x.csv"]) == 130
+    assert capsys.readouterr().err == "encal: interrupted\n"
+
+
+@pytest.mark.parametrize("device, why", [("/dev/zero", "NUL"), ("/dev/urandom", "UTF-8")])
+def test_an_endless_device_is_refused_at_once(device, why):
+    if not Path(device).exists():
+        pytest.skip(f"{device} does not exist here")
+    process = subprocess.run([*PYTHON, "profile", device], capture_output=True, text=True, timeout=120)
+    assert process.returncode == 1
+    assert process.stderr.startswith(f"encal profile: error: {device}, line ") and why in process.stderr
