@@ -19,7 +19,7 @@ See docs/self-calibration.md.
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import int_in_range, positive_int
+from ._common import add_calibration_options, int_in_range, positive_int
 
 HELP = "calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps"
 
@@ -51,6 +51,7 @@ def add_arguments(parser):
                        help="full steps between the two calibrations' starts, if known")
     steps.add_argument("--stepper-csv", metavar="FILE",
                        help="also write the stepper's error at each full step (two calibrations)")
+    add_calibration_options(steps)
     for sub, default in ((spin, 32), (sweep, 32), (steps, 16)):
         sub.add_argument("-o", "--output", required=True, metavar="CAL.csv", help="calibration CSV to write")
         sub.add_argument("--max-order", type=int_in_range(1, 180), default=default, metavar="K",
