@@ -98,3 +98,11 @@ def test_three_speeds_check_the_inverse_square_law(damped):
         assert law > 10 and "do not follow the 1/speed^2 law" in result.confounded
     else:
         assert law < 3 and "do not follow" not in result.confounded
+
+
+def test_the_result_type_is_public():
+    import encal
+    import encal.selfcal
+
+    assert encal.SelfCalibration is encal.selfcal.SelfCalibration
+    assert {"spin", "sweep", "steps", "read_moteus_capture"} <= set(encal.selfcal.__all__)

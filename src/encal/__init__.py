@@ -25,6 +25,7 @@ _PUBLIC = {
     "compare_models": "studies", "reproducibility": "studies",
     "demo_fleet": "simulate", "simulate_fleet": "simulate", "measurement_floor": "simulate",
     "save_model": "deploy", "load_model": "deploy", "Compensator": "deploy",
+    "SelfCalibration": "selfcal",
     "EncalError": "errors", "CalibrationError": "errors", "ModelFileError": "errors",
     "InputError": "errors", "EncalWarning": "errors",
 }
