@@ -65,13 +65,15 @@ def test_moteus_round_trip(kind):
     cpr = 65536
     offset_value = np.arange(cpr, dtype=np.float32)
     revolutions = moteus_lerp(table, np.float32(scale) / np.float32(127.0), offset_value * np.float32(1.0 / cpr))
-    gap = np.abs(revolutions.astype(float) * 21600.0 - correction_arcmin(comp, np.arange(cpr) * 360.0 / cpr))
+    gap = np.abs(revolutions.astype(float) * 21600.0 + out.offset_arcmin
+                 - correction_arcmin(comp, np.arange(cpr) * 360.0 / cpr))
     assert gap.max() <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
     # the error is the int8 rounding plus 256-node interpolation; rounding alone is at most half a step
     assert out.quantisation_arcmin == pytest.approx(0.5 * scale / 127 * 21600)
     reread = read_moteus_conf(out.text)
     theta = np.arange(0, 360, 0.25)
-    assert np.max(np.abs(reread.predict(theta) - comp.predict(theta))) <= out.max_error_arcmin + 1e-6
+    assert np.max(np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))) \
+        <= out.max_error_arcmin + 1e-6
 
 
 def test_moteus_rounds_rather_than_truncates():
@@ -159,11 +161,11 @@ def test_simplefoc_round_trip(kind):
     codes = np.arange(65536)
     raw = (codes * (2 * np.pi / 65536)).astype(np.float32)
     offset_arcmin = np.degrees(simplefoc_offset(lut, raw).astype(float)) * 60
-    gap = np.abs(offset_arcmin - correction_arcmin(comp, codes * 360.0 / 65536))
+    gap = np.abs(offset_arcmin + out.offset_arcmin - correction_arcmin(comp, codes * 360.0 / 65536))
     assert gap.max() <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
     reread = read_simplefoc(out.text)
     theta = np.arange(0, 360, 0.5)
-    assert np.max(np.abs(reread.predict(theta) - comp.predict(theta))) <= out.max_error_arcmin + 1e-5
+    assert np.max(np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))) <= out.max_error_arcmin + 1e-5
 
 
 # -- Klipper: klippy/extras/angle.py ----------------------------------------------------------------------
@@ -276,11 +278,11 @@ def test_tinymovr_round_trip(kind):
     assert table.size == 64 and "int16_t rec_table[64]" in out.text
     angles = np.arange(1 << 13)
     rectified = tinymovr_rectified(table, angles, 13)
-    gap = np.abs((rectified - angles) * (21600 / 8192) - correction_arcmin(comp, angles * 360 / 8192))
+    gap = np.abs((rectified - angles) * (21600 / 8192) + out.offset_arcmin - correction_arcmin(comp, angles * 360 / 8192))
     assert gap.max() <= out.max_error_arcmin + 1e-9
     reread = read_tinymovr(out.text, bits=13)
     theta = np.arange(0, 360, 0.5)
-    assert np.max(np.abs(reread.predict(theta) - comp.predict(theta))) <= out.max_error_arcmin + 1e-6
+    assert np.max(np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))) <= out.max_error_arcmin + 1e-6
 
 
 def test_reading_sign_flips_the_correction():
@@ -293,3 +295,13 @@ def test_reading_sign_flips_the_correction():
     # the firmware adds +error in the reading's own sense when the encoder counts against the reference
     assert np.max(np.abs(b.predict(theta) + Compensator(backward).predict(theta))) < 0.03
     assert np.max(np.abs(a.predict(theta) - Compensator(forward).predict(theta))) < 0.03
+
+
+def test_the_zero_offset_is_left_out_of_int8_tables():
+    """A reference with an arbitrary zero puts a large constant into the correction: it stays out of the table."""
+    comp = Compensator(FourierModel([0, 1, 2], [1500.0, 30.0, 10.0], [0.0, 5.0, -8.0],
+                                    encoder={"resolution_bits": 14}))
+    out = export_moteus(comp)
+    assert out.offset_arcmin == pytest.approx(-1500.0, abs=1e-6) and "left out" in out.describe()
+    # int8 steps of the 30-arcmin profile, not of 1500 arcmin
+    assert out.quantisation_arcmin < 0.5 * 45 / 127 and out.max_error_arcmin < 0.5  # the profile peaks below 45

@@ -32,6 +32,10 @@ class FirmwareExport:
     codes : int
     note : str
         What the format cannot hold, or how to load it.
+    offset_arcmin : float
+        A constant left out of the table (the mean correction: the reference's arbitrary zero, as
+        the firmware's own calibration leaves it out); the round trip is against the correction
+        minus it. Set it as the firmware's zero offset if the absolute angle matters.
     """
 
     firmware: str
@@ -41,12 +45,16 @@ class FirmwareExport:
     quantisation_arcmin: float
     codes: int
     note: str = ""
+    offset_arcmin: float = 0.0
 
     def describe(self):
+        offset = "" if self.offset_arcmin == 0.0 else (
+            f"; a constant {self.offset_arcmin:.6g} arcmin (the mean correction, the reference's zero) is left "
+            "out of the table, as the firmware's own calibration leaves it out")
         return (f"{self.firmware}: round trip through its own run-time rule within max "
                 f"{self.max_error_arcmin:.3g}, RMS {self.rms_error_arcmin:.3g} arcmin of the model on all "
                 f"{self.codes} codes (storage rounding at most {self.quantisation_arcmin:.3g} arcmin)"
-                + (f"; {self.note}" if self.note else ""))
+                + offset + (f"; {self.note}" if self.note else ""))
 
 
 def compensator(model):
@@ -63,10 +71,16 @@ def correction_on_codes(comp, bits):
     return -comp.reading_sign * model_on_codes(comp, bits)
 
 
-def correction_nodes(comp, nodes, bits):
-    """Least-squares node values (arcmin) of a periodic linear interpolation of the correction."""
+def correction_nodes(comp, nodes, bits, *, remove_mean=True):
+    """Least-squares node values (arcmin) of a periodic linear interpolation of the correction.
+
+    Returns the node values, the correction on every code they stand for, and the constant
+    (its mean over the codes) taken out of both when ``remove_mean``.
+    """
     target = correction_on_codes(comp, bits)
-    return _least_squares_nodes(target, nodes), target
+    offset = float(np.mean(target)) if remove_mean else 0.0
+    target = target - offset
+    return _least_squares_nodes(target, nodes), target, offset
 
 
 def round_trip(deployed_arcmin, target_arcmin):

@@ -70,7 +70,7 @@ def export_moteus(model, *, source=0, bits=None):
         raise InputError(f"expected a moteus motor_position source 0, 1 or 2, got {source!r}")
     comp = compensator(model)
     grid = grid_bits(comp, bits)
-    nodes, target = correction_nodes(comp, NODES, grid)
+    nodes, target, offset = correction_nodes(comp, NODES, grid)
     revolutions = nodes / 21600.0
     scale = float(np.float32(np.max(np.abs(revolutions)))) or 1.0
     values = np.clip(np.rint(revolutions / scale * 127.0), -127, 127).astype(int)
@@ -82,7 +82,7 @@ def export_moteus(model, *, source=0, bits=None):
     lines.append(f"{prefix}.compensation_scale {scale:.9g}")
     note = "send the lines with moteus_tool --console (or tview), then 'conf write'"
     return FirmwareExport("moteus", "\n".join(lines) + "\n", max_error, rms_error,
-                          0.5 * scale / 127.0 * 21600.0, cpr, note)
+                          0.5 * scale / 127.0 * 21600.0, cpr, note, offset)
 
 
 _CONF = re.compile(r"^\s*(?:conf\s+set\s+)?motor_position\.sources\.(\d+)\.compensation_(table\.(\d+)|scale)\s+(\S+)\s*$")

@@ -44,7 +44,7 @@ def export_simplefoc(model, *, bits=None, nodes=NODES):
     """
     comp = compensator(model)
     grid = grid_bits(comp, bits)
-    values, target = correction_nodes(comp, nodes, grid)
+    values, target, offset = correction_nodes(comp, nodes, grid)
     lut = (np.radians(values / 60.0)).astype(np.float32)
     raw = (np.arange(2**grid) * (2.0 * np.pi / 2**grid)).astype(np.float32)
     deployed = np.degrees(simplefoc_rule(lut, raw).astype(float)) * 60.0
@@ -55,7 +55,7 @@ def export_simplefoc(model, *, bits=None, nodes=NODES):
             f"float calibrationLut[{nodes}] = {{\n    {rows}\n}};\n")
     note = f"copy into CalibratedSensor (n_lut = {nodes}) instead of running its calibrate()"
     return FirmwareExport("simplefoc", text, max_error, rms_error,
-                          float(np.max(np.abs(lut))) * 2.0**-24 * 10800.0 / np.pi, 2**grid, note)
+                          float(np.max(np.abs(lut))) * 2.0**-24 * 10800.0 / np.pi, 2**grid, note, offset)
 
 
 def read_simplefoc(source_text):

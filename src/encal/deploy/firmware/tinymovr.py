@@ -39,7 +39,7 @@ def export_tinymovr(model, *, bits=None):
                          f"got {bits!r}; pass bits= (--bits)")
     bits = int(bits)
     lsb = 21600.0 / 2**bits
-    values, target = correction_nodes(comp, NODES, bits)
+    values, target, offset = correction_nodes(comp, NODES, bits)
     table = np.rint(values / lsb).astype(np.int64)
     if np.max(np.abs(table)) > 32767:
         raise InputError(f"expected corrections within int16 ticks, got {int(np.max(np.abs(table)))}")
@@ -51,7 +51,7 @@ def export_tinymovr(model, *, bits=None):
             f"i << {bits - 6} */\nint16_t rec_table[{NODES}] = {{\n    {rows}\n}};\n")
     note = "the rounding to whole ticks and the 64-node interpolation are the format's; set rec_calibrated"
     # node rounding (half a tick) plus the floor of the interpolation (under one tick)
-    return FirmwareExport("tinymovr", text, max_error, rms_error, 1.5 * lsb, 2**bits, note)
+    return FirmwareExport("tinymovr", text, max_error, rms_error, 1.5 * lsb, 2**bits, note, offset)
 
 
 def read_tinymovr(source_text, *, bits):
