@@ -98,3 +98,12 @@ def test_bad_options():
         compile_compact(DATA / "model_v1_lut.json", 64, dtype="int32")
     with pytest.raises(InputError, match="positive tolerance"):
         choose_compact(DATA / "model_v1_lut.json", tolerance_arcmin=0.0)
+
+
+def test_a_large_constant_stays_out_of_the_integer_nodes():
+    """A reference with an arbitrary zero adds 1500 arcmin: int16 steps still resolve the 30-arcmin profile."""
+    model = FourierModel([0, 1, 5], [1500.0, 30.0, 4.0], [0.0, 10.0, -3.0], encoder={"resolution_bits": BITS})
+    table = compile_compact(model, 1024, dtype="int16", bits=BITS)
+    assert table.offset_arcmin == pytest.approx(1500.0, abs=1e-3)
+    assert table.scale_arcmin < 40.0 / 32767 * 2  # a unit fitted to the profile, not to 1530 arcmin
+    assert table.max_error_arcmin < 0.02 and table.fixed_max_error_arcmin < 0.02

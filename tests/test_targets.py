@@ -18,8 +18,7 @@ import numpy as np
 import pytest
 
 from encal.deploy import Compensator
-from encal.deploy.compact import (correction_bam, correction_lsb_q8, predict_float32_angle,
-                                  units_float32)
+from encal.deploy.compact import correction_bam, correction_lsb_q8, error_lsb_float32, predict_float32_angle
 from encal.deploy.series32 import fourier_float32, fourier_terms
 from encal.deploy.targets import export_target, write_target
 from encal.errors import InputError
@@ -100,16 +99,17 @@ def test_cortex_m4f_table_equals_its_python_rule_and_the_model_within_the_stated
     out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
     codes = np.arange(N)
     lsb = 21600.0 / N
-    expected_lsb = units_float32(table, codes, BITS) * np.float32(table.scale_arcmin / lsb)
+    expected_lsb = error_lsb_float32(table, codes, BITS)
     np.testing.assert_array_equal(out[:, 0], expected_lsb)
     np.testing.assert_array_equal(out[:, 1], (codes - np.floor(expected_lsb + np.float32(0.5))) % N)
     theta = codes.astype(np.float32) * np.float32(360.0 / N)
     np.testing.assert_array_equal(out[:, 2], predict_float32_angle(table, theta))
     deployed = out[:, 0].astype(float) * lsb
     error = np.abs(deployed - reference(kind))
-    assert error.max() <= summary["max_error_arcmin"] * (1 + 1e-6) + 1e-9
+    # stated for the arc-minute function; the LSB function rounds its constants differently (float32)
+    assert error.max() <= summary["max_error_arcmin"] + 1e-6
     assert summary["max_error_arcmin"] <= 0.1 * lsb  # the default tolerance, met for these models
-    assert math.isclose(np.sqrt(np.mean(error**2)), summary["rms_error_arcmin"], rel_tol=1e-6, abs_tol=1e-12)
+    assert math.isclose(np.sqrt(np.mean(error**2)), summary["rms_error_arcmin"], rel_tol=1e-4, abs_tol=1e-7)
     corrected = (theta.astype(float) - out[:, 2].astype(float) / 60.0) % 360.0
     gap = np.abs((out[:, 3].astype(float) - corrected + 180.0) % 360.0 - 180.0)
     assert gap.max() <= 2.0**-15  # float32 rounding of the returned angle
@@ -238,3 +238,17 @@ def test_an_encoder_counting_against_its_reference(tmp_path, target, form):
     code_column = 2 if target == "fixed" else 1
     code_gap = np.abs((out[:, code_column].astype(np.int64) - expected_code + N // 2) % N - N // 2)
     assert code_gap.max() <= 1 and np.mean(code_gap == 0) > 0.99
+
+
+@needs_gcc
+@pytest.mark.parametrize("target", ["cortex-m4f", "fixed"])
+def test_a_large_zero_offset(tmp_path, target):
+    model = FourierModel([0, 1, 5], [1500.0, 30.0, 4.0], [0.0, 10.0, -3.0], encoder={"resolution_bits": BITS})
+    _, summary = write_target(model, tmp_path, target, prefix="enc", bits=BITS, nodes=1024, dtype="int16")
+    if target == "fixed":
+        error = run_c(tmp_path, FIXED_DRIVER, np.int32)[:, 1] / 256.0 * (21600.0 / N)
+    else:
+        error = run_c(tmp_path, FLOAT_DRIVER, np.float32)[:, 0].astype(float) * (21600.0 / N)
+    truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
+    rounding = 2.0**-22 * np.max(np.abs(truth))  # float32 results near 1534 arcmin: ulps of 1.2e-4
+    assert np.max(np.abs(error - truth)) <= summary["max_error_arcmin"] + rounding < 0.03

@@ -31,6 +31,7 @@ from ..errors import InputError
 from .compensator import Compensator
 
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
+           "error_lsb_float32",
            "NODE_DTYPES", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
            "default_tolerance_arcmin", "evaluation_bits", "model_on_codes"]
 
@@ -64,6 +65,12 @@ class CompactTable:
     fixed_max_error_arcmin, fixed_rms_error_arcmin : float or None
         The same for the integer rule (integer tables only).
     model_sha256 : str or None
+    offset_arcmin : float
+        A constant added to every interpolated value (float32 rule; a float32 number): the
+        model's mean error, kept out of the nodes so that their int8/int16 steps resolve the
+        profile rather than a reference's arbitrary zero.
+    offset_bam : int
+        The same constant in units of a 32-bit binary angle (integer rule).
     """
 
     values: np.ndarray
@@ -74,6 +81,8 @@ class CompactTable:
     fixed_max_error_arcmin: float | None = None
     fixed_rms_error_arcmin: float | None = None
     model_sha256: str | None = None
+    offset_arcmin: float = 0.0
+    offset_bam: int = 0
 
     @property
     def nodes(self):
@@ -97,8 +106,8 @@ class CompactTable:
 
     @property
     def error_arcmin(self):
-        """Node values in arc-minutes (float64)."""
-        return self.values.astype(float) * self.scale_arcmin
+        """Node values in arc-minutes (float64), the offset included."""
+        return self.values.astype(float) * self.scale_arcmin + self.offset_arcmin
 
     def describe(self):
         """One line: nodes, storage, bytes and deployed error."""
@@ -156,7 +165,10 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
     if nodes > 2**grid:
         raise InputError(f"expected at most {2**grid} nodes for a {grid}-bit evaluation grid, got {nodes}")
     target = model_on_codes(comp, bits) if reference is None else reference
-    fitted = _least_squares_nodes(target, nodes)
+    mean = float(np.mean(target))
+    offsets = {"offset_arcmin": float(np.float32(mean)),
+               "offset_bam": int(np.clip(np.rint(mean / BAM_ARCMIN), -(2**31 - 1), 2**31 - 1))}
+    fitted = _least_squares_nodes(target - offsets["offset_arcmin"], nodes)
     if dtype == "float32":
         values, exponent = fitted.astype(np.float32), None
     else:
@@ -164,7 +176,7 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
         exponent = max(_scale_exponent(np.max(np.abs(fitted)) / BAM_ARCMIN, _INT_LIMIT[dtype]),
                        FIXED_FRACTION_BITS - 30)
         values = np.rint(fitted / math.ldexp(BAM_ARCMIN, exponent)).astype(dtype)
-    table = CompactTable(values, exponent, bits, 0.0, 0.0, model_sha256=comp.sha256)
+    table = CompactTable(values, exponent, bits, 0.0, 0.0, **offsets)
     codes = np.arange(2**grid, dtype=np.int64)
     deployed = predict_float32(table, codes, grid).astype(float)
     stats = {"max_error_arcmin": float(np.max(np.abs(deployed - target))),
@@ -173,7 +185,7 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
         fixed = predict_fixed(table, codes, grid)
         stats.update(fixed_max_error_arcmin=float(np.max(np.abs(fixed - target))),
                      fixed_rms_error_arcmin=float(np.sqrt(np.mean((fixed - target) ** 2))))
-    return CompactTable(values, exponent, bits, model_sha256=comp.sha256, **stats)
+    return CompactTable(values, exponent, bits, model_sha256=comp.sha256, **stats, **offsets)
 
 
 def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dtypes=NODE_DTYPES,
@@ -309,8 +321,15 @@ def units_float32(table, codes, bits):
 
 
 def predict_float32(table, codes, bits):
-    """The float32 rule: error in arcmin (float32) at codes, ``units * scale_arcmin``."""
-    return units_float32(table, codes, bits) * np.float32(table.scale_arcmin)
+    """The float32 rule: error in arcmin (float32) at codes, ``units * scale_arcmin + offset_arcmin``."""
+    return units_float32(table, codes, bits) * np.float32(table.scale_arcmin) + np.float32(table.offset_arcmin)
+
+
+def error_lsb_float32(table, codes, bits):
+    """The float32 rule's error in LSB at codes: ``units * scale_lsb + offset_lsb`` (float32 constants)."""
+    lsb = 21600.0 / 2**bits
+    return (units_float32(table, codes, bits) * np.float32(table.scale_arcmin / lsb)
+            + np.float32(table.offset_arcmin / lsb))
 
 
 def predict_float32_angle(table, theta_deg):
@@ -326,7 +345,7 @@ def predict_float32_angle(table, theta_deg):
     stored = table.values.astype(np.float32)
     left = stored[index]
     units = left + fraction * (stored[following] - left)
-    return units * np.float32(table.scale_arcmin)
+    return units * np.float32(table.scale_arcmin) + np.float32(table.offset_arcmin)
 
 
 def shift_round(value, shift):
@@ -347,7 +366,7 @@ def correction_bam(table, angles):
     left = stored[index]
     right = stored[(index + 1) & (table.nodes - 1)]
     scaled = left * (1 << FIXED_FRACTION_BITS) + (right - left) * fraction
-    return shift_round(scaled, FIXED_FRACTION_BITS - table.scale_exponent)
+    return shift_round(scaled, FIXED_FRACTION_BITS - table.scale_exponent) + table.offset_bam
 
 
 def correction_lsb_q8(table, codes, bits):

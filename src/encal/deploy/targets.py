@@ -363,11 +363,12 @@ def _float_table_files(comp, prefix, bits, table):
 #define FRACTION_MASK 0x{(1 << (bits - n)) - 1:X}u
 #define FRACTION_SCALE {_float(2.0 ** -(bits - n))}
 #define SCALE_LSB {_float(lsb_scale)} /* LSB per stored unit */
+#define OFFSET_LSB {_float(table.offset_arcmin / (21600.0 / 2**bits))} /* the mean error, LSB */
 
 float {prefix}_error_lsb(uint32_t code)
 {{
     const uint32_t k = code & CODE_MASK;
-    return node_value(k >> NODE_SHIFT, (float)(k & FRACTION_MASK) * FRACTION_SCALE) * SCALE_LSB;
+    return node_value(k >> NODE_SHIFT, (float)(k & FRACTION_MASK) * FRACTION_SCALE) * SCALE_LSB + OFFSET_LSB;
 }}
 {_FLOAT_CODE_FUNCTIONS.format(p=prefix, **sign)}"""
     source = f"""\
@@ -380,8 +381,9 @@ float {prefix}_error_lsb(uint32_t code)
 #define NODES {table.nodes}u
 #define NODES_PER_DEG {_float(table.nodes / 360.0)}
 #define SCALE_ARCMIN {_float(table.scale_arcmin)} /* arc-minutes per stored unit */
+#define OFFSET_ARCMIN {_float(table.offset_arcmin)} /* the mean error, kept out of the nodes */
 
-/* node i: the error at i * 360 / NODES degrees, in stored units */
+/* node i: the error at i * 360 / NODES degrees less OFFSET_ARCMIN, in stored units */
 {_node_array(table)}
 {_FLOAT_COMMON}
 /* linear interpolation between node i and the next, wrapping at NODES */
@@ -404,7 +406,7 @@ float {prefix}_predict_arcmin(float theta_deg)
         i = 0u;
         fraction = 0.0f;
     }}
-    return node_value(i, fraction) * SCALE_ARCMIN;
+    return node_value(i, fraction) * SCALE_ARCMIN + OFFSET_ARCMIN;
 }}
 
 float {prefix}_correct_deg(float theta_deg)
@@ -561,8 +563,9 @@ uint32_t {prefix}_correct_code(uint32_t code)
 
 #define NODES {table.nodes}u
 #define FRACTION_BITS {fb}u
+#define OFFSET_BAM ((int32_t){table.offset_bam}) /* the mean error, kept out of the nodes */
 
-/* node i: the error at i * 360 / NODES degrees, in units of 2^{table.scale_exponent} / 2^32 turns */
+/* node i: the error at i * 360 / NODES degrees less OFFSET_BAM, in units of 2^{table.scale_exponent} / 2^32 turns */
 {_node_array(table)}
 /* round(value / 2^shift), halves up, for 1 <= shift <= 30, without shifting a negative number */
 static int32_t shift_round(int32_t value, uint32_t shift)
@@ -578,7 +581,7 @@ int32_t {prefix}_error_bam32(uint32_t angle)
     const int32_t left = node[i];
     const int32_t step = (int32_t)node[(i + 1u) & (NODES - 1u)] - left;
     const int32_t scaled = left * (1 << FRACTION_BITS) + step * fraction;
-    return {to_bam};
+    return {to_bam} + OFFSET_BAM;
 }}
 
 uint32_t {prefix}_correct_bam32(uint32_t angle)
