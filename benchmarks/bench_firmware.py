@@ -1,0 +1,40 @@
+"""Firmware formats: bytes written and the round trip through each firmware's own rule.
+
+    python benchmarks/bench_firmware.py
+
+For the stored fourier and cubic-lut model files (16-bit) and a 10-term Fourier series fitted to
+one real AS5047D calibration (14-bit, ../shared/data/real), writes every firmware format and
+prints the file's size, the round trip (that firmware's run-time rule against the model's
+correction, on every code: max / RMS) and the storage rounding a priori, all in arcmin.
+"""
+
+from pathlib import Path
+
+import encal
+from encal.deploy import Compensator
+from encal.deploy.firmware import EXPORTERS
+
+ROOT = Path(__file__).resolve().parents[1]
+REAL = ROOT.parent / "shared" / "data" / "real" / "mechaduino" / "mech_cejosey_2019-01-01_f7b12b5a.csv"
+
+
+def main():
+    models = {"fourier (stored, 16-bit)": Compensator(ROOT / "tests" / "data" / "model_v1_fourier.json"),
+              "lut cubic (stored, 16-bit)": Compensator(ROOT / "tests" / "data" / "model_v1_lut.json")}
+    if REAL.is_file():
+        model = encal.fit(encal.read_calibration(REAL), method="fourier", n_orders=10)
+        models["real AS5047D, 10-term Fourier (14-bit)"] = Compensator(model)
+    print("| model | format | file bytes | round trip max / RMS, arcmin | storage rounding, arcmin | constant left out, arcmin |")
+    print("|---|---|---|---|---|---|")
+    for name, comp in models.items():
+        bits = comp.encoder.get("resolution_bits")
+        for fmt, export in EXPORTERS.items():
+            if fmt == "mechaduino" and bits != 14:
+                continue
+            written = export(comp, **({"bits": bits or 16} if fmt == "tinymovr" else {}))
+            print(f"| {name} | {fmt} | {len(written.text.encode())} | {written.max_error_arcmin:.3g} / "
+                  f"{written.rms_error_arcmin:.3g} | {written.quantisation_arcmin:.3g} | {written.offset_arcmin:.4g} |")
+
+
+if __name__ == "__main__":
+    main()
