@@ -99,7 +99,11 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
             raise InputError("--nodes, --tolerance and --form apply to the cortex-m4f and fixed targets, "
                              "not host (its C evaluates the formula in double, or --table)")
         files = export_c(comp, prefix=prefix, bits=bits, **host_options)
-        return files, {"target": "host", "form": "table" if host_options.get("table") else "formula"}
+        known = bits is not None or comp.encoder.get("resolution_bits") is not None
+        note = None if known else ("the encoder resolution is unknown (pass bits=, --bits): the formula is "
+                                   f"exported without {prefix}_correct_counts")
+        return files, {"target": "host", "form": "table" if host_options.get("table") else "formula",
+                       "note": note}
     if host_options:
         raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
     bits = _bits(comp, bits, target)
@@ -156,7 +160,8 @@ def write_target(model, directory, target="host", **options):
 def describe(summary):
     """One line about an export (what it is, bytes, operations, deployed error)."""
     if summary["target"] == "host":
-        return f"host C ({summary['form']}, double precision)"
+        text = f"host C ({summary['form']}, double precision)"
+        return text + (f"; note: {summary['note']}" if summary.get("note") else "")
     bits = summary.get("bits")
     where = f"all {2**evaluation_bits(bits)} codes" if bits else "65536 angles"
     if summary["form"] == "formula":
