@@ -18,7 +18,7 @@ from encal.deploy import Compensator
 from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
                                    export_tinymovr, read_cal_capture, read_compare_encoders, read_klipper,
                                    read_mechaduino, read_moteus_conf, read_simplefoc, read_tinymovr)
-from encal.errors import CalibrationError, InputError
+from encal.errors import CalibrationError, EncalError, InputError
 from encal.models.fourier import FourierModel
 
 DATA = Path(__file__).parent / "data"
@@ -127,13 +127,13 @@ def test_moteus_cal_capture_gives_the_encoder_error(tmp_path):
 def test_moteus_cal_capture_refusals(tmp_path):
     path = tmp_path / "cal.log"
     path.write_text("1 2 3\nCAL done\n")
-    with pytest.raises(CalibrationError, match="starting with 'CAL start'"):
+    with pytest.raises(EncalError, match="begin with 'CAL start'"):
         read_cal_capture(path)
     path.write_text(cal_capture().replace("CAL done\n", ""))
-    with pytest.raises(CalibrationError, match="end with 'CAL done'"):
+    with pytest.raises(EncalError, match="without 'CAL done'"):
         read_cal_capture(path)
     path.write_text("CAL start\n1 70000 3\nCAL done\n")
-    with pytest.raises(CalibrationError, match="line 2"):
+    with pytest.raises(EncalError, match="line 2"):
         read_cal_capture(path)
 
 

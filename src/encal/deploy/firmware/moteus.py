@@ -18,8 +18,9 @@ file of ``utils/compare_encoders.py -o`` (one ``reference measured`` pair per li
 revolutions; :func:`read_compare_encoders`), and the raw commutation capture that
 ``moteus_tool --calibrate`` records (``CAL start`` ... ``CAL done``; lines
 ``dir phase encoder [i1=.. i2=.. i3=..]``, phase and encoder uint16, dir 1 or 3 turning
-the phase up, 2 or 4 down; ``lib/python/moteus/calibrate_encoder.py`` parses it):
-:func:`read_cal_capture` (the reference is the unwrapped electrical phase over the pole pairs).
+the phase up, 2 or 4 down; ``lib/python/moteus/calibrate_encoder.py`` parses it; encal's
+parser is :mod:`encal.selfcal.moteus_capture`): :func:`read_cal_capture` (the reference is the
+unwrapped electrical phase over the pole pairs).
 """
 
 import re
@@ -28,6 +29,7 @@ import numpy as np
 
 from ...calibration import Calibration
 from ...errors import CalibrationError, InputError
+from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
 from ._common import (FirmwareExport, compensator, correction_model, correction_nodes, grid_bits, read_text,
                       round_trip)
 
@@ -160,13 +162,17 @@ def read_compare_encoders(source_text, *, name=None):
     return Calibration(pairs[:, 0] * 360.0, pairs[:, 1] * 360.0, name=name or where, source=where)
 
 
-def read_cal_capture(source_text, *, pole_pairs=None, name=None):
+def read_cal_capture(source, *, pole_pairs=None, name=None):
     """A moteus raw commutation capture (``CAL start`` ... ``CAL done``) as a calibration.
+
+    The file is parsed by :func:`encal.selfcal.moteus_capture.read_moteus_capture` (one parser
+    for the format); this turns it into a plain calibration against the commanded phase.
+    ``encal selfcal sweep`` separates the motor's own error from the encoder's instead.
 
     Parameters
     ----------
-    source_text : str or os.PathLike
-        The capture file (or its text).
+    source : str or os.PathLike
+        The capture file.
     pole_pairs : int, optional
         Motor pole pairs; default: the nearest whole ratio of the electrical phase travelled
         to the encoder travel while turning up (as moteus's calibrate_encoder.py finds it).
@@ -178,30 +184,15 @@ def read_cal_capture(source_text, *, pole_pairs=None, name=None):
         ``reference_deg`` = unwrapped electrical phase / pole pairs (its zero is arbitrary),
         ``encoder_deg`` = encoder * 360 / 65536, ``direction`` +1 for dir 1 and 3, -1 for 2 and 4.
     """
-    text, where = read_text(source_text)
-    lines = [(n, line) for n, line in enumerate(text.splitlines(), start=1) if line.strip()]
-    if not lines or " ".join(lines[0][1].split()[:2]) not in ("CAL start", "CALI start"):
-        raise CalibrationError(f"{where}: expected a moteus capture starting with 'CAL start', got "
-                               f"{lines[0][1].strip() if lines else 'an empty file'!r}")
-    if " ".join(lines[-1][1].split()[:2]) not in ("CAL done", "CALI done"):
-        raise CalibrationError(f"{where}: expected the capture to end with 'CAL done' (was it cut short?)")
-    rows = []
-    for number, line in lines[1:-1]:
-        direction, phase, encoder = _number_fields(where, number, line, 3)
-        if direction not in (1, 2, 3, 4) or not (0 <= phase <= 65535 and 0 <= encoder <= 65535):
-            raise CalibrationError(f"{where}, line {number}: expected 'dir phase encoder' with dir 1 to 4 and "
-                                   f"uint16 phase and encoder, got {line.strip()!r}")
-        rows.append((direction, phase, encoder))
-    if len(rows) < 8:
-        raise CalibrationError(f"{where}: expected at least 8 capture lines, got {len(rows)}")
-    rows = np.asarray(rows)
-    step = np.diff(rows[:, 1])
-    phase = np.concatenate([[rows[0, 1]], rows[0, 1] + np.cumsum((step + 32768) % 65536 - 32768)])
-    encoder_step = np.diff(rows[:, 2])
-    encoder = np.concatenate([[rows[0, 2]], rows[0, 2] + np.cumsum((encoder_step + 32768) % 65536 - 32768)])
-    up = np.isin(rows[:, 0], (1, 3))
+    capture = read_moteus_capture(source)
+    where = capture.source
+    if capture.phase.size < 8:
+        raise CalibrationError(f"{where}: expected at least 8 capture lines, got {capture.phase.size}")
+    phase = _unwrap_counts(capture.phase)
+    encoder = _unwrap_counts(capture.encoder)
+    up = np.isin(capture.direction, UP_CODES)
     if pole_pairs is None:
-        travel = encoder[up][-1] - encoder[up][0] if up.sum() > 1 else 0.0
+        travel = encoder[up][-1] - encoder[up][0]
         if travel == 0:
             raise CalibrationError(f"{where}: the encoder did not move while the phase turned up; "
                                    "expected a capture of a turning motor (or pass pole_pairs)")
@@ -209,6 +200,13 @@ def read_cal_capture(source_text, *, pole_pairs=None, name=None):
     if isinstance(pole_pairs, bool) or not isinstance(pole_pairs, (int, np.integer)) or pole_pairs < 1:
         raise InputError(f"expected a whole number of pole pairs >= 1, got {pole_pairs!r}")
     reference = phase * (360.0 / 65536.0) / pole_pairs
-    return Calibration(reference, rows[:, 2] * (360.0 / 65536.0), direction=np.where(up, 1, -1),
+    return Calibration(reference, capture.encoder_deg, direction=np.where(up, 1, -1),
                        name=name or where, source=where, resolution_bits=16,
                        metadata={"pole_pairs": int(pole_pairs), "format": "moteus CAL capture"})
+
+
+def _unwrap_counts(values):
+    """uint16 counts made continuous (steps of more than half a turn are wraps)."""
+    values = np.asarray(values, dtype=np.int64)
+    steps = (np.diff(values) + 32768) % 65536 - 32768
+    return np.concatenate([values[:1], values[0] + np.cumsum(steps)])
