@@ -252,3 +252,19 @@ def test_a_large_zero_offset(tmp_path, target):
     truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
     rounding = 2.0**-22 * np.max(np.abs(truth))  # float32 results near 1534 arcmin: ulps of 1.2e-4
     assert np.max(np.abs(error - truth)) <= summary["max_error_arcmin"] + rounding < 0.03
+
+
+@needs_gcc
+def test_a_spectral_model_deploys_as_its_fourier_series(tmp_path):
+    """The spectral kind predicts a Fourier series: the cortex-m4f formula serves it."""
+    from encal.models.spectral import SpectralModel
+
+    orders = np.arange(0, 40)
+    rng = np.random.default_rng(3)
+    model = SpectralModel(orders, rng.normal(0, 1, 40) / (1 + orders), rng.normal(0, 1, 40) / (1 + orders),
+                          encoder={"resolution_bits": BITS})
+    _, summary = write_target(model, tmp_path, "cortex-m4f", prefix="enc", bits=BITS, form="formula")
+    assert summary["terms"] == 40 and summary["max_error_arcmin"] < 1e-5
+    out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
+    truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
+    assert np.max(np.abs(out[:, 0].astype(float) * (21600.0 / N) - truth)) <= summary["max_error_arcmin"] + 1e-5

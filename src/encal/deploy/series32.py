@@ -1,13 +1,15 @@
 """A Fourier series in float32 with exact phases: the cortex-m4f formula's arithmetic, in NumPy.
 
 Any model kind whose prediction is a Fourier series deploys through it: the
-``fourier`` kind, and any kind with a ``fourier_series()`` method.
+``fourier`` kind and its subclasses (``spectral``), and any kind with a
+``fourier_series()`` method.
 """
 
 import math
 
 import numpy as np
 
+from ..models.fourier import FourierModel
 from .compensator import Compensator
 
 __all__ = ["fourier_terms", "fourier_float32"]
@@ -25,7 +27,7 @@ def fourier_terms(model):
     series = getattr(model, "fourier_series", None)
     if callable(series):
         orders, cos, sin = series()
-    elif model.kind == "fourier":
+    elif isinstance(model, FourierModel):  # the fourier kind and its subclasses (spectral)
         orders, cos, sin = model.orders, model.cos, model.sin
     else:
         return None

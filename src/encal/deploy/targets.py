@@ -289,8 +289,6 @@ float {p}_correct_counts(uint32_t code);
 """
 
 _FLOAT_COMMON = """\
-#define TWO_TO_32_PER_DEG 11930464.7f /* 2^32 / 360: degrees to a 32-bit binary angle */
-
 /* theta in [0, 360); NaN stays NaN */
 static float wrap360f(float angle)
 {
@@ -480,6 +478,8 @@ static float series(uint32_t angle)
     }}
     return sum;
 }}
+
+#define TWO_TO_32_PER_DEG 11930464.7f /* 2^32 / 360: degrees to a 32-bit binary angle */
 
 static uint32_t binary_angle(float t) /* t in [0, 360) */
 {{
