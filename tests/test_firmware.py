@@ -305,3 +305,26 @@ def test_the_zero_offset_is_left_out_of_int8_tables():
     assert out.offset_arcmin == pytest.approx(-1500.0, abs=1e-6) and "left out" in out.describe()
     # int8 steps of the 30-arcmin profile, not of 1500 arcmin
     assert out.quantisation_arcmin < 0.5 * 45 / 127 and out.max_error_arcmin < 0.5  # the profile peaks below 45
+
+
+def piecewise_linear(nodes, bits, seed):
+    """A model that is exactly linear between ``nodes`` evenly spaced nodes: every format with those nodes holds it."""
+    from encal.models.lut import LookupTableModel
+
+    values = np.random.default_rng(seed).uniform(-8.0, 8.0, nodes)
+    breaks = np.arange(nodes + 1) * (360.0 / nodes)
+    slopes = (np.roll(values, -1) - values) / (360.0 / nodes)
+    return Compensator(LookupTableModel(breaks, [slopes, values], "linear", encoder={"resolution_bits": bits}))
+
+
+def test_a_profile_the_formats_can_hold_round_trips_within_their_storage_rounding():
+    """Known truth: linear between the firmware's own nodes, so only the stored values' rounding is left."""
+    moteus = export_moteus(piecewise_linear(256, 16, 1))
+    assert moteus.max_error_arcmin <= moteus.quantisation_arcmin + 1e-4  # float32 arithmetic of the rule
+    simplefoc = export_simplefoc(piecewise_linear(128, 16, 2))
+    # SimpleFOC finds the position within a bucket in float32 (ulps of 5e-7 rad over 0.049-rad buckets)
+    assert simplefoc.max_error_arcmin <= simplefoc.quantisation_arcmin + 1e-3
+    tinymovr = export_tinymovr(piecewise_linear(64, 13, 3), bits=13)
+    assert tinymovr.max_error_arcmin <= tinymovr.quantisation_arcmin + 1e-9
+    # and the rounding is all there is: a table with twice the nodes' detail cannot be held
+    assert export_tinymovr(piecewise_linear(128, 13, 4), bits=13).max_error_arcmin > tinymovr.quantisation_arcmin
