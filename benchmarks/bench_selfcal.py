@@ -8,6 +8,7 @@ error of 0.5, 1 and 2 degrees; 2nd-4th harmonics as in ``draw_magnetic_encoder``
   (goal: <= 10 %);
 - ``floor`` : the noise floor of the log: RMS of what the same method recovers from the same kind of log of
   an error-free encoder (same motor, noise and speeds; other seed), and ``miss/floor`` (goal: <= 2);
+- ``σ`` : RMS over the grid of the stated standard uncertainty (one sigma), arcmin;
 - ``cover`` : share of the grid where |recovered - true| <= 2 sigma (nominally 95 %).
 
 Spin: 12-slot 14-pole motor (cogging at order 84), an unbalanced load (order-1 torque ripple of 3e-5 N m),
@@ -70,14 +71,14 @@ def score(series, truth_values, floor_series=None):
     truth = at_orders(truth_values, series.orders)
     miss = series.evaluate(GRID) - truth
     floor = rms(floor_series.evaluate(GRID)) if floor_series is not None else float("nan")
-    return {"true": rms(truth), "miss": rms(miss), "floor": floor,
+    return {"true": rms(truth), "miss": rms(miss), "floor": floor, "sigma": rms(series.sigma(GRID)),
             "cover": float(np.mean(np.abs(miss) <= 2 * series.sigma(GRID)))}
 
 
 def row(label, s):
     ratio = s["miss"] / s["floor"] if np.isfinite(s["floor"]) else float("nan")
     return (f"| {label} | {s['true']:.2f} | {s['miss']:.3f} | {100 * s['miss'] / s['true']:.1f} % | "
-            f"{s['floor']:.3f} | {ratio:.2f} | {100 * s['cover']:.0f} % |")
+            f"{s['floor']:.3f} | {ratio:.2f} | {s['sigma']:.3f} | {100 * s['cover']:.0f} % |")
 
 
 def spin_logs(motor, encoder, seed, speeds=(2.0, 4.0)):
@@ -215,8 +216,8 @@ def main():
                         default=("spin", "law", "sweep", "steps", "real"))
     args = parser.parse_args()
     start = time.process_time()
-    header = ("| case | true | miss | miss/true | floor | miss/floor | cover ±2σ |\n"
-              "|---|---|---|---|---|---|---|")
+    header = ("| case | true | miss | miss/true | floor | miss/floor | σ (RMS) | cover ±2σ |\n"
+              "|---|---|---|---|---|---|---|---|")
     print(f"load average at start: {open('/proc/loadavg').read().split()[:3]}")
     if "spin" in args.parts:
         print_spin(bench_spin(args.seeds), header)

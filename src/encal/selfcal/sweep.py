@@ -145,9 +145,9 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
 
 
 def _motor_orders(pole_pairs, slots, samples):
-    """Orders of the motor's own error fitted in the reference: multiples of p (and of the slots) up to 12 p,
-    as many as a quarter of the samples can identify."""
-    highest = min(12 * pole_pairs, max(pole_pairs, samples // 8))
+    """Orders of the motor's own error fitted in the reference: multiples of p (and of the slots) up to 24 p,
+    as many as a third of the samples can identify."""
+    highest = min(24 * pole_pairs, max(pole_pairs, samples // 3))
     orders = set(range(pole_pairs, highest + 1, pole_pairs))
     if slots:
         orders |= set(range(slots, highest + 1, slots))
