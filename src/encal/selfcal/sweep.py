@@ -8,7 +8,7 @@ electrical angle: averaging the error over one electrical period (360/p degrees)
 with them every order of the encoder's error that is a multiple of the pole pairs ``p``. The period
 average multiplies order ``k`` by ``sinc(k/p)``: zero at multiples of ``p``; dividing the other orders
 by that factor restores them, so the whole operation is leaving out the multiples of ``p``. It is
-computed so: the multiples of ``p`` (up to 12 p: cogging included) are fitted as functions of the
+computed so: the multiples of ``p`` (up to 24 p: cogging included) are fitted as functions of the
 reference angle, where the motor's error is periodic, and the other orders as functions of the
 reading, where the encoder's is. See docs/self-calibration.md.
 """
