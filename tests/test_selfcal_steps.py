@@ -101,3 +101,9 @@ def test_result_plots_itself_with_its_band():
     assert [line.get_label() for line in ax.get_lines()] == ["recovered (steps)", "true"]
     assert ax.get_xlabel() == "encoder reading / deg"
     plt.close(ax.figure)
+
+
+def test_a_turn_that_is_not_a_number_is_refused():
+    first, second = _pair(137.5)
+    with pytest.raises(InputError, match="finite angle"):
+        steps(first.calibration, second.calibration, turn_deg=float("nan"))

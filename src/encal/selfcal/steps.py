@@ -97,6 +97,9 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         standard uncertainty (``stepper_sigma_arcmin``), and the same error modelled as the 4-step
         pattern plus one error per tooth (``stepper_model_arcmin``, ``stepper_model_sigma_arcmin``).
     """
+    if turn_deg is not None and not np.isfinite(turn_deg):
+        raise InputError(f"The 'turn_deg' parameter of steps must be a finite angle in degrees. Got {turn_deg!r} "
+                         "instead.")
     reading_a, error_a = step_errors(first)
     n = reading_a.size
     if max_order >= n // 2:
