@@ -62,6 +62,7 @@ from .calibration import Calibration
 from .errors import InputError
 from .models import model_kind
 from .models.stored_uncertainty import check_uncertainty, grid_size, predictive_std
+from .models.validation import held_out_predictions, interleaved_folds
 
 __all__ = [
     "UNCERTAINTY_METHOD",
@@ -360,7 +361,7 @@ def cross_validated_residuals(theta_enc_deg, error_arcmin, method, *, options=No
     """Held-out residuals of a fitting method: each point predicted by a model fitted without its fold.
 
     The points are dealt round-robin by encoder angle into ``n_folds`` folds
-    (:func:`encal.models.select.interleaved_folds`), so every held-out point lies between points the fold
+    (:func:`encal.models.validation.interleaved_folds`), so every held-out point lies between points the fold
     model was fitted on.
 
     Parameters
@@ -390,8 +391,6 @@ def cross_validated_residuals(theta_enc_deg, error_arcmin, method, *, options=No
 
 
 def _folds(theta, n_folds):
-    from .models.select import interleaved_folds
-
     n_folds = _count(n_folds, "n_folds", 2)
     if n_folds > theta.size // 2:
         raise InputError(f"The 'n_folds' parameter must be at most half the number of calibration points "
@@ -400,11 +399,10 @@ def _folds(theta, n_folds):
 
 
 def _held_out_residuals(refit, theta, error, fold):
-    residual = np.empty_like(error)
-    for k in np.unique(fold):
-        held = fold == k
-        residual[held] = _wrapped_arcmin(error[held] - refit(theta[~held], error[~held]).predict(theta[held]))
-    return residual
+    def fit_predict(k, train_theta, train_error, test_theta):
+        return refit(train_theta, train_error).predict(test_theta)
+
+    return _wrapped_arcmin(error - held_out_predictions(fit_predict, theta, error, fold))
 
 
 class _Refitter:

@@ -19,6 +19,7 @@ from ..profile import (
     uniform_grid,
 )
 from .base import Model
+from .validation import held_out_predictions, interleaved_folds
 
 __all__ = ["FourierModel", "fit_fourier", "MAX_ORDER"]
 
@@ -284,7 +285,7 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
         errors, in arc-minutes.
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "cross_validate_order_count")
-    distinct, group = distinct_angles(theta)
+    distinct = distinct_angles(theta)[0]
     if distinct.size < 2:
         raise InputError("cross-validation expects at least 2 distinct encoder angles; "
                          f"got {theta.size} readings all at {distinct[0]:.9g} degrees")
@@ -297,7 +298,7 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     limit = identifiable_order(theta) if nodes is None else nodes.size // 2
     if max_order is not None:
         limit = min(max_order, limit)
-    fold = (np.arange(distinct.size) % folds)[group]
+    fold = interleaved_folds(theta, folds)
     count = min(_FIRST_COUNT, limit + 1)
     while True:
         ranking = None if nodes is not None else rank_orders(theta, error, limit, count=count)
@@ -323,19 +324,25 @@ def _cv_curve(theta, error, fold, ranking, grid_deg, limit=None, count=None):
     With ``ranking=None`` each fold ranks its own training points (forward selection on
     the grid of ``grid_deg``, up to ``count`` orders of at most ``limit``).
     """
-    squared, sizes, longest = [], [], 0
-    for f in range(fold.max() + 1):
-        train, test = fold != f, fold == f
+    lengths = []
+
+    def fit_predict(k, train_theta, train_error, test_theta):
         ranked = ranking
         if ranked is None:
-            ranked = rank_orders(theta[train], error[train], limit, grid_deg=grid_deg, count=count)
-        predicted = nested_harmonic_predictions(theta[train], error[train], ranked, theta[test],
-                                                grid_deg=grid_deg)
+            ranked = rank_orders(train_theta, train_error, limit, grid_deg=grid_deg, count=count)
+        predicted = nested_harmonic_predictions(train_theta, train_error, ranked, test_theta, grid_deg=grid_deg)
         if ranking is None and len(ranked) < count:  # the fold's points are exhausted
             predicted = np.vstack([predicted, np.repeat(predicted[-1:], count - len(ranked), axis=0)])
-        squared.append(np.sum((error[test] - predicted) ** 2, axis=1))
-        sizes.append(test.sum())
-        longest = max(longest, len(ranked))
+        lengths.append(len(ranked))
+        return predicted
+
+    predicted = held_out_predictions(fit_predict, theta, error, fold)
+    tests = [fold == k for k in range(fold.max() + 1)]
+    # Row by row in memory (a boolean column index gives a column-major copy), as every fold's own fit gave
+    # them: the sums then add in the same order.
+    squared = [np.sum((error[test] - np.ascontiguousarray(predicted[:, test])) ** 2, axis=1) for test in tests]
+    sizes = [test.sum() for test in tests]
+    longest = max(lengths)
     squared = np.array(squared)[:, :longest]
     rms = np.sqrt(squared.sum(axis=0) / theta.size)
     fold_mse = squared / np.array(sizes)[:, np.newaxis]

@@ -42,10 +42,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..angles import wrap360
 from ..errors import EncalError, EncalWarning, InputError
 from ..profile import distinct_angles, profile_arrays, uniform_grid
 from .kind import kind_names, model_kind
+from .validation import held_out_predictions, interleaved_folds
 
 __all__ = [
     "Candidate",
@@ -228,33 +228,6 @@ def _finite_or_none(value):
     return float(value) if np.isfinite(value) else None
 
 
-def interleaved_folds(theta_deg, folds):
-    """Fold index of every point: the ``i``-th distinct angle in increasing order goes to fold ``i mod folds``.
-
-    Repeated readings of one angle (closer than 1e-9 degrees) share a fold, so a held-out
-    point never has an identical twin among the training points.
-
-    Parameters
-    ----------
-    theta_deg : array-like of shape (n,)
-        Encoder angles in degrees, any order.
-    folds : int
-        Number of folds, at least 2 and at most the number of distinct angles.
-
-    Returns
-    -------
-    ndarray of int of shape (n,)
-        Fold of each point, in the order of ``theta_deg``.
-
-    Examples
-    --------
-    >>> interleaved_folds([0.0, 90.0, 180.0, 270.0, 45.0], 2).tolist()
-    [0, 0, 1, 0, 1]
-    """
-    distinct, group = distinct_angles(wrap360(np.asarray(theta_deg, dtype=float).reshape(-1)))
-    return (np.arange(distinct.size) % folds)[group]
-
-
 def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds, grid_points=None):
     """Held-out accuracy of one candidate over the given folds.
 
@@ -276,16 +249,18 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds, grid_poin
     -------
     CVScore
     """
-    held_out = np.empty_like(error_arcmin)
+    seeds = list(seeds)
     n_parameters = []
+
+    def fit_predict(k, train_theta, train_error, test_theta):
+        model = candidate.fit(train_theta, train_error, rng=np.random.default_rng(seeds[k]),
+                              grid_points=grid_points)
+        n_parameters.append(model.free_parameters())
+        return model.predict(test_theta)
+
     start = time.perf_counter()
     try:
-        for k, seed in zip(range(fold.max() + 1), seeds):
-            test = fold == k
-            model = candidate.fit(theta_deg[~test], error_arcmin[~test], rng=np.random.default_rng(seed),
-                                  grid_points=grid_points)
-            held_out[test] = error_arcmin[test] - model.predict(theta_deg[test])
-            n_parameters.append(model.free_parameters())
+        held_out = error_arcmin - held_out_predictions(fit_predict, theta_deg, error_arcmin, fold)
     except EncalError as exc:  # e.g. too few points for this family
         return CVScore(candidate, np.inf, np.inf, np.inf, np.inf, time.perf_counter() - start, error=str(exc))
     elapsed = time.perf_counter() - start
