@@ -6,7 +6,7 @@ Prints, per model kind, corrections per second of
 
 - the NumPy model (``Compensator.correct`` on 10^6 angles),
 - the dense 16-bit table (``CorrectionTable.correct_counts`` on 10^7 codes: NumPy fancy indexing),
-- the standalone runtime (``encal.deploy.runtime``, one angle per call),
+- the standalone runtime (``encal.runtime``, one angle per call),
 - ``encal correct`` streaming a file of angles (lines per second, process start included),
 - the exported C (ns per angle, built with ``gcc -O2`` in a temporary folder),
 

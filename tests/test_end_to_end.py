@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import encal
+import encal.runtime
 from encal.cli import main
 from encal.deploy import load_table
 
@@ -52,7 +53,7 @@ def test_every_deployed_form_corrects_the_test_run_alike(fitted, method, tmp_pat
     assert stated["rms_arcmin"] < 0.5 * stated["before"]["rms_arcmin"]
 
     # The standalone runtime (standard library only), loaded from its file as a user would copy it.
-    spec = importlib.util.spec_from_file_location("copied_runtime", encal.deploy.runtime.__file__)
+    spec = importlib.util.spec_from_file_location("copied_runtime", encal.runtime.__file__)
     runtime = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(runtime)
     stored = runtime.load(str(model_path))

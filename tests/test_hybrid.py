@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import encal
-from encal.deploy import runtime
+from encal import runtime
 from encal.errors import InputError, ModelFileError
 from encal.models.ann import fit_ann
 from encal.models.fourier import fit_fourier

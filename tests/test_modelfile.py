@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 
 import encal
 from encal.deploy import load_model, model_from_dict, model_to_dict, read_model, save_model
-from encal.deploy.modelfile import dumps
-from encal.deploy import runtime
-from encal.deploy.runtime import content_sha256
+from encal.models.modelfile import dumps
+from encal import runtime
+from encal.runtime import content_sha256
 from encal.errors import InputError, ModelFileError
 from encal.models.base import Model
 from encal.models.fourier import FourierModel

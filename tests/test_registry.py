@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import encal
-from encal.deploy import runtime
+from encal import runtime
 from encal.errors import InputError
 from encal.models import Model, ModelKind, kind_names, model_kind
 from encal.models.kind import REGISTERED, register_kind

@@ -29,7 +29,7 @@ import pytest
 
 import encal
 from encal.cli import build_parser, main
-from encal.deploy import runtime
+from encal import runtime
 
 # --------------------------------------------------------------------------- the files
 
@@ -595,7 +595,7 @@ def test_failure_while_saving_leaves_nothing(where, calibration_file, existing_m
                                              capsys):
     """A failure at any step of saving: no temporary file is left and the old file is untouched."""
     import encal._atomic as atomic
-    import encal.deploy.modelfile as modelfile
+    import encal.models.modelfile as modelfile
 
     failure = OSError(28, "No space left on device")
     if where == "serialise":

@@ -12,10 +12,11 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from encal.deploy import Compensator, load_model, runtime, save_model
+from encal import runtime
+from encal.deploy import Compensator, load_model, save_model
 from encal.models.ann import fit_ann
 from encal.models.hybrid import fit_hybrid
-from encal.deploy.runtime import ModelFileError
+from encal.runtime import ModelFileError
 from encal.errors import InputError
 
 DATA = Path(__file__).parent / "data"

@@ -22,8 +22,8 @@ from pathlib import Path
 import numpy as np
 
 from encal._atomic import atomic_write
-from encal.deploy import runtime
-from encal.deploy.modelfile import dumps, model_to_dict
+from encal import runtime
+from encal.models.modelfile import dumps, model_to_dict
 from encal.models.base import Model
 
 HERE = Path(__file__).resolve().parent

@@ -8,7 +8,7 @@ import numpy as np
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
 from ..models.base import Model, as_angles
-from .modelfile import model_to_dict, read_model
+from ..models.modelfile import model_to_dict, read_model
 
 __all__ = ["Compensator"]
 

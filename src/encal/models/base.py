@@ -16,6 +16,7 @@ import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
+from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
 __all__ = ["Model", "as_angles"]
@@ -113,8 +114,6 @@ class Model(ABC):
 
     def save(self, path, **options):
         """Write the model file (see :func:`encal.deploy.save_model`)."""
-        from ..deploy.modelfile import save_model
-
         return save_model(self, path, **options)
 
     def __repr__(self):

@@ -7,7 +7,7 @@ a ``kind``) all look kinds up here, through :func:`~encal.models.kind.model_kind
 To add a kind, write its module (a :class:`~encal.models.base.Model` subclass with a ``kind`` name,
 and a fit function on plain arrays) and add one :class:`~encal.models.kind.ModelKind` line below;
 ``docs/architecture.md`` walks through it. A kind that a model file should hold also needs its
-parameters specified in the model-file format (:mod:`encal.deploy.runtime`, ``docs/model-file.md``).
+parameters specified in the model-file format (:mod:`encal.runtime`, ``docs/model-file.md``).
 """
 
 from . import ann, directional, fourier, hybrid, lut, select, spectral, stack

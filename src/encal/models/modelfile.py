@@ -2,7 +2,7 @@
 
 The format is specified in ``docs/model-file.md``. Checking a file (format,
 version, checksum, fields, parameter shapes) is done by the standalone reader
-:mod:`encal.deploy.runtime`, so encal and a copied runtime accept exactly the
+:mod:`encal.runtime`, so encal and a copied runtime accept exactly the
 same files; this module turns files into :class:`~encal.models.Model` objects
 and back.
 """
@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import runtime
 from .._atomic import atomic_write
 from .._environment import source_date_epoch
 from .._version import __version__
 from ..errors import InputError, ModelFileError
-from ..models import Model, kind_names, model_kind
-from . import runtime
+from .kind import kind_names, model_kind
 
 __all__ = ["save_model", "load_model", "read_model", "model_to_dict", "model_from_dict", "dumps",
            "FORMAT", "VERSION"]
@@ -59,7 +59,10 @@ def model_to_dict(model, *, reproducible=False):
     InputError
         If the training metadata is not JSON data, or SOURCE_DATE_EPOCH is not an integer.
     """
-    if not isinstance(model, Model):
+    # Any object with a model's interface (this module sits below :class:`~encal.models.base.Model`,
+    # whose ``save`` it serves).
+    if not all(callable(getattr(model, name, None)) for name in ("parameters", "predict")) \
+            or not isinstance(getattr(model, "kind", None), str):
         raise InputError(f"expected an encal Model to save, got {type(model).__name__}")
     where = f"the {model.kind} model of {model.encoder.get('name') or 'an unnamed encoder'}"
     if model.kind not in runtime.KINDS:
