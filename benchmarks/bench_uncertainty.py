@@ -39,7 +39,8 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import encal  # noqa: E402
-from encal.bidirectional import fit_bidirectional, reversal  # noqa: E402
+from encal.bidirectional import reversal  # noqa: E402
+from encal.fitting import fit_bidirectional  # noqa: E402
 from encal.fitting import refit_spec  # noqa: E402
 from encal.simulate import TEST_GRID_DEG, TRAINING_GRID_DEG, calibration_run, measurement_floor  # noqa: E402
 from encal.simulate import demo_fleet  # noqa: E402

@@ -8,8 +8,6 @@ imports inside functions, ``importlib.import_module("encal.x")`` calls, and tabl
 import ast
 from pathlib import Path
 
-import pytest
-
 PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "src" / "encal"
 
 
@@ -117,7 +115,6 @@ def test_the_graph_sees_deferred_and_by_name_imports(tmp_path):
     assert import_cycles(graph) == [["pkg.a", "pkg.c", "pkg.sub.b"]]
 
 
-@pytest.mark.xfail(strict=True, reason="the import cycle of issue 19 is being taken apart")
 def test_no_import_cycle_among_encal_modules():
     cycles = import_cycles(import_graph(PACKAGE_ROOT))
     assert cycles == [], "import cycles: " + "; ".join(" <-> ".join(cycle) for cycle in cycles)

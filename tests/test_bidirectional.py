@@ -8,7 +8,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import encal
 from encal import Calibration, CalibrationError, InputError
-from encal.bidirectional import fit_bidirectional, mean_calibration, reversal
+from encal.bidirectional import mean_calibration, reversal
+from encal.fitting import fit_bidirectional
 from encal.models.directional import DirectionalModel
 from encal.models.fourier import FourierModel
 from encal.uncertainty import add_uncertainty, coverage

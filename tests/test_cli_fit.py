@@ -129,3 +129,18 @@ def test_at_steps_off_the_grid_warns_in_one_line(tmp_path, capsys):
     assert main(["fit", str(cal), "-o", str(tmp_path / "m.json"), "--at-steps", "--seed", "0"]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "use_grid (--at-steps) has no effect" in err[0]
+
+
+def test_fit_of_a_csv_with_a_direction_column_corrects_each_direction(tmp_path, capsys):
+    ref = np.tile(np.arange(0.0, 360.0, 3.0), 2)
+    direction = np.repeat([1, -1], ref.size // 2)
+    error = np.sin(np.radians(ref)) + 0.15 * direction                # arcmin: a 0.3 arcmin reversal
+    csv = tmp_path / "bi.csv"
+    rows = "\n".join(f"{r:.17g},{r + e / 60.0:.17g},{d:+d}" for r, e, d in zip(ref, error, direction))
+    csv.write_text("reference_deg,encoder_deg,direction\n" + rows + "\n", encoding="utf-8")
+    assert main(["fit", str(csv), "-o", str(tmp_path / "m.json"), "--method", "fourier", "--orders", "0,1"]) == 0
+    assert "one fourier model per direction" in capsys.readouterr().out
+    model = encal.load_model(tmp_path / "m.json")
+    assert model.kind == "directional"
+    assert float(model.predict(ref[0] + error[0] / 60.0, direction=1)) == pytest.approx(error[0], abs=1e-3)
+    assert float(model.predict(ref[-1] + error[-1] / 60.0, direction=-1)) == pytest.approx(error[-1], abs=1e-3)

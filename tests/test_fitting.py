@@ -93,3 +93,44 @@ def test_ann_fit_defaults_to_the_papers_stop_and_records_it():
     capped = encal.fit(cal, method="ann", rng=0, epochs=1000)
     assert capped.training["options"] == {"epochs": 1000}
     assert capped.training["stop_reason"] != "plateau"
+
+
+# --------------------------------------------------------------------------- a direction column
+
+REVERSAL_ARCMIN = 0.3
+
+
+def _bidirectional(step=3.0):
+    """Both directions over the same targets: a first harmonic and a 0.3 arcmin reversal (+0.15 forward)."""
+    ref = np.tile(np.arange(0.0, 360.0, step), 2)
+    direction = np.repeat([1, -1], ref.size // 2)
+    error = np.sin(np.radians(ref)) + 0.5 * REVERSAL_ARCMIN * direction
+    return encal.Calibration(ref, ref + error / 60.0, direction=direction, name="bi")
+
+
+def test_fit_keeps_the_reversal_of_a_direction_column_out_of_the_residual():
+    cal = _bidirectional()
+    model = encal.fit(cal, method="fourier", orders=[0, 1])
+    assert model.kind == "directional"
+    # The profile is a first harmonic of the reference angle, nearly one of the encoder angle: 1e-6 arcmin.
+    assert float(model.predict(90.0, direction=1)) == pytest.approx(1.15, abs=1e-6)
+    assert float(model.predict(90.0, direction=-1)) == pytest.approx(0.85, abs=1e-6)
+    assert float(model.predict(90.0)) == pytest.approx(1.0, abs=1e-6)
+    assert encal.evaluate(model, cal).after.rms < 1e-3                # pooled: 0.15
+    # Pooling both directions into one profile leaves half the reversal in every residual.
+    pooled = encal.fit(encal.Calibration(cal.reference_deg, cal.encoder_deg), method="fourier", orders=[0, 1])
+    assert encal.evaluate(pooled, cal).after.rms == pytest.approx(REVERSAL_ARCMIN / 2, abs=1e-3)
+    assert model.training["mean_reversal_value_arcmin"] == pytest.approx(REVERSAL_ARCMIN, abs=1e-12)
+
+
+def test_fit_of_the_mean_of_both_directions_on_request():
+    model = encal.fit(_bidirectional(), method="fourier", orders=[0, 1], bidirectional="mean")
+    assert model.kind == "fourier" and model.training["bidirectional"] == "mean"
+    assert float(model.predict(90.0)) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_bidirectional_option_needs_both_directions():
+    with pytest.raises(InputError, match=r"^The 'bidirectional' parameter of fit applies to a calibration with "
+                                         r"both directions of travel in its direction column\. Got 'mean' for "
+                                         r"enc, which has one direction\.$"):
+        encal.fit(_calibration(lambda ref: np.sin(np.radians(ref))), method="lut", bidirectional="mean")

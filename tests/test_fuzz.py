@@ -29,7 +29,7 @@ from hypothesis import strategies as st
 
 import encal
 from encal.angles import ARCMIN_PER_DEG, wrap360
-from encal.bidirectional import fit_bidirectional
+from encal.fitting import fit_bidirectional
 from encal.calibration import Calibration, read_calibration, write_calibration
 from encal.deploy import Compensator, load_model, runtime
 from encal.deploy.stream import correct_stream

@@ -218,7 +218,7 @@ def test_model_input_is_its_own_inverse():
 
 
 def test_bidirectional_reversed_parts_count_with_the_reference():
-    from encal.bidirectional import fit_bidirectional
+    from encal.fitting import fit_bidirectional
 
     ref = np.tile(np.arange(0.0, 360.0, 5.0), 2)
     direction = np.repeat([1, -1], 72)

@@ -9,11 +9,11 @@ bidirectional ``E``, and the range ``M`` of the mean bidirectional positional de
 approaches per direction and target it adds the repeatability ``R`` and the accuracy ``A``.
 ``docs/bidirectional.md`` lists the definitions and how encal applies them to an encoder.
 
-:func:`fit_bidirectional` fits either one model per direction (a
-:class:`~encal.models.directional.DirectionalModel`) or one model of the two directions' mean.
+:func:`encal.fit` fits such a calibration with one model per direction (a
+:class:`~encal.models.directional.DirectionalModel`) or one model of the two directions' mean
+(:func:`encal.fitting.fit_bidirectional`); this module holds the analysis both use.
 """
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,11 +28,11 @@ __all__ = [
     "reversal",
     "mean_calibration",
     "direction_subset",
-    "fit_bidirectional",
-    "add_bidirectional_uncertainty",
+    "require_directions",
+    "has_both_directions",
 ]
 
-#: How :func:`fit_bidirectional` treats the two directions.
+#: How :func:`encal.fitting.fit_bidirectional` treats the two directions.
 MODES = ("per-direction", "mean")
 
 #: Reference angles closer than this (degrees) are the same target position.
@@ -165,7 +165,8 @@ class ReversalAnalysis:
         return data
 
 
-def _require_directions(cal, caller):
+def require_directions(cal, caller):
+    """Refuse a calibration without at least MIN_POINTS points in each direction of travel (one sentence)."""
     if not isinstance(cal, Calibration):
         raise InputError(f"{caller} expects a Calibration. Got {type(cal).__name__} instead.")
     if cal.direction is None:
@@ -176,6 +177,11 @@ def _require_directions(cal, caller):
         raise CalibrationError(f"{caller} expects at least {MIN_POINTS} points in each direction; "
                                f"{cal.source or cal.name or 'the calibration'} has {counts[1]} forward "
                                f"and {counts[-1]} reverse")
+
+
+def has_both_directions(cal):
+    """Whether a calibration has readings taken turning forward (+1) and readings taken turning back (-1)."""
+    return cal.direction is not None and bool(np.any(cal.direction == 1)) and bool(np.any(cal.direction == -1))
 
 
 def direction_subset(cal, direction):
@@ -214,7 +220,7 @@ def reversal(cal):
     >>> round(reversal(cal).mean_reversal_value, 9), round(reversal(cal).systematic_deviation, 9)
     (0.2, 0.2)
     """
-    _require_directions(cal, "reversal")
+    require_directions(cal, "reversal")
     target = np.round(wrap360(cal.reference_deg) / TARGET_TOLERANCE_DEG) * TARGET_TOLERANCE_DEG
     target = np.where(target >= 360.0, 0.0, target)
     error = cal.errors_arcmin
@@ -264,117 +270,3 @@ def mean_calibration(cal):
     return Calibration(reference, reference + analysis.mean_bidirectional_arcmin / ARCMIN_PER_DEG,
                        name=cal.name, resolution_bits=cal.resolution_bits, source=cal.source,
                        metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign)
-
-
-def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **options):
-    """Fit an error model to a bidirectional calibration.
-
-    Parameters
-    ----------
-    cal : Calibration
-        With a ``direction`` column (+1 forward, -1 reverse).
-    mode : {'per-direction', 'mean'}, default='per-direction'
-        ``'per-direction'``: one model per direction, in a :class:`~encal.models.directional.DirectionalModel`
-        that uses the known direction of a reading (and the mean of both when it is unknown).
-        ``'mean'``: one model of the mean of both directions at every target position (see
-        :func:`mean_calibration`), of the kind ``method`` makes; it carries no direction and its residual
-        in either direction is about half the reversal value.
-    method : str, default='auto'
-        Any method of :func:`encal.fit`.
-    rng : int or numpy.random.Generator, optional
-        For the randomised methods.
-    **options
-        Passed to :func:`encal.fit`.
-
-    Returns
-    -------
-    Model
-        ``training`` records ``bidirectional`` (the mode), ``fit_options`` and the calibration's
-        ``mean_reversal_value_arcmin`` and ``reversal_value_arcmin``.
-
-    Raises
-    ------
-    InputError
-        If ``mode`` is unknown.
-    CalibrationError
-        If the calibration is not bidirectional (see :func:`reversal`).
-
-    Examples
-    --------
-    >>> import numpy as np, encal
-    >>> ref = np.tile(np.arange(0.0, 360.0, 5.0), 2)
-    >>> direction = np.repeat([1, -1], 72)
-    >>> error = np.sin(np.radians(ref)) + 0.15 * direction          # arcmin; reversal 0.3
-    >>> cal = encal.Calibration(ref, ref + error / 60, direction=direction)
-    >>> model = fit_bidirectional(cal, method="fourier", orders=[0, 1])
-    >>> round(float(model.predict(90.0, direction=1)), 3), round(float(model.predict(90.0)), 3)
-    (1.15, 1.0)
-    """
-    from .fitting import fit
-    from .models.directional import DirectionalModel
-
-    if mode not in MODES:
-        raise InputError(f"The 'mode' parameter of fit_bidirectional must be one of {', '.join(MODES)}. "
-                         f"Got {mode!r} instead.")
-    analysis = reversal(cal)
-    generator = None if rng is None else np.random.default_rng(rng)
-    record = {
-        "bidirectional": mode,
-        "fit_options": dict(options),
-        "mean_reversal_value_arcmin": analysis.mean_reversal_value,
-        "reversal_value_arcmin": analysis.reversal_value,
-    }
-    if mode == "mean":
-        model = fit(mean_calibration(cal), method, rng=generator, **options)
-        model.training.update(record)
-    else:
-        parts = [fit(direction_subset(cal, sign), method, rng=generator, **options) for sign in (1, -1)]
-        for part in parts:
-            part.reading_sign = 1  # the directional model maps readings before its parts see them
-        model = DirectionalModel(*parts)
-        model.reading_sign = cal.reading_sign
-        model.training = {"method": method, **record, "n_points": len(cal)}
-    model.encoder = {"name": cal.name, "resolution_bits": cal.resolution_bits}
-    if isinstance(rng, (int, np.integer)):
-        model.training.setdefault("seed", int(rng))
-    return model
-
-
-def add_bidirectional_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds=10,
-                                  grid_step_deg=1.0, rng=None):
-    """Prediction uncertainty of a model of a bidirectional calibration (see :func:`encal.uncertainty.add_uncertainty`).
-
-    A :class:`~encal.models.directional.DirectionalModel` gets one uncertainty per direction, each estimated
-    on that direction's points. A one-direction model of the mean of both directions (``mode='mean'``) gets
-    the uncertainty of the mean profile, and its ``noise_std_arcmin`` adds the RMS half reversal value,
-    ``sqrt(mean(B_i²) / 4)``, in quadrature: a new reading comes from one direction, unknown to the model.
-
-    Returns
-    -------
-    Model
-        The same model, with its uncertainty (or its parts' uncertainties) set.
-    """
-    from .models.directional import DirectionalModel
-    from .uncertainty import estimate_uncertainty, recorded_options
-
-    settings = {"n_boot": n_boot, "n_folds": n_folds, "grid_step_deg": grid_step_deg}
-    if options is None:
-        options = recorded_options(model)
-    generator = np.random.default_rng(rng)
-    if isinstance(model, DirectionalModel):
-        _require_directions(cal, "add_uncertainty of a directional model")
-        for sign, part in ((1, model.forward), (-1, model.reverse)):
-            side = direction_subset(cal, sign)
-            part.uncertainty = estimate_uncertainty(
-                part, side.encoder_deg, side.errors_arcmin, method=method or part.training.get("method"),
-                options=options, rng=generator, **settings)
-        return model
-    analysis = reversal(cal)
-    mean = mean_calibration(cal)
-    uncertainty = estimate_uncertainty(model, mean.encoder_deg, mean.errors_arcmin, method=method,
-                                       options=options, rng=generator, **settings)
-    half_reversal = math.sqrt(float(np.mean(np.square(analysis.reversal_arcmin))) / 4.0)
-    uncertainty["half_reversal_rms_arcmin"] = half_reversal
-    uncertainty["noise_std_arcmin"] = math.hypot(uncertainty["noise_std_arcmin"], half_reversal)
-    model.uncertainty = uncertainty
-    return model

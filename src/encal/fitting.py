@@ -12,12 +12,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from .angles import ARCMIN_PER_DEG, resolution_of_readings, wrap180
+from .bidirectional import (
+    MODES as BIDIRECTIONAL_MODES,
+    direction_subset,
+    has_both_directions,
+    mean_calibration,
+    require_directions,
+    reversal,
+)
 from .calibration import Calibration, check_folds
-from .errors import InputError
+from .errors import CalibrationError, InputError
 from .models import kind_names, model_kind
 from .profile import ErrorStats, error_stats
+from .uncertainty import add_uncertainty, refit_spec
 
-__all__ = ["fit", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
+__all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
 
 
 def calibration_sha256(cal):
@@ -39,7 +48,7 @@ def fitter(method):
     return model_kind(method).fit
 
 
-def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
+def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, **options):
     """Fit an error model to a calibration.
 
     Parameters
@@ -55,6 +64,12 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     uncertainty : bool, default=False
         Also estimate the prediction uncertainty (bootstrap refits; see :mod:`encal.uncertainty`), so that
         ``model.predict(theta, return_std=True)`` works. Costs 30 (Fourier) to 100 (lookup table, networks) refits.
+    bidirectional : {'per-direction', 'mean'}, optional
+        How to fit a calibration whose ``direction`` column holds both directions of travel (+1 and -1);
+        see :func:`fit_bidirectional`. Default ``'per-direction'``: one model per direction, in a
+        ``'directional'`` model that corrects each reading with its direction's profile (and with their
+        mean when the direction is not known). ``'mean'``: one model of the two directions' mean. Only for
+        such a calibration.
     **options
         Passed to the family's fit function (``hidden``, ``algorithm``, ``encoding`` for ``'ann'``;
         ``orders``, ``n_orders``, ``select`` for ``'fourier'``; ``interpolation`` for ``'lut'``;
@@ -63,7 +78,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     Returns
     -------
     Model
-        Predicts the error ``encoder - reference`` in arc-minutes from the encoder angle in degrees.
+        Predicts the error ``encoder - reference`` in arc-minutes from the encoder angle in degrees (and
+        the direction of travel, for a ``'directional'`` model).
 
     Raises
     ------
@@ -84,6 +100,22 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     """
     if not isinstance(cal, Calibration):
         raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
+    if has_both_directions(cal):
+        # Both directions of travel pooled into one profile would leave half the reversal in every residual.
+        model = fit_bidirectional(cal, bidirectional or "per-direction", method, rng=rng, **options)
+        if uncertainty:
+            add_uncertainty(model, cal, method=method, options=dict(options), rng=rng)
+        return model
+    if bidirectional is not None:
+        raise InputError("The 'bidirectional' parameter of fit applies to a calibration with both directions "
+                         f"of travel in its direction column. Got {bidirectional!r} for "
+                         f"{cal.source or cal.name or 'a calibration'}, which has one direction.")
+    return _fit_one_direction(cal, method, rng, options, uncertainty=uncertainty)
+
+
+def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
+    """:func:`fit` of a calibration with one profile (its readings all taken one way, or the way unknown)."""
+    options = dict(options)
     fit_family = fitter(method)
     check_folds(cal, where=cal.source or cal.name or "calibration")
     fit_options = dict(options)
@@ -104,8 +136,6 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, **options):
     if isinstance(rng, (int, np.integer)):
         model.training.setdefault("seed", int(rng))
     if uncertainty and model.uncertainty is None:  # a spectral model has its posterior already
-        from .uncertainty import add_uncertainty
-
         refit_method, refit_options = refit_spec(model, method, fit_options)
         add_uncertainty(model, cal, method=refit_method, options=refit_options, rng=rng)
     model.reading_sign = cal.reading_sign
@@ -128,17 +158,87 @@ def resolution_bits(cal):
     return resolution_of_readings(cal.encoder_deg)
 
 
-def refit_spec(model, method, options):
-    """``(method, options)`` that refit ``model`` the way it was made, for the uncertainty's bootstrap.
+def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **options):
+    """Fit an error model to a bidirectional calibration.
 
-    A model made by ``method='auto'`` is refitted as the family it chose (a stack as its members and
-    weights), not by the whole selection, which would cost about 70 fits per refit.
+    Parameters
+    ----------
+    cal : Calibration
+        With a ``direction`` column (+1 forward, -1 reverse).
+    mode : {'per-direction', 'mean'}, default='per-direction'
+        ``'per-direction'``: one model per direction, in a :class:`~encal.models.directional.DirectionalModel`
+        that uses the known direction of a reading (and the mean of both when it is unknown).
+        ``'mean'``: one model of the mean of both directions at every target position (see
+        :func:`mean_calibration`), of the kind ``method`` makes; it carries no direction and its residual
+        in either direction is about half the reversal value.
+    method : str, default='auto'
+        Any method of :func:`encal.fit`.
+    rng : int or numpy.random.Generator, optional
+        For the randomised methods.
+    **options
+        Passed to :func:`encal.fit`.
+
+    Returns
+    -------
+    Model
+        ``training`` records ``bidirectional`` (the mode), ``fit_options`` and the calibration's
+        ``mean_reversal_value_arcmin`` and ``reversal_value_arcmin`` (None in ``'per-direction'`` mode
+        when no target position was approached both ways).
+
+    Raises
+    ------
+    InputError
+        If ``mode`` is unknown.
+    CalibrationError
+        If the calibration has fewer than 8 points in a direction, or (``mode='mean'``) no target position
+        approached in both directions (see :func:`~encal.bidirectional.reversal`).
+
+    Examples
+    --------
+    >>> import numpy as np, encal
+    >>> ref = np.tile(np.arange(0.0, 360.0, 5.0), 2)
+    >>> direction = np.repeat([1, -1], 72)
+    >>> error = np.sin(np.radians(ref)) + 0.15 * direction          # arcmin; reversal 0.3
+    >>> cal = encal.Calibration(ref, ref + error / 60, direction=direction)
+    >>> model = encal.fitting.fit_bidirectional(cal, method="fourier", orders=[0, 1])
+    >>> round(float(model.predict(90.0, direction=1)), 3), round(float(model.predict(90.0)), 3)
+    (1.15, 1.0)
     """
-    selection = model.training.get("selection")
-    if method != "auto" or selection is None:
-        return method, dict(options)
-    chosen = next(row for row in selection["table"] if row["label"] == selection["chosen"])
-    return chosen["family"], dict(chosen["options"])
+    if mode not in BIDIRECTIONAL_MODES:
+        raise InputError(f"The 'mode' parameter of fit_bidirectional must be one of {', '.join(BIDIRECTIONAL_MODES)}. "
+                         f"Got {mode!r} instead.")
+    require_directions(cal, "fit_bidirectional")
+    analysis = _reversal_or_none(cal) if mode == "per-direction" else reversal(cal)
+    generator = None if rng is None else np.random.default_rng(rng)
+    record = {
+        "bidirectional": mode,
+        "fit_options": dict(options),
+        "mean_reversal_value_arcmin": None if analysis is None else analysis.mean_reversal_value,
+        "reversal_value_arcmin": None if analysis is None else analysis.reversal_value,
+    }
+    if mode == "mean":
+        model = _fit_one_direction(mean_calibration(cal), method, generator, options)
+        model.training.update(record)
+    else:
+        parts = [_fit_one_direction(direction_subset(cal, sign), method, generator, options) for sign in (1, -1)]
+        for part in parts:
+            part.reading_sign = 1  # the directional model maps readings before its parts see them
+        model = model_kind("directional").model_class(*parts)
+        model.reading_sign = cal.reading_sign
+        model.training = {"method": method, **record, "n_points": len(cal)}
+    model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
+    if isinstance(rng, (int, np.integer)):
+        model.training.setdefault("seed", int(rng))
+    return model
+
+
+
+def _reversal_or_none(cal):
+    """The reversal analysis, or None when no target position was approached in both directions."""
+    try:
+        return reversal(cal)
+    except CalibrationError:
+        return None
 
 
 @dataclass(frozen=True)
@@ -183,5 +283,7 @@ def evaluate(model, cal):
         raise InputError(f"evaluate expects a Calibration. Got {type(cal).__name__} instead.")
     observed = cal.errors_arcmin
     # The model maps readings to its input itself (a model of a reversed encoder negates them).
-    residual = wrap180((observed - model.predict(cal.readings_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
+    # A directional model predicts each reading with its own direction's profile.
+    predicted = model.predict(cal.readings_deg, direction=cal.direction)
+    residual = wrap180((observed - predicted) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
     return Evaluation(error_stats(observed), error_stats(residual), cal.encoder_deg.copy(), residual)

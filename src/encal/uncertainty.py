@@ -58,6 +58,7 @@ import warnings
 import numpy as np
 
 from .angles import ARCMIN_PER_DEG, model_input, wrap180
+from .bidirectional import direction_subset, has_both_directions, mean_calibration, require_directions, reversal
 from .calibration import Calibration
 from .errors import InputError
 from .models import model_kind
@@ -73,6 +74,7 @@ __all__ = [
     "coverage",
     "cross_validated_residuals",
     "recorded_options",
+    "refit_spec",
     "check_uncertainty",
 ]
 
@@ -128,8 +130,7 @@ def coverage(model, cal, *, coverage_factor=2.0):
         Between 0 and 1.
     """
     k = _positive(coverage_factor, "coverage_factor", "coverage")
-    options = {"direction": cal.direction} if getattr(model, "kind", None) == "directional" else {}
-    mean, std = model.predict(cal.readings_deg, return_std=True, **options)
+    mean, std = model.predict(cal.readings_deg, return_std=True, direction=cal.direction)
     residual = _wrapped_arcmin(cal.errors_arcmin - mean)
     return float(np.mean(np.abs(residual) <= k * std))
 
@@ -147,7 +148,7 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
         A model fitted to ``cal``.
     cal : Calibration
         The calibration the model was fitted on. A bidirectional calibration (``direction`` column) is
-        handled by :func:`encal.bidirectional.add_bidirectional_uncertainty`.
+        estimated per direction (see :func:`_add_bidirectional_uncertainty`).
     method : str, optional
         The method the model was fitted with; default ``model.training['method']``, else its kind.
     options : dict, optional
@@ -190,11 +191,8 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
     """
     if not isinstance(cal, Calibration):
         raise InputError(f"add_uncertainty expects a Calibration. Got {type(cal).__name__} instead.")
-    both_directions = cal.direction is not None and np.unique(cal.direction).size == 2
-    if both_directions or getattr(model, "kind", None) == "directional":
-        from .bidirectional import add_bidirectional_uncertainty
-
-        return add_bidirectional_uncertainty(model, cal, method=method, options=options, n_boot=n_boot,
+    if has_both_directions(cal) or getattr(model, "kind", None) == "directional":
+        return _add_bidirectional_uncertainty(model, cal, method=method, options=options, n_boot=n_boot,
                                              n_folds=n_folds, grid_step_deg=grid_step_deg, rng=rng)
     model.uncertainty = estimate_uncertainty(
         model, cal.encoder_deg, cal.errors_arcmin, method=method, options=options, n_boot=n_boot,
@@ -409,9 +407,7 @@ class _Refitter:
     """Refit the model's method with its options on new data, each randomised refit with a new seed."""
 
     def __init__(self, method, options, rng):
-        from .fitting import fitter
-
-        self.fit = fitter(method)
+        self.fit = model_kind(method, role="method of the refits").fit
         self.options = {key: value for key, value in dict(options or {}).items() if key != "rng"}
         self.randomised = model_kind(method).randomised
         self.method = method
@@ -433,6 +429,58 @@ class _Refitter:
         # Refits that warn (a network stopping early) still count: they are draws of the same procedure.
         self.warnings += bool(caught)
         return model
+
+
+def _add_bidirectional_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds=10,
+                                  grid_step_deg=1.0, rng=None):
+    """Prediction uncertainty of a model of a bidirectional calibration (see :func:`add_uncertainty`).
+
+    A :class:`~encal.models.directional.DirectionalModel` gets one uncertainty per direction, each estimated
+    on that direction's points. A one-direction model of the mean of both directions (``mode='mean'``) gets
+    the uncertainty of the mean profile, and its ``noise_std_arcmin`` adds the RMS half reversal value,
+    ``sqrt(mean(B_i²) / 4)``, in quadrature: a new reading comes from one direction, unknown to the model.
+
+    Returns
+    -------
+    Model
+        The same model, with its uncertainty (or its parts' uncertainties) set.
+    """
+    settings = {"n_boot": n_boot, "n_folds": n_folds, "grid_step_deg": grid_step_deg}
+    if options is None:
+        options = recorded_options(model)
+    generator = np.random.default_rng(rng)
+    if model.kind == "directional":
+        require_directions(cal, "add_uncertainty of a directional model")
+        for sign, part in ((1, model.forward), (-1, model.reverse)):
+            side = direction_subset(cal, sign)
+            part_method, part_options = refit_spec(part, method or part.training.get("method"), options)
+            part.uncertainty = estimate_uncertainty(
+                part, side.encoder_deg, side.errors_arcmin, method=part_method, options=part_options,
+                rng=generator, **settings)
+        return model
+    analysis = reversal(cal)
+    mean = mean_calibration(cal)
+    mean_method, mean_options = refit_spec(model, method or model.training.get("method"), options)
+    uncertainty = estimate_uncertainty(model, mean.encoder_deg, mean.errors_arcmin, method=mean_method,
+                                       options=mean_options, rng=generator, **settings)
+    half_reversal = math.sqrt(float(np.mean(np.square(analysis.reversal_arcmin))) / 4.0)
+    uncertainty["half_reversal_rms_arcmin"] = half_reversal
+    uncertainty["noise_std_arcmin"] = math.hypot(uncertainty["noise_std_arcmin"], half_reversal)
+    model.uncertainty = uncertainty
+    return model
+
+
+def refit_spec(model, method, options):
+    """``(method, options)`` that refit ``model`` the way it was made, for the uncertainty's bootstrap.
+
+    A model made by ``method='auto'`` is refitted as the family it chose (a stack as its members and
+    weights), not by the whole selection, which would cost about 70 fits per refit.
+    """
+    selection = model.training.get("selection")
+    if method != "auto" or selection is None:
+        return method, dict(options)
+    chosen = next(row for row in selection["table"] if row["label"] == selection["chosen"])
+    return chosen["family"], dict(chosen["options"])
 
 
 def recorded_options(model):

@@ -40,6 +40,9 @@ def add_arguments(parser):
                              "(auto; docs/model-selection.md)")
     parser.add_argument("--no-stack", dest="stack", action="store_const", const=False, default=None,
                         help="choose one model family, never a weighted mean of several (auto)")
+    parser.add_argument("--bidirectional", choices=["per-direction", "mean"],
+                        help="a calibration whose direction column holds both directions of travel: one model "
+                             "per direction (default) or one model of their mean (docs/bidirectional.md)")
     parser.add_argument("--seed", type=int, help="random seed (ann, auto): same seed, identical model file")
     parser.add_argument("--bits", type=int_in_range(1, 32), metavar="B",
                         help="encoder resolution in bits, recorded in the model file (default: a "
@@ -92,6 +95,8 @@ def _options(args):
         value = getattr(args, name)
         if value is not None:
             options[name] = value
+    if args.bidirectional is not None:
+        options["bidirectional"] = args.bidirectional
     if args.at_steps:
         options["use_grid"] = True
     if args.noise is not None:
@@ -187,6 +192,9 @@ def run(args):
         from ..models.select import format_selection
 
         print(format_selection(selection))
+    if model.kind == "directional":
+        print(f"{cal.name}: both directions of travel, one {model.forward.kind} model per direction "
+              "(the mean of both when a reading's direction is not known)")
     print(_resolution_line(cal, model.encoder.get("resolution_bits")))
     print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS "
           f"{fitted.before.rms:.4g} -> {fitted.after.rms:.4g} arcmin (MAE {fitted.before.mae:.4g} -> "

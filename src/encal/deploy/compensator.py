@@ -1,6 +1,5 @@
 """Online correction of encoder readings with a model."""
 
-import inspect
 import os
 
 import numpy as np
@@ -44,7 +43,6 @@ class Compensator:
         else:
             raise InputError(f"expected a Model or the path of a model file, "
                              f"got {type(model).__name__}")
-        self._directional = "direction" in inspect.signature(self.model.predict).parameters
 
     @property
     def sha256(self):
@@ -75,9 +73,8 @@ class Compensator:
             Encoder readings in degrees (any finite value).
         direction : int or array-like of {+1, -1}, optional
             Direction of travel into each reading. A model with one profile per
-            direction (``kind='directional'``, whose ``predict`` takes
-            ``direction``) uses it, and the mean of both without it; the other
-            kinds have one profile and ignore it.
+            direction (``kind='directional'``) uses it, and the mean of both
+            without it; the other kinds have one profile and ignore it.
         return_std : bool, default=False
             Also return the model's predictive standard uncertainty (arc-minutes;
             the model must carry an uncertainty).
@@ -92,9 +89,7 @@ class Compensator:
         theta = as_angles(theta_enc_deg)
         options = {"return_std": True} if return_std else {}
         if direction is not None:
-            direction = _directions(direction, theta.shape)
-            if self._directional:
-                options["direction"] = direction.reshape(-1)
+            options["direction"] = _directions(direction, theta.shape).reshape(-1)
         # Models see one flat array, whatever the shape of the readings.
         result = self.model.predict(theta.reshape(-1), **options)
         if return_std:

@@ -19,7 +19,7 @@ from ..errors import InputError
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
-__all__ = ["Model", "as_angles"]
+__all__ = ["Model", "as_angles", "direction_mask"]
 
 
 def as_angles(theta_enc_deg):
@@ -28,6 +28,26 @@ def as_angles(theta_enc_deg):
     if not np.all(np.isfinite(theta)):
         raise InputError("encoder angles must be finite numbers of degrees (found NaN or infinity)")
     return theta
+
+
+def direction_mask(direction, shape):
+    """``True`` where a reading was taken turning forward: ``direction`` (+1 or -1 per reading) checked and
+    broadcast to ``shape``.
+
+    Raises
+    ------
+    InputError
+        If a value is not +1 or -1, or the shape does not broadcast.
+    """
+    values = np.asarray(direction)
+    if values.dtype.kind not in "iuf" or not np.all(np.isin(values, (-1, 1))):
+        raise InputError("direction must be +1 (forward), -1 (reverse) or None (unknown); "
+                         f"got {np.unique(values)[:4].tolist()}")
+    try:
+        return np.broadcast_to(values > 0, shape)
+    except ValueError:
+        raise InputError(f"direction has shape {values.shape}, expected one value or the shape "
+                         f"{shape} of the encoder angles") from None
 
 
 class Model(ABC):
@@ -75,8 +95,10 @@ class Model(ABC):
     def from_parameters(cls, parameters, *, encoder=None, training=None):
         """Rebuild a model from ``parameters()``."""
 
-    def predict(self, theta_enc_deg, return_std=False):
+    def predict(self, theta_enc_deg, return_std=False, direction=None):
         """Predicted error at the given encoder readings.
+
+        Every kind has this signature; only a ``'directional'`` model's prediction depends on ``direction``.
 
         Parameters
         ----------
@@ -86,6 +108,10 @@ class Model(ABC):
         return_std : bool, default=False
             Also return the standard uncertainty of a new reading's residual
             (needs :attr:`uncertainty`, see :func:`encal.uncertainty.add_uncertainty`).
+        direction : {+1, -1} or array-like of them, optional
+            Direction of travel into each reading (broadcast against ``theta_enc_deg``), ``None`` when not
+            known. A model of one profile has the same error both ways: it checks the values and ignores
+            them.
 
         Returns
         -------
@@ -96,21 +122,24 @@ class Model(ABC):
             same shape.
         """
         theta = model_input(as_angles(theta_enc_deg), self.reading_sign)
+        if direction is not None:
+            direction_mask(direction, theta.shape)
         # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
         mean = np.asarray(self._predict(theta.reshape(-1)), dtype=float).reshape(theta.shape)[()]
         if not return_std:
             return mean
         return mean, predictive_std(self.uncertainty, theta)
 
-    def correct(self, theta_enc_deg):
-        """Corrected angles ``(theta_in - predict(theta_enc) / 60) mod 360``, in degrees.
+    def correct(self, theta_enc_deg, direction=None):
+        """Corrected angles ``(theta_in - predict(theta_enc, direction=direction) / 60) mod 360``, in degrees.
 
         ``theta_in = model_input(theta_enc, reading_sign)``: the reading itself unless the encoder counts
-        against its reference.
+        against its reference. ``direction`` as for :meth:`predict`.
         """
         theta = as_angles(theta_enc_deg)
         # model_input wraps first: multi-turn readings keep their precision
-        return wrap360(model_input(theta, self.reading_sign) - self.predict(theta) / ARCMIN_PER_DEG)
+        return wrap360(model_input(theta, self.reading_sign)
+                       - self.predict(theta, direction=direction) / ARCMIN_PER_DEG)
 
     def save(self, path, **options):
         """Write the model file (see :func:`encal.deploy.save_model`)."""

@@ -3,14 +3,14 @@
 An encoder with hysteresis (a converter's 1-LSB dead band, a coupling's backlash) reads differently when the
 shaft arrives at an angle turning forward (+1) than turning back (-1). A directional model holds one model of
 any kind for each direction; it uses the one of the known direction, and the mean of the two when the
-direction is not known. Fit one with :func:`encal.bidirectional.fit_bidirectional`.
+direction is not known. Fit one with :func:`encal.fit` from a calibration with a ``direction`` column.
 """
 
 import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError, ModelFileError
-from .base import Model, as_angles
+from .base import Model, as_angles, direction_mask
 from .kind import model_kind
 from .stored_uncertainty import check_uncertainty
 
@@ -88,7 +88,7 @@ class DirectionalModel(Model):
                 return mean
             half_reversal = 0.5 * (f_mean - r_mean)
             return mean, np.sqrt(0.5 * (f_std**2 + r_std**2) + half_reversal**2)
-        forward_side = self._direction_mask(direction, theta.shape)
+        forward_side = direction_mask(direction, theta.shape)
         mean = np.where(forward_side, f_mean, r_mean)[()]
         if not return_std:
             return mean
@@ -99,18 +99,6 @@ class DirectionalModel(Model):
         theta = as_angles(theta_enc_deg)
         return wrap360(model_input(theta, self.reading_sign) - self.predict(theta, direction=direction)
                        / ARCMIN_PER_DEG)
-
-    @staticmethod
-    def _direction_mask(direction, shape):
-        values = np.asarray(direction)
-        if values.dtype.kind not in "iuf" or not np.all(np.isin(values, (-1, 1))):
-            raise InputError("direction must be +1 (forward), -1 (reverse) or None (unknown); "
-                             f"got {np.unique(values)[:4].tolist()}")
-        try:
-            return np.broadcast_to(values > 0, shape)
-        except ValueError:
-            raise InputError(f"direction has shape {values.shape}, expected one value or the shape "
-                             f"{shape} of the encoder angles") from None
 
     def free_parameters(self):
         return self.forward.free_parameters() + self.reverse.free_parameters()
