@@ -70,7 +70,7 @@ class SpectralModel(FourierModel):
         np.add.at(complex_coefficients, self.orders, self.cos - 1j * self.sin)
         return trig_series(complex_coefficients, np.radians(theta_deg))
 
-    def predict(self, theta_enc_deg, return_std=False, include_noise=True):
+    def predict(self, theta_enc_deg, return_std=False, direction=None, include_noise=True):
         """Posterior mean of the error, and with ``return_std=True`` its posterior standard deviation.
 
         Parameters
@@ -79,6 +79,9 @@ class SpectralModel(FourierModel):
             Encoder readings in degrees.
         return_std : bool, default=False
             Also return the posterior standard deviation (arc-minutes).
+        direction : {+1, -1} or array-like of them, optional
+            Direction of travel into each reading: checked and ignored (one profile serves both), as
+            for every model of one profile (:meth:`Model.predict <encal.models.base.Model.predict>`).
         include_noise : bool, default=True
             With the noise of a new reading (the spread of ``measured - predicted`` at a new
             reading), or without it (the uncertainty of the profile itself).
@@ -90,7 +93,7 @@ class SpectralModel(FourierModel):
         std : float or ndarray
             Only with ``return_std=True``.
         """
-        mean = super().predict(theta_enc_deg)
+        mean = super().predict(theta_enc_deg, direction=direction)
         if not return_std:
             return mean
         if self.uncertainty is None:
