@@ -12,10 +12,11 @@ Two ways of evaluating the model:
 - the model's formula (Fourier series, piecewise polynomial, 1:N:1 network
   with its input and output scaling, their sum, or a stack's weighted sum),
   computed in ``double``.
-  Angles are reduced before any trigonometry: a Fourier phase ``k * theta``
-  is taken modulo 360 degrees in double (exact, as ``theta`` is a float and
-  ``k`` a small integer) before it is turned into radians, so orders of
-  several hundred lose nothing. Constants are stored as ``float`` (printed
+  A Fourier series costs one ``cos`` and one ``sin`` per reading: the
+  harmonics ``k * theta`` follow by the double-angle and angle-addition
+  formulas, exact to a few ``k * 1e-16`` (relative), so orders of several
+  hundred lose nothing. Readings within one turn of [0, 360) are wrapped
+  without ``fmod``. Constants are stored as ``float`` (printed
   ``%.9g``, which round-trips float32) when that changes the model by at most
   :data:`FLOAT32_BUDGET_ARCMIN` on a dense grid, else as ``double`` (``%.17g``);
 - the dense per-code table of :mod:`encal.deploy.table` (``table='int16'`` or
@@ -243,19 +244,38 @@ class _Literals:
 # theta in [0, 360) degrees, and the static data it needs, named <tag>_...
 
 def _fourier_source(p, literals, tag):
+    orders = [int(k) for k in p["orders"]]
+    powers = max(max(orders, default=0).bit_length(), 1)
     return f"""\
-{literals.array(f"{tag}_order", p["orders"], per_line=12, ctype="int", number=str)}
+{literals.array(f"{tag}_order", orders, per_line=12, ctype="int", number=str)}
 {literals.array(f"{tag}_cos", p["cos"])}
 {literals.array(f"{tag}_sin", p["sin"])}
 static double {tag}_error_arcmin(double theta)
 {{
+    /* One cos and one sin per reading: (c[m], s[m]) = (cos, sin)(2^m theta) by the double-angle
+       formulas, then (cos, sin)(k theta) by the angle-addition formula over the set bits of k.
+       Each product adds a rounding of order 1e-16, so (cos, sin)(k theta) are exact to a few
+       k * 1e-16 (1e-11 at the largest order, 32767): far below float32 constants' rounding. */
+    double c[{powers}], s[{powers}];
     double sum = 0.0;
-    int i;
-    for (i = 0; i < {len(p["orders"])}; ++i) {{
-        /* k * theta is exact in double (theta has at most 24 significant bits when it
-           comes from a float or a code): reduce it to [0, 360) before cos and sin. */
-        double phase = fmod((double){tag}_order[i] * theta, 360.0) * DEG_TO_RAD;
-        sum += (double){tag}_cos[i] * cos(phase) + (double){tag}_sin[i] * sin(phase);
+    int i, m;
+    c[0] = cos(theta * DEG_TO_RAD);
+    s[0] = sin(theta * DEG_TO_RAD);
+    for (m = 1; m < {powers}; ++m) {{
+        c[m] = c[m - 1] * c[m - 1] - s[m - 1] * s[m - 1];
+        s[m] = 2.0 * s[m - 1] * c[m - 1];
+    }}
+    for (i = 0; i < {len(orders)}; ++i) {{
+        double ck = 1.0, sk = 0.0;
+        int k = {tag}_order[i];
+        for (m = 0; k != 0; ++m, k >>= 1) {{
+            if (k & 1) {{
+                const double t = ck * c[m] - sk * s[m];
+                sk = ck * s[m] + sk * c[m];
+                ck = t;
+            }}
+        }}
+        sum += (double){tag}_cos[i] * ck + (double){tag}_sin[i] * sk;
     }}
     return sum;
 }}
@@ -409,7 +429,9 @@ static double code_error_arcmin(uint32_t code)
 static double error_arcmin(double theta)
 {{
     if (isnan(theta)) return theta; /* a NaN or infinite reading, wrapped: no code to look up */
-    return code_error_arcmin((uint32_t)floor(theta / STEP_DEG + 0.5)); /* nearest code */
+    /* nearest code: theta is wrapped into [0, 360), so theta / STEP_DEG + 0.5 lies in
+       [0.5, 2^BITS + 0.5) and truncation is floor, without the libm call */
+    return code_error_arcmin((uint32_t)(theta / STEP_DEG + 0.5));
 }}
 """
 
@@ -515,8 +537,16 @@ float {prefix}_correct_counts(uint32_t code)
 
 static double wrap360(double angle)
 {{
-    double wrapped = fmod(angle, 360.0);
-    if (wrapped < 0.0) wrapped += 360.0;
+    double wrapped;
+    if (angle >= 0.0 && angle < 360.0) return angle;
+    /* Within one turn of [0, 360) a subtraction gives exactly what fmod gives (360 - 720 is exact,
+       -360 < angle < 0 rounds once, as fmod's result plus 360 does), without the libm call. */
+    if (angle > -360.0 && angle < 720.0) {{
+        wrapped = angle < 0.0 ? angle + 360.0 : angle - 360.0;
+    }} else {{
+        wrapped = fmod(angle, 360.0);
+        if (wrapped < 0.0) wrapped += 360.0;
+    }}
     return wrapped >= 360.0 ? 0.0 : wrapped;
 }}
 

@@ -1,0 +1,233 @@
+"""The hot paths beside their limits: every figure a ratio measured in one run.
+
+    python benchmarks/bench_hotpaths.py [--before REV] [--only SECTION,...] [--quick]
+
+On a machine that other work shares absolute timings drift, so each row times
+a hot path and its limit (or peer) side by side, interleaved, best of several
+repeats of CPU time, and reports their ratio. With ``--before REV`` (a git
+revision of this repository) the same measurement also runs on that
+revision's ``src`` (extracted with ``git archive`` into a temporary folder),
+interleaved with the current one: before and after in one run.
+
+Sections:
+
+- ``c``: the exported C (``gcc -O2``), ns per reading of ``<prefix>_correct_counts``
+  for the int16 table against a plain C lookup of the same table (a function
+  in its own file doing ``table[code & mask] * scale``, the limit), and of
+  the formula forms (before against after, with their libm calls per reading);
+- ``correct``: ``Model.correct`` / ``predict`` in NumPy on 10^7 angles: ns per angle and
+  peak memory against the dense table's lookup and a vectorised formula;
+- ``trainlm``: one trainlm epoch (raw 1:80:1, 180 points) against the back-to-back
+  BLAS/LAPACK calls it makes;
+- ``stream``: ``encal correct`` lines per CPU second against a plain NumPy script.
+
+The load average is printed at the start and the end.
+"""
+
+import argparse
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tarfile
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT / "tests" / "data"
+
+C_DRIVER = """\
+#define _POSIX_C_SOURCE 199309L
+#include <stdint.h>
+#include <stdio.h>
+#include <time.h>
+
+float {function}(uint32_t code);
+
+static double now(void)
+{{
+    struct timespec t;
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}}
+
+int main(void)
+{{
+    const uint32_t n = {n}u;
+    double best = 1e30, sum = 0.0;
+    int repeat;
+    for (repeat = 0; repeat < 3; ++repeat) {{
+        uint32_t k;
+        const double start = now();
+        double elapsed;
+        for (k = 0; k < n; ++k) {{
+            sum += (double){function}(k * 40503u);  /* codes in a scattered order */
+        }}
+        elapsed = now() - start;
+        if (elapsed < best) best = elapsed;
+    }}
+    printf("%.3f %g\\n", 1e9 * best / (double)n, sum);
+    return 0;
+}}
+"""
+
+C_LOOKUP = """\
+#include <stdint.h>
+#include "{prefix}_data.h"
+
+float lookup_counts(uint32_t code);
+
+float lookup_counts(uint32_t code)
+{{
+    return (float)((double)error_table[code & 0xFFFFu] * TABLE_SCALE_ARCMIN);
+}}
+"""
+
+EXPORT_SCRIPT = """\
+import sys
+from encal.deploy import write_c
+write_c(sys.argv[1], sys.argv[2], prefix="bench", table=None if sys.argv[3] == "formula" else sys.argv[3])
+"""
+
+C_MODELS = {"fourier (9 orders up to 97)": "model_v1_fourier.json",
+            "ann (periodic 1:8:1)": "model_v1_ann.json",
+            "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json",
+            "stack (4 orders + cubic lut + 1:4:1)": "model_v1_stack.json"}
+
+
+def load():
+    return f"{os.getloadavg()[0]:.2f}"
+
+
+def machine():
+    cpu = "unknown CPU"
+    with open("/proc/cpuinfo", encoding="utf-8") as handle:
+        for line in handle:
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    return (f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
+            f"Python {platform.python_version()}, NumPy {np.__version__}")
+
+
+def extract_source(revision, folder):
+    """``src`` of ``revision`` extracted into ``folder``; the path to put on PYTHONPATH."""
+    archive = folder / "src.tar"
+    with open(archive, "wb") as handle:
+        subprocess.run(["git", "-C", str(ROOT), "archive", revision, "src"], stdout=handle, check=True)
+    with tarfile.open(archive) as tar:
+        tar.extractall(folder, filter="data")
+    return folder / "src"
+
+
+def run_with(source, *command, **options):
+    env = {**os.environ, "PYTHONPATH": str(source), "OPENBLAS_NUM_THREADS": "1"}
+    return subprocess.run(command, env=env, check=True, capture_output=True, text=True, **options)
+
+
+# -- exported C ---------------------------------------------------------------------------
+
+def build_c(source, model, table, folder, n):
+    """Export ``model`` with the encal at ``source``, build the timing driver; the program's path."""
+    gcc = shutil.which("gcc")
+    folder.mkdir(parents=True)
+    run_with(source, sys.executable, "-c", EXPORT_SCRIPT, str(model), str(folder), table)
+    (folder / "driver.c").write_text(C_DRIVER.format(function="bench_correct_counts", n=n))
+    program = folder / "program"
+    subprocess.run([gcc, "-std=c99", "-O2", "-I", str(folder), str(folder / "driver.c"),
+                    str(folder / "bench.c"), "-lm", "-o", str(program)], check=True)
+    return program
+
+
+def build_lookup(exported, folder, n):
+    """The limit: a function in its own file that only looks the code up in the exported table."""
+    gcc = shutil.which("gcc")
+    folder.mkdir(parents=True)
+    text = (exported / "bench.c").read_text()
+    start = text.index("static const int16_t error_table")
+    end = text.index("#define TABLE_SCALE_ARCMIN")
+    end = text.index("\n", end) + 1
+    (folder / "bench_data.h").write_text(text[start:end])
+    (folder / "lookup.c").write_text(C_LOOKUP.format(prefix="bench"))
+    (folder / "driver.c").write_text(C_DRIVER.format(function="lookup_counts", n=n))
+    program = folder / "program"
+    subprocess.run([gcc, "-std=c99", "-O2", "-I", str(folder), str(folder / "driver.c"),
+                    str(folder / "lookup.c"), "-o", str(program)], check=True)
+    return program
+
+
+def libm_calls(program):
+    """libm functions the exported code calls (from the program's dynamic symbols)."""
+    names = subprocess.run(["nm", "-D", "--undefined-only", str(program)], capture_output=True,
+                           text=True).stdout.split()
+    return sorted({n.split("@")[0] for n in names
+                   if n.split("@")[0] in {"fmod", "sin", "cos", "tanh", "exp", "floor", "sincos"}})
+
+
+def time_programs(programs, rounds=3):
+    best = {name: np.inf for name in programs}
+    for _ in range(rounds):
+        for name, program in programs.items():
+            output = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
+            best[name] = min(best[name], float(output.split()[0]))
+    return best
+
+
+def section_c(sources, folder, quick):
+    n = 10**6 if quick else 10**7
+    print("\n### exported C: ns per `correct_counts` reading (gcc -O2), best of 3 x 3\n")
+    programs = {}
+    for label, source in sources.items():
+        programs[("table", label)] = build_c(source, DATA / "model_v1_fourier.json", "int16",
+                                             folder / f"table-{label}", n)
+    programs[("table", "limit")] = build_lookup(folder / "table-after", folder / "lookup", n)
+    for name, file in C_MODELS.items():
+        for label, source in sources.items():
+            programs[(name, label)] = build_c(source, DATA / file, "formula", folder / f"{file}-{label}", n)
+    times = time_programs(programs)
+    labels = list(sources)
+    print("| form | limit ns | " + " | ".join(f"{label} ns" for label in labels)
+          + " | " + " | ".join(f"{label} / limit" for label in labels) + " |")
+    print("|---|---|" + "---|" * (2 * len(labels)))
+    limit = times[("table", "limit")]
+    print(f"| int16 table (fourier) | {limit:.2f} | "
+          + " | ".join(f"{times[('table', label)]:.2f}" for label in labels) + " | "
+          + " | ".join(f"{times[('table', label)] / limit:.2f}" for label in labels) + " |")
+    print("\n| formula | " + " | ".join(f"{label} ns (libm symbols)" for label in labels)
+          + (" | after / before |" if len(labels) == 2 else " |"))
+    print("|---|" + "---|" * (len(labels) + (len(labels) == 2)))
+    for name in C_MODELS:
+        cells = [f"{times[(name, label)]:.1f} ({', '.join(libm_calls(programs[(name, label)]))})"
+                 for label in labels]
+        ratio = (f" | {times[(name, 'after')] / times[(name, 'before')]:.2f}" if len(labels) == 2 else "")
+        print(f"| {name} | " + " | ".join(cells) + ratio + " |")
+
+
+SECTIONS = {"c": section_c}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--before", help="git revision to measure side by side with the current src")
+    parser.add_argument("--only", default=",".join(SECTIONS), help="comma-separated sections")
+    parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
+    args = parser.parse_args()
+    print(f"machine: {machine()}")
+    print(f"load average at start: {load()}")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        sources = {}
+        if args.before:
+            (folder / "before").mkdir()
+            sources["before"] = extract_source(args.before, folder / "before")
+        sources["after"] = ROOT / "src"
+        for name in args.only.split(","):
+            SECTIONS[name](sources, folder, args.quick)
+    print(f"\nload average at end: {load()}")
+
+
+if __name__ == "__main__":
+    main()
