@@ -19,7 +19,11 @@ from ..errors import InputError
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
-__all__ = ["Model", "as_angles", "direction_mask"]
+__all__ = ["Model", "as_angles", "direction_mask", "in_chunks"]
+
+#: Angles per evaluation of a model's formula: its temporaries (angles x orders, x neurons, ...) stay
+#: within a few MB, in cache, whatever the number of angles.
+CHUNK_ANGLES = 1 << 13
 
 
 def as_angles(theta_enc_deg):
@@ -48,6 +52,20 @@ def direction_mask(direction, shape):
     except ValueError:
         raise InputError(f"direction has shape {values.shape}, expected one value or the shape "
                          f"{shape} of the encoder angles") from None
+
+
+def in_chunks(function, theta):
+    """``function(theta)`` for a flat float array, evaluated :data:`CHUNK_ANGLES` angles at a time.
+
+    ``function`` maps a flat array to values of the same size; peak memory is then the result plus
+    one chunk's temporaries, whatever ``theta.size``.
+    """
+    if theta.size <= CHUNK_ANGLES:
+        return function(theta)
+    out = np.empty(theta.size)
+    for start in range(0, theta.size, CHUNK_ANGLES):
+        out[start:start + CHUNK_ANGLES] = function(theta[start:start + CHUNK_ANGLES])
+    return out
 
 
 class Model(ABC):
@@ -125,7 +143,7 @@ class Model(ABC):
         if direction is not None:
             direction_mask(direction, theta.shape)
         # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
-        mean = np.asarray(self._predict(theta.reshape(-1)), dtype=float).reshape(theta.shape)[()]
+        mean = np.asarray(in_chunks(self._predict, theta.reshape(-1)), dtype=float).reshape(theta.shape)[()]
         if not return_std:
             return mean
         return mean, predictive_std(self.uncertainty, theta)
@@ -137,6 +155,11 @@ class Model(ABC):
         against its reference. ``direction`` as for :meth:`predict`.
         """
         theta = as_angles(theta_enc_deg)
+        if direction is None:  # chunk by chunk: peak memory is the result and one chunk's temporaries
+            return in_chunks(self._correct, theta.reshape(-1)).reshape(theta.shape)[()]
+        return self._correct(theta, direction)
+
+    def _correct(self, theta, direction=None):
         # model_input wraps first: multi-turn readings keep their precision
         return wrap360(model_input(theta, self.reading_sign)
                        - self.predict(theta, direction=direction) / ARCMIN_PER_DEG)
