@@ -206,7 +206,153 @@ def section_c(sources, folder, quick):
         print(f"| {name} | " + " | ".join(cells) + ratio + " |")
 
 
-SECTIONS = {"c": section_c}
+# -- Model.correct in NumPy --------------------------------------------------------------
+
+CORRECT_WORKER = """\
+import json, sys, time, tracemalloc
+import numpy as np
+from encal.deploy import Compensator, compile_table
+model = Compensator(sys.argv[1]).model
+sizes = [int(v) for v in sys.argv[2].split(",")]
+result = {}
+for n in sizes:
+    theta = np.random.default_rng(0).uniform(0.0, 360.0, n)
+    model.correct(theta[:1000])
+    tracemalloc.start()
+    start = time.process_time()
+    model.correct(theta)
+    elapsed = time.process_time() - start
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    result[n] = [1e9 * elapsed / n, peak / 2**20]
+if sys.argv[3] == "table":
+    table = compile_table(Compensator(sys.argv[1]), 16)
+    codes = np.random.default_rng(0).integers(0, 2**16, 10**7).astype(np.uint16)
+    start = time.process_time()
+    table.correct_counts(codes)
+    result["table"] = 1e9 * (time.process_time() - start) / codes.size
+print(json.dumps(result))
+"""
+
+CORRECT_MODELS = {"lut (cubic, 180 points)": "model_v1_lut.json",
+                  "fourier (9 orders up to 97)": "model_v1_fourier.json",
+                  "ann (periodic 1:8:1)": "model_v1_ann.json",
+                  "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json"}
+
+
+def section_correct(sources, folder, quick):
+    import json
+
+    big = 10**6 if quick else 10**7
+    print(f"\n### Model.correct in NumPy: ns per angle and peak memory (tracemalloc) of one call\n")
+    print("| model | dense table ns | " + " | ".join(
+        f"{label} ns at 1e5 / 1e6 / {big:.0e} | {label} peak MB at 1e6 / {big:.0e}" for label in sources)
+        + " | after / before ns at 1e6 | after / table |")
+    print("|---|---|" + "---|---|" * len(sources) + "---|---|")
+    for name, file in CORRECT_MODELS.items():
+        best = {}
+        for round_ in range(2):
+            for label, source in sources.items():
+                # before: the dense evaluation would need gigabytes at 1e7 angles; it is measured up to 1e6
+                sizes = [10**5, 10**6] + ([big] if label == "after" and big > 10**6 else [])
+                out = json.loads(run_with(source, sys.executable, "-c", CORRECT_WORKER, str(DATA / file),
+                                          ",".join(map(str, sizes)), "table" if label == "after" else "-").stdout)
+                previous = best.get(label, {})
+                best[label] = {key: (min(value, previous[key]) if key == "table" else
+                                     [min(value[0], previous[key][0]), max(value[1], previous[key][1])])
+                               if key in previous else value for key, value in out.items()}
+        cells = []
+        for label in sources:
+            ns = " / ".join(f"{best[label][str(n)][0]:.1f}" if str(n) in best[label] else "-"
+                            for n in (10**5, 10**6, big))
+            mb = " / ".join(f"{best[label][str(n)][1]:.0f}" if str(n) in best[label] else "-"
+                            for n in (10**6, big))
+            cells.append(f"{ns} | {mb}")
+        after = best["after"]
+        ratio = (f"{after[str(10**6)][0] / best['before'][str(10**6)][0]:.2f}" if "before" in best else "-")
+        print(f"| {name} | {after['table']:.1f} | " + " | ".join(cells)
+              + f" | {ratio} | {after[str(10**6)][0] / after['table']:.1f} |", flush=True)
+
+
+# -- trainlm epoch -----------------------------------------------------------------------
+
+TRAINLM_WORKER = """\
+import hashlib, json, sys, time
+import numpy as np
+from scipy.linalg.blas import dgemv, dsyrk
+from scipy.linalg.lapack import dpotrf, dpotrs
+from encal.training import train
+from encal.training.network import NetworkProblem
+theta = np.arange(0.0, 360.0, 2.0)
+r = np.radians(theta)
+error = 3 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) + 0.5 * np.sin(4 * r + 1) + 0.3 * np.cos(7 * r)
+problem = NetworkProblem.from_angles(theta, error, 80, encoding="raw")
+epochs = int(sys.argv[1])
+best = np.inf
+for _ in range(3):
+    start = time.process_time()
+    result = train(problem, "trainlm", x0=problem.initial_weights(0), epochs=epochs)
+    best = min(best, (time.process_time() - start) / result.epochs)
+tries = (result.nfev - 1) / result.epochs - 1
+out = {"epoch_ms": 1e3 * best, "tries": tries, "epochs": result.epochs,
+       "weights_sha256": hashlib.sha256(np.asarray(result.x, dtype="<f8").tobytes()).hexdigest()[:16]}
+if sys.argv[2] == "floor":
+    # The BLAS/LAPACK calls of one epoch back to back, on arrays of the same sizes: the two rank-N
+    # products of J Jt, then per try a Cholesky factorisation, its solve, Jt v, and the trial's
+    # forward pass (inputs x W1t, then h W2).
+    rng = np.random.default_rng(0)
+    m, n_hidden = problem.n_samples, problem.hidden
+    d, h = rng.standard_normal((m, n_hidden)), np.tanh(rng.standard_normal((m, n_hidden)))
+    J = rng.standard_normal((m, problem.n_params))
+    x, W1, w2, v = problem.inputs, rng.standard_normal((n_hidden, 1)), rng.standard_normal(n_hidden), rng.standard_normal(m)
+    gram = dsyrk(1.0, d.T, trans=1, lower=1) + 1e3 * np.eye(m)
+    def epoch():
+        dsyrk(1.0, d.T, trans=1, lower=1)
+        dsyrk(1.0, h.T, trans=1, lower=1)
+        for _ in range(round(tries)):
+            lower, _ = dpotrf(gram, lower=1, clean=0)
+            dpotrs(lower, v, lower=1)
+            dgemv(1.0, J, v, trans=1)
+            x @ W1.T
+            dgemv(1.0, h, w2)
+    floor = np.inf
+    for _ in range(3):
+        start = time.process_time()
+        for _ in range(epochs):
+            epoch()
+        floor = min(floor, (time.process_time() - start) / epochs)
+    out["floor_ms"] = 1e3 * floor
+print(json.dumps(out))
+"""
+
+
+def section_trainlm(sources, folder, quick):
+    import json
+
+    epochs = 100 if quick else 300
+    print(f"\n### trainlm epoch (raw 1:80:1, 180 points, seed 0, {epochs} epochs, OPENBLAS_NUM_THREADS=1)\n")
+    best = {}
+    for _ in range(2):
+        for label, source in sources.items():
+            out = json.loads(run_with(source, sys.executable, "-c", TRAINLM_WORKER, str(epochs),
+                                      "floor" if label == "after" else "-").stdout)
+            previous = best.get(label)
+            if previous is None or out["epoch_ms"] < previous["epoch_ms"]:
+                out["floor_ms"] = min(out.get("floor_ms", np.inf), (previous or {}).get("floor_ms", np.inf))
+                best[label] = out
+            elif "floor_ms" in out:
+                previous["floor_ms"] = min(previous["floor_ms"], out["floor_ms"])
+    floor = best["after"]["floor_ms"]
+    print("| | ms per epoch | / BLAS floor | μ tries per epoch | weights after training (sha256) |")
+    print("|---|---|---|---|---|")
+    print(f"| BLAS floor (the epoch's BLAS/LAPACK calls back to back) | {floor:.3f} | 1.00 | | |")
+    for label in sources:
+        row = best[label]
+        print(f"| {label} | {row['epoch_ms']:.3f} | {row['epoch_ms'] / floor:.2f} | {row['tries']:.2f} "
+              f"| {row['weights_sha256']} |")
+
+
+SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm}
 
 
 def main():
