@@ -19,10 +19,10 @@ def add_arguments(parser):
                         help="model family (default: auto); spectral: the empirical-Bayes Fourier model "
                              "(docs/model-selection.md)")
     parser.add_argument("--noise", type=_positive_float, metavar="ARCMIN",
-                        help="standard deviation of one reading's noise in arc-minutes, if known (spectral)")
+                        help="standard deviation of one reading's noise in arc-minutes, if known (spectral, auto)")
     parser.add_argument("--repeat", metavar="CAL2.csv",
                         help="a second pass over the same reference angles: fitted together with the first, "
-                             "the noise is estimated from the two readings at each angle (spectral)")
+                             "the noise is estimated from the two readings at each angle (spectral, auto)")
     parser.add_argument("--hidden", type=positive_int, help="hidden nodes of the network (ann)")
     parser.add_argument("--algorithm", help="training algorithm of the network, MATLAB's name (ann)")
     parser.add_argument("--encoding", choices=["raw", "periodic"],
@@ -64,7 +64,7 @@ _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
-    "at_steps": ("auto",), "stack": ("auto",), "noise": ("spectral",), "repeat": ("spectral",),
+    "at_steps": ("auto",), "stack": ("auto",), "noise": ("spectral", "auto"), "repeat": ("spectral", "auto"),
 }
 
 
@@ -188,7 +188,11 @@ def run(args):
     if callable(report):
         print(report())
     selection = model.training.get("selection")
-    if selection is not None:
+    if selection is not None and selection.get("scheme") == "evidence":
+        from ..models.choice import format_choice
+
+        print(format_choice(selection))
+    elif selection is not None:
         from ..models.select import format_selection
 
         print(format_selection(selection))

@@ -29,6 +29,8 @@ __all__ = ["Design", "Hyper", "Posterior", "evidence", "fit_hyperparameters", "L
 LINE_THRESHOLD_NATS = 3.0
 #: Blind, the noise is raised along the evidence's ridge while the evidence stays within this (nats).
 NOISE_SLACK_NATS = 1.0
+#: ... when the maximum's noise variance is below this fraction of the periodogram's flat level (a collapse).
+COLLAPSE_FRACTION = 0.25
 #: Bounds of the background exponent β (the background must decay: safeguard 2).
 EXPONENT_BOUNDS = (1.0, 8.0)
 #: Prior variance of order 0, in units of the data's mean square: vague.
@@ -395,14 +397,15 @@ def _profile(design, hyper, noise_var):
 
 
 def _prefer_noise(design, hyper, flat_noise_var, slack=NOISE_SLACK_NATS, steps=4):
-    """The blind prior "all noise": the largest σ whose profile evidence is within ``slack`` of the best.
+    """The blind prior "all noise": after a collapse of σ, the largest σ whose evidence is within ``slack``.
 
     Along the ridge where a flat part of the spectrum is either signal or noise the evidence is
     nearly constant (docs/model-selection.md); the maximum may then sit at σ → 0, where the model
-    interpolates the noise. Between the maximum and the periodogram's flat level, the noise is
-    raised as far as the evidence allows (bisection on log σ²).
+    interpolates the noise. When the maximum's σ² is below :data:`COLLAPSE_FRACTION` of the
+    periodogram's flat level, the noise is raised towards that level as far as the evidence allows
+    (bisection on log σ²); otherwise the maximum stands.
     """
-    if hyper.noise_fixed or flat_noise_var <= hyper.noise_var * 1.05:
+    if hyper.noise_fixed or hyper.noise_var >= COLLAPSE_FRACTION * flat_noise_var:
         return hyper
     best = evidence(design, hyper.variances(design), hyper.noise_var).log_evidence
     top, value = _profile(design, hyper, flat_noise_var)

@@ -10,7 +10,7 @@ and a fit function on plain arrays) and add one :class:`~encal.models.kind.Model
 parameters specified in the model-file format (:mod:`encal.runtime`, ``docs/model-file.md``).
 """
 
-from . import ann, directional, fourier, hybrid, lut, select, spectral, stack
+from . import ann, choice, directional, fourier, hybrid, lut, spectral, stack
 from .kind import ModelKind, register_kind
 
 __all__ = ["KINDS"]
@@ -30,7 +30,7 @@ KINDS = (
     ModelKind("stack", stack.StackModel, stack.fit_stack, randomised=True, simplicity=90,
               directional_part=True),
     ModelKind("directional", directional.DirectionalModel, None),
-    ModelKind("auto", None, select.fit_auto, randomised=True),
+    ModelKind("auto", None, choice.fit_auto, randomised=True),
 )
 
 for _kind in KINDS:

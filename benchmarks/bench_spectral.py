@@ -1,0 +1,215 @@
+"""The spectral model and the evidence-based auto against the plain baselines and the informed bound.
+
+Usage::
+
+    python benchmarks/bench_spectral.py                    # fleet and fleet+, a few minutes
+    python benchmarks/bench_spectral.py --cases fleet      # one case
+    python benchmarks/bench_spectral.py --cv-auto          # also the cross-validated auto (slow)
+
+Cases (each encoder fitted on its training run, 0:2:358 degrees, and tested on its test run,
+1:2:359 degrees, fresh noise):
+
+- ``fleet``: ``encal.simulate.demo_fleet()`` (4 encoders);
+- ``fleet+``: ``encal.simulate.simulate_fleet(8, 7)`` (8 encoders);
+- ``rough``: the fleet+ encoders with an added flat "roughness" spectrum up to order 90 of
+  1.5 times the noise power per order (independent per encoder);
+- ``12bit``: the fleet+ encoders read by a 12-bit encoder (readings rounded to 360/4096 degrees);
+- ``jitter``: a jittered 5-degree grid (72 stops, each moved by up to ±1 degree) tested at 360
+  random angles, on the fleet+ encoders' noise-free profiles plus the training run's noise level;
+- ``epoch``: the fleet+ encoders tested on their later epoch (``member.epoch2``) instead.
+
+Per encoder, test RMS divided by the test run's measurement floor for: ``np.interp`` of the
+training points (periodic), the CV-chosen Fourier series, the paper's top-10 series, the cubic
+lookup table, the spectral model blind and with the noise supplied (the training run's actual
+noise standard deviation), the evidence-based auto (blind), optionally the cross-validated auto,
+and the informed (Wiener) estimator applied to the same run (benchmarks/bench_floor_bound.py;
+uniform-grid cases only). Then per case: ±2σ coverage of the spectral model's predictive
+intervals at the test points, and the ratios of auto to the best plain baseline.
+"""
+
+import os
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from encal.models import choice, select  # noqa: E402
+from encal.models.fourier import fit_fourier  # noqa: E402
+from encal.models.lut import fit_lut  # noqa: E402
+from encal.models.spectral import fit_spectral  # noqa: E402
+from encal.simulate import demo_fleet, measurement_floor, simulate_fleet  # noqa: E402
+
+from bench_floor_bound import bound, harmonic_coefficients, synthesise  # noqa: E402
+
+PLAIN = ("interp", "fourier cv", "fourier top10")
+
+
+def rms(values):
+    return float(np.sqrt(np.mean(np.square(values))))
+
+
+def interp_model(theta, error):
+    order = np.argsort(theta)
+    return lambda t: np.interp(np.mod(t, 360.0), theta[order], error[order], period=360.0)
+
+
+def cases(names):
+    fleet_plus = list(simulate_fleet(8, 7))
+    for name in names:
+        if name == "fleet":
+            for member in demo_fleet():
+                yield name, member.name, _uniform_case(member, member.test)
+        elif name == "fleet+":
+            for member in fleet_plus:
+                yield name, member.name, _uniform_case(member, member.test)
+        elif name == "epoch":
+            for member in fleet_plus:
+                yield name, member.name, _uniform_case(member, member.epoch2)
+        elif name == "rough":
+            for i, member in enumerate(fleet_plus):
+                yield name, member.name, _rough_case(member, i)
+        elif name == "12bit":
+            for member in fleet_plus:
+                yield name, member.name, _quantised_case(member, 12)
+        elif name == "jitter":
+            for i, member in enumerate(fleet_plus):
+                yield name, member.name, _jitter_case(member, i)
+
+
+def _truth_function(member):
+    """The noise-free profile at any angle: interpolated from the training and test runs' truth (1 degree)."""
+    theta = np.r_[member.train.calibration.encoder_deg, member.test.calibration.encoder_deg]
+    truth = np.r_[member.train.noise_free_error_arcmin, member.test.noise_free_error_arcmin]
+    coefficients = harmonic_coefficients(truth[np.argsort(np.round(np.r_[member.train.calibration.reference_deg,
+                                                                         member.test.calibration.reference_deg]))])
+    return lambda t: synthesise(coefficients, np.asarray(t, dtype=float)), theta
+
+
+def _uniform_case(member, test):
+    train = member.train
+    noise = train.errors_arcmin - train.noise_free_error_arcmin
+    truth_fn, _ = _truth_function(member)
+    return {"theta": train.calibration.encoder_deg, "y": train.errors_arcmin,
+            "theta_test": test.calibration.encoder_deg, "y_test": test.errors_arcmin,
+            "floor": measurement_floor(test), "sigma": float(np.std(noise)), "truth": truth_fn,
+            "wiener": bound(member)["this_run"] if test is member.test else None}
+
+
+def _rough_case(member, seed):
+    case = _uniform_case(member, member.test)
+    rng = np.random.default_rng(1000 + seed)
+    orders = np.arange(1, 91)
+    std = np.sqrt(1.5 * 2.0 * case["sigma"] ** 2 / 180)
+    a, b = rng.normal(0.0, std, (2, orders.size))
+
+    def rough(t):
+        r = np.radians(np.asarray(t, dtype=float))[:, None]
+        return np.cos(orders * r) @ a + np.sin(orders * r) @ b
+
+    truth = case["truth"]
+    case.update(y=case["y"] + rough(case["theta"]), y_test=case["y_test"] + rough(case["theta_test"]),
+                truth=lambda t: truth(t) + rough(t))
+    return case
+
+
+def _quantised_case(member, bits):
+    case = _uniform_case(member, member.test)
+    quantum = 360.0 / 2**bits
+    for angles, errors in (("theta", "y"), ("theta_test", "y_test")):
+        reference = case[angles] - case[errors] / 60.0
+        reading = np.round(case[angles] / quantum) * quantum
+        case[angles], case[errors] = reading, (reading - reference) * 60.0
+    case["sigma"] = float(np.sqrt(case["sigma"] ** 2 + (quantum * 60.0) ** 2 / 12.0))
+    case["floor"] = rms(case["y_test"] - case["truth"](case["theta_test"]))
+    case["wiener"] = None
+    return case
+
+
+def _jitter_case(member, seed):
+    rng = np.random.default_rng(2000 + seed)
+    base = _uniform_case(member, member.test)
+    truth, sigma = base["truth"], base["sigma"]
+    reference = np.arange(0.0, 360.0, 5.0) + rng.uniform(-1.0, 1.0, 72)
+    y = truth(reference) + rng.normal(0.0, sigma, reference.size)
+    reference_test = rng.uniform(0.0, 360.0, 360)
+    noise_test = rng.normal(0.0, sigma, reference_test.size)
+    y_test = truth(reference_test) + noise_test
+    return {"theta": np.mod(reference + y / 60.0, 360.0), "y": y,
+            "theta_test": np.mod(reference_test + y_test / 60.0, 360.0), "y_test": y_test,
+            "floor": rms(noise_test), "sigma": sigma, "truth": truth, "wiener": None}
+
+
+def evaluate_case(case, cv_auto, seed=0):
+    theta, y, theta_test, y_test = case["theta"], case["y"], case["theta_test"], case["y_test"]
+    result, timing = {}, {}
+
+    def run(name, fit):
+        start = time.process_time()
+        model = fit()
+        timing[name] = time.process_time() - start
+        predict = model if callable(model) and not hasattr(model, "predict") else model.predict
+        result[name] = rms(y_test - predict(theta_test))
+        return model
+
+    run("interp", lambda: interp_model(theta, y))
+    run("fourier cv", lambda: fit_fourier(theta, y, select="cv"))
+    run("fourier top10", lambda: fit_fourier(theta, y, select="top", n_orders=10))
+    run("lut cubic", lambda: fit_lut(theta, y, interpolation="cubic"))
+    blind = run("spectral blind", lambda: fit_spectral(theta, y))
+    run("spectral noise", lambda: fit_spectral(theta, y, noise_arcmin=case["sigma"]))
+    run("auto", lambda: choice.fit_auto(theta, y, rng=seed))
+    run("auto noise", lambda: choice.fit_auto(theta, y, rng=seed, noise_arcmin=case["sigma"]))
+    if cv_auto:
+        run("cv auto", lambda: select.fit_auto(theta, y, rng=seed))
+    if case["wiener"] is not None:
+        result["wiener"] = case["wiener"]
+    mean, std = blind.predict(theta_test, return_std=True)
+    coverage = float(np.mean(np.abs(y_test - mean) <= 2.0 * std))
+    return result, timing, coverage
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="+", default=["fleet", "fleet+"],
+                        choices=["fleet", "fleet+", "rough", "12bit", "jitter", "epoch"])
+    parser.add_argument("--cv-auto", action="store_true", help="also the cross-validated auto (slow)")
+    args = parser.parse_args()
+    print(f"# spectral model benchmark; python {platform.python_version()}, numpy {np.__version__}, "
+          f"load {open('/proc/loadavg').read().split()[0]}\n")
+    rows, summary = {}, {}
+    for case_name, encoder, case in cases(args.cases):
+        result, timing, coverage = evaluate_case(case, args.cv_auto)
+        rows.setdefault(case_name, []).append((encoder, case["floor"], result, timing, coverage))
+    for case_name, entries in rows.items():
+        names = list(entries[0][2])
+        print(f"## {case_name}: test RMS / floor\n")
+        wiener = "wiener" in names
+        print("| encoder | floor (arcmin) | " + " | ".join(names) + " | best plain | auto / best plain "
+              "| auto noise / best plain | " + ("auto noise / wiener | " if wiener else "") + "±2σ coverage |")
+        print("|---|---|" + "---|" * len(names) + "---|---|---|" + ("---|" if wiener else "") + "---|")
+        ratios, ratios_noise, coverages = [], [], []
+        for encoder, floor, result, timing, coverage in entries:
+            best_plain = min(result[name] for name in PLAIN)
+            ratios.append(result["auto"] / best_plain)
+            ratios_noise.append(result["auto noise"] / best_plain)
+            coverages.append(coverage)
+            cells = " | ".join(f"{result[name] / floor:.3f}" for name in names)
+            to_wiener = f"{result['auto noise'] / result['wiener']:.3f} | " if wiener else ""
+            print(f"| {encoder} | {floor:.4f} | {cells} | {best_plain / floor:.3f} | {ratios[-1]:.3f} "
+                  f"| {ratios_noise[-1]:.3f} | {to_wiener}{coverage:.3f} |")
+        times = {name: np.mean([entry[3][name] for entry in entries]) for name in entries[0][3]}
+        print(f"\nauto / best plain: median {np.median(ratios):.3f}, worst {max(ratios):.3f}; with the noise "
+              f"supplied: median {np.median(ratios_noise):.3f}, worst {max(ratios_noise):.3f}; "
+              f"±2σ coverage (spectral, blind) {min(coverages):.3f}..{max(coverages):.3f}, "
+              f"mean {np.mean(coverages):.3f}")
+        print("mean CPU time per fit (s): " + ", ".join(f"{name} {value:.3f}" for name, value in times.items()))
+        print()
+
+
+if __name__ == "__main__":
+    main()
