@@ -249,3 +249,79 @@ def test_dense_table_and_c_export_evaluate_the_series(tmp_path):
     np.testing.assert_allclose(table.predict_counts(codes), model.predict(codes * 360.0 / 4096), atol=1e-5)
     files = export_c(model, prefix="enc", bits=12)
     assert "enc_predict_arcmin" in files["enc.h"] and "model_order[91]" in files["enc.c"]
+
+
+# -- auto and the command line ----------------------------------------------------------------------
+
+def test_auto_is_the_spectral_model_unless_a_network_cross_validates_clearly_better():
+    from encal.models.choice import fit_auto
+
+    error = line_profile(GRID) + np.random.default_rng(1).normal(0.0, 0.05, GRID.size)
+    model = fit_auto(GRID, error, rng=0)
+    selection = model.training["selection"]
+    assert model.kind == "spectral" and selection["scheme"] == "evidence" and selection["chosen"] == "spectral"
+    assert [row["family"] for row in selection["table"]] == ["spectral", "hybrid", "ann", "ann"]
+    # A local bump a decaying spectrum shrinks: a network may take over, never by less than the margin.
+    bump = 4.0 * np.exp(-0.5 * ((GRID - 100.0) / 3.0) ** 2)
+    model = fit_auto(GRID, error + bump, rng=0)
+    rows = {row["label"]: row["cv_rms_arcmin"] for row in model.training["selection"]["table"]}
+    spectral_cv = next(v for k, v in rows.items() if k.startswith("spectral"))
+    if model.kind != "spectral":
+        assert rows[model.training["selection"]["chosen"]] < 0.97 * spectral_cv
+
+
+def test_auto_skips_the_networks_on_large_calibrations():
+    from encal.models.choice import fit_auto
+
+    theta = np.arange(0.0, 360.0, 0.5)
+    model = fit_auto(theta, line_profile(theta) + np.random.default_rng(2).normal(0.0, 0.05, theta.size))
+    assert model.kind == "spectral" and model.training["selection"]["table"] == []
+    assert "networks not tried on 720 stops" in model.training["selection"]["reason"]
+
+
+def test_auto_with_candidates_is_the_cross_validated_choice():
+    from encal.models.choice import fit_auto
+
+    model = fit_auto(GRID, line_profile(GRID), candidates=[{"family": "fourier", "options": {}}], stack=False)
+    assert model.kind == "fourier" and model.training["selection"]["folds"] == 5
+
+
+def write_run(path, reference, error, header="reference_deg,encoder_deg"):
+    rows = "\n".join(f"{float(r)!r},{float((r + e / 60.0) % 360.0)!r}" for r, e in zip(reference, error))
+    path.write_text(f"{header}\n{rows}\n")
+    return path
+
+
+def test_cli_fit_spectral_with_noise_and_with_a_repeat_pass(tmp_path, capsys):
+    from encal.cli import main
+
+    rng = np.random.default_rng(4)
+    first = write_run(tmp_path / "a.csv", GRID, line_profile(GRID) + rng.normal(0.0, 0.1, GRID.size))
+    second = write_run(tmp_path / "b.csv", GRID, line_profile(GRID) + rng.normal(0.0, 0.1, GRID.size))
+    assert main(["fit", str(first), "-o", str(tmp_path / "m.json"), "--method", "spectral", "--noise", "0.1"]) == 0
+    out = capsys.readouterr().out
+    assert "noise: sigma 0.1 arcmin; prior: noise supplied by the user" in out
+    assert "held-out estimate (posterior" in out
+    assert main(["fit", str(first), "-o", str(tmp_path / "r.json"), "--method", "spectral",
+                 "--repeat", str(second)]) == 0
+    out = capsys.readouterr().out
+    assert "prior: noise from repeated readings" in out
+    sigma = encal.load_model(tmp_path / "r.json").training["noise"]["std_arcmin"]
+    assert sigma == pytest.approx(0.1, rel=0.2)
+    assert main(["fit", str(first), "-o", str(tmp_path / "l.json"), "--method", "lut"]) == 0
+    assert "held-out estimate: RMS" in capsys.readouterr().out
+    assert main(["fit", str(first), "-o", str(tmp_path / "x.json"), "--method", "lut", "--noise", "0.1"]) == 1
+    assert "--noise applies to --method spectral or auto" in capsys.readouterr().err
+
+
+def test_cli_blind_fit_states_the_prior_and_sigma_against_the_quantisation(tmp_path, capsys):
+    from encal.cli import main
+
+    error = line_profile(GRID) + np.random.default_rng(6).normal(0.0, 0.1, GRID.size)
+    path = write_run(tmp_path / "a.csv", GRID, error)
+    text = path.read_text()
+    path.write_text("# resolution_bits: 16\n" + text)
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--method", "spectral"]) == 0
+    out = capsys.readouterr().out
+    assert f"prior: {BLIND_PRIOR}" in out
+    assert "sigma / (LSB/sqrt(12)) = " in out and "(16-bit encoder)" in out
