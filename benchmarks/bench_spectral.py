@@ -5,6 +5,7 @@ Usage::
     python benchmarks/bench_spectral.py                    # fleet and fleet+, a few minutes
     python benchmarks/bench_spectral.py --cases fleet      # one case
     python benchmarks/bench_spectral.py --cv-auto          # also the cross-validated auto (slow)
+    python benchmarks/bench_spectral.py --scaling          # fit time and memory against n
 
 Cases (each encoder fitted on its training run, 0:2:358 degrees, and tested on its test run,
 1:2:359 degrees, fresh noise):
@@ -173,12 +174,43 @@ def evaluate_case(case, cv_auto, seed=0):
     return result, timing, coverage
 
 
+def scaling():
+    """CPU time and peak traced memory of auto (and the spectral model) against n, uniform and off-grid."""
+    import tracemalloc
+
+    print("## fit time against n (orders 1, 2, 16 of 3, 0.9, 0.3 arcmin; noise 0.1 arcmin)\n")
+    print("| n | angles | path | spectral CPU (s) | auto CPU (s) | auto peak memory (MB) | noise found |")
+    print("|---|---|---|---|---|---|---|")
+    for n in (180, 1000, 10_000, 100_000, 1_000_000):
+        rng = np.random.default_rng(0)
+        reference = np.arange(n) * (360.0 / n)
+        r = np.radians(reference)
+        error = 3 * np.sin(r) + 0.9 * np.cos(2 * r) + 0.3 * np.sin(16 * r) + rng.normal(0.0, 0.1, n)
+        for label, theta in (("uniform", reference), ("off-grid", np.mod(reference + error / 60.0, 360.0))):
+            start = time.process_time()
+            model = fit_spectral(theta, error)
+            spectral_s = time.process_time() - start
+            tracemalloc.start()
+            start = time.process_time()
+            choice.fit_auto(theta, error, rng=0)
+            auto_s = time.process_time() - start
+            peak = tracemalloc.get_traced_memory()[1] / 1e6
+            tracemalloc.stop()
+            print(f"| {n} | {label} | {model.training['path']} | {spectral_s:.2f} | {auto_s:.2f} | {peak:.0f} "
+                  f"| {model.training['noise']['std_arcmin']:.4f} |")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=["fleet", "fleet+"],
                         choices=["fleet", "fleet+", "rough", "12bit", "jitter", "epoch"])
     parser.add_argument("--cv-auto", action="store_true", help="also the cross-validated auto (slow)")
+    parser.add_argument("--scaling", action="store_true", help="only the fit time against n")
     args = parser.parse_args()
+    if args.scaling:
+        print(f"# spectral model, time against n; load {open('/proc/loadavg').read().split()[0]}\n")
+        scaling()
+        return
     print(f"# spectral model benchmark; python {platform.python_version()}, numpy {np.__version__}, "
           f"load {open('/proc/loadavg').read().split()[0]}\n")
     rows, summary = {}, {}

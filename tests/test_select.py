@@ -308,7 +308,7 @@ def test_encal_fit_prints_the_table_and_the_reason(tmp_path, capsys):
     path = tmp_path / "cal.csv"
     rows = [f"{r!r},{r + e / 60.0!r}" for r, e in zip(GRID.tolist(), harmonic_profile(GRID).tolist())]
     path.write_text("reference_deg,encoder_deg\n" + "\n".join(rows) + "\n", encoding="utf-8")
-    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--seed", "0"]) == 0
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--seed", "0", "--folds", "5"]) == 0
     out = capsys.readouterr().out
     assert "cross-validation over 5 interleaved folds" in out
     assert "* fourier" in out and "chosen: fourier" in out

@@ -325,3 +325,21 @@ def test_cli_blind_fit_states_the_prior_and_sigma_against_the_quantisation(tmp_p
     out = capsys.readouterr().out
     assert f"prior: {BLIND_PRIOR}" in out
     assert "sigma / (LSB/sqrt(12)) = " in out and "(16-bit encoder)" in out
+
+
+def test_a_multi_revolution_log_is_read_as_repeated_readings(tmp_path):
+    rng = np.random.default_rng(9)
+    turns = 3
+    reference = np.tile(np.arange(0.0, 360.0, 0.5), turns) + 360.0 * np.repeat(np.arange(turns), 720)
+    error = line_profile(reference) + rng.normal(0.0, 0.1, reference.size)
+    path = write_run(tmp_path / "log.csv", reference, error)
+    cal = encal.read_calibration(path)  # no --average-duplicates needed
+    assert len(cal) == 3 * 720
+    model = encal.fit(cal, method="spectral")
+    assert model.training["noise"]["source"] == "repeated readings"
+    assert model.training["stops"] == 720
+    assert model.training["noise"]["std_arcmin"] == pytest.approx(0.1, rel=0.1)
+    # One pass with conflicting repeats in no particular order is still refused.
+    shuffled = write_run(tmp_path / "rows.csv", np.r_[GRID, GRID[::-1]], np.r_[line_profile(GRID), line_profile(GRID) + 1])
+    with pytest.raises(encal.errors.CalibrationError, match="appears more than once"):
+        encal.read_calibration(shuffled)

@@ -9,7 +9,7 @@ from . import _csv
 from .angles import ARCMIN_PER_DEG, READING_SIGNS, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 
-__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds"]
+__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -225,9 +225,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     resolution_bits : int, optional
         Encoder resolution in bits (1 to 32), if known; read from a ``# resolution_bits: B`` comment
         otherwise.
-    duplicates : {'refuse', 'average'}, default='refuse'
+    duplicates : {'refuse', 'average', 'keep'}, default='refuse'
         What to do with repeated reference angles whose readings disagree (points of one direction and
-        epoch). Identical repeats are always kept as they are.
+        epoch). Identical repeats are always kept as they are. A file that is plainly a log of several
+        revolutions (:func:`is_multi_revolution`) keeps its repeats as repeated readings unless
+        ``'average'`` is asked for.
 
     Returns
     -------
@@ -301,6 +303,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
     )
     rows = cal
+    if duplicates == "refuse" and is_multi_revolution(reference):
+        duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
     cal = _check_duplicates(path, cal, duplicates, first_data_line=records[1][0])
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
@@ -417,9 +421,34 @@ def _is_number(text):
     return True
 
 
+def is_multi_revolution(reference_deg):
+    """Whether reference angles, in file order, are a continuous log of several revolutions.
+
+    True when the reference moves one way (at least 95 % of the steps in one direction, wrapping at
+    360° or counting past it) over at least one and a half turns: its repeated angles are then
+    repeated readings of the same stops, not conflicting rows.
+
+    Examples
+    --------
+    >>> is_multi_revolution(np.tile(np.arange(0.0, 360.0, 0.5), 3))
+    True
+    >>> is_multi_revolution(np.arange(0.0, 360.0, 0.5))
+    False
+    """
+    raw = np.asarray(reference_deg, dtype=float).reshape(-1)
+    if raw.size < 16:
+        return False
+    turned = np.degrees(np.unwrap(np.radians(raw)))
+    steps = np.diff(turned)
+    one_way = max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95
+    return bool(one_way and abs(turned[-1] - turned[0]) >= 540.0)
+
+
 def _check_duplicates(path, cal, duplicates, first_data_line):
+    if duplicates == "keep":
+        return cal
     if duplicates not in ("refuse", "average"):
-        raise CalibrationError(f"duplicates must be 'refuse' or 'average'. Got {duplicates!r} instead.")
+        raise CalibrationError(f"duplicates must be 'refuse', 'average' or 'keep'. Got {duplicates!r} instead.")
     keys = np.round(cal.reference_deg, 9)
     groups = [keys]
     if cal.direction is not None:

@@ -152,9 +152,7 @@ def evidence(design, variances, noise_var):
     else:
         g = design.gram
         big_b = np.eye(s.size) + (d[:, None] * g * d[None, :]) / sigma2
-        factor, info = scipy.linalg.lapack.dpotrf(big_b, lower=1)
-        if info != 0:
-            raise np.linalg.LinAlgError("the posterior precision is not positive definite")
+        factor = _cholesky(big_b)
         z = scipy.linalg.cho_solve((factor, True), u)
         inverse, info = scipy.linalg.lapack.dpotri(factor, lower=1)
         inverse = np.tril(inverse) + np.tril(inverse, -1).T
@@ -167,6 +165,19 @@ def evidence(design, variances, noise_var):
     grad_s = 0.5 * (z**2 + inverse_diagonal - 1.0)
     grad_noise = 0.5 * (max(residual2, 0.0) / sigma2 + s.size - float(np.sum(inverse_diagonal)) - n)
     return Posterior(float(log_p), mean, covariance, grad_s, float(grad_noise))
+
+
+def _cholesky(matrix):
+    """Lower Cholesky factor of ``I + d G d / σ²``; where rounding makes it indefinite (noise-free data,
+    σ² at its bound), a jitter of up to 1e-8 of its largest diagonal entry is added."""
+    factor, info = scipy.linalg.lapack.dpotrf(matrix, lower=1)
+    jitter = 1e-14 * float(np.max(np.diag(matrix)))
+    while info != 0 and jitter <= 1e-8 * float(np.max(np.diag(matrix))):
+        factor, info = scipy.linalg.lapack.dpotrf(matrix + jitter * np.eye(matrix.shape[0]), lower=1)
+        jitter *= 100.0
+    if info != 0:
+        raise np.linalg.LinAlgError("the posterior precision is not positive definite")
+    return factor
 
 
 # -- hyperparameter search -----------------------------------------------------------------
@@ -245,13 +256,11 @@ def _pairs(design):
     """Orders that may carry a line and the column index of their cosine and sine."""
     lineable = np.flatnonzero(design.lineable)
     orders = design.orders[lineable]
-    unique, first = np.unique(orders, return_index=True)
-    cos_index, sin_index = [], []
-    for k in unique:
-        columns = lineable[orders == k]
-        cos_index.append(columns[0])
-        sin_index.append(columns[-1])
-    return unique, np.array(cos_index, dtype=int), np.array(sin_index, dtype=int)
+    order = np.argsort(orders, kind="stable")
+    unique, first, counts = np.unique(orders[order], return_index=True, return_counts=True)
+    cos_index = lineable[order[first]]
+    sin_index = lineable[order[first + counts - 1]]
+    return unique, cos_index, sin_index
 
 
 def _blocks(design, post, noise_var, cos_index, sin_index):
@@ -280,12 +289,16 @@ def _blocks(design, post, noise_var, cos_index, sin_index):
     return blocks, q
 
 
-def _best_gains(blocks, q, scale):
-    """Largest gain over a grid of line variances, and its variance, for every pair."""
+def _best_gains(blocks, q, scale, chunk=4096):
+    """Largest gain over a grid of line variances, and its variance, for every pair (in chunks: memory O(chunk))."""
     grid = scale * np.logspace(-12, 6, 73)
-    gains = _line_gain(blocks, q, np.broadcast_to(grid, (blocks.shape[0], grid.size)))
-    best = np.argmax(gains, axis=1)
-    return gains[np.arange(best.size), best], grid[best]
+    gains, variances = np.empty(blocks.shape[0]), np.empty(blocks.shape[0])
+    for start in range(0, blocks.shape[0], chunk):
+        part = slice(start, start + chunk)
+        values = _line_gain(blocks[part], q[part], np.broadcast_to(grid, (blocks[part].shape[0], grid.size)))
+        best = np.argmax(values, axis=1)
+        gains[part], variances[part] = values[np.arange(best.size), best], grid[best]
+    return gains, variances
 
 
 def _removal_gains(design, hyper, post, orders, cos_index, sin_index):

@@ -110,7 +110,8 @@ def _against_networks(theta, error, spectral, rng):
     base = scores[0].rms_arcmin
     best = min(scores[1:], key=lambda score: score.rms_arcmin)
     selection = {"scheme": "evidence", "folds": int(folds), "table": table}
-    if np.isfinite(best.rms_arcmin) and best.rms_arcmin < (1.0 - NETWORK_MARGIN) * base:
+    resolution = 1e-9 * float(np.sqrt(np.mean(error**2)))  # differences below it are rounding
+    if np.isfinite(best.rms_arcmin) and best.rms_arcmin < (1.0 - NETWORK_MARGIN) * base - resolution:
         model, attempts = select._final_fit(theta, error, best, streams[scores.index(best)][folds:])
         selection.update(chosen=best.candidate.label, final_fit_attempts=attempts,
                          reason=(f"{best.candidate.label} cross-validates {best.rms_arcmin:.4g} arcmin, more than "

@@ -42,6 +42,8 @@ BLIND_PRIOR = ("blind: sigma by maximum likelihood under a decaying background (
 STORED_ORDERS_LIMIT = 4096
 #: Fewest readings beyond the stops for the noise to be estimated from repeated readings.
 MIN_REPEAT_DOF = 10
+#: Highest order up to which a line needs the plain 3 nats (see ``threshold_nats`` of fit_spectral).
+_THRESHOLD_ORDER = 90
 #: Largest posterior-std grid (points per revolution).
 _STD_GRID_LIMIT = 3600
 
@@ -267,7 +269,7 @@ def _stops(theta, error):
 # -- the fit --------------------------------------------------------------------------------------
 
 def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=None,
-                 threshold_nats=_evidence.LINE_THRESHOLD_NATS, path="auto", progress=None):
+                 threshold_nats=None, path="auto", progress=None):
     """Fit the empirical-Bayes spectral model.
 
     Parameters
@@ -285,8 +287,10 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         Highest order of the series. Default: the Nyquist order of the stops, ``⌊m/2⌋`` for
         ``m`` distinct reference angles, capped at :data:`DEFAULT_MAX_ORDER_IRREGULAR` on the
         Fourier-feature path (a dense calibration off a uniform grid).
-    threshold_nats : float, default=3.0
-        Evidence (nats) a line must add to be kept.
+    threshold_nats : float, optional
+        Evidence (nats) a line must add to be kept. Default: 3 nats up to order 90, and
+        ``3 + ln(K / 90)`` for a highest order ``K`` above it, so that the expected number of
+        false lines on pure noise (about 0.4 per fit at ``K = 90``) does not grow with ``K``.
     path : {'auto', 'fft', 'features'}, default='auto'
         ``'auto'``: the FFT path when the encoder angles are a uniform grid with the same number
         of readings at each node, else the Fourier-feature path. ``'features'`` forces the
@@ -315,7 +319,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
                                          and math.isfinite(noise_arcmin) and noise_arcmin > 0):
         raise InputError("The 'noise_arcmin' parameter of fit_spectral must be a number of arc-minutes > 0. "
                          f"Got {noise_arcmin!r} instead.")
-    if not (isinstance(threshold_nats, (int, float)) and threshold_nats >= 0):
+    if threshold_nats is not None and not (isinstance(threshold_nats, (int, float)) and threshold_nats >= 0):
         raise InputError(f"The 'threshold_nats' parameter of fit_spectral must be a number >= 0. "
                          f"Got {threshold_nats!r} instead.")
     stop_angles, reference = _stops(theta, error)
@@ -342,6 +346,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if highest < nyquist:
         regular_points = None  # no Nyquist column below the cap
 
+    if threshold_nats is None:
+        threshold_nats = _evidence.LINE_THRESHOLD_NATS + max(0.0, math.log(highest / _THRESHOLD_ORDER))
     noise_source, repeat_dof = "supplied", None
     noise_var = None if noise_arcmin is None else float(noise_arcmin) ** 2
     if noise_var is None:
