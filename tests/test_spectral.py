@@ -340,6 +340,7 @@ def test_a_multi_revolution_log_is_read_as_repeated_readings(tmp_path):
     assert model.training["stops"] == 720
     assert model.training["noise"]["std_arcmin"] == pytest.approx(0.1, rel=0.1)
     # One pass with conflicting repeats in no particular order is still refused.
-    shuffled = write_run(tmp_path / "rows.csv", np.r_[GRID, GRID[::-1]], np.r_[line_profile(GRID), line_profile(GRID) + 1])
+    shuffled = write_run(tmp_path / "rows.csv", np.r_[GRID, GRID[::-1]],
+                         np.r_[line_profile(GRID), line_profile(GRID) + 1])
     with pytest.raises(encal.errors.CalibrationError, match="appears more than once"):
         encal.read_calibration(shuffled)
