@@ -98,7 +98,8 @@ def make_motor(pole_pairs=7, slots=12, rng=None, *, cogging_nm=4e-3, irregularit
              (2 * pole_pairs, irregularity * cogging_nm)]
     if unbalance_nm:
         terms.append((1, unbalance_nm))
-    ripple = tuple((order, float(amplitude), float(rng.uniform(0, 2 * np.pi))) for order, amplitude in terms)
+    ripple = tuple((order, float(amplitude), float(rng.uniform(0, 2 * np.pi))) for order, amplitude in terms
+                   if amplitude)
     field = tuple((order, float(amplitude), float(rng.uniform(0, 2 * np.pi)))
                   for order, amplitude in ((6, field_distortion_deg_e), (2, 0.5 * field_distortion_deg_e)))
     return Motor(pole_pairs, slots, ripple=ripple, field_distortion=field, **parameters)
