@@ -156,3 +156,25 @@ def test_sigterm_part_way_cleans_up_like_ctrl_c(tmp_path, monkeypatch, capsys):
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
     assert _leftovers(tmp_path) == []
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+@pytest.mark.parametrize("length", [240, 250, 255])
+def test_a_legal_long_name_is_written(tmp_path, length):
+    """The temporary file's name adds 13 characters: a 250-character name was refused as if the folder
+    could not be written (issue 17, item 15)."""
+    path = tmp_path / ("m" * (length - 5) + ".json")
+    atomic_write(path, "{}\n")
+    assert path.read_text() == "{}\n" and sorted(p.name for p in tmp_path.iterdir()) == [path.name]
+
+
+def test_a_long_name_of_multibyte_characters_is_written(tmp_path):
+    path = tmp_path / ("é" * 125 + ".csv")  # 254 bytes
+    atomic_write(path, "x\n")
+    assert path.read_text() == "x\n"
+
+
+def test_a_name_too_long_is_refused_with_the_right_reason(tmp_path):
+    path = tmp_path / ("m" * 256)
+    with pytest.raises(InputError, match="its name is 256 bytes long; expected at most 255"):
+        atomic_write(path, "x")
+    assert list(tmp_path.iterdir()) == []

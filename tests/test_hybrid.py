@@ -153,7 +153,7 @@ def test_a_malformed_part_is_a_model_file_error(defect_model):
 @pytest.mark.parametrize("options, message", [
     ({"restarts": 0}, "'restarts' parameter of fit_hybrid"),
     ({"rng": -1}, "rng must be"),
-    ({"hidden": 0}, "hidden must be"),
+    ({"hidden": 0}, "'hidden' parameter of fit_ann must be"),
     ({"n_orders": 0}, "n_orders"),
 ])
 def test_bad_options_are_refused(options, message):

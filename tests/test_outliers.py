@@ -108,3 +108,24 @@ def test_each_direction_is_judged_on_its_own(tmp_path):
     path = write_calibration(tmp_path / "bi.csv", theta - error / 60.0, theta, direction)
     with pytest.warns(EncalWarning, match=r"line 18 \(encoder 70\.000 deg\) has an error of -400 arcmin"):
         encal.read_calibration(path)
+
+
+def test_identical_repeated_rows_are_no_misreads(write_csv):
+    """Identical repeated rows are accepted (docs/robustness.md); their zero steps once shrank the typical
+    step until smooth points were called misreads (issue 17, item 12)."""
+    from conftest import grid_csv
+
+    lines = grid_csv(error=lambda r: (2 * np.sin(np.radians(r)) + 0.3 * np.sin(np.radians(16 * r))) / 60).splitlines()
+    rows = [lines[0]] + [line for line in lines[1:121] for _ in range(3)] + lines[121:]
+    path = write_csv("\n".join(rows) + "\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EncalWarning)
+        assert len(encal.read_calibration(path)) == 420
+
+
+def test_a_misread_among_repeated_rows_is_still_found():
+    theta = np.repeat(np.arange(0.0, 360.0, 10.0), 2)
+    error = np.sin(np.radians(theta))
+    error[14:16] = 50.0  # one angle, read twice, both times wrong
+    found = isolated_points(theta, error)
+    assert found.index.tolist() == [14]

@@ -300,3 +300,47 @@ def test_an_endless_device_is_refused_at_once(device, why):
     process = subprocess.run([*PYTHON, "profile", device], capture_output=True, text=True, timeout=120)
     assert process.returncode == 1
     assert process.stderr.startswith(f"encal profile: error: {device}, line ") and why in process.stderr
+
+
+# ------------------------------------------------------------------ item 17: workers die with their parent
+
+def _children(pid):
+    """Process ids whose parent is ``pid`` (Linux /proc)."""
+    children = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                children.append(int(entry.name))
+    return children
+
+
+def _alive(pid):
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+def test_workers_exit_when_their_parent_is_killed(calibration, tmp_path):
+    with subprocess.Popen([*PYTHON, "study", "sweep", str(calibration), "--hidden", "40,50,60,70,80,90",
+                           "--seeds", "4", "--epochs", "100000", "--workers", "2", "--no-progress"],
+                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) as process:
+        deadline = time.monotonic() + 120
+        workers = []
+        while len(workers) < 2 and time.monotonic() < deadline and process.poll() is None:
+            time.sleep(0.05)
+            workers = [pid for pid in _children(process.pid)
+                       if b"multiprocessing" in Path(f"/proc/{pid}/cmdline").read_bytes()]
+        assert len(workers) >= 2, "the study did not start its workers"
+        process.kill()  # SIGKILL: the parent cannot clean up
+        process.wait(timeout=60)
+    deadline = time.monotonic() + 60
+    while any(map(_alive, workers)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(map(_alive, workers)), "worker processes outlived their parent"

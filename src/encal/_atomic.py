@@ -96,6 +96,7 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
     A symbolic link is followed: the file it points to is replaced, and the link stays.
     """
     given = Path(path)
+    _check_name_length(given)
     path = _destination(given)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
@@ -108,11 +109,13 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
         # Renaming over /dev/null or a pipe would replace it with a regular file.
         raise InputError(f"cannot write {given}: it is not a regular file (a device, pipe or socket); "
                          "expected the path of a file")
+    longest = _longest_name(folder)
     tmp = None
     try:
         # Held: a stop signal right after the file is created must find its name known, to remove it.
         with held():
-            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+            fd, tmp = tempfile.mkstemp(prefix=f".{_shortened(path.name, longest - 16)}.", suffix=".tmp",
+                                       dir=folder)
         kwargs = {} if "b" in mode else {"encoding": encoding, "newline": newline}
         with os.fdopen(fd, mode, **kwargs) as handle:
             yield handle
@@ -136,6 +139,35 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
             with contextlib.suppress(FileNotFoundError):
                 os.unlink(tmp)
         raise
+
+
+def _check_name_length(path):
+    folder = path.parent if str(path.parent) else Path(".")
+    longest = _longest_name(folder if folder.is_dir() else Path("."))
+    size = len(os.fsencode(path.name))
+    if size > longest:
+        raise InputError(f"cannot write {path}: its name is {size} bytes long; expected at most {longest}, the "
+                         "longest file name the file system holds")
+
+
+def _longest_name(folder):
+    """The longest file name, in bytes, that ``folder``'s file system holds (255 when it does not say)."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def _shortened(name, limit):
+    """``name`` cut to at most ``limit`` bytes (whole characters), for the temporary file's name.
+
+    The temporary name adds a dot, eight random characters and ``.tmp`` to it: a legal name of 250
+    bytes would otherwise make an illegal temporary name, refused with the wrong reason.
+    """
+    encoded = os.fsencode(name)
+    if len(encoded) <= limit:
+        return name
+    return encoded[:max(limit, 1)].decode("utf-8", "ignore") or "encal"  # a cut character is dropped
 
 
 def atomic_write(path, data):

@@ -82,6 +82,13 @@ def isolated_points(theta_enc_deg, error_arcmin, *, quantum_arcmin=None, factor=
     [7, 49.1]
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "isolated_points")
+    # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
+    # typical step, and a point next to its own repeat has no neighbour on that side.
+    _, first = np.unique(np.stack([np.mod(theta, 360.0), error], axis=1), axis=0, return_index=True)
+    if first.size < theta.size:
+        first = np.sort(first)
+        found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor)
+        return IsolatedPoints(first[found.index], found.deviation_arcmin, found.typical_step_arcmin)
     none = IsolatedPoints(np.zeros(0, dtype=int), np.zeros(0), 0.0)
     if theta.size < MIN_POINTS:
         return none

@@ -328,8 +328,12 @@ def _check_ann(p, where, field):
         _require_numbers(p.get(name), n_inputs, where, f"{field}.{name}")
     for name in ("target_offset", "target_gain", "b2"):
         _require_number(p.get(name), where, f"{field}.{name}")
-    if p["target_gain"] == 0:
-        raise ModelFileError(f"{where}: expected {field}.target_gain to be non-zero, got 0")
+    for name, gains in (("input_gain", p["input_gain"]), ("target_gain", [p["target_gain"]])):
+        # mapminmax gains are 2 / (max - min) of real data: a gain near 0 turns every prediction into
+        # an overflow, and then NaN (a re-signed file with target_gain 1e-300 did).
+        if any(abs(gain) < 1.0 / MAX_PARAMETER_MAGNITUDE for gain in gains):
+            raise ModelFileError(f"{where}: expected {field}.{name} to be a number with 1e-100 <= |x| <= 1e100, "
+                                 f"got {_describe(gains[0] if len(gains) == 1 else gains)}")
     b1 = p.get("b1")
     if not isinstance(b1, list) or not b1:
         raise ModelFileError(f"{where}: expected {field}.b1 to be a non-empty list of numbers "
@@ -421,8 +425,11 @@ MAX_PARAMETER_MAGNITUDE = 1e100
 
 
 def _is_number(value):
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value) and abs(value) <= MAX_PARAMETER_MAGNITUDE)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return False
+    if isinstance(value, int):  # compared as an int: 10**400 is no float (math.isfinite would overflow)
+        return -MAX_PARAMETER_MAGNITUDE <= value <= MAX_PARAMETER_MAGNITUDE
+    return math.isfinite(value) and abs(value) <= MAX_PARAMETER_MAGNITUDE
 
 
 def _require_object(value, where, field):

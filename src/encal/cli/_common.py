@@ -54,6 +54,28 @@ def int_in_range(low, high=None):
     return parse
 
 
+def size_option(name, low=1):
+    """argparse type of a size option: a whole number from ``low`` to its bound in :data:`encal._limits.SIZE_LIMITS`."""
+    import argparse
+
+    from .._limits import size_message
+
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(size_message(name, low, repr(text))) from None
+        try:
+            from .._limits import check_size
+
+            return check_size(name, value, "encal", low)
+        except ValueError:
+            raise argparse.ArgumentTypeError(size_message(name, low, value)) from None
+
+    parse.__name__ = "int"
+    return parse
+
+
 #: argparse types: an int >= 1, an int >= 0
 positive_int = int_in_range(1)
 nonnegative_int = int_in_range(0)

@@ -10,7 +10,7 @@ Examples:
   encal compare enc1_train.csv enc1_test.csv --json
 """
 
-from ._common import add_calibration_options, positive_int, print_json, read_calibration_from_args
+from ._common import add_calibration_options, print_json, read_calibration_from_args, size_option
 
 HELP = "compare Fourier, lookup-table and network models on a test calibration (Table 3)"
 
@@ -23,7 +23,7 @@ def add_arguments(parser):
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--models", metavar="KEYS",
                         help="comma-separated subset of: " + ", ".join(spec.key for spec in DEFAULT_MODELS))
-    parser.add_argument("--epochs", type=positive_int, default=1000,
+    parser.add_argument("--epochs", type=size_option("epochs"), default=1000,
                         help="epoch budget of the networks (default: 1000)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the networks' initial weights (default: 0)")
     add_calibration_options(parser)

@@ -11,7 +11,7 @@ Examples:
   encal demo --out /tmp/demo --quick
 """
 
-from ._common import nonnegative_int, positive_int
+from ._common import size_option
 
 HELP = "the paper's whole procedure on the built-in demo fleet (tables, figures, report, model files)"
 
@@ -23,10 +23,10 @@ def add_arguments(parser):
                         help="folder for the report, tables, figures and model files (default: encal-demo)")
     parser.add_argument("--quick", action="store_true",
                         help="a small sweep and few epochs: seconds instead of a minute (for tests)")
-    parser.add_argument("--workers", type=nonnegative_int, metavar="N",
+    parser.add_argument("--workers", type=size_option("workers", 0), metavar="N",
                         help="worker processes for the fits (default: CPU count, at most 2; 0: none)")
     parser.add_argument("--seed", type=int, default=0, help="study seed of every fit (default: 0)")
-    parser.add_argument("--encoders", type=positive_int, default=4, metavar="N",
+    parser.add_argument("--encoders", type=size_option("encoders"), default=4, metavar="N",
                         help="encoders of the demo fleet (default: 4, the paper's)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars on stderr")
 

@@ -7,7 +7,7 @@ Examples:
   encal fit enc1_train.csv -o enc1.json --method spectral --repeat enc1_pass2.csv
 """
 
-from ._common import add_calibration_options, int_in_range, positive_int, read_calibration_from_args
+from ._common import add_calibration_options, int_in_range, read_calibration_from_args, size_option
 
 HELP = "fit an error model to a calibration and save it"
 
@@ -23,15 +23,15 @@ def add_arguments(parser):
     parser.add_argument("--repeat", metavar="CAL2.csv",
                         help="a second pass over the same reference angles: fitted together with the first, "
                              "the noise is estimated from the two readings at each angle (spectral, auto)")
-    parser.add_argument("--hidden", type=positive_int, help="hidden nodes of the network (ann)")
+    parser.add_argument("--hidden", type=size_option("hidden"), help="hidden nodes of the network (ann)")
     parser.add_argument("--algorithm", help="training algorithm of the network, MATLAB's name (ann)")
     parser.add_argument("--encoding", choices=["raw", "periodic"],
                         help="network input: raw angle (the paper) or periodic cos/sin (default)")
-    parser.add_argument("--epochs", type=positive_int, help="maximum training epochs (ann)")
+    parser.add_argument("--epochs", type=size_option("epochs"), help="maximum training epochs (ann)")
     parser.add_argument("--orders", help="Fourier orders, comma-separated, e.g. 0,1,2,16 (fourier)")
-    parser.add_argument("--n-orders", type=positive_int, help="keep the N largest harmonics (fourier)")
+    parser.add_argument("--n-orders", type=size_option("n_orders"), help="keep the N largest harmonics (fourier)")
     parser.add_argument("--interpolation", choices=["linear", "cubic"], help="lookup-table interpolation (lut)")
-    parser.add_argument("--folds", type=int_in_range(2), metavar="K",
+    parser.add_argument("--folds", type=size_option("folds", 2), metavar="K",
                         help="cross-validation folds of the automatic choice (auto; default 5, fewer for small "
                              "calibrations)")
     parser.add_argument("--at-steps", action="store_const", const=True, default=None,

@@ -19,7 +19,7 @@ See docs/self-calibration.md.
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_calibration_options, int_in_range, positive_int
+from ._common import add_calibration_options, int_in_range, size_option
 
 HELP = "calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps"
 
@@ -28,17 +28,17 @@ def add_arguments(parser):
     methods = parser.add_subparsers(dest="method", metavar="METHOD", required=True)
     spin = methods.add_parser("spin", help="constant-drive spin(s): the rotor's inertia is the reference")
     spin.add_argument("logs", nargs="+", metavar="LOG.csv", help="spin log(s): time_s, encoder_deg[, run]")
-    spin.add_argument("--pole-pairs", type=positive_int, metavar="P",
+    spin.add_argument("--pole-pairs", type=size_option("pole_pairs"), metavar="P",
                       help="motor pole pairs: with one speed, multiples of P are left out (torque ripple)")
-    spin.add_argument("--slots", type=positive_int, metavar="S",
+    spin.add_argument("--slots", type=size_option("slots"), metavar="S",
                       help="motor slots: with one speed, multiples of S are left out too")
     spin.add_argument("--ripple-orders", metavar="K,...",
                       help="more orders to leave out with one speed, e.g. 1 for an unbalanced load")
     sweep = methods.add_parser("sweep", help="open-loop electrical-angle sweep (moteus raw capture)")
     sweep.add_argument("capture", metavar="CAPTURE", help="moteus raw capture (CAL start ... CAL done), or a CSV "
                                                          "with electrical_deg, encoder_deg[, direction]")
-    sweep.add_argument("--pole-pairs", type=positive_int, metavar="P", required=True, help="motor pole pairs")
-    sweep.add_argument("--slots", type=positive_int, metavar="S",
+    sweep.add_argument("--pole-pairs", type=size_option("pole_pairs"), metavar="P", required=True, help="motor pole pairs")
+    sweep.add_argument("--slots", type=size_option("slots"), metavar="S",
                        help="also leave out multiples of the slot count (a motor with unequal slots)")
     sweep.add_argument("--skip", type=int_in_range(0), default=4, metavar="N",
                        help="samples left out at the start while the rotor settles (default 4)")

@@ -12,7 +12,7 @@ Examples:
   encal study prune enc1_train.csv --test enc1_test.csv
 """
 
-from ._common import add_calibration_options, nonnegative_int, positive_int, read_calibration_from_args
+from ._common import add_calibration_options, nonnegative_int, read_calibration_from_args, size_option
 
 HELP = "hidden-node sweep, training-algorithm table or SVD pruning of the network on a calibration"
 
@@ -25,9 +25,9 @@ def add_arguments(parser):
     parser.add_argument("--test", metavar="TEST.csv",
                         help="calibration to measure each network on (never used for training)")
     parser.add_argument("--out", metavar="DIR", help="write the table as CSV and the figure(s) as PNG here")
-    parser.add_argument("--seeds", type=positive_int,
+    parser.add_argument("--seeds", type=size_option("seeds"),
                         help="fits per point from different initial weights (default: sweep 1, algorithms 5)")
-    parser.add_argument("--epochs", type=positive_int, default=1000,
+    parser.add_argument("--epochs", type=size_option("epochs"), default=1000,
                         help="epoch budget of every fit (default: 1000, MATLAB's)")
     parser.add_argument("--hidden", metavar="N[,N...]",
                         help="hidden nodes: a list for sweep (default 10,20,...,110), one number otherwise "
@@ -39,13 +39,14 @@ def add_arguments(parser):
     parser.add_argument("--threshold", type=float, default=1e-2,
                         help="prune: relative threshold of a significant singular value (default: 1e-2)")
     parser.add_argument("--seed", type=nonnegative_int, default=0, help="study seed (default: 0)")
-    parser.add_argument("--workers", type=nonnegative_int, metavar="N",
+    parser.add_argument("--workers", type=size_option("workers", 0), metavar="N",
                         help="worker processes (default: CPU count, at most 2; 0: none)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar on stderr")
     add_calibration_options(parser)
 
 
 def _counts(text, default, single):
+    from .._limits import SIZE_LIMITS
     from ..errors import InputError
 
     if text is None:
@@ -54,9 +55,11 @@ def _counts(text, default, single):
         values = [int(v) for v in text.split(",") if v.strip()]
     except ValueError:
         values = []
-    if not values or min(values) < 1 or (single and len(values) != 1):
-        what = "one whole number >= 1" if single else "comma-separated whole numbers >= 1"
-        raise InputError(f"--hidden must be {what}. Got {text!r} instead.")
+    largest = SIZE_LIMITS["hidden"][0]
+    if not values or min(values) < 1 or max(values) > largest or (single and len(values) != 1):
+        what = (f"one whole number from 1 to {largest}" if single
+                else f"comma-separated whole numbers from 1 to {largest}")
+        raise InputError(f"--hidden must be {what} ({SIZE_LIMITS['hidden'][1]}). Got {text!r} instead.")
     return values[0] if single else tuple(values)
 
 

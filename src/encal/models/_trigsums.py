@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-__all__ = ["trig_moments", "trig_series"]
+__all__ = ["trig_moments", "trig_series", "SeriesEvaluator"]
 
 #: Sums smaller than this (n times orders) are evaluated directly.
 _DIRECT_LIMIT = 200_000
@@ -125,3 +125,46 @@ def trig_series(coefficients, theta_rad):
         power = power * offset / (p + 1)
         term = term * (1j * orders * step)
     return result
+
+
+class SeriesEvaluator:
+    """``f(θ) = Re Σ_m c_m exp(i m θ)`` for fixed coefficients, one angle at a time or many.
+
+    The Taylor terms of :func:`trig_series` do not depend on the angles: they are computed once, and
+    each angle then costs a few lookups and multiplications of its own. So the value at an angle is
+    the same whatever other angles are evaluated with it (a stream's answers must not depend on its
+    buffering; :func:`trig_series` switches method with the number of angles).
+
+    Parameters
+    ----------
+    coefficients : ndarray of complex of shape (M + 1,)
+
+    Examples
+    --------
+    >>> f = SeriesEvaluator(np.array([1.0, 0.5 - 0.25j]))
+    >>> bool(np.allclose(f(np.array([0.0, np.pi / 2])), [1.5, 1.25], rtol=0, atol=1e-14))
+    True
+    """
+
+    def __init__(self, coefficients):
+        coefficients = np.asarray(coefficients, dtype=complex).reshape(-1)
+        self.size, terms = _fine_grid(coefficients.size - 1)
+        orders = np.arange(coefficients.size)
+        step = 2.0 * math.pi / self.size
+        padded = np.zeros(self.size, dtype=complex)
+        term = coefficients.copy()
+        self._terms = []
+        for _ in range(terms):
+            padded[: coefficients.size] = term
+            self._terms.append(np.real(np.fft.ifft(padded) * self.size))
+            term = term * (1j * orders * step)
+
+    def __call__(self, theta_rad):
+        theta = np.asarray(theta_rad, dtype=float).reshape(-1)
+        node, offset = _nodes(theta, self.size)
+        result = np.zeros(theta.size)
+        power = np.ones(theta.size)  # δ^p / p!
+        for p, values in enumerate(self._terms):
+            result += values[node] * power
+            power = power * offset / (p + 1)
+        return result

@@ -30,6 +30,7 @@ import numbers
 
 import numpy as np
 
+from .._limits import check_size
 from ..errors import CalibrationError, InputError, ModelFileError
 from ..profile import profile_arrays
 from ..training import ALGORITHMS, train
@@ -40,7 +41,6 @@ from ..training.network import (
     MapMinMax,
     NetworkProblem,
     encode_angles,
-    forward,
     pack_weights,
 )
 from .base import Model
@@ -134,11 +134,18 @@ class ANNModel(Model):
 
     def _predict(self, theta_deg):
         inputs = self.input_scaling.apply(encode_angles(np.ravel(theta_deg), self.encoding))
-        y = forward(inputs, self.W1, self.b1, self.W2, self.b2, self.activation)
+        # Element by element and row sums, not matrix products (training's `forward`): BLAS sums a row in an
+        # order that depends on where it falls in the block, and a correction must not depend on buffering.
+        z = sum(inputs[:, [i]] * self.W1[:, i] for i in range(inputs.shape[1])) + self.b1
+        y = (ACTIVATIONS[self.activation][0](z) * self.W2).sum(axis=1) + self.b2
         return self.target_scaling.reverse(y)
 
     def free_parameters(self):
         return self.hidden * (self.W1.shape[1] + 2) + 1
+
+    @property
+    def evaluation_width(self):
+        return self.hidden
 
     def parameters(self):
         return {
@@ -294,9 +301,9 @@ def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", en
     _check_choice("algorithm", algorithm, ALGORITHMS)
     if hidden is None:
         hidden = DEFAULT_HIDDEN[encoding]
-    if isinstance(hidden, bool) or not isinstance(hidden, numbers.Integral) or hidden < 1:
-        raise InputError(f"hidden must be an int >= 1. Got {hidden!r} instead.")
-    hidden = int(hidden)
+    hidden = check_size("hidden", hidden, "fit_ann")
+    if train_options.get("epochs") is not None:
+        check_size("epochs", train_options["epochs"], "fit_ann")
     generator, seed = _seed_of(rng)
     if not any(key in train_options for key in STOPPING_PARAMETERS):
         train_options = {**DEFAULT_STOPPING.get(algorithm, {}), **train_options}

@@ -24,6 +24,8 @@ __all__ = ["Model", "as_angles", "direction_mask", "in_chunks"]
 #: Angles per evaluation of a model's formula: its temporaries (angles x orders, x neurons, ...) stay
 #: within a few MB, in cache, whatever the number of angles.
 CHUNK_ANGLES = 1 << 13
+#: Most temporary numbers of one chunk: a wide model (a network of 2000 neurons) takes fewer angles at a time.
+CHUNK_NUMBERS = 1 << 21
 
 
 def as_angles(theta_enc_deg):
@@ -54,17 +56,20 @@ def direction_mask(direction, shape):
                          f"{shape} of the encoder angles") from None
 
 
-def in_chunks(function, theta):
-    """``function(theta)`` for a flat float array, evaluated :data:`CHUNK_ANGLES` angles at a time.
+def in_chunks(function, theta, width=1):
+    """``function(theta)`` for a flat float array, evaluated a chunk of angles at a time.
 
+    A chunk holds :data:`CHUNK_ANGLES` angles, fewer for a wide model (``width`` temporary numbers per
+    angle: a network's hidden nodes, a series' terms), at most :data:`CHUNK_NUMBERS` numbers in all.
     ``function`` maps a flat array to values of the same size; peak memory is then the result plus
-    one chunk's temporaries, whatever ``theta.size``.
+    one chunk's temporaries, whatever ``theta.size`` and the model's width.
     """
-    if theta.size <= CHUNK_ANGLES:
+    step = max(1, min(CHUNK_ANGLES, CHUNK_NUMBERS // max(1, int(width))))
+    if theta.size <= step:
         return function(theta)
     out = np.empty(theta.size)
-    for start in range(0, theta.size, CHUNK_ANGLES):
-        out[start:start + CHUNK_ANGLES] = function(theta[start:start + CHUNK_ANGLES])
+    for start in range(0, theta.size, step):
+        out[start:start + step] = function(theta[start:start + step])
     return out
 
 
@@ -143,10 +148,15 @@ class Model(ABC):
         if direction is not None:
             direction_mask(direction, theta.shape)
         # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
-        mean = np.asarray(in_chunks(self._predict, theta.reshape(-1)), dtype=float).reshape(theta.shape)[()]
+        mean = np.asarray(in_chunks(self._predict, theta.reshape(-1), self.evaluation_width),
+                          dtype=float).reshape(theta.shape)[()]
         if not return_std:
             return mean
         return mean, predictive_std(self.uncertainty, theta)
+
+    #: Temporary numbers per angle of ``_predict`` (a network's hidden nodes, a series' terms): angles are
+    #: evaluated in chunks small enough that memory stays bounded however wide the model (see in_chunks).
+    evaluation_width = 1
 
     def correct(self, theta_enc_deg, direction=None):
         """Corrected angles ``(theta_in - predict(theta_enc, direction=direction) / 60) mod 360``, in degrees.
@@ -156,7 +166,7 @@ class Model(ABC):
         """
         theta = as_angles(theta_enc_deg)
         if direction is None:  # chunk by chunk: peak memory is the result and one chunk's temporaries
-            return in_chunks(self._correct, theta.reshape(-1)).reshape(theta.shape)[()]
+            return in_chunks(self._correct, theta.reshape(-1), self.evaluation_width).reshape(theta.shape)[()]
         return self._correct(theta, direction)
 
     def _correct(self, theta, direction=None):

@@ -55,6 +55,10 @@ class DirectionalModel(Model):
     def _predict(self, theta_deg):
         return 0.5 * (self.forward._predict(theta_deg) + self.reverse._predict(theta_deg))
 
+    @property
+    def evaluation_width(self):
+        return max(self.forward.evaluation_width, self.reverse.evaluation_width)
+
     def predict(self, theta_enc_deg, return_std=False, direction=None):
         """Predicted error at the given encoder readings.
 

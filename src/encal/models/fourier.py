@@ -76,10 +76,16 @@ class FourierModel(Model):
 
     def _predict(self, theta_deg):
         phase = np.multiply.outer(np.radians(theta_deg), self.orders)
-        return np.cos(phase) @ self.cos + np.sin(phase) @ self.sin
+        # Row sums, not a matrix product: BLAS sums a row in an order that depends on where the row falls in
+        # the block, so a reading's correction would change in its last bit with the buffering of a stream.
+        return (np.cos(phase) * self.cos + np.sin(phase) * self.sin).sum(axis=1)
 
     def free_parameters(self):
         return sum(1 if k == 0 else 2 for k in self.orders.tolist())
+
+    @property
+    def evaluation_width(self):
+        return 2 * self.orders.size
 
     def parameters(self):
         return {

@@ -50,6 +50,10 @@ class HybridModel(Model):
     def _predict(self, theta_deg):
         return self.fourier._predict(theta_deg) + self.ann._predict(theta_deg)
 
+    @property
+    def evaluation_width(self):
+        return max(self.fourier.evaluation_width, self.ann.evaluation_width)
+
     def free_parameters(self):
         return self.fourier.free_parameters() + self.ann.free_parameters()
 

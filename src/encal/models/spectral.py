@@ -22,11 +22,11 @@ import time
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, resolution_of_readings, wrap360
+from ..angles import ARCMIN_PER_DEG, model_input, resolution_of_readings, wrap360
 from ..errors import InputError
 from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays, uniform_grid
 from . import _evidence
-from ._trigsums import trig_moments, trig_series
+from ._trigsums import SeriesEvaluator, trig_moments
 from .fourier import MAX_ORDER, FourierModel
 
 __all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
@@ -63,14 +63,18 @@ class SpectralModel(FourierModel):
     """
 
     kind = "spectral"
+    _series = None  # the SeriesEvaluator of the coefficients, made on first use
+    evaluation_width = 4  # the evaluator's few arrays per angle, not one term per order
 
     def _predict(self, theta_deg):
         if self.orders.size == 0:
             return np.zeros(theta_deg.shape)
-        highest = int(self.orders.max())
-        complex_coefficients = np.zeros(highest + 1, dtype=complex)
-        np.add.at(complex_coefficients, self.orders, self.cos - 1j * self.sin)
-        return trig_series(complex_coefficients, np.radians(theta_deg))
+        if self._series is None:
+            highest = int(self.orders.max())
+            complex_coefficients = np.zeros(highest + 1, dtype=complex)
+            np.add.at(complex_coefficients, self.orders, self.cos - 1j * self.sin)
+            self._series = SeriesEvaluator(complex_coefficients)
+        return self._series(np.radians(theta_deg))
 
     def predict(self, theta_enc_deg, return_std=False, direction=None, include_noise=True):
         """Posterior mean of the error, and with ``return_std=True`` its posterior standard deviation.
@@ -101,7 +105,7 @@ class SpectralModel(FourierModel):
         if self.uncertainty is None:
             raise InputError("return_std=True needs the model's posterior uncertainty, which this model "
                              "does not hold")
-        theta = np.asarray(theta_enc_deg, dtype=float)
+        theta = model_input(np.asarray(theta_enc_deg, dtype=float), self.reading_sign)
         table = np.asarray(self.uncertainty["model_std_arcmin"], dtype=float)
         grid = np.arange(table.size) * float(self.uncertainty["grid_step_deg"])
         profile_std = np.interp(wrap360(theta), grid, table, period=360.0)

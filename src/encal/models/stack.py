@@ -73,6 +73,10 @@ class StackModel(Model):
         self.members = members
         self.weights = _check_weights(weights, len(members), "StackModel")
 
+    @property
+    def evaluation_width(self):
+        return max(member.evaluation_width for member in self.members)
+
     def _predict(self, theta_deg):
         # Left to right, member by member: the order the runtime reader and the C export add in.
         return sum(weight * member._predict(theta_deg) for weight, member in zip(self.weights, self.members))

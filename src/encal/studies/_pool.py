@@ -25,8 +25,11 @@ starts workers must guard its top-level code with
 import concurrent.futures
 import multiprocessing
 import os
+import threading
+import time
 
 from .._progress import Progress
+from .._limits import check_size
 from ..errors import InputError
 
 __all__ = ["MAX_WORKERS", "default_workers", "Workers", "run_tasks"]
@@ -63,7 +66,7 @@ class Workers:
             count = default_workers()
         if isinstance(count, bool) or not isinstance(count, int) or count < 0:
             raise InputError(f"workers must be an int >= 0 or None. Got {count!r} instead.")
-        self.count = count
+        self.count = check_size("workers", count, "Workers", low=0)
         self._executor = None
 
     def executor(self):
@@ -75,7 +78,8 @@ class Workers:
             os.environ.update({name: "1" for name in _BLAS_THREAD_VARIABLES})
             try:
                 self._executor = concurrent.futures.ProcessPoolExecutor(
-                    max_workers=self.count, mp_context=multiprocessing.get_context("spawn"))
+                    max_workers=self.count, mp_context=multiprocessing.get_context("spawn"),
+                    initializer=_die_with_parent, initargs=(os.getpid(),))
                 # Start every process now, while the environment says one BLAS thread.
                 list(self._executor.map(int, range(self.count)))
             finally:
@@ -98,6 +102,24 @@ class Workers:
     def __exit__(self, *exc):
         self.close()
         return False
+
+
+#: How often a worker checks that the process that started it is still there, in seconds.
+PARENT_CHECK_S = 0.5
+
+
+def _die_with_parent(parent_pid):
+    """Worker initializer: exit when the parent is gone.
+
+    A parent killed with SIGKILL (or crashing) cannot stop its workers, and they would wait for work
+    for ever. When the parent dies the worker is handed to another process, so its parent id changes.
+    """
+    def watch():
+        while os.getppid() == parent_pid:
+            time.sleep(PARENT_CHECK_S)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="encal-parent-watch", daemon=True).start()
 
 
 def run_tasks(function, tasks, *, workers=None, label="fits", progress=False):
