@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from encal.cli import main
+from encal.angles import wrap180
 from encal.profile import error_stats
 
 STAT_KEYS = {"n", "mae_arcmin", "rms_arcmin", "std_arcmin", "min_arcmin", "max_arcmin",
@@ -101,6 +102,43 @@ def test_a_real_mechaduino_calibration(real_data_dir, capsys):
     record = json.loads(capsys.readouterr().out)
     assert record["n"] == 200
     assert 20.0 < record["pp_arcmin"] < 400.0  # README: 30..100 typical, one file ~320
-    assert record["std_arcmin"] < record["rms_arcmin"]  # an arbitrary zero: the mean is large
-    assert record["harmonics"][0]["order"] == 0
+    # The motor's zero is arbitrary (tens of degrees): detected, stated apart, statistics of the shape.
+    assert record["zero"] == "arbitrary" and abs(record["zero_offset_arcmin"]) > 600.0
+    assert "larger than 1 deg" in record["zero_note"]
+    assert record["rms_arcmin"] < 100.0 and abs(record["rms_arcmin"] - record["std_arcmin"]) < 0.05
     assert {1, 2} <= {h["order"] for h in record["harmonics"][:5]}
+    assert all("phase_deg" in h for h in record["harmonics"])
+    assert main(["profile", str(path), "--json", "--zero", "fixed"]) == 0
+    fixed = json.loads(capsys.readouterr().out)
+    assert fixed["zero"] == "fixed" and "zero_offset_arcmin" in fixed
+    assert fixed["rms_arcmin"] > 600.0 and fixed["harmonics"][0]["order"] == 0
+    assert fixed["std_arcmin"] == pytest.approx(record["std_arcmin"], abs=1e-9)
+
+
+@pytest.mark.parametrize("offset_deg, option, arbitrary", [
+    (59.0, [], True), (-120.0, [], True), (0.5, [], False), (0.5, ["--arbitrary-zero"], True),
+    (59.0, ["--zero", "fixed"], False)])
+def test_the_zero_offset_is_stated_apart_from_the_shape(write_csv, capsys, offset_deg, option, arbitrary):
+    """A stepper's arbitrary zero: the offset under its own key, the statistics those of the shape."""
+    ref = np.arange(0.0, 360.0, 1.8)
+    shape = 3.0 * np.sin(np.radians(ref)) + 1.0 * np.cos(np.radians(2 * ref))  # mean 0, RMS sqrt(5)
+    rows = "".join(f"{float(r)!r},{float((r + offset_deg + e / 60.0) % 360.0)!r}\n" for r, e in zip(ref, shape))
+    path = write_csv("reference_deg,encoder_deg\n" + rows)
+    assert main(["profile", str(path), "--json", *option]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["zero_offset_arcmin"] == pytest.approx(offset_deg * 60.0, abs=1e-6)
+    if arbitrary:
+        assert record["zero"] == "arbitrary"
+        assert record["rms_arcmin"] == pytest.approx(np.sqrt(5.0), abs=1e-9)
+        assert record["pp_arcmin"] == pytest.approx(np.ptp(shape), abs=1e-9)
+        assert record["harmonics"][0]["order"] == 1
+        # against the encoder angle θ_ref = θ_enc - offset - e/60: 3 sin(θ_ref) = 3 cos(θ_enc - 90° - offset)
+        assert record["harmonics"][0]["amplitude_arcmin"] == pytest.approx(3.0, abs=1e-5)
+        assert record["harmonics"][0]["phase_deg"] == pytest.approx(wrap180(90.0 + offset_deg), abs=0.02)
+    else:
+        assert record["zero"] == "fixed"
+        assert record["rms_arcmin"] == pytest.approx(np.sqrt(5.0 + (offset_deg * 60.0) ** 2), abs=1e-6)
+    assert main(["profile", str(path), *option]) == 0
+    text = capsys.readouterr().out
+    assert ("stated apart" in text) == arbitrary
+    assert ("zero offset (apart)" in text) == arbitrary

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from encal import Calibration, ErrorStats, Harmonics, error_stats, harmonics
+from encal import Calibration, ErrorStats, Harmonics, error_stats, harmonics, wrap180
 from encal.errors import InputError
 from encal.profile import distinct_angles, fit_harmonic_series, identifiable_order
 
@@ -175,7 +175,9 @@ def test_top_lists_the_largest_orders_first_as_the_paper_does():
     assert len(result.top(1000)) == 91
     listed = result.as_list()
     assert [entry["order"] for entry in listed[:6]] == [1, 2, 16, 0, 14, 48]
-    assert listed[0] == {"order": 1, "amplitude_arcmin": pytest.approx(3.0)}
+    # cos(kθ + 10k°) = cos(kθ - φ_k) with φ_k = -10k°
+    assert listed[0] == {"order": 1, "amplitude_arcmin": pytest.approx(3.0), "phase_deg": pytest.approx(-10.0)}
+    assert listed[2]["phase_deg"] == pytest.approx(wrap180(-160.0))
     assert all(type(e["order"]) is int and type(e["amplitude_arcmin"]) is float for e in listed)
     assert [e["order"] for e in result.as_list(3)] == [1, 2, 16]
     with pytest.raises(InputError):

@@ -29,7 +29,7 @@ import numpy as np
 from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings, wrap180, wrap360
 from .calibration import Calibration
 from .errors import InputError
-from .profile import error_stats
+from .profile import error_stats, zero_offset_arcmin
 
 __all__ = [
     "OFFSET_MODES",
@@ -141,6 +141,8 @@ class DriftReport:
         Encoder resolution used for LSB figures.
     resolution_inferred : bool
         Whether the resolution was inferred from readings on a grid of ``360 / 2**bits`` degrees.
+    baseline_offset_arcmin : float or None
+        The first calibration's zero offset (circular mean of its errors), arcmin.
     """
 
     baseline_label: str
@@ -153,6 +155,7 @@ class DriftReport:
     tolerance_rule: str
     resolution_bits: int | None
     resolution_inferred: bool
+    baseline_offset_arcmin: float | None = None
 
     @property
     def holds(self):
@@ -182,6 +185,7 @@ class DriftReport:
             "method": self.method,
             "resolution_bits": self.resolution_bits,
             "resolution_inferred": self.resolution_inferred,
+            "baseline_offset_arcmin": self.baseline_offset_arcmin,
             "lsb_arcmin": self.lsb_arcmin,
             "baseline_rms_arcmin": float(self.baseline_rms_arcmin),
             "tolerance_arcmin": float(self.tolerance_arcmin),
@@ -205,9 +209,7 @@ def split_epochs(cal):
 
 def circular_mean_offset_arcmin(cal):
     """Circular mean of ``θ_enc − θ_ref`` over a calibration, in arc-minutes within (−10800, 10800]."""
-    difference = np.radians(cal.encoder_deg - cal.reference_deg)
-    mean = np.degrees(np.arctan2(np.sin(difference).mean(), np.cos(difference).mean()))
-    return float(wrap180(mean)) * ARCMIN_PER_DEG
+    return zero_offset_arcmin(cal.errors_arcmin)
 
 
 def infer_resolution_bits(cal, *, max_bits=24):
@@ -430,5 +432,5 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
     return DriftReport(
         baseline_label=names[0], epochs=tuple(epochs), offset=offset, model_kind=model.kind, method=method,
         baseline_rms_arcmin=baseline, tolerance_arcmin=tolerance,
-        tolerance_rule=rule, resolution_bits=bits, resolution_inferred=inferred,
+        tolerance_rule=rule, resolution_bits=bits, resolution_inferred=inferred, baseline_offset_arcmin=base_offset,
     )

@@ -23,7 +23,7 @@ from .bidirectional import (
 from .calibration import Calibration, check_folds
 from .errors import CalibrationError, InputError
 from .models import kind_names, model_kind
-from .profile import ErrorStats, error_stats
+from .profile import ErrorStats, error_stats, remove_offset, zero_is_arbitrary, zero_offset_arcmin, zero_sentence
 from .uncertainty import add_uncertainty, refit_spec
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
@@ -60,7 +60,9 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
         members of the other families.
     rng : int or numpy.random.Generator, optional
         Seed for the methods that draw random numbers (network initialisation) and, with
-        ``uncertainty=True``, for the bootstrap; for ``'fourier'`` and ``'lut'`` only then.
+        ``uncertainty=True``, for the bootstrap; for ``'fourier'`` and ``'lut'`` only then. When
+        None and one is needed, a seed is drawn and recorded as ``model.training['seed']``, so the
+        model file says how to fit the same model again.
     uncertainty : bool, default=False
         Also estimate the prediction uncertainty (bootstrap refits; see :mod:`encal.uncertainty`), so that
         ``model.predict(theta, return_std=True)`` works. Costs 30 (Fourier) to 100 (lookup table, networks) refits.
@@ -100,9 +102,14 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     """
     if not isinstance(cal, Calibration):
         raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
+    if rng is None and (uncertainty or model_kind(method).randomised):
+        # Drawn here so that the model file records the seed that regenerates it.
+        rng = int(np.random.SeedSequence().generate_state(1)[0])
     if has_both_directions(cal):
         # Both directions of travel pooled into one profile would leave half the reversal in every residual.
         model = fit_bidirectional(cal, bidirectional or "per-direction", method, rng=rng, **options)
+        if isinstance(rng, (int, np.integer)):
+            model.training.setdefault("seed", int(rng))
         if uncertainty:
             add_uncertainty(model, cal, method=method, options=dict(options), rng=rng)
         return model
@@ -119,7 +126,8 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     fit_family = fitter(method)
     check_folds(cal, where=cal.source or cal.name or "calibration")
     fit_options = dict(options)
-    if model_kind(method).randomised:
+    randomised = model_kind(method).randomised
+    if randomised:
         options["rng"] = rng
     elif rng is not None and not uncertainty:
         raise InputError(f"method {method!r} draws no random numbers; rng must be None "
@@ -255,25 +263,76 @@ class Evaluation:
         Encoder angles of the points (degrees).
     residual_arcmin : ndarray
         ``corrected - reference`` at every point (arcmin): the observed error minus the predicted one.
+    error_arcmin : ndarray or None
+        The raw errors ``encoder - reference`` at every point (arcmin).
+    zero : str
+        How the reference's zero was treated ('fixed', 'arbitrary' or 'auto', see :func:`evaluate`).
     """
 
     before: ErrorStats
     after: ErrorStats
     encoder_deg: np.ndarray
     residual_arcmin: np.ndarray
+    error_arcmin: np.ndarray | None = None
+    zero: str = "fixed"
+
+    @property
+    def arbitrary_zero(self):
+        """Whether the statistics are of the shape about each one's zero offset."""
+        return self.before.offset is not None
 
     def as_dict(self):
-        """JSON-ready: the ``after`` statistics at top level and ``before`` as a nested object."""
-        return {**self.after.as_dict(), "before": self.before.as_dict()}
+        """JSON-ready: the ``after`` statistics at top level and ``before`` as a nested object.
+
+        With an arbitrary zero both carry ``zero_offset_arcmin``, and ``zero`` says 'arbitrary'.
+        """
+        return {**self.after.as_dict(), "before": self.before.as_dict(),
+                "zero": "arbitrary" if self.arbitrary_zero else "fixed"}
+
+    def zero_sentence(self):
+        """How the zero offset was treated, in one sentence."""
+        offset = self.before.offset if self.arbitrary_zero else zero_offset_arcmin(
+            self.error_arcmin if self.error_arcmin is not None else self.residual_arcmin)
+        return zero_sentence(self.zero, offset, self.arbitrary_zero)
+
+    def __str__(self):
+        """Before and after side by side, in arc-minutes."""
+        rows = (("n", "n", "{:d}"), ("MAE", "mae", "{:.4f}"), ("RMS", "rms", "{:.4f}"), ("STD", "std", "{:.4f}"),
+                ("min", "min", "{:+.4f}"), ("max", "max", "{:+.4f}"), ("max |e|", "max_abs", "{:.4f}"))
+        if self.arbitrary_zero:
+            rows = (("n", "n", "{:d}"), ("zero offset", "offset", "{:+.4f}"), *rows[1:])
+        lines = [f"{'arcmin':10s}{'before':>12s}{'after':>12s}"]
+        for label, attribute, form in rows:
+            before, after = getattr(self.before, attribute), getattr(self.after, attribute)
+            lines.append(f"{label:10s}{form.format(before):>12s}{form.format(after):>12s}")
+        if self.arbitrary_zero:
+            lines.append("(arbitrary zero: each column is about its own zero offset)")
+        return "\n".join(lines)
+
+    def plot(self, ax=None, *, title=None):
+        """Errors before and residuals after compensation on the same axes (each about its zero offset
+        when the zero is arbitrary); returns the axes."""
+        from .plots import plot_before_after
+
+        before = self.error_arcmin if self.error_arcmin is not None else np.full_like(self.residual_arcmin, np.nan)
+        after = self.residual_arcmin
+        if self.arbitrary_zero:
+            before, after = remove_offset(before, self.before.offset), remove_offset(after, self.after.offset)
+        return plot_before_after(self.encoder_deg, before, after, ax=ax, title=title)
 
 
-def evaluate(model, cal):
+def evaluate(model, cal, *, zero="fixed"):
     """Residual statistics of a model on a calibration (ideally one it was not fitted on).
 
     Parameters
     ----------
     model : Model
     cal : Calibration
+    zero : {'fixed', 'arbitrary', 'auto'}, default='fixed'
+        The reference's zero. 'fixed': statistics about zero. 'arbitrary': the raw errors and the
+        residuals are each taken about their own zero offset (a repeat calibration of a motor starts
+        elsewhere, so its offset differs from the one the model learnt), which are reported apart.
+        'auto': arbitrary when either offset exceeds 1 degree.
 
     Returns
     -------
@@ -286,4 +345,7 @@ def evaluate(model, cal):
     # A directional model predicts each reading with its own direction's profile.
     predicted = model.predict(cal.readings_deg, direction=cal.direction)
     residual = wrap180((observed - predicted) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
-    return Evaluation(error_stats(observed), error_stats(residual), cal.encoder_deg.copy(), residual)
+    arbitrary = zero_is_arbitrary(zero, zero_offset_arcmin(observed), zero_offset_arcmin(residual))
+    mode = "arbitrary" if arbitrary else "fixed"
+    return Evaluation(error_stats(observed, zero=mode), error_stats(residual, zero=mode), cal.encoder_deg.copy(),
+                      residual, observed.copy(), zero)

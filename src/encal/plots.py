@@ -30,6 +30,10 @@ __all__ = [
     "figure_png",
     "plot_profile",
     "plot_harmonics",
+    "plot_error_stats",
+    "plot_model",
+    "plot_before_after",
+    "plot_selection",
     "plot_sweep",
     "plot_training_curves",
     "plot_algorithms",
@@ -213,19 +217,22 @@ def save_figure(fig, path, dpi=100):
 # --------------------------------------------------------------------------- Fig. 1 and spectra
 
 
-def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, title=None):
+def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, title=None, label="calibration",
+                 test_label="test"):
     """Fig. 1: an error profile against the encoder angle, with a smooth periodic curve.
 
     Parameters
     ----------
     theta_deg, error_arcmin : array-like of shape (n,)
-        Training points: encoder angles (degrees) and errors ``encoder − reference`` (arcmin).
+        Calibration points: encoder angles (degrees) and errors ``encoder − reference`` (arcmin).
     test : (array-like, array-like), optional
         Test points, drawn in another colour; the curve passes through both sets.
     smooth : bool, default=True
         Draw the periodic smoothing spline through all points.
     ax : matplotlib.axes.Axes, optional
     title : str, optional
+    label, test_label : str, default='calibration', 'test'
+        Legend labels of the two sets of points (the demo's are 'training grid' and 'test grid').
 
     Returns
     -------
@@ -234,11 +241,11 @@ def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, ti
     ax = new_axes(ax)
     theta = np.asarray(theta_deg, dtype=float)
     error = np.asarray(error_arcmin, dtype=float)
-    ax.plot(theta, error, ".", ms=3.5, color=_TRAIN_COLOUR, label="training grid")
+    ax.plot(theta, error, ".", ms=3.5, color=_TRAIN_COLOUR, label=label)
     all_theta, all_error = theta, error
     if test is not None:
         test_theta, test_error = (np.asarray(a, dtype=float) for a in test)
-        ax.plot(test_theta, test_error, ".", ms=3.5, color=_TEST_COLOUR, label="test grid")
+        ax.plot(test_theta, test_error, ".", ms=3.5, color=_TEST_COLOUR, label=test_label)
         all_theta, all_error = np.r_[theta, test_theta], np.r_[error, test_error]
     if smooth:
         spline = periodic_smoothing_spline(all_theta, all_error)
@@ -287,6 +294,152 @@ def plot_harmonics(harmonics, *, n_label=10, ax=None, title=None):
     if title is not None:
         ax.set_title(title)
     ax.legend(loc="upper right", fontsize="x-small", frameon=False)
+    return ax
+
+
+# --------------------------------------------------------------------------- results of the public API
+
+
+def plot_error_stats(stats, ax=None):
+    """MAE, RMS, STD and max |error| of one or more :class:`~encal.profile.ErrorStats` as grouped bars.
+
+    Parameters
+    ----------
+    stats : mapping of str to ErrorStats
+        Label -> statistics (arcmin), e.g. ``{"before": e.before, "after": e.after}``.
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    names = ("MAE", "RMS", "STD", "max |error|")
+    y = np.arange(len(names))
+    height = 0.8 / max(len(stats), 1)
+    for index, (label, entry) in enumerate(stats.items()):
+        values = [entry.mae, entry.rms, entry.std, entry.max_abs]
+        bars = ax.barh(y + (index - (len(stats) - 1) / 2) * height, values, height=height, color=f"C{index}",
+                       label=label)
+        ax.bar_label(bars, fmt="%.3g", fontsize="x-small", padding=2)
+    ax.set_yticks(y, names)
+    ax.invert_yaxis()
+    ax.set_xlabel("arcmin")
+    offsets = [e.offset for e in stats.values() if e.offset is not None]
+    if offsets:
+        ax.set_title(f"about the zero offset ({', '.join(f'{o:+.1f}' for o in offsets)} arcmin, apart)",
+                     fontsize="small")
+    ax.legend(fontsize="x-small", frameon=False, loc="lower right")
+    return ax
+
+
+def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95):
+    """A model's predicted error against the encoder angle, with its uncertainty band when it has one.
+
+    Parameters
+    ----------
+    model : Model
+        Any encal model (``model.predict(theta_deg) -> arcmin``).
+    data : (array-like, array-like), optional
+        Calibration points (encoder angles in degrees, errors in arcmin) drawn under the curve.
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+    coverage : float, default=0.95
+        Coverage of the band ``± z σ`` (normal quantile) drawn when the model carries an uncertainty.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    from scipy.stats import norm
+
+    ax = new_axes(ax)
+    grid = np.linspace(0.0, 360.0, 1441)
+    if data is not None:
+        theta, error = (np.asarray(a, dtype=float) for a in data)
+        ax.plot(theta, error, ".", ms=3.5, color=_TRAIN_COLOUR, label="calibration")
+    if getattr(model, "uncertainty", None) is not None:
+        mean, std = model.predict(grid, return_std=True)
+        z = float(norm.ppf(0.5 + coverage / 2))
+        ax.fill_between(grid, mean - z * std, mean + z * std, color=_TEST_COLOUR, alpha=0.3, lw=0,
+                        label=f"{100 * coverage:.0f} % band of a new reading")
+    else:
+        mean = model.predict(grid)
+    ax.plot(grid, mean, "-", lw=1.2, color=_CURVE_COLOUR, label=f"{model.kind} model")
+    _angle_axis(ax)
+    ax.set_ylabel("error θ_enc − θ_ref (arcmin)")
+    if title is not None:
+        ax.set_title(title)
+    _legend(ax)
+    return ax
+
+
+def plot_before_after(theta_deg, before_arcmin, after_arcmin, *, ax=None, title=None, floor_arcmin=None,
+                      labels=("before", "after")):
+    """Errors before and after compensation on the same axes, against the encoder angle.
+
+    Parameters
+    ----------
+    theta_deg : array-like of shape (n,)
+        Encoder angles, degrees.
+    before_arcmin, after_arcmin : array-like of shape (n,)
+        Raw errors and residuals after compensation, arcmin (same zero convention for both).
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+    floor_arcmin : float, optional
+        Draw ± this band (a measurement floor or 1 LSB).
+    labels : (str, str), default=('before', 'after')
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    theta = np.asarray(theta_deg, dtype=float)
+    before, after = np.asarray(before_arcmin, dtype=float), np.asarray(after_arcmin, dtype=float)
+    order = np.argsort(theta)
+    if floor_arcmin is not None:
+        ax.axhspan(-floor_arcmin, floor_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,
+                   label=f"± {floor_arcmin:.3g}")
+    rms = lambda values: float(np.sqrt(np.mean(values**2)))  # noqa: E731
+    ax.plot(theta[order], before[order], ".-", ms=3, lw=0.5, color=_TRAIN_COLOUR,
+            label=f"{labels[0]} (RMS {rms(before):.3g})")
+    ax.plot(theta[order], after[order], ".-", ms=3, lw=0.5, color=_TEST_COLOUR,
+            label=f"{labels[1]} (RMS {rms(after):.3g})")
+    ax.axhline(0.0, color=_CURVE_COLOUR, lw=0.5)
+    _angle_axis(ax)
+    ax.set_ylabel("error (arcmin)")
+    if title is not None:
+        ax.set_title(title)
+    _legend(ax)
+    return ax
+
+
+def plot_selection(selection, ax=None):
+    """The automatic choice's cross-validation table as bars: CV RMS per candidate, the chosen one marked.
+
+    Parameters
+    ----------
+    selection : dict
+        ``model.training['selection']`` of a model made by ``method='auto'``.
+    ax : matplotlib.axes.Axes, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax, figsize=(6.4, 0.6 + 0.28 * len(selection["table"])))
+    rows = [row for row in selection["table"] if row.get("cv_rms_arcmin") is not None]
+    rows.sort(key=lambda row: row["cv_rms_arcmin"])
+    y = np.arange(len(rows))
+    colours = [_TEST_COLOUR if row["label"] == selection["chosen"] else _TRAIN_COLOUR for row in rows]
+    names = [f"stack of {len(row['options']['members'])}" if row["family"] == "stack" else row["label"]
+             for row in rows]
+    bars = ax.barh(y, [row["cv_rms_arcmin"] for row in rows], color=colours)
+    ax.bar_label(bars, fmt="%.4g", fontsize="x-small", padding=2)
+    ax.set_yticks(y, names, fontsize="x-small")
+    ax.invert_yaxis()
+    ax.set_xlabel(f"cross-validated RMS over {selection['folds']} folds (arcmin); chosen in orange")
     return ax
 
 

@@ -17,12 +17,18 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
-from .angles import wrap360
+from .angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .errors import InputError
 
 __all__ = [
     "ErrorStats",
     "error_stats",
+    "ZERO_MODES",
+    "ARBITRARY_ZERO_ARCMIN",
+    "zero_offset_arcmin",
+    "zero_is_arbitrary",
+    "zero_sentence",
+    "remove_offset",
     "Harmonics",
     "harmonics",
     "identifiable_order",
@@ -54,6 +60,77 @@ _CG_MAX_ITER = 1000
 # --------------------------------------------------------------------------- statistics
 
 
+#: How a reference's zero is treated: 'fixed' counts the offset as error, 'arbitrary' states it apart,
+#: 'auto' decides by :data:`ARBITRARY_ZERO_ARCMIN`.
+ZERO_MODES = ("auto", "arbitrary", "fixed")
+
+#: With ``zero='auto'`` a zero offset larger than this (arc-minutes; 1 degree) marks the reference's zero as
+#: arbitrary: a rotary table's zero is set to arc-minutes, a motor's is wherever it stood when it started.
+ARBITRARY_ZERO_ARCMIN = 60.0
+
+
+def zero_offset_arcmin(error_arcmin):
+    """The zero offset of an error profile: the circular mean of the errors, in arc-minutes.
+
+    Parameters
+    ----------
+    error_arcmin : array-like of shape (n,)
+        Errors ``encoder - reference`` in arc-minutes.
+
+    Returns
+    -------
+    float
+        ``arg mean exp(i e)``, in arc-minutes within (-10800, 10800].
+
+    Examples
+    --------
+    >>> round(zero_offset_arcmin([3540.0, 3550.0, 3560.0]), 6)
+    3550.0
+    >>> round(zero_offset_arcmin([10790.0, -10790.0]), 6)   # about 180 degrees, across the wrap
+    10800.0
+    """
+    radians = np.radians(np.asarray(error_arcmin, dtype=float).reshape(-1) / ARCMIN_PER_DEG)
+    mean = np.degrees(np.arctan2(np.sin(radians).mean(), np.cos(radians).mean()))
+    return float(wrap180(mean)) * ARCMIN_PER_DEG
+
+
+def zero_is_arbitrary(zero, *offsets_arcmin):
+    """Whether statistics are taken about the zero offset under ``zero`` ('auto', 'arbitrary', 'fixed').
+
+    With 'auto' the zero is arbitrary when any of ``offsets_arcmin`` exceeds :data:`ARBITRARY_ZERO_ARCMIN`.
+    """
+    if zero not in ZERO_MODES:
+        raise InputError(f"zero must be one of {', '.join(map(repr, ZERO_MODES))}. Got {zero!r} instead.")
+    if zero != "auto":
+        return zero == "arbitrary"
+    return any(abs(offset) > ARBITRARY_ZERO_ARCMIN for offset in offsets_arcmin)
+
+
+def zero_sentence(zero, offset_arcmin, arbitrary):
+    """One sentence saying how the zero offset was treated, for a report or a terminal.
+
+    Parameters
+    ----------
+    zero : {'auto', 'arbitrary', 'fixed'}
+        What the user asked for.
+    offset_arcmin : float
+        The zero offset (circular mean of the errors), arc-minutes.
+    arbitrary : bool
+        Whether the statistics are about the offset (:func:`zero_is_arbitrary`).
+    """
+    value = f"zero offset {offset_arcmin:+.2f} arcmin ({offset_arcmin / ARCMIN_PER_DEG:+.3f} deg)"
+    if arbitrary and zero == "auto":
+        return (f"{value}, larger than {ARBITRARY_ZERO_ARCMIN / ARCMIN_PER_DEG:g} deg: the reference's zero is "
+                "taken as arbitrary (a motor's start position), the offset is stated apart and the statistics "
+                "are of the shape about it (--zero fixed counts it as error)")
+    if arbitrary:
+        return f"{value}, stated apart as asked (arbitrary zero); the statistics are of the shape about it"
+    if zero == "auto":
+        return (f"{value}, within {ARBITRARY_ZERO_ARCMIN / ARCMIN_PER_DEG:g} deg: the reference's zero is taken "
+                "as fixed and the offset counts as error (--zero arbitrary states it apart)")
+    return f"{value}, counted as error as asked (fixed zero)"
+
+
 @dataclass(frozen=True)
 class ErrorStats:
     """Summary statistics of errors, in arc-minutes.
@@ -73,6 +150,9 @@ class ErrorStats:
         Smallest and largest (signed) error.
     pp : float
         Peak-to-peak error ``max - min``.
+    offset : float or None
+        The zero offset taken out of the errors before the statistics above (arbitrary zero,
+        see :func:`error_stats`), or None when they are about zero.
     """
 
     n: int
@@ -82,6 +162,7 @@ class ErrorStats:
     min: float
     max: float
     pp: float
+    offset: float | None = None
 
     @property
     def max_abs(self):
@@ -91,13 +172,15 @@ class ErrorStats:
     def as_dict(self):
         """The statistics as JSON-ready data with unit-bearing keys.
 
+        ``zero_offset_arcmin`` is present only when the statistics are about a zero offset.
+
         Examples
         --------
         >>> sorted(error_stats([1.0, -1.0]).as_dict())  # doctest: +NORMALIZE_WHITESPACE
         ['mae_arcmin', 'max_abs_arcmin', 'max_arcmin', 'min_arcmin', 'n', 'pp_arcmin',
          'rms_arcmin', 'std_arcmin']
         """
-        return {
+        data = {
             "n": int(self.n),
             "mae_arcmin": float(self.mae),
             "rms_arcmin": float(self.rms),
@@ -107,15 +190,65 @@ class ErrorStats:
             "max_abs_arcmin": float(self.max_abs),
             "pp_arcmin": float(self.pp),
         }
+        if self.offset is not None:
+            data["zero_offset_arcmin"] = float(self.offset)
+        return data
+
+    def rows(self):
+        """``(label, value)`` of every statistic, in the order tables show them (arc-minutes; n a count)."""
+        rows = [("n", self.n)]
+        if self.offset is not None:
+            rows.append(("zero offset (apart)", self.offset))
+        return rows + [("MAE", self.mae), ("RMS", self.rms), ("STD (RMS about mean)", self.std),
+                       ("min", self.min), ("max", self.max), ("peak-to-peak", self.pp), ("max |error|", self.max_abs)]
+
+    def __str__(self):
+        """A two-column table of the statistics, in arc-minutes.
+
+        Examples
+        --------
+        >>> print(error_stats([1.0, 2.0, 3.0]))  # doctest: +NORMALIZE_WHITESPACE
+        statistic                 arcmin
+        n                              3
+        MAE                        2.000
+        RMS                        2.160
+        STD (RMS about mean)       0.816
+        min                        1.000
+        max                        3.000
+        peak-to-peak               2.000
+        max |error|                3.000
+        """
+        lines = [f"{'statistic':<22}{'arcmin':>10}"]
+        for label, value in self.rows():
+            lines.append(f"{label:<22}{value:>10d}" if label == "n" else f"{label:<22}{value:>10.3f}")
+        return "\n".join(lines)
+
+    def plot(self, ax=None, *, label=None):
+        """Horizontal bars of MAE, RMS, STD and max |error| (arcmin); returns the axes.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on; a new figure's when None.
+        label : str, optional
+            Legend label of the bars.
+        """
+        from .plots import plot_error_stats
+
+        return plot_error_stats({label or "errors": self}, ax=ax)
 
 
-def error_stats(data):
+def error_stats(data, *, zero="fixed"):
     """Summary statistics of an error profile.
 
     Parameters
     ----------
     data : Calibration or array-like of float
         A calibration (its ``errors_arcmin`` are used) or errors in arc-minutes.
+    zero : {'fixed', 'arbitrary', 'auto'}, default='fixed'
+        The reference's zero. 'fixed': statistics about zero, the offset counts as error (the
+        paper's Table 1). 'arbitrary': the zero offset (:func:`zero_offset_arcmin`) is taken out
+        first and recorded as ``offset``. 'auto': arbitrary when the offset exceeds 1 degree.
 
     Returns
     -------
@@ -132,12 +265,21 @@ def error_stats(data):
     >>> stats = error_stats([1.0, 2.0, 3.0])
     >>> stats.mae, round(stats.rms, 4), round(stats.std, 4), stats.pp
     (2.0, 2.1602, 0.8165, 2.0)
+    >>> shape = error_stats([3599.0, 3600.0, 3601.0], zero="auto")   # a 60-degree offset
+    >>> round(shape.offset, 6), round(shape.rms, 4)
+    (3600.0, 0.8165)
     """
     errors = np.asarray(getattr(data, "errors_arcmin", data), dtype=float).reshape(-1)
     if errors.size == 0:
         raise InputError("error_stats expects at least one error value; got none")
     if not np.all(np.isfinite(errors)):
         raise InputError("error_stats expects finite errors in arc-minutes; got NaN or infinity")
+    offset = None
+    if zero != "fixed":
+        candidate = zero_offset_arcmin(errors)
+        if zero_is_arbitrary(zero, candidate):
+            offset = candidate
+            errors = remove_offset(errors, offset)
     mean = errors.mean()
     return ErrorStats(
         n=int(errors.size),
@@ -147,7 +289,14 @@ def error_stats(data):
         min=float(errors.min()),
         max=float(errors.max()),
         pp=float(errors.max() - errors.min()),
+        offset=offset,
     )
+
+
+def remove_offset(error_arcmin, offset_arcmin):
+    """Errors minus a zero offset, wrapped to within 180 degrees of zero (arc-minutes)."""
+    shifted = np.asarray(error_arcmin, dtype=float) - offset_arcmin
+    return wrap180(shifted / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
 
 
 # --------------------------------------------------------------------------- sampling grid
@@ -669,10 +818,25 @@ class Harmonics:
         return [int(k) for k in self.ranked()[: int(n)]]
 
     def as_list(self, n=None):
-        """``[{"order": k, "amplitude_arcmin": A_k}, ...]``, largest first (the ``n`` largest if given)."""
-        amplitude = self.amplitude_arcmin
+        """``[{"order": k, "amplitude_arcmin": A_k, "phase_deg": φ_k}, ...]``, largest first (the ``n`` largest
+        if given); ``ε(θ) = Σ A_k cos(k θ - φ_k)``, φ_k in degrees within (-180, 180]."""
+        amplitude, phase = self.amplitude_arcmin, np.degrees(self.phase_rad)
         chosen = self.ranked() if n is None else self.top(n)
-        return [{"order": int(k), "amplitude_arcmin": float(amplitude[k])} for k in chosen]
+        return [{"order": int(k), "amplitude_arcmin": float(amplitude[k]), "phase_deg": float(phase[k])}
+                for k in chosen]
+
+    def __str__(self):
+        """The ten largest orders as a table: order, amplitude (arcmin), phase (degrees)."""
+        lines = [f"harmonics of {self.n_points} points, orders 0..{self.max_order}, largest first",
+                 f"{'order':>5}{'amplitude/arcmin':>19}{'phase/deg':>12}"]
+        lines += [f"{e['order']:>5d}{e['amplitude_arcmin']:>19.3f}{e['phase_deg']:>12.1f}" for e in self.as_list(10)]
+        return "\n".join(lines)
+
+    def plot(self, ax=None, *, n_label=10, title=None):
+        """The amplitude spectrum (:func:`encal.plots.plot_harmonics`); returns the axes."""
+        from .plots import plot_harmonics
+
+        return plot_harmonics(self, n_label=n_label, ax=ax, title=title)
 
     def __call__(self, theta_deg):
         """The harmonic series evaluated at ``theta_deg`` (degrees), in arc-minutes."""

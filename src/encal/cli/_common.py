@@ -8,7 +8,7 @@ import warnings
 
 from ..errors import EncalWarning
 
-__all__ = ["add_calibration_options", "read_calibration_from_args", "positive_int", "print_json",
+__all__ = ["add_calibration_options", "add_zero_options", "read_calibration_from_args", "positive_int", "print_json",
            "warnings_as_lines", "check_environment", "output_that_may_close"]
 
 
@@ -20,6 +20,18 @@ def add_calibration_options(parser):
                         help="the encoder counts against the reference: negate its angles")
     parser.add_argument("--average-duplicates", action="store_true",
                         help="average repeated reference angles instead of refusing them")
+
+
+def add_zero_options(parser):
+    """``--zero auto|arbitrary|fixed`` (and ``--arbitrary-zero``): how the reference's zero is treated."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--zero", choices=("auto", "arbitrary", "fixed"), default="auto",
+                       help="the reference's zero: 'arbitrary' (a motor, a stepper) states the zero offset "
+                            "apart and gives the statistics of the shape about it; 'fixed' (a rotary table) "
+                            "counts it as error; 'auto' (default) takes it as arbitrary when the offset "
+                            "exceeds 1 degree, and says what it did")
+    group.add_argument("--arbitrary-zero", dest="zero", action="store_const", const="arbitrary",
+                       help="same as --zero arbitrary")
 
 
 def read_calibration_from_args(path, args):

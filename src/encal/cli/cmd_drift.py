@@ -1,7 +1,8 @@
 """Compare repeated calibrations of one encoder with the first, and say whether a model fitted on the first still holds.
 
-The first file is the baseline; each later one is compared at the same shaft positions (each calibration's
-circular-mean zero offset removed, unless --keep-offset). A model of the first calibration (by default the
+The first file is the baseline; each later one is compared at the same shaft positions. When the reference's
+zero is arbitrary (--zero; by default when a calibration's zero offset, the circular mean of its error, exceeds
+1 degree) each calibration's offset is removed and the changes of offset are stated apart. A model of the first calibration (by default the
 paper's ten-harmonic Fourier series) still holds on a later one when its residual RMS there exceeds its
 residual on the first by at most the tolerance: by default max(1 LSB, 10 %). The verdict is data: the exit
 status is 0 whether the model holds or not, 1 on bad input.
@@ -16,7 +17,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_calibration_options, print_json, read_calibration_from_args
+from ._common import add_calibration_options, add_zero_options, print_json, read_calibration_from_args
 
 HELP = "drift of repeated calibrations and whether the first one's model still holds"
 
@@ -37,16 +38,18 @@ def add_arguments(parser):
                         help="model fitted on the first calibration (default: fourier; not with --model)")
     parser.add_argument("--model", metavar="MODEL.json", default=None,
                         help="judge this model file instead of fitting one on the first calibration")
-    parser.add_argument("--keep-offset", action="store_true",
-                        help="compare errors as measured, without removing each calibration's zero offset")
+    parser.add_argument("--keep-offset", dest="zero", action="store_const", const="fixed", default="auto",
+                        help="same as --zero fixed: compare errors as measured, zero offsets included")
     parser.add_argument("--seed", type=int, default=None,
                         help="seed of a randomised --method (not with --model)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
+    add_zero_options(parser)
     add_calibration_options(parser)
 
 
 def run(args):
-    from ..drift import compare_calibrations, split_epochs
+    from ..drift import circular_mean_offset_arcmin, compare_calibrations, split_epochs
+    from ..profile import zero_is_arbitrary, zero_sentence
 
     cals, labels = [], []
     for path in args.calibrations:
@@ -65,13 +68,18 @@ def run(args):
             raise InputError(f"{' and '.join(fitting_options)} {verb} the model fitted on the first calibration "
                              f"and cannot be used with --model {args.model}.")
         model = load_model(args.model)
+    offsets = [circular_mean_offset_arcmin(cal) for cal in cals]
+    arbitrary = zero_is_arbitrary(args.zero, *offsets)
     report = compare_calibrations(cals, tolerance_arcmin=args.tolerance, model=model,
                                   method=args.method or "fourier",
-                                  offset="keep" if args.keep_offset else "remove", labels=labels,
+                                  offset="remove" if arbitrary else "keep", labels=labels,
                                   rng=args.seed)
+    largest = max(offsets, key=abs)
+    note = zero_sentence(args.zero, largest, arbitrary).replace("zero offset", "largest zero offset", 1)
     if args.json:
-        print_json(report.as_dict())
+        print_json({**report.as_dict(), "zero": "arbitrary" if arbitrary else "fixed", "zero_note": note})
     else:
+        print(note)
         _print_table(report, args.model)
     return 0
 
@@ -83,7 +91,8 @@ def _print_table(report, model_path):
     else:
         how = "inferred from the readings" if report.resolution_inferred else "given"
         resolution = f"{report.resolution_bits}-bit ({how}), 1 LSB = {lsb:.4f}'"
-    offsets = "zero offsets removed" if report.offset == "remove" else "zero offsets kept"
+    offsets = (f"zero offsets removed; the first's is {report.baseline_offset_arcmin:+.2f}" if report.offset == "remove"
+               else "zero offsets kept")
     source = f"{report.model_kind} model from {model_path}" if model_path else \
         f"{report.method} model fitted on {report.baseline_label}"
     print(f"drift against {report.baseline_label} (arcmin; {resolution}; {offsets})")

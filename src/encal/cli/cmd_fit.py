@@ -5,9 +5,15 @@ Examples:
   encal fit enc1_train.csv -o enc1.json --method ann --hidden 80 --algorithm trainlm --encoding raw --seed 0
   encal fit enc1_train.csv -o enc1.json --method spectral --noise 0.15
   encal fit enc1_train.csv -o enc1.json --method spectral --repeat enc1_pass2.csv
+  encal fit stepper.csv -o stepper.json --json
+
+The model predicts the whole error, zero offset included, so that it corrects the readings to the
+reference's zero. When that zero is arbitrary (--zero; by default when the offset exceeds 1 degree)
+the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
-from ._common import add_calibration_options, int_in_range, read_calibration_from_args, size_option
+from ._common import (add_calibration_options, add_zero_options, int_in_range, print_json, read_calibration_from_args,
+                      size_option)
 
 HELP = "fit an error model to a calibration and save it"
 
@@ -56,6 +62,9 @@ def add_arguments(parser):
                         help="the processor of --budget: cortex-m4f (float32, default) or fixed (integers)")
     parser.add_argument("--reproducible", action="store_true",
                         help="fix the date field so the same inputs give a byte-identical file")
+    parser.add_argument("--json", action="store_true",
+                        help="print one JSON object (model, seed, training-set statistics, selection table)")
+    add_zero_options(parser)
     add_calibration_options(parser)
 
 
@@ -217,13 +226,22 @@ def run(args):
     if args.seed is not None:
         options["rng"] = args.seed
     model = fit(cal, method=args.method, **options)
-    fitted = evaluate(model, cal)
+    fitted = evaluate(model, cal, zero=args.zero)
+    model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
+    model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
     deployment = _choose_deployment(model, args) if args.budget is not None else None
     model.save(args.output, reproducible=args.reproducible)
+    selection = model.training.get("selection")
+    held_out = _held_out_line(model, cal, args.method, options)
+    if args.json:
+        print_json({"name": cal.name, "model_kind": model.kind, "output": str(args.output), "n_points": len(cal),
+                    "seed": model.training.get("seed"), "resolution_bits": model.encoder.get("resolution_bits"),
+                    "training_set": fitted.as_dict(), "zero_note": fitted.zero_sentence(), "selection": selection,
+                    "held_out_note": held_out or None, "deployment": str(deployment) if deployment else None})
+        return 0
     report = getattr(model, "report", None)
     if callable(report):
         print(report())
-    selection = model.training.get("selection")
     if selection is not None and selection.get("scheme") == "evidence":
         from ..models.choice import format_choice
 
@@ -235,11 +253,14 @@ def run(args):
     if model.kind == "directional":
         print(f"{cal.name}: both directions of travel, one {model.forward.kind} model per direction "
               "(the mean of both when a reading's direction is not known)")
-    held_out = _held_out_line(model, cal, args.method, options)
     if held_out:
         print(held_out)
     print(_resolution_line(cal, model.encoder.get("resolution_bits")))
-    print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS "
+    shape = ""
+    if fitted.arbitrary_zero:
+        print(fitted.zero_sentence())
+        shape = " of the shape"
+    print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS{shape} "
           f"{fitted.before.rms:.4g} -> {fitted.after.rms:.4g} arcmin (MAE {fitted.before.mae:.4g} -> "
           f"{fitted.after.mae:.4g}); wrote {args.output}")
     if deployment:

@@ -12,54 +12,51 @@ import json
 import numpy as np
 
 from ..angles import lsb_arcmin
-from ..profile import error_stats, harmonics
-from ._common import add_calibration_options, nonnegative_int, read_calibration_from_args
+from ..profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
+from ._common import add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
 
 HELP = "error statistics and harmonic analysis of one calibration"
-
-_ROWS = [
-    ("MAE", "mae"),
-    ("RMS", "rms"),
-    ("STD (RMS about mean)", "std"),
-    ("min", "min"),
-    ("max", "max"),
-    ("peak-to-peak", "pp"),
-    ("max |error|", "max_abs"),
-]
-
 
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--top", metavar="N", type=nonnegative_int, default=10,
                         help="list the N harmonic orders of largest amplitude (default 10; 0 lists all)")
+    add_zero_options(parser)
     add_calibration_options(parser)
 
 
 def run(args):
     cal = read_calibration_from_args(args.calibration, args)
-    stats = error_stats(cal)
-    analysis = harmonics(cal.encoder_deg, cal.errors_arcmin)
+    stats = error_stats(cal, zero=args.zero)
+    offset = zero_offset_arcmin(cal.errors_arcmin)
+    arbitrary = stats.offset is not None
+    shape = remove_offset(cal.errors_arcmin, offset) if arbitrary else cal.errors_arcmin
+    analysis = harmonics(cal.encoder_deg, shape)
     top = analysis.as_list(args.top or None)
+    note = zero_sentence(args.zero, offset, arbitrary)
     if args.json:
-        print(json.dumps({"name": cal.name, "resolution_bits": cal.resolution_bits,
-                          **stats.as_dict(), "harmonics": top}))
+        print(json.dumps({"name": cal.name, "resolution_bits": cal.resolution_bits, **stats.as_dict(),
+                          "zero": "arbitrary" if arbitrary else "fixed", "zero_offset_arcmin": offset,
+                          "zero_note": note, "harmonics": top}))
     else:
-        print(_report(cal, stats, analysis, top))
+        print(_report(cal, stats, analysis, top, note))
     return 0
 
 
-def _report(cal, stats, analysis, top):
+def _report(cal, stats, analysis, top, note):
     bits = cal.resolution_bits
     lsb = lsb_arcmin(bits) if bits is not None else None
     resolution = f"; {bits}-bit encoder, 1 LSB = {lsb:.4f} arcmin" if bits is not None else ""
-    lines = [f"{cal.name or cal.source or 'calibration'}: {stats.n} points{resolution}", ""]
+    lines = [f"{cal.name or cal.source or 'calibration'}: {stats.n} points{resolution}", note, ""]
     lines.append(f"{'statistic':<22}{'arcmin':>10}" + (f"{'LSB':>10}" if lsb else ""))
-    lines.append(f"{'n':<22}{stats.n:>10d}")
-    for label, attribute in _ROWS:
-        value = getattr(stats, attribute)
-        lines.append(f"{label:<22}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
-    lines += ["", f"largest harmonics of the error vs encoder angle "
+    for label, value in stats.rows():
+        if label == "n":
+            lines.append(f"{'n':<22}{value:>10d}")
+        else:
+            lines.append(f"{label:<22}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
+    of_what = "the shape (zero offset removed)" if stats.offset is not None else "the error"
+    lines += ["", f"largest harmonics of {of_what} vs encoder angle "
                   f"({len(top)} of orders 0..{analysis.max_order})"]
     lines.append(f"{'order':>5}{'amplitude/arcmin':>19}{'phase/deg':>12}")
     phase = np.degrees(analysis.phase_rad)
