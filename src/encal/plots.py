@@ -34,6 +34,8 @@ __all__ = [
     "plot_model",
     "plot_before_after",
     "plot_selection",
+    "plot_reversal",
+    "plot_drift",
     "plot_sweep",
     "plot_training_curves",
     "plot_algorithms",
@@ -333,7 +335,7 @@ def plot_error_stats(stats, ax=None):
     return ax
 
 
-def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95):
+def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_arcmin=0.0):
     """A model's predicted error against the encoder angle, with its uncertainty band when it has one.
 
     Parameters
@@ -346,6 +348,9 @@ def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95):
     title : str, optional
     coverage : float, default=0.95
         Coverage of the band ``± z σ`` (normal quantile) drawn when the model carries an uncertainty.
+    offset_arcmin : float, default=0.0
+        A zero offset subtracted from the curve and the points (an arbitrary zero, stated apart), so
+        the figure shows the shape.
 
     Returns
     -------
@@ -355,19 +360,22 @@ def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95):
 
     ax = new_axes(ax)
     grid = np.linspace(0.0, 360.0, 1441)
+    shift = lambda values: _wrapped_arcmin(np.asarray(values, dtype=float) - offset_arcmin)  # noqa: E731
     if data is not None:
         theta, error = (np.asarray(a, dtype=float) for a in data)
-        ax.plot(theta, error, ".", ms=3.5, color=_TRAIN_COLOUR, label="calibration")
+        ax.plot(theta, shift(error), ".", ms=3.5, color=_TRAIN_COLOUR, label="calibration")
     if getattr(model, "uncertainty", None) is not None:
         mean, std = model.predict(grid, return_std=True)
+        mean = shift(mean)
         z = float(norm.ppf(0.5 + coverage / 2))
         ax.fill_between(grid, mean - z * std, mean + z * std, color=_TEST_COLOUR, alpha=0.3, lw=0,
                         label=f"{100 * coverage:.0f} % band of a new reading")
     else:
-        mean = model.predict(grid)
+        mean = shift(model.predict(grid))
     ax.plot(grid, mean, "-", lw=1.2, color=_CURVE_COLOUR, label=f"{model.kind} model")
     _angle_axis(ax)
-    ax.set_ylabel("error θ_enc − θ_ref (arcmin)")
+    ax.set_ylabel("error θ_enc − θ_ref (arcmin)" if offset_arcmin == 0.0 else
+                  f"error − zero offset {offset_arcmin:+.1f} (arcmin)")
     if title is not None:
         ax.set_title(title)
     _legend(ax)
@@ -402,9 +410,9 @@ def plot_before_after(theta_deg, before_arcmin, after_arcmin, *, ax=None, title=
         ax.axhspan(-floor_arcmin, floor_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,
                    label=f"± {floor_arcmin:.3g}")
     rms = lambda values: float(np.sqrt(np.mean(values**2)))  # noqa: E731
-    ax.plot(theta[order], before[order], ".-", ms=3, lw=0.5, color=_TRAIN_COLOUR,
+    ax.plot(theta[order], before[order], ".", ms=3.5, color=_TRAIN_COLOUR,
             label=f"{labels[0]} (RMS {rms(before):.3g})")
-    ax.plot(theta[order], after[order], ".-", ms=3, lw=0.5, color=_TEST_COLOUR,
+    ax.plot(theta[order], after[order], ".", ms=3.5, color=_TEST_COLOUR,
             label=f"{labels[1]} (RMS {rms(after):.3g})")
     ax.axhline(0.0, color=_CURVE_COLOUR, lw=0.5)
     _angle_axis(ax)
@@ -435,8 +443,11 @@ def plot_selection(selection, ax=None):
     colours = [_TEST_COLOUR if row["label"] == selection["chosen"] else _TRAIN_COLOUR for row in rows]
     names = [f"stack of {len(row['options']['members'])}" if row["family"] == "stack" else row["label"]
              for row in rows]
-    bars = ax.barh(y, [row["cv_rms_arcmin"] for row in rows], color=colours)
+    values = [row["cv_rms_arcmin"] for row in rows]
+    bars = ax.barh(y, values, color=colours)
     ax.bar_label(bars, fmt="%.4g", fontsize="x-small", padding=2)
+    if values and min(values) > 0 and max(values) > 10 * min(values):
+        ax.set_xscale("log")  # one failed family must not flatten the others
     ax.set_yticks(y, names, fontsize="x-small")
     ax.invert_yaxis()
     ax.set_xlabel(f"cross-validated RMS over {selection['folds']} folds (arcmin); chosen in orange")
@@ -604,6 +615,79 @@ def plot_repeats(result, ax=None):
     ax.set_title(result.encoder)
     _legend(ax)
     return ax
+
+
+def plot_reversal(analysis, ax=None, title=None, offset_arcmin=0.0):
+    """ISO 230-2 reversal: mean deviations approached forward and reverse against the target, and ``B_i``.
+
+    Parameters
+    ----------
+    analysis : ReversalAnalysis
+        From :func:`encal.bidirectional.reversal`.
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+    offset_arcmin : float, default=0.0
+        A zero offset subtracted from the mean deviations (an arbitrary zero, stated apart); ``B_i`` does
+        not depend on it.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    target = analysis.target_deg
+    forward = _wrapped_arcmin(analysis.mean_forward_arcmin - offset_arcmin)
+    reverse = _wrapped_arcmin(analysis.mean_reverse_arcmin - offset_arcmin)
+    about = "" if offset_arcmin == 0.0 else " − offset"
+    ax.plot(target, forward, ".-", ms=3, lw=0.6, color=_TRAIN_COLOUR, label=f"x̄↑ forward{about}")
+    ax.plot(target, reverse, ".-", ms=3, lw=0.6, color=_TEST_COLOUR, label=f"x̄↓ reverse{about}")
+    ax.plot(target, analysis.reversal_arcmin, "-", lw=1.0, color=_CURVE_COLOUR,
+            label=f"B_i = x̄↑ − x̄↓ (B = {analysis.reversal_value:.3g})")
+    ax.axhline(0.0, color=_CURVE_COLOUR, lw=0.4)
+    _angle_axis(ax)
+    ax.set_xlabel("target (reference angle, deg)")
+    ax.set_ylabel("deviation (arcmin)")
+    if title is not None:
+        ax.set_title(title)
+    _legend(ax)
+    return ax
+
+
+def plot_drift(report, ax=None, title=None):
+    """Each later calibration minus the first at the same positions (arcmin), from a drift report.
+
+    Parameters
+    ----------
+    report : DriftReport
+        From :func:`encal.drift.compare_calibrations`.
+    ax : matplotlib.axes.Axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = new_axes(ax)
+    if report.lsb_arcmin is not None:
+        ax.axhspan(-report.lsb_arcmin, report.lsb_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,
+                   label=f"± 1 LSB ({report.lsb_arcmin:.3g})")
+    for index, epoch in enumerate(report.epochs):
+        order = np.argsort(epoch.angle_deg)
+        ax.plot(epoch.angle_deg[order], epoch.difference_arcmin[order], ".", ms=3, color=f"C{index}",
+                label=f"{epoch.label} (RMS {epoch.difference.rms:.3g})")
+    ax.axhline(0.0, color=_CURVE_COLOUR, lw=0.4)
+    _angle_axis(ax)
+    ax.set_xlabel("position (reference angle, deg)")
+    ax.set_ylabel(f"difference from {report.baseline_label} (arcmin)", fontsize="small")
+    if title is not None:
+        ax.set_title(title)
+    _legend(ax)
+    return ax
+
+
+def _wrapped_arcmin(values):
+    """Arc-minutes wrapped to (-10800, 10800] (within half a turn of zero)."""
+    return -np.mod(-values + 10800.0, 21600.0) + 10800.0
 
 
 def _legend(ax):

@@ -11,6 +11,7 @@ import html
 import numpy as np
 
 from ._atomic import atomic_write
+from ._html import CSS as _CSS
 from ._version import __version__
 
 __all__ = ["FIGURES", "render_figures", "build_report", "write_report"]
@@ -145,25 +146,6 @@ def render_figures(result, *, workers=0, progress=False):
     return dict(zip(names, pngs))
 
 
-_CSS = """
-body { font-family: system-ui, -apple-system, "Segoe UI", Roboto, Helvetica, Arial, sans-serif;
-       max-width: 1180px; margin: 2em auto; padding: 0 1.5em; color: #222; line-height: 1.45; }
-h1 { font-size: 1.7em; margin-bottom: 0.2em; }
-h2 { font-size: 1.3em; margin-top: 2em; border-bottom: 1px solid #ddd; padding-bottom: 0.2em; }
-.meta { color: #666; font-size: 0.9em; }
-table { border-collapse: collapse; margin: 1em 0 0.3em; font-size: 0.86em; }
-caption { text-align: left; font-weight: 600; padding-bottom: 0.4em; }
-th, td { padding: 0.25em 0.6em; border-bottom: 1px solid #e4e4e4; }
-th { background: #f4f4f4; text-align: center; font-weight: 600; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
-td.text { text-align: left; }
-p.note { font-size: 0.82em; color: #555; margin: 0.2em 0; max-width: 60em; }
-figure { margin: 1.2em 0; }
-figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
-figcaption { font-size: 0.88em; color: #444; max-width: 60em; }
-ul.summary li { margin-bottom: 0.5em; }
-.scroll { overflow-x: auto; }
-"""
 
 
 def _figure(figures, name):

@@ -31,7 +31,7 @@ from ..errors import EncalError
 __all__ = ["main"]
 
 #: Order in ``encal --help``; commands not listed follow alphabetically.
-_ORDER = ["demo", "simulate", "profile", "fit", "evaluate", "correct", "export",
+_ORDER = ["demo", "simulate", "profile", "fit", "report", "evaluate", "correct", "export",
           "compare", "study", "drift"]
 
 

@@ -34,6 +34,7 @@ from ..deploy.targets import FORMS, TARGETS, describe, write_target
 
 FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 from ..errors import InputError
+from ._common import print_json
 
 HELP = "export a model as a dense correction table or as C source for firmware"
 
@@ -74,6 +75,8 @@ def add_arguments(parser):
                         help="C: prefix of the file names and functions (default: encal)")
     parser.add_argument("--table", action="store_true",
                         help="C: look up a dense per-code table instead of evaluating the formula")
+    parser.add_argument("--json", action="store_true",
+                        help="print one JSON object naming what was written (files, bytes, table deviation)")
     parser.add_argument("--constants", choices=("auto", "float", "double"), default="auto",
                         help="C: storage of the formula's constants (default: float when it "
                              "changes the model by at most 1e-4 arcmin, else double)")
@@ -122,11 +125,20 @@ def run(args):
             options["bits"] = args.bits
         written = EXPORTERS[args.format](compensator, **options)
         atomic_write(output, written.text)
+        if args.json:
+            print_json({"format": args.format, "files": [str(output)], "bytes": output.stat().st_size,
+                        "description": written.describe()})
+            return 0
         print(f"wrote {output}: {written.describe()}")
         return 0
     if args.format == "table":
         table = compile_table(compensator, args.bits, dtype=args.dtype or "int16")
         save_table(table, output)
+        if args.json:
+            print_json({"format": "table", "files": [str(output)], "bits": int(table.bits), "dtype": table.dtype,
+                        "bytes": output.stat().st_size, "quantisation_arcmin": float(table.quantisation_arcmin),
+                        "between_codes_arcmin": float(table.between_codes_arcmin)})
+            return 0
         print(f"wrote {output}: {table.bits}-bit {table.dtype} table, {output.stat().st_size} "
               f"bytes; deviation from the model {table.quantisation_arcmin:.3g} arcmin at the "
               f"codes, up to {table.between_codes_arcmin:.3g} arcmin more between codes")
@@ -143,5 +155,9 @@ def run(args):
             compact["cost"] = "operations"
     paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
                                   **{k: v for k, v in compact.items() if v is not None}, **options)
+    if args.json:
+        print_json({"format": "c", "target": args.target, "files": [str(p) for p in paths], "prefix": args.name,
+                    "bytes": sum(Path(p).stat().st_size for p in paths), "description": describe(summary)})
+        return 0
     print(f"wrote {', '.join(map(str, paths))}: {describe(summary)}")
     return 0

@@ -178,6 +178,40 @@ class Model(ABC):
         """Write the model file (see :func:`encal.deploy.save_model`)."""
         return save_model(self, path, **options)
 
+    def __str__(self):
+        """A short table: kind, encoder, how it was fitted, its size and the error it predicts (arcmin)."""
+        name = self.encoder.get("name") or "unnamed encoder"
+        grid = np.linspace(0.0, 360.0, 3600, endpoint=False)
+        predicted = self.predict(grid)
+        training = self.training
+        fitted = ", ".join(f"{key} {training[key]}" for key in ("method", "seed") if training.get(key) is not None)
+        rows = [("kind", self.kind), ("encoder", name),
+                ("fitted on", f"{training.get('n_points', '?')} points" + (f" ({fitted})" if fitted else "")),
+                ("parameters", f"{_count_numbers(self.parameters())} numbers")]
+        if training.get("zero_offset_arcmin") is not None:
+            rows.append(("zero offset", f"{training['zero_offset_arcmin']:+.3f} arcmin (arbitrary zero, in the model)"))
+        rows += [("predicts", f"{predicted.min():+.3f} .. {predicted.max():+.3f} arcmin over 0..360 deg, "
+                              f"peak-to-peak {np.ptp(predicted):.3f}"),
+                 ("uncertainty", "yes" if self.uncertainty is not None else "no")]
+        width = max(len(label) for label, _ in rows)
+        return "\n".join(f"{label:<{width}}  {value}" for label, value in rows)
+
+    def plot(self, ax=None, *, data=None, title=None):
+        """The predicted error (arcmin) against the encoder angle (deg), with its uncertainty band when the
+        model has one and the calibration points ``data = (theta_deg, error_arcmin)`` if given; returns the axes."""
+        from ..plots import plot_model
+
+        return plot_model(self, data=data, ax=ax, title=title)
+
     def __repr__(self):
         name = self.encoder.get("name") or "unnamed encoder"
         return f"<{type(self).__name__} kind={self.kind!r} for {name}>"
+
+
+def _count_numbers(data):
+    """How many numbers a model's JSON-ready ``parameters()`` hold (nested lists and dicts)."""
+    if isinstance(data, dict):
+        return sum(_count_numbers(value) for value in data.values())
+    if isinstance(data, (list, tuple)):
+        return sum(_count_numbers(value) for value in data)
+    return 1 if isinstance(data, (int, float)) and not isinstance(data, bool) else 0

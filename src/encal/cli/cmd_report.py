@@ -1,0 +1,62 @@
+"""The report for your own encoder: one self-contained HTML page and its figures as PNG files.
+
+Fits the model `encal fit` would make (same --method, same --seed; a seed is drawn and recorded when none
+is given) and shows: the error profile with the model and its 95 % band, the zero offset stated apart when
+the reference's zero is arbitrary, harmonic amplitudes and phases, the model comparison on held-out points,
+errors before and after compensation on every TEST.csv (points the model never saw), the reversal (ISO 230-2)
+when the calibration has a direction column, and drift when there are several epochs (an epoch column, or two
+or more TEST files). The figures are embedded in the page and also written to REPORT_figures/.
+
+Examples:
+  encal report enc1_train.csv enc1_test.csv -o enc1.html
+  encal report stepper.csv -o stepper.html --zero arbitrary
+"""
+
+from pathlib import Path
+
+from ._common import add_calibration_options, add_zero_options, read_calibration_from_args
+
+HELP = "HTML report (and PNG figures) for your own encoder"
+
+
+def add_arguments(parser):
+    parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV the model is fitted on")
+    parser.add_argument("tests", metavar="TEST.csv", nargs="*",
+                        help="held-out or later calibrations of the same encoder")
+    parser.add_argument("-o", "--output", required=True, metavar="REPORT.html", help="HTML file to write")
+    parser.add_argument("--figures", metavar="DIR",
+                        help="folder for the PNG figures (default: REPORT_figures beside the page)")
+    parser.add_argument("--method", default="auto", choices=["auto", "fourier", "lut", "ann", "hybrid"],
+                        help="model family, as for encal fit (default: auto)")
+    parser.add_argument("--seed", type=int, help="random seed, as for encal fit")
+    parser.add_argument("--no-uncertainty", dest="uncertainty", action="store_false",
+                        help="skip the uncertainty band (it costs 30 to 100 refits of the chosen model)")
+    parser.add_argument("--model", metavar="MODEL.json",
+                        help="also write the model file (the same model encal fit writes)")
+    add_zero_options(parser)
+    add_calibration_options(parser)
+
+
+def run(args):
+    from ..encoder_report import encoder_report, write_encoder_report
+    from ..errors import InputError
+
+    output = Path(args.output)
+    if not (output.parent if str(output.parent) else Path(".")).is_dir():
+        raise InputError(f"cannot write {output}: the folder {output.parent} does not exist")
+    for source in (args.calibration, *args.tests):
+        if output.exists() and Path(source).exists() and output.samefile(source):
+            raise InputError(f"-o {output} is an input calibration; expected another file for the report")
+    cal = read_calibration_from_args(args.calibration, args)
+    tests = [read_calibration_from_args(path, args) for path in args.tests]
+    report = encoder_report(cal, tests, method=args.method, zero=args.zero, rng=args.seed,
+                            uncertainty=args.uncertainty)
+    written = write_encoder_report(report, output, figures_dir=args.figures)
+    if args.model is not None:
+        report.model.save(args.model)
+    for note in report.notes:
+        print(note)
+    figures = [path for key, path in written.items() if key.startswith("figure:")]
+    print(f"{report.name}: {report.model.kind} model (seed {report.seed}); wrote {output} and "
+          f"{len(figures)} figures in {figures[0].parent if figures else '-'}")
+    return 0

@@ -1,0 +1,154 @@
+"""``encal report``: the HTML page and figures for the user's own encoder (encal.encoder_report)."""
+
+import re
+import shutil
+import subprocess
+
+import numpy as np
+import pytest
+
+from encal import Calibration, load_model, read_calibration, write_calibration
+from encal.cli import main
+from encal.encoder_report import ENCODER_FIGURES, encoder_report, write_encoder_report
+
+STEPS = np.arange(0.0, 360.0, 1.8)
+
+#: Python representations that must never reach the page.
+REPRS = re.compile(r"np\.float|array\(|<encal|Calibration\(|ErrorStats\(|Evaluation\(|\bNone\b|\bnan\b|dtype")
+
+
+def shape_arcmin(theta_deg):
+    r = np.radians(theta_deg)
+    return 3.0 * np.sin(r) + 1.0 * np.cos(2 * r) + 0.4 * np.sin(4 * r + 0.3)
+
+
+def stepper(offset_deg, seed, name, counts_bits=None):
+    """A stepper's full steps against an encoder; the zero is wherever the motor started."""
+    shaft = STEPS + offset_deg
+    noise = np.random.default_rng(seed).normal(0.0, 0.2, STEPS.size)
+    encoder = shaft + (shape_arcmin(shaft) + noise) / 60.0
+    if counts_bits is not None:
+        encoder = np.round(encoder * 2**counts_bits / 360.0) * 360.0 / 2**counts_bits
+    return Calibration(STEPS, encoder, name=name)
+
+
+def write(tmp_path, cal):
+    path = tmp_path / f"{cal.name}.csv"
+    write_calibration(path, cal)
+    return path
+
+
+def figures_in(page):
+    return re.findall(r'<img data-figure="([a-z_]+)"', page)
+
+
+def test_a_stepper_with_an_arbitrary_zero(tmp_path, capsys):
+    first = write(tmp_path, stepper(59.0, 1, "motor_a", counts_bits=14))
+    again = write(tmp_path, stepper(95.0, 2, "motor_b", counts_bits=14))
+    out = tmp_path / "report.html"
+    assert main(["report", str(first), str(again), "-o", str(out), "--method", "fourier", "--no-uncertainty"]) == 0
+    printed = capsys.readouterr().out
+    assert "larger than 1 deg" in printed and "14-bit encoder" in printed
+    page = out.read_text(encoding="utf-8")
+    assert figures_in(page) == ["profile", "harmonics", "before_after"]
+    assert sorted(p.name for p in (tmp_path / "report_figures").iterdir()) == \
+        ["before_after.png", "harmonics.png", "profile.png"]
+    assert not REPRS.search(page)
+    # the offset stated apart, the statistics those of the shape (RMS of shape_arcmin is 2.26 arcmin)
+    assert "+3540.0" in page or "+3539.9" in page
+    assert "zero offset (apart)" in page
+    record = re.search(r"<td class=\"text\">RMS</td><td class=\"num\">([0-9.]+)</td>", page)
+    assert float(record.group(1)) == pytest.approx(2.27, abs=0.1)
+    # held-out: the repeat from another start is corrected to the noise and the 14-bit rounding
+    after = re.findall(r"<td class=\"text\">RMS</td><td class=\"num\">([0-9.]+)</td><td class=\"num\">([0-9.]+)",
+                       page)
+    assert float(after[0][1]) < 0.6
+
+
+def test_a_rotary_table_with_test_and_later_epochs_shows_drift(tmp_path, capsys):
+    assert main(["simulate", "--encoders", "1", "--out", str(tmp_path)]) == 0
+    capsys.readouterr()
+    train, test, epoch2 = (tmp_path / f"enc1_{kind}.csv" for kind in ("train", "test", "epoch2"))
+    out = tmp_path / "enc1.html"
+    assert main(["report", str(train), str(test), str(epoch2), "-o", str(out), "--method", "fourier",
+                 "--no-uncertainty", "--figures", str(tmp_path / "figs")]) == 0
+    printed = capsys.readouterr().out
+    assert "within 1 deg" in printed  # a rotary table: the zero is fixed
+    page = out.read_text(encoding="utf-8")
+    assert figures_in(page) == ["profile", "harmonics", "before_after", "drift"]
+    assert len(list((tmp_path / "figs").glob("*.png"))) == 4
+    assert "<h2>Drift</h2>" in page and "enc1_epoch2" in page
+    assert not REPRS.search(page)
+
+
+def test_a_bidirectional_run_shows_the_reversal_with_a_direction_column(tmp_path, capsys):
+    ref = np.tile(np.arange(0.0, 360.0, 2.0), 2)
+    direction = np.repeat([1, -1], 180)
+    hysteresis = 0.5 * direction  # arcmin: B = x̄↑ - x̄↓ = 1.0
+    cal = Calibration(ref, ref + (shape_arcmin(ref) + hysteresis) / 60.0, direction=direction, name="table")
+    path = write(tmp_path, cal)
+    out = tmp_path / "table.html"
+    assert main(["report", str(path), "-o", str(out), "--method", "fourier", "--no-uncertainty"]) == 0
+    capsys.readouterr()
+    page = out.read_text(encoding="utf-8")
+    assert "reversal" in figures_in(page)
+    assert "<th>direction</th>" in page and "forward (+1)" in page and "reverse (-1)" in page
+    value = re.search(r"reversal value</td><td class=\"num\">([0-9.]+)", page)
+    assert float(value.group(1)) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_model_is_the_one_encal_fit_makes(tmp_path, capsys):
+    path = write(tmp_path, stepper(0.0, 3, "small"))
+    fitted, reported = tmp_path / "fit.json", tmp_path / "report.json"
+    assert main(["fit", str(path), "-o", str(fitted), "--seed", "5", "--method", "ann", "--hidden", "3",
+                 "--epochs", "10"]) == 0
+    report = encoder_report(read_calibration(path), method="ann", rng=5, uncertainty=False, hidden=3, epochs=10)
+    report.model.save(reported)
+    assert load_model(reported).parameters() == load_model(fitted).parameters()
+    assert main(["report", str(path), "-o", str(tmp_path / "r.html"), "--seed", "5", "--model",
+                 str(tmp_path / "cli.json"), "--no-uncertainty"]) == 0
+    capsys.readouterr()
+    assert main(["fit", str(path), "-o", str(tmp_path / "auto.json"), "--seed", "5"]) == 0
+    capsys.readouterr()
+    assert load_model(tmp_path / "cli.json").parameters() == load_model(tmp_path / "auto.json").parameters()
+
+
+def test_bad_output_folder_is_one_line_and_writes_nothing(tmp_path, capsys):
+    path = write(tmp_path, stepper(0.0, 4, "x"))
+    assert main(["report", str(path), "-o", str(tmp_path / "missing" / "r.html"), "--method", "fourier"]) == 1
+    captured = capsys.readouterr()
+    assert captured.err.count("\n") == 1 and "does not exist" in captured.err
+    assert not (tmp_path / "missing").exists()
+
+
+@pytest.mark.slow
+def test_the_page_displays_every_figure_in_a_headless_browser(tmp_path):
+    """Opened in a real browser (Chromium, headless): every figure decodes and the page is not blank."""
+    browser = shutil.which("chromium") or shutil.which("chromium-browser") or shutil.which("google-chrome")
+    if browser is None:
+        pytest.skip("no Chromium on this machine (apt-get install chromium) to open the report in")
+    import matplotlib.image
+
+    first, again = stepper(59.0, 1, "motor_a", 14), stepper(95.0, 2, "motor_b", 14)
+    ref = np.tile(STEPS, 2)
+    direction = np.repeat([1, -1], STEPS.size)
+    both = Calibration(ref, np.r_[first.encoder_deg, first.encoder_deg + 0.01], direction=direction,
+                       epoch=np.repeat(["a", "b"], STEPS.size), name="motor")
+    report = encoder_report(both, [again], method="fourier", rng=0)
+    page = tmp_path / "page.html"
+    write_encoder_report(report, page)
+    expected = figures_in(page.read_text(encoding="utf-8"))
+    assert expected == [name for name in ENCODER_FIGURES if name != "selection"]
+    flags = ["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--window-size=1200,4000"]
+    dom = subprocess.run([browser, *flags, "--dump-dom", page.as_uri()], capture_output=True, text=True,
+                         timeout=120, check=True).stdout
+    loaded = re.search(r'data-figures-loaded="(\d+)"', dom)
+    assert loaded is not None, "the page's figure check did not run"
+    assert int(loaded.group(1)) == len(expected)
+    shot = tmp_path / "shot.png"
+    subprocess.run([browser, *flags, f"--screenshot={shot}", page.as_uri()], capture_output=True, timeout=120,
+                   check=True)
+    pixels = matplotlib.image.imread(shot)[..., :3]
+    assert pixels.shape[:2] == (4000, 1200)
+    assert float(pixels.std()) > 0.05  # not blank
+    assert float(np.mean(pixels.min(axis=-1) < 0.5)) > 0.01  # text and curves, not an empty white page
