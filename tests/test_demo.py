@@ -59,10 +59,24 @@ def test_each_model_file_reproduces_the_reported_accuracy(demo):
     for name, encoder in result.encoders.items():
         model = load_model(out / f"{name}.json")
         after = evaluate(model, encoder.test).after
-        reported = encoder.comparison.entry(result.settings.saved_model).stats
+        reported = encoder.saved.stats
         assert after.rms == pytest.approx(reported.rms, rel=1e-12)
         assert after.max_abs == pytest.approx(reported.max_abs, rel=1e-12)
         assert result.checks[name]["rms_arcmin"] == pytest.approx(reported.rms, rel=1e-12)
+
+
+def test_each_model_file_is_the_one_encal_fit_chooses(demo):
+    from encal import fit
+
+    out, result, _ = demo
+    assert result.settings.saved_model == "auto"
+    name, encoder = next(iter(result.encoders.items()))
+    chosen = fit(encoder.train, method="auto", rng=0)
+    saved = load_model(out / f"{name}.json")
+    assert saved.kind == chosen.kind
+    assert saved.parameters() == chosen.parameters()
+    assert saved.training["selection"]["chosen"] == chosen.training["selection"]["chosen"]
+    assert encoder.saved.label == f"chosen by encal fit: {chosen.training['selection']['chosen']}"
 
 
 def test_demo_is_reproducible_to_the_byte(demo, tmp_path):

@@ -76,10 +76,9 @@ def test_report_holds_every_table(result, page):
 
 
 def test_summary_states_each_encoders_accuracy_before_and_after(result, page):
-    key = result.settings.saved_model
     for name, encoder in result.encoders.items():
         before = encoder.comparison.entry("before").stats
-        after = encoder.comparison.entry(key).stats
+        after = encoder.saved.stats
         assert f"<b>{name}</b>: before compensation its readings are off by up to {before.max_abs:.2f}" in page
         assert f"(RMS {after.rms:.3f})" in page
         assert f"{name}.json" in page
@@ -90,3 +89,21 @@ def test_write_report_writes_utf8(result, figures, tmp_path):
     text = path.read_text(encoding="utf-8")
     assert text == build_report(result, figures)
     assert "θ" in text  # figure captions keep their symbols
+
+
+def test_no_python_representation_reaches_the_page(page):
+    assert not re.search(r"DemoSettings\(|np\.float|array\(|<encal|object at 0x|\bNone\b|\bnan\b|dtype=", page)
+    assert "Demo settings: 2 encoders; sweep N = " in page
+
+
+def test_before_and_after_share_the_axes_of_one_panel_per_encoder(result):
+    from encal.report import _before_after
+
+    fig = _before_after(result)
+    panels = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(panels) == len(result.encoders)
+    for ax, encoder in zip(panels, result.encoders.values()):
+        labels = [line.get_label() for line in ax.get_lines()]
+        assert any(label.startswith("before (RMS") for label in labels)
+        assert any(label.startswith("after (RMS") for label in labels)
+        assert f"(RMS {encoder.saved.stats.rms:.3g})" in " ".join(labels)

@@ -45,7 +45,7 @@ from .studies.tables import (
     sweep_table,
 )
 
-__all__ = ["DemoSettings", "FULL", "QUICK", "EncoderResult", "DemoResult", "run_demo"]
+__all__ = ["DemoSettings", "FULL", "QUICK", "EncoderResult", "SavedModel", "DemoResult", "run_demo"]
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,8 @@ class DemoSettings:
     network_epochs : int
         Epoch budget of the networks of Table 3 and of the SVD pruning.
     saved_model : str
-        Key of the Table 3 model written to ``<encoder>.json``.
+        The model written to ``<encoder>.json``: ``'auto'``, the one ``encal fit`` chooses by
+        cross-validation on the training grid (same seed), or the key of a Table 3 model.
     """
 
     n_encoders: int = 4
@@ -75,7 +76,15 @@ class DemoSettings:
     algorithm_seeds: int = 5
     algorithm_epochs: int = 1000
     network_epochs: int = 1000
-    saved_model: str = "ann-periodic"
+    saved_model: str = "auto"
+
+    def describe(self):
+        """The settings in words, for the report."""
+        saved = "the model encal fit chooses" if self.saved_model == "auto" else f"Table 3's {self.saved_model}"
+        return (f"{self.n_encoders} encoders; sweep N = {', '.join(str(n) for n in self.hidden)} with "
+                f"{self.sweep_seeds} seed(s) of at most {self.sweep_epochs} epochs; Table 2 with "
+                f"{self.algorithm_seeds} seed(s) of {self.algorithm_epochs} epochs; Table 3 networks "
+                f"{self.network_epochs} epochs; model files: {saved}")
 
 
 #: The full demo: the paper's sweep (N = 10..110) and MATLAB's default budget of 1000 epochs.
@@ -107,6 +116,8 @@ class EncoderResult:
         SVD pruning of the paper's 1:80:1 network.
     reproducibility : Reproducibility
         Later epoch and second decoder against the first calibration.
+    saved : SavedModel
+        The model written to ``<name>.json`` and its accuracy on the test grid.
     cpu_s : float
         CPU time of this encoder's fits and analyses, seconds.
     """
@@ -120,7 +131,31 @@ class EncoderResult:
     comparison: object
     pruning: object
     reproducibility: object
+    saved: object = None
     cpu_s: float = 0.0
+
+
+@dataclass(frozen=True, eq=False)
+class SavedModel:
+    """The model the demo writes for one encoder.
+
+    Attributes
+    ----------
+    model : Model
+    label : str
+        What it is, in words (the chosen candidate of ``encal fit``, or a Table 3 row).
+    evaluation : Evaluation
+        The model on the test grid, which it never saw (arcmin).
+    """
+
+    model: object
+    label: str
+    evaluation: object
+
+    @property
+    def stats(self):
+        """Residual statistics on the test grid (arcmin)."""
+        return self.evaluation.after
 
 
 @dataclass(eq=False)
@@ -166,14 +201,30 @@ def _encoder_study(task):
     pruning = svd_pruning(train, test, model=comparison.entry("ann-paper").model,
                           epochs=settings.network_epochs, rng=seed)
     repeats = {label: task[label] for label in ("epoch2", "decoder2")}
-    repro = reproducibility(train, repeats, model=comparison.entry(settings.saved_model).model, test=test,
+    saved = _saved_model(settings.saved_model, comparison, train, test, seed)
+    repro = reproducibility(train, repeats, model=saved.model, test=test,
                             floors={label: task["floors"][label] for label in repeats})
     both = np.r_[train.errors_arcmin, test.errors_arcmin]
     return EncoderResult(
         name=train.name, train=train, test=test, profile=error_stats(both),
         harmonics=harmonics(train.encoder_deg, train.errors_arcmin),
         floor_arcmin=task["floors"]["test"], comparison=comparison, pruning=pruning, reproducibility=repro,
-        cpu_s=time.process_time() - cpu_start)
+        saved=saved, cpu_s=time.process_time() - cpu_start)
+
+
+def _saved_model(key, comparison, train, test, seed):
+    """The model written for an encoder: ``encal fit``'s choice ('auto') or a Table 3 row."""
+    from .fitting import evaluate, fit
+    from .models.select import Selection
+
+    if key == "auto":
+        model = fit(train, method="auto", rng=seed)
+        selection = Selection.of(model)
+        label = f"chosen by encal fit: {selection.chosen if selection is not None else model.kind}"
+    else:
+        entry = comparison.entry(key)
+        model, label = entry.model, entry.label
+    return SavedModel(model, label, evaluate(model, test))
 
 
 def _stage(timings, name):
@@ -302,9 +353,8 @@ def _write_models(result, out):
     from .deploy import load_model
     from .fitting import evaluate
 
-    key = result.settings.saved_model
     for name, encoder in result.encoders.items():
-        entry = encoder.comparison.entry(key)
+        entry = encoder.saved
         path = out / f"{name}.json"
         entry.model.save(path, reproducible=True)
         result.files[f"model:{name}"] = path

@@ -33,8 +33,9 @@ FIGURES = {
                             "the hidden-node outputs after it (blue), with the significance threshold.",
     "fig4_residuals": "Fig. 4. Residual error on the test grid of the paper's 1:80:1 raw network, with a "
                       "periodic smoothing spline; the grey band is ± the measurement floor.",
-    "fig4_residuals_saved": "Residual error on the test grid of the saved model (the model file of each "
-                            "encoder).",
+    "before_after": "Errors on the test grid before compensation and residuals after it with the saved model "
+                    "(the model file of each encoder, the one encal fit chooses), on the same axes; the grey band "
+                    "is ± the measurement floor.",
     "reproducibility": "Repeat calibrations minus the first one at the same reference angles: a later epoch "
                        "and a second decoder; the grey band is ± 1 LSB.",
 }
@@ -86,11 +87,21 @@ def _residuals(key):
     def make(result):
         from . import plots
 
-        chosen = result.settings.saved_model if key is None else key
         return plots.panel_figure(
-            result.encoders, lambda e, ax: plots.plot_residuals(e.comparison, key=chosen, ax=ax), sharey=True)
+            result.encoders, lambda e, ax: plots.plot_residuals(e.comparison, key=key, ax=ax), sharey=True)
 
     return make
+
+
+def _before_after(result):
+    from . import plots
+
+    def draw(e, ax):
+        evaluation = e.saved.evaluation
+        plots.plot_before_after(evaluation.encoder_deg, evaluation.error_arcmin, evaluation.residual_arcmin, ax=ax,
+                                floor_arcmin=e.floor_arcmin, title=f"{e.name}: {e.saved.model.kind} model")
+
+    return plots.panel_figure(result.encoders, draw, sharey=True)
 
 
 def _repeats(result):
@@ -109,7 +120,7 @@ _MAKERS = {
     "table2_algorithms": _algorithms,
     "fig3_singular_values": _singular_values,
     "fig4_residuals": _residuals("ann-paper"),
-    "fig4_residuals_saved": _residuals(None),
+    "before_after": _before_after,
     "reproducibility": _repeats,
 }
 
@@ -167,17 +178,16 @@ def _p(text):
 
 def _summary(result):
     """One plain-language sentence per encoder: accuracy before and after, on points never fitted."""
-    key = result.settings.saved_model
     items = []
     for name, encoder in result.encoders.items():
         before = encoder.comparison.entry("before").stats
-        after = encoder.comparison.entry(key).stats
-        label = encoder.comparison.entry(key).label
+        after = encoder.saved.stats
+        label = encoder.saved.label
         floor = encoder.floor_arcmin
         items.append(
             f"<li><b>{html.escape(name)}</b>: before compensation its readings are off by up to "
             f"{before.max_abs:.2f} arcmin (RMS {before.rms:.2f}). Corrected with its model file "
-            f"<code>{html.escape(name)}.json</code> (the row &ldquo;{html.escape(label)}&rdquo; of Table 3), "
+            f"<code>{html.escape(name)}.json</code> ({html.escape(label)}), "
             f"readings at the {after.n} test angles, "
             f"which the model never saw, are off by at most {after.max_abs:.2f} arcmin (RMS {after.rms:.3f}): "
             f"{before.rms / after.rms:.1f} times smaller in RMS. No model can beat the measurement floor of this "
@@ -299,7 +309,7 @@ def build_report(result, figures):
         _best_sentences(result),
         _table(result, "table3_comparison"),
         _figure(figures, "fig4_residuals"),
-        _figure(figures, "fig4_residuals_saved"),
+        _figure(figures, "before_after"),
         "<h2>6. Reproducibility</h2>",
         _p("A later calibration epoch (the mount and resolver drift a little) and the same resolver read by a second "
            "decoder, compared with the first calibration, and corrected with the model fitted to it."),
@@ -315,7 +325,7 @@ def build_report(result, figures):
         "0/360 deg; the paper's raw-angle network is not.</li>",
         "<li>Accuracy is stated against the measurement floor, the RMS no model can beat on a run.</li>",
         "</ul>",
-        f'<p class="meta">Demo settings: {html.escape(repr(s))}.</p>',
+        f'<p class="meta">Demo settings: {html.escape(s.describe())}.</p>',
         "</body></html>",
     ]
     return "\n".join(part for part in parts if part)
