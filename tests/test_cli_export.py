@@ -111,3 +111,18 @@ def test_c_refuses_to_overwrite_the_model_it_exports(tmp_path, capsys):
     err = capsys.readouterr().err
     assert f"would write {model}, the model file being exported" in err and err.count("\n") == 1
     assert model.read_bytes() == before and not (tmp_path / "axis.c").exists()
+
+
+def test_json_names_what_was_written(tmp_path, capsys):
+    path = tmp_path / "enc.tab"
+    status, out, _ = export(capsys, MODEL, "--format", "table", "--bits", 12, "-o", path, "--json")
+    record = json.loads(out)
+    assert status == 0 and out.count("\n") == 1
+    assert record["files"] == [str(path)] and record["bits"] == 12 and record["dtype"] == "int16"
+    assert record["bytes"] == path.stat().st_size == 80 + 2 * 2**12
+    assert record["quantisation_arcmin"] == pytest.approx(load_table(path).quantisation_arcmin)
+    status, out, _ = export(capsys, MODEL, "--format", "c", "-o", tmp_path / "c", "--json")
+    record = json.loads(out)
+    assert status == 0 and record["format"] == "c"
+    assert sorted(Path(p).name for p in record["files"]) == ["encal.c", "encal.h"]
+    assert record["bytes"] == sum(Path(p).stat().st_size for p in record["files"])
