@@ -18,6 +18,9 @@ __all__ = [
     "READING_SIGNS",
     "model_input",
     "resolution_of_readings",
+    "ANGLE_UNITS",
+    "AngleUnit",
+    "angle_unit",
 ]
 
 ARCMIN_PER_DEG = 60.0
@@ -160,3 +163,79 @@ def resolution_of_readings(angles_deg, *, min_bits=8, max_bits=24, tolerance_cou
         if np.all(np.abs(counts - np.round(counts)) < tolerance_counts):
             return bits
     return None
+
+
+#: Units a calibration column may be in: degrees, radians, revolutions (turns), or counts of a B-bit encoder.
+ANGLE_UNITS = ("deg", "rad", "rev", "counts:B")
+
+
+class AngleUnit:
+    """A unit of angle readings: ``'deg'``, ``'rad'``, ``'rev'`` or ``'counts:B'`` (codes of a B-bit encoder).
+
+    Attributes
+    ----------
+    name : str
+        ``'deg'``, ``'rad'``, ``'rev'`` or ``'counts'``.
+    bits : int or None
+        Resolution of ``'counts'``.
+    degrees_per_unit : float
+        Degrees in one unit (360 / 2^B for counts).
+
+    Examples
+    --------
+    >>> unit = angle_unit("counts:14")
+    >>> unit.bits, float(unit.to_degrees(4096))
+    (14, 90.0)
+    >>> float(angle_unit("rev").to_degrees(0.25)), str(angle_unit("rad"))
+    (90.0, 'rad')
+    """
+
+    def __init__(self, name, bits=None):
+        self.name = name
+        self.bits = bits
+        self.degrees_per_unit = {"deg": 1.0, "rad": 180.0 / np.pi, "rev": 360.0}.get(name) or 360.0 / 2.0**bits
+
+    def to_degrees(self, values):
+        """Readings in this unit as degrees."""
+        return (np.asarray(values, dtype=float) * self.degrees_per_unit)[()]
+
+    def __str__(self):
+        return self.name if self.bits is None else f"{self.name}:{self.bits}"
+
+    def __eq__(self, other):
+        return isinstance(other, AngleUnit) and (self.name, self.bits) == (other.name, other.bits)
+
+    def __hash__(self):
+        return hash((self.name, self.bits))
+
+
+def angle_unit(text):
+    """Parse a unit of angle readings (see :class:`AngleUnit`).
+
+    Parameters
+    ----------
+    text : str or AngleUnit
+        ``'deg'`` (also ``'degrees'``), ``'rad'`` (``'radians'``), ``'rev'`` (``'turns'``,
+        ``'revolutions'``) or ``'counts:B'`` with B a whole number of bits from 1 to 32.
+
+    Returns
+    -------
+    AngleUnit
+
+    Raises
+    ------
+    ValueError
+        Naming what was expected.
+    """
+    if isinstance(text, AngleUnit):
+        return text
+    word = str(text).strip().lower()
+    aliases = {"deg": "deg", "degree": "deg", "degrees": "deg", "rad": "rad", "radian": "rad", "radians": "rad",
+               "rev": "rev", "revs": "rev", "revolution": "rev", "revolutions": "rev", "turn": "rev", "turns": "rev"}
+    if word in aliases:
+        return AngleUnit(aliases[word])
+    name, _, bits = word.partition(":")
+    if name in ("counts", "count", "codes", "code") and bits.isascii() and bits.isdigit() and 1 <= int(bits) <= 32:
+        return AngleUnit("counts", int(bits))
+    raise ValueError(f"the unit {str(text)!r} is not one of deg, rad, rev or counts:B (B the encoder's bits, "
+                     "1 to 32, e.g. counts:14)")

@@ -26,7 +26,7 @@ import numpy as np
 from . import _html
 from ._atomic import atomic_file_set, atomic_write
 from ._version import __version__
-from .angles import ARCMIN_PER_DEG, lsb_arcmin
+from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings
 from .calibration import Calibration
 from .errors import InputError
 from .profile import error_stats, harmonics, remove_offset, zero_is_arbitrary, zero_offset_arcmin, zero_sentence
@@ -146,7 +146,7 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     EncoderReport
     """
     from .bidirectional import reversal
-    from .drift import compare_calibrations, infer_resolution_bits, split_epochs
+    from .drift import compare_calibrations, split_epochs
     from .fitting import evaluate, fit
 
     if not isinstance(cal, Calibration) or not all(isinstance(t, Calibration) for t in tests):
@@ -156,7 +156,7 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     arbitrary = zero_is_arbitrary(zero, offset, *(zero_offset_arcmin(t.errors_arcmin) for t in tests))
     mode = "arbitrary" if arbitrary else "fixed"
     notes = [zero_sentence(zero, offset, arbitrary)]
-    bits = cal.resolution_bits if cal.resolution_bits is not None else infer_resolution_bits(cal)
+    bits = cal.resolution_bits if cal.resolution_bits is not None else resolution_of_readings(cal.encoder_deg)
     if cal.resolution_bits is None and bits is not None:
         notes.append(f"Every reading lies on a grid of 360/2^{bits} deg: a {bits}-bit encoder "
                      f"(1 LSB = {lsb_arcmin(bits):.4g} arcmin), inferred from the readings.")
@@ -172,7 +172,8 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         resolution_bits=bits, method=method, seed=seed, notes=notes)
     if cal.direction is not None and np.unique(cal.direction).size == 2:
         report.reversal = reversal(cal)
-    runs = split_epochs(cal) + tests if cal.epoch is not None else ([cal, *tests] if len(tests) >= 2 else [])
+    epochs = split_epochs(cal)
+    runs = epochs + tests if len(epochs) >= 2 else ([cal, *tests] if len(tests) >= 2 else [])
     if len(runs) >= 2:
         labels = [_run_label(run, index) for index, run in enumerate(runs)]
         report.drift = compare_calibrations(runs, offset="remove" if arbitrary else "keep",
