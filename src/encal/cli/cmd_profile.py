@@ -11,7 +11,7 @@ import json
 
 import numpy as np
 
-from ..angles import lsb_arcmin
+from ..angles import lsb_arcmin, resolution_of_readings
 from ..profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
 from ._common import add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
 
@@ -35,19 +35,24 @@ def run(args):
     analysis = harmonics(cal.encoder_deg, shape)
     top = analysis.as_list(args.top or None)
     note = zero_sentence(args.zero, offset, arbitrary)
+    bits, inferred = cal.resolution_bits, False
+    if bits is None:
+        bits = resolution_of_readings(cal.encoder_deg)
+        inferred = bits is not None
     if args.json:
-        print(json.dumps({"name": cal.name, "resolution_bits": cal.resolution_bits, **stats.as_dict(),
+        print(json.dumps({"name": cal.name, "resolution_bits": bits, "resolution_inferred": inferred,
+                          **stats.as_dict(),
                           "zero": "arbitrary" if arbitrary else "fixed", "zero_offset_arcmin": offset,
                           "zero_note": note, "harmonics": top}))
     else:
-        print(_report(cal, stats, analysis, top, note))
+        print(_report(cal, stats, analysis, top, note, bits, inferred))
     return 0
 
 
-def _report(cal, stats, analysis, top, note):
-    bits = cal.resolution_bits
+def _report(cal, stats, analysis, top, note, bits, inferred):
     lsb = lsb_arcmin(bits) if bits is not None else None
-    resolution = f"; {bits}-bit encoder, 1 LSB = {lsb:.4f} arcmin" if bits is not None else ""
+    how = " (inferred from the readings)" if inferred else ""
+    resolution = f"; {bits}-bit encoder{how}, 1 LSB = {lsb:.4f} arcmin" if bits is not None else ""
     lines = [f"{cal.name or cal.source or 'calibration'}: {stats.n} points{resolution}", note, ""]
     lines.append(f"{'statistic':<22}{'arcmin':>10}" + (f"{'LSB':>10}" if lsb else ""))
     for label, value in stats.rows():
