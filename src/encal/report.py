@@ -46,7 +46,8 @@ def _profiles(result):
 
     def draw(e, ax):
         plots.plot_profile(e.train.encoder_deg, e.train.errors_arcmin,
-                           test=(e.test.encoder_deg, e.test.errors_arcmin), ax=ax, title=e.name)
+                           test=(e.test.encoder_deg, e.test.errors_arcmin), ax=ax, title=e.name,
+                           label="training grid", test_label="test grid")
 
     return plots.panel_figure(result.encoders, draw)
 
