@@ -26,7 +26,7 @@ def add_arguments(parser):
     parser.add_argument("-o", "--output", required=True, metavar="REPORT.html", help="HTML file to write")
     parser.add_argument("--figures", metavar="DIR",
                         help="folder for the PNG figures (default: REPORT_figures beside the page)")
-    parser.add_argument("--method", default="auto", choices=["auto", "fourier", "lut", "ann", "hybrid"],
+    parser.add_argument("--method", default="auto", choices=["auto", "spectral", "fourier", "lut", "ann", "hybrid"],
                         help="model family, as for encal fit (default: auto)")
     parser.add_argument("--seed", type=int, help="random seed, as for encal fit")
     parser.add_argument("--no-uncertainty", dest="uncertainty", action="store_false",
