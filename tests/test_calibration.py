@@ -48,11 +48,17 @@ def test_header_without_encoder_column(write_csv):
     assert "reference_deg, reading" in message
 
 
-@pytest.mark.parametrize("separator, label", [(";", "semicolons"), ("\t", "tabs")])
-def test_wrong_separator(write_csv, separator, label):
-    text = grid_csv().replace(",", separator)
-    message = _refused(write_csv(text), label)
-    assert "expected commas" in message
+def test_semicolons_are_refused(write_csv):
+    message = _refused(write_csv(grid_csv().replace(",", ";")), "semicolons")
+    assert "expected commas or blanks" in message
+
+
+@pytest.mark.parametrize("separator", ["\t", " ", "  \t "])
+def test_a_header_without_commas_is_read_as_whitespace_separated(write_csv, separator):
+    comma = read_calibration(write_csv(grid_csv(), name="comma.csv"))
+    blanks = read_calibration(write_csv(grid_csv().replace(",", separator), name="blank.txt"))
+    np.testing.assert_array_equal(blanks.reference_deg, comma.reference_deg)
+    np.testing.assert_array_equal(blanks.encoder_deg, comma.encoder_deg)
 
 
 def test_non_numeric_value_names_line_and_column(write_csv):

@@ -72,7 +72,7 @@ def test_the_api_reads_columns_and_units():
 @pytest.mark.parametrize("unit, scale", [("deg", 1.0), ("rad", np.pi / 180.0), ("rev", 1 / 360.0)])
 def test_units_convert_to_degrees(write_csv, unit, scale):
     ref = np.arange(0.0, 360.0, 5.0)
-    text = "a,b\n" + "".join(f"{r * scale!r},{(r + 0.1) * scale!r}\n" for r in ref)
+    text = "a,b\n" + "".join(f"{float(r * scale)!r},{float((r + 0.1) * scale)!r}\n" for r in ref)
     cal = read_calibration(write_csv(text), reference_column="a", encoder_column="b", reference_unit=unit,
                            encoder_unit=unit)
     np.testing.assert_allclose(cal.errors_arcmin, 6.0, atol=1e-9)

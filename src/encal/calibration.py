@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import _csv
-from .angles import ARCMIN_PER_DEG, READING_SIGNS, model_input, wrap180, wrap360
+from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution"]
@@ -188,28 +188,51 @@ def _shown(text, limit=40):
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
-def _parse_float(path, line, column, name, cell):
+_UNIT_WORDS = {"deg": "degrees", "rad": "radians", "rev": "revolutions", "counts": "counts"}
+
+
+def _parse_float(path, line, column, name, cell, unit=None):
+    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``."""
+    words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
     try:
         value = float(cell)
     except ValueError:
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of degrees", column)
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}", column)
     if not np.isfinite(value):
-        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of degrees", column)
-    if abs(value) > MAX_ABS_DEG:
-        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected an angle in degrees within "
-                          f"+-{MAX_ABS_DEG:g} (beyond that a double cannot hold the angle within a turn to "
-                          "1e-5 arcmin; is this column counts or time stamps?)", column)
+        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
+    degrees = value if unit is None else value * unit.degrees_per_unit
+    if abs(degrees) > MAX_ABS_DEG:
+        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected an angle within +-{MAX_ABS_DEG:g} "
+                          f"degrees (beyond that a double cannot hold the angle within a turn to 1e-5 arcmin; "
+                          f"is this column counts or time stamps? Say so with a unit, e.g. --enc-unit counts:14)",
+              column)
     return value
 
 
+def _separator(path, line, header):
+    """',' for a comma-separated file, None for a whitespace-separated one (a header without commas that
+    splits at blanks into two or more names); semicolons are refused."""
+    if "," in header or '"' in header:
+        return ","
+    if len(header.split()) >= 2:
+        return None
+    if ";" in header:
+        _fail(path, line, "fields are separated by semicolons; expected commas or blanks (save the file as "
+                          "comma-separated CSV)")
+    return ","
+
+
 def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
-                     duplicates="refuse"):
+                     duplicates="refuse", reference_column="reference_deg", encoder_column="encoder_deg",
+                     reference_unit="deg", encoder_unit="deg"):
     """Read a calibration CSV (see DESIGN.md).
 
-    The file is UTF-8 text (a byte-order mark is accepted), comma-separated, with one header row naming at
-    least ``reference_deg`` and ``encoder_deg`` (any letter case, any order, other columns ignored),
-    ``#`` comment lines, and LF or CRLF line ends. Angles may be any finite numbers of degrees within
-    +-1e9 (2.8 million turns); they are wrapped into [0, 360).
+    The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
+    :mod:`encal._csv`) or, when its header has no comma, separated by blanks (spaces or tabs), with one
+    header row naming at least the reference and the encoder column (``reference_deg`` and
+    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored), ``#``
+    comment lines, and LF or CRLF line ends. Angles may be any finite numbers within +-1e9 degrees
+    (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
 
     Parameters
     ----------
@@ -230,6 +253,12 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         epoch). Identical repeats are always kept as they are. A file that is plainly a log of several
         revolutions (:func:`is_multi_revolution`) keeps its repeats as repeated readings unless
         ``'average'`` is asked for.
+    reference_column, encoder_column : str or int, default='reference_deg', 'encoder_deg'
+        The columns of the reference and the encoder angle: a header name (any letter case) or a
+        column number from 1. With numbers for both, a file whose first row is numbers has no header.
+    reference_unit, encoder_unit : str, default='deg'
+        Unit of each column: 'deg', 'rad', 'rev' (turns) or 'counts:B' (codes of a B-bit encoder; an
+        encoder column in counts also sets ``resolution_bits`` to B when the file does not say).
 
     Returns
     -------
@@ -239,7 +268,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ------
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
-        header without the two columns, a semicolon- or tab-separated file, non-numeric, NaN, infinite or
+        header without the two columns, a semicolon-separated file, a row whose field count differs from
+        the header's, a unit other than the four above, non-numeric, NaN, infinite or
         absurdly large (beyond +-1e9 degrees) values, a resolution outside 1 to 32 bits, fewer than 8 points,
         a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
         (unless ``reverse``), an encoder that goes back while the reference goes forward (see
@@ -266,18 +296,30 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     if not records:
         raise CalibrationError(f"{path}: the file is empty; expected a header row "
                                "'reference_deg,encoder_deg' and at least 8 rows of angles")
+    try:
+        units = angle_unit(reference_unit), angle_unit(encoder_unit)
+    except ValueError as exc:
+        raise CalibrationError(f"{path}: {exc}") from None
     header_line, header = records[0]
-    columns = _header_columns(path, header_line, header)
-    n_columns = len(_cells(path, header_line, header))
-    ref_col, enc_col = columns["reference_deg"], columns["encoder_deg"]
+    separator = _separator(path, header_line, header)
+
+    def cells_of(number, line):
+        return _cells(path, number, line) if separator == "," else line.split()
+
+    names = cells_of(header_line, header)
+    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column)
+    n_columns = len(names)
+    ref_col, enc_col = columns["reference"], columns["encoder"]
+    ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
     reference, encoder, direction, epoch = [], [], [], []
-    for number, line in records[1:]:
-        cells = _cells(path, number, line)
+    data = records[1:] if has_header else records
+    for number, line in data:
+        cells = cells_of(number, line)
         if len(cells) != n_columns:
             _fail(path, number, _field_count_problem(line, len(cells), n_columns))
-        reference.append(_parse_float(path, number, ref_col + 1, "reference_deg", cells[ref_col]))
-        encoder.append(_parse_float(path, number, enc_col + 1, "encoder_deg", cells[enc_col]))
+        reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
+        encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
         if dir_col is not None:
             cell = cells[dir_col].strip().lower()
             if cell not in _DIRECTIONS:
@@ -289,8 +331,12 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     if len(reference) < MIN_POINTS:
         raise CalibrationError(f"{path}: has {len(reference)} calibration points, expected at least "
                                f"{MIN_POINTS} to model an error profile")
-    encoder = np.asarray(encoder)
-    _warn_if_radians(path, {"reference_deg": np.asarray(reference), "encoder_deg": encoder})
+    in_degrees = {ref_name: np.asarray(reference), enc_name: np.asarray(encoder)}
+    _warn_if_radians(path, {key: values for (key, values), unit in zip(in_degrees.items(), units)
+                            if unit.name == "deg"})
+    reference, encoder = units[0].to_degrees(reference), units[1].to_degrees(encoder)
+    if resolution_bits is None and units[1].name == "counts":
+        resolution_bits = units[1].bits
     if reverse:
         encoder = -encoder
     cal = Calibration(
@@ -305,11 +351,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     rows = cal
     if duplicates == "refuse" and is_multi_revolution(reference):
         duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
-    cal = _check_duplicates(path, cal, duplicates, first_data_line=records[1][0])
+    cal = _check_duplicates(path, cal, duplicates, first_data_line=data[0][0])
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
     _check_coverage(path, cal, allow_gaps)
-    _warn_if_isolated(path, rows, [number for number, _ in records[1:]])
+    _warn_if_isolated(path, rows, [number for number, _ in data])
     return cal
 
 
@@ -389,28 +435,59 @@ def _looks_like_radians(values):
     return -np.pi - margin <= lowest and highest <= 2 * np.pi + margin and highest - lowest >= 1.5 * np.pi
 
 
-def _header_columns(path, line, header):
-    for separator, label in ((";", "semicolons"), ("\t", "tabs")):
-        if separator in header and "," not in header:
-            _fail(path, line, f"fields are separated by {label}; expected commas "
-                              "(save the file as comma-separated CSV)")
-    names = [name.strip().lower() for name in _cells(path, line, header)]
+def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg"):
+    """Indices of the reference, encoder, direction and epoch columns, and whether ``names`` is a header.
+
+    Returns ``({'reference': i, 'encoder': j, 'reference_name': ..., 'encoder_name': ..., 'direction': k,
+    'epoch': l}, has_header)``; a column is chosen by its name or its number from 1.
+    """
+    names = [name.strip().lower() for name in names]
+    numbered = [_column_number(column) for column in (reference_column, encoder_column)]
+    if all(number is not None for number in numbered) and all(_is_number(cell) for cell in names if cell):
+        for column, number in zip((reference_column, encoder_column), numbered):
+            if not 1 <= number <= len(names):
+                _fail(path, line, f"there is no column {number}; expected a column number from 1 to {len(names)}")
+        return ({"reference": numbered[0] - 1, "encoder": numbered[1] - 1,
+                 "reference_name": f"column {numbered[0]}", "encoder_name": f"column {numbered[1]}"}, False)
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
-    for name in (*_REQUIRED, "direction", "epoch"):
+    wanted = [str(column).strip().lower() for column in (reference_column, encoder_column)]
+    for name in (*wanted, "direction", "epoch"):
         where = [index + 1 for index, cell in enumerate(names) if cell == name]
         if len(where) > 1:
             _fail(path, line, f"the header names {name} {len(where)} times (columns "
                               f"{', '.join(map(str, where))}); expected each column once, so that it is clear "
                               "which to read")
-    missing = [name for name in _REQUIRED if name not in columns]
+    chosen = {}
+    for role, column, name, number in zip(("reference", "encoder"), (reference_column, encoder_column), wanted,
+                                          numbered):
+        if name in columns:
+            chosen[role], chosen[f"{role}_name"] = columns[name], name
+        elif number is not None and 1 <= number <= len(names):
+            chosen[role], chosen[f"{role}_name"] = number - 1, names[number - 1] or f"column {number}"
+    missing = [name for role, name in zip(("reference", "encoder"), wanted) if role not in chosen]
     if missing:
         looks_numeric = all(_is_number(cell) for cell in names if cell)
         found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
-        _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
-                          f"reference_deg and encoder_deg, found {found}")
-    return columns
+        if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
+            _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
+                              f"reference_deg and encoder_deg, found {found} (name your columns with --ref-col "
+                              "and --enc-col, their units with --ref-unit and --enc-unit)")
+        _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
+                          f"or its number from 1, found {found}")
+    for optional in ("direction", "epoch"):
+        if optional in columns:
+            chosen[optional] = columns[optional]
+    return chosen, True
+
+
+def _column_number(column):
+    """A column given as a number from 1 (an int or a string of digits), or None."""
+    if isinstance(column, (int, np.integer)) and not isinstance(column, bool):
+        return int(column)
+    text = str(column).strip()
+    return int(text) if text.isascii() and text.isdigit() else None
 
 
 def _is_number(text):

@@ -20,6 +20,28 @@ def add_calibration_options(parser):
                         help="the encoder counts against the reference: negate its angles")
     parser.add_argument("--average-duplicates", action="store_true",
                         help="average repeated reference angles instead of refusing them")
+    parser.add_argument("--ref-col", metavar="NAME", default="reference_deg",
+                        help="the reference column: its header name or number from 1 (default reference_deg)")
+    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg",
+                        help="the encoder column: its header name or number from 1 (default encoder_deg)")
+    parser.add_argument("--ref-unit", metavar="UNIT", type=angle_unit_argument, default=None,
+                        help="unit of the reference column: deg (default), rad, rev or counts:B")
+    parser.add_argument("--enc-unit", metavar="UNIT", type=angle_unit_argument, default=None,
+                        help="unit of the encoder column: deg (default), rad, rev or counts:B (B bits)")
+    parser.add_argument("--unit", metavar="UNIT", type=angle_unit_argument, default=None,
+                        help="unit of both columns, unless --ref-unit or --enc-unit says otherwise")
+
+
+def angle_unit_argument(text):
+    """argparse type: a unit of angle readings (deg, rad, rev or counts:B)."""
+    import argparse
+
+    from ..angles import angle_unit
+
+    try:
+        return angle_unit(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def add_zero_options(parser):
@@ -44,6 +66,10 @@ def read_calibration_from_args(path, args):
         reverse=getattr(args, "reverse", False),
         duplicates="average" if getattr(args, "average_duplicates", False) else "refuse",
         resolution_bits=getattr(args, "bits", None),
+        reference_column=getattr(args, "ref_col", "reference_deg"),
+        encoder_column=getattr(args, "enc_col", "encoder_deg"),
+        reference_unit=getattr(args, "ref_unit", None) or getattr(args, "unit", None) or "deg",
+        encoder_unit=getattr(args, "enc_unit", None) or getattr(args, "unit", None) or "deg",
     )
 
 
