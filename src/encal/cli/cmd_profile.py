@@ -59,7 +59,8 @@ def _report(cal, stats, analysis, top, note, bits, inferred):
         if label == "n":
             lines.append(f"{'n':<22}{value:>10d}")
         else:
-            lines.append(f"{label:<22}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
+            in_lsb = lsb and not label.startswith("zero offset")  # the offset is not the encoder's error
+            lines.append(f"{label:<22}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if in_lsb else ""))
     of_what = "the shape (zero offset removed)" if stats.offset is not None else "the error"
     lines += ["", f"largest harmonics of {of_what} vs encoder angle "
                   f"({len(top)} of orders 0..{analysis.max_order})"]
