@@ -317,7 +317,9 @@ def _stats_table(columns, caption):
     for heading, stats in columns.items():
         values = dict(stats.rows())
         for label in rows_by_label:
-            rows_by_label[label].append(_f(values.get(label)))
+            value = values.get(label)
+            offset = label.startswith("zero offset") and value is not None
+            rows_by_label[label].append(f"{value:+.2f}" if offset else _f(value))
     return _html.table(["arcmin", *columns], [[label, *cells] for label, cells in rows_by_label.items()], caption)
 
 
