@@ -187,7 +187,7 @@ class Model(ABC):
         fitted = ", ".join(f"{key} {training[key]}" for key in ("method", "seed") if training.get(key) is not None)
         rows = [("kind", self.kind), ("encoder", name),
                 ("fitted on", f"{training.get('n_points', '?')} points" + (f" ({fitted})" if fitted else "")),
-                ("parameters", f"{_count_numbers(self.parameters())} numbers")]
+                ("parameters", f"{self.free_parameters()} fitted values")]
         if training.get("zero_offset_arcmin") is not None:
             rows.append(("zero offset", f"{training['zero_offset_arcmin']:+.3f} arcmin (arbitrary zero, in the model)"))
         rows += [("predicts", f"{predicted.min():+.3f} .. {predicted.max():+.3f} arcmin over 0..360 deg, "
@@ -206,12 +206,3 @@ class Model(ABC):
     def __repr__(self):
         name = self.encoder.get("name") or "unnamed encoder"
         return f"<{type(self).__name__} kind={self.kind!r} for {name}>"
-
-
-def _count_numbers(data):
-    """How many numbers a model's JSON-ready ``parameters()`` hold (nested lists and dicts)."""
-    if isinstance(data, dict):
-        return sum(_count_numbers(value) for value in data.values())
-    if isinstance(data, (list, tuple)):
-        return sum(_count_numbers(value) for value in data)
-    return 1 if isinstance(data, (int, float)) and not isinstance(data, bool) else 0
