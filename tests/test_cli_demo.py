@@ -1,7 +1,6 @@
 """The commands of the paper's procedure: ``encal demo``, ``encal compare`` and ``encal study``."""
 
 import contextlib
-import csv
 import io
 import json
 
