@@ -102,12 +102,15 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     """
     if not isinstance(cal, Calibration):
         raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
-    if rng is None and (uncertainty or model_kind(method).randomised):
+    fitter(method)  # an unknown method is refused before anything else
+    randomised = model_kind(method).randomised
+    if rng is None and (uncertainty or randomised):
         # Drawn here so that the model file records the seed that regenerates it.
         rng = int(np.random.SeedSequence().generate_state(1)[0])
     if has_both_directions(cal):
         # Both directions of travel pooled into one profile would leave half the reversal in every residual.
-        model = fit_bidirectional(cal, bidirectional or "per-direction", method, rng=rng, **options)
+        model = fit_bidirectional(cal, bidirectional or "per-direction", method, rng=rng if randomised else None,
+                                  **options)
         if isinstance(rng, (int, np.integer)):
             model.training.setdefault("seed", int(rng))
         if uncertainty:
