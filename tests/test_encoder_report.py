@@ -50,9 +50,14 @@ def test_a_stepper_with_an_arbitrary_zero(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "larger than 1 deg" in printed and "14-bit encoder" in printed
     page = out.read_text(encoding="utf-8")
-    assert figures_in(page) == ["profile", "harmonics", "before_after"]
+    assert figures_in(page) == ["profile", "harmonics", "selection", "before_after"]
     assert sorted(p.name for p in (tmp_path / "report_figures").iterdir()) == \
-        ["before_after.png", "harmonics.png", "profile.png"]
+        ["before_after.png", "harmonics.png", "profile.png", "selection.png"]
+    # the comparison: every family scored on held-out points, the model encal fit made marked
+    comparison = page.split("<h2>Model comparison</h2>", 1)[1].split("<h2>", 1)[0]
+    for family in ("spectral", "fourier select=cv", "lut interpolation=linear", "ann hidden=6", "hybrid"):
+        assert f'<td class="text">{family}' in comparison
+    assert comparison.count(">chosen</td>") == 1 and "--method fourier" in comparison
     assert not REPRS.search(page)
     # the offset stated apart, the statistics those of the shape (RMS of shape_arcmin is 2.26 arcmin)
     assert "+3540.0" in page or "+3539.9" in page
@@ -71,7 +76,7 @@ def test_a_rotary_table_with_test_and_later_epochs_shows_drift(tmp_path, capsys)
     train, test, epoch2 = (tmp_path / f"enc1_{kind}.csv" for kind in ("train", "test", "epoch2"))
     out = tmp_path / "enc1.html"
     assert main(["report", str(train), str(test), str(epoch2), "-o", str(out), "--method", "fourier",
-                 "--no-uncertainty", "--figures", str(tmp_path / "figs")]) == 0
+                 "--no-uncertainty", "--no-comparison", "--figures", str(tmp_path / "figs")]) == 0
     printed = capsys.readouterr().out
     assert "within 1 deg" in printed  # a rotary table: the zero is fixed
     page = out.read_text(encoding="utf-8")
@@ -88,7 +93,8 @@ def test_a_bidirectional_run_shows_the_reversal_with_a_direction_column(tmp_path
     cal = Calibration(ref, ref + (shape_arcmin(ref) + hysteresis) / 60.0, direction=direction, name="table")
     path = write(tmp_path, cal)
     out = tmp_path / "table.html"
-    assert main(["report", str(path), "-o", str(out), "--method", "fourier", "--no-uncertainty"]) == 0
+    assert main(["report", str(path), "-o", str(out), "--method", "fourier", "--no-uncertainty",
+                 "--no-comparison"]) == 0
     capsys.readouterr()
     page = out.read_text(encoding="utf-8")
     assert "reversal" in figures_in(page)
@@ -102,11 +108,12 @@ def test_the_model_is_the_one_encal_fit_makes(tmp_path, capsys):
     fitted, reported = tmp_path / "fit.json", tmp_path / "report.json"
     assert main(["fit", str(path), "-o", str(fitted), "--seed", "5", "--method", "ann", "--hidden", "3",
                  "--epochs", "10"]) == 0
-    report = encoder_report(read_calibration(path), method="ann", rng=5, uncertainty=False, hidden=3, epochs=10)
+    report = encoder_report(read_calibration(path), method="ann", rng=5, uncertainty=False, compare=False, hidden=3,
+                            epochs=10)
     report.model.save(reported)
     assert load_model(reported).parameters() == load_model(fitted).parameters()
     assert main(["report", str(path), "-o", str(tmp_path / "r.html"), "--seed", "5", "--model",
-                 str(tmp_path / "cli.json"), "--no-uncertainty"]) == 0
+                 str(tmp_path / "cli.json"), "--no-uncertainty", "--no-comparison"]) == 0
     capsys.readouterr()
     assert main(["fit", str(path), "-o", str(tmp_path / "auto.json"), "--seed", "5"]) == 0
     capsys.readouterr()
@@ -134,11 +141,11 @@ def test_the_page_displays_every_figure_in_a_headless_browser(tmp_path):
     direction = np.repeat([1, -1], STEPS.size)
     both = Calibration(ref, np.r_[first.encoder_deg, first.encoder_deg + 0.01], direction=direction,
                        epoch=np.repeat(["a", "b"], STEPS.size), name="motor")
-    report = encoder_report(both, [again], method="fourier", rng=0)
+    report = encoder_report(both, [again], method="fourier")
     page = tmp_path / "page.html"
     write_encoder_report(report, page)
     expected = figures_in(page.read_text(encoding="utf-8"))
-    assert expected == [name for name in ENCODER_FIGURES if name != "selection"]
+    assert expected == list(ENCODER_FIGURES)
     flags = ["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--window-size=1200,4000"]
     dom = subprocess.run([browser, *flags, "--dump-dom", page.as_uri()], capture_output=True, text=True,
                          timeout=120, check=True).stdout

@@ -54,7 +54,7 @@ def test_fit_and_report_take_the_same_options(tmp_path, capsys, name, options):
     assert record["training_set"]["rms_arcmin"] < 1.0  # the shape is corrected to the noise
     page = tmp_path / "r.html"
     status, _, _ = run(capsys, "report", EXAMPLES / name, *options, "-o", page, "--method", "fourier",
-                       "--no-uncertainty")
+                       "--no-uncertainty", "--no-comparison")
     assert status == 0 and "<h2>Harmonics</h2>" in page.read_text(encoding="utf-8")
 
 

@@ -84,6 +84,9 @@ def test_selection_prints_the_cv_table_and_plots_bars():
     selection = Selection.of(model)
     assert Selection.of(fit(cal, method="lut")) is None
     text = str(selection)
-    assert text.startswith("cross-validation over") and "chosen:" in text and "*" in text
+    assert "chosen: " + selection.reason in text
     ax = selection.plot()
     assert len(ax.patches) == sum(row["cv_rms_arcmin"] is not None for row in selection.table["table"])
+    # the cross-validated choice among given candidates prints its table too
+    cv = Selection.of(fit(cal, method="auto", rng=0, candidates=[{"family": "fourier"}, {"family": "lut"}]))
+    assert str(cv).startswith("cross-validation over") and "*" in str(cv)

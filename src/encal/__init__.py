@@ -20,7 +20,7 @@ _PUBLIC = {
     "ErrorStats": "profile", "error_stats": "profile", "harmonics": "profile",
     "Harmonics": "profile",
     "fit": "fitting", "evaluate": "fitting", "Evaluation": "fitting",
-    "Model": "models", "Selection": "models.select",
+    "Model": "models", "Selection": "models.choice",
     "plot_profile": "plots", "plot_model": "plots", "plot_before_after": "plots",
     "hidden_node_sweep": "studies", "compare_algorithms": "studies", "svd_pruning": "studies",
     "compare_models": "studies", "reproducibility": "studies",

@@ -215,7 +215,7 @@ def _encoder_study(task):
 def _saved_model(key, comparison, train, test, seed):
     """The model written for an encoder: ``encal fit``'s choice ('auto') or a Table 3 row."""
     from .fitting import evaluate, fit
-    from .models.select import Selection
+    from .models.choice import Selection
 
     if key == "auto":
         model = fit(train, method="auto", rng=seed)

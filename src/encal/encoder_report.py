@@ -78,6 +78,9 @@ class EncoderReport:
         With a ``direction`` column.
     drift : DriftReport or None
         With several epochs.
+    comparison : dict or None
+        Cross-validated accuracy of the spectral model and every candidate family of the automatic choice
+        (:func:`model_comparison`), the model ``encal fit`` made marked as chosen.
     resolution_bits : int or None
         Given, or inferred from readings on a 2^B grid.
     method : str
@@ -98,6 +101,7 @@ class EncoderReport:
     held_out: list
     reversal: object = None
     drift: object = None
+    comparison: dict | None = None
     resolution_bits: int | None = None
     method: str = "auto"
     seed: int | None = None
@@ -110,10 +114,19 @@ class EncoderReport:
 
     @property
     def selection(self):
-        """The automatic choice's table (:class:`~encal.models.select.Selection`), or None."""
-        from .models.select import Selection
+        """The model comparison (:class:`~encal.models.choice.Selection`), or None."""
+        from .models.choice import Selection
 
-        return Selection.of(self.model)
+        return None if self.comparison is None else Selection(self.comparison)
+
+    def held_out_rms(self):
+        """The chosen model's estimated RMS at readings it did not see (arcmin), or None."""
+        expected = getattr(self.model, "expected_rms_between_points", None)
+        if callable(expected) and expected() is not None:
+            return float(expected())
+        selection = self.selection
+        row = None if selection is None else selection.chosen_row()
+        return None if row is None else row["cv_rms_arcmin"]
 
     def shape(self, cal):
         """A calibration's errors (arcmin), about its own zero offset when the zero is arbitrary."""
@@ -121,7 +134,8 @@ class EncoderReport:
         return remove_offset(errors, zero_offset_arcmin(errors)) if self.arbitrary_zero else errors
 
 
-def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncertainty=True, **fit_options):
+def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncertainty=True, compare=True,
+                   **fit_options):
     """Measure everything the report on one encoder shows.
 
     Parameters
@@ -138,6 +152,8 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         Seed; drawn and recorded when None, as ``encal fit`` does.
     uncertainty : bool, default=True
         Estimate the model's prediction uncertainty for the band (bootstrap refits of the chosen family).
+    compare : bool, default=True
+        Cross-validate the candidate families for the model comparison (:func:`model_comparison`).
     **fit_options
         Passed to :func:`encal.fit`.
 
@@ -170,6 +186,8 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         fitted=evaluate(model, cal, zero=mode),
         held_out=[(t.name or f"test {i + 1}", evaluate(model, t, zero=mode)) for i, t in enumerate(tests)],
         resolution_bits=bits, method=method, seed=seed, notes=notes)
+    if compare:
+        report.comparison = model_comparison(cal, model, seed)
     if cal.direction is not None and np.unique(cal.direction).size == 2:
         report.reversal = reversal(cal)
     epochs = split_epochs(cal)
@@ -179,6 +197,47 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         report.drift = compare_calibrations(runs, offset="remove" if arbitrary else "keep",
                                             labels=_unique(labels))
     return report
+
+
+def model_comparison(cal, model, seed=None):
+    """Held-out accuracy of the spectral model and of every candidate family of the automatic choice.
+
+    Each candidate is fitted on all but one of k interleaved folds and scored on the one left out
+    (:func:`encal.models.select.cross_validate`, k = 5 or fewer for small calibrations); rows of the
+    model's own selection table that are not among them are added. Directions of travel are pooled.
+
+    Parameters
+    ----------
+    cal : Calibration
+    model : Model
+        The model ``encal fit`` made; its candidate is marked as chosen.
+    seed : int, optional
+        Seeds the networks' folds.
+
+    Returns
+    -------
+    dict
+        ``{'folds', 'table', 'chosen', 'reason'}`` in the shape of a selection table.
+    """
+    from .models import select
+
+    theta, error = cal.encoder_deg, cal.errors_arcmin
+    folds = min(select.DEFAULT_FOLDS, max(2, len(cal) // select.MIN_POINTS_PER_FOLD))
+    fold = select.interleaved_folds(theta, folds)
+    candidates = [select.Candidate("spectral", {}), *select.DEFAULT_CANDIDATES]
+    streams = np.random.SeedSequence(seed if isinstance(seed, (int, np.integer)) else 0).spawn(len(candidates))
+    table = [select.cross_validate(theta, error, candidate, fold, seeds=stream.spawn(folds)).as_dict()
+             for candidate, stream in zip(candidates, streams)]
+    own = model.training.get("selection") or {}
+    labels = {row["label"] for row in table}
+    table += [row for row in own.get("table") or [] if row["label"] not in labels and row.get("family") != "spectral"]
+    if own:
+        chosen, reason = own.get("chosen"), f"encal fit chose {own.get('chosen')}: {own.get('reason')}"
+    else:
+        family = model.training.get("method", model.kind)
+        chosen = next((row["label"] for row in table if row["family"] == family), None)
+        reason = f"--method {family}: the closest candidate is marked"
+    return {"scheme": "report", "folds": int(folds), "table": table, "chosen": chosen, "reason": reason}
 
 
 def _run_label(cal, index):
@@ -234,7 +293,7 @@ def _harmonics_figure(report):
 def _selection_figure(report):
     from .plots import plot_selection
 
-    return plot_selection(report.model.training["selection"]).figure
+    return plot_selection(report.comparison).figure
 
 
 def _before_after_figure(report):
@@ -276,7 +335,7 @@ def _drift_figure(report):
 _MAKERS = {
     "profile": (_profile_figure, lambda r: True),
     "harmonics": (_harmonics_figure, lambda r: True),
-    "selection": (_selection_figure, lambda r: "selection" in r.model.training),
+    "selection": (_selection_figure, lambda r: r.comparison is not None),
     "before_after": (_before_after_figure, lambda r: True),
     "reversal": (_reversal_figure, lambda r: r.reversal is not None),
     "drift": (_drift_figure, lambda r: r.drift is not None),
@@ -329,11 +388,10 @@ def _summary(report):
     what = "shape (zero offset apart)" if report.arbitrary_zero else "error"
     lines.append(f"{report.name}: {len(cal)} calibration points; the {what} has RMS {stats.rms:.3g} arcmin and "
                  f"peak-to-peak {stats.pp:.3g} arcmin.")
-    selection = report.selection
-    if selection is not None:
-        chosen = next(row for row in selection.rows() if row["label"] == selection.chosen)
-        lines.append(f"encal fit chose {selection.chosen}: on points it did not see (cross-validation) it leaves "
-                     f"RMS {chosen['cv_rms_arcmin']:.3g} arcmin.")
+    held_out = report.held_out_rms()
+    if held_out is not None:
+        lines.append(f"The {report.model.kind} model encal fit makes (--method {report.method}) is expected to "
+                     f"leave RMS {held_out:.3g} arcmin at readings it did not see.")
     for label, evaluation in report.held_out:
         lines.append(f"On {label}, which the model never saw: RMS {evaluation.before.rms:.3g} arcmin before, "
                      f"{evaluation.after.rms:.3g} after compensation (max |error| {evaluation.before.max_abs:.3g} -> "
@@ -352,19 +410,20 @@ def _harmonics_table(report):
 
 
 def _selection_table(report):
+    from .models.choice import is_chosen
+
     selection = report.selection
     if selection is None:
-        return _html.paragraph(f"Method {report.method}: no automatic choice, so no comparison table "
-                               "(encal fit --method auto compares the families).")
+        return _html.paragraph("No model comparison (--no-comparison).")
     rows = []
     for row in selection.rows():
         name = (f"stack of {len(row['options']['members'])}" if row["family"] == "stack" else row["label"])
-        mark = "chosen" if row["label"] == selection.chosen else ""
+        mark = "chosen" if is_chosen(row, selection.table) else ""
         rows.append([name, _f(row.get("cv_rms_arcmin")), _f(row.get("cv_mae_arcmin")),
                      _f(row.get("n_parameters"), 3), mark])
     return (_html.table(["candidate", "CV RMS (arcmin)", "CV MAE (arcmin)", "parameters", ""], rows,
                         f"Cross-validation over {selection.table['folds']} interleaved folds (held-out points)")
-            + _html.paragraph(f"Chosen: {selection.reason}."))
+            + _html.paragraph(f"{selection.reason}."))
 
 
 def _held_out_tables(report):

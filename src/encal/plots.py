@@ -436,11 +436,13 @@ def plot_selection(selection, ax=None):
     -------
     matplotlib.axes.Axes
     """
-    ax = new_axes(ax, figsize=(6.4, 0.6 + 0.28 * len(selection["table"])))
-    rows = [row for row in selection["table"] if row.get("cv_rms_arcmin") is not None]
+    rows = [row for row in selection.get("table") or [] if row.get("cv_rms_arcmin") is not None]
+    ax = new_axes(ax, figsize=(6.4, 0.8 + 0.28 * len(rows)))
     rows.sort(key=lambda row: row["cv_rms_arcmin"])
     y = np.arange(len(rows))
-    colours = [_TEST_COLOUR if row["label"] == selection["chosen"] else _TRAIN_COLOUR for row in rows]
+    chosen = selection.get("chosen")
+    marked = [row["label"] == chosen or (chosen == "spectral" and row.get("family") == "spectral") for row in rows]
+    colours = [_TEST_COLOUR if mark else _TRAIN_COLOUR for mark in marked]
     names = [f"stack of {len(row['options']['members'])}" if row["family"] == "stack" else row["label"]
              for row in rows]
     values = [row["cv_rms_arcmin"] for row in rows]

@@ -31,6 +31,8 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=int, help="random seed, as for encal fit")
     parser.add_argument("--no-uncertainty", dest="uncertainty", action="store_false",
                         help="skip the uncertainty band (it costs 30 to 100 refits of the chosen model)")
+    parser.add_argument("--no-comparison", dest="compare", action="store_false",
+                        help="skip the model comparison (cross-validation of every candidate family)")
     parser.add_argument("--model", metavar="MODEL.json",
                         help="also write the model file (the same model encal fit writes)")
     add_zero_options(parser)
@@ -50,7 +52,7 @@ def run(args):
     cal = read_calibration_from_args(args.calibration, args)
     tests = [read_calibration_from_args(path, args) for path in args.tests]
     report = encoder_report(cal, tests, method=args.method, zero=args.zero, rng=args.seed,
-                            uncertainty=args.uncertainty)
+                            uncertainty=args.uncertainty, compare=args.compare)
     written = write_encoder_report(report, output, figures_dir=args.figures)
     if args.model is not None:
         report.model.save(args.model)

@@ -27,7 +27,7 @@ from ..profile import profile_arrays
 from . import select
 from .spectral import fit_spectral
 
-__all__ = ["fit_auto", "NETWORK_CANDIDATES", "NETWORK_STOPS_LIMIT", "NETWORK_MARGIN", "format_choice"]
+__all__ = ["fit_auto", "NETWORK_CANDIDATES", "NETWORK_STOPS_LIMIT", "NETWORK_MARGIN", "format_choice", "Selection"]
 
 #: Networks are tried only on calibrations of at most this many stops (distinct reference angles).
 NETWORK_STOPS_LIMIT = 400
@@ -140,3 +140,66 @@ def format_choice(selection):
             lines.append(f"  {mark} {row['label']:<{width}}  {rms:>9}  {seconds}")
     lines.append(f"chosen: {selection['reason']}")
     return "\n".join(lines)
+
+
+def is_chosen(row, selection):
+    """Whether a row of a selection table is the candidate chosen (the spectral row when 'spectral' is)."""
+    return row["label"] == selection.get("chosen") or (
+        selection.get("chosen") == "spectral" and row.get("family") == "spectral")
+
+
+class Selection:
+    """The choice of an automatic fit, readable and drawable.
+
+    Parameters
+    ----------
+    table : dict
+        ``model.training['selection']`` (also after a save/load round trip): the evidence scheme of
+        :func:`fit_auto` or the cross-validation of :func:`encal.models.select.fit_auto`.
+
+    ``str(selection)`` is the table and the reason as ``encal fit`` prints them; :meth:`plot` draws the
+    cross-validated RMS of every candidate that has one.
+    """
+
+    def __init__(self, table):
+        self.table = table
+
+    @classmethod
+    def of(cls, model):
+        """The selection of a model made by ``method='auto'``, or None for any other model."""
+        table = model.training.get("selection")
+        return None if table is None else cls(table)
+
+    @property
+    def chosen(self):
+        """Label of the chosen candidate (``'spectral'`` for the spectral model)."""
+        return self.table["chosen"]
+
+    @property
+    def reason(self):
+        """Why it was chosen, in one sentence."""
+        return self.table["reason"]
+
+    def rows(self):
+        """The candidates with a held-out figure, lowest CV RMS first (failed ones last)."""
+        return sorted(self.table.get("table") or [],
+                      key=lambda row: (row["cv_rms_arcmin"] is None, row["cv_rms_arcmin"] or 0.0))
+
+    def chosen_row(self):
+        """The chosen candidate's row, or None when it has none (the spectral model alone)."""
+        return next((row for row in self.rows() if is_chosen(row, self.table)), None)
+
+    def as_dict(self):
+        """The JSON-ready table."""
+        return self.table
+
+    def __str__(self):
+        if self.table.get("scheme") == "evidence":
+            return format_choice(self.table)
+        return select.format_selection(self.table)
+
+    def plot(self, ax=None):
+        """Bars of the CV RMS (arcmin) per candidate, the chosen one marked; returns the axes."""
+        from ..plots import plot_selection
+
+        return plot_selection(self.table, ax=ax)

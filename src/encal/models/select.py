@@ -48,7 +48,6 @@ from .kind import kind_names, model_kind
 from .validation import held_out_predictions, interleaved_folds
 
 __all__ = [
-    "Selection",
     "Candidate",
     "DEFAULT_CANDIDATES",
     "families",
@@ -659,51 +658,3 @@ def format_selection(selection):
 def _seconds(time_s):
     """A CV-table time; reproducible model files store none."""
     return "      -" if time_s is None else f"{time_s:6.2f}s"
-
-
-class Selection:
-    """The cross-validation table of an automatic choice, readable and drawable.
-
-    Parameters
-    ----------
-    table : dict
-        ``model.training['selection']`` (also after a save/load round trip).
-
-    ``str(selection)`` is :func:`format_selection`; :meth:`plot` draws the CV RMS of every candidate.
-    """
-
-    def __init__(self, table):
-        self.table = table
-
-    @classmethod
-    def of(cls, model):
-        """The selection of a model made by ``method='auto'``, or None for any other model."""
-        table = model.training.get("selection")
-        return None if table is None else cls(table)
-
-    @property
-    def chosen(self):
-        """Label of the chosen candidate."""
-        return self.table["chosen"]
-
-    @property
-    def reason(self):
-        """Why it was chosen, in one sentence."""
-        return self.table["reason"]
-
-    def rows(self):
-        """The candidates, lowest CV RMS first (failed ones last), as dicts of the table."""
-        return sorted(self.table["table"], key=lambda row: (row["cv_rms_arcmin"] is None, row["cv_rms_arcmin"] or 0.0))
-
-    def as_dict(self):
-        """The JSON-ready table."""
-        return self.table
-
-    def __str__(self):
-        return format_selection(self.table)
-
-    def plot(self, ax=None):
-        """Bars of the CV RMS (arcmin) per candidate, the chosen one marked; returns the axes."""
-        from ..plots import plot_selection
-
-        return plot_selection(self.table, ax=ax)
