@@ -261,6 +261,7 @@ class NetworkProblem:
         self.target_scaling = None
         self._last = (None, None, None)
         self._input_outer = None
+        self._jacobian = None
 
     @classmethod
     def from_angles(cls, theta_deg, error_arcmin, hidden, *, encoding="periodic",
@@ -298,7 +299,11 @@ class NetworkProblem:
         cached_w, h, y = self._last
         if cached_w is None or not np.array_equal(w, cached_w):
             W1, b1, W2, b2 = self.unpack(w)
-            h = self._f(self.inputs @ W1.T + b1)
+            # One input: its outer product with the weights, exactly the matrix product's values
+            # (each a single rounded product) without the matrix product's overhead on an inner size of 1.
+            z = self.inputs * W1[:, 0] if self.n_inputs == 1 else self.inputs @ W1.T
+            z += b1
+            h = self._f(z, out=z)
             y = h @ W2 + b2
             self._last = (np.array(w, dtype=float, copy=True), h, y)
         return h, y
@@ -316,7 +321,11 @@ class NetworkProblem:
         N = self.hidden
         # d y / d b1_j = W2_j f'(z_j); d y / d W1_jk = that times input k.
         d_hidden = self._slope(h) * W2
-        J = np.empty((self.n_samples, self.n_params))
+        # One Jacobian array per problem, refilled by every call (a training algorithm is done with
+        # a Jacobian when it asks for the next one): no m x n allocation per epoch.
+        if self._jacobian is None:
+            self._jacobian = np.empty((self.n_samples, self.n_params))
+        J = self._jacobian
         for k in range(self.n_inputs):  # one or two inputs
             np.multiply(d_hidden, self.inputs[:, k:k + 1], out=J[:, k * N:(k + 1) * N])
         n_w1 = N * self.n_inputs

@@ -69,6 +69,7 @@ class DampedGaussNewton:
             # syrk fills only the lower triangle, all that Cholesky reads.
             self.gram = dsyrk(1.0, J.T, trans=1 if self.dual else 0, lower=1)
         self._Jte = None if self.dual else J.T @ e
+        self._work = None
 
     def factor(self, scale, shift):
         """Lower Cholesky factor of ``scale · G + shift · I`` (G the Gram matrix).
@@ -76,7 +77,15 @@ class DampedGaussNewton:
         Only the lower triangle of the result is meaningful; None when the
         matrix is not numerically positive definite.
         """
-        A = scale * self.gram
+        # One work array per system (an epoch's μ tries), in the Gram matrix's memory order, so that
+        # LAPACK factors it in place without another copy.
+        if self._work is None:
+            self._work = np.empty_like(self.gram)
+        A = self._work
+        if scale == 1.0:
+            np.copyto(A, self.gram)
+        else:
+            np.multiply(self.gram, scale, out=A)
         A.flat[::A.shape[0] + 1] += shift
         lower, info = dpotrf(A, lower=1, clean=0, overwrite_a=1)
         return lower if info == 0 else None
