@@ -279,7 +279,7 @@ def section_correct(sources, folder, quick):
 TRAINLM_WORKER = """\
 import hashlib, json, sys, time
 import numpy as np
-from scipy.linalg.blas import dgemv, dsyrk
+from scipy.linalg.blas import dgemm, dgemv, dsyrk
 from scipy.linalg.lapack import dpotrf, dpotrs
 from encal.training import train
 from encal.training.network import NetworkProblem
@@ -313,7 +313,7 @@ if sys.argv[2] == "floor":
             lower, _ = dpotrf(gram, lower=1, clean=0)
             dpotrs(lower, v, lower=1)
             dgemv(1.0, J, v, trans=1)
-            x @ W1.T
+            dgemm(1.0, x, W1, trans_b=1)
             dgemv(1.0, h, w2)
     floor = np.inf
     for _ in range(3):
@@ -352,7 +352,53 @@ def section_trainlm(sources, folder, quick):
               f"| {row['weights_sha256']} |")
 
 
-SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm}
+# -- harmonic analysis ------------------------------------------------------------------------
+
+HARMONICS_WORKER = """\
+import json, sys, time
+import numpy as np
+from encal.models.fourier import fit_fourier
+from encal.profile import harmonics
+n = int(sys.argv[1])
+rng = np.random.default_rng(0)
+theta = (np.arange(n) + rng.uniform(-0.3, 0.3, n)) * (360.0 / n)  # a real grid: jittered, not uniform
+r = np.radians(theta)
+error = 3 * np.sin(r + 0.3) + 1.5 * np.cos(2 * r) + 0.4 * np.sin(17 * r) + rng.normal(0.0, 0.05, n)
+out = {}
+for name, run in (("harmonics K=100", lambda: harmonics(theta, error, 100)),
+                  ("harmonics K=1000", lambda: harmonics(theta, error, 1000)),
+                  ("fit_fourier (default)", lambda: fit_fourier(theta, error))):
+    best = np.inf
+    for _ in range(2):
+        start = time.process_time()
+        run()
+        best = min(best, time.process_time() - start)
+    out[name] = best
+print(json.dumps(out))
+"""
+
+
+def section_harmonics(sources, folder, quick):
+    import json
+
+    n = 10**4 if quick else 10**5
+    print(f"\n### harmonic analysis of {n} jittered angles: CPU seconds\n")
+    best = {}
+    for _ in range(2):
+        for label, source in sources.items():
+            out = json.loads(run_with(source, sys.executable, "-c", HARMONICS_WORKER, str(n)).stdout)
+            best[label] = {key: min(value, best.get(label, {}).get(key, np.inf)) for key, value in out.items()}
+    labels = list(sources)
+    print("| computation | " + " | ".join(f"{label} s" for label in labels)
+          + (" | before / after |" if len(labels) == 2 else " |"))
+    print("|---|" + "---|" * (len(labels) + (len(labels) == 2)))
+    for name in best["after"]:
+        ratio = f" | {best['before'][name] / best['after'][name]:.1f}" if len(labels) == 2 else ""
+        print(f"| {name} | " + " | ".join(f"{best[label][name]:.3f}" for label in labels) + ratio + " |")
+
+
+SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm,
+            "harmonics": section_harmonics}
 
 
 def main():

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from ._trigsums import trig_moments
 from .angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .errors import InputError
 
@@ -1101,14 +1102,28 @@ def _series_by_normal_equations(theta_deg, error_arcmin, max_order, grid):
     return cos_arcmin, sin_arcmin
 
 
+#: Above this many terms (points times moments) the trigonometric sums of the normal equations come
+#: from the non-uniform FFT of :mod:`encal._trigsums`; below it from the exact products, which are
+#: then as fast.
+_NUFFT_ABOVE = 2_000_000
+
+
 def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk=4096):
     """``s_m = Σ_i e^{imθ_i}`` for m < n_moments and ``r_j = Σ_i ε_i e^{-ijθ_i}`` for j < n_projections.
+
+    Large sums (more than ``_NUFFT_ABOVE`` terms) are computed by the non-uniform FFT,
+    O(n + M log M). Otherwise:
 
     With ``m = pB + q`` and ``B ≈ √M``, ``e^{imθ} = e^{ipBθ} e^{iqθ}``, so the
     sums are products of an ``(M/B, n)`` and an ``(n, B)`` matrix: O(n M)
     multiply-adds in BLAS, O(n √M) exponentials. Points go in chunks of
     ``chunk`` to bound the memory.
     """
+    if theta_rad.size * n_moments > _NUFFT_ABOVE:
+        # O(n + M log M) by the Taylor-expanded non-uniform FFT, to about 1e-14 of Σ|weights|
+        moments = trig_moments(theta_rad, np.ones(theta_rad.size), n_moments - 1)
+        projections = np.conj(trig_moments(theta_rad, error_arcmin, n_projections - 1))
+        return moments, projections
     block = int(np.ceil(np.sqrt(n_moments)))
     coarse = np.arange(-(-n_moments // block)) * block
     fine = np.arange(block)
