@@ -397,8 +397,48 @@ def section_harmonics(sources, folder, quick):
         print(f"| {name} | " + " | ".join(f"{best[label][name]:.3f}" for label in labels) + ratio + " |")
 
 
+# -- encal demo -------------------------------------------------------------------------------
+
+def section_demo(sources, folder, quick):
+    import resource
+    import time
+
+    option = ["--quick"] if quick else []
+    print(f"\n### `encal demo {' '.join(option)}`: wall and CPU seconds (the process and its workers)\n")
+    rows = {}
+    for label, source in sources.items():
+        out = folder / f"demo-{label}"
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        printed = run_with(source, sys.executable, "-m", "encal", "demo", *option, "--no-progress",
+                           "--out", str(out)).stdout
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+        rows[label] = (wall, cpu, printed, out)
+    print("| | wall s | CPU s |")
+    print("|---|---|---|")
+    for label, (wall, cpu, _, _) in rows.items():
+        print(f"| {label} | {wall:.1f} | {cpu:.1f} |")
+    if len(rows) == 2:
+        (_, _, printed_a, out_a), (_, _, printed_b, out_b) = rows.values()
+        tables = sorted(p.name for p in (out_a / "tables").glob("*.csv"))
+        same = [name for name in tables if _without_times(out_a / "tables" / name)
+                == _without_times(out_b / "tables" / name)]
+        print(f"\nCSV tables identical before and after (but for their CPU-time column): "
+              f"{len(same)} of {len(tables)}"
+              + ("" if len(same) == len(tables) else f" (differ: {sorted(set(tables) - set(same))})"))
+
+
+def _without_times(path):
+    """The rows of a CSV table without its ``cpu_s`` column (a measured time, never the same twice)."""
+    rows = [line.split(",") for line in path.read_text().splitlines()]
+    keep = [i for i, name in enumerate(rows[0]) if name != "cpu_s"] if rows else []
+    return [[row[i] for i in keep if i < len(row)] for row in rows]
+
+
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm,
-            "harmonics": section_harmonics}
+            "harmonics": section_harmonics, "demo": section_demo}
 
 
 def main():
