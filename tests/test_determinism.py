@@ -158,13 +158,21 @@ for key in t.METHODS:
 @pytest.fixture(scope="module")
 def two_processes(calibration_path, tmp_path_factory):
     """The folders of model files written by two processes with different hash seeds (every method)."""
-    folders = []
-    for hash_seed in ("1", "2"):
+    folders, processes = [], []
+    for hash_seed in ("1", "2"):  # side by side: the two processes share nothing
         folder = tmp_path_factory.mktemp(f"process{hash_seed}")
         env = dict(os.environ, PYTHONHASHSEED=hash_seed)
-        subprocess.run([sys.executable, "-c", _FIT_ALL, str(calibration_path), str(folder),
-                        str(Path(__file__).parent)], env=env, check=True, timeout=300)
+        processes.append(subprocess.Popen([sys.executable, "-c", _FIT_ALL, str(calibration_path), str(folder),
+                                           str(Path(__file__).parent)], env=env))
         folders.append(folder)
+    try:
+        for process in processes:
+            assert process.wait(timeout=300) == 0
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
     return folders
 
 
