@@ -437,8 +437,50 @@ def _without_times(path):
     return [[row[i] for i in keep if i < len(row)] for row in rows]
 
 
+# -- encal correct ---------------------------------------------------------------------------
+
+PLAIN_SCRIPT = """\
+import sys
+import numpy as np
+from encal.deploy import Compensator
+compensator = Compensator(sys.argv[1])
+with open(sys.argv[2], "rb") as handle:
+    values = np.array(handle.read().split(), dtype=float)
+sys.stdout.write("\\n".join(map(repr, compensator.correct(values).tolist())) + "\\n")
+"""
+
+
+def section_stream(sources, folder, quick):
+    import resource
+
+    n = 10**5 if quick else 10**6
+    lines = folder / "angles.txt"
+    angles = np.random.default_rng(1).uniform(0.0, 360.0, n)
+    lines.write_text("".join(f"{a!r}\n" for a in angles.tolist()))
+    model = DATA / "model_v1_fourier.json"
+    print(f"\n### `encal correct` on a file of {n} angles (fourier model): lines per CPU second, "
+          "start-up included\n")
+    commands = {f"encal correct ({label})": (source, [sys.executable, "-m", "encal", "correct", str(model),
+                                                       str(lines)]) for label, source in sources.items()}
+    commands["plain NumPy script (read all, correct, repr)"] = (
+        sources["after"], [sys.executable, "-c", PLAIN_SCRIPT, str(model), str(lines)])
+    best = {name: np.inf for name in commands}
+    for _ in range(3):
+        for name, (source, command) in commands.items():
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            env = {**os.environ, "PYTHONPATH": str(source), "OPENBLAS_NUM_THREADS": "1"}
+            subprocess.run(command, env=env, check=True, stdout=subprocess.DEVNULL)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            best[name] = min(best[name], after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
+    peer = best["plain NumPy script (read all, correct, repr)"]
+    print("| command | CPU s | lines/s | / plain script |")
+    print("|---|---|---|---|")
+    for name, seconds in best.items():
+        print(f"| {name} | {seconds:.2f} | {n / seconds:.3g} | {seconds / peer:.2f} |")
+
+
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm,
-            "harmonics": section_harmonics, "demo": section_demo}
+            "harmonics": section_harmonics, "demo": section_demo, "stream": section_stream}
 
 
 def main():
