@@ -260,6 +260,7 @@ class NetworkProblem:
         self.input_scaling = None
         self.target_scaling = None
         self._last = (None, None, None)
+        self._slopes = None  # back-propagated slopes at the weights of self._last
         self._input_outer = None
         self._jacobian = None
 
@@ -306,6 +307,7 @@ class NetworkProblem:
             h = self._f(z, out=z)
             y = h @ W2 + b2
             self._last = (np.array(w, dtype=float, copy=True), h, y)
+            self._slopes = None
         return h, y
 
     def outputs(self, w):
@@ -320,7 +322,7 @@ class NetworkProblem:
         W2 = self.unpack(w)[2]
         N = self.hidden
         # d y / d b1_j = W2_j f'(z_j); d y / d W1_jk = that times input k.
-        d_hidden = self._slope(h) * W2
+        d_hidden = self._hidden_slopes(h, W2)
         # One Jacobian array per problem, refilled by every call (a training algorithm is done with
         # a Jacobian when it asks for the next one): no m x n allocation per epoch.
         if self._jacobian is None:
@@ -334,6 +336,13 @@ class NetworkProblem:
         J[:, -1] = 1.0
         return y - self.targets, J
 
+    def _hidden_slopes(self, h, W2):
+        """``f'(z) * W2`` (m × N) at the last forward pass, computed once for the Jacobian and ``J Jᵀ``."""
+        if self._slopes is None:
+            self._slopes = self._slope(h)
+            self._slopes *= W2
+        return self._slopes
+
     def jacobian_outer(self, w):
         """``J Jᵀ`` (m × m, lower triangle only), without forming J.
 
@@ -343,7 +352,7 @@ class NetworkProblem:
         Levenberg-Marquardt uses it when the network has more weights than points.
         """
         h, _ = self._forward(w)
-        d_hidden = self._slope(h) * self.unpack(w)[2]
+        d_hidden = self._hidden_slopes(h, self.unpack(w)[2])
         if self._input_outer is None:
             self._input_outer = self.inputs @ self.inputs.T + 1.0
         # C-ordered (m, N) arrays transposed are Fortran-ordered: BLAS reads them in place.
