@@ -183,3 +183,17 @@ def test_written_epoch_labels_holding_commas_read_back(tmp_path):
     back = read_calibration(path)
     assert set(back.epoch) == {"run 1, morning"}
     np.testing.assert_array_equal(back.encoder_deg, cal.encoder_deg)
+
+
+# ------------------------------------------------------------------ the self-calibration logs read the same dialect
+
+def test_selfcal_logs_read_quoted_names_and_refuse_a_decimal_comma(tmp_path):
+    from encal.selfcal._logfile import read_columns
+
+    path = tmp_path / "spin.csv"
+    path.write_text('"note, free",time_s,encoder_deg\n"a, b",0.0,10.5\n"c",0.001,11.0\n')
+    columns = read_columns(path, (("time_s", "seconds"), ("encoder_deg", "degrees")))
+    assert columns["encoder_deg"].tolist() == [10.5, 11.0]
+    path.write_text("time_s,encoder_deg\n0.0,10.5\n0.001,11,0\n")
+    with pytest.raises(InputError, match="line 3: has 3 fields, expected 2"):
+        read_columns(path, (("time_s", "seconds"), ("encoder_deg", "degrees")))

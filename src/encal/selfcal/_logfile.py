@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _csv
 from ..errors import InputError
 
 __all__ = ["read_columns"]
@@ -12,6 +13,15 @@ __all__ = ["read_columns"]
 def _fail(path, line, message, column=None):
     where = f"{path}, line {line}" + (f", column {column}" if column is not None else "")
     raise InputError(f"{where}: {message}")
+
+
+def _fields(path, number, line, lower=False):
+    """The fields of a line in encal's CSV dialect (:mod:`encal._csv`)."""
+    try:
+        cells = _csv.fields(line)
+    except _csv.QuotingError as exc:
+        _fail(path, number, str(exc))
+    return [cell.strip().lower() for cell in cells] if lower else cells
 
 
 def read_columns(path, required, optional=(), what="log", labels=()):
@@ -42,12 +52,12 @@ def read_columns(path, required, optional=(), what="log", labels=()):
         text = path.read_bytes().decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError(f"{path}: not UTF-8 text; expected a {what} CSV with columns {expected}") from None
-    records = [(number, line) for number, line in enumerate(text.splitlines(), start=1)
-               if line.strip() and not line.lstrip().startswith("#")]
+    records = [(number, line) for number, line in enumerate(_csv.split_lines(text), start=1)
+               if not _csv.is_skipped(line)]
     if not records:
         raise InputError(f"{path}: the file is empty; expected a header naming {expected} and rows of numbers")
     header_line, header = records[0]
-    names = [cell.strip().strip('"').lower() for cell in header.split(",")]
+    names = _fields(path, header_line, header, lower=True)
     missing = [name for name, _ in required if name not in names]
     if missing:
         _fail(path, header_line, f"the header lacks {' and '.join(missing)}; expected a {what} with columns "
@@ -56,9 +66,10 @@ def read_columns(path, required, optional=(), what="log", labels=()):
     text_columns = [name for name in labels if name in names]
     values = {name: [] for name, _ in numeric} | {name: [] for name in text_columns}
     for number, line in records[1:]:
-        cells = line.split(",")
-        if len(cells) < len(names):
-            _fail(path, number, f"has {len(cells)} fields, expected {len(names)} as in the header")
+        cells = _fields(path, number, line)
+        if len(cells) != len(names):  # more: a decimal comma in a cell, or a column without a name
+            _fail(path, number, f"has {len(cells)} fields, expected {len(names)} as in the header (encal's one CSV "
+                                "dialect: name every column)")
         for name, unit in numeric:
             column = names.index(name)
             try:
