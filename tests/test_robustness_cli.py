@@ -117,6 +117,8 @@ def _make_files(folder):
     cal = encal.read_calibration(paths["train"])
     model = encal.fit(cal, method="fourier")
     paths["model"] = model.save(folder / "model.json", reproducible=True)
+    ann_model = encal.fit(cal, method="ann", hidden=3, epochs=5, rng=0)
+    paths["ann_model"] = ann_model.save(folder / "ann_model.json", reproducible=True)
     text = paths["model"].read_text(encoding="utf-8")
     document = json.loads(text)
     newer = dict(document, version=runtime.VERSION + 1)
@@ -150,7 +152,92 @@ def _make_files(folder):
     paths["scratch"] = folder / "scratch"  # where the accepted commands write
     paths["out"].mkdir()
     paths["scratch"].mkdir()
+    _make_dialect_and_edited_files(folder, paths, good, document)
     return {key: str(path) for key, path in paths.items()}
+
+
+def _make_dialect_and_edited_files(folder, paths, good, document):
+    """The inputs of the CSV-dialect and re-signed-model cases (issue 17)."""
+    lines = good.splitlines()
+    header, rows = lines[0], lines[1:]
+
+    def csv(*parts):
+        return "\n".join(parts) + "\n"
+
+    bad_row = list(rows)
+    bad_row[97] = "194.0,194,031005859375"  # a decimal comma in one cell: line 99
+    texts = {
+        "quoted_header": csv('"time, s",reference_deg,encoder_deg,"temp, C"',
+                             *(f'"{i},5",{row},"20,0"' for i, row in enumerate(rows))),
+        "decimal_comma_cell": csv(header, *bad_row),
+        "trailing_comma": csv(header, *(row + "," for row in rows)),
+        "unbalanced_quote": csv(header, *rows[:10], '"20.0,20.01', *rows[11:]),
+        "text_after_quote": csv(header, *rows[:10], '"20.0"x,20.01', *rows[11:]),
+        "formfeed_comment": csv("# run\x0c2", header, *rows[:4], "8.0,oops", *rows[5:]),
+        "u2028_comment": csv("# run\u20282\u2029", header, *rows[:4], "8.0,oops", *rows[5:]),
+        "nel_comment": csv("# run\x852", header, *rows[:4], "8.0,oops", *rows[5:]),
+        "cr_only": "\r".join([header, *rows]) + "\r",
+        "crlf_bom": "\ufeff" + "\r\n".join([header, *rows]) + "\r\n",
+        "superscript_bits": csv("# resolution_bits: \u00b2", header, *rows),
+        "arabic_bits": csv("# resolution_bits: \u0661\u0666", header, *rows),
+        "repeated_rows": csv(header, *(row for row in rows[:120] for _ in range(3)), *rows[120:]),
+        "quoted_cells": csv("reference_deg,encoder_deg,note", *(f'{row},"say ""hi"", ok"' for row in rows)),
+        "spaced_names": csv('" Reference_Deg ", " ENCODER_DEG "', *rows),
+        "named_extra": csv("reference_deg,encoder_deg,whole,fraction", *(row + ",98,031" for row in rows)),
+        "stdin_quoted": csv('"time, s",encoder_deg,temp_C', "0.5,10.0,25.0", "1.0,20.0,26.0"),
+    }
+    for key, text in texts.items():
+        paths[key] = folder / f"{key}.csv"
+        paths[key].write_text(text, encoding="utf-8", newline="")
+    paths["constant_model"] = folder / "constant_model.json"
+    from encal.models.fourier import FourierModel
+
+    FourierModel([0], [30.0], [0.0]).save(paths["constant_model"], reproducible=True)  # corrects by -0.5 deg
+
+    def edited(key, change):
+        content = json.loads(json.dumps(document))
+        change(content)
+        content.pop("sha256", None)
+        paths[key] = folder / f"{key}.json"
+        paths[key].write_text(_resigned(content), encoding="utf-8")
+
+    ann = json.loads(Path(paths["ann_model"]).read_text(encoding="utf-8"))
+
+    def edited_ann(key, change):
+        content = json.loads(json.dumps(ann))
+        change(content)
+        content.pop("sha256", None)
+        paths[key] = folder / f"{key}.json"
+        paths[key].write_text(_resigned(content), encoding="utf-8")
+
+    def gain(name, value):
+        def change(d):
+            if name == "target_gain":
+                d["parameters"][name] = d["normalisation"][name] = value
+            else:
+                d["parameters"][name][0] = d["normalisation"][name][0] = value
+        return change
+
+    edited_ann("tiny_target_gain", gain("target_gain", 1e-300))
+    edited_ann("tiny_input_gain", gain("input_gain", -1e-300))
+    edited_ann("huge_int_b2", lambda d: d["parameters"].__setitem__("b2", 10**400))
+    edited_ann("huge_w1", lambda d: d["parameters"]["W1"][0].__setitem__(0, 1e101))
+    edited("huge_int_cos", lambda d: d["parameters"]["cos"].__setitem__(0, 10**400))
+    edited("huge_int_order", lambda d: d["parameters"]["orders"].__setitem__(0, 10**400))
+    edited("huge_int_bits", lambda d: d["encoder"].__setitem__("resolution_bits", 10**400))
+    edited("huge_int_version", lambda d: d.__setitem__("version", 10**400))
+    edited("sign_in_v1", lambda d: d.__setitem__("reading_sign", -1))
+    edited("sign_zero", lambda d: d.update(version=2, reading_sign=0))
+    edited("sign_text", lambda d: d.update(version=2, reading_sign="-1"))
+    edited("sign_missing_v2", lambda d: d.update(version=2))
+    edited("sign_float", lambda d: d.update(version=2, reading_sign=-1.0))
+    edited("sign_reversed_ok", lambda d: d.update(version=2, reading_sign=-1))
+    edited("tiny_grid_step", lambda d: d.__setitem__("uncertainty", {
+        "method": "given", "grid_step_deg": 1e-300, "model_std_arcmin": [0.1], "noise_std_arcmin": 0.1}))
+    edited("negative_noise", lambda d: d.__setitem__("uncertainty", {
+        "method": "given", "grid_step_deg": 180.0, "model_std_arcmin": [0.1, 0.1], "noise_std_arcmin": -0.1}))
+    paths["long_name"] = folder / "scratch" / ("m" * 245 + ".json")  # 250 characters: legal
+    paths["too_long_name"] = folder / "out" / ("m" * 256)
 
 
 # --------------------------------------------------------------------------- the catalogue
@@ -174,6 +261,7 @@ class Case:
     answers: int | None = None
     stdin: str = ""
     marks: tuple = field(default=(), compare=False)
+    env: tuple = ()  # (name, value) pairs set while the case runs
 
     @property
     def command(self):
@@ -424,10 +512,120 @@ CASES = [
     Case("selfcal-spin-no-output", ("selfcal", "spin", "{train}"), 2),
 ]
 
+# ---------------------------------------------------------------- issue 17: dialects, re-signed files, environments
+
+def _dialect_cases():
+    """CSV dialect cases for every command that reads a calibration (encal._csv: one dialect)."""
+    cases = []
+    for command, before, after in (("profile", (), ()), ("fit", (), ("-o", "{scratch}/d.json", "--method", "lut")),
+                                   ("evaluate", ("{model}",), ())):
+        refused = {
+            "decimal-comma-cell": ("decimal_comma_cell", ("line 99", "3 fields", "expected 2", "decimal comma")),
+            "trailing-comma": ("trailing_comma", ("line 2", "3 fields")),
+            "unbalanced-quote": ("unbalanced_quote", ("line 12", "not closed")),
+            "text-after-quote": ("text_after_quote", ("line 12", "closing quote")),
+            "formfeed-comment": ("formfeed_comment", ("line 7", "'oops'")),
+            "u2028-comment": ("u2028_comment", ("line 7", "'oops'")),
+            "nel-comment": ("nel_comment", ("line 7", "'oops'")),
+            "superscript-bits": ("superscript_bits", ("line 1", "resolution_bits")),
+        }
+        for name, (key, says) in refused.items():
+            cases.append(Case(f"{command}-{name}", (command, *before, f"{{{key}}}", *after), 1, says))
+        for key in ("quoted_header", "cr_only", "crlf_bom", "repeated_rows", "quoted_cells", "spaced_names",
+                    "named_extra"):
+            cases.append(Case(f"{command}-{key.replace('_', '-')}-accepted", (command, *before, f"{{{key}}}", *after),
+                              0))
+    cases.append(Case("profile-arabic-bits", ("profile", "{arabic_bits}"), 1, ("line 1", "resolution_bits")))
+    return cases
+
+
+def _edited_model_cases():
+    """Model files edited by hand and re-signed: every parameter's range is checked on load."""
+    refused = {
+        "tiny-target-gain": ("tiny_target_gain", "target_gain"),
+        "tiny-input-gain": ("tiny_input_gain", "input_gain"),
+        "huge-int-b2": ("huge_int_b2", "b2"),
+        "huge-w1": ("huge_w1", "W1"),
+        "huge-int-cos": ("huge_int_cos", "cos"),
+        "huge-int-order": ("huge_int_order", "orders"),
+        "huge-int-bits": ("huge_int_bits", "resolution_bits"),
+        "huge-int-version": ("huge_int_version", "upgrade"),
+        "sign-in-v1": ("sign_in_v1", "reading_sign"),
+        "sign-zero": ("sign_zero", "reading_sign"),
+        "sign-text": ("sign_text", "reading_sign"),
+        "sign-missing-v2": ("sign_missing_v2", "reading_sign"),
+        "sign-float": ("sign_float", "reading_sign"),
+        "tiny-grid-step": ("tiny_grid_step", "grid_step_deg"),
+        "negative-noise": ("negative_noise", "uncertaint"),
+    }
+    cases = []
+    for name, (key, word) in refused.items():
+        cases.append(Case(f"correct-{name}", ("correct", f"{{{key}}}", "{angles_ok}"), 1, (f"{key}.json", word),
+                          answers=0))
+    for name in ("tiny-target-gain", "huge-int-cos", "sign-zero"):
+        key = refused[name][0]
+        cases.append(Case(f"export-{name}", ("export", f"{{{key}}}", "--format", "table", "-o", "{out}/t.bin",
+                                             "--bits", "8"), 1, (f"{key}.json",)))
+        cases.append(Case(f"evaluate-{name}", ("evaluate", f"{{{key}}}", "{test}"), 1, (f"{key}.json",)))
+    cases.append(Case("correct-reversed-model-accepted", ("correct", "{sign_reversed_ok}", "{angles_ok}"), 0,
+                      answers=4))
+    return cases
+
+
+_BAD_EPOCHS = {"abc": "abc", "negative": "-99999999999", "float": "1e9", "huge": "99999999999999",
+               "empty": "", "fullwidth": "\uff11\uff12"}
+
+ISSUE17_CASES = [
+    *_dialect_cases(),
+    *_edited_model_cases(),
+    # encal correct reads the same dialect: the quoted header keeps the columns, the temperature is not corrected
+    Case("correct-quoted-header", ("correct", "{constant_model}", "{stdin_quoted}"), 0, prints=("9.5\n19.5",),
+         answers=2),
+    Case("correct-decimal-comma-on-stdin", ("correct", "{constant_model}"), 1, ("line 3", "3 fields"),
+         stdin="reference_deg,encoder_deg\n1.0,10.0\n98.0,98,031005859375\n", answers=1),
+    Case("correct-decimal-comma-skipped", ("correct", "{constant_model}", "--skip-bad"), 0, prints=("9.5\nnan",),
+         stdin="reference_deg,encoder_deg\n1.0,10.0\n98.0,98,031005859375\n", answers=2),
+    Case("correct-formfeed-comment", ("correct", "{constant_model}"), 1, ("line 3",),
+         stdin="# a\x0cb\n10\nx\n", answers=1),
+    Case("correct-u2028-comment", ("correct", "{constant_model}"), 1, ("line 3",),
+         stdin="# a\u2028b\n10\nx\n", answers=1),
+    Case("correct-cr-only", ("correct", "{constant_model}"), 0, prints=("9.5\n19.5\n",), stdin="10\r20\r",
+         answers=2),
+    Case("correct-unbalanced-quote", ("correct", "{constant_model}"), 1, ("line 2", "not closed"),
+         stdin='encoder_deg,note\n10,"x\n', answers=0),
+    # hostile environments
+    *(Case(f"{command}-source-date-epoch-{name}", (command, *argv), 1, ("SOURCE_DATE_EPOCH", repr(value)[1:-1][:8]),
+           env=(("SOURCE_DATE_EPOCH", value),))
+      for name, value in _BAD_EPOCHS.items()
+      for command, argv in (("profile", ("{train}",)), ("fit", ("{train}", "-o", "{out}/e.json", "--method", "lut")))),
+    Case("correct-source-date-epoch-abc", ("correct", "{model}", "{angles_ok}"), 1, ("SOURCE_DATE_EPOCH",),
+         env=(("SOURCE_DATE_EPOCH", "abc"),), answers=0),
+    Case("fit-source-date-epoch-accepted", ("fit", "{train}", "-o", "{scratch}/sde.json", "--method", "lut"), 0,
+         env=(("SOURCE_DATE_EPOCH", " 86400 "),)),
+    Case("profile-mplbackend-bogus", ("profile", "{train}"), 0, env=(("MPLBACKEND", "bogus"),)),
+    # sizes bounded by what runs
+    Case("fit-hidden-huge", ("fit", "{train}", "-o", "{out}/m.json", "--method", "ann", "--hidden", "1000000000"), 2),
+    Case("fit-epochs-huge", ("fit", "{train}", "-o", "{out}/m.json", "--method", "ann", "--epochs", "10000000"), 2),
+    Case("fit-n-orders-huge", ("fit", "{train}", "-o", "{out}/m.json", "--method", "fourier", "--n-orders",
+                               "40000"), 2),
+    Case("demo-encoders-huge", ("demo", "--encoders", "100000", "--out", "{out}/d"), 2),
+    Case("demo-workers-huge", ("demo", "--workers", "1000", "--out", "{out}/d"), 2),
+    Case("compare-epochs-huge", ("compare", "{train}", "{test}", "--epochs", "1000000000"), 2),
+    Case("study-seeds-huge", ("study", "sweep", "{train}", "--seeds", "100000"), 2),
+    Case("study-hidden-huge", ("study", "sweep", "{train}", "--hidden", "10,100000"), 1, ("--hidden", "1000")),
+    # output names and devices
+    Case("fit-250-character-name", ("fit", "{train}", "-o", "{long_name}", "--method", "lut"), 0),
+    Case("fit-256-character-name", ("fit", "{train}", "-o", "{too_long_name}", "--method", "lut"), 1,
+         ("256 bytes long",)),
+    Case("profile-dev-zero", ("profile", "/dev/zero"), 1, ("/dev/zero", "line 1", "NUL")),
+    Case("profile-repeated-rows-no-warning", ("profile", "{repeated_rows}"), 0, prints=("420 points",)),
+]
+CASES += ISSUE17_CASES
+
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
 _DRIVER = r'''
-import io, json, sys, traceback
+import io, json, os, sys, traceback
 from encal.cli import main
 
 cases = json.load(open(sys.argv[1], encoding="utf-8"))
@@ -437,6 +635,8 @@ for case in cases:
     stderr = io.StringIO()
     sys.stdin = io.TextIOWrapper(io.BytesIO(case["stdin"].encode("utf-8")), encoding="utf-8")
     sys.stdout, sys.stderr = stdout, stderr
+    saved = {name: os.environ.get(name) for name in case["env"]}
+    os.environ.update(case["env"])
     try:
         status = main(case["argv"])
     except SystemExit as exc:
@@ -446,6 +646,11 @@ for case in cases:
         status = "crashed"
     finally:
         sys.stdin, sys.stdout, sys.stderr = sys.__stdin__, sys.__stdout__, sys.__stderr__
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
     stdout.flush()
     results.append({"status": status, "stderr": stderr.getvalue(),
                     "stdout": stdout.buffer.getvalue().decode("utf-8", "replace")})
@@ -467,9 +672,10 @@ def files(tmp_path_factory):
 def outcomes(files, tmp_path_factory):
     """Run every case of the catalogue in one subprocess; {case id: result}."""
     work = tmp_path_factory.mktemp("driver")
-    request = [{"argv": _argv(case, files), "stdin": case.stdin} for case in CASES]
+    request = [{"argv": _argv(case, files), "stdin": case.stdin, "env": dict(case.env)} for case in CASES]
     (work / "cases.json").write_text(json.dumps(request), encoding="utf-8")
-    inputs = {key: Path(path).read_bytes() for key, path in files.items() if Path(path).is_file()}
+    inputs = {key: Path(path).read_bytes() for key, path in files.items()
+              if key != "too_long_name" and Path(path).is_file()}
     subprocess.run([sys.executable, "-c", _DRIVER, str(work / "cases.json"), str(work / "results.json")],
                    cwd=work, check=True, timeout=600)
     results = json.loads((work / "results.json").read_text(encoding="utf-8"))

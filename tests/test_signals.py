@@ -249,7 +249,8 @@ def test_a_malformed_source_date_epoch_is_one_sentence(calibration, tmp_path, va
     process = subprocess.run([*PYTHON, "profile", str(calibration)], capture_output=True, text=True,
                              env={**os.environ, "SOURCE_DATE_EPOCH": value}, timeout=120)
     assert process.returncode == 1
-    assert process.stderr.startswith("encal: error: expected SOURCE_DATE_EPOCH") and "Traceback" not in process.stderr
+    assert process.stderr.startswith("encal profile: error: expected SOURCE_DATE_EPOCH")
+    assert "Traceback" not in process.stderr
     assert process.stderr.count("\n") == 1
 
 
@@ -290,7 +291,7 @@ def test_ctrl_c_while_the_commands_are_imported(monkeypatch, capsys):
 
     monkeypatch.setattr(encal.cli, "build_parser", interrupted)
     assert main(["profile", "x.csv"]) == 130
-    assert capsys.readouterr().err == "encal: interrupted\n"
+    assert capsys.readouterr().err == "encal profile: interrupted\n"
 
 
 @pytest.mark.parametrize("device, why", [("/dev/zero", "NUL"), ("/dev/urandom", "UTF-8")])
@@ -344,3 +345,76 @@ def test_workers_exit_when_their_parent_is_killed(calibration, tmp_path):
     while any(map(_alive, workers)) and time.monotonic() < deadline:
         time.sleep(0.1)
     assert not any(map(_alive, workers)), "worker processes outlived their parent"
+
+
+# ------------------------------------------------------------------ the signal catalogue: any moment, one verdict
+
+def _files_under(folder):
+    return sorted(str(p.relative_to(folder)) for p in Path(folder).rglob("*") if p.is_file())
+
+
+#: (command line, what it writes) ; {cal} is a calibration, {out} a folder that starts empty
+_SIGNAL_COMMANDS = {
+    "fit-lut": (["fit", "{cal}", "-o", "{out}/m.json", "--method", "lut"], "file"),
+    "fit-ann": (["fit", "{cal}", "-o", "{out}/m.json", "--method", "ann", "--hidden", "20", "--epochs", "300",
+                 "--seed", "0"], "file"),
+    "simulate": (["simulate", "--encoders", "40", "--out", "{out}/sim"], "set"),
+    "export-c": (["export", "{model}", "--format", "c", "-o", "{out}/c", "--bits", "14"], "set"),
+    "export-table": (["export", "{model}", "--format", "table", "-o", "{out}/t.bin", "--bits", "20"], "file"),
+    "study-prune": (["study", "prune", "{cal}", "--hidden", "6", "--epochs", "50", "--out", "{out}/study",
+                     "--workers", "0"], "set"),
+}
+_SIGNAL_TABLE = [
+    ("fit-lut", signal.SIGTERM, 0.3), ("fit-lut", signal.SIGINT, 0.5), ("fit-lut", signal.SIGHUP, 0.7),
+    ("fit-ann", signal.SIGTERM, 0.6), ("fit-ann", signal.SIGINT, 0.9), ("fit-ann", signal.SIGHUP, 1.2),
+    ("simulate", signal.SIGTERM, 0.4), ("simulate", signal.SIGTERM, 0.8), ("simulate", signal.SIGINT, 1.1),
+    ("simulate", signal.SIGHUP, 1.5),
+    ("export-c", signal.SIGTERM, 0.5), ("export-c", signal.SIGINT, 0.8), ("export-c", signal.SIGHUP, 1.1),
+    ("export-table", signal.SIGTERM, 0.6), ("export-table", signal.SIGINT, 1.0),
+    ("study-prune", signal.SIGTERM, 0.7), ("study-prune", signal.SIGINT, 1.2), ("study-prune", signal.SIGHUP, 1.6),
+]
+
+
+@pytest.fixture(scope="module")
+def signal_inputs(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("signal_inputs")
+    (folder / "cal.csv").write_text(grid_csv())
+    main(["fit", str(folder / "cal.csv"), "-o", str(folder / "model.json"), "--method", "fourier"])
+    return folder
+
+
+@pytest.mark.parametrize("name, signum, delay_s", _SIGNAL_TABLE,
+                         ids=[f"{n}-{signal.Signals(s).name}-{d}s" for n, s, d in _SIGNAL_TABLE])
+def test_a_signal_at_any_moment_leaves_all_or_nothing(signal_inputs, tmp_path, name, signum, delay_s):
+    """Whenever the signal lands (before, during or after the work), the command exits with the signal's
+    status (or 0 when it had finished), says one line, and leaves no temporary file and no part of a set."""
+    argv, writes = _SIGNAL_COMMANDS[name]
+    out = tmp_path / "out"
+    out.mkdir()
+    argv = [part.format(cal=signal_inputs / "cal.csv", model=signal_inputs / "model.json", out=out) for part in argv]
+    with subprocess.Popen([*PYTHON, *argv], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE) as process:
+        time.sleep(delay_s)
+        process.send_signal(signum)
+        stderr = process.stderr.read().decode()
+        status = process.wait(timeout=300)
+    assert "Traceback" not in stderr
+    assert status in (0, 128 + signum), (status, stderr)
+    if status != 0:
+        assert stderr.strip().splitlines()[-1].endswith(("terminated", "interrupted", "hung up")), stderr
+    assert _temporaries(out) == []
+    written = _files_under(out)
+    if status == 0 or writes == "file":
+        reference = tmp_path / "reference"
+        reference.mkdir()
+        complete = argv[:]
+        complete = [part.replace(str(out), str(reference)) for part in complete]
+        assert main(complete) == 0
+        expected = _files_under(reference)
+        assert written in ([], expected), written
+        if status == 0:
+            assert written == expected
+    else:  # a stopped set: nothing of it, or all of it if the signal came during the final renames
+        reference = tmp_path / "reference"
+        reference.mkdir()
+        assert main([part.replace(str(out), str(reference)) for part in argv]) == 0
+        assert written in ([], _files_under(reference)), written

@@ -19,7 +19,7 @@ from pathlib import Path
 from ._signals import held
 from .errors import InputError
 
-__all__ = ["atomic_write", "atomic_open", "atomic_file_set", "staged_path"]
+__all__ = ["atomic_write", "atomic_open", "atomic_file_set", "staged_path", "check_name_length"]
 
 #: (temporary path, destination) pairs of the innermost open file set, or None.
 _PENDING = contextvars.ContextVar("encal_pending_renames", default=None)
@@ -96,7 +96,7 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
     A symbolic link is followed: the file it points to is replaced, and the link stays.
     """
     given = Path(path)
-    _check_name_length(given)
+    check_name_length(given)
     path = _destination(given)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
@@ -141,7 +141,8 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
         raise
 
 
-def _check_name_length(path):
+def check_name_length(path):
+    """Refuse, with :class:`InputError`, a file name longer than its file system holds."""
     folder = path.parent if str(path.parent) else Path(".")
     longest = _longest_name(folder if folder.is_dir() else Path("."))
     size = len(os.fsencode(path.name))

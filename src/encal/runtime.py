@@ -272,10 +272,10 @@ def check_uncertainty(uncertainty, where, field="uncertainty"):
         raise ModelFileError(f"{where}: expected {field} to hold {', '.join(_UNCERTAINTY_FIELDS)}, "
                              f"but {_listed(missing)} missing")
     step = uncertainty["grid_step_deg"]
-    size = round(360.0 / step) if _is_number(step) and step > 0 else 0
+    size = round(360.0 / step) if _is_number(step) and step >= 360.0 / MAX_UNCERTAINTY_GRID else 0
     if size < 1 or abs(size * step - 360.0) >= 1e-9:
-        raise ModelFileError(f"{where}: expected {field}.grid_step_deg to divide 360 degrees, "
-                             f"got {_describe(step)}")
+        raise ModelFileError(f"{where}: expected {field}.grid_step_deg to divide 360 degrees into at most "
+                             f"{MAX_UNCERTAINTY_GRID} steps, got {_describe(step)}")
     table = uncertainty["model_std_arcmin"]
     _require_numbers(table, size, where, f"{field}.model_std_arcmin")
     noise = uncertainty["noise_std_arcmin"]
@@ -413,6 +413,10 @@ def _lookup(choices, value):
 def _is_int(value):
     return isinstance(value, int) and not isinstance(value, bool)
 
+
+#: Most angles of an uncertainty grid (a step of 0.08 arc-seconds): a re-signed step of 1e-300 degrees
+#: would otherwise ask for a table of 3.6e302 values.
+MAX_UNCERTAINTY_GRID = 1 << 24
 
 #: Largest Fourier order: the highest a C ``int`` holds on every platform (C99 guarantees 16 bits), and
 #: beyond the Nyquist order of any calibration of fewer than 65,536 points.

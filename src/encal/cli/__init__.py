@@ -59,6 +59,19 @@ def build_parser():
 
 def main(argv=None):
     """Run the command line; returns the exit status."""
+    status = _main(argv)
+    if status == 130 and argv is None:
+        # Ctrl-C caught while a library ran Python code through PyRun_String (NumPy's import does) leaves
+        # CPython's "unhandled KeyboardInterrupt" flag set, and the interpreter would then kill itself with
+        # SIGINT at exit instead of returning 130. The command has cleaned up: end the process here.
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        os._exit(130)
+    return status
+
+
+def _main(argv):
     command = None
     restore = _signals.install()
     stderr = sys.stderr
@@ -70,6 +83,7 @@ def main(argv=None):
         _prepare_process()
         from ._common import check_environment, output_that_may_close, warnings_as_lines
 
+        command = _named_command(sys.argv[1:] if argv is None else argv)
         check_environment()
         parser = build_parser()
         args, extras = parser.parse_known_args(argv)
@@ -104,6 +118,13 @@ def main(argv=None):
         if stderr is None:
             sys.stderr.close()
             sys.stderr = None
+
+
+def _named_command(argv):
+    """The command ``argv`` names (its first word that is a command's name), or None; for messages
+    given before the commands are imported."""
+    names = {m.name[4:] for m in pkgutil.iter_modules(__path__) if m.name.startswith("cmd_")}
+    return next((word for word in argv if isinstance(word, str) and word in names), None)
 
 
 def _prefix(command):

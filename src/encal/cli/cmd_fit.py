@@ -123,9 +123,11 @@ def _check_output(output, calibration):
     """Refuse an output path that cannot be written, before a fit that may take minutes."""
     from pathlib import Path
 
+    from .._atomic import check_name_length
     from ..errors import InputError
 
     path = Path(output)
+    check_name_length(path)
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         raise InputError(f"cannot write {path}: the folder {folder} does not exist")
