@@ -200,6 +200,21 @@ def test_study_out_finishes_its_files_when_stdout_closes_early(calibration, tmp_
     assert _temporaries(out) == []
 
 
+@pytest.mark.slow
+def test_demo_finishes_its_files_when_the_reader_takes_ten_bytes(tmp_path):
+    """`encal demo --quick --out D | head -c 10` exited 0 with nothing written."""
+    out = tmp_path / "demo"
+    with subprocess.Popen([*PYTHON, "demo", "--quick", "--out", str(out), "--no-progress", "--encoders", "1"],
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE) as process:
+        first = process.stdout.read(10)
+        process.stdout.close()
+        stderr = process.stderr.read().decode()
+        assert process.wait(timeout=600) == 0, stderr
+    assert len(first) == 10 and "Traceback" not in stderr
+    assert (out / "report.html").is_file() and any(out.glob("*.json"))
+    assert _temporaries(out) == []
+
+
 def test_profile_exits_quietly_when_stdout_closes_early(calibration):
     with subprocess.Popen([*PYTHON, "profile", str(calibration)], stdout=subprocess.PIPE,
                           stderr=subprocess.PIPE) as process:
