@@ -58,7 +58,14 @@ def build_parser():
 
 
 def main(argv=None):
-    """Run the command line; returns the exit status."""
+    """Run the command line; returns the exit status.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; None reads ``sys.argv`` as the ``encal`` program does, and then a command
+        stopped by Ctrl-C ends the process itself with status 130 (see the comment below).
+    """
     status = _main(argv)
     if status == 130 and argv is None:
         # Ctrl-C caught while a library ran Python code through PyRun_String (NumPy's import does) leaves
