@@ -344,3 +344,16 @@ def test_a_multi_revolution_log_is_read_as_repeated_readings(tmp_path):
                          np.r_[line_profile(GRID), line_profile(GRID) + 1])
     with pytest.raises(encal.errors.CalibrationError, match="appears more than once"):
         encal.read_calibration(shuffled)
+
+
+def test_a_lookup_table_of_a_dense_sweep_is_binned():
+    from encal.models.lut import DENSE_ENTRIES, fit_lut
+
+    rng = np.random.default_rng(12)
+    theta = np.sort(rng.uniform(0.0, 360.0, 50_000))
+    error = line_profile(theta) + rng.normal(0.0, 0.1, theta.size)
+    model = fit_lut(theta, error)
+    assert model.training["n_entries"] == DENSE_ENTRIES and model.training["binned_from_angles"] == 50_000
+    test = np.linspace(0.0, 360.0, 997, endpoint=False)
+    assert rms(model.predict(test) - line_profile(test)) < 0.04  # about 12 readings averaged per entry
+    assert fit_lut(theta[:300], error[:300]).training["n_entries"] == 300

@@ -77,6 +77,14 @@ _APPLIES_TO = {
 }
 
 
+#: Calibrations of at least this many readings get a progress bar (their fit takes seconds).
+_PROGRESS_ROWS = 50_000
+
+
+def _cv_options(options):
+    return any(name in options for name in ("folds", "stack", "use_grid"))
+
+
 def _positive_float(text):
     import argparse
     import math
@@ -227,7 +235,14 @@ def run(args):
         cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args))
     if args.seed is not None:
         options["rng"] = args.seed
-    model = fit(cal, method=args.method, **options)
+    if args.method in ("spectral", "auto") and len(cal) >= _PROGRESS_ROWS and not _cv_options(options):
+        from .._progress import Progress
+        from ..models.spectral import STAGES
+
+        with Progress(STAGES, f"fitting {len(cal)} readings") as bar:
+            model = fit(cal, method=args.method, progress=bar.advance, **options)
+    else:
+        model = fit(cal, method=args.method, **options)
     fitted = evaluate(model, cal, zero=args.zero)
     model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
     model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None

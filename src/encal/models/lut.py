@@ -124,7 +124,11 @@ class LookupTableModel(Model):
         return f"<LookupTableModel {self.interpolation} with {self.table_deg.size} entries for {name}>"
 
 
-def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear"):
+#: A table fitted to more distinct angles than this (a dense sweep) averages them in as many equal bins.
+DENSE_ENTRIES = 4096
+
+
+def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=DENSE_ENTRIES):
     """Build a lookup-table model from calibration points.
 
     Parameters
@@ -136,6 +140,11 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear"):
     interpolation : {'linear', 'cubic'}, default='linear'
         Periodic linear interpolation, or a periodic cubic spline
         (``scipy.interpolate.CubicSpline`` with ``bc_type='periodic'``).
+    max_entries : int or None, default=DENSE_ENTRIES
+        Most table entries. A dense sweep with more distinct angles is averaged in
+        ``max_entries`` equal bins of encoder angle (each entry the mean angle and mean error
+        of its readings): a table of 50,000 breaks through noisy readings follows their noise
+        and costs firmware memory for nothing. None keeps every distinct angle.
 
     Returns
     -------
@@ -160,7 +169,17 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear"):
             f"Got {interpolation!r} instead."
         )
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_lut")
+    if max_entries is not None and (isinstance(max_entries, bool) or not isinstance(max_entries, (int, np.integer))
+                                    or max_entries < 2):
+        raise InputError(f"The 'max_entries' parameter of fit_lut must be an int >= 2 or None. "
+                         f"Got {max_entries!r} instead.")
     angles, group = distinct_angles(theta)
+    binned_from = None
+    if max_entries is not None and angles.size > max_entries:
+        binned_from = int(angles.size)
+        group = np.minimum((theta * (max_entries / 360.0)).astype(int), max_entries - 1)
+        _, group = np.unique(group, return_inverse=True)
+        angles = np.bincount(group, weights=theta) / np.bincount(group)
     counts = np.bincount(group)
     values = np.bincount(group, weights=error) / counts
     if interpolation == "cubic":
@@ -172,6 +191,8 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear"):
     else:
         coefficients = CubicSpline(breaks, closed, bc_type="periodic").c
     training = {"interpolation": interpolation, "n_entries": int(angles.size)}
+    if binned_from is not None:
+        training["binned_from_angles"] = binned_from
     return LookupTableModel(breaks, coefficients, interpolation, training=training)
 
 

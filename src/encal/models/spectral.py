@@ -133,7 +133,7 @@ class SpectralModel(FourierModel):
         background = t["background"]
         text = [f"spectral model ({t['path']} path): orders 0..{t['max_order']} from {t['stops']} stops; "
                 f"background {background['amplitude_arcmin2']:.3g} nu^-{background['exponent']:.2f} arcmin^2; "
-                f"{len(lines)} line(s) admitted by more than {t['threshold_nats']:g} nats"
+                f"{len(lines)} line(s) admitted by more than {t['threshold_nats']:.3g} nats"
                 + (f": {shown}" if lines else "")]
         sigma = t["noise"]["std_arcmin"]
         text.append(f"noise: sigma {sigma:.4g} arcmin; prior: {t['prior']}")
@@ -300,7 +300,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         of readings at each node, else the Fourier-feature path. ``'features'`` forces the
         general path (for checks); ``'fft'`` refuses data it does not apply to.
     progress : callable, optional
-        Called once per round of the hyperparameter search.
+        Called with no argument after each of the fit's 3 stages (the design, the hyperparameters,
+        the posterior), for a progress bar (:class:`encal._progress.Progress` ``.advance``).
 
     Returns
     -------
@@ -368,8 +369,9 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
-    hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
-                                                progress=progress)
+    _advance(progress)
+    hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats)
+    _advance(progress)
 
     cos = np.zeros(highest + 1)
     sin = np.zeros(highest + 1)
@@ -401,7 +403,17 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         training["readings_resolution_bits"] = bits
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
     model.uncertainty = _posterior_std(design, post, highest, sigma)
+    _advance(progress)
     return model
+
+
+#: Stages after which fit_spectral calls ``progress``.
+STAGES = 3
+
+
+def _advance(progress):
+    if progress is not None:
+        progress()
 
 
 def _prior_text(source):
