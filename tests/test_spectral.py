@@ -357,3 +357,16 @@ def test_a_lookup_table_of_a_dense_sweep_is_binned():
     test = np.linspace(0.0, 360.0, 997, endpoint=False)
     assert rms(model.predict(test) - line_profile(test)) < 0.04  # about 12 readings averaged per entry
     assert fit_lut(theta[:300], error[:300]).training["n_entries"] == 300
+
+
+def test_two_passes_in_one_file_with_an_epoch_column_give_the_noise(tmp_path):
+    rng = np.random.default_rng(13)
+    rows = ["reference_deg,encoder_deg,epoch"]
+    for epoch in ("a", "b"):
+        error = line_profile(GRID) + rng.normal(0.0, 0.1, GRID.size)
+        rows += [f"{float(r)!r},{float((r + e / 60.0) % 360.0)!r},{epoch}" for r, e in zip(GRID, error)]
+    path = tmp_path / "passes.csv"
+    path.write_text("\n".join(rows) + "\n")
+    model = encal.fit(encal.read_calibration(path), method="spectral")
+    assert model.training["noise"]["source"] == "repeated readings"
+    assert model.training["noise"]["std_arcmin"] == pytest.approx(0.1, rel=0.2)
