@@ -110,3 +110,18 @@ def test_the_resolution_is_inferred_from_readings_on_a_2_to_the_b_grid(write_csv
     assert status == 0 and "14-bit encoder (inferred from the readings)" in out and "LSB" in out
     status, out, _ = run(capsys, "profile", path, "--json")
     assert json.loads(out)["resolution_bits"] == 14 and json.loads(out)["resolution_inferred"] is True
+
+
+def test_a_file_without_header_is_read_by_column_numbers(write_csv, capsys):
+    ref = np.arange(0.0, 360.0, 2.0)
+    rows = "".join(f"{i} {float(np.radians(r))!r} {float(np.radians(r + 0.05 * np.sin(np.radians(r))))!r}\n"
+                   for i, r in enumerate(ref.tolist()))
+    path = write_csv(rows, name="log.txt")
+    status, out, err = run(capsys, "profile", path, "--ref-col", "2", "--enc-col", "3", "--unit", "rad", "--json")
+    assert status == 0 and err == ""
+    record = json.loads(out)
+    assert record["n"] == 180
+    assert record["harmonics"][0]["order"] == 1
+    assert record["harmonics"][0]["amplitude_arcmin"] == pytest.approx(3.0, abs=1e-3)
+    status, _, err = run(capsys, "profile", path, "--ref-col", "2", "--enc-col", "9", "--unit", "rad")
+    assert status == 1 and "no column 9" in err and "1 to 3" in err
