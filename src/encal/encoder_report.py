@@ -444,7 +444,8 @@ def _reversal_section(report):
                   ["reverse (-1)", str(int(analysis.n_reverse.sum())), mean(analysis.mean_reverse_arcmin)]]
     heading = "mean deviation (arcmin)" + (" about the zero offset" if report.arbitrary_zero else "")
     return (_html.table(["direction", "points", heading], directions, "Points per direction")
-            + _html.table(["ISO 230-2 value", "arcmin"], rows, f"{analysis.target_deg.size} targets approached both ways"))
+            + _html.table(["ISO 230-2 value", "arcmin"], rows,
+                          f"{analysis.target_deg.size} targets approached both ways"))
 
 
 def _drift_section(report):

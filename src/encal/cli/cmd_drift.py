@@ -2,10 +2,10 @@
 
 The first file is the baseline; each later one is compared at the same shaft positions. When the reference's
 zero is arbitrary (--zero; by default when a calibration's zero offset, the circular mean of its error, exceeds
-1 degree) each calibration's offset is removed and the changes of offset are stated apart. A model of the first calibration (by default the
-paper's ten-harmonic Fourier series) still holds on a later one when its residual RMS there exceeds its
-residual on the first by at most the tolerance: by default max(1 LSB, 10 %). The verdict is data: the exit
-status is 0 whether the model holds or not, 1 on bad input.
+1 degree) each calibration's offset is removed and the changes of offset are stated apart. A model of the
+first calibration (by default the paper's ten-harmonic Fourier series) still holds on a later one when its
+residual RMS there exceeds its residual on the first by at most the tolerance: by default max(1 LSB, 10 %).
+The verdict is data: the exit status is 0 whether the model holds or not, 1 on bad input.
 
 Examples:
   encal drift enc1_train.csv enc1_epoch2.csv
