@@ -254,9 +254,12 @@ def test_few_points_of_a_constant_profile_give_that_constant_everywhere(constant
                          "Got 1000000000 instead.")),
     ({"epochs": 10**9}, ("The 'epochs' parameter of fit_ann must be an int from 1 to 1000000 (",
                          "Got 1000000000 instead.")),
-    ({"encoding": "sincos"}, "encoding must be one of 'periodic', 'raw'. Got 'sincos' instead."),
-    ({"activation": "relu"}, "activation must be one of 'logsig', 'tansig'. Got 'relu' instead."),
-    ({"rng": -1}, "rng must be None, an int >= 0 or a numpy.random.Generator. Got -1 instead."),
+    ({"encoding": "sincos"},
+     "The 'encoding' parameter of fit_ann must be one of 'periodic', 'raw'. Got 'sincos' instead."),
+    ({"activation": "relu"},
+     "The 'activation' parameter of fit_ann must be one of 'logsig', 'tansig'. Got 'relu' instead."),
+    ({"rng": -1}, "The 'rng' parameter of fit_ann must be None, an int >= 0 or a numpy.random.Generator. "
+                  "Got -1 instead."),
 ])
 def test_invalid_options_are_rejected_in_one_sentence(options, message):
     with pytest.raises(InputError) as info:
@@ -268,7 +271,7 @@ def test_invalid_options_are_rejected_in_one_sentence(options, message):
 
 
 def test_invalid_algorithm_and_data_are_rejected():
-    with pytest.raises(InputError, match="algorithm must be one of"):
+    with pytest.raises(InputError, match="The 'algorithm' parameter of fit_ann must be one of"):
         fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), algorithm="adam")
     with pytest.raises(InputError, match="one error per encoder angle"):
         fit_ann(TRAINING_GRID, np.zeros(3))

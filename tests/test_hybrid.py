@@ -152,8 +152,8 @@ def test_a_malformed_part_is_a_model_file_error(defect_model):
 
 @pytest.mark.parametrize("options, message", [
     ({"restarts": 0}, "'restarts' parameter of fit_hybrid"),
-    ({"rng": -1}, "rng must be"),
-    ({"hidden": 0}, "'hidden' parameter of fit_ann must be"),
+    ({"rng": -1}, "'rng' parameter of fit_hybrid must be None, an int >= 0"),
+    ({"hidden": 0}, "'hidden' parameter of fit_ann must be an int from 1 to 1000"),
     ({"n_orders": 0}, "n_orders"),
 ])
 def test_bad_options_are_refused(options, message):

@@ -6,11 +6,8 @@ matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
-from hypothesis import given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
 from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
-from numpy.testing import assert_allclose  # noqa: E402
 
 from encal import Calibration, harmonics  # noqa: E402
 from encal import plots  # noqa: E402
@@ -57,39 +54,6 @@ def studies(runs):
                               model=comparison.entry("fourier").model)
     return {"sweep": sweep, "algorithms": algorithms, "pruning": pruning, "comparison": comparison,
             "repeats": repeats}
-
-
-# --------------------------------------------------------------------------- smoothing spline
-
-
-def test_smoothing_spline_reproduces_a_noise_free_trigonometric_polynomial():
-    spline = plots.periodic_smoothing_spline(GRID, profile(GRID))
-    fine = np.linspace(0.0, 360.0, 721)
-    assert_allclose(spline(fine), profile(fine), atol=1e-4)
-
-
-@pytest.mark.parametrize("seed", range(5))
-def test_smoothing_spline_removes_noise(seed):
-    theta = np.r_[GRID, GRID + 1.0]
-    noisy = profile(theta) + np.random.default_rng(seed).normal(0, 0.2, theta.size)
-    spline = plots.periodic_smoothing_spline(theta, noisy)
-    error = np.sqrt(np.mean((spline(theta) - profile(theta)) ** 2))
-    assert error < 0.1  # half the noise RMS; typically a third of that
-    assert 5 < spline.edf < 100
-
-
-SPLINE = plots.periodic_smoothing_spline(GRID, profile(GRID) + np.cos(np.radians(GRID)) ** 7)
-
-
-@settings(max_examples=50, deadline=None)
-@given(theta=st.floats(-1e4, 1e4, allow_nan=False), turns=st.integers(-3, 3))
-def test_smoothing_spline_is_periodic(theta, turns):
-    assert_allclose(SPLINE(theta + 360.0 * turns), SPLINE(theta), atol=1e-9)
-
-
-def test_smoothing_spline_needs_enough_points():
-    with pytest.raises(InputError, match="at least 8 finite values"):
-        plots.periodic_smoothing_spline([0.0, 90.0], [1.0, 2.0])
 
 
 # --------------------------------------------------------------------------- axes-level plots

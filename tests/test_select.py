@@ -250,7 +250,8 @@ def test_a_generator_is_accepted_as_rng():
 
 @pytest.mark.parametrize("rng", [-1, True, 1.5, "0"])
 def test_an_invalid_rng_is_refused_in_one_sentence(rng):
-    with pytest.raises(InputError, match=rf"^rng must be None, an int >= 0 or a numpy.random.Generator. "
+    with pytest.raises(InputError, match=rf"^The 'rng' parameter of fit_auto must be None, an int >= 0 or a "
+                                         rf"numpy.random.Generator. "
                                          rf"Got {re.escape(repr(rng))} instead.$"):
         fit_auto(GRID, harmonic_profile(GRID), rng=rng, candidates=CLOSED_FORM)
 

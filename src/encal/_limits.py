@@ -7,9 +7,7 @@ command line checks them as it parses (exit status 2) and the library's entry po
 :func:`check_size` (an ``InputError``).
 """
 
-import numbers
-
-from .errors import InputError
+from .parameters import check_int
 
 __all__ = ["SIZE_LIMITS", "check_size", "size_message"]
 
@@ -47,7 +45,4 @@ def check_size(name, value, where, low=1):
         The function the parameter belongs to, for the message.
     """
     high, why = SIZE_LIMITS[name]
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or not low <= value <= high:
-        raise InputError(f"The '{name}' parameter of {where} must be an int from {low} to {high} ({why}). "
-                         f"Got {value!r} instead.")
-    return int(value)
+    return check_int(value, name, where, low=low, high=high, note=why)

@@ -33,6 +33,7 @@ from .profile import error_stats, zero_offset_arcmin
 
 __all__ = [
     "OFFSET_MODES",
+    "match_profile",
     "EpochDrift",
     "DriftReport",
     "compare_calibrations",
@@ -249,9 +250,26 @@ def _profile(cal, offset, base_offset_arcmin):
     return wrap360(cal.reference_deg + shift_deg), error
 
 
-def _match(angle_deg, value, at_deg):
-    """The profile ``(angle_deg, value)`` at ``at_deg``: the value of a point within MATCH_TOLERANCE_DEG,
-    else periodic linear interpolation. Also says whether any position needed interpolating."""
+def match_profile(angle_deg, value, at_deg, tolerance_deg=MATCH_TOLERANCE_DEG):
+    """A profile at other positions: how a later calibration is compared with an earlier one.
+
+    Parameters
+    ----------
+    angle_deg, value : ndarray of shape (n,)
+        The profile: positions (degrees) and values (arc-minutes).
+    at_deg : array-like of shape (m,)
+        Positions to read it at, degrees.
+    tolerance_deg : float, default=MATCH_TOLERANCE_DEG
+        A position within this distance of a point of the profile (round the circle) takes that point's
+        value; the nearest one, the lower on a tie.
+
+    Returns
+    -------
+    values : ndarray of shape (m,)
+        The profile at ``at_deg``: a matched point's value, else the periodic linear interpolation.
+    matched : ndarray of bool of shape (m,)
+        Which positions matched a point.
+    """
     order = np.argsort(angle_deg, kind="stable")
     grid, values = angle_deg[order], value[order]
     at = np.asarray(at_deg, dtype=float)
@@ -259,10 +277,10 @@ def _match(angle_deg, value, at_deg):
     candidates = np.stack([above - 1, above])  # index -1 wraps to the last point
     distance = np.abs(wrap180(at[None, :] - grid[candidates]))
     nearest = candidates[distance.argmin(axis=0), np.arange(at.size)]
-    matched = distance.min(axis=0) <= MATCH_TOLERANCE_DEG
+    matched = distance.min(axis=0) <= tolerance_deg
     result = np.interp(at, grid, values, period=360.0)
     result[matched] = values[nearest[matched]]
-    return result, bool(not np.all(matched))
+    return result, matched
 
 
 def _residual_rms(model, cal, offset):
@@ -414,7 +432,8 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
     for name, cal in zip(names[1:], runs[1:]):
         cal_offset = circular_mean_offset_arcmin(cal)
         angle, error = _profile(cal, offset, base_offset)
-        expected, interpolated = _match(base_angle, base_error, angle)
+        expected, matched = match_profile(base_angle, base_error, angle)
+        interpolated = bool(not np.all(matched))
         difference = error - expected
         residual = _residual_rms(model, cal, offset)
         increase = residual - baseline

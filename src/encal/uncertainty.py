@@ -32,10 +32,9 @@ How they are estimated (:func:`add_uncertainty`), with the same method and optio
    in their noise, and ``σ_noise² = mean(r_cv²) / (1 + g)``.
 
 ``σ_model`` is rescaled from ``s`` to ``σ_noise``. Why not cross-validation for every model: a network that
-nearly interpolates its points wiggles far more across the double gaps that cross-validation leaves (on the
-demo fleet its fold models miss the held-out points by 0.34–0.50 arcmin, against 0.13–0.17 for the full
-model between its points), so ``g`` is 7 to 20, ``σ_noise`` is a small remainder of two large, noisy terms,
-and it came out 2–23 % low (measured with MATLAB's 1000 epochs). The residual estimator needs no fold
+nearly interpolates its points wiggles far more across the double gaps that cross-validation leaves than
+between its points, so ``g`` is large, ``σ_noise`` is a small remainder of two large, noisy terms, and it
+comes out low (``docs/uncertainty.md`` gives the measurements). The residual estimator needs no fold
 models: its error is that of ``ν`` degrees of freedom, about ``1 / sqrt(2ν)`` relative, plus the spread of
 the seed average.
 
@@ -61,6 +60,7 @@ from .angles import ARCMIN_PER_DEG, model_input, wrap180
 from .bidirectional import direction_subset, has_both_directions, mean_calibration, require_directions, reversal
 from .calibration import Calibration
 from .errors import InputError
+from .parameters import check_int, check_number
 from .models import model_kind
 from .models.stored_uncertainty import check_uncertainty, grid_size, predictive_std
 from .models.validation import held_out_predictions, interleaved_folds
@@ -106,7 +106,7 @@ def expanded_uncertainty(model, theta_enc_deg, *, coverage_factor=2.0, **predict
     float or ndarray
         Arc-minutes, same shape as ``theta_enc_deg``.
     """
-    k = _positive(coverage_factor, "coverage_factor", "expanded_uncertainty")
+    k = check_number(coverage_factor, "coverage_factor", "expanded_uncertainty", low=0.0, low_open=True)
     _, std = model.predict(theta_enc_deg, return_std=True, **predict_options)
     return k * std
 
@@ -129,7 +129,7 @@ def coverage(model, cal, *, coverage_factor=2.0):
     float
         Between 0 and 1.
     """
-    k = _positive(coverage_factor, "coverage_factor", "coverage")
+    k = check_number(coverage_factor, "coverage_factor", "coverage", low=0.0, low_open=True)
     mean, std = model.predict(cal.readings_deg, return_std=True, direction=cal.direction)
     residual = _wrapped_arcmin(cal.errors_arcmin - mean)
     return float(np.mean(np.abs(residual) <= k * std))
@@ -247,7 +247,7 @@ def estimate_uncertainty(model, theta_enc_deg, error_arcmin, *, method=None, opt
     """
     theta = np.asarray(theta_enc_deg, dtype=float).reshape(-1)
     error = np.asarray(error_arcmin, dtype=float).reshape(-1)
-    n_boot = _count(n_boot, "n_boot", 2)
+    n_boot = check_int(n_boot, "n_boot", "add_uncertainty", low=2)
     fold = _folds(theta, n_folds)
     n_folds = int(fold.max()) + 1
     size = grid_size(grid_step_deg)
@@ -389,7 +389,7 @@ def cross_validated_residuals(theta_enc_deg, error_arcmin, method, *, options=No
 
 
 def _folds(theta, n_folds):
-    n_folds = _count(n_folds, "n_folds", 2)
+    n_folds = check_int(n_folds, "n_folds", "add_uncertainty", low=2)
     if n_folds > theta.size // 2:
         raise InputError(f"The 'n_folds' parameter must be at most half the number of calibration points "
                          f"({theta.size // 2}). Got {n_folds} instead.")
@@ -492,17 +492,3 @@ def recorded_options(model):
 
 def _wrapped_arcmin(error_arcmin):
     return wrap180(np.asarray(error_arcmin, dtype=float) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
-
-
-def _count(value, name, lowest):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lowest:
-        raise InputError(f"The '{name}' parameter must be an int >= {lowest}. "
-                         f"Got {value!r} instead.")
-    return int(value)
-
-
-def _positive(value, name, caller):
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.number)) or not value > 0 \
-            or not math.isfinite(value):
-        raise InputError(f"The '{name}' parameter of {caller} must be a finite number > 0. Got {value!r} instead.")
-    return float(value)

@@ -1,6 +1,6 @@
 """The paper's neural-network error model: a 1:N:1 network of the encoder angle.
 
-The network (:mod:`encal.training.network`) maps the encoder angle, encoded
+The network (:mod:`encal.numerics.network`) maps the encoder angle, encoded
 as ``'raw'`` degrees (the paper's; the model jumps where the angle wraps at
 0/360) or ``'periodic'`` ``(cos θ, sin θ)`` (continuous and periodic, the
 default), through mapminmax scaling, N sigmoid hidden neurons and a linear
@@ -9,17 +9,10 @@ output to the error in arc-minutes. Its parameters are stored exactly as
 export evaluate the same function.
 
 Default size: the paper's 1:80:1 for ``'raw'`` input. For ``'periodic'``
-input, 1:30:1, chosen by measurement (``benchmarks/bench_trainlm.py --sweep``,
-recorded in ``BENCHMARKS.md``, section "trainlm"): on four simulated encoders
-(3 seeds each, trainlm, test RMS on the interleaved 1, 3, ..., 359° grid) the
-error falls from 0.39' at N = 8 to 0.21' at N = 30 and stays there at 40 and
-80, while 80 neurons take two and a half times as long to train. The paper's raw
-1:80:1 reaches 0.30' on the same encoders.
-
-That sweep trained 1000 epochs (MATLAB's rule). With the default stop below,
-the same encoders give 0.214' at N = 30 (0.18 s per fit under load), 0.204' at
-N = 40 and 0.197' at N = 50 for 1.8 and 2.2 times the time; the paper's raw
-1:80:1 gives 0.225'.
+input, 1:30:1, chosen by measurement: past 30 neurons the test error of the
+simulated encoders stops falling while the training time keeps growing
+(``benchmarks/bench_trainlm.py --sweep``; the figures are in ``BENCHMARKS.md``,
+section "trainlm").
 
 Default stop (trainlm, no stopping parameter given): the paper's rule, stop
 when the RMS error has not fallen by 1 % over the last 20 epochs, within
@@ -33,16 +26,8 @@ import numpy as np
 from .._limits import check_size
 from ..errors import CalibrationError, InputError, ModelFileError
 from ..profile import profile_arrays
-from ..training import ALGORITHMS, train
-from ..training._registry import _STOPPING as STOPPING_PARAMETERS
-from ..training.network import (
-    ACTIVATIONS,
-    ENCODINGS,
-    MapMinMax,
-    NetworkProblem,
-    encode_angles,
-    pack_weights,
-)
+from ..numerics.network import ACTIVATIONS, ENCODINGS, MapMinMax, encode_angles, pack_weights
+from ..parameters import check_choice, check_seed
 from .base import Model
 
 __all__ = ["ANNModel", "fit_ann", "DEFAULT_HIDDEN", "DEFAULT_STOPPING"]
@@ -129,7 +114,7 @@ class ANNModel(Model):
 
     @property
     def weights(self):
-        """The flat weight vector (layout of :mod:`encal.training.network`)."""
+        """The flat weight vector (layout of :mod:`encal.numerics.network`)."""
         return pack_weights(self.W1, self.b1, self.W2, self.b2)
 
     def _predict(self, theta_deg):
@@ -202,22 +187,15 @@ def _scalar(value, name):
     return float(value)
 
 
-def _check_choice(name, value, choices):
-    if value not in choices:
-        raise InputError(f"{name} must be one of {', '.join(map(repr, sorted(choices)))}. "
-                         f"Got {value!r} instead.")
-
-
 def _seed_of(rng):
     """``(generator argument, seed to record)`` for ``rng`` = None, an int >= 0 or a Generator."""
+    rng = check_seed(rng, "rng", "fit_ann")
     if rng is None:
         seed = int(np.random.SeedSequence().generate_state(1)[0])
         return seed, seed
     if isinstance(rng, np.random.Generator):
         return rng, None
-    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and rng >= 0:
-        return int(rng), int(rng)
-    raise InputError(f"rng must be None, an int >= 0 or a numpy.random.Generator. Got {rng!r} instead.")
+    return rng, rng
 
 
 def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", encoding="periodic",
@@ -276,16 +254,11 @@ def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", en
     :func:`encal.training.train`); pass ``plateau_patience=None`` for MATLAB's rule unchanged.
     The other algorithms always default to MATLAB's rule.
 
-    Why: on the demo fleet (4 encoders × 3 seeds, test RMS on the interleaved grid) the rule
-    stopped the default 1:30:1 periodic network after 197–377 epochs, 3.5 times sooner than
-    1000 epochs, at 0.214' mean test RMS against 0.208'; it ended the paper's raw 1:80:1
-    network after 34–327 epochs at 0.225' against 0.495' (1000 epochs overfit it: 0.26–1.85'). On
-    four real Mechaduino calibrations (even rows, 100 points, for training; odd rows for the test)
-    the 1:30:1 network left a test RMS of 6.2–19.7' per file after 1000 epochs and 1.7–9.9' with
-    the rule (means of seeds 0–2). The same rule left the first-order algorithms (traingd,
-    traingdx, trainrp, trainscg, trainbfg, traincgf; two demo encoders × 2 seeds) 4–32 % less
-    accurate, as they still improve slowly when it fires, and did not change trainbr, which stops
-    early by its own criteria: they keep MATLAB's rule.
+    Why: the rule stops trainlm several times sooner than 1000 epochs at about the same test
+    error on the simulated encoders, and keeps the paper's raw 1:80:1 network and the networks of
+    real calibrations from overfitting; it makes the first-order algorithms less accurate (they
+    still improve slowly when it fires), so they keep MATLAB's rule. The measurements are in
+    ``BENCHMARKS.md``, sections "trainlm" and "vs scikit-learn".
 
     Examples
     --------
@@ -295,13 +268,15 @@ def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", en
     >>> bool(abs(model.predict(91.0) - (3.0 * np.sin(np.radians(91.0)) + np.cos(np.radians(273.0)))) < 0.01)
     True
     """
+    # The optimisers are loaded to train a network only: predicting with one needs the forward pass alone.
+    from ..training import ALGORITHMS, STOPPING_PARAMETERS, train
+    from ..training.network import NetworkProblem
+
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_ann")
-    _check_choice("encoding", encoding, ENCODINGS)
-    _check_choice("activation", activation, ACTIVATIONS)
-    _check_choice("algorithm", algorithm, ALGORITHMS)
-    if hidden is None:
-        hidden = DEFAULT_HIDDEN[encoding]
-    hidden = check_size("hidden", hidden, "fit_ann")
+    check_choice(encoding, "encoding", "fit_ann", sorted(ENCODINGS))
+    check_choice(activation, "activation", "fit_ann", sorted(ACTIVATIONS))
+    check_choice(algorithm, "algorithm", "fit_ann", sorted(ALGORITHMS))
+    hidden = check_size("hidden", DEFAULT_HIDDEN[encoding] if hidden is None else hidden, "fit_ann")
     if train_options.get("epochs") is not None:
         check_size("epochs", train_options["epochs"], "fit_ann")
     generator, seed = _seed_of(rng)

@@ -9,6 +9,7 @@ many of them to keep by cross-validation (``select='cv'``).
 import numpy as np
 
 from ..errors import InputError, ModelFileError
+from ..parameters import check_int
 from ..profile import (
     distinct_angles,
     fit_harmonic_series,
@@ -190,16 +191,16 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_fourier")
     nodes = _grid_nodes(theta, grid_points, "fit_fourier")
     stable = identifiable_order(theta) if nodes is None else nodes.size // 2
-    limit = stable if max_order is None else _check_count(max_order, "max_order", 0)
+    limit = stable if max_order is None else check_int(max_order, "max_order", "fit_fourier", low=0)
     if orders is not None:
         chosen = _check_orders(orders, None if max_order is None else limit)
         training = {"select": "explicit"}
     elif select == "top":
-        n_orders = _check_count(n_orders, "n_orders", 1)
+        n_orders = check_int(n_orders, "n_orders", "fit_fourier", low=1)
         chosen = rank_orders(theta, error, min(limit, stable), grid_deg=nodes, count=n_orders)
         training = {"select": "top", "n_orders": n_orders}
     elif select == "cv":
-        folds = _check_count(folds, "folds", 2)
+        folds = check_int(folds, "folds", "fit_fourier", low=2)
         counts, cv_rms, cv_se = cross_validate_order_count(theta, error, folds=folds, max_order=limit,
                                                            grid_points=grid_points)
         best = _one_standard_error_rule(cv_rms, cv_se, scale=np.sqrt(np.mean(error**2)))
@@ -259,11 +260,10 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     keeping too many; :func:`fit_fourier` offsets this with the
     one-standard-error rule. On a proper subset of a declared grid
     (``grid_points``) the ranking is a greedy forward selection among up to
-    ``N / 2`` orders, whose bias is far larger (on a 160-of-200-step subset
-    with 3 orders, a ±2 alternation and noise 0.05 it kept 15 to 41 orders),
-    so there each fold ranks its own training points. Ranking inside each
-    fold everywhere was measured worse where a profile has many harmonics
-    near the noise (demo fleet enc2: test RMS 0.173 → 0.206 arcmin).
+    ``N / 2`` orders, whose bias is far larger, so there each fold ranks its
+    own training points. Ranking inside each fold everywhere was measured
+    worse where a profile has many harmonics near the noise
+    (``docs/model-selection.md`` gives both figures).
 
     Parameters
     ----------
@@ -362,14 +362,6 @@ def _one_standard_error_rule(cv_rms, cv_se, scale):
     best = int(np.argmin(cv_rms))
     threshold = cv_rms[best] + max(cv_se[best], 1e-9 * scale)
     return int(np.flatnonzero(cv_rms <= threshold)[0])
-
-
-def _check_count(value, name, lowest):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lowest:
-        raise InputError(
-            f"The '{name}' parameter of fit_fourier must be an int >= {lowest}. Got {value!r} instead."
-        )
-    return int(value)
 
 
 def _check_orders(orders, limit):

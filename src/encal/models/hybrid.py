@@ -19,6 +19,7 @@ import numbers
 import numpy as np
 
 from ..errors import InputError, ModelFileError
+from ..parameters import invalid
 from ..profile import profile_arrays
 from .ann import ANNModel, fit_ann
 from .base import Model
@@ -98,8 +99,8 @@ def fit_hybrid(theta_enc_deg, error_arcmin, *, n_orders=10, hidden=8, algorithm=
         mostly local, so a short run suffices; it also bounds the time of an auto fit.
     restarts : int, default=3
         Train the network from this many random starts and keep the one that fits the residual
-        best. A small network on a local feature often stops in a poor local minimum (measured:
-        about one start in four on a 4-degree bump), and three starts cost little.
+        best. A small network on a local feature often stops in a poor local minimum
+        (docs/model-selection.md), and three starts cost little.
     rng : None, int >= 0 or numpy.random.Generator
         Seed of the network's initial weights; the same seed gives the same model. ``None``
         draws a seed and records it.
@@ -153,4 +154,4 @@ def _start_generators(rng, count):
         return [np.random.default_rng(s) for s in np.random.SeedSequence(int(rng)).spawn(count)], int(rng)
     if isinstance(rng, np.random.Generator):
         return [rng] * count, None
-    raise InputError(f"rng must be None, an int >= 0 or a numpy.random.Generator. Got {rng!r} instead.")
+    raise invalid("rng", "fit_hybrid", "None, an int >= 0 or a numpy.random.Generator", rng)

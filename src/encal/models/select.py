@@ -35,7 +35,6 @@ The CV table and the reason for the choice are kept in
 ``model.training['selection']``. See ``docs/model-selection.md``.
 """
 
-import numbers
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -43,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import EncalError, EncalWarning, InputError
+from ..parameters import check_bool, check_int, check_number, check_seed
 from ..profile import distinct_angles, profile_arrays, uniform_grid
 from .kind import kind_names, model_kind
 from .validation import held_out_predictions, interleaved_folds
@@ -144,12 +144,9 @@ class Candidate:
 #: The candidates of ``fit_auto`` when none are given: the paper's Fourier model and
 #: one whose order count is chosen by (inner) cross-validation, both lookup tables,
 #: the hybrid, and periodic-input networks of three sizes trained by trainlm for 100
-#: or 300 epochs. The epoch cap is early stopping: on the real calibrations of
-#: shared/data/real a 1:12:1 or 1:20:1 network trained for MATLAB's 1000 epochs
-#: cross-validates 2.4 to 6 times worse (geometric mean) than one stopped at 300 or 100,
-#: because it bends between the points to fit their noise; on simulated resolvers and
-#: local defects 300 is a little better than 100. Together the candidates take about
-#: 1.5 s of CPU for 180 points.
+#: or 300 epochs. The epoch cap is early stopping: a network trained for MATLAB's 1000
+#: epochs bends between the points to fit their noise and cross-validates several times
+#: worse on the real calibrations (docs/model-selection.md gives the figures and the cost).
 DEFAULT_CANDIDATES = (
     Candidate("fourier", {"select": "top", "n_orders": 10}),
     Candidate("fourier", {"select": "cv"}),
@@ -436,13 +433,10 @@ def _as_candidate(item):
 
 
 def _seed_sequence(rng):
+    rng = check_seed(rng, "rng", "fit_auto")
     if isinstance(rng, np.random.Generator):
         return np.random.SeedSequence(int(rng.integers(2**63)))
-    if rng is None:
-        return np.random.SeedSequence()
-    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and rng >= 0:
-        return np.random.SeedSequence(int(rng))
-    raise InputError(f"rng must be None, an int >= 0 or a numpy.random.Generator. Got {rng!r} instead.")
+    return np.random.SeedSequence(rng)
 
 
 def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=None, tolerance=0.01,
@@ -505,16 +499,11 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, folds=None, candidates=No
     most = max(distinct.size // MIN_POINTS_PER_FOLD, 2)
     if folds is None:
         folds = min(DEFAULT_FOLDS, most)
-    if isinstance(folds, bool) or not isinstance(folds, (int, np.integer)) or not 2 <= folds <= most:
-        raise InputError(f"The 'folds' parameter of fit_auto must be an int from 2 to {most} (at least "
-                         f"{MIN_POINTS_PER_FOLD} distinct encoder angles per fold). Got {folds!r} instead.")
-    if not isinstance(use_grid, bool):
-        raise InputError(f"The 'use_grid' parameter of fit_auto must be True or False. Got {use_grid!r} instead.")
-    if not isinstance(stack, bool):
-        raise InputError(f"The 'stack' parameter of fit_auto must be True or False. Got {stack!r} instead.")
-    if not (isinstance(tolerance, (int, float)) and 0.0 <= tolerance < 1.0):
-        raise InputError(f"The 'tolerance' parameter of fit_auto must be a float in [0, 1). "
-                         f"Got {tolerance!r} instead.")
+    folds = check_int(folds, "folds", "fit_auto", low=2, high=most,
+                      note=f"at least {MIN_POINTS_PER_FOLD} distinct encoder angles per fold")
+    use_grid = check_bool(use_grid, "use_grid", "fit_auto")
+    stack = check_bool(stack, "stack", "fit_auto")
+    tolerance = check_number(tolerance, "tolerance", "fit_auto", low=0.0, high=1.0, high_open=True)
     given = candidates
     candidates = tuple(_as_candidate(c) for c in (DEFAULT_CANDIDATES if candidates is None else candidates))
     if not candidates:

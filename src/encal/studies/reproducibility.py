@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..angles import lsb_arcmin
+from ..drift import match_profile
 from ..errors import InputError
 from ..fitting import evaluate, fit
 from ..profile import error_stats
@@ -103,7 +104,8 @@ def matched_difference(first, repeat, tolerance_deg=1e-3):
     """Error of ``repeat`` minus error of ``first`` at the reference angles both contain.
 
     Each point of ``repeat`` is paired with the point of ``first`` whose reference angle is nearest (round the
-    circle); pairs further apart than ``tolerance_deg`` are left out.
+    circle); pairs further apart than ``tolerance_deg`` are left out. The comparison is drift's
+    (:func:`encal.drift.match_profile`).
 
     Parameters
     ----------
@@ -130,21 +132,14 @@ def matched_difference(first, repeat, tolerance_deg=1e-3):
     >>> round(float(matched_difference(a, b)[1].max()), 9)
     1.0
     """
-    order = np.argsort(first.reference_deg)
-    angles = first.reference_deg[order]
-    errors = first.errors_arcmin[order]
     wanted = repeat.reference_deg
-    right = np.searchsorted(angles, wanted) % angles.size
-    left = (right - 1) % angles.size
-    gap = lambda index: np.abs((wanted - angles[index] + 180.0) % 360.0 - 180.0)  # noqa: E731
-    nearest = np.where(gap(left) <= gap(right), left, right)
-    paired = gap(nearest) <= tolerance_deg
+    expected, paired = match_profile(first.reference_deg, first.errors_arcmin, wanted, tolerance_deg)
     if np.count_nonzero(paired) < 8:
         raise InputError(f"the repeat calibration {repeat.name or ''!s} shares {np.count_nonzero(paired)} "
                          f"reference angles (within {tolerance_deg:g} deg) with the first one; expected at least "
                          "8 common angles to compare the profiles")
     reference = wanted[paired]
-    difference = repeat.errors_arcmin[paired] - errors[nearest[paired]]
+    difference = repeat.errors_arcmin[paired] - expected[paired]
     sort = np.argsort(reference)
     return reference[sort], difference[sort]
 

@@ -5,11 +5,11 @@ share one signature and one stopping monitor.
 """
 
 from ._objective import LinearLeastSquares, Objective
-from ._registry import ALGORITHMS, register_algorithm, train
+from ._registry import ALGORITHMS, STOPPING_PARAMETERS, register_algorithm, train
 from ._result import STOP_REASONS, TrainResult
 
 # Importing the back ends registers them.
 from . import _algorithms  # noqa: E402,F401
 
-__all__ = ["train", "ALGORITHMS", "register_algorithm", "TrainResult", "STOP_REASONS",
+__all__ = ["train", "ALGORITHMS", "STOPPING_PARAMETERS", "register_algorithm", "TrainResult", "STOP_REASONS",
            "Objective", "LinearLeastSquares"]

@@ -9,12 +9,13 @@ from ..errors import InputError
 from ._monitor import Monitor
 from ._result import TrainResult
 
-__all__ = ["ALGORITHMS", "register_algorithm", "train"]
+__all__ = ["ALGORITHMS", "STOPPING_PARAMETERS", "register_algorithm", "train"]
 
 #: name -> (back end, default stopping parameters)
 ALGORITHMS = {}
 
-_STOPPING = ("epochs", "goal", "min_grad", "max_fail", "time", "plateau_patience", "plateau_tol")
+#: The stopping parameters every algorithm takes (MATLAB's ``trainParam`` names, and the plateau rule).
+STOPPING_PARAMETERS = ("epochs", "goal", "min_grad", "max_fail", "time", "plateau_patience", "plateau_tol")
 
 
 def register_algorithm(name, **stopping_defaults):
@@ -93,7 +94,7 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
     backend, defaults = ALGORITHMS[algorithm]
     stopping = {"epochs": 1000, "goal": 0.0, "min_grad": 1e-7, "max_fail": 6, "time": math.inf}
     stopping.update(defaults)
-    for key in _STOPPING:
+    for key in STOPPING_PARAMETERS:
         if key in options:
             stopping[key] = options.pop(key)
     accepted = set(inspect.signature(backend).parameters) - {"problem", "x0", "monitor"}
@@ -101,7 +102,7 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
     if unknown:
         raise InputError(
             f"{algorithm} does not take the option(s) {', '.join(sorted(unknown))}; "
-            f"it takes: {', '.join(sorted(accepted | set(_STOPPING))) or 'none'}"
+            f"it takes: {', '.join(sorted(accepted | set(STOPPING_PARAMETERS))) or 'none'}"
         )
     if int(stopping["epochs"]) < 0:
         raise InputError(f"epochs must be an int >= 0. Got {stopping['epochs']} instead.")

@@ -1,0 +1,58 @@
+"""One message template for every bad parameter (encal.parameters)."""
+
+import numpy as np
+import pytest
+
+import encal
+from encal.errors import InputError
+from encal.parameters import check_bool, check_choice, check_int, check_number, check_seed, invalid
+
+GRID = np.arange(0.0, 360.0, 2.0)
+
+
+@pytest.mark.parametrize(("check", "value", "expected"), [
+    (lambda v: check_int(v, "hidden", "fit", low=1), 0, "an int >= 1"),
+    (lambda v: check_int(v, "hidden", "fit", low=1), True, "an int >= 1"),
+    (lambda v: check_int(v, "folds", "fit_auto", low=2, high=9, note="4 angles per fold"), 10,
+     "an int from 2 to 9 (4 angles per fold)"),
+    (lambda v: check_number(v, "tolerance", "fit_auto", low=0.0, high=1.0, high_open=True), 1.0,
+     "a finite number in [0, 1)"),
+    (lambda v: check_number(v, "k", "coverage", low=0.0, low_open=True), float("inf"), "a finite number > 0"),
+    (lambda v: check_choice(v, "interpolation", "fit_lut", ("linear", "cubic")), "spline",
+     "one of 'linear', 'cubic'"),
+    (lambda v: check_choice(v, "interpolation", "fit_lut", {"linear": 1}), ["linear"], "one of 'linear'"),
+    (lambda v: check_bool(v, "stack", "fit_auto"), 1, "True or False"),
+    (lambda v: check_seed(v, "rng", "fit"), -1, "None, an int >= 0 or a numpy.random.Generator"),
+])
+def test_every_check_says_parameter_function_expectation_and_value(check, value, expected):
+    with pytest.raises(InputError) as info:
+        check(value)
+    name, caller = str(info.value).split("'")[1], str(info.value).split(" parameter of ")[1].split(" ")[0]
+    assert str(info.value) == str(invalid(name, caller, expected, value))
+    assert str(info.value).endswith(f"Got {value!r} instead.")
+
+
+def test_good_values_come_back_in_the_form_the_caller_uses():
+    assert check_int(np.int64(3), "n", "f", low=1) == 3 and type(check_int(np.int64(3), "n", "f")) is int
+    assert check_number(np.float32(0.5), "x", "f", low=0.0) == 0.5
+    generator = np.random.default_rng(0)
+    assert check_seed(generator, "rng", "f") is generator and check_seed(None, "rng", "f") is None
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda cal: encal.fit(cal, method="ann", hidden=0),
+     "The 'hidden' parameter of fit_ann must be an int >= 1. Got 0 instead."),
+    (lambda cal: encal.fit(cal, method="auto", folds=1),
+     "The 'folds' parameter of fit_auto must be an int from 2 to 45 (at least 4 distinct encoder angles per "
+     "fold). Got 1 instead."),
+    (lambda cal: encal.fit(cal, method="fourier", n_orders=0),
+     "The 'n_orders' parameter of fit_fourier must be an int >= 1. Got 0 instead."),
+    (lambda cal: encal.fit(cal, method="spline"),
+     "The 'method' parameter of fit must be one of fourier, spectral, lut, hybrid, ann, stack, auto. "
+     "Got 'spline' instead."),
+])
+def test_public_entry_points_use_the_template(call, message):
+    cal = encal.Calibration(GRID, GRID + np.sin(np.radians(GRID)) / 60)
+    with pytest.raises(InputError) as info:
+        call(cal)
+    assert str(info.value) == message
