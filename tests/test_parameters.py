@@ -40,8 +40,8 @@ def test_good_values_come_back_in_the_form_the_caller_uses():
 
 
 @pytest.mark.parametrize(("call", "message"), [
-    (lambda cal: encal.fit(cal, method="ann", hidden=0),
-     "The 'hidden' parameter of fit_ann must be an int >= 1. Got 0 instead."),
+    (lambda cal: encal.fit(cal, method="ann", encoding="sincos"),
+     "The 'encoding' parameter of fit_ann must be one of 'periodic', 'raw'. Got 'sincos' instead."),
     (lambda cal: encal.fit(cal, method="auto", folds=1),
      "The 'folds' parameter of fit_auto must be an int from 2 to 45 (at least 4 distinct encoder angles per "
      "fold). Got 1 instead."),
