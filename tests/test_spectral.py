@@ -370,3 +370,14 @@ def test_two_passes_in_one_file_with_an_epoch_column_give_the_noise(tmp_path):
     model = encal.fit(encal.read_calibration(path), method="spectral")
     assert model.training["noise"]["source"] == "repeated readings"
     assert model.training["noise"]["std_arcmin"] == pytest.approx(0.1, rel=0.2)
+
+
+def test_cli_json_states_the_posterior_held_out_estimate(tmp_path, capsys):
+    import json
+
+    from encal.cli import main
+
+    path = write_run(tmp_path / "a.csv", GRID, line_profile(GRID) + np.random.default_rng(8).normal(0, 0.1, 180))
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--method", "spectral", "--json"]) == 0
+    note = json.loads(capsys.readouterr().out)["held_out_note"]
+    assert note.startswith("held-out estimate (posterior") and "arcmin after correction" in note

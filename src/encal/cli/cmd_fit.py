@@ -197,7 +197,9 @@ def _held_out_line(model, cal, method, options):
 
     selection = model.training.get("selection")
     if model.kind == "spectral":
-        return None  # in its report
+        expected = model.expected_rms_between_points()
+        return None if expected is None else (f"held-out estimate (posterior, readings at angles not "
+                                              f"calibrated): RMS {expected:.4g} arcmin after correction")
     if selection is not None and selection.get("scheme") == "evidence":
         row = next((r for r in selection["table"] if r["label"] == selection["chosen"]), None)
         return None if row is None else (f"held-out estimate: CV RMS {row['cv_rms_arcmin']:.4g} arcmin over "
@@ -270,7 +272,7 @@ def run(args):
     if model.kind == "directional":
         print(f"{cal.name}: both directions of travel, one {model.forward.kind} model per direction "
               "(the mean of both when a reading's direction is not known)")
-    if held_out:
+    if held_out and model.kind != "spectral":  # a spectral model's report states it
         print(held_out)
     print(_resolution_line(cal, model.encoder.get("resolution_bits")))
     shape = ""
