@@ -412,24 +412,20 @@ def test_a_signal_at_any_moment_leaves_all_or_nothing(signal_inputs, tmp_path, n
         process.send_signal(signum)
         stderr = process.stderr.read().decode()
         status = process.wait(timeout=300)
+    written = _files_under(out)
+    assert _temporaries(out) == []
+    if written:  # what the complete command writes, in a folder of its own
+        reference = tmp_path / "reference"
+        reference.mkdir()
+        assert main([part.replace(str(out), str(reference)) for part in argv]) == 0
+        assert written == _files_under(reference), "part of the output was left"
+    if status == -signum:
+        # The signal came while the interpreter was starting or ending (a loaded machine), outside encal's
+        # handlers: its default action ended the process, with nothing written or everything.
+        return
     assert "Traceback" not in stderr
     assert status in (0, 128 + signum), (status, stderr)
     if status != 0:
         assert stderr.strip().splitlines()[-1].endswith(("terminated", "interrupted", "hung up")), stderr
-    assert _temporaries(out) == []
-    written = _files_under(out)
-    if status == 0 or writes == "file":
-        reference = tmp_path / "reference"
-        reference.mkdir()
-        complete = argv[:]
-        complete = [part.replace(str(out), str(reference)) for part in complete]
-        assert main(complete) == 0
-        expected = _files_under(reference)
-        assert written in ([], expected), written
-        if status == 0:
-            assert written == expected
-    else:  # a stopped set: nothing of it, or all of it if the signal came during the final renames
-        reference = tmp_path / "reference"
-        reference.mkdir()
-        assert main([part.replace(str(out), str(reference)) for part in argv]) == 0
-        assert written in ([], _files_under(reference)), written
+    else:
+        assert written, "the command finished but wrote nothing"
