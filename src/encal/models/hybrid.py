@@ -18,8 +18,8 @@ import numbers
 
 import numpy as np
 
-from ..errors import InputError, ModelFileError
-from ..parameters import invalid
+from ..errors import ModelFileError
+from ..parameters import check_int, invalid
 from ..profile import profile_arrays
 from .ann import ANNModel, fit_ann
 from .base import Model
@@ -121,8 +121,7 @@ def fit_hybrid(theta_enc_deg, error_arcmin, *, n_orders=10, hidden=8, algorithm=
     True
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_hybrid")
-    if isinstance(restarts, bool) or not isinstance(restarts, numbers.Integral) or restarts < 1:
-        raise InputError(f"The 'restarts' parameter of fit_hybrid must be an int >= 1. Got {restarts!r} instead.")
+    restarts = check_int(restarts, "restarts", "fit_hybrid", low=1)
     fourier = fit_fourier(theta, error, n_orders=n_orders, select="top")
     residual = error - fourier.predict(theta)
     generators, seed = _start_generators(rng, restarts)

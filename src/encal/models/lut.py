@@ -11,6 +11,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline, PPoly
 
 from ..errors import InputError, ModelFileError
+from ..parameters import check_choice
 from ..profile import distinct_angles, profile_arrays
 from .base import Model
 
@@ -163,11 +164,7 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=
     >>> float(model.predict(90.0)), float(model.predict(0.0))
     (1.5, 0.25)
     """
-    if interpolation not in DEGREE:
-        raise InputError(
-            "The 'interpolation' parameter of fit_lut must be 'linear' or 'cubic'. "
-            f"Got {interpolation!r} instead."
-        )
+    check_choice(interpolation, "interpolation", "fit_lut", tuple(DEGREE))
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_lut")
     if max_entries is not None and (isinstance(max_entries, bool) or not isinstance(max_entries, (int, np.integer))
                                     or max_entries < 2):
