@@ -30,6 +30,22 @@ def _temporaries(folder):
     return sorted(p.name for p in Path(folder).rglob("*.tmp"))
 
 
+@pytest.fixture(autouse=True, scope="module")
+def stop_signals_not_ignored():
+    """These tests send SIGINT and SIGHUP, so they must arrive. A shell without job control starts a
+    background job with SIGINT ignored (POSIX), and a child inherits what is ignored: encal then rightly
+    keeps it ignored (as under ``nohup``) and finishes. Give this process, and so every child it starts,
+    the default actions for the length of the module."""
+    previous = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGHUP)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    if previous[signal.SIGHUP] == signal.SIG_IGN:
+        signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    yield
+    for signum, handler in previous.items():
+        if handler is not None:
+            signal.signal(signum, handler)
+
+
 @pytest.fixture
 def calibration(tmp_path):
     path = tmp_path / "cal.csv"
