@@ -178,3 +178,14 @@ def test_a_name_too_long_is_refused_with_the_right_reason(tmp_path):
     with pytest.raises(InputError, match="its name is 256 bytes long; expected at most 255"):
         atomic_write(path, "x")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_write_file_set_writes_every_file_or_none(tmp_path):
+    folder = tmp_path / "new" / "folder"
+    paths = atomic.write_file_set(folder, {"a.h": "header\n", "a.c": b"source\n"})
+    assert paths == [folder / "a.h", folder / "a.c"]
+    assert (folder / "a.h").read_text() == "header\n" and (folder / "a.c").read_bytes() == b"source\n"
+
+    with pytest.raises(TypeError):  # the second file fails while it is written, before any rename
+        atomic.write_file_set(tmp_path / "other", {"b.h": "1\n", "b.c": 3})
+    assert sorted(p.name for p in (tmp_path / "other").iterdir()) == []

@@ -19,7 +19,7 @@ from pathlib import Path
 from ._signals import held
 from .errors import InputError
 
-__all__ = ["atomic_write", "atomic_open", "atomic_file_set", "staged_path", "check_name_length"]
+__all__ = ["atomic_write", "atomic_open", "atomic_file_set", "write_file_set", "staged_path", "check_name_length"]
 
 #: (temporary path, destination) pairs of the innermost open file set, or None.
 _PENDING = contextvars.ContextVar("encal_pending_renames", default=None)
@@ -184,3 +184,27 @@ def atomic_write(path, data):
     mode = "wb" if isinstance(data, (bytes, bytearray)) else "w"
     with atomic_open(path, mode, newline="\n" if mode == "w" else None) as handle:
         handle.write(data)
+
+
+def write_file_set(directory, files):
+    """Write several files into ``directory`` as one set: all of them, or none.
+
+    Parameters
+    ----------
+    directory : str or os.PathLike
+        Destination folder; created when missing.
+    files : dict of str to (str or bytes)
+        File name -> content, as :func:`atomic_write` takes it.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The paths written, in the order of ``files``.
+    """
+    directory = Path(directory)
+    directory.mkdir(parents=True, exist_ok=True)
+    paths = [directory / name for name in files]
+    with atomic_file_set():
+        for path, data in zip(paths, files.values()):
+            atomic_write(path, data)
+    return paths

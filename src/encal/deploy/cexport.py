@@ -31,11 +31,10 @@ float32, at the end (at most 2^-16 degrees = 0.00092 arcmin near 360).
 import dataclasses
 import json
 import re
-from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_file_set, atomic_write
+from .._atomic import write_file_set
 from .._version import __version__
 from ..errors import InputError
 from ..models import model_kind
@@ -136,14 +135,7 @@ def write_c(model, directory, **options):
     :func:`encal._atomic.atomic_file_set`): both or neither.
     """
     files = export_c(model, **options)
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    with atomic_file_set():
-        for name, text in files.items():
-            paths.append(directory / name)
-            atomic_write(paths[-1], text)
-    return paths
+    return write_file_set(directory, files)
 
 
 def _check_identifier(prefix):

@@ -29,11 +29,10 @@ errors are those of the compiled code.
 """
 
 import math
-from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_file_set, atomic_write
+from .._atomic import write_file_set
 from ..errors import InputError
 from .cexport import _banner, _check_identifier, export_c
 from .choice import choose_deployment
@@ -147,14 +146,7 @@ def write_target(model, directory, target="host", **options):
         As :func:`export_target`.
     """
     files, summary = export_target(model, target, **options)
-    directory = Path(directory)
-    directory.mkdir(parents=True, exist_ok=True)
-    paths = []
-    with atomic_file_set():
-        for name, text in files.items():
-            paths.append(directory / name)
-            atomic_write(paths[-1], text)
-    return paths, summary
+    return write_file_set(directory, files), summary
 
 
 def describe(summary):
