@@ -2,6 +2,7 @@
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from encal.errors import InputError, ModelFileError
+from encal.errors import InputError, ModelFileError, TrainingLimitWarning
 from encal.models.ann import DEFAULT_HIDDEN, DEFAULT_STOPPING, ANNModel, fit_ann
 from encal.models import model_kind
 from encal.training import TrainResult, train
@@ -47,8 +48,19 @@ def raw_model():
 
 @pytest.mark.parametrize("seed", range(3))
 def test_smooth_periodic_profile_is_fitted_between_training_points(seed):
-    model = fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), hidden=12, rng=seed)
+    # A noise-free profile can still be improving at the default 1000 epochs, and then fit_ann says so
+    # (TrainingLimitWarning, tested in test_training_frontend.py); this test is about the accuracy reached.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", TrainingLimitWarning)
+        model = fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), hidden=12, rng=seed)
     assert rms(model.predict(TEST_GRID) - smooth_profile(TEST_GRID)) < 0.01
+
+
+def test_a_time_limit_stops_fit_ann_with_a_warning():
+    with pytest.warns(TrainingLimitWarning, match=r"^Training with trainlm stopped on its time limit of 0 s "
+                                                  r"after 0 epochs"):
+        model = fit_ann(TRAINING_GRID, smooth_profile(TRAINING_GRID), hidden=4, rng=0, time=0.0)
+    assert (model.training["stop_reason"], model.training["epochs"]) == ("time", 0)
 
 
 def test_default_hidden_depends_on_encoding():

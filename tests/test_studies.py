@@ -2,6 +2,7 @@
 
 import csv
 import io
+import warnings
 
 import numpy as np
 import pytest
@@ -11,7 +12,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from encal import Calibration, error_stats
 from encal.angles import lsb_arcmin
-from encal.errors import InputError
+from encal.errors import InputError, TrainingLimitWarning
 from encal.models.ann import ANNModel
 from encal.studies import (
     DEFAULT_MODELS,
@@ -209,6 +210,22 @@ def test_algorithm_table_fits_every_algorithm_from_the_same_weights(train, test)
     assert sorted(study.ranking()) == ["traingd", "trainlm", "trainrp"]
     text = study.table().to_text()
     assert "0.0083" in text and "Levenberg-Marquardt" in text
+
+
+def test_the_papers_fixed_epoch_studies_train_without_a_limit_warning(train):
+    # The sweep, Table 2 and the pruning study run a budget of epochs on purpose: the fits below stop on it
+    # while still improving, which without epochs= would be warned about (TrainingLimitWarning).
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        sweep = hidden_node_sweep(train, hidden=(4,), algorithms=("traingd",), epochs=20, curve_hidden=4,
+                                  workers=0)
+        study = compare_algorithms(train, algorithms=("traingd", "trainrp"), hidden=4, epochs=20, seeds=1,
+                                   workers=0)
+        pruning = svd_pruning(train, hidden=6, epochs=20)
+    assert [str(w.message) for w in caught if issubclass(w.category, TrainingLimitWarning)] == []
+    assert sweep.epochs_run["traingd"].tolist() == [[20]]
+    assert all(row.epochs.tolist() == [20] for row in study.rows)
+    assert pruning.pruned_model.training["epochs"] <= 20
 
 
 def test_algorithm_table_gives_every_algorithm_one_budget(train):

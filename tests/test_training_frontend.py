@@ -5,12 +5,13 @@ is held to them too.
 """
 
 import math
+import warnings
 
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from encal.errors import InputError
+from encal.errors import EncalWarning, InputError, TrainingLimitWarning
 from encal.training import ALGORITHMS, STOP_REASONS, LinearLeastSquares, train
 
 EVERY_ALGORITHM = sorted(ALGORITHMS)
@@ -167,10 +168,53 @@ def test_stops_at_min_grad(algorithm):
     assert grad_norm[-1] < 1e-3 and np.all(grad_norm[:-1] >= 1e-3)
 
 
-def test_stops_at_the_time_limit():
+def test_stops_at_the_time_limit_and_warns():
     problem, x0 = linear_problem()
-    result = train(problem, "traingd", x0=x0, time=0.0)
+    with pytest.warns(TrainingLimitWarning) as caught:
+        result = train(problem, "traingd", x0=x0, time=0.0)
     assert result.reason == "time" and result.epochs == 0 and not result.success
+    assert [str(w.message) for w in caught] == [
+        "Training with traingd stopped on its time limit of 0 s after 0 epochs, before its error could fall, "
+        "so the result depends on this machine's speed (give epochs instead of time for a repeatable fit)."]
+
+
+# --------------------------------------------------------------------------- the training-limit warning
+# traingd on mse(w) = (w - 1)^2 from w = 0 multiplies the error by (1 - 2 lr) every epoch: with lr = 5e-4
+# the RMS error falls by 1 - 0.999^20 = 1.98 % over any 20 epochs, with lr = 1e-4 by 0.40 %.
+
+def _slow_descent(lr, **options):
+    return train(scalar_problem(1.0), "traingd", x0=[0.0], lr=lr, **options)
+
+
+def test_warns_when_the_default_epoch_limit_cuts_training_short():
+    with pytest.warns(TrainingLimitWarning) as caught:
+        result = _slow_descent(5e-4)
+    assert (result.reason, result.epochs) == ("epochs", 1000)
+    assert [str(w.message) for w in caught] == [
+        "Training with traingd stopped at the default limit of 1000 epochs while its error was still falling "
+        "(the RMS error fell by 2 % over the last 20 epochs); give epochs (encal fit --epochs) to train longer "
+        "or to fix the budget."]
+    assert issubclass(TrainingLimitWarning, EncalWarning) and issubclass(TrainingLimitWarning, UserWarning)
+
+
+def test_warns_with_the_plateau_rule_when_the_default_limit_comes_first():
+    with pytest.warns(TrainingLimitWarning, match=r"fell by 2 % over the last 20 epochs"):
+        result = _slow_descent(5e-4, plateau_patience=20, plateau_tol=0.01)
+    assert result.reason == "epochs"
+
+
+@pytest.mark.parametrize("options", [
+    {"epochs": 1000},                                    # a budget the caller set: the paper's fixed runs
+    {"epochs": 5},
+    {"lr": 1e-4},                                        # 0.40 % per 20 epochs: no longer improving
+    {"lr": 1e-4, "plateau_patience": 20, "plateau_tol": 0.01},  # the plateau rule stops it first
+])
+def test_no_warning_when_a_chosen_limit_or_a_criterion_ends_training(options):
+    options = {"lr": 5e-4, **options}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        result = _slow_descent(**options)
+    assert result.reason in ("epochs", "plateau")
 
 
 def test_stops_on_a_plateau():

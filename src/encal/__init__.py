@@ -28,7 +28,7 @@ _PUBLIC = {
     "save_model": "deploy", "load_model": "deploy", "Compensator": "deploy",
     "SelfCalibration": "selfcal",
     "EncalError": "errors", "CalibrationError": "errors", "ModelFileError": "errors",
-    "InputError": "errors", "EncalWarning": "errors",
+    "InputError": "errors", "EncalWarning": "errors", "TrainingLimitWarning": "errors",
 }
 
 __all__ = ["__version__", *_PUBLIC]

@@ -7,10 +7,13 @@ exits with status 1, without a traceback.
 
 Input that is usable but probably not what the user meant (angles that look
 like radians) gets an :class:`EncalWarning` instead; the command line prints
-it as one ``warning:`` line on stderr and goes on.
+it as one ``warning:`` line on stderr and goes on. A result that is usable but
+may not be what the user expects (training cut short by a limit the user did
+not set) gets one too: :class:`TrainingLimitWarning`.
 """
 
-__all__ = ["EncalError", "CalibrationError", "ModelFileError", "InputError", "EncalWarning"]
+__all__ = ["EncalError", "CalibrationError", "ModelFileError", "InputError", "EncalWarning",
+           "TrainingLimitWarning"]
 
 
 class EncalError(ValueError):
@@ -31,3 +34,19 @@ class InputError(EncalError):
 
 class EncalWarning(UserWarning):
     """Input that encal accepts but that is probably a mistake (e.g. angles that look like radians)."""
+
+
+class TrainingLimitWarning(EncalWarning):
+    """Training stopped on a limit while the error was still falling: the default epoch limit, or a time limit.
+
+    Raised by :func:`encal.training.train` (and so by every network fit) when
+
+    - training ran to the default limit of epochs (the caller gave no ``epochs``) while its RMS error was
+      still falling: by at least the plateau rule's tolerance over its window when the rule is on, by 1 %
+      over the last 20 epochs (the paper's rule) otherwise; or
+    - the time limit (``time``, seconds) stopped it, whatever the error did: the result then depends on
+      the machine's speed.
+
+    A limit the caller set (``epochs=``, as the paper's studies and auto's candidates do) is a fixed
+    budget and is never warned about.
+    """

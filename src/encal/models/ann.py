@@ -243,6 +243,14 @@ def fit_ann(theta_enc_deg, error_arcmin, *, hidden=None, algorithm="trainlm", en
     CalibrationError
         If training ends without finite weights.
 
+    Warns
+    -----
+    TrainingLimitWarning
+        When training ends on the default limit of 1000 epochs (no ``epochs`` given) while the RMS
+        error is still falling (by the plateau rule's tolerance over its window; by 1 % over the last
+        20 epochs without the rule), or on a ``time`` limit. An ``epochs`` given is a fixed budget and
+        is never warned about.
+
     Notes
     -----
     Stopping. With ``algorithm='trainlm'`` and no stopping parameter (``epochs``, ``goal``,

@@ -141,6 +141,15 @@ class Monitor:
         old_rms, new_rms = math.sqrt(mse[-1 - k]), math.sqrt(mse[-1])
         return new_rms > old_rms * (1.0 - self.plateau_tol)
 
+    def recent_fall(self, window):
+        """``(fall, epochs)``: the relative fall of the RMS error over the last ``window`` epochs (fewer when
+        fewer ran; 0.25 is a fall of 25 %, negative a rise), and the number of epochs it spans."""
+        mse = self.history["mse"]
+        span = min(int(window), len(mse) - 1)
+        if span < 1 or mse[-1 - span] <= 0.0:
+            return 0.0, max(span, 0)
+        return 1.0 - math.sqrt(mse[-1]) / math.sqrt(mse[-1 - span]), span
+
     def final_weights(self, w):
         """The weights to return: with a validation problem, those of the best validation epoch (as MATLAB
         does); otherwise ``w``, or the last finite weights if ``w`` is not finite."""

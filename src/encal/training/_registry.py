@@ -2,10 +2,11 @@
 
 import inspect
 import math
+import warnings
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, TrainingLimitWarning
 from ._monitor import Monitor
 from ._result import TrainResult
 
@@ -16,6 +17,10 @@ ALGORITHMS = {}
 
 #: The stopping parameters every algorithm takes (MATLAB's ``trainParam`` names, and the plateau rule).
 STOPPING_PARAMETERS = ("epochs", "goal", "min_grad", "max_fail", "time", "plateau_patience", "plateau_tol")
+
+#: "Still improving" when the plateau rule is off: the paper's rule, the RMS error fell by at least 1 % over
+#: the last 20 epochs (:class:`~encal.errors.TrainingLimitWarning`).
+IMPROVING_WINDOW, IMPROVING_FALL = 20, 0.01
 
 
 def register_algorithm(name, **stopping_defaults):
@@ -87,11 +92,20 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
     Returns
     -------
     TrainResult
+
+    Warns
+    -----
+    TrainingLimitWarning
+        When training ran to the default limit of epochs (no ``epochs`` given) while its RMS error was still
+        falling (by ``plateau_tol`` over ``plateau_patience`` epochs with the plateau rule, by 1 % over the
+        last 20 epochs without), or when the ``time`` limit stopped it. An ``epochs`` given is a fixed
+        budget: reaching it is not warned about.
     """
     if algorithm not in ALGORITHMS:
         known = ", ".join(sorted(ALGORITHMS))
         raise InputError(f"unknown training algorithm {algorithm!r}; expected one of: {known}")
     backend, defaults = ALGORITHMS[algorithm]
+    epochs_given = options.get("epochs") is not None
     stopping = {"epochs": 1000, "goal": 0.0, "min_grad": 1e-7, "max_fail": 6, "time": math.inf}
     stopping.update(defaults)
     for key in STOPPING_PARAMETERS:
@@ -114,6 +128,7 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
     x = backend(counted, x0, monitor, **options)
     if monitor.reason is None:  # a back end that ran out of epochs without saying so
         monitor.reason = "epochs"
+    _warn_if_cut_short(monitor, algorithm, epochs_given)
     x = monitor.final_weights(x)
     if x is None:
         raise InputError("the initial weights x0 give a NaN or infinite error; expected finite "
@@ -129,3 +144,34 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
         nfev=counted.nfev,
         time_s=monitor.elapsed,
     )
+
+
+def _warn_if_cut_short(monitor, algorithm, epochs_given):
+    """Warn (:class:`~encal.errors.TrainingLimitWarning`) when a limit, not a criterion, ended a run that was
+    still improving: the default epoch limit, or the time limit (whatever the error did)."""
+    if monitor.reason == "time":
+        window = monitor.plateau_patience or IMPROVING_WINDOW
+        fall, span = monitor.recent_fall(window)
+        warnings.warn(TrainingLimitWarning(
+            f"Training with {algorithm} stopped on its time limit of {monitor.max_time:g} s after "
+            f"{monitor.epoch} epochs, {_fall_text(fall, span)}, so the result depends on this machine's speed "
+            "(give epochs instead of time for a repeatable fit)."), stacklevel=3)
+    elif monitor.reason == "epochs" and not epochs_given:
+        plateau = monitor.plateau_patience is not None
+        window = monitor.plateau_patience if plateau else IMPROVING_WINDOW
+        threshold = monitor.plateau_tol if plateau else IMPROVING_FALL
+        fall, span = monitor.recent_fall(window)
+        if fall >= threshold:
+            warnings.warn(TrainingLimitWarning(
+                f"Training with {algorithm} stopped at the default limit of {monitor.max_epochs} epochs while "
+                f"its error was still falling ({_fall_text(fall, span)}); give epochs (encal fit --epochs) to "
+                "train longer or to fix the budget."), stacklevel=3)
+
+
+def _fall_text(fall, span):
+    """The recent change of the RMS error in words: ``'the RMS error fell by 3.1 % over the last 20 epochs'``."""
+    if span == 0:
+        return "before its error could fall"
+    if fall > 0.0:
+        return f"the RMS error fell by {100.0 * fall:.2g} % over the last {span} epochs"
+    return f"the RMS error did not fall over the last {span} epochs"
