@@ -74,7 +74,8 @@ def test_fit_budget_records_the_deployment_and_export_uses_it(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "chosen by encal fit --budget 64B" in out
     if recorded["form"] == "table":
-        assert f"{recorded['nodes']}-node {recorded['dtype']} table" in out
+        cubic = " cubic B-spline" if recorded["interpolation"] == "cubic" else ""
+        assert f"{recorded['nodes']}-node {recorded['dtype']}{cubic} table" in out
 
 
 def test_fit_target_without_budget_is_refused(tmp_path, capsys):

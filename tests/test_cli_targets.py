@@ -37,6 +37,18 @@ def test_tolerance_and_nodes(tmp_path, capsys):
     assert bytes_of(loose) < bytes_of(tight)
 
 
+def test_cubic_interpolation(tmp_path, capsys):
+    status, out, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "-o", tmp_path,
+                            "--nodes", "512", "--dtype", "int16", "--interpolation", "cubic")
+    assert status == 0 and "512-node int16 cubic B-spline table, 1024 bytes, 40 operations per reading" in out
+    assert "cubic B-spline" in (tmp_path / "encal.c").read_text()
+    # the same nodes interpolated linearly are further from the model (its orders reach 97)
+    status, linear, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "-o", tmp_path,
+                               "--nodes", "512", "--dtype", "int16", "--interpolation", "linear")
+    max_of = lambda text: float(text.split("max ")[1].split(",")[0])  # noqa: E731
+    assert status == 0 and max_of(out) < max_of(linear) / 4
+
+
 def test_formula(tmp_path, capsys):
     status, out, _ = export(capsys, MODEL, "--format", "c", "--target", "cortex-m4f", "--form", "formula",
                             "-o", tmp_path)
@@ -49,6 +61,9 @@ def test_formula(tmp_path, capsys):
     (["--target", "fixed", "--dtype", "float32"], "not --dtype float32"),
     (["--target", "fixed", "--form", "formula"], "not --form formula"),
     (["--dtype", "int8"], "a dense table is int16 or float32"),
+    (["--target", "fixed", "--interpolation", "cubic"], "not --target fixed"),
+    (["--interpolation", "cubic"], "apply to --target cortex-m4f or fixed"),
+    (["--target", "cortex-m4f", "--interpolation", "cubic", "--cost", "bytes"], "--cost chooses the deployment"),
 ])
 def test_options_that_do_not_go_together_are_usage_errors(tmp_path, capsys, args, message):
     with pytest.raises(SystemExit) as info:

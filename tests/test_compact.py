@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from encal.deploy.compact import (BAM_ARCMIN, CompactTable, choose_compact, compile_compact, model_on_codes,
-                                  predict_fixed, predict_float32)
+from encal.deploy.compact import (BAM_ARCMIN, CompactTable, choose_compact, compile_compact, correction_bam,
+                                  model_on_codes, predict_fixed, predict_float32)
 from encal.errors import InputError
 from encal.models.fourier import FourierModel
 from encal.models.lut import LookupTableModel
@@ -75,13 +75,15 @@ def test_choice_is_the_cheapest_within_the_tolerance(tolerance):
     assert met and table.max_error_arcmin <= tolerance
     # no table of the same dtype with half the nodes meets it, and no other dtype is smaller in bytes
     if table.nodes > 4:
-        smaller = compile_compact(path, table.nodes // 2, dtype=table.dtype)
+        smaller = compile_compact(path, table.nodes // 2, dtype=table.dtype, interpolation=table.interpolation)
         assert smaller.max_error_arcmin > tolerance
-    for dtype in ("int8", "int16", "float32"):
-        itemsize = np.dtype(dtype).itemsize
-        nodes = table.table_bytes // itemsize // 2
-        if nodes >= 4 and dtype != table.dtype:
-            assert compile_compact(path, nodes, dtype=dtype).max_error_arcmin > tolerance
+    for interpolation in ("linear", "cubic"):
+        for dtype in ("int8", "int16", "float32"):
+            itemsize = np.dtype(dtype).itemsize
+            nodes = table.table_bytes // itemsize // 2
+            if nodes >= 4 and (dtype, interpolation) != (table.dtype, table.interpolation):
+                assert compile_compact(path, nodes, dtype=dtype, interpolation=interpolation).max_error_arcmin \
+                    > tolerance
 
 
 def test_an_unreachable_tolerance_says_so():
@@ -98,6 +100,54 @@ def test_bad_options():
         compile_compact(DATA / "model_v1_lut.json", 64, dtype="int32")
     with pytest.raises(InputError, match="positive tolerance"):
         choose_compact(DATA / "model_v1_lut.json", tolerance_arcmin=0.0)
+    with pytest.raises(InputError, match="interpolation among linear, cubic"):
+        compile_compact(DATA / "model_v1_lut.json", 64, interpolation="quadratic")
+    with pytest.raises(InputError, match="float32 rule only"):
+        correction_bam(compile_compact(DATA / "model_v1_lut.json", 64, interpolation="cubic"), [0])
+
+
+def cubic_spline_model(nodes, coefficients):
+    """A model that is exactly the periodic uniform cubic B-spline of ``coefficients`` (node i at i * 360 / nodes)."""
+    c = np.asarray(coefficients, dtype=float)
+    a, b, cc, d = np.roll(c, 1), c, np.roll(c, -1), np.roll(c, -2)
+    p = [a + 4 * b + cc, 3 * (cc - a), 3 * (a + cc) - 6 * b, (d - a) + 3 * (b - cc)]
+    h = 360.0 / nodes
+    ppoly = [p[3] / (6 * h**3), p[2] / (6 * h**2), p[1] / (6 * h), p[0] / 6]  # highest power first
+    return LookupTableModel(np.arange(nodes + 1) * h, ppoly, "cubic", encoder={"resolution_bits": BITS})
+
+
+@pytest.mark.parametrize("dtype", ["int16", "float32"])
+def test_a_cubic_b_spline_profile_is_reproduced_to_its_quantisation(dtype):
+    rng = np.random.default_rng(11)
+    coefficients = rng.uniform(-5, 5, 64)
+    table = compile_compact(cubic_spline_model(64, coefficients), 64, dtype=dtype, bits=BITS,
+                            interpolation="cubic")
+    assert table.interpolation == "cubic" and table.fixed_max_error_arcmin is None
+    # integer nodes are in units of 6 * scale (their run-time sum is six times the spline)
+    stored = table.values.astype(float) * 6.0 * table.scale_arcmin + table.offset_arcmin
+    bound = 3.0 * table.scale_arcmin if dtype == "int16" else 1e-5
+    assert np.max(np.abs(stored - coefficients)) <= bound * (1 + 1e-9)
+    # the weights of the four nodes sum to one: the value is off by at most a node's rounding
+    assert table.max_error_arcmin <= bound + 1e-5
+
+
+@pytest.mark.parametrize("interpolation, low, high", [("linear", 3.5, 4.5), ("cubic", 12.0, 24.0)])
+def test_error_falls_with_the_square_or_the_fourth_power_of_the_spacing(interpolation, low, high):
+    model = FourierModel([20], [5.0], [0.0], encoder={"resolution_bits": BITS})
+    errors = [compile_compact(model, n, dtype="float32", interpolation=interpolation).max_error_arcmin
+              for n in (128, 256, 512)]
+    assert low < errors[0] / errors[1] < high and low < errors[1] / errors[2] < high
+
+
+def test_cubic_tables_make_a_high_harmonic_profile_smaller():
+    """Orders near 100 (a stepper's full-step pattern): the cubic table needs a quarter of the nodes or fewer."""
+    model = FourierModel([1, 50, 100], [10.0, 2.0, 5.0], [3.0, 1.0, -4.0], encoder={"resolution_bits": 14})
+    linear, met_linear = choose_compact(model, tolerance_arcmin=0.03, dtypes=("int16",), interpolations=("linear",))
+    cubic, met_cubic = choose_compact(model, tolerance_arcmin=0.03, dtypes=("int16",))
+    assert met_linear and met_cubic and cubic.interpolation == "cubic"
+    assert cubic.nodes * 4 <= linear.nodes and cubic.table_bytes <= 2048
+    fixed, _ = choose_compact(model, tolerance_arcmin=0.03, target="fixed")
+    assert fixed.interpolation == "linear"  # the integer rule is linear only
 
 
 def test_a_large_constant_stays_out_of_the_integer_nodes():

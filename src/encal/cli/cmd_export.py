@@ -10,8 +10,8 @@
 --format c --target cortex-m4f
                  float32 only (no double anywhere): a compact table of N nodes
                  (a power of two, the fewest that meet --tolerance; --nodes,
-                 --dtype int8|int16|float32), or --form formula for a Fourier
-                 series. Angle functions and code functions (PREFIX_error_lsb,
+                 --dtype int8|int16|float32, --interpolation linear|cubic), or
+                 --form formula for a Fourier series. Angle functions and code functions (PREFIX_error_lsb,
                  PREFIX_correct_code, PREFIX_correct_counts).
 --format moteus|simplefoc|klipper|mechaduino|tinymovr
                  the firmware's own table (moteus: conf set lines; SimpleFOC:
@@ -59,6 +59,10 @@ def add_arguments(parser):
     parser.add_argument("--nodes", type=int, metavar="N",
                         help="C for cortex-m4f/fixed: nodes of the compact table, a power of two "
                              "(default: the fewest that meet --tolerance)")
+    parser.add_argument("--interpolation", choices=("linear", "cubic"),
+                        help="C for cortex-m4f: between the compact table's nodes, linear or a cubic "
+                             "B-spline (fewer nodes for the same error, about twice the operations); "
+                             "default the smaller table in bytes that meets --tolerance")
     parser.add_argument("--tolerance", type=float, metavar="ARCMIN",
                         help="C for cortex-m4f/fixed: pick the cheapest deployment (--cost) whose "
                              "deployed error against the model stays within ARCMIN, and say what it "
@@ -86,19 +90,26 @@ def _check_combinations(args):
     _usage_error = args.export_parser.error  # usage and one line on stderr, exit status 2
     firmware = args.format in FIRMWARE
     if firmware and (args.target != "host" or args.table or args.nodes is not None or args.dtype is not None
-                     or args.tolerance is not None or args.cost is not None or args.form != "table"):
+                     or args.tolerance is not None or args.cost is not None or args.form != "table"
+                     or args.interpolation is not None):
         _usage_error(f"--format {args.format} writes that firmware's own table; --target, --table, --nodes, "
-                     "--dtype, --tolerance, --cost and --form are for --format c")
+                     "--dtype, --interpolation, --tolerance, --cost and --form are for --format c")
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
-    if args.target == "host" and (args.nodes is not None or args.tolerance is not None or args.form != "table"):
-        _usage_error("--nodes, --tolerance and --form apply to --target cortex-m4f or fixed, not host "
-                     "(its C evaluates the formula in double, or --table)")
+    if args.target == "host" and (args.nodes is not None or args.tolerance is not None or args.form != "table"
+                                  or args.interpolation is not None):
+        _usage_error("--nodes, --interpolation, --tolerance and --form apply to --target cortex-m4f or fixed, "
+                     "not host (its C evaluates the formula in double, or --table)")
+    if args.interpolation == "cubic" and (args.target == "fixed" or args.form == "formula"):
+        _usage_error("--interpolation cubic is for the compact tables of --target cortex-m4f (float32); "
+                     f"not {'--target fixed' if args.target == 'fixed' else '--form formula'}")
     if args.target != "host" and (args.table or args.constants != "auto"):
         _usage_error(f"--table and --constants apply to --target host, not {args.target}")
-    if args.cost is not None and (args.nodes is not None or args.dtype is not None or args.form != "table"):
-        _usage_error("--cost chooses the deployment; expected it without --nodes, --dtype or --form")
+    if args.cost is not None and (args.nodes is not None or args.dtype is not None or args.form != "table"
+                                  or args.interpolation is not None):
+        _usage_error("--cost chooses the deployment; expected it without --nodes, --dtype, --interpolation "
+                     "or --form")
     if args.target == "fixed" and (args.dtype == "float32" or args.form == "formula"):
         _usage_error("--target fixed computes in integers: a compact int8 or int16 table, not "
                      f"{'--dtype float32' if args.dtype == 'float32' else '--form formula'}")
@@ -149,8 +160,9 @@ def run(args):
     else:
         options = {}
         compact = {"nodes": args.nodes, "tolerance_arcmin": args.tolerance, "form": args.form,
-                   "dtype": args.dtype, "cost": args.cost}
-        chooses = args.nodes is None and args.dtype is None and args.form == "table"
+                   "dtype": args.dtype, "cost": args.cost, "interpolation": args.interpolation}
+        chooses = (args.nodes is None and args.dtype is None and args.form == "table"
+                   and args.interpolation is None)
         if chooses and args.tolerance is not None and args.cost is None:
             compact["cost"] = "operations"
     paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,

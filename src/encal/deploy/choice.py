@@ -1,8 +1,9 @@
 """Cost-aware choice of a deployment: the cheapest within a tolerance, the most accurate within a budget.
 
 The candidates, for the ``cortex-m4f`` target: compact tables of every node
-dtype and power-of-two size, and, for a model that is a Fourier series, the
-series itself in float32; for ``fixed``: integer compact tables. Each has a
+dtype and power-of-two size, interpolated linearly or by a cubic B-spline, and,
+for a model that is a Fourier series, the series itself in float32; for
+``fixed``: integer compact tables, interpolated linearly. Each has a
 cost in flash bytes (of its data), entries (nodes or terms) and C operations
 per reading (:data:`encal.deploy.costs.OPERATIONS`; a sinf or cosf call counts
 as :data:`encal.deploy.costs.CALL_OPERATIONS`), and a deployed error against the model over all
@@ -15,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from .compact import MAX_NODES, MIN_NODES, compile_compact, evaluation_bits, model_on_codes
+from .compact import INTERPOLATIONS, MAX_NODES, MIN_NODES, compile_compact, evaluation_bits, model_on_codes
 from .compensator import Compensator
 from .costs import CALL_OPERATIONS, OPERATIONS
 from .series32 import fourier_float32, fourier_terms
@@ -42,12 +43,14 @@ class Deployment:
     operations: int
     max_error_arcmin: float
     rms_error_arcmin: float
+    interpolation: str | None = None
 
     def cost(self, kind):
         return getattr(self, kind)
 
     def describe(self):
-        what = (f"{self.nodes}-node {self.dtype} table" if self.form == "table"
+        cubic = " cubic B-spline" if self.interpolation == "cubic" else ""
+        what = (f"{self.nodes}-node {self.dtype}{cubic} table" if self.form == "table"
                 else f"{self.terms}-term Fourier series in float32")
         return (f"{self.target} {what}: {self.bytes} bytes, {self.operations} operations per reading; "
                 f"deployed error max {self.max_error_arcmin:.3g}, RMS {self.rms_error_arcmin:.3g} arcmin")
@@ -56,7 +59,7 @@ class Deployment:
         return {"target": self.target, "form": self.form, "nodes": self.nodes, "dtype": self.dtype,
                 "terms": self.terms, "bytes": self.bytes, "entries": self.entries,
                 "operations": self.operations, "max_error_arcmin": self.max_error_arcmin,
-                "rms_error_arcmin": self.rms_error_arcmin}
+                "rms_error_arcmin": self.rms_error_arcmin, "interpolation": self.interpolation}
 
 
 def parse_budget(text):
@@ -82,19 +85,23 @@ def candidates(model, *, target="cortex-m4f", bits=None):
     reference = model_on_codes(comp, bits)
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     dtypes = ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
+    interpolations = ("linear",) if target == "fixed" else INTERPOLATIONS
     key = "error_bam32" if target == "fixed" else "error_lsb"
+    fixed = target == "fixed"
     found = []
-    for dtype in dtypes:
-        nodes = MIN_NODES
-        while nodes <= largest:
-            table = compile_compact(comp, nodes, dtype=dtype, bits=bits, reference=reference)
-            fixed = target == "fixed"
-            found.append(Deployment(
-                target, "table", nodes, dtype, None, table.table_bytes, nodes,
-                OPERATIONS[(target, "table", key)],
-                table.fixed_max_error_arcmin if fixed else table.max_error_arcmin,
-                table.fixed_rms_error_arcmin if fixed else table.rms_error_arcmin))
-            nodes *= 2
+    for interpolation in interpolations:
+        form = "cubic" if interpolation == "cubic" else "table"
+        for dtype in dtypes:
+            nodes = MIN_NODES
+            while nodes <= largest:
+                table = compile_compact(comp, nodes, dtype=dtype, bits=bits, reference=reference,
+                                        interpolation=interpolation)
+                found.append(Deployment(
+                    target, "table", nodes, dtype, None, table.table_bytes, nodes,
+                    OPERATIONS[(target, form, key)],
+                    table.fixed_max_error_arcmin if fixed else table.max_error_arcmin,
+                    table.fixed_rms_error_arcmin if fixed else table.rms_error_arcmin, interpolation))
+                nodes *= 2
     terms = fourier_terms(comp) if target == "cortex-m4f" else None
     if terms is not None:
         orders, cos, sin = terms
@@ -152,7 +159,7 @@ def choose_deployment(model, *, tolerance_arcmin=None, budget=None, cost="bytes"
     within = [d for d in affordable
               if tolerance_arcmin is None or d.max_error_arcmin <= float(tolerance_arcmin)]
     if tolerance_arcmin is not None and within:
-        chosen = min(within, key=lambda d: (d.cost(cost), d.bytes, d.max_error_arcmin))
+        chosen = min(within, key=lambda d: (d.cost(cost), d.bytes, d.operations, d.max_error_arcmin))
     else:
         chosen = min(affordable, key=lambda d: (d.max_error_arcmin, d.cost(cost)))
     met = None if tolerance_arcmin is None else chosen.max_error_arcmin <= float(tolerance_arcmin)

@@ -1,17 +1,32 @@
-"""Compact periodic tables: a model as N nodes with linear interpolation and wrap.
+"""Compact periodic tables: a model as N nodes, interpolated linearly or by a cubic B-spline, with wrap.
 
-A compact table holds the model's error at ``N`` evenly spaced angles
-``i * 360 / N`` degrees (``N`` a power of two); between nodes the error is
-interpolated linearly, and node ``N - 1`` interpolates towards node 0. The
-node values are a least-squares fit of that piecewise-linear curve to the
-model at every code of the encoder (the curve through the model's own values
-at the nodes would be about twice as far from it), then stored as
+A compact table holds ``N`` values at evenly spaced angles ``i * 360 / N``
+degrees (``N`` a power of two), interpolated with wrap (node ``N - 1`` is
+followed by node 0) in one of two ways:
+
+- ``'linear'``: node ``i`` is the error at its angle; between nodes the error
+  is interpolated linearly (2 nodes per reading);
+- ``'cubic'``: the nodes are the coefficients of a periodic uniform cubic
+  B-spline (4 nodes per reading). Its error against a smooth profile falls
+  with the fourth power of the node spacing instead of the second, so a
+  profile with high harmonics needs far fewer nodes (``BENCHMARKS.md``).
+
+The node values are a least-squares fit of the interpolated curve to the
+model at every code of the encoder (the normal equations are circulant and
+are solved with two FFTs; for linear interpolation, the curve through the
+model's own values at the nodes would be about twice as far from it), then
+stored as
 
 - ``int8`` or ``int16`` in a unit of ``2^e`` turns / 2^32 (a power of two
   of a 32-bit binary angle, ``BAM_ARCMIN`` arc-minutes): the smallest such
   unit with which every node fits, so that a fixed-point processor converts to
   encoder counts with shifts alone, and a float one with one exact multiply; or
 - ``float32`` arc-minutes.
+
+A cubic table's integer nodes are in units of ``6 * 2^e`` binary-angle units
+(float32 nodes: the coefficient / 6, arc-minutes), so that its run-time sum
+``p0 + f (p1 + f (p2 + f p3))`` of integer combinations of the four nodes
+(:func:`cubic_terms`) is the error in units of ``2^e`` without a division.
 
 Each table states its *deployed* error: the largest and the RMS difference
 between what the run-time rule of a target (:func:`predict_float32` for a
@@ -31,11 +46,13 @@ from ..errors import InputError
 from .compensator import Compensator
 
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
-           "error_lsb_float32",
-           "NODE_DTYPES", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
+           "error_lsb_float32", "cubic_terms",
+           "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
            "default_tolerance_arcmin", "evaluation_bits", "model_on_codes"]
 
 NODE_DTYPES = ("int8", "int16", "float32")
+#: Interpolation between nodes: piecewise linear (2 nodes per reading) or a cubic B-spline (4).
+INTERPOLATIONS = ("linear", "cubic")
 _INT_LIMIT = {"int8": 127, "int16": 32767}
 #: One unit of a 32-bit binary angle (2^32 per turn), in arc-minutes.
 BAM_ARCMIN = 21600.0 / 2**32
@@ -49,15 +66,17 @@ _MAX_EVALUATION_BITS = 20      # beyond, the error is measured on 2^20 evenly sp
 
 @dataclass(frozen=True, eq=False)
 class CompactTable:
-    """A model as ``N`` nodes, interpolated linearly with wrap.
+    """A model as ``N`` nodes, interpolated linearly or by a cubic B-spline, with wrap.
 
     Attributes
     ----------
     values : ndarray of shape (N,), int8, int16 or float32
-        Stored node values; node ``i`` is the error at ``i * 360 / N`` degrees.
+        Stored node values. Linear: node ``i`` is the error at ``i * 360 / N``
+        degrees. Cubic: the B-spline coefficient centred there (see the module).
     scale_exponent : int or None
-        Integer tables: a stored unit is ``2^scale_exponent * BAM_ARCMIN``
-        arc-minutes. None for float32 tables (arc-minutes).
+        Integer tables: the interpolated value is in units of
+        ``2^scale_exponent * BAM_ARCMIN`` arc-minutes (linear: a stored unit;
+        cubic: a stored unit is 6 of them). None for float32 tables (arc-minutes).
     bits : int or None
         Encoder resolution on whose codes the table was fitted and measured.
     max_error_arcmin, rms_error_arcmin : float
@@ -71,6 +90,7 @@ class CompactTable:
         profile rather than a reference's arbitrary zero.
     offset_bam : int
         The same constant in units of a 32-bit binary angle (integer rule).
+    interpolation : {'linear', 'cubic'}
     """
 
     values: np.ndarray
@@ -83,6 +103,7 @@ class CompactTable:
     model_sha256: str | None = None
     offset_arcmin: float = 0.0
     offset_bam: int = 0
+    interpolation: str = "linear"
 
     @property
     def nodes(self):
@@ -96,7 +117,7 @@ class CompactTable:
 
     @property
     def scale_arcmin(self):
-        """Arc-minutes per stored unit (exact in float32)."""
+        """Arc-minutes per unit of the interpolated value (exact in float32); linear: per stored unit."""
         return 1.0 if self.scale_exponent is None else math.ldexp(BAM_ARCMIN, self.scale_exponent)
 
     @property
@@ -106,13 +127,19 @@ class CompactTable:
 
     @property
     def error_arcmin(self):
-        """Node values in arc-minutes (float64), the offset included."""
-        return self.values.astype(float) * self.scale_arcmin + self.offset_arcmin
+        """The interpolated error at the nodes' angles, in arc-minutes (float64), the offset included."""
+        return _at_nodes(self) * self.scale_arcmin + self.offset_arcmin
+
+    @property
+    def kind(self):
+        """``'N-node int16 table'``, or ``'N-node int16 cubic table'``."""
+        cubic = " cubic" if self.interpolation == "cubic" else ""
+        return f"{self.nodes}-node {self.dtype}{cubic} table"
 
     def describe(self):
         """One line: nodes, storage, bytes and deployed error."""
         where = f"all {2**self.bits} codes" if self.bits else f"{2**_UNKNOWN_RESOLUTION_BITS} angles"
-        return (f"{self.nodes}-node {self.dtype} table, {self.table_bytes} bytes; deployed error against "
+        return (f"{self.kind}, {self.table_bytes} bytes; deployed error against "
                 f"the model over {where}: max {self.max_error_arcmin:.3g}, RMS {self.rms_error_arcmin:.3g} "
                 "arcmin")
 
@@ -137,7 +164,7 @@ def default_tolerance_arcmin(bits):
     return 0.01 if bits is None else 0.1 * 21600.0 / 2**bits
 
 
-def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
+def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None, interpolation="linear"):
     """Fit a compact table of ``nodes`` nodes to a model and measure its deployed error.
 
     Parameters
@@ -151,6 +178,8 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
         fitted and measured on 65,536 evenly spaced angles.
     reference : ndarray, optional
         The model at every code (:func:`model_on_codes`), when already computed.
+    interpolation : {'linear', 'cubic'}, default='linear'
+        Cubic tables have a float32 rule only (no integer rule: ``fixed_*`` are None).
 
     Returns
     -------
@@ -161,6 +190,9 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
     nodes = _check_nodes(nodes, bits)
     if dtype not in NODE_DTYPES:
         raise InputError(f"expected a node dtype among {', '.join(NODE_DTYPES)}, got {dtype!r}")
+    if interpolation not in INTERPOLATIONS:
+        raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
+    cubic = interpolation == "cubic"
     grid = evaluation_bits(bits)
     if nodes > 2**grid:
         raise InputError(f"expected at most {2**grid} nodes for a {grid}-bit evaluation grid, got {nodes}")
@@ -168,28 +200,31 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None):
     mean = float(np.mean(target))
     offsets = {"offset_arcmin": float(np.float32(mean)),
                "offset_bam": int(np.clip(np.rint(mean / BAM_ARCMIN), -(2**31 - 1), 2**31 - 1))}
-    fitted = _least_squares_nodes(target - offsets["offset_arcmin"], nodes)
+    fitted = _least_squares_nodes(target - offsets["offset_arcmin"], nodes, interpolation)
+    # a cubic table's sum of integer combinations is 6 times the B-spline's value
+    per_unit = 6.0 if cubic else 1.0
     if dtype == "float32":
-        values, exponent = fitted.astype(np.float32), None
+        values, exponent = (fitted / per_unit).astype(np.float32), None
     else:
         # at least 2^-16: the fixed-point rule shifts by FIXED_FRACTION_BITS - e <= 30
-        exponent = max(_scale_exponent(np.max(np.abs(fitted)) / BAM_ARCMIN, _INT_LIMIT[dtype]),
+        exponent = max(_scale_exponent(np.max(np.abs(fitted)) / (per_unit * BAM_ARCMIN), _INT_LIMIT[dtype]),
                        FIXED_FRACTION_BITS - 30)
-        values = np.rint(fitted / math.ldexp(BAM_ARCMIN, exponent)).astype(dtype)
-    table = CompactTable(values, exponent, bits, 0.0, 0.0, **offsets)
+        values = np.rint(fitted / (per_unit * math.ldexp(BAM_ARCMIN, exponent))).astype(dtype)
+    table = CompactTable(values, exponent, bits, 0.0, 0.0, **offsets, interpolation=interpolation)
     codes = np.arange(2**grid, dtype=np.int64)
     deployed = predict_float32(table, codes, grid).astype(float)
     stats = {"max_error_arcmin": float(np.max(np.abs(deployed - target))),
              "rms_error_arcmin": float(np.sqrt(np.mean((deployed - target) ** 2)))}
-    if dtype != "float32":
+    if dtype != "float32" and not cubic:
         fixed = predict_fixed(table, codes, grid)
         stats.update(fixed_max_error_arcmin=float(np.max(np.abs(fixed - target))),
                      fixed_rms_error_arcmin=float(np.sqrt(np.mean((fixed - target) ** 2))))
-    return CompactTable(values, exponent, bits, model_sha256=comp.sha256, **stats, **offsets)
+    return CompactTable(values, exponent, bits, model_sha256=comp.sha256, **stats, **offsets,
+                        interpolation=interpolation)
 
 
 def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dtypes=NODE_DTYPES,
-                   target="cortex-m4f"):
+                   target="cortex-m4f", interpolations=INTERPOLATIONS):
     """The cheapest compact table whose deployed error stays within a tolerance of the model.
 
     Parameters
@@ -202,11 +237,14 @@ def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dty
         Encoder resolution; default the model file's.
     cost : {'bytes', 'entries'}, default='bytes'
         What "cheapest" means: flash bytes of the table, or its number of nodes
-        (ties go to the smaller table in bytes). The operations per reading of
-        a table do not depend on N.
+        (ties go to the smaller table in bytes, then to linear interpolation,
+        the fewer operations). The operations per reading of a table do not
+        depend on N.
     dtypes : sequence of str, default=NODE_DTYPES
     target : {'cortex-m4f', 'fixed'}, default='cortex-m4f'
-        Whose run-time rule's error counts (fixed allows integer dtypes only).
+        Whose run-time rule's error counts (fixed allows integer dtypes and
+        linear interpolation only).
+    interpolations : sequence of str, default=INTERPOLATIONS
 
     Returns
     -------
@@ -225,23 +263,31 @@ def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dty
         raise InputError(f"expected cost 'bytes' or 'entries', got {cost!r}")
     if target == "fixed":
         dtypes = [d for d in dtypes if d != "float32"]
+        interpolations = [i for i in interpolations if i == "linear"]
+    for interpolation in interpolations:
+        if interpolation not in INTERPOLATIONS:
+            raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
     reference = model_on_codes(comp, bits)
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     best, met = None, False
     candidates = []
-    for dtype in dtypes:
-        nodes = MIN_NODES
-        while nodes <= largest:
-            table = compile_compact(comp, nodes, dtype=dtype, bits=bits, reference=reference)
-            error = table.fixed_max_error_arcmin if target == "fixed" else table.max_error_arcmin
-            if best is None or error < _error(best, target):
-                best = table
-            if error <= tolerance:
-                candidates.append(table)
-                break
-            nodes *= 2
+    for interpolation in interpolations:
+        for dtype in dtypes:
+            nodes = MIN_NODES
+            while nodes <= largest:
+                table = compile_compact(comp, nodes, dtype=dtype, bits=bits, reference=reference,
+                                        interpolation=interpolation)
+                error = _error(table, target)
+                if best is None or error < _error(best, target):
+                    best = table
+                if error <= tolerance:
+                    candidates.append(table)
+                    break
+                nodes *= 2
     if candidates:
-        key = (lambda t: (t.table_bytes, t.nodes)) if cost == "bytes" else (lambda t: (t.nodes, t.table_bytes))
+        cubic = {"linear": 0, "cubic": 1}
+        key = ((lambda t: (t.table_bytes, cubic[t.interpolation], t.nodes)) if cost == "bytes"
+               else (lambda t: (t.nodes, t.table_bytes, cubic[t.interpolation])))
         best, met = min(candidates, key=key), True
     return best, met
 
@@ -269,25 +315,31 @@ def _check_nodes(nodes, bits):
     return int(nodes)
 
 
-def _least_squares_nodes(target, nodes):
-    """Node values of the periodic piecewise-linear curve closest (least squares) to ``target``.
+def _basis(interpolation, t):
+    """The weights of the nodes ``i + m`` at fractions ``t`` of segment ``i``: ``{m: weights}``."""
+    if interpolation == "linear":
+        return {0: 1.0 - t, 1: t}
+    return {-1: (1.0 - t) ** 3 / 6.0, 0: (3.0 * t**3 - 6.0 * t**2 + 4.0) / 6.0,
+            1: (-3.0 * t**3 + 3.0 * t**2 + 3.0 * t + 1.0) / 6.0, 2: t**3 / 6.0}
+
+
+def _least_squares_nodes(target, nodes, interpolation="linear"):
+    """Node values of the periodic interpolated curve closest (least squares) to ``target``.
 
     ``target`` holds ``M`` evenly spaced samples, ``M`` a multiple of ``nodes``:
     every segment sees the same sample positions, so the normal equations are
-    circulant and are solved with two FFTs.
+    circulant and are solved with two FFTs. For the cubic B-spline the values
+    are its coefficients (arc-minutes).
     """
     per_segment = target.size // nodes
-    t = np.arange(per_segment) / per_segment
+    weights = _basis(interpolation, np.arange(per_segment) / per_segment)
     samples = target.reshape(nodes, per_segment)
-    right = samples @ t               # each segment's weight on its right node
-    left = samples @ (1.0 - t)        # ... on its left node
-    rhs = left + np.roll(right, 1)
-    diagonal = np.sum((1.0 - t) ** 2) + np.sum(t**2)
-    off = np.sum(t * (1.0 - t))
+    rhs = np.zeros(nodes)
     row = np.zeros(nodes)
-    row[0] = diagonal
-    row[1] += off
-    row[-1] += off
+    for m, w in weights.items():
+        rhs += np.roll(samples @ w, m)   # segment i's weight on node i + m
+        for m2, w2 in weights.items():
+            row[(m2 - m) % nodes] += w @ w2
     return np.real(np.fft.ifft(np.fft.fft(rhs) / np.fft.fft(row)))
 
 
@@ -303,21 +355,57 @@ def _scale_exponent(largest_units, limit):
 
 # -- the run-time rules, exactly as the exported C computes them ----------------------------
 
-def units_float32(table, codes, bits):
-    """The float32 rule's interpolated node value (stored units, float32) at codes of a ``bits``-bit encoder.
+def cubic_terms(values, index):
+    """The cubic rule's ``p0..p3`` (float32) for the segments ``index`` of a cubic table's node values.
 
-    ``i = k >> (B - n)``, ``f = (k & (2^(B-n) - 1)) * 2^-(B-n)``,
-    ``u = t[i] + f * (t[(i+1) mod N] - t[i])``, every step in float32.
+    With ``a, b, c, d`` the nodes ``i-1 .. i+2`` (with wrap): ``p0 = a + 4b + c``,
+    ``p1 = 3(c - a)``, ``p2 = 3(a + c) - 6b``, ``p3 = (d - a) + 3(b - c)``, six
+    times the B-spline's polynomial in the fraction. Integer nodes: exact in
+    int32, then converted (exactly: below 2^24); float32 nodes: in float32, in
+    this order, as the C computes them.
+    """
+    size = values.size
+    index = np.asarray(index, dtype=np.int64)
+    if values.dtype == np.float32:
+        a, b, c, d = (values[(index + m) & (size - 1)] for m in (-1, 0, 1, 2))
+        three, four, six = np.float32(3.0), np.float32(4.0), np.float32(6.0)
+        return ((a + four * b) + c, three * (c - a), three * (a + c) - six * b, (d - a) + three * (b - c))
+    a, b, c, d = (values.astype(np.int64)[(index + m) & (size - 1)] for m in (-1, 0, 1, 2))
+    terms = (a + 4 * b + c, 3 * (c - a), 3 * (a + c) - 6 * b, (d - a) + 3 * (b - c))
+    return tuple(p.astype(np.float32) for p in terms)
+
+
+def _interpolate_float32(table, index, fraction):
+    """The interpolated value (units of ``scale_arcmin``, float32) in segments ``index`` at ``fraction``."""
+    if table.interpolation == "cubic":
+        p0, p1, p2, p3 = cubic_terms(table.values, index)
+        return p0 + fraction * (p1 + fraction * (p2 + fraction * p3))
+    stored = table.values.astype(np.float32)
+    left = stored[index]
+    return left + fraction * (stored[(index + 1) & (table.nodes - 1)] - left)
+
+
+def _at_nodes(table):
+    """The interpolated value at each node (fraction 0), float64, units of ``scale_arcmin``."""
+    if table.interpolation == "cubic":
+        values = table.values.astype(float)
+        return np.roll(values, 1) + 4.0 * values + np.roll(values, -1)
+    return table.values.astype(float)
+
+
+def units_float32(table, codes, bits):
+    """The float32 rule's interpolated value (units of ``scale_arcmin``, float32) at codes of a ``bits``-bit encoder.
+
+    ``i = k >> (B - n)``, ``f = (k & (2^(B-n) - 1)) * 2^-(B-n)``, then linear:
+    ``u = t[i] + f * (t[(i+1) mod N] - t[i])``; cubic: ``u = p0 + f (p1 + f (p2 + f p3))``
+    (:func:`cubic_terms`); every step in float32.
     """
     codes = np.asarray(codes, dtype=np.int64)
     n = table.nodes.bit_length() - 1
     shift = bits - n
     index = codes >> shift
-    following = (index + 1) & (table.nodes - 1)
     fraction = (codes & ((1 << shift) - 1)).astype(np.float32) * np.float32(2.0**-shift)
-    stored = table.values.astype(np.float32)
-    left = stored[index]
-    return left + fraction * (stored[following] - left)
+    return _interpolate_float32(table, index, fraction)
 
 
 def predict_float32(table, codes, bits):
@@ -341,10 +429,7 @@ def predict_float32_angle(table, theta_deg):
     wrapped = index >= table.nodes
     index = np.where(wrapped, 0, index)
     fraction = np.where(wrapped, np.float32(0.0), fraction).astype(np.float32)
-    following = (index + 1) & (table.nodes - 1)
-    stored = table.values.astype(np.float32)
-    left = stored[index]
-    units = left + fraction * (stored[following] - left)
+    units = _interpolate_float32(table, index, fraction)
     return units * np.float32(table.scale_arcmin) + np.float32(table.offset_arcmin)
 
 
@@ -357,7 +442,9 @@ def shift_round(value, shift):
 
 
 def correction_bam(table, angles):
-    """The integer rule: the error in units of a 32-bit binary angle at 32-bit angles."""
+    """The integer rule: the error in units of a 32-bit binary angle at 32-bit angles (linear tables)."""
+    if table.interpolation != "linear":
+        raise InputError("expected a linear table for the integer rule; cubic tables have a float32 rule only")
     angles = np.asarray(angles, dtype=np.int64) & 0xFFFFFFFF
     n = table.nodes.bit_length() - 1
     index = angles >> (32 - n)

@@ -9,12 +9,16 @@ a Cortex-M4F build are measured by ``benchmarks/bench_mcu.py`` (BENCHMARKS.md).
 __all__ = ["OPERATIONS", "CALL_OPERATIONS"]
 
 #: C operations per reading (loads, integer and float arithmetic, conversions, compares; calls
-#: to sinf/cosf counted apart), by target, form and function. Instruction counts on a
+#: to sinf/cosf counted apart), by target, form ("table": a linearly interpolated compact table;
+#: "cubic": a cubic B-spline table; "formula") and function. Instruction counts on a
 #: Cortex-M4F build are measured by benchmarks/bench_mcu.py.
 OPERATIONS = {
     ("cortex-m4f", "table", "error_lsb"): 15,
     ("cortex-m4f", "table", "correct_code"): 22,
     ("cortex-m4f", "table", "correct_deg"): 21,
+    ("cortex-m4f", "cubic", "error_lsb"): 40,
+    ("cortex-m4f", "cubic", "correct_code"): 47,
+    ("cortex-m4f", "cubic", "correct_deg"): 46,
     ("fixed", "table", "error_bam32"): 14,
     ("fixed", "table", "correct_code"): 23,
     ("cortex-m4f", "formula", "per_term"): 11,

@@ -5,7 +5,8 @@
 - ``cortex-m4f``: single precision only, for processors whose FPU has no
   double (Cortex-M4F, M33, ESP32): no ``double`` anywhere; it compiles
   with ``-Wdouble-promotion -Werror``. Either a compact table
-  (:mod:`encal.deploy.compact`; every kind) or, for a Fourier series, the
+  (:mod:`encal.deploy.compact`; every kind; linear or cubic B-spline
+  interpolation) or, for a Fourier series, the
   series itself (``form='formula'``), its phases taken exactly as 32-bit
   binary angles (``k * theta`` modulo one turn is an integer product).
 - ``fixed``: int32/int16 arithmetic only, for processors without an FPU: a
@@ -36,8 +37,8 @@ from .._atomic import write_file_set
 from ..errors import InputError
 from .cexport import _banner, _check_identifier, export_c
 from .choice import choose_deployment
-from .compact import (FIXED_FRACTION_BITS, choose_compact, compile_compact, default_tolerance_arcmin,
-                      evaluation_bits, model_on_codes)
+from .compact import (FIXED_FRACTION_BITS, INTERPOLATIONS, choose_compact, compile_compact,
+                      default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import OPERATIONS
 from .series32 import fourier_float32, fourier_terms
@@ -49,7 +50,7 @@ FORMS = ("table", "formula")
 _MAX_FIXED_COUNT_BITS = 24
 
 def export_target(model, target="host", *, prefix="encal", bits=None, form="table", nodes=None,
-                  dtype=None, tolerance_arcmin=None, cost=None, **host_options):
+                  dtype=None, tolerance_arcmin=None, cost=None, interpolation=None, **host_options):
     """C source for a deployment target.
 
     Parameters
@@ -70,6 +71,9 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         Storage of the nodes; default the cheapest in bytes that meets the tolerance.
     tolerance_arcmin : float, optional
         Largest deployed error allowed when choosing the table (default a tenth of an LSB).
+    interpolation : {'linear', 'cubic'}, optional
+        Of the compact table (cubic: cortex-m4f only); default the cheaper in bytes that meets
+        the tolerance (linear when both are as small).
     cost : {'bytes', 'entries', 'operations'}, optional
         Choose among every deployment of the target (tables and, for a Fourier series,
         the formula) the cheapest in this cost within the tolerance
@@ -106,7 +110,7 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
     if host_options:
         raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
     bits = _bits(comp, bits, target)
-    chosen = _chosen(comp, target, bits, form, nodes, dtype, tolerance_arcmin, cost)
+    chosen = _chosen(comp, target, bits, form, nodes, dtype, tolerance_arcmin, cost, interpolation)
     if chosen is not None:
         form, nodes, dtype = chosen["form"], chosen["nodes"], chosen["dtype"]
     note = None if bits is not None else (
@@ -121,14 +125,18 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
                              f"{comp.kind} model; use form='table' (a compact table serves every kind)")
         files, summary = _fourier_files(comp, prefix, bits, terms, note)
         return files, {**summary, **(chosen or {})}
-    table, met = _table(comp, target, bits, nodes, dtype, tolerance_arcmin)
+    if chosen is not None and chosen.get("interpolation"):
+        interpolation = chosen["interpolation"]
+    table, met = _table(comp, target, bits, nodes, dtype, tolerance_arcmin, interpolation)
     files = (_float_table_files if target == "cortex-m4f" else _fixed_table_files)(comp, prefix, bits, table)
     fixed = target == "fixed"
     summary = {"target": target, "form": "table", "nodes": table.nodes, "dtype": table.dtype,
+               "interpolation": table.interpolation,
                "table_bytes": table.table_bytes, "bits": bits, "note": note, "tolerance_met": met,
                "max_error_arcmin": table.fixed_max_error_arcmin if fixed else table.max_error_arcmin,
                "rms_error_arcmin": table.fixed_rms_error_arcmin if fixed else table.rms_error_arcmin,
-               "operations": OPERATIONS[(target, "table", "error_bam32" if fixed else "error_lsb")],
+               "operations": OPERATIONS[(target, "cubic" if table.interpolation == "cubic" else "table",
+                                         "error_bam32" if fixed else "error_lsb")],
                "table": table}
     if chosen is not None:
         summary.update(tolerance_met=chosen.get("met", met), **{k: v for k, v in chosen.items()
@@ -160,7 +168,8 @@ def describe(summary):
         what = f"{summary['terms']}-term Fourier series in float32"
         cost = f"{summary['operations']} operations and {2 * summary['terms']} sinf/cosf calls per reading"
     else:
-        what = f"{summary['nodes']}-node {summary['dtype']} table, {summary['table_bytes']} bytes"
+        cubic = " cubic B-spline" if summary.get("interpolation") == "cubic" else ""
+        what = f"{summary['nodes']}-node {summary['dtype']}{cubic} table, {summary['table_bytes']} bytes"
         cost = f"{summary['operations']} operations per reading"
     text = (f"{summary['target']}: {what}, {cost}; deployed error against the model over {where}: "
             f"max {summary['max_error_arcmin']:.3g}, RMS {summary['rms_error_arcmin']:.3g} arcmin")
@@ -186,33 +195,43 @@ def _bits(comp, bits, target):
     return int(bits)
 
 
-def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost):
+def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolation=None):
     """The deployment to export when the caller left the choice to encal, or None for the default."""
-    if nodes is not None or dtype is not None or form != "table":
+    if nodes is not None or dtype is not None or form != "table" or interpolation is not None:
         if cost is not None:
-            raise InputError("cost= chooses the deployment; expected it without nodes=, dtype= or form=")
+            raise InputError("cost= chooses the deployment; expected it without nodes=, dtype=, form= "
+                             "or interpolation=")
         return None
     if cost is not None:
         tolerance = default_tolerance_arcmin(bits) if tolerance is None else tolerance
         deployment, report = choose_deployment(comp, tolerance_arcmin=tolerance, cost=cost, target=target,
                                                bits=bits)
         return {"form": deployment.form, "nodes": deployment.nodes, "dtype": deployment.dtype,
-                "met": report["met"], "gave_up": report["gave_up"]}
+                "interpolation": deployment.interpolation, "met": report["met"], "gave_up": report["gave_up"]}
     recorded = comp.model.training.get("deployment")
     if tolerance is None and isinstance(recorded, dict) and recorded.get("target") == target \
             and recorded.get("form") in FORMS:
         return {"form": recorded["form"], "nodes": recorded.get("nodes"), "dtype": recorded.get("dtype"),
+                "interpolation": recorded.get("interpolation") or "linear",
                 "recorded": f"the deployment chosen by encal fit --budget {recorded.get('budget', '')}".rstrip()}
     return None
 
 
-def _table(comp, target, bits, nodes, dtype, tolerance):
+def _table(comp, target, bits, nodes, dtype, tolerance, interpolation=None):
     if dtype is not None and target == "fixed" and dtype == "float32":
         raise InputError("expected an integer node dtype (int8 or int16) for the fixed target, got float32")
+    if interpolation is not None and interpolation not in INTERPOLATIONS:
+        raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
+    if interpolation == "cubic" and target == "fixed":
+        raise InputError("expected linear interpolation for the fixed target; cubic tables are for cortex-m4f "
+                         "(float32)")
     if nodes is not None:
-        return compile_compact(comp, nodes, dtype=dtype or "int16", bits=bits), None
+        return compile_compact(comp, nodes, dtype=dtype or "int16", bits=bits,
+                               interpolation=interpolation or "linear"), None
     dtypes = (dtype,) if dtype else ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
-    return choose_compact(comp, tolerance_arcmin=tolerance, bits=bits, dtypes=dtypes, target=target)
+    interpolations = (interpolation,) if interpolation else INTERPOLATIONS
+    return choose_compact(comp, tolerance_arcmin=tolerance, bits=bits, dtypes=dtypes, target=target,
+                          interpolations=interpolations)
 
 
 # -- C text ----------------------------------------------------------------------------------
@@ -342,10 +361,59 @@ def _code_macros(bits):
             f"#define LSB_ARCMIN {_float(21600.0 / 2**bits)} /* arc-minutes per code */\n")
 
 
+_LINEAR_NODE_VALUE = """\
+/* node i: the error at i * 360 / NODES degrees less OFFSET_ARCMIN, in stored units */
+{array}
+/* linear interpolation between node i and the next, wrapping at NODES */
+static float node_value(uint32_t i, float fraction)
+{{
+    const float left = (float)node[i];
+    return left + fraction * ((float)node[(i + 1u) & (NODES - 1u)] - left);
+}}
+"""
+
+_CUBIC_NODE_VALUE = """\
+/* node i: the coefficient of the cubic B-spline centred at i * 360 / NODES degrees ({unit}) */
+{array}
+/* the uniform cubic B-spline of nodes i-1 .. i+2 (with wrap) at fraction of segment i:
+   p0 + f (p1 + f (p2 + f p3)) is six times its value, in units of 1/6 of a node */
+static float node_value(uint32_t i, float fraction)
+{{
+    const {ctype} a = node[(i - 1u) & (NODES - 1u)];
+    const {ctype} b = node[i];
+    const {ctype} c = node[(i + 1u) & (NODES - 1u)];
+    const {ctype} d = node[(i + 2u) & (NODES - 1u)];
+    const float p0 = {p0};
+    const float p1 = {p1};
+    const float p2 = {p2};
+    const float p3 = {p3};
+    return p0 + fraction * (p1 + fraction * (p2 + fraction * p3));
+}}
+"""
+
+
+def _node_value(table):
+    """C of the node array and of node_value(i, fraction), the interpolated value in units of SCALE."""
+    array = _node_array(table)
+    if table.interpolation == "linear":
+        return _LINEAR_NODE_VALUE.format(array=array)
+    if table.dtype == "float32":
+        return _CUBIC_NODE_VALUE.format(
+            array=array, ctype="float", unit="arc-minutes over 6; the mean error kept out",
+            p0="a + 4.0f * b + c", p1="3.0f * (c - a)", p2="3.0f * (a + c) - 6.0f * b",
+            p3="d - a + 3.0f * (b - c)")
+    # integer nodes: p0..p3 exact in int32, each converted to float exactly (below 2^24)
+    return _CUBIC_NODE_VALUE.format(
+        array=array, ctype="int32_t", unit="in units of 6 * SCALE, the mean error kept out",
+        p0="(float)(a + 4 * b + c)", p1="(float)(3 * (c - a))", p2="(float)(3 * (a + c) - 6 * b)",
+        p3="(float)(d - a + 3 * (b - c))")
+
+
 def _float_table_files(comp, prefix, bits, table):
     n = table.nodes.bit_length() - 1
     sign = _sign_parts(comp)
-    how = (f"a {table.nodes}-node {table.dtype} table with linear interpolation in float32 "
+    interpolation = "cubic B-spline" if table.interpolation == "cubic" else "linear"
+    how = (f"a {table.nodes}-node {table.dtype} table with {interpolation} interpolation in float32 "
            f"({table.table_bytes} bytes; deployed error against the model max {table.max_error_arcmin:.3g}, "
            f"RMS {table.rms_error_arcmin:.3g} arcmin){_sign_note(comp)}")
     banner = _banner(comp, prefix, how)
@@ -357,7 +425,7 @@ def _float_table_files(comp, prefix, bits, table):
 {_code_macros(bits)}#define NODE_SHIFT {bits - n}u /* code bits below the node index */
 #define FRACTION_MASK 0x{(1 << (bits - n)) - 1:X}u
 #define FRACTION_SCALE {_float(2.0 ** -(bits - n))}
-#define SCALE_LSB {_float(lsb_scale)} /* LSB per stored unit */
+#define SCALE_LSB {_float(lsb_scale)} /* LSB per unit of node_value */
 #define OFFSET_LSB {_float(table.offset_arcmin / (21600.0 / 2**bits))} /* the mean error, LSB */
 
 float {prefix}_error_lsb(uint32_t code)
@@ -375,19 +443,11 @@ float {prefix}_error_lsb(uint32_t code)
 
 #define NODES {table.nodes}u
 #define NODES_PER_DEG {_float(table.nodes / 360.0)}
-#define SCALE_ARCMIN {_float(table.scale_arcmin)} /* arc-minutes per stored unit */
+#define SCALE_ARCMIN {_float(table.scale_arcmin)} /* arc-minutes per unit of node_value */
 #define OFFSET_ARCMIN {_float(table.offset_arcmin)} /* the mean error, kept out of the nodes */
 
-/* node i: the error at i * 360 / NODES degrees less OFFSET_ARCMIN, in stored units */
-{_node_array(table)}
+{_node_value(table)}
 {_FLOAT_COMMON}
-/* linear interpolation between node i and the next, wrapping at NODES */
-static float node_value(uint32_t i, float fraction)
-{{
-    const float left = (float)node[i];
-    return left + fraction * ((float)node[(i + 1u) & (NODES - 1u)] - left);
-}}
-
 float {prefix}_predict_arcmin(float theta_deg)
 {{
     const float t = wrap360f(theta_deg);
