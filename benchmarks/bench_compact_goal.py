@@ -5,11 +5,11 @@
 For pairs of repeat calibrations of one AS5047D board (14-bit; ../shared/data/real/mechaduino,
 pairs that index.csv marks as repeats), fits a model to the first (``auto``, seed 0, and a
 10-term Fourier series), measures its test RMS on the second (after compensation, the offset of
-the arbitrary reference zero removed), and finds the smallest cortex-m4f compact table whose
-deployed error (max over all 16,384 codes) is within 1 % of that test RMS, and the one the
-default tolerance (a tenth of an LSB, 0.132 arcmin) gives. Prints nodes, dtype, bytes and the
-deployed error; the instructions per reading of a table do not depend on its size
-(bench_mcu.py).
+the arbitrary reference zero removed), and finds, for linear and for cubic B-spline
+interpolation, the smallest cortex-m4f compact table whose deployed error (max over all 16,384
+codes) is within 1 % of that test RMS, and the one the default tolerance (a tenth of an LSB,
+0.132 arcmin) gives. Prints nodes, dtype, bytes and the deployed error; the instructions per
+reading of a table do not depend on its size (bench_mcu.py).
 """
 
 import os
@@ -35,8 +35,9 @@ def test_rms(model, cal):
 
 def main():
     print(f"# load average {os.getloadavg()[0]:.2f}")
-    print("| train / test | model | test RMS, arcmin | tolerance | table | bytes | deployed max / RMS, arcmin | met |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("| train / test | model | test RMS, arcmin | tolerance | interpolation | table | bytes | "
+          "deployed max / RMS, arcmin | met |")
+    print("|---|---|---|---|---|---|---|---|---|")
     for train_name, test_name in PAIRS:
         train = encal.read_calibration(REAL / train_name)
         test = encal.read_calibration(REAL / test_name)
@@ -46,11 +47,12 @@ def main():
             comp = Compensator(model)
             rms = test_rms(model, test)
             for name, tolerance in (("1 % of test RMS", 0.01 * rms), ("0.1 LSB", None)):
-                table, met = choose_compact(comp, tolerance_arcmin=tolerance)
-                print(f"| {train_name[5:-13]} / {test_name[5:-13]} | {label}: {model.kind} | {rms:.3g} | {name} | "
-                      f"{table.nodes}-node {table.dtype} | {table.table_bytes} | "
-                      f"{table.max_error_arcmin:.3g} / {table.rms_error_arcmin:.3g} | {'yes' if met else 'NO'} |",
-                      flush=True)
+                for interpolation in ("linear", "cubic"):
+                    table, met = choose_compact(comp, tolerance_arcmin=tolerance, interpolations=(interpolation,))
+                    print(f"| {train_name[5:-13]} / {test_name[5:-13]} | {label}: {model.kind} | {rms:.3g} | "
+                          f"{name} | {interpolation} | {table.nodes}-node {table.dtype} | {table.table_bytes} | "
+                          f"{table.max_error_arcmin:.3g} / {table.rms_error_arcmin:.3g} | {'yes' if met else 'NO'} |",
+                          flush=True)
 
 
 if __name__ == "__main__":

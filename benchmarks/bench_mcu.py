@@ -157,14 +157,17 @@ def _what(summary):
         return "double formula" if summary["form"] == "formula" else "dense int16 table"
     if summary["form"] == "formula":
         return f"float32 series, {summary['terms']} terms"
-    return f"{summary['nodes']}-node {summary['dtype']}"
+    cubic = " cubic B-spline" if summary.get("interpolation") == "cubic" else ""
+    return f"{summary['nodes']}-node {summary['dtype']}{cubic}"
 
 
 def deployments(kind_is_fourier):
     rows = [("host", {}, "correct_counts", "float", "host (double)"),
             ("host", {"table": "int16"}, "correct_counts", "float", "host --table"),
-            ("cortex-m4f", {}, "correct_code", "uint32_t", "cortex-m4f table"),
-            ("cortex-m4f", {}, "error_lsb", "float", "cortex-m4f table"),
+            ("cortex-m4f", {"interpolation": "linear"}, "correct_code", "uint32_t", "cortex-m4f table"),
+            ("cortex-m4f", {"interpolation": "linear"}, "error_lsb", "float", "cortex-m4f table"),
+            ("cortex-m4f", {"interpolation": "cubic"}, "correct_code", "uint32_t", "cortex-m4f table"),
+            ("cortex-m4f", {"interpolation": "cubic"}, "error_lsb", "float", "cortex-m4f table"),
             ("fixed", {}, "correct_code", "uint32_t", "fixed table")]
     if kind_is_fourier:
         rows.append(("cortex-m4f", {"form": "formula"}, "correct_code", "uint32_t", "cortex-m4f formula"))

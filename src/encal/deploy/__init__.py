@@ -6,7 +6,7 @@
   files, to copy into a data acquisition program.
 - :func:`compile_table`: a per-code correction table for a B-bit encoder.
 - :func:`export_c`: C source for firmware.
-- :func:`compile_compact` / :func:`choose_compact`: a periodic table of N nodes
+- :func:`compile_compact` / :func:`choose_compact`: a periodic table of N nodes (linear or cubic B-spline)
   with a stated deployed error; :func:`export_target`: C for ``host``,
   ``cortex-m4f`` (float32 only) or ``fixed`` (integers only).
 """
