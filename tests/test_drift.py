@@ -10,6 +10,7 @@ from encal.drift import (
     circular_mean_offset_arcmin,
     compare_calibrations,
     infer_resolution_bits,
+    match_profile,
     split_epochs,
 )
 
@@ -181,7 +182,7 @@ def test_as_dict_keys():
 @pytest.mark.parametrize("cals, match", [
     ([], "at least two"),
     ("not calibrations", "Calibration"),
-    (3, "list of Calibrations"),
+    (3, "sequence of Calibrations"),
 ])
 def test_bad_calibration_lists_are_refused(cals, match):
     with pytest.raises(InputError, match=match):
@@ -200,16 +201,40 @@ def test_bidirectional_calibrations_are_refused():
         compare_calibrations([both, both])
 
 
-@pytest.mark.parametrize("options, match", [
-    ({"tolerance_arcmin": -0.1}, "tolerance_arcmin"),
-    ({"tolerance_arcmin": float("inf")}, "tolerance_arcmin"),
-    ({"offset": "subtract"}, "offset"),
-    ({"labels": ["a"]}, "one label per calibration"),
+@pytest.mark.parametrize("options, message", [
+    ({"tolerance_arcmin": -0.1}, "The 'tolerance_arcmin' parameter of compare_calibrations must be a finite number "
+                                 ">= 0 (arc-minutes, or None for the default). Got -0.1 instead."),
+    ({"tolerance_arcmin": float("inf")}, "The 'tolerance_arcmin' parameter of compare_calibrations must be a finite "
+                                         "number >= 0 (arc-minutes, or None for the default). Got inf instead."),
+    ({"offset": "subtract"}, "The 'offset' parameter of compare_calibrations must be one of 'remove', 'keep'. "
+                             "Got 'subtract' instead."),
+    ({"labels": ["a"]}, "The 'labels' parameter of compare_calibrations must be a sequence of one label per "
+                        "calibration (2), or None. Got ['a'] instead."),
+    ({"model": "fourier"}, "The 'model' parameter of compare_calibrations must be a Model or None. "
+                           "Got an object of type str instead."),
 ])
-def test_bad_options_are_refused(options, match):
+def test_bad_options_are_refused(options, message):
     cal = calibration(GRID, profile(GRID))
-    with pytest.raises(InputError, match=match):
+    with pytest.raises(InputError) as info:
         compare_calibrations([cal, cal], **options)
+    assert str(info.value) == message
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda cal: compare_calibrations([cal, np.zeros(3)]),
+     "The 'cals[1]' parameter of compare_calibrations must be a Calibration. Got an object of type ndarray instead."),
+    (lambda cal: compare_calibrations(3),
+     "The 'cals' parameter of compare_calibrations must be a sequence of Calibrations or one Calibration with an "
+     "epoch column. Got an object of type int instead."),
+    (lambda cal: infer_resolution_bits(cal, max_bits=40),
+     "The 'max_bits' parameter of infer_resolution_bits must be an int from 8 to 32. Got 40 instead."),
+    (lambda cal: match_profile(GRID, profile(GRID), GRID, tolerance_deg=-1.0),
+     "The 'tolerance_deg' parameter of match_profile must be a finite number >= 0. Got -1.0 instead."),
+])
+def test_the_other_functions_refuse_bad_parameters(call, message):
+    with pytest.raises(InputError) as info:
+        call(calibration(GRID, profile(GRID)))
+    assert str(info.value) == message
 
 
 # ---------------------------------------------------------------- resolution

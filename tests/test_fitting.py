@@ -72,12 +72,32 @@ def test_unknown_method_and_wrong_arguments():
     cal = _calibration(harmonic_profile)
     with pytest.raises(InputError, match="The 'method' parameter of fit must be one of fourier, spectral, lut, hybrid, ann, stack, auto. Got 'spline' instead"):
         encal.fit(cal, method="spline")
-    with pytest.raises(InputError, match="fit expects a Calibration"):
-        encal.fit(np.zeros(10), method="fourier")
     with pytest.raises(InputError, match="draws no random numbers"):
         encal.fit(cal, method="fourier", rng=1)
-    with pytest.raises(InputError, match="evaluate expects a Calibration"):
-        encal.evaluate(encal.fit(cal, method="lut"), [1, 2, 3])
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda cal: encal.fit(np.zeros(10), method="fourier"),
+     "The 'cal' parameter of fit must be a Calibration. Got an object of type ndarray instead."),
+    (lambda cal: encal.fit(cal, method="ann", rng=-1),
+     "The 'rng' parameter of fit must be None, an int >= 0 or a numpy.random.Generator. Got -1 instead."),
+    (lambda cal: encal.fit(cal, method="fourier", uncertainty="yes"),
+     "The 'uncertainty' parameter of fit must be True or False. Got 'yes' instead."),
+    (lambda cal: encal.fit(cal, method="fourier", bidirectional="both"),
+     "The 'bidirectional' parameter of fit must be one of 'per-direction', 'mean'. Got 'both' instead."),
+    (lambda cal: encal.evaluate(encal.fit(cal, method="lut"), [1, 2, 3]),
+     "The 'cal' parameter of evaluate must be a Calibration. Got an object of type list instead."),
+    (lambda cal: encal.evaluate("model.json", cal),
+     "The 'model' parameter of evaluate must be a Model. Got an object of type str instead."),
+    (lambda cal: encal.evaluate(encal.fit(cal, method="lut"), cal, zero="none"),
+     "The 'zero' parameter of evaluate must be one of 'auto', 'arbitrary', 'fixed'. Got 'none' instead."),
+    (lambda cal: encal.error_stats(cal, zero=0),
+     "The 'zero' parameter of error_stats must be one of 'auto', 'arbitrary', 'fixed'. Got 0 instead."),
+])
+def test_fit_and_evaluate_refuse_bad_parameters_in_one_sentence(call, message):
+    with pytest.raises(InputError) as info:
+        call(_calibration(harmonic_profile))
+    assert str(info.value) == message
 
 
 def test_ann_fit_defaults_to_the_papers_stop_and_records_it():

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 import encal
+from encal.calibration import write_calibration
 from encal.errors import InputError
+from encal.models.stack import fit_stack
 from encal.parameters import check_bool, check_choice, check_int, check_number, check_seed, invalid
 
 GRID = np.arange(0.0, 360.0, 2.0)
@@ -56,3 +58,32 @@ def test_public_entry_points_use_the_template(call, message):
     with pytest.raises(InputError) as info:
         call(cal)
     assert str(info.value) == message
+
+
+@pytest.mark.parametrize(("call", "error", "message"), [
+    (lambda path: encal.Calibration(GRID, GRID, resolution_bits=0), encal.CalibrationError,
+     "The 'resolution_bits' parameter of Calibration must be an int from 1 to 32 (or None when unknown). "
+     "Got 0 instead."),
+    (lambda path: encal.Calibration(GRID, GRID, reading_sign=True), encal.CalibrationError,
+     "The 'reading_sign' parameter of Calibration must be 1 or -1. Got True instead."),
+    (lambda path: encal.read_calibration(path, resolution_bits=2.5), InputError,
+     "The 'resolution_bits' parameter of read_calibration must be an int from 1 to 32 (or None: from the file's "
+     "comment, if any). Got 2.5 instead."),
+    (lambda path: encal.read_calibration(path, duplicates="merge"), InputError,
+     "The 'duplicates' parameter of read_calibration must be one of 'refuse', 'average', 'keep'. "
+     "Got 'merge' instead."),
+    (lambda path: encal.read_calibration(path, allow_gaps="yes"), InputError,
+     "The 'allow_gaps' parameter of read_calibration must be True or False. Got 'yes' instead."),
+    (lambda path: write_calibration(path, GRID), InputError,
+     "The 'cal' parameter of write_calibration must be a Calibration. Got an object of type ndarray instead."),
+    (lambda path: fit_stack(GRID, GRID * 0, members=[{"family": "lut"}], weights=[1.0], rng=-2), InputError,
+     "The 'rng' parameter of fit_stack must be None, an int >= 0 or a numpy.random.Generator. Got -2 instead."),
+])
+def test_calibration_and_stack_entry_points_use_the_template(tmp_path, call, error, message):
+    path = tmp_path / "cal.csv"
+    write_calibration(path, encal.Calibration(GRID, GRID))
+    before = path.read_text()
+    with pytest.raises(error) as info:
+        call(path)
+    assert str(info.value) == message
+    assert path.read_text() == before

@@ -192,8 +192,10 @@ def test_equal_amplitudes_rank_the_lower_order_first():
 
 def test_harmonics_refuse_orders_the_points_cannot_identify():
     theta = [0.0, 10.0, 20.0, 30.0, 50.0, 100.0]  # 6 irregular angles identify order 2
-    with pytest.raises(InputError, match="max_order between 0 and 2"):
+    with pytest.raises(InputError) as info:
         harmonics(theta, np.zeros(6), max_order=3)
+    assert str(info.value) == ("The 'max_order' parameter of harmonics must be an int from 0 to 2 (the highest "
+                               "order 6 distinct encoder angles can determine), or None. Got 3 instead.")
     with pytest.raises(InputError, match="cannot identify"):
         fit_harmonic_series(np.arange(0.0, 360.0, 36.0), np.zeros(10), [1, 9])  # 9 aliases to 1
 

@@ -33,7 +33,7 @@ def size_message(name, low, value):
     return f"expected a whole number from {low} to {high} ({why}), got {value}"
 
 
-def check_size(name, value, where, low=1):
+def check_size(name, value, where, low=1, *, limit=None):
     """Refuse a size outside ``[low, SIZE_LIMITS[name][0]]`` with :class:`InputError`; return it as an int.
 
     Parameters
@@ -43,6 +43,8 @@ def check_size(name, value, where, low=1):
     value : int
     where : str
         The function the parameter belongs to, for the message.
+    limit : str, optional
+        Key of :data:`SIZE_LIMITS` when the parameter's name is another (``"epochs['trainlm']"``).
     """
-    high, why = SIZE_LIMITS[name]
+    high, why = SIZE_LIMITS[name if limit is None else limit]
     return check_int(value, name, where, low=low, high=high, note=why)

@@ -8,6 +8,7 @@ import numpy as np
 from . import _csv
 from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
+from .parameters import check_bool, check_choice, check_int, check_type, invalid
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution"]
 
@@ -59,13 +60,12 @@ class Calibration:
             )
         if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(enc))):
             raise CalibrationError("calibration angles must be finite numbers (found NaN or infinity)")
-        bits = self.resolution_bits
-        if bits is not None and (isinstance(bits, bool) or not isinstance(bits, (int, np.integer))
-                                 or not 1 <= bits <= MAX_BITS):
-            raise CalibrationError(f"resolution_bits must be a whole number of bits from 1 to {MAX_BITS} or None. "
-                                   f"Got {bits!r} instead.")
+        if self.resolution_bits is not None:
+            object.__setattr__(self, "resolution_bits", check_int(
+                self.resolution_bits, "resolution_bits", "Calibration", low=1, high=MAX_BITS,
+                note="or None when unknown", error=CalibrationError))
         if self.reading_sign not in READING_SIGNS or isinstance(self.reading_sign, bool):
-            raise CalibrationError(f"reading_sign must be 1 or -1. Got {self.reading_sign!r} instead.")
+            raise invalid("reading_sign", "Calibration", "1 or -1", self.reading_sign, error=CalibrationError)
         object.__setattr__(self, "reference_deg", wrap360(ref).reshape(-1))
         object.__setattr__(self, "encoder_deg", wrap360(enc).reshape(-1))
         if self.direction is not None:
@@ -137,6 +137,8 @@ MAX_FOLD_DEG = 0.5
 #: calibration (``/dev/zero``, an endless pipe) and reading on would exhaust the memory.
 MAX_FILE_BYTES = 1 << 30
 _READ_CHUNK = 1 << 20
+#: What :func:`read_calibration` may do with conflicting repeated reference angles.
+DUPLICATES = ("refuse", "average", "keep")
 
 
 def _fail(path, line, message, column=None):
@@ -283,6 +285,15 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     """
     from pathlib import Path
 
+    where = "read_calibration"
+    allow_gaps = check_bool(allow_gaps, "allow_gaps", where)
+    reverse = check_bool(reverse, "reverse", where)
+    if resolution_bits is not None:
+        resolution_bits = check_int(resolution_bits, "resolution_bits", where, low=1, high=MAX_BITS,
+                                    note="or None: from the file's comment, if any")
+    duplicates = check_choice(duplicates, "duplicates", where, DUPLICATES)
+    if name is not None:
+        check_type(name, str, "name", where, "a str or None")
     path = Path(path)
     if not path.exists():
         raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
@@ -524,8 +535,6 @@ def is_multi_revolution(reference_deg):
 def _check_duplicates(path, cal, duplicates, first_data_line):
     if duplicates == "keep":
         return cal
-    if duplicates not in ("refuse", "average"):
-        raise CalibrationError(f"duplicates must be 'refuse', 'average' or 'keep'. Got {duplicates!r} instead.")
     keys = np.round(cal.reference_deg, 9)
     groups = [keys]
     if cal.direction is not None:
@@ -663,6 +672,9 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
     """
     from ._atomic import atomic_open
 
+    check_type(cal, Calibration, "cal", "write_calibration", "a Calibration")
+    check_type(extra_columns or {}, dict, "extra_columns", "write_calibration",
+               "a dict of column names to values, or None")
     columns = {"reference_deg": cal.reference_deg, "encoder_deg": cal.encoder_deg}
     if cal.direction is not None:
         columns["direction"] = [f"{int(d):+d}" for d in cal.direction]

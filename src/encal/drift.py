@@ -27,8 +27,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings, wrap180, wrap360
-from .calibration import Calibration
+from .calibration import MAX_BITS, Calibration
 from .errors import InputError
+from .models.base import Model
+from .parameters import check_choice, check_int, check_number, check_type, invalid
 from .profile import error_stats, zero_offset_arcmin
 
 __all__ = [
@@ -235,6 +237,8 @@ def infer_resolution_bits(cal, *, max_bits=24):
     >>> infer_resolution_bits(encal.Calibration(ref, counts * 360 / 2**14))
     14
     """
+    check_type(cal, Calibration, "cal", "infer_resolution_bits", "a Calibration")
+    max_bits = check_int(max_bits, "max_bits", "infer_resolution_bits", low=8, high=MAX_BITS)
     return resolution_of_readings(cal.encoder_deg, max_bits=max_bits)
 
 
@@ -270,6 +274,7 @@ def match_profile(angle_deg, value, at_deg, tolerance_deg=MATCH_TOLERANCE_DEG):
     matched : ndarray of bool of shape (m,)
         Which positions matched a point.
     """
+    tolerance_deg = check_number(tolerance_deg, "tolerance_deg", "match_profile", low=0.0)
     order = np.argsort(angle_deg, kind="stable")
     grid, values = angle_deg[order], value[order]
     at = np.asarray(at_deg, dtype=float)
@@ -301,20 +306,19 @@ def _tolerance(given_arcmin, baseline_arcmin, lsb):
 
 
 def _calibrations(cals):
+    expected = "a sequence of Calibrations or one Calibration with an epoch column"
     if isinstance(cals, Calibration):
         runs = split_epochs(cals)
     else:
         try:
             runs = list(cals)
         except TypeError:
-            raise InputError("compare_calibrations expects a list of Calibrations or one Calibration with an "
-                             f"epoch column. Got {type(cals).__name__} instead.") from None
+            raise invalid("cals", "compare_calibrations", expected, cals,
+                          shown=f"an object of type {type(cals).__name__}") from None
         if len(runs) == 1 and isinstance(runs[0], Calibration):
             runs = split_epochs(runs[0])
     for index, cal in enumerate(runs):
-        if not isinstance(cal, Calibration):
-            raise InputError(f"compare_calibrations expects Calibrations; item {index} is a "
-                             f"{type(cal).__name__}")
+        check_type(cal, Calibration, f"cals[{index}]", "compare_calibrations", "a Calibration")
         if cal.direction is not None and np.unique(cal.direction).size > 1:
             raise InputError(f"compare_calibrations compares one direction of travel at a time; "
                              f"{_label(cal, index)} has both (select one with "
@@ -401,19 +405,20 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
     """
     from .fitting import fit
 
+    where = "compare_calibrations"
     runs = _calibrations(cals)
-    if offset not in OFFSET_MODES:
-        raise InputError(f"The 'offset' parameter of compare_calibrations must be one of "
-                         f"{', '.join(OFFSET_MODES)}. Got {offset!r} instead.")
-    if tolerance_arcmin is not None and (isinstance(tolerance_arcmin, bool)
-                                         or not isinstance(tolerance_arcmin, (int, float, np.number))
-                                         or not math.isfinite(tolerance_arcmin) or tolerance_arcmin < 0):
-        raise InputError("The 'tolerance_arcmin' parameter of compare_calibrations must be a finite number of "
-                         f"arc-minutes >= 0. Got {tolerance_arcmin!r} instead.")
-    names = [_label(cal, i) for i, cal in enumerate(runs)] if labels is None else [str(x) for x in labels]
-    if len(names) != len(runs):
-        raise InputError(f"compare_calibrations expects one label per calibration ({len(runs)}); "
-                         f"got {len(names)}")
+    offset = check_choice(offset, "offset", where, OFFSET_MODES)
+    if tolerance_arcmin is not None:
+        tolerance_arcmin = check_number(tolerance_arcmin, "tolerance_arcmin", where, low=0.0,
+                                        note="arc-minutes, or None for the default")
+    if model is not None:
+        check_type(model, Model, "model", where, "a Model or None")
+    if labels is None:
+        names = [_label(cal, i) for i, cal in enumerate(runs)]
+    elif isinstance(labels, (str, bytes)) or not hasattr(labels, "__len__") or len(labels) != len(runs):
+        raise invalid("labels", where, f"a sequence of one label per calibration ({len(runs)}), or None", labels)
+    else:
+        names = [str(x) for x in labels]
     names = _unique_labels(names)
     bits, inferred = _resolution(runs)
     lsb = None if bits is None else lsb_arcmin(bits)

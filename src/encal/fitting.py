@@ -22,8 +22,10 @@ from .bidirectional import (
 )
 from .calibration import Calibration, check_folds
 from .errors import CalibrationError, InputError
-from .models import kind_names, model_kind
-from .profile import ErrorStats, error_stats, remove_offset, zero_is_arbitrary, zero_offset_arcmin, zero_sentence
+from .models import Model, kind_names, model_kind
+from .parameters import check_bool, check_choice, check_seed, check_type
+from .profile import (ZERO_MODES, ErrorStats, error_stats, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
+                      zero_sentence)
 from .uncertainty import add_uncertainty, refit_spec
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
@@ -100,9 +102,12 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     >>> round(float(model.predict(90.0 + 1 / 60)), 3)
     1.0
     """
-    if not isinstance(cal, Calibration):
-        raise InputError(f"fit expects a Calibration. Got {type(cal).__name__} instead.")
+    check_type(cal, Calibration, "cal", "fit", "a Calibration")
     fitter(method)  # an unknown method is refused before anything else
+    rng = check_seed(rng, "rng", "fit")
+    uncertainty = check_bool(uncertainty, "uncertainty", "fit")
+    if bidirectional is not None:
+        check_choice(bidirectional, "bidirectional", "fit", BIDIRECTIONAL_MODES)
     randomised = model_kind(method).randomised
     if rng is None and (uncertainty or randomised):
         # Drawn here so that the model file records the seed that regenerates it.
@@ -215,9 +220,8 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
     >>> round(float(model.predict(90.0, direction=1)), 3), round(float(model.predict(90.0)), 3)
     (1.15, 1.0)
     """
-    if mode not in BIDIRECTIONAL_MODES:
-        raise InputError(f"The 'mode' parameter of fit_bidirectional must be one of {', '.join(BIDIRECTIONAL_MODES)}. "
-                         f"Got {mode!r} instead.")
+    check_type(cal, Calibration, "cal", "fit_bidirectional", "a Calibration")
+    check_choice(mode, "mode", "fit_bidirectional", BIDIRECTIONAL_MODES)
     require_directions(cal, "fit_bidirectional")
     analysis = _reversal_or_none(cal) if mode == "per-direction" else reversal(cal)
     generator = None if rng is None else np.random.default_rng(rng)
@@ -341,8 +345,9 @@ def evaluate(model, cal, *, zero="fixed"):
     -------
     Evaluation
     """
-    if not isinstance(cal, Calibration):
-        raise InputError(f"evaluate expects a Calibration. Got {type(cal).__name__} instead.")
+    check_type(model, Model, "model", "evaluate", "a Model")
+    check_type(cal, Calibration, "cal", "evaluate", "a Calibration")
+    check_choice(zero, "zero", "evaluate", ZERO_MODES)
     observed = cal.errors_arcmin
     # The model maps readings to its input itself (a model of a reversed encoder negates them).
     # A directional model predicts each reading with its own direction's profile.

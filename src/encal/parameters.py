@@ -15,25 +15,30 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["invalid", "check_int", "check_number", "check_choice", "check_bool", "check_seed"]
+__all__ = ["invalid", "check_int", "check_number", "check_choice", "check_bool", "check_seed", "check_type"]
 
 
-def invalid(name, caller, expected, value):
+def invalid(name, caller, expected, value, *, shown=None, error=InputError):
     """The :class:`~encal.errors.InputError` for a parameter that is not what it must be.
+
+    ``shown`` replaces ``repr(value)`` in the message (e.g. the type of an object whose repr is long);
+    ``error`` is the exception class (another :class:`~encal.errors.EncalError` where one fits better:
+    a :class:`~encal.errors.CalibrationError` for the options of a calibration). The checks below take it too.
 
     Examples
     --------
     >>> str(invalid("hidden", "fit_ann", "an int >= 1", 0))
     "The 'hidden' parameter of fit_ann must be an int >= 1. Got 0 instead."
     """
-    return InputError(f"The {name!r} parameter of {caller} must be {expected}. Got {value!r} instead.")
+    shown = repr(value) if shown is None else shown
+    return error(f"The {name!r} parameter of {caller} must be {expected}. Got {shown} instead.")
 
 
 def _with_note(expected, note):
     return expected if note is None else f"{expected} ({note})"
 
 
-def check_int(value, name, caller, *, low=None, high=None, note=None):
+def check_int(value, name, caller, *, low=None, high=None, note=None, error=InputError):
     """``value`` as an ``int`` in ``[low, high]`` (either bound may be None); a bool is not an int.
 
     Examples
@@ -54,11 +59,12 @@ def check_int(value, name, caller, *, low=None, high=None, note=None):
             expected = f"an int <= {high}"
         else:
             expected = "an int"
-        raise invalid(name, caller, _with_note(expected, note), value)
+        raise invalid(name, caller, _with_note(expected, note), value, error=error)
     return int(value)
 
 
-def check_number(value, name, caller, *, low=None, high=None, low_open=False, high_open=False, note=None):
+def check_number(value, name, caller, *, low=None, high=None, low_open=False, high_open=False, note=None,
+                 error=InputError):
     """``value`` as a finite ``float`` within the given bounds (open or closed).
 
     Examples
@@ -83,11 +89,11 @@ def check_number(value, name, caller, *, low=None, high=None, low_open=False, hi
             expected = f"a finite number {'<' if high_open else '<='} {high:g}"
         else:
             expected = "a finite number"
-        raise invalid(name, caller, _with_note(expected, note), value)
+        raise invalid(name, caller, _with_note(expected, note), value, error=error)
     return float(value)
 
 
-def check_choice(value, name, caller, choices):
+def check_choice(value, name, caller, choices, *, error=InputError):
     """``value`` if it is one of ``choices`` (listed in their order in the message).
 
     Examples
@@ -100,14 +106,14 @@ def check_choice(value, name, caller, choices):
     except TypeError:  # an unhashable value asked of a dict or set
         known = False
     if not known:
-        raise invalid(name, caller, "one of " + ", ".join(repr(choice) for choice in choices), value)
+        raise invalid(name, caller, "one of " + ", ".join(repr(choice) for choice in choices), value, error=error)
     return value
 
 
-def check_bool(value, name, caller):
+def check_bool(value, name, caller, *, error=InputError):
     """``value`` if it is ``True`` or ``False``."""
     if not isinstance(value, (bool, np.bool_)):
-        raise invalid(name, caller, "True or False", value)
+        raise invalid(name, caller, "True or False", value, error=error)
     return bool(value)
 
 
@@ -118,3 +124,17 @@ def check_seed(value, name, caller):
     if isinstance(value, numbers.Integral) and not isinstance(value, bool) and value >= 0:
         return int(value)
     raise invalid(name, caller, "None, an int >= 0 or a numpy.random.Generator", value)
+
+
+def check_type(value, types, name, caller, expected, *, error=InputError):
+    """``value`` if it is an instance of ``types``; else the message names the type it has.
+
+    Examples
+    --------
+    >>> check_type([1.0], dict, "encoder", "Model", "a dict")
+    Traceback (most recent call last):
+    encal.errors.InputError: The 'encoder' parameter of Model must be a dict. Got an object of type list instead.
+    """
+    if not isinstance(value, types):
+        raise invalid(name, caller, expected, value, shown=f"an object of type {type(value).__name__}", error=error)
+    return value

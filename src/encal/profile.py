@@ -12,6 +12,7 @@ angles can identify is decided by :func:`identifiable_order`;
 ``docs/statistics.md`` explains the rules.
 """
 
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,6 +21,7 @@ import scipy.linalg
 from ._trigsums import trig_moments
 from .angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .errors import InputError
+from .parameters import check_choice, invalid
 
 __all__ = [
     "ErrorStats",
@@ -100,8 +102,7 @@ def zero_is_arbitrary(zero, *offsets_arcmin):
 
     With 'auto' the zero is arbitrary when any of ``offsets_arcmin`` exceeds :data:`ARBITRARY_ZERO_ARCMIN`.
     """
-    if zero not in ZERO_MODES:
-        raise InputError(f"zero must be one of {', '.join(map(repr, ZERO_MODES))}. Got {zero!r} instead.")
+    check_choice(zero, "zero", "zero_is_arbitrary", ZERO_MODES)
     if zero != "auto":
         return zero == "arbitrary"
     return any(abs(offset) > ARBITRARY_ZERO_ARCMIN for offset in offsets_arcmin)
@@ -275,6 +276,7 @@ def error_stats(data, *, zero="fixed"):
         raise InputError("error_stats expects at least one error value; got none")
     if not np.all(np.isfinite(errors)):
         raise InputError("error_stats expects finite errors in arc-minutes; got NaN or infinity")
+    check_choice(zero, "zero", "error_stats", ZERO_MODES)
     offset = None
     if zero != "fixed":
         candidate = zero_offset_arcmin(errors)
@@ -904,11 +906,10 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     grid = _grid(theta)
     if max_order is None:
         max_order = grid.stable_order
-    elif int(max_order) != max_order or not 0 <= max_order <= grid.max_order:
-        raise InputError(
-            f"harmonics expects max_order between 0 and {grid.max_order}, the highest order "
-            f"{grid.n_distinct} distinct encoder angles can determine; got {max_order!r}"
-        )
+    elif isinstance(max_order, bool) or not isinstance(max_order, numbers.Integral) \
+            or not 0 <= max_order <= grid.max_order:
+        raise invalid("max_order", "harmonics", f"an int from 0 to {grid.max_order} (the highest order "
+                      f"{grid.n_distinct} distinct encoder angles can determine), or None", max_order)
     max_order = int(max_order)
     series = None
     if grid.uniform:

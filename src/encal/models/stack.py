@@ -22,6 +22,7 @@ import numbers
 import numpy as np
 
 from ..errors import InputError, ModelFileError
+from ..parameters import check_seed
 from ..profile import profile_arrays
 from .base import Model
 from .kind import kind_names, model_kind
@@ -243,11 +244,9 @@ def _member_generators(rng, count):
     An int seed (for None, a freshly drawn one) is spawned into child streams, member ``i``'s the
     ``i``-th child whatever the number and kinds of the others; a Generator spawns its own children.
     """
+    rng = check_seed(rng, "rng", "fit_stack")
     if rng is None:
         rng = int(np.random.SeedSequence().generate_state(1)[0])
-    if isinstance(rng, numbers.Integral) and not isinstance(rng, bool) and rng >= 0:
-        return [np.random.default_rng(s) for s in np.random.SeedSequence(int(rng)).spawn(count)], int(rng)
     if isinstance(rng, np.random.Generator):
         return rng.spawn(count), None
-    raise InputError(f"The 'rng' parameter of fit_stack must be None, an int >= 0 or a numpy.random.Generator. "
-                     f"Got {rng!r} instead.")
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(rng).spawn(count)], rng

@@ -13,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ._checks import check_calibration, check_counts, check_epochs, check_seed
+from .._limits import check_size
+from ..parameters import check_bool, invalid
+from ._checks import check_algorithms, check_calibration, check_encoding, check_epochs, check_seed
 from ._fits import task_seed, train_once
 from ._pool import run_tasks
 
@@ -216,17 +217,20 @@ def compare_algorithms(cal, test=None, *, algorithms=(*PAPER_ALGORITHMS, *EXTRA_
     -------
     AlgorithmStudy
     """
-    cal = check_calibration(cal)
+    where = "compare_algorithms"
+    cal = check_calibration(cal, "cal", where)
     if test is not None:
-        test = check_calibration(test, "test")
-    algorithms = tuple(algorithms)
+        test = check_calibration(test, "test", where)
+    algorithms = check_algorithms(algorithms, where)
     if isinstance(epochs, dict):
-        raise InputError("epochs must be one int >= 1, the same budget for every algorithm. "
-                         "Got a dict instead.")
-    budget = check_epochs(epochs, algorithms)
-    hidden = int(check_counts([hidden], "hidden")[0])
-    n_seeds = int(check_counts([seeds], "seeds")[0])
-    seed = check_seed(rng)
+        raise invalid("epochs", where, "one int >= 1, the same budget for every algorithm", epochs,
+                      shown="a dict")
+    budget = check_epochs(epochs, algorithms, where)
+    hidden = check_size("hidden", hidden, where)
+    encoding = check_encoding(encoding, where)
+    n_seeds = check_size("seeds", seeds, where)
+    seed = check_seed(rng, where)
+    progress = check_bool(progress, "progress", where)
     seeds_used = np.array([task_seed(seed, hidden, k) for k in range(n_seeds)])
     test_points = None if test is None else (test.encoder_deg, test.errors_arcmin)
     tasks = [{"theta_deg": cal.encoder_deg, "error_arcmin": cal.errors_arcmin, "hidden": hidden,

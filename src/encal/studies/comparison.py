@@ -16,11 +16,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
 from ..fitting import evaluate, fit
 from ..models.ann import DEFAULT_STOPPING
 from ..profile import error_stats
-from ._checks import check_calibration, check_counts, check_seed
+from .._limits import check_size
+from ..parameters import check_number, invalid
+from ._checks import check_calibration, check_seed
 from ._fits import task_seed
 
 __all__ = ["ModelSpec", "PAPER_STOPPING", "PAPER_NETWORK", "DEFAULT_MODELS", "ComparisonEntry", "Comparison",
@@ -181,15 +182,18 @@ def compare_models(train, test, *, models=DEFAULT_MODELS, floor_arcmin=None, epo
     -------
     Comparison
     """
-    train = check_calibration(train, "train")
-    test = check_calibration(test, "test")
-    seed = check_seed(rng)
-    epochs = int(check_counts([epochs], "epochs")[0])
-    if floor_arcmin is not None and not (np.isfinite(floor_arcmin) and floor_arcmin > 0):
-        raise InputError(f"floor_arcmin must be a positive number of arc-minutes. Got {floor_arcmin!r} instead.")
+    where = "compare_models"
+    train = check_calibration(train, "train", where)
+    test = check_calibration(test, "test", where)
+    seed = check_seed(rng, where)
+    epochs = check_size("epochs", epochs, where)
+    if floor_arcmin is not None:
+        floor_arcmin = check_number(floor_arcmin, "floor_arcmin", where, low=0.0, low_open=True,
+                                    note="arc-minutes, or None")
     keys = [spec.key for spec in models]
     if len(set(keys)) != len(keys) or "before" in keys:
-        raise InputError(f"model keys must be distinct and not 'before'. Got {keys} instead.")
+        raise invalid("models", where, "a sequence of ModelSpec whose keys are distinct and not 'before'", models,
+                      shown=f"the keys {keys}")
     floor = None if floor_arcmin is None else float(floor_arcmin)
     raw = test.errors_arcmin
     entries = [ComparisonEntry("before", "before compensation", None, error_stats(raw), raw.copy(), floor)]

@@ -32,8 +32,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ._checks import check_calibration, check_counts, check_seed
+from .._limits import check_size
+from ..models.ann import ANNModel
+from ..parameters import check_number, check_type
+from ._checks import check_algorithms, check_calibration, check_encoding, check_seed
 from ._fits import fit_network, hidden_layer, task_seed, training_mse_arcmin2
 
 __all__ = ["DEFAULT_THRESHOLD", "SENSITIVITY_THRESHOLDS", "PruningResult", "significant_count",
@@ -151,20 +153,23 @@ def svd_pruning(cal, test=None, *, hidden=80, encoding="raw", algorithm="trainlm
     -------
     PruningResult
     """
-    cal = check_calibration(cal)
+    where = "svd_pruning"
+    cal = check_calibration(cal, "cal", where)
     if test is not None:
-        test = check_calibration(test, "test")
-    if not (isinstance(threshold, (int, float)) and 0.0 < float(threshold) < 1.0):
-        raise InputError(f"threshold must be a float between 0 and 1. Got {threshold!r} instead.")
-    seed = check_seed(rng)
-    epochs = int(check_counts([epochs], "epochs")[0])
+        test = check_calibration(test, "test", where)
+    threshold = check_number(threshold, "threshold", where, low=0.0, high=1.0, low_open=True, high_open=True)
+    seed = check_seed(rng, where)
+    epochs = check_size("epochs", epochs, where)
     theta, error = cal.encoder_deg, cal.errors_arcmin
     train_options["epochs"] = epochs
     if model is None:
-        hidden = int(check_counts([hidden], "hidden")[0])
+        hidden = check_size("hidden", hidden, where)
+        encoding = check_encoding(encoding, where)
+        algorithm = check_algorithms([algorithm], where)[0]
         model = fit_network(theta, error, hidden=hidden, algorithm=algorithm, encoding=encoding,
                             seed=task_seed(seed, hidden, 0), **train_options)
     else:
+        check_type(model, ANNModel, "model", where, "an ANNModel (a trained 1:N:1 network) or None")
         algorithm = model.training.get("algorithm", algorithm)
         train_options = {**model.training.get("options", {}), **train_options}
     hidden, encoding = model.hidden, model.encoding

@@ -10,14 +10,18 @@ and the residual left when the model fitted to the first calibration corrects
 the repeat, which is what a user of an old calibration gets.
 """
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..angles import lsb_arcmin
+from ..calibration import MAX_BITS
 from ..drift import match_profile
 from ..errors import InputError
 from ..fitting import evaluate, fit
+from ..models.base import Model
+from ..parameters import check_int, check_number, check_type, invalid
 from ..profile import error_stats
 from ._checks import check_calibration, check_seed
 from ._fits import task_seed
@@ -132,6 +136,9 @@ def matched_difference(first, repeat, tolerance_deg=1e-3):
     >>> round(float(matched_difference(a, b)[1].max()), 9)
     1.0
     """
+    check_calibration(first, "first", "matched_difference")
+    check_calibration(repeat, "repeat", "matched_difference")
+    tolerance_deg = check_number(tolerance_deg, "tolerance_deg", "matched_difference", low=0.0, low_open=True)
     wanted = repeat.reference_deg
     expected, paired = match_profile(first.reference_deg, first.errors_arcmin, wanted, tolerance_deg)
     if np.count_nonzero(paired) < 8:
@@ -168,17 +175,28 @@ def reproducibility(first, repeats, *, model=None, test=None, resolution_bits=No
     -------
     Reproducibility
     """
-    first = check_calibration(first, "first")
+    where = "reproducibility"
+    first = check_calibration(first, "first", where)
+    check_type(repeats, Mapping, "repeats", where, "a mapping of labels to repeat Calibrations")
     if not repeats:
-        raise InputError("repeats must name at least one repeat calibration. Got none.")
-    repeats = {str(label): check_calibration(cal, f"repeats[{label!r}]") for label, cal in repeats.items()}
+        raise invalid("repeats", where, "a mapping of labels to repeat Calibrations, at least one", repeats)
+    repeats = {str(label): check_calibration(cal, f"repeats[{label}]", where) for label, cal in repeats.items()}
     if test is not None:
-        test = check_calibration(test, "test")
+        test = check_calibration(test, "test", where)
+    seed = check_seed(rng, where)
+    if model is not None:
+        check_type(model, Model, "model", where, "a Model or None")
+    if resolution_bits is not None:
+        resolution_bits = check_int(resolution_bits, "resolution_bits", where, low=1, high=MAX_BITS,
+                                    note="or None: the first calibration's")
+    floors = check_type({} if floors is None else floors, Mapping, "floors", where,
+                        "a mapping of labels to arc-minutes, or None")
+    floors = {label: check_number(value, f"floors[{label}]", where, low=0.0, note="arc-minutes")
+              for label, value in floors.items()}
     if model is None:
-        model = fit(first, "ann", rng=task_seed(check_seed(rng), 12, 0), encoding="periodic")
+        model = fit(first, "ann", rng=task_seed(seed, 12, 0), encoding="periodic")
     bits = resolution_bits if resolution_bits is not None else first.resolution_bits
     lsb = None if bits is None else lsb_arcmin(bits)
-    floors = dict(floors or {})
     runs = []
     for label, cal in repeats.items():
         reference, difference = matched_difference(first, cal)

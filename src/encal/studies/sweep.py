@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ._checks import check_calibration, check_counts, check_epochs, check_seed
+from .._limits import check_size
+from ..parameters import check_bool, check_choice
+from ._checks import check_algorithms, check_calibration, check_counts, check_encoding, check_epochs, check_seed
 from ._fits import task_seed, train_once
 from ._pool import run_tasks
 
@@ -151,18 +152,20 @@ def hidden_node_sweep(cal, test=None, *, hidden=PAPER_HIDDEN, algorithms=("train
     -------
     SweepResult
     """
-    cal = check_calibration(cal)
+    where = "hidden_node_sweep"
+    cal = check_calibration(cal, "cal", where)
     if test is not None:
-        test = check_calibration(test, "test")
+        test = check_calibration(test, "test", where)
     test_points = None if test is None else (test.encoder_deg, test.errors_arcmin)
-    hidden = check_counts(hidden, "hidden")
-    n_seeds = int(check_counts([seeds], "seeds")[0])
-    algorithms = tuple(algorithms)
-    budget = check_epochs(epochs, algorithms)
-    seed = check_seed(rng)
-    if curve_hidden is not None and int(curve_hidden) not in hidden:
-        raise InputError(f"curve_hidden must be one of the hidden-node counts {hidden.tolist()}. "
-                         f"Got {curve_hidden!r} instead.")
+    hidden = check_counts(hidden, "hidden", where)
+    n_seeds = check_size("seeds", seeds, where)
+    algorithms = check_algorithms(algorithms, where)
+    encoding = check_encoding(encoding, where)
+    budget = check_epochs(epochs, algorithms, where)
+    seed = check_seed(rng, where)
+    progress = check_bool(progress, "progress", where)
+    if curve_hidden is not None:
+        curve_hidden = check_choice(curve_hidden, "curve_hidden", where, [*hidden.tolist(), None])
     seeds_grid = np.array([[task_seed(seed, n, k) for k in range(n_seeds)] for n in hidden])
     theta, error = cal.encoder_deg, cal.errors_arcmin
     keys, tasks = [], []
