@@ -33,11 +33,25 @@ def values(out):
     return [float(line) for line in out.splitlines()]
 
 
+def fixed(corrected):
+    """The lines `encal correct` writes for these corrected angles: printf's %.12f of each."""
+    return [f"{value:.12f}" for value in np.atleast_1d(corrected).tolist()]
+
+
 def test_one_angle_per_line(tmp_path, capsys, compensator):
     angles = [0.0, 1.5, 359.999, -10.0, 720.25, 1e-9]
     (tmp_path / "in.txt").write_text("".join(f"{a!r}\n" for a in angles))
     status, out, err = correct(capsys, tmp_path / "in.txt")
     assert status == 0 and err == ""
+    assert out.splitlines() == fixed(compensator.correct(angles))
+
+
+def test_exact_writes_the_shortest_repr(tmp_path, capsys, compensator):
+    angles = [0.0, 1.5, 359.999, -10.0, 720.25, 1e-9, 1e-5, 123.456]
+    (tmp_path / "in.txt").write_text("".join(f"{a!r}\n" for a in angles))
+    status, out, err = correct(capsys, tmp_path / "in.txt", "--exact")
+    assert status == 0 and err == ""
+    assert out.splitlines() == [repr(value) for value in compensator.correct(angles).tolist()]
     assert values(out) == compensator.correct(angles).tolist()  # exact: repr round-trips
 
 
@@ -52,13 +66,13 @@ def test_csv_with_an_encoder_deg_column(tmp_path, capsys, compensator):
         """))
     status, out, _ = correct(capsys, tmp_path / "in.csv")
     assert status == 0
-    assert values(out) == compensator.correct([10.5, 11.25, 12.0]).tolist()
+    assert out.splitlines() == fixed(compensator.correct([10.5, 11.25, 12.0]))
 
 
 def test_comments_blank_lines_crlf_bom_and_no_final_newline(tmp_path, capsys, compensator):
     (tmp_path / "in.txt").write_bytes(b"\xef\xbb\xbf# header comment\r\n1.0\r\n\r\n  2.0  \r\n3.0")
     status, out, _ = correct(capsys, tmp_path / "in.txt")
-    assert status == 0 and values(out) == compensator.correct([1.0, 2.0, 3.0]).tolist()
+    assert status == 0 and out.splitlines() == fixed(compensator.correct([1.0, 2.0, 3.0]))
 
 
 def test_empty_input_gives_empty_output(tmp_path, capsys):
@@ -70,7 +84,7 @@ def test_malformed_line_stops_with_its_number_and_content(tmp_path, capsys, comp
     (tmp_path / "in.txt").write_text("1.0\n2.0\n# note\nabc\n4.0\n")
     status, out, err = correct(capsys, tmp_path / "in.txt")
     assert status == 1
-    assert values(out) == compensator.correct([1.0, 2.0]).tolist()
+    assert out.splitlines() == fixed(compensator.correct([1.0, 2.0]))
     assert len(err.strip().splitlines()) == 1
     assert "line 4" in err and "'abc'" in err and str(tmp_path / "in.txt") in err
 
@@ -94,14 +108,16 @@ def test_skip_bad_writes_nan_and_goes_on(tmp_path, capsys, compensator):
     assert status == 0
     result = values(out)
     assert np.isnan(result[1]) and np.isnan(result[2])
-    assert [result[0], result[3]] == compensator.correct([1.0, 4.0]).tolist()
+    assert [out.splitlines()[0], out.splitlines()[3]] == fixed(compensator.correct([1.0, 4.0]))
 
 
-def test_large_file_in_blocks_is_exact(tmp_path, capsys, compensator):
+@pytest.mark.parametrize("exact", [False, True])
+def test_large_file_in_blocks_is_exact(tmp_path, capsys, compensator, exact):
     angles = np.random.default_rng(0).uniform(-400.0, 400.0, 50_000)  # several read blocks
     (tmp_path / "in.txt").write_text("".join(f"{a!r}\n" for a in angles.tolist()))
-    status, out, _ = correct(capsys, tmp_path / "in.txt")
-    assert status == 0 and values(out) == compensator.correct(angles).tolist()
+    status, out, _ = correct(capsys, tmp_path / "in.txt", *(["--exact"] if exact else []))
+    corrected = compensator.correct(angles)
+    assert status == 0 and out.splitlines() == ([repr(v) for v in corrected.tolist()] if exact else fixed(corrected))
 
 
 def test_bad_line_in_a_later_block_keeps_the_earlier_answers(tmp_path, capsys):
@@ -137,10 +153,10 @@ def test_usage_error_exits_2(capsys):
 def test_reads_standard_input_by_default(compensator):
     result = subprocess.run([*ENCAL, "correct", str(MODEL)], input=b"10\n20\n",
                             capture_output=True, timeout=120, check=True)
-    assert values(result.stdout.decode()) == compensator.correct([10.0, 20.0]).tolist()
+    assert result.stdout.decode().splitlines() == fixed(compensator.correct([10.0, 20.0]))
     dash = subprocess.run([*ENCAL, "correct", str(MODEL), "-"], input=b"10\n",
                           capture_output=True, timeout=120, check=True)
-    assert values(dash.stdout.decode()) == compensator.correct([10.0]).tolist()
+    assert dash.stdout.decode().splitlines() == fixed(compensator.correct([10.0]))
 
 
 def test_answers_each_line_before_the_next_is_written(compensator):
@@ -152,7 +168,7 @@ def test_answers_each_line_before_the_next_is_written(compensator):
             proc.stdin.flush()
             ready, _, _ = select.select([proc.stdout], [], [], 120)  # guards against a hang
             assert ready, "no answer to a line while the input stayed open"
-            assert float(proc.stdout.readline()) == float(compensator.correct(theta))
+            assert proc.stdout.readline().decode() == fixed(compensator.correct(theta))[0] + "\n"
         proc.stdin.close()
         assert proc.wait(timeout=60) == 0
 
@@ -211,7 +227,7 @@ def test_ten_million_lines_in_constant_memory(compensator):
     count, last, rss = stream_lines(10_000_000)
     assert small_count == 10_000 and count == 10_000_000
     last_input = (9_999 * 0.0137) % 720 - 360
-    assert float(last) == float(compensator.correct(last_input))
+    assert last.decode() == fixed(compensator.correct(last_input))[0]
     # The whole input would take > 500 MB as Python floats and strings: memory must not grow.
     assert rss - small_rss < 16 * 1024, (small_rss, rss)
 
@@ -233,9 +249,9 @@ def test_direction_option_selects_a_directional_models_part(tmp_path, capsys):
         if direction is not None:
             argv += ["--direction", str(direction)]
         assert main(argv) == 0
-        out = [float(v) for v in capsys.readouterr().out.split()]
+        out = capsys.readouterr().out.split()
         expected = model.correct(theta, direction=direction) if direction else model.correct(theta)
-        assert out == [float(v) for v in expected]
+        assert out == fixed(expected)
         results[direction] = out
     assert results[1] != results[-1]  # the two directions' models differ by arc-minutes here
 

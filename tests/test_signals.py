@@ -62,7 +62,7 @@ def stream_files(tmp_path_factory):
     model.save(folder / "m.json")
     angles = np.random.default_rng(1).uniform(0.0, 360.0, 300_000)
     (folder / "in.txt").write_text("".join(f"{v!r}\n" for v in angles.tolist()))
-    expected = [repr(v) for v in model.correct(angles).tolist()]
+    expected = [f"{v:.12f}" for v in model.correct(angles).tolist()]
     return folder, expected
 
 

@@ -3,18 +3,23 @@
 Input: one angle in degrees per line, or a CSV table whose first data line is a
 header naming an ``encoder_deg`` column (case-insensitive); blank lines and
 lines starting with ``#`` are skipped. Output: one corrected angle per input
-angle, in degrees, written with Python's ``repr`` (the shortest text that reads
-back to the same double), ``nan`` for a malformed line when skipping them.
+angle, in degrees, written as printf's ``%.12f`` (within 5e-13 degrees of the
+double), or with ``exact=True`` as Python's ``repr`` (the shortest text that
+reads back to the same double); ``nan`` for a malformed line when skipping them.
 
 The stream is read in blocks of whatever is available (``read1``): a file
 gives large blocks, corrected with NumPy in one go; a pipe fed one line at a
 time gives one line, whose answer is written and flushed before the next is
-read, so the corrector can sit in a live acquisition chain.
+read, so the corrector can sit in a live acquisition chain. A block whose lines
+are all plain decimals (``[+-]digits[.digits]``, the common case) is read by
+:mod:`encal._decimal_text` in NumPy; any other block line by line, the exact
+reader whose messages name the line and column.
 """
 
 import numpy as np
 
 from .. import _csv
+from .._decimal_text import format_fixed, parse_lines
 from ..errors import InputError
 
 __all__ = ["correct_stream", "BLOCK_BYTES", "MAX_LINE_BYTES"]
@@ -26,7 +31,7 @@ MAX_LINE_BYTES = 1 << 16
 _HEADER_COLUMN = "encoder_deg"
 
 
-def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None):
+def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None, exact=False):
     """Read encoder angles from ``source``, write corrected angles to ``sink``.
 
     Parameters
@@ -44,6 +49,9 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     direction : {+1, -1}, optional
         Direction of travel of every reading, for bidirectional (``directional``) models; other
         models ignore it. None: the mean of the two directions.
+    exact : bool, default=False
+        Write each corrected angle as Python's ``repr`` (the shortest text that reads back to the same
+        double) instead of ``'%.12f'`` (within 5e-13 degrees, about five times faster to write).
 
     Returns
     -------
@@ -58,18 +66,21 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     """
     parser = _LineParser(skip_bad, name)
     read = getattr(source, "read1", source.read)
+    write = _format_repr if exact else format_fixed
     pending = b""
     written = 0
     while True:
         block = read(BLOCK_BYTES)
-        lines = (pending + block).split(b"\n")
-        pending = b"" if not block else lines.pop()
+        data = pending + block
+        cut = data.rfind(b"\n") + 1 if block else len(data)  # whole lines only, until the end
+        pending = data[cut:]
         if len(pending) > MAX_LINE_BYTES:
-            raise InputError(f"line {parser.line_number + len(lines) + 1} of {name}: expected "
+            number = parser.line_number + data.count(b"\n", 0, cut) + 1
+            raise InputError(f"line {number} of {name}: expected "
                              f"lines of at most {MAX_LINE_BYTES} bytes, got a longer one")
-        values, error = parser.parse(lines)
+        values, error = parser.parse(data[:cut] if block else data)
         if values.size:
-            sink.write(_format(_correct(compensator, values, direction)))
+            sink.write(write(_correct(compensator, values, direction)))
             sink.flush()
             written += values.size
         if error is not None:
@@ -89,7 +100,7 @@ def _correct(compensator, values, direction=None):
     return corrected
 
 
-def _format(values):
+def _format_repr(values):
     return ("\n".join(map(repr, values.tolist())) + "\n").encode("ascii")
 
 
@@ -107,8 +118,17 @@ class _LineParser:
         self.column = None  # None: no data line seen yet; -1: one angle per line
         self.n_fields = 1  # fields of every row: the header's
 
-    def parse(self, lines):
-        """Angles of the complete ``lines``, and the error to raise after writing them (or None)."""
+    def parse(self, text):
+        """Angles of ``text`` (bytes: whole lines, or the end of the input), and the error to raise after
+        writing them (or None)."""
+        if self.column == -1 and text.endswith(b"\n"):
+            values = parse_lines(np.frombuffer(text, dtype=np.uint8))
+            if values is not None:
+                self.line_number += values.size
+                return values, None
+        lines = text.split(b"\n") if text else []
+        if text.endswith(b"\n"):
+            lines.pop()  # the line end of the last line does not start another one
         if self.column is not None:
             values = self._fast(lines)
             if values is not None:
