@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 import encal
+from encal.angles import wrap360
 from encal.errors import InputError, ModelFileError
 from encal.models import model_kind
 from encal.models.lut import LookupTableModel, fit_lut
@@ -210,3 +211,35 @@ def test_save_and_load_give_the_same_model(tmp_path):
     assert type(again) is type(model)
     assert np.array_equal(again.predict(angles), model.predict(angles))
     assert again.parameters() == model.parameters()
+
+
+# ------------------------------------------------------------------ pieces by index arithmetic
+
+def _tables(seed):
+    """Uniform and random breaks (several origins), linear and cubic, with -0.0 among the coefficients."""
+    rng = np.random.default_rng(seed)
+    for number, first in enumerate([0.0, 0.3, -5.0, 17.25, 359.5]):
+        for breaks in (first + np.arange(0.0, 360.0, [2.0, 1.0, 5.0, 0.7, 120.0][number]),
+                       first + np.unique(np.concatenate(([0.0], rng.uniform(0.0, 360.0, rng.integers(1, 400)))))):
+            breaks = np.append(breaks, breaks[0] + 360.0)
+            breaks = breaks[np.concatenate((np.diff(breaks) > 1e-6, [True]))]
+            for interpolation, degree in (("linear", 1), ("cubic", 3)):
+                coefficients = rng.normal(size=(degree + 1, breaks.size - 1))
+                coefficients[:, :2] = -0.0
+                yield LookupTableModel(breaks, coefficients, interpolation)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_pieces_found_by_index_arithmetic_give_ppoly_bit_for_bit(seed):
+    """The model's own evaluation equals SciPy's PPoly (the bisection it replaced), to the last bit and the
+    sign of zero, at random angles, at every break, one ulp either side of it, and a turn away."""
+    rng = np.random.default_rng(seed)
+    for model in _tables(seed):
+        breaks = model.breaks_deg
+        theta = np.concatenate((rng.uniform(-400.0, 760.0, 5000), breaks, np.nextafter(breaks, -np.inf),
+                                np.nextafter(breaks, np.inf), breaks + 360.0, breaks - 360.0, [0.0, -0.0]))
+        wrapped = wrap360(theta)  # what predict evaluates the table at: PPoly there, as before
+        inside = wrapped - 360.0 * np.floor((wrapped - breaks[0]) / 360.0)
+        np.testing.assert_array_equal(model.predict(theta).view(np.int64), model._ppoly(inside).view(np.int64))
+        expected = np.clip(np.searchsorted(breaks, inside, side="right") - 1, 0, breaks.size - 2)
+        np.testing.assert_array_equal(model._pieces.locate(inside), expected)

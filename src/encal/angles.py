@@ -46,9 +46,35 @@ def wrap360(angle_deg):
     >>> float(wrap360(720.5))
     0.5
     """
-    wrapped = np.mod(angle_deg, 360.0)
+    angle = np.asarray(angle_deg, dtype=float)
+    if angle.size > 64:  # np.mod's value without its fmod (most of the time of a wrap), bit for bit
+        low, high = angle.min(), angle.max()
+        if 0.0 <= low and high < 360.0:
+            return angle + 0.0  # (-0.0 becomes 0.0, as np.mod makes it)
+        if -360.0 <= low and high < 720.0:
+            # np.mod adds 360 to a negative remainder (rounding once) and subtracts it from one above
+            # 360 (exactly); the sum can round to 360.0 exactly, which the product below makes 0.0
+            wrapped = angle + 360.0 * ((angle < 0.0).view(np.int8) - (angle >= 360.0).view(np.int8))
+            wrapped *= wrapped < 360.0
+            return wrapped
+        if -_EXACT_TURNS_DEG < low and high < _EXACT_TURNS_DEG:
+            # angle - 360 k for the whole number of turns k is exact, and where np.mod adds 360 to a
+            # negative remainder it rounds the same sum once; a quotient rounded up to a whole number
+            # shows as a negative remainder
+            turns = np.floor(angle / 360.0)
+            wrapped = angle - 360.0 * turns
+            turns -= wrapped < 0.0
+            wrapped = angle - 360.0 * turns
+        else:
+            wrapped = np.mod(angle, 360.0)
+    else:
+        wrapped = np.mod(angle, 360.0)
     # np.mod(-1e-17, 360) rounds to 360.0 exactly; keep the half-open interval.
     return np.where(wrapped >= 360.0, 0.0, wrapped)[()]
+
+
+#: Below this size, ``360 * turns`` and ``angle - 360 * turns`` are exact in binary64.
+_EXACT_TURNS_DEG = 2.0**40
 
 
 #: Orientations of an encoder relative to its reference: 1, it counts with the reference; -1, against it

@@ -108,7 +108,13 @@ class Compensator:
         float or ndarray
             Corrected angles in degrees, in [0, 360), same shape.
         """
-        theta = wrap360(as_angles(theta_enc_deg))  # wrap first: multi-turn readings keep their precision
+        theta = as_angles(theta_enc_deg)
+        if direction is None and type(self.model).correct is Model.correct:
+            # The same formula, evaluated by the model a chunk at a time (in cache, memory flat). The model
+            # wraps the reading itself; wrapping it before negating it can differ in the last bit.
+            theta = theta if self.reading_sign == 1 else wrap360(theta)
+            return np.reshape(self.model.correct(theta.reshape(-1)), theta.shape)[()]
+        theta = wrap360(theta)  # wrap first: multi-turn readings keep their precision
         return wrap360(model_input(theta, self.reading_sign) - self.predict(theta, direction) / ARCMIN_PER_DEG)[()]
 
     __call__ = correct

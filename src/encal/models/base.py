@@ -171,8 +171,13 @@ class Model(ABC):
 
     def _correct(self, theta, direction=None):
         # model_input wraps first: multi-turn readings keep their precision
-        return wrap360(model_input(theta, self.reading_sign)
-                       - self.predict(theta, direction=direction) / ARCMIN_PER_DEG)
+        wrapped = model_input(theta, self.reading_sign)
+        if direction is None and theta.ndim == 1 and type(self).predict is Model.predict:
+            # a chunk of correct(): predict's own steps without repeating its checks and wrap
+            predicted = in_chunks(self._predict, wrapped, self.evaluation_width)
+        else:
+            predicted = self.predict(theta, direction=direction)
+        return wrap360(wrapped - predicted / ARCMIN_PER_DEG)
 
     def save(self, path, **options):
         """Write the model file (see :func:`encal.deploy.save_model`)."""

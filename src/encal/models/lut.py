@@ -81,6 +81,10 @@ class LookupTableModel(Model):
         self.breaks_deg = breaks
         self.coefficients = coefficients
         self._ppoly = PPoly(coefficients, breaks, extrapolate=True)
+        self._pieces = _PieceIndex(breaks)
+        # One row per piece, its break and its terms (constant first): one gather fetches a reading's all.
+        self._rows = np.ascontiguousarray(np.vstack([breaks[:-1], coefficients[::-1]]).T)
+        self._rows[:, 1] += 0.0  # PPoly's sum starts from 0.0: a constant term -0.0 counts as +0.0
 
     @property
     def table_deg(self):
@@ -94,9 +98,21 @@ class LookupTableModel(Model):
 
     def _predict(self, theta_deg):
         first = self.breaks_deg[0]
-        # Into [x_0, x_0 + 360) without touching angles already there (table points stay exact).
-        inside = theta_deg - 360.0 * np.floor((theta_deg - first) / 360.0)
-        return self._ppoly(inside)
+        inside = theta_deg
+        # Into [x_0, x_0 + 360) without touching angles already there (table points stay exact); when all
+        # are (the expression's floor is 0 for the extremes, hence for all), theta_deg is the answer.
+        if not (theta_deg.size and first <= theta_deg.min() and (theta_deg.max() - first) / 360.0 < 1.0):
+            inside = theta_deg - 360.0 * np.floor((theta_deg - first) / 360.0)
+        # PPoly's sum, term by term in its order (c_d + c_{d-1} s + c_{d-2} s^2 + ..., the powers by
+        # repeated products), with its pieces found by index arithmetic instead of a bisection.
+        rows = np.take(self._rows, self._pieces.locate(inside), axis=0)
+        offset = inside - rows[:, 0]
+        total = rows[:, 1] + rows[:, 2] * offset
+        power = offset
+        for m in range(3, rows.shape[1]):
+            power = power * offset
+            total += rows[:, m] * power
+        return total
 
     def free_parameters(self):
         return self.breaks_deg.size - 1
@@ -127,6 +143,38 @@ class LookupTableModel(Model):
 
 #: A table fitted to more distinct angles than this (a dense sweep) averages them in as many equal bins.
 DENSE_ENTRIES = 4096
+
+
+class _PieceIndex:
+    """Which piece of increasing breaks holds each angle, by index arithmetic (``PPoly``'s choice).
+
+    A grid of equal cells over the breaks' span stores the last break at or below each cell's start; an
+    angle's cell is one multiplication away (taken a hair low, so rounding never puts an angle a cell
+    late), and comparisons with the next break, as many as the most breaks a cell holds plus one, finish
+    the search: for breaks on a uniform grid, the usual table, two. The answer is the piece ``i`` with
+    ``breaks[i] <= x < breaks[i + 1]``, the first piece below the first break and the last one from the
+    last break on, as ``PPoly`` extrapolates.
+    """
+
+    def __init__(self, breaks):
+        self.cells = 4 * (breaks.size - 1)
+        self.scale = self.cells / (breaks[-1] - breaks[0])
+        self.shift = breaks[0] * self.scale + 1e-6
+        starts = breaks[0] + np.arange(self.cells + 2) / self.scale
+        self.first_piece = np.clip(np.searchsorted(breaks, starts, side="right") - 1, 0, breaks.size - 2)
+        # an angle is placed in its cell or the one before: as many steps as breaks in two cells
+        self.steps = int(np.max(self.first_piece[2:] - self.first_piece[:-2], initial=0))
+        # the break that ends each piece; the last piece never ends (PPoly extrapolates it)
+        self.piece_end = np.concatenate((breaks[1:-1], [np.inf]))
+
+    def locate(self, x):
+        """Pieces of the angles ``x`` (degrees, within a hair of the breaks' span), as an int array."""
+        cell = x * self.scale - self.shift  # a millionth of a cell low: far more than any rounding
+        np.clip(cell, 0.0, self.cells, out=cell)
+        piece = np.take(self.first_piece, cell.astype(np.intp))
+        for _ in range(self.steps):
+            piece += x >= np.take(self.piece_end, piece)
+        return piece
 
 
 def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=DENSE_ENTRIES):
