@@ -17,9 +17,13 @@ Sections:
   the formula forms (before against after, with their libm calls per reading);
 - ``correct``: ``Model.correct`` / ``predict`` in NumPy on 10^7 angles: ns per angle and
   peak memory against the dense table's lookup and a vectorised formula;
+- ``trigsums``: the harmonic sums of 10^5 angles by direct products, encal's NumPy NUFFT, the
+  ``finufft`` library when installed (not a dependency), and the FFT on a grid within a tolerance
+  (with its stated error bound);
 - ``trainlm``: one trainlm epoch (raw 1:80:1, 180 points) against the back-to-back
   BLAS/LAPACK calls it makes;
-- ``stream``: ``encal correct`` lines per CPU second against a plain NumPy script.
+- ``stream``: ``encal correct`` lines per CPU second (a file, a pipe, ``--exact``) against a plain NumPy
+  script, with and without the start-up;
 
 The load average is printed at the start and the end.
 """
@@ -397,6 +401,83 @@ def section_harmonics(sources, folder, quick):
         print(f"| {name} | " + " | ".join(f"{best[label][name]:.3f}" for label in labels) + ratio + " |")
 
 
+# -- trigonometric sums: FFT on a grid, NUFFT, direct ----------------------------------------
+
+TRIGSUMS_WORKER = """\
+import json, sys, time
+import numpy as np
+from encal._trigsums import trig_moments
+from encal.profile import harmonics
+n, orders = int(sys.argv[1]), [int(k) for k in sys.argv[2].split(",")]
+rng = np.random.default_rng(0)
+nodes = np.arange(n) * (360.0 / n)
+jittered = nodes + rng.uniform(-0.3, 0.3, n) * (360.0 / n)  # a real grid: not uniform
+near = nodes + rng.uniform(-1e-6, 1e-6, n)  # within 1e-6 degrees of a uniform grid
+error = 3 * np.sin(np.radians(nodes) + 0.3) + 0.4 * np.sin(np.radians(17 * nodes)) + rng.normal(0.0, 0.05, n)
+try:
+    import finufft
+except ImportError:
+    finufft = None
+
+def direct(theta_deg, highest):  # sum_i y_i exp(-i k theta_i), k = 0..highest, exact products in chunks
+    theta, out = np.radians(theta_deg), np.zeros(highest + 1, complex)
+    for start in range(0, n, 4096):
+        out += np.exp(-1j * np.multiply.outer(np.arange(highest + 1), theta[start:start + 4096])) @ error[start:start + 4096]
+    return out
+
+def timed(run, repeats=3):
+    best, value = np.inf, None
+    for _ in range(repeats):
+        start = time.process_time()
+        value = run()
+        best = min(best, time.process_time() - start)
+    return best, value
+
+out = {}
+scale = np.sum(np.abs(error))
+for K in orders:
+    row = {}
+    t, exact = timed(lambda: direct(jittered, K), 1)
+    row["direct"] = [t, 0.0]
+    t, value = timed(lambda: np.conj(trig_moments(np.radians(jittered), error, K)))
+    row["encal NUFFT (NumPy)"] = [t, float(np.max(np.abs(value - exact)) / scale)]
+    if finufft is not None:
+        theta = np.radians(jittered)
+        def library():
+            modes = finufft.nufft1d1(theta, error.astype(complex), 2 * K + 1, eps=1e-14, isign=-1, nthreads=1)
+            return modes[K:]  # modes -K..K; k >= 0
+        t, value = timed(library)
+        row[f"finufft {finufft.__version__} (eps 1e-14)"] = [t, float(np.max(np.abs(value - exact)) / scale)]
+    t, exact_near = timed(lambda: direct(near, K), 1)
+    t, result = timed(lambda: harmonics(near, error, K, grid_tolerance_deg=2e-6))
+    value = (result.cos_arcmin - 1j * result.sin_arcmin) * n / np.where(np.arange(K + 1) == 0, 1.0, 2.0)
+    row["harmonics, grid within 2e-6 deg: FFT"] = [t, float(np.max(np.abs(value - exact_near)) / scale),
+                                                   float(np.max(result.grid_bound_arcmin) * n / 2 / scale)]
+    t, _ = timed(lambda: harmonics(near, error, K))
+    row["harmonics, same angles, default tolerance (NUFFT + conjugate gradients)"] = [t, None]
+    out[K] = row
+print(json.dumps(out))
+"""
+
+
+def section_trigsums(sources, folder, quick):
+    import json
+
+    n = 10**4 if quick else 10**5
+    orders = "100,1000"
+    out = json.loads(run_with(sources["after"], sys.executable, "-c", TRIGSUMS_WORKER, str(n), orders).stdout)
+    print(f"\n### trigonometric sums of {n} angles, orders 0..K: CPU seconds (best of 3) and the largest "
+          "error against the direct products, relative to Σ|y|\n")
+    print("| K | method | CPU s | direct / method | error / Σ|y| | stated bound / Σ|y| |")
+    print("|---|---|---|---|---|---|")
+    for K, row in out.items():
+        direct = row["direct"][0]
+        for name, values in row.items():
+            error = "" if values[1] is None else f"{values[1]:.1e}"
+            bound = f"{values[2]:.1e}" if len(values) > 2 else ""
+            print(f"| {K} | {name} | {values[0]:.4f} | {direct / values[0]:.1f} | {error} | {bound} |")
+
+
 # -- encal demo -------------------------------------------------------------------------------
 
 def section_demo(sources, folder, quick):
@@ -450,37 +531,63 @@ sys.stdout.write("\\n".join(map(repr, compensator.correct(values).tolist())) + "
 """
 
 
-def section_stream(sources, folder, quick):
-    import resource
+def _cpu_seconds(command, env, stdin=None):
+    """CPU seconds (user + system) of one process running ``command``, its output discarded."""
+    with subprocess.Popen(command, env=env, stdin=stdin, stdout=subprocess.DEVNULL) as process:
+        _, status, usage = os.wait4(process.pid, 0)
+        process.returncode = os.waitstatus_to_exitcode(status)
+    if process.returncode != 0:
+        raise RuntimeError(f"{command} failed with status {process.returncode}")
+    return usage.ru_utime + usage.ru_stime
 
+
+def section_stream(sources, folder, quick):
     n = 10**5 if quick else 10**6
     lines = folder / "angles.txt"
     angles = np.random.default_rng(1).uniform(0.0, 360.0, n)
     lines.write_text("".join(f"{a!r}\n" for a in angles.tolist()))
-    model = DATA / "model_v1_fourier.json"
-    print(f"\n### `encal correct` on a file of {n} angles (fourier model): lines per CPU second, "
-          "start-up included\n")
-    commands = {f"encal correct ({label})": (source, [sys.executable, "-m", "encal", "correct", str(model),
-                                                       str(lines)]) for label, source in sources.items()}
-    commands["plain NumPy script (read all, correct, repr)"] = (
-        sources["after"], [sys.executable, "-c", PLAIN_SCRIPT, str(model), str(lines)])
-    best = {name: np.inf for name in commands}
-    for _ in range(3):
-        for name, (source, command) in commands.items():
-            before = resource.getrusage(resource.RUSAGE_CHILDREN)
-            env = {**os.environ, "PYTHONPATH": str(source), "OPENBLAS_NUM_THREADS": "1"}
-            subprocess.run(command, env=env, check=True, stdout=subprocess.DEVNULL)
-            after = resource.getrusage(resource.RUSAGE_CHILDREN)
-            best[name] = min(best[name], after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime)
-    peer = best["plain NumPy script (read all, correct, repr)"]
-    print("| command | CPU s | lines/s | / plain script |")
-    print("|---|---|---|---|")
-    for name, seconds in best.items():
-        print(f"| {name} | {seconds:.2f} | {n / seconds:.3g} | {seconds / peer:.2f} |")
+    empty = folder / "empty.txt"
+    empty.write_text("")
+    print(f"\n### `encal correct` on {n} angles (repr of uniform doubles): CPU seconds of the one process, "
+          "best of 3, start-up included; lines/s without start-up = lines / (CPU - CPU on an empty file)\n")
+    print("| model | command | CPU s | lines/s | lines/s without start-up | / plain script (CPU) |")
+    print("|---|---|---|---|---|---|")
+    for model_name in ("lut", "fourier"):
+        model = str(DATA / f"model_v1_{model_name}.json")
+        runs = {}
+        for label, source in sources.items():
+            encal = [sys.executable, "-m", "encal", "correct", model]
+            runs[f"encal correct FILE ({label})"] = (source, encal + [str(lines)], None)
+            if label == "after":
+                runs["encal correct --exact FILE (after)"] = (source, encal + ["--exact", str(lines)], None)
+                runs["cat FILE | encal correct (after)"] = (source, encal, "pipe")
+                runs["start-up: encal correct EMPTY (after)"] = (source, encal + [str(empty)], None)
+        runs["plain NumPy script (read all, correct, repr)"] = (sources["after"], [sys.executable, "-c", PLAIN_SCRIPT,
+                                                                                   model, str(lines)], None)
+        best = {name: np.inf for name in runs}
+        for _ in range(3):
+            for name, (source, command, stdin) in runs.items():
+                env = {**os.environ, "PYTHONPATH": str(source), "OPENBLAS_NUM_THREADS": "1"}
+                if stdin == "pipe":
+                    with subprocess.Popen(["cat", str(lines)], stdout=subprocess.PIPE) as cat:
+                        seconds = _cpu_seconds(command, env, stdin=cat.stdout)
+                        cat.stdout.close()
+                else:
+                    seconds = _cpu_seconds(command, env)
+                best[name] = min(best[name], seconds)
+        startup = best["start-up: encal correct EMPTY (after)"]
+        peer = best["plain NumPy script (read all, correct, repr)"]
+        for name, seconds in best.items():
+            if name.startswith("start-up"):
+                print(f"| {model_name} | {name} | {seconds:.2f} | | | |")
+                continue
+            steady = f"{n / (seconds - startup):.3g}" if seconds > startup else "-"
+            print(f"| {model_name} | {name} | {seconds:.2f} | {n / seconds:.3g} | {steady} | {seconds / peer:.2f} |",
+                  flush=True)
 
 
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm,
-            "harmonics": section_harmonics, "demo": section_demo, "stream": section_stream}
+            "harmonics": section_harmonics, "trigsums": section_trigsums, "demo": section_demo, "stream": section_stream}
 
 
 def main():

@@ -372,7 +372,8 @@ class _Grid:
     n_distinct: int
     phase_rad: float | None  # phase of the uniform grid the angles match, if they match one
     largest_gap_deg: float
-    uniform: bool  # every angle within ANGLE_TOLERANCE_DEG of its node of that grid
+    uniform: bool  # every angle within the tolerance (ANGLE_TOLERANCE_DEG unless told) of its node
+    offset_rad: float = 0.0  # the largest distance of an angle from its node of that grid
 
     @property
     def nyquist_order(self):
@@ -397,13 +398,13 @@ class _Grid:
         return min(self.max_order, below_half_period)
 
 
-def _grid(theta_deg):
+def _grid(theta_deg, tolerance_deg=ANGLE_TOLERANCE_DEG):
     distinct, _ = distinct_angles(theta_deg)
     m = distinct.size
     phase, deviation, regular = _fit_grid(distinct, m)
-    uniform = regular and deviation * 360.0 / m <= ANGLE_TOLERANCE_DEG
+    uniform = regular and deviation * 360.0 / m <= tolerance_deg
     largest_gap = float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0])))
-    return _Grid(m, phase if regular else None, largest_gap, uniform)
+    return _Grid(m, phase if regular else None, largest_gap, uniform, deviation * 2.0 * np.pi / m)
 
 
 def _fit_grid(distinct_deg, points):
@@ -772,12 +773,22 @@ class Harmonics:
         (θ in radians), in arc-minutes.
     n_points : int
         Number of calibration points analysed.
+    grid_bound_arcmin : ndarray of shape (K + 1,) or None
+        When the angles were taken at the nodes of a uniform grid (the FFT path, see
+        :func:`harmonics`): for every order ``k``, a bound on how far the coefficient ``a_k - i b_k``
+        (the DFT's ``c Σ_i w_i ε_i e^{-ikν_i}`` at the nodes ``ν_i``) can be from the same sum at the
+        readings' own angles, ``c Σ_i w_i ε_i e^{-ikθ_i}``, in arc-minutes: ``c k δ Σ_i w_i |ε_i|``
+        for the largest distance ``δ`` (radians) of a reading from its node; ``c = 2`` (1 at the
+        Nyquist order), ``w_i = 1 / (m r_i)`` for ``m`` nodes and ``r_i`` readings at the reading's
+        node (``1/N`` when every node has as many). 0 for order 0. None when the angles were used as
+        they are.
     """
 
     orders: np.ndarray
     cos_arcmin: np.ndarray
     sin_arcmin: np.ndarray
     n_points: int
+    grid_bound_arcmin: np.ndarray | None = None
 
     @property
     def amplitude_arcmin(self):
@@ -848,7 +859,7 @@ class Harmonics:
         return series.sum(axis=-1)[()]
 
 
-def harmonics(theta_deg, error_arcmin, max_order=None):
+def harmonics(theta_deg, error_arcmin, max_order=None, *, grid_tolerance_deg=ANGLE_TOLERANCE_DEG):
     """Harmonic analysis of an error profile by least squares.
 
     Parameters
@@ -862,6 +873,11 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
         angles (the Nyquist order ``n // 2`` on a uniform grid of ``n``
         points). Up to ``(m - 1) // 2`` for ``m`` distinct angles may be asked
         for; it is refused if the least squares is rank-deficient.
+    grid_tolerance_deg : float, default=1e-9
+        The angles count as lying on a uniform grid, and are analysed at its nodes by the FFT, when
+        every one is within this many degrees of its node. Above 1e-9° this trades exactness for
+        speed, and the result says by how much: ``Harmonics.grid_bound_arcmin`` bounds, for every
+        order, the change of its trigonometric sum from moving each reading to its node.
 
     Returns
     -------
@@ -881,9 +897,11 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     The least squares is solved by the cheapest route that gives its answer
     (``K`` is ``max_order``):
 
-    - on a uniform grid (every angle within 1e-9° of its node), with the
-      Nyquist order or with as many readings at every angle: the FFT of the
-      mean error at each angle, O(n log n);
+    - on a uniform grid (every angle within ``grid_tolerance_deg`` of its
+      node), with the Nyquist order or with as many readings at every angle:
+      the FFT of the mean error at each node, O(n log n). Moving a reading
+      by ``δ`` radians changes ``ε e^{-ikθ}`` by at most ``|ε| k δ``
+      (``|1 - e^{ix}| <= |x|``), hence the bound ``grid_bound_arcmin``;
     - otherwise, up to :func:`identifiable_order`: the normal equations. For
       this basis they are a Toeplitz system in the sums ``Σ_i e^{imθ_i}``,
       ``m <= 2K``, formed in O(n K) by two small matrix products and solved by
@@ -903,7 +921,12 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
     (3.0, 40.0)
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, "harmonics")
-    grid = _grid(theta)
+    tolerance = grid_tolerance_deg
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float, np.floating, np.integer)) \
+            or not 0.0 <= float(tolerance) < 180.0:
+        raise InputError(f"harmonics expects grid_tolerance_deg to be a number of degrees >= 0 and < 180; "
+                         f"got {grid_tolerance_deg!r}")
+    grid = _grid(theta, float(tolerance))
     if max_order is None:
         max_order = grid.stable_order
     elif isinstance(max_order, bool) or not isinstance(max_order, numbers.Integral) \
@@ -911,14 +934,16 @@ def harmonics(theta_deg, error_arcmin, max_order=None):
         raise invalid("max_order", "harmonics", f"an int from 0 to {grid.max_order} (the highest order "
                       f"{grid.n_distinct} distinct encoder angles can determine), or None", max_order)
     max_order = int(max_order)
-    series = None
+    series, bound = None, None
     if grid.uniform:
         series = _series_by_fft(theta, error, max_order, grid)
+        if series is not None:
+            series, bound = series[:2], series[2]
     if series is None and max_order <= grid.stable_order:
         series = _series_by_normal_equations(theta, error, max_order, grid)
     if series is None:
         series = fit_harmonic_series(theta, error, range(max_order + 1), caller="harmonics")
-    return Harmonics(np.arange(max_order + 1), *series, int(theta.size))
+    return Harmonics(np.arange(max_order + 1), *series, int(theta.size), bound)
 
 
 def rank_orders(theta_deg, error_arcmin, max_order=None, *, grid_deg=None, count=None):
@@ -1025,18 +1050,25 @@ def _extend_basis(basis, rank, columns, lengths, room=None):
 
 
 def _series_by_fft(theta_deg, error_arcmin, max_order, grid):
-    """Least-squares ``(a_k, b_k)``, k <= max_order, on a uniform grid, from the FFT.
+    """Least-squares ``(a_k, b_k)``, k <= max_order, on a uniform grid, from the FFT, and the bound
+    ``grid_bound_arcmin`` of :class:`Harmonics`.
 
     The least squares fits the mean error at each node, equally weighted when
     every node has as many readings or when the series has as many terms as
     there are nodes (it then interpolates the means). Returns None otherwise.
     """
     m = grid.n_distinct
-    node = np.round((np.radians(theta_deg) - grid.phase_rad) * m / (2.0 * np.pi)).astype(int) % m
+    position = (np.radians(theta_deg) - grid.phase_rad) * m / (2.0 * np.pi)  # in grid spacings
+    nearest = np.round(position)
+    node = nearest.astype(int) % m
     readings = np.bincount(node, minlength=m)
     if max_order < m // 2 and readings.min() != readings.max():
         return None
     mean = np.bincount(node, weights=error_arcmin, minlength=m) / readings
+    # The bound of the change of each sum from moving every reading to its node (see Harmonics).
+    offset_rad = float(np.max(np.abs(position - nearest), initial=0.0)) * 2.0 * np.pi / m
+    weighted = float(np.sum(np.bincount(node, weights=np.abs(error_arcmin), minlength=m) / readings)) / m
+    bound = 2.0 * np.arange(max_order + 1) * offset_rad * weighted
     spectrum = np.fft.rfft(mean)[: max_order + 1] / m  # X_k of the means at φ + 2πj/m
     coefficient = 2.0 * spectrum * np.exp(-1j * np.arange(max_order + 1) * grid.phase_rad)  # a_k - i b_k
     cos_arcmin, sin_arcmin = coefficient.real.copy(), -coefficient.imag
@@ -1044,7 +1076,8 @@ def _series_by_fft(theta_deg, error_arcmin, max_order, grid):
     if max_order == grid.nyquist_order:  # the single term c cos(k(θ - φ)); the means alternate: c = X_k
         shift = max_order * grid.phase_rad
         cos_arcmin[-1], sin_arcmin[-1] = spectrum[-1].real * np.cos(shift), spectrum[-1].real * np.sin(shift)
-    return cos_arcmin, sin_arcmin
+        bound[-1] /= 2.0
+    return cos_arcmin, sin_arcmin, bound
 
 
 def _series_by_normal_equations(theta_deg, error_arcmin, max_order, grid):
