@@ -21,7 +21,7 @@ import scipy.linalg
 from ._trigsums import trig_moments
 from .angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .errors import InputError
-from .parameters import check_choice, invalid
+from .parameters import check_choice, check_number, invalid
 
 __all__ = [
     "ErrorStats",
@@ -921,12 +921,9 @@ def harmonics(theta_deg, error_arcmin, max_order=None, *, grid_tolerance_deg=ANG
     (3.0, 40.0)
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, "harmonics")
-    tolerance = grid_tolerance_deg
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float, np.floating, np.integer)) \
-            or not 0.0 <= float(tolerance) < 180.0:
-        raise InputError(f"harmonics expects grid_tolerance_deg to be a number of degrees >= 0 and < 180; "
-                         f"got {grid_tolerance_deg!r}")
-    grid = _grid(theta, float(tolerance))
+    tolerance = check_number(grid_tolerance_deg, "grid_tolerance_deg", "harmonics", low=0.0, high=180.0,
+                             high_open=True, note="degrees")
+    grid = _grid(theta, tolerance)
     if max_order is None:
         max_order = grid.stable_order
     elif isinstance(max_order, bool) or not isinstance(max_order, numbers.Integral) \
