@@ -61,7 +61,7 @@ class Design:
     n : int
         Number of readings.
     lineable : ndarray of bool of shape (P,)
-        Columns whose order may carry a line (not order 0, not the single Nyquist column).
+        Columns whose order may carry a line (every order but 0).
     """
 
     orders: np.ndarray
@@ -84,13 +84,19 @@ class Design:
 
 @dataclass
 class Hyper:
-    """Hyperparameters: background ``A ν^-β``, noise variance, lines (order -> variance)."""
+    """Hyperparameters: background ``A ν^-β``, noise variance, lines (order -> variance), flat part.
+
+    ``flat`` is a prior variance added to every order above 0: a flat (white) part of the profile.
+    The evidence cannot tell it from the noise on a uniform grid; it is set by
+    :func:`split_average`, never optimised.
+    """
 
     amplitude: float
     exponent: float
     noise_var: float
     lines: dict = field(default_factory=dict)
     noise_fixed: bool = False
+    flat: float = 0.0
 
     def variances(self, design):
         """Prior variance of every column."""
@@ -99,6 +105,7 @@ class Hyper:
         positive = orders > 0
         s[positive] = self.amplitude * orders[positive].astype(float) ** (-self.exponent)
         s[~positive] = _VAGUE * design.scale
+        s[positive] += self.flat
         for order, variance in self.lines.items():
             s[(orders == order) & design.lineable] += variance
         return s
@@ -120,6 +127,10 @@ class Posterior:
         ``∂ log p / ∂ log s_j``.
     grad_log_noise : float
         ``∂ log p / ∂ log σ²``.
+    spread : ndarray of shape (S, P), optional
+        For a mixture of posteriors (:func:`split_average`): the deviation of each component's mean
+        from the mixture's, times the square root of its weight; the mixture's covariance is
+        ``covariance + spreadᵀ spread``.
     """
 
     log_evidence: float
@@ -127,6 +138,7 @@ class Posterior:
     covariance: np.ndarray
     grad_log_variance: np.ndarray
     grad_log_noise: float
+    spread: np.ndarray = None
 
 
 def evidence(design, variances, noise_var):
@@ -460,3 +472,60 @@ def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
         added += 1
         post = evidence(design, hyper.variances(design), hyper.noise_var)
     return added
+
+
+#: Splits of the flat level between signal and noise averaged by :func:`split_average`.
+SPLIT_POINTS = 9
+
+
+def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
+    """The posterior averaged over how the flat level divides between signal and noise.
+
+    On a uniform grid a flat part of the profile and white noise add the same level to every
+    order: the evidence is flat along ``flat + σ²/g = L`` (``g`` the Gram diagonal of an order's
+    column) and one run cannot tell the split. Blind, the fraction ``f = flat / L`` gets a
+    uniform prior on [0, 1]: the posterior is the mixture, over ``points`` midpoints of [0, 1],
+    of the posteriors at each split, weighted by their evidence (nearly equal on the ridge), with
+    the noise variance never below ``floor_var`` (the quantisation's, when known).
+
+    Parameters
+    ----------
+    design : Design
+    hyper : Hyper
+        The maximum-likelihood hyperparameters with ``flat = 0``: ``σ²/g`` is the flat level ``L``.
+    floor_var : float, default=0.0
+        Smallest noise variance.
+    points : int, default=SPLIT_POINTS
+
+    Returns
+    -------
+    (Posterior, float)
+        The mixture (evidence-weighted mean and covariance, and the spread of the components'
+        means) and its mean noise variance.
+    """
+    g_all = design.gram if design.diagonal else np.diag(design.gram)
+    positive = design.orders > 0
+    g = float(np.median(g_all[positive])) if np.any(positive) else float(max(design.n, 1))
+    level = hyper.flat + hyper.noise_var / g
+    posteriors, noises = [], []
+    for fraction in (np.arange(points) + 0.5) / points:
+        noise = max((1.0 - fraction) * level * g, floor_var, 1e-300)
+        trial = Hyper(hyper.amplitude, hyper.exponent, noise, dict(hyper.lines), True, max(level - noise / g, 0.0))
+        try:
+            posteriors.append(evidence(design, trial.variances(design), noise))
+        except np.linalg.LinAlgError:  # σ² at the floor of noise-free data: that split is left out
+            continue
+        noises.append(noise)
+    if not posteriors:
+        return evidence(design, hyper.variances(design), hyper.noise_var), hyper.noise_var
+    log_evidence = np.array([p.log_evidence for p in posteriors])
+    weights = np.exp(log_evidence - log_evidence.max())
+    weights /= weights.sum()
+    means = np.array([p.mean for p in posteriors])
+    mean = weights @ means
+    covariance = sum(w * p.covariance for w, p in zip(weights, posteriors))
+    spread = np.sqrt(weights)[:, None] * (means - mean)
+    total = float(log_evidence.max() + math.log(np.mean(np.exp(log_evidence - log_evidence.max()))))
+    best = posteriors[int(np.argmax(log_evidence))]
+    mixture = Posterior(total, mean, covariance, best.grad_log_variance, best.grad_log_noise, spread)
+    return mixture, float(weights @ np.array(noises))

@@ -36,8 +36,9 @@ __all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
 #: likelihood evaluation); the FFT path has no cap below the Nyquist order.
 DEFAULT_MAX_ORDER_IRREGULAR = 200
 #: What the blind fit assumes about the split of a flat spectrum between signal and noise.
-BLIND_PRIOR = ("blind: sigma by maximum likelihood under a decaying background (beta >= 1), so a flat "
-               "(white) part of the profile is counted as noise")
+BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot split between profile and noise, "
+               "is split under a uniform prior (the posterior averaged over the splits), the noise never below "
+               "the quantisation's LSB/sqrt(12) when the readings show the resolution")
 #: Most orders stored in the model file; beyond, the smallest posterior-mean terms are dropped.
 STORED_ORDERS_LIMIT = 4096
 #: Fewest readings beyond the stops for the noise to be estimated from repeated readings.
@@ -197,14 +198,16 @@ def _columns(highest, regular_points, phase_rad):
     """Orders, shifts and line eligibility of the columns ``cos(ν θ - ψ)``.
 
     On a regular grid of an even number ``N`` of stops, the Nyquist order ``N / 2`` has one
-    column, ``cos(N/2 (θ - φ))``, its sine pinned to zero and no line (safeguard 3).
+    column, ``cos(N/2 (θ - φ))``, its sine pinned to zero (safeguard 3). That column may carry a
+    line: it is ±1 at the nodes and 0 at the midpoints, and a stepper's per-step pattern seen by
+    every other step lands there, which without a line of its own would be counted as noise.
     """
     orders, shifts, lineable = [0], [0.0], [False]
     for k in range(1, highest + 1):
         if regular_points is not None and regular_points % 2 == 0 and 2 * k == regular_points:
             orders.append(k)
             shifts.append(k * phase_rad)
-            lineable.append(False)
+            lineable.append(True)
             continue
         orders += [k, k]
         shifts += [0.0, 0.5 * math.pi]
@@ -242,7 +245,8 @@ def _fft_design(error, uniform, orders, shifts, lineable):
     n = error.size
     gram = np.full(orders.size, 0.5 * n)
     gram[orders == 0] = n
-    gram[(orders > 0) & ~lineable] = n  # the Nyquist column is ±1 at the nodes
+    if nodes % 2 == 0:
+        gram[2 * orders == nodes] = n  # the single Nyquist column is ±1 at the nodes
     return _evidence.Design(orders, shifts, gram, projection, float(error @ error), n, lineable)
 
 
@@ -372,6 +376,15 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     _advance(progress)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats)
     _advance(progress)
+    bits = resolution_of_readings(theta)
+    split = None
+    if noise_source == "blind":
+        quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
+        # σ stays the flat level (all of it noise): a new reading's noise is at most that, and one run
+        # cannot say it is less; the mean of the split is recorded beside it.
+        post, mean_noise_var = _evidence.split_average(design, hyper, quantisation_var)
+        split = {"points": _evidence.SPLIT_POINTS, "mean_noise_std_arcmin": math.sqrt(mean_noise_var),
+                 "floor_arcmin": math.sqrt(quantisation_var)}
 
     cos = np.zeros(highest + 1)
     sin = np.zeros(highest + 1)
@@ -387,7 +400,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         "stops": int(m),
         "prior": _prior_text(noise_source),
         "noise": {"source": noise_source, "std_arcmin": sigma,
-                  **({"repeat_dof": int(repeat_dof)} if repeat_dof is not None else {})},
+                  **({"repeat_dof": int(repeat_dof)} if repeat_dof is not None else {}),
+                  **({"split": split} if split is not None else {})},
         "background": {"amplitude_arcmin2": hyper.amplitude, "exponent": hyper.exponent},
         "lines": [int(k) for k in sorted(hyper.lines)],
         "line_variances_arcmin2": [hyper.lines[k] for k in sorted(hyper.lines)],
@@ -398,7 +412,6 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     }
     if noise_arcmin is not None:
         training["noise_arcmin"] = float(noise_arcmin)
-    bits = resolution_of_readings(theta)
     if bits is not None:
         training["readings_resolution_bits"] = bits
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
@@ -460,6 +473,11 @@ def _posterior_std(design, post, highest, sigma):
     else:
         features = np.cos(np.multiply.outer(theta, design.orders) - design.shifts)
         variance = np.sum((features @ post.covariance) * features, axis=1)
+    for deviation in post.spread if post.spread is not None else ():
+        # Σ_j d_j cos(ν_j θ - ψ_j) on the grid, by one FFT of the terms folded onto it
+        terms = np.zeros(points, dtype=complex)
+        np.add.at(terms, design.orders % points, deviation * np.exp(-1j * design.shifts))
+        variance = variance + np.real(np.fft.ifft(terms) * points) ** 2
     return {
         "method": "posterior",
         "grid_step_deg": 360.0 / points,
