@@ -281,17 +281,20 @@ def test_dense_table_and_c_export_evaluate_the_series(tmp_path):
 
 # -- auto and the command line ----------------------------------------------------------------------
 
-def test_auto_is_the_spectral_model_unless_a_network_cross_validates_clearly_better():
+def test_auto_is_the_spectral_model_and_a_network_asked_for_must_cross_validate_clearly_better():
     from encal.models.choice import fit_auto
 
     error = line_profile(GRID) + np.random.default_rng(1).normal(0.0, 0.05, GRID.size)
     model = fit_auto(GRID, error, rng=0)
     selection = model.training["selection"]
     assert model.kind == "spectral" and selection["scheme"] == "evidence" and selection["chosen"] == "spectral"
+    assert selection["table"] == [] and selection["reason"] == "the spectral model (evidence)"
+    model = fit_auto(GRID, error, rng=0, networks=True)
+    selection = model.training["selection"]
     assert [row["family"] for row in selection["table"]] == ["spectral", "hybrid", "ann", "ann"]
     # A local bump a decaying spectrum shrinks: a network may take over, never by less than the margin.
     bump = 4.0 * np.exp(-0.5 * ((GRID - 100.0) / 3.0) ** 2)
-    model = fit_auto(GRID, error + bump, rng=0)
+    model = fit_auto(GRID, error + bump, rng=0, networks=True)
     rows = {row["label"]: row["cv_rms_arcmin"] for row in model.training["selection"]["table"]}
     spectral_cv = next(v for k, v in rows.items() if k.startswith("spectral"))
     if model.kind != "spectral":
@@ -302,7 +305,8 @@ def test_auto_skips_the_networks_on_large_calibrations():
     from encal.models.choice import fit_auto
 
     theta = np.arange(0.0, 360.0, 0.5)
-    model = fit_auto(theta, line_profile(theta) + np.random.default_rng(2).normal(0.0, 0.05, theta.size))
+    model = fit_auto(theta, line_profile(theta) + np.random.default_rng(2).normal(0.0, 0.05, theta.size),
+                     networks=True)
     assert model.kind == "spectral" and model.training["selection"]["table"] == []
     assert "networks not tried on 720 stops" in model.training["selection"]["reason"]
 

@@ -44,6 +44,10 @@ def add_arguments(parser):
                         help="the encoder will be read only at the calibrated angles (a motor's full steps): "
                              "validate the candidates there, so a per-step pattern of the reference counts "
                              "(auto; docs/model-selection.md)")
+    parser.add_argument("--networks", action="store_const", const=True, default=None,
+                        help="also cross-validate the hybrid and two periodic networks against the spectral "
+                             "model, on calibrations of at most 400 stops; slower, and measured worse on the "
+                             "real files (auto; docs/model-selection.md)")
     parser.add_argument("--no-stack", dest="stack", action="store_const", const=False, default=None,
                         help="choose one model family, never a weighted mean of several (auto)")
     parser.add_argument("--bidirectional", choices=["per-direction", "mean"],
@@ -73,7 +77,7 @@ _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
-    "at_steps": ("auto",), "stack": ("auto",), "noise": ("spectral", "auto"), "repeat": ("spectral", "auto"),
+    "at_steps": ("auto",), "stack": ("auto",), "networks": ("auto",), "noise": ("spectral", "auto"), "repeat": ("spectral", "auto"),
 }
 
 
@@ -116,6 +120,8 @@ def _options(args):
         options["bidirectional"] = args.bidirectional
     if args.at_steps:
         options["use_grid"] = True
+    if args.networks:
+        options["networks"] = True
     if args.noise is not None:
         options["noise_arcmin"] = args.noise
     if args.orders is not None:

@@ -1,4 +1,4 @@
-"""The default choice of ``fit(method='auto')``: the spectral model, networks only where they can pay.
+"""The default choice of ``fit(method='auto')``: the empirical-Bayes spectral model.
 
 Interleaved k-fold cross-validation cannot see orders between ``n/4`` and ``n/2`` of a grid of ``n``
 stops: a held-out point sits between neighbours two steps apart, so content in that band counts
@@ -6,14 +6,13 @@ as pure error, and CV scores a smooth series against an interpolating table unfa
 (docs/model-selection.md). The decision between smooth and interpolating belongs to the spectrum:
 the empirical-Bayes spectral model (:mod:`encal.models.spectral`) covers every order up to the
 Nyquist order and lets the evidence decide, order by order, how much of each to keep. It is the
-answer of ``auto``.
+answer of ``auto``: O(n log n) on a uniform grid, O(n) plus O(K³) elsewhere.
 
-Cross-validation stays where it is right: between models that are smooth at the scale of the
-folds. A network or the hybrid (a Fourier series plus a network) follows a local defect that a
-decaying spectrum shrinks; on calibrations of at most :data:`NETWORK_STOPS_LIMIT` stops they are
-cross-validated against the spectral model over the same folds, and one replaces it only if its
-CV RMS is lower by more than :data:`NETWORK_MARGIN`. Above that size they are not tried, so
-auto stays O(n log n) on a uniform grid and O(n) plus O(K³) elsewhere.
+Networks are not tried by default. A network or the hybrid follows a local defect that a decaying
+spectrum shrinks, but cross-validating them against the spectral model made auto worse where it
+was measured (docs/model-selection.md): with ``networks=True`` they are cross-validated over
+interleaved folds and one replaces the spectral model only if its CV RMS is lower by more than
+:data:`NETWORK_MARGIN`.
 
 Passing ``candidates``, ``folds``, ``tolerance``, ``use_grid`` or ``stack`` asks for the
 cross-validated choice among the given families instead (:func:`encal.models.select.fit_auto`).
@@ -29,7 +28,7 @@ from .spectral import fit_spectral
 
 __all__ = ["fit_auto", "NETWORK_CANDIDATES", "NETWORK_STOPS_LIMIT", "NETWORK_MARGIN", "format_choice", "Selection"]
 
-#: Networks are tried only on calibrations of at most this many stops (distinct reference angles).
+#: With ``networks=True``, networks are tried only on calibrations of at most this many stops.
 NETWORK_STOPS_LIMIT = 400
 #: A network replaces the spectral model only when its CV RMS is lower by more than this fraction.
 NETWORK_MARGIN = 0.03
@@ -42,7 +41,7 @@ NETWORK_CANDIDATES = (
 _CV_OPTIONS = ("candidates", "folds", "tolerance", "use_grid", "stack")
 
 
-def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, noise_arcmin=None, networks=None, progress=None,
+def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, noise_arcmin=None, networks=False, progress=None,
              **cv_options):
     """Fit the spectral model, or a network where a network cross-validates clearly better.
 
@@ -56,8 +55,9 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, noise_arcmin=None, networ
         Seed of the networks; the same seed gives the same model.
     noise_arcmin : float, optional
         The noise of one reading, when known (see :func:`~encal.models.spectral.fit_spectral`).
-    networks : bool, optional
-        Try the networks; default: when the calibration has at most :data:`NETWORK_STOPS_LIMIT` stops.
+    networks : bool, default=False
+        Also cross-validate the networks against the spectral model (on calibrations of at most
+        :data:`NETWORK_STOPS_LIMIT` stops).
     progress : callable, optional
         Passed to :func:`~encal.models.spectral.fit_spectral`.
     **cv_options
@@ -82,11 +82,13 @@ def fit_auto(theta_enc_deg, error_arcmin, *, rng=None, noise_arcmin=None, networ
     start = time.perf_counter()
     spectral = fit_spectral(theta, error, noise_arcmin=noise_arcmin, progress=progress)
     stops = spectral.training["stops"]
-    if networks is None:
-        networks = stops <= NETWORK_STOPS_LIMIT
-    selection = {"scheme": "evidence", "folds": None, "table": [], "chosen": "spectral",
-                 "reason": (f"the spectral model (evidence); networks not tried on {stops} stops (more than "
-                            f"{NETWORK_STOPS_LIMIT})" if not networks else "")}
+    if networks and stops > NETWORK_STOPS_LIMIT:
+        reason = (f"the spectral model (evidence); networks not tried on {stops} stops (more than "
+                  f"{NETWORK_STOPS_LIMIT})")
+        networks = False
+    else:
+        reason = "the spectral model (evidence)"
+    selection = {"scheme": "evidence", "folds": None, "table": [], "chosen": "spectral", "reason": reason}
     model = spectral
     if networks:
         model, selection = _against_networks(theta, error, spectral, rng)
