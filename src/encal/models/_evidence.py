@@ -141,12 +141,13 @@ class Posterior:
     spread: np.ndarray = None
 
 
-def evidence(design, variances, noise_var):
+def evidence(design, variances, noise_var, covariance=True):
     """The log marginal likelihood, its gradient and the posterior (see the module docstring).
 
     With ``d = √s`` and ``B = I + d G d / σ²`` (symmetric, eigenvalues >= 1):
     ``log p = -½ [n log 2πσ² + log|B| + yᵀy/σ² - uᵀB⁻¹u]``, ``u = d b / σ²``;
-    posterior mean ``d B⁻¹ u``, covariance ``d B⁻¹ d``.
+    posterior mean ``d B⁻¹ u``, covariance ``d B⁻¹ d``. With ``covariance=False`` the general
+    path computes only the diagonal of ``B⁻¹`` (all the gradient needs) and returns no covariance.
     """
     s, sigma2 = variances, noise_var
     d = np.sqrt(s)
@@ -163,15 +164,21 @@ def evidence(design, variances, noise_var):
         residual2 = yy - 2.0 * design.projection @ mean + np.sum(g * mean**2)
     else:
         g = design.gram
-        big_b = np.eye(s.size) + (d[:, None] * g * d[None, :]) / sigma2
+        big_b = (d[:, None] * g) * (d[None, :] / sigma2)
+        big_b[np.diag_indices_from(big_b)] += 1.0
         factor = _cholesky(big_b)
         z = scipy.linalg.cho_solve((factor, True), u)
-        inverse, info = scipy.linalg.lapack.dpotri(factor, lower=1)
-        inverse = np.tril(inverse) + np.tril(inverse, -1).T
-        inverse_diagonal = np.diag(inverse).copy()
+        if covariance:
+            inverse, info = scipy.linalg.lapack.dpotri(factor, lower=1)
+            inverse = np.tril(inverse) + np.tril(inverse, -1).T
+            inverse_diagonal = np.diag(inverse).copy()
+        else:
+            # B⁻¹ = L⁻ᵀ L⁻¹: its diagonal is the column sums of squares of L⁻¹ (upper triangle zero)
+            inverse_factor, info = scipy.linalg.lapack.dtrtri(factor, lower=1)
+            inverse_diagonal = np.einsum("ij,ij->j", inverse_factor, inverse_factor)
         logdet = 2.0 * float(np.sum(np.log(np.diag(factor))))
         mean = d * z
-        covariance = d[:, None] * inverse * d[None, :]
+        covariance = d[:, None] * inverse * d[None, :] if covariance else None
         residual2 = yy - 2.0 * design.projection @ mean + mean @ g @ mean
     log_p = -0.5 * (n * math.log(2.0 * math.pi * sigma2) + logdet + yy / sigma2 - u @ z)
     grad_s = 0.5 * (z**2 + inverse_diagonal - 1.0)
@@ -216,7 +223,7 @@ def _objective(x, design, hyper, line_orders, background_parts):
     trial = _unpack(x, hyper, line_orders)
     s = trial.variances(design)
     try:
-        post = evidence(design, s, trial.noise_var)
+        post = evidence(design, s, trial.noise_var, covariance=False)
     except np.linalg.LinAlgError:  # rounding at an extreme trial point: steer the line search back
         return _FAILED_OBJECTIVE, np.zeros(x.size)
     positive = design.orders > 0
