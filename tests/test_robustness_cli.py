@@ -373,7 +373,7 @@ CASES = [
     Case("evaluate-model-binary", ("evaluate", "{binary_model}", "{test}"), 1, ("binary_model.json", "UTF-8")),
     Case("evaluate-model-other-format", ("evaluate", "{other_format}", "{test}"), 1, ("other_format.json",
                                                                                      "encal.model")),
-    Case("evaluate-model-newer", ("evaluate", "{newer}", "{test}"), 1, ("newer.json", "version 2", "upgrade")),
+    Case("evaluate-model-newer", ("evaluate", "{newer}", "{test}"), 1, ("newer.json", "version 3", "upgrade")),
     Case("evaluate-model-truncated", ("evaluate", "{truncated_model}", "{test}"), 1, ("truncated_model.json",
                                                                                      "JSON")),
     Case("evaluate-model-altered", ("evaluate", "{altered}", "{test}"), 1, ("altered.json", "checksum")),

@@ -2,8 +2,10 @@
 
 This one file is meant to be copied into a data acquisition program: it reads
 a model file written by ``encal fit`` (any kind: ``fourier``, ``spectral``, ``lut``, ``ann``,
-``hybrid``, ``stack``, ``directional``), verifies its checksum and structure, and
-evaluates the model one angle at a time. It imports nothing but ``json``, ``math``,
+``hybrid``, ``stack``, ``directional``, or a kind added later), verifies its checksum and structure, and
+evaluates the model one angle at a time. It evaluates a model by its *form*, the way its parameters are
+stored (a Fourier series, a table, a network, ...): a kind added to encal that saves in one of these forms
+is read and evaluated by this file unchanged. It imports nothing but ``json``, ``math``,
 ``bisect`` and ``hashlib``; NumPy and encal need not be installed.
 
     import runtime                          # this file, copied and renamed as you like
@@ -31,20 +33,31 @@ import math
 __all__ = ["load", "read_document", "RuntimeModel", "ModelFileError", "model_input_deg", "reading_sign_of",
            "version_for",
            "canonical_json", "content_sha256", "check_document", "check_parameters",
-           "check_uncertainty", "normalisation_of", "FORMAT", "VERSION", "KINDS"]
+           "check_uncertainty", "normalisation_of", "form_of", "names_a_form", "FORMAT", "VERSION", "KINDS",
+           "FORMS", "KIND_FORMS"]
 
 FORMAT = "encal.model"
-#: The newest format version this reader understands. Version 2 is version 1 plus ``reading_sign``; a
-#: writer uses the oldest version that holds the model, so a file of version 1 means what it always meant.
-VERSION = 2
+#: The newest format version this reader understands. Version 2 is version 1 plus ``reading_sign``; version 3
+#: is version 2 plus ``form``, for a kind the format does not name. A writer uses the oldest version that holds
+#: the model, so a file of version 1 means what it always meant.
+VERSION = 3
 #: ``reading_sign`` values: 1, the encoder counts with its reference; -1, against it.
 READING_SIGNS = (1, -1)
-#: Model kinds whose parameters format version 1 specifies.
-KINDS = ("ann", "directional", "fourier", "hybrid", "lut", "spectral", "stack")
-#: Kinds that can be one direction's part of a ``directional`` model.
-PART_KINDS = ("ann", "fourier", "hybrid", "lut", "spectral", "stack")
-#: Kinds that can be a member of a ``stack`` model.
-MEMBER_KINDS = ("ann", "fourier", "hybrid", "lut", "spectral")
+#: The forms a model's parameters are stored in, each checked and evaluated here (docs/model-file.md).
+FORMS = ("ann", "directional", "fourier", "hybrid", "lut", "stack")
+#: The model kinds the format names, and the form each is stored in (a spectral model: its posterior-mean
+#: Fourier series). A model of another kind names its form in a ``form`` field (version 3), next to its
+#: ``kind``: in the file, in a stack's member and in a directional model's part.
+KIND_FORMS = {"ann": "ann", "directional": "directional", "fourier": "fourier", "hybrid": "hybrid",
+              "lut": "lut", "spectral": "fourier", "stack": "stack"}
+#: Model kinds whose parameters the format names.
+KINDS = tuple(sorted(KIND_FORMS))
+#: The forms, and the kinds the format names, that can be one direction's part of a ``directional`` model.
+PART_FORMS = ("ann", "fourier", "hybrid", "lut", "stack")
+PART_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in PART_FORMS)
+#: The forms, and the kinds the format names, that can be a member of a ``stack`` model.
+MEMBER_FORMS = ("ann", "fourier", "hybrid", "lut")
+MEMBER_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in MEMBER_FORMS)
 #: Largest distance of a stack's weights' sum from 1.
 WEIGHT_SUM_TOLERANCE = 1e-9
 UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}
@@ -157,10 +170,11 @@ def check_document(document, where, *, verify_checksum=True):
     if missing:
         raise ModelFileError(f"{where}: expected the fields {', '.join(FIELDS)}, "
                              f"but {_listed(missing)} missing")
+    form = _check_form(document, FORMS, where, "", version)
     _check_header(document, where)
-    check_parameters(document["kind"], document["parameters"], where)
+    check_parameters(form, document["parameters"], where, version=version)
     check_uncertainty(document.get("uncertainty"), where)
-    expected = normalisation_of(document["kind"], document["parameters"])
+    expected = normalisation_of(form, document["parameters"])
     if document["normalisation"] != expected:
         raise ModelFileError(f"{where}: expected 'normalisation' to repeat the scaling held in "
                              f"'parameters' ({_describe(expected)}), got "
@@ -186,9 +200,66 @@ def reading_sign_of(document):
     return document.get("reading_sign", 1)
 
 
-def version_for(reading_sign):
-    """The format version a writer uses: the oldest that holds ``reading_sign``."""
+def version_for(reading_sign, form_named=False):
+    """The format version a writer uses: the oldest that holds ``reading_sign`` and, when ``form_named``, a
+    ``form`` field (a kind the format does not name, in the file or in one of its members or parts)."""
+    if form_named:
+        return 3
     return 1 if reading_sign == 1 else 2
+
+
+def names_a_form(entry):
+    """Whether a model (a dict with ``kind``, ``parameters`` and perhaps ``form``) names a form anywhere: in
+    itself, a stack's member or a directional model's part, nested ones included (format version 3)."""
+    entries = [entry]
+    while entries:
+        entry = entries.pop()
+        if "form" in entry:
+            return True
+        form, parameters = form_of(entry), entry["parameters"]
+        if form == "stack":
+            entries.extend(parameters["members"])
+        elif form == "directional":
+            entries.extend(parameters[part] for part in ("forward", "reverse"))
+    return False
+
+
+def form_of(entry):
+    """The form of a checked model file, stack member or directional part: its ``form``, else its kind's.
+
+    Examples
+    --------
+    >>> form_of({"kind": "spectral"}), form_of({"kind": "my-sine", "form": "fourier"})
+    ('fourier', 'fourier')
+    """
+    return entry.get("form") or KIND_FORMS[entry["kind"]]
+
+
+def _check_form(entry, forms, where, prefix, version):
+    """The form of ``entry`` (a file, a stack member or a directional part), after checking its kind and form.
+
+    A kind the format names has its own form and no ``form`` field; any other kind is a non-empty string with
+    a ``form`` among ``forms`` (format version 3). ``prefix`` names the entry's fields (``''`` for the file).
+    """
+    kind, form = entry.get("kind"), entry.get("form")
+    kinds = [name for name in KINDS if KIND_FORMS[name] in forms]
+    if isinstance(kind, str) and kind in KIND_FORMS:
+        if "form" in entry:
+            raise ModelFileError(f"{where}: expected no {prefix}form for the kind {kind!r}, stored in its own "
+                                 f"form ({KIND_FORMS[kind]}), got {_describe(form)}")
+        if KIND_FORMS[kind] not in forms:
+            raise ModelFileError(f"{where}: expected {prefix}kind to be one of {', '.join(kinds)}, got "
+                                 f"{_describe(kind)} (or another kind with a {prefix}form among "
+                                 f"{', '.join(forms)})")
+        return KIND_FORMS[kind]
+    if not (isinstance(kind, str) and kind) or version < 3:
+        raise ModelFileError(f"{where}: expected {prefix}kind to be one of {', '.join(kinds)}, got "
+                             f"{_describe(kind)} (or, from format version 3, another kind's name with a "
+                             f"{prefix}form among {', '.join(forms)})")
+    if not (isinstance(form, str) and form in forms):
+        raise ModelFileError(f"{where}: expected {prefix}form, the form the kind {kind!r} is stored in, to be one "
+                             f"of {', '.join(forms)}, got {'nothing' if 'form' not in entry else _describe(form)}")
+    return form
 
 
 def model_input_deg(theta_deg, reading_sign=1):
@@ -217,10 +288,6 @@ def _check_checksum(document, where):
 
 
 def _check_header(document, where):
-    kind = document["kind"]
-    if kind not in KINDS:
-        raise ModelFileError(f"{where}: expected a model kind among {', '.join(KINDS)}, "
-                             f"got {_describe(kind)}")
     if document["units"] != UNITS:
         raise ModelFileError(f"{where}: expected units {json.dumps(UNITS)}, "
                              f"got {_describe(document['units'])}")
@@ -242,8 +309,9 @@ def _check_header(document, where):
                              f"but {_listed(missing)} missing")
 
 
-def check_parameters(kind, parameters, where, field="parameters"):
-    """Check the parameters of a model of ``kind`` against the format (shapes, finite numbers).
+def check_parameters(form, parameters, where, field="parameters", *, version=VERSION):
+    """Check the parameters of a model stored in ``form`` (or of a kind the format names: its form) against
+    the format (shapes, finite numbers); ``version`` is the file's format version.
 
     Raises
     ------
@@ -251,10 +319,9 @@ def check_parameters(kind, parameters, where, field="parameters"):
         Naming ``where`` and the offending field.
     """
     _require_object(parameters, where, field)
-    # A spectral model is stored as its posterior-mean Fourier series.
-    check = {"fourier": _check_fourier, "spectral": _check_fourier, "lut": _check_lut, "ann": _check_ann,
-             "hybrid": _check_hybrid, "stack": _check_stack, "directional": _check_directional}[kind]
-    check(parameters, where, field)
+    check = {"fourier": _check_fourier, "lut": _check_lut, "ann": _check_ann, "hybrid": _check_hybrid,
+             "stack": _check_stack, "directional": _check_directional}[KIND_FORMS.get(form, form)]
+    check(parameters, where, field, version)
 
 
 def check_uncertainty(uncertainty, where, field="uncertainty"):
@@ -285,7 +352,7 @@ def check_uncertainty(uncertainty, where, field="uncertainty"):
                              "got a negative one")
 
 
-def _check_fourier(p, where, field):
+def _check_fourier(p, where, field, version):
     orders = p.get("orders")
     if not (isinstance(orders, list) and orders
             and all(_is_int(k) and 0 <= k <= MAX_FOURIER_ORDER for k in orders)
@@ -296,7 +363,7 @@ def _check_fourier(p, where, field):
         _require_numbers(p.get(name), len(orders), where, f"{field}.{name}")
 
 
-def _check_lut(p, where, field):
+def _check_lut(p, where, field, version):
     degree = _lookup({"linear": 1, "cubic": 3}, p.get("interpolation"))
     if degree is None:
         raise ModelFileError(f"{where}: expected {field}.interpolation to be 'linear' or 'cubic', "
@@ -316,7 +383,7 @@ def _check_lut(p, where, field):
                     f"{field}.coefficients")
 
 
-def _check_ann(p, where, field):
+def _check_ann(p, where, field, version):
     n_inputs = _lookup({"raw": 1, "periodic": 2}, p.get("encoding"))
     if n_inputs is None:
         raise ModelFileError(f"{where}: expected {field}.encoding to be 'raw' or 'periodic', "
@@ -344,12 +411,12 @@ def _check_ann(p, where, field):
     _require_matrix(p.get("W1"), hidden, n_inputs, where, f"{field}.W1")
 
 
-def _check_hybrid(p, where, field):
+def _check_hybrid(p, where, field, version):
     for part, check in (("fourier", _check_fourier), ("ann", _check_ann)):
-        check(_require_object(p.get(part), where, f"{field}.{part}"), where, f"{field}.{part}")
+        check(_require_object(p.get(part), where, f"{field}.{part}"), where, f"{field}.{part}", version)
 
 
-def _check_stack(p, where, field):
+def _check_stack(p, where, field, version):
     members, weights = p.get("members"), p.get("weights")
     if not isinstance(members, list) or not members:
         raise ModelFileError(f"{where}: expected {field}.members to be a non-empty list of "
@@ -357,10 +424,8 @@ def _check_stack(p, where, field):
     for i, member in enumerate(members):
         name = f"{field}.members[{i}]"
         _require_object(member, where, name)
-        if member.get("kind") not in MEMBER_KINDS:
-            raise ModelFileError(f"{where}: expected {name}.kind to be one of "
-                                 f"{', '.join(MEMBER_KINDS)}, got {_describe(member.get('kind'))}")
-        check_parameters(member["kind"], member.get("parameters"), where, f"{name}.parameters")
+        form = _check_form(member, MEMBER_FORMS, where, f"{name}.", version)
+        check_parameters(form, member.get("parameters"), where, f"{name}.parameters", version=version)
     _require_numbers(weights, len(members), where, f"{field}.weights")
     if min(weights) <= 0:
         raise ModelFileError(f"{where}: expected every one of {field}.weights to be > 0, "
@@ -371,31 +436,31 @@ def _check_stack(p, where, field):
                              f"{WEIGHT_SUM_TOLERANCE:g}), got a sum of {total!r}")
 
 
-def _check_directional(p, where, field):
+def _check_directional(p, where, field, version):
     for part in ("forward", "reverse"):
         name = f"{field}.{part}"
         data = _require_object(p.get(part), where, name)
-        if data.get("kind") not in PART_KINDS:
-            raise ModelFileError(f"{where}: expected {name}.kind to be one of "
-                                 f"{', '.join(PART_KINDS)}, got {_describe(data.get('kind'))}")
-        check_parameters(data["kind"], data.get("parameters"), where, f"{name}.parameters")
+        form = _check_form(data, PART_FORMS, where, f"{name}.", version)
+        check_parameters(form, data.get("parameters"), where, f"{name}.parameters", version=version)
         check_uncertainty(data.get("uncertainty"), where, f"{name}.uncertainty")
 
 
-def normalisation_of(kind, parameters):
-    """The ``normalisation`` field for a model: its networks' mapminmax settings, else ``{}``.
+def normalisation_of(form, parameters):
+    """The ``normalisation`` field for a model stored in ``form`` (or of a kind the format names): its networks'
+    mapminmax settings, else ``{}``.
 
     ``ann`` and ``hybrid``: the network's four settings; ``directional``:
     ``{"forward": ..., "reverse": ...}`` with each part's normalisation; ``stack``:
     ``{"members": [...]}`` with each member's normalisation.
     """
-    if kind == "directional":
-        return {part: normalisation_of(parameters[part]["kind"], parameters[part]["parameters"])
+    form = KIND_FORMS.get(form, form)
+    if form == "directional":
+        return {part: normalisation_of(form_of(parameters[part]), parameters[part]["parameters"])
                 for part in ("forward", "reverse")}
-    if kind == "stack":
-        return {"members": [normalisation_of(member["kind"], member["parameters"])
+    if form == "stack":
+        return {"members": [normalisation_of(form_of(member), member["parameters"])
                             for member in parameters["members"]]}
-    network = {"ann": parameters, "hybrid": parameters.get("ann")}.get(kind)
+    network = {"ann": parameters, "hybrid": parameters.get("ann")}.get(form)
     if network is None:
         return {}
     return {name: network[name] for name in _SCALING_FIELDS}
@@ -553,7 +618,7 @@ def _hybrid(p):
 
 
 def _stack(p):
-    terms = [(weight, _EVALUATORS[member["kind"]](member["parameters"]))
+    terms = [(weight, _EVALUATORS[form_of(member)](member["parameters"]))
              for member, weight in zip(p["members"], p["weights"])]
 
     def predict(theta_deg):
@@ -566,8 +631,8 @@ def _stack(p):
 
 
 def _directional(p):
-    forward = _EVALUATORS[p["forward"]["kind"]](p["forward"]["parameters"])
-    reverse = _EVALUATORS[p["reverse"]["kind"]](p["reverse"]["parameters"])
+    forward = _EVALUATORS[form_of(p["forward"])](p["forward"]["parameters"])
+    reverse = _EVALUATORS[form_of(p["reverse"])](p["reverse"]["parameters"])
 
     def predict(theta_deg, direction=None):
         if direction is None:
@@ -577,8 +642,9 @@ def _directional(p):
     return predict
 
 
-_EVALUATORS = {"fourier": _fourier, "spectral": _fourier, "lut": _lut, "ann": _ann, "hybrid": _hybrid,
-               "stack": _stack, "directional": _directional}
+#: form -> evaluator
+_EVALUATORS = {"fourier": _fourier, "lut": _lut, "ann": _ann, "hybrid": _hybrid, "stack": _stack,
+               "directional": _directional}
 
 
 class RuntimeModel:
@@ -592,6 +658,8 @@ class RuntimeModel:
     Attributes
     ----------
     kind : str
+    form : str
+        How its parameters are stored (one of :data:`FORMS`).
     encoder : dict
         ``{'name': str, 'resolution_bits': int or None}``.
     sha256 : str
@@ -603,11 +671,12 @@ class RuntimeModel:
 
     def __init__(self, document):
         self.kind = document["kind"]
+        self.form = form_of(document)
         self.encoder = document["encoder"]
         self.sha256 = document["sha256"]
-        self.directional = self.kind == "directional"
+        self.directional = self.form == "directional"
         self.reading_sign = reading_sign_of(document)
-        self._predict = _EVALUATORS[self.kind](document["parameters"])
+        self._predict = _EVALUATORS[self.form](document["parameters"])
 
     def predict_arcmin(self, theta_deg, direction=None):
         """Predicted error ``encoder - reference`` in arc-minutes at encoder angle ``theta_deg``.

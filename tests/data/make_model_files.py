@@ -1,7 +1,8 @@
-"""Write the model files of format version 1 kept in tests/data, and their expected values.
+"""Write the model files of each format version kept in tests/data, and their expected values.
 
-Run once per format version (``python tests/data/make_model_files.py``) and commit
-the output; never regenerate the files of an older version: the tests check that
+Run once per format version (``python tests/data/make_model_files.py [VERSION]``, 1 by
+default; 3 for the files that name a form) and commit the output; never regenerate the
+files of an older version: the tests check that
 today's encal still reads them and predicts what they predicted when written. A kind
 added to a version later (``stack``) is drawn last, so the earlier files come out
 byte-identical; commit only its file and its entry of ``expected_v1.json``, keeping the
@@ -32,11 +33,14 @@ ANGLES = [0.0, 1e-12, 0.5, 1.0, 2.0, 45.0, 89.99, 123.456, 180.0, 270.0, 358.0, 
 
 
 class StoredModel(Model):
-    """A model given by its kind and parameters (evaluated by the runtime)."""
+    """A model given by its kind and parameters (evaluated by the runtime); ``form`` for a kind the format
+    does not name."""
 
-    def __init__(self, kind, parameters, *, uncertainty=None, **metadata):
+    def __init__(self, kind, parameters, *, uncertainty=None, form=None, reading_sign=1, **metadata):
         super().__init__(**metadata)
         self.kind = kind
+        self.form = form
+        self.reading_sign = reading_sign
         self._parameters = parameters
         self.uncertainty = uncertainty
 
@@ -142,13 +146,26 @@ def models():
            training("spectral", noise_arcmin=0.1), posterior)
 
 
-def main():
+def models_v3():
+    """Format version 3: a kind the format does not name ('sine', a made-up kind), stored as a Fourier series,
+    alone (its encoder counting against the reference) and as a stack's member."""
+    rng = np.random.default_rng(20261124)
+    sine = {"kind": "sine", "form": "fourier", "parameters": fourier_parameters(rng, [1, 3])}
+    yield "sine", "sine", sine["parameters"], training("sine"), None, {"form": "fourier", "reading_sign": -1}
+    yield ("stack", "stack",
+           {"members": [sine, {"kind": "lut", "parameters": lut_parameters("linear", np.arange(0.0, 360.0, 10.0))}],
+            "weights": [0.7, 0.3]},
+           training("stack", members=[{"family": "sine"}, {"family": "lut"}], weights=[0.7, 0.3]), None, {})
+
+
+def main(version=1):
     os.environ.setdefault("SOURCE_DATE_EPOCH", "1795337100")  # 2026-11-22T10:05:00Z
     expected = {}
-    for name, kind, parameters, record, spread in models():
+    drawn = {1: models, 3: models_v3}[version]()
+    for name, kind, parameters, record, spread, *more in drawn:
         model = StoredModel(kind, parameters, uncertainty=spread, training=record,
-                            encoder={"name": f"v1-{name}", "resolution_bits": 16})
-        path = HERE / f"model_v1_{name}.json"
+                            encoder={"name": f"v{version}-{name}", "resolution_bits": 16}, **(more or [{}])[0])
+        path = HERE / f"model_v{version}_{name}.json"
         atomic_write(path, dumps(model_to_dict(model)))
         stored = runtime.load(path)
         expected[path.name] = {
@@ -157,8 +174,8 @@ def main():
             "correct_deg": [stored.correct_deg(t) for t in ANGLES],
         }
         print(f"wrote {path.name}", file=sys.stderr)
-    atomic_write(HERE / "expected_v1.json", json.dumps(expected, indent=1) + "\n")
+    atomic_write(HERE / f"expected_v{version}.json", json.dumps(expected, indent=1) + "\n")
 
 
 if __name__ == "__main__":
-    main()
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 1)

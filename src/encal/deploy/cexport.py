@@ -34,6 +34,7 @@ import re
 
 import numpy as np
 
+from .. import runtime
 from .._atomic import write_file_set
 from .._version import __version__
 from ..errors import InputError
@@ -91,7 +92,7 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
         raise InputError(f"expected constants 'auto', 'float' or 'double', got {constants!r}")
     if table is None:
         ctype, deviation = _constant_type(comp, constants)
-        body = _formula_source(comp.kind, comp.model.parameters(), _Literals(ctype))
+        body = _formula_source(_form(comp), comp.model.parameters(), _Literals(ctype))
         if ctype == "float" or np.isfinite(deviation):
             change = f"{'they change' if ctype == 'float' else 'float would change'} the model by at most " \
                      f"{deviation:.3g} arcmin on {_CHECK_POINTS} angles"
@@ -111,7 +112,7 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
         how += (";\n * the encoder resolution is unknown (pass bits=, --bits), so the code function "
                 f"{prefix}_correct_counts is left out")
     banner = _banner(comp, prefix, how)
-    directed = table is None and comp.kind == "directional"
+    directed = table is None and _form(comp) == "directional"
     return {f"{prefix}.h": _header(prefix, bits, banner, directed),
             f"{prefix}.c": _source(prefix, bits, banner, body, directed, comp.reading_sign)}
 
@@ -351,7 +352,7 @@ static double {tag}_error_arcmin(double theta)
 
 
 def _stack_source(p, literals, tag):
-    members = [_FORMULA[member["kind"]](member["parameters"], literals, f"{tag}_m{i}")
+    members = [_FORMULA[runtime.form_of(member)](member["parameters"], literals, f"{tag}_m{i}")
                for i, member in enumerate(p["members"])]
     terms = "\n        + ".join(f"(double){tag}_weight[{i}] * {tag}_m{i}_error_arcmin(theta)"
                                 for i in range(len(members)))
@@ -365,7 +366,7 @@ static double {tag}_error_arcmin(double theta)
 
 
 def _directional_source(p, literals, tag):
-    parts = [_FORMULA[p[part]["kind"]](p[part]["parameters"], literals, f"{tag}_{part}")
+    parts = [_FORMULA[runtime.form_of(p[part])](p[part]["parameters"], literals, f"{tag}_{part}")
              for part in ("forward", "reverse")]
     return "\n".join(parts) + f"""
 /* direction +1: turning forward, -1: turning back, 0: unknown (the mean of both) */
@@ -383,12 +384,18 @@ static double {tag}_error_arcmin(double theta)
 """
 
 
-_FORMULA = {"fourier": _fourier_source, "spectral": _fourier_source, "lut": _lut_source, "ann": _ann_source,
-            "hybrid": _hybrid_source, "stack": _stack_source, "directional": _directional_source}
+#: form (:data:`encal.runtime.FORMS`) -> C source of a model stored in it
+_FORMULA = {"fourier": _fourier_source, "lut": _lut_source, "ann": _ann_source, "hybrid": _hybrid_source,
+            "stack": _stack_source, "directional": _directional_source}
 
 
-def _formula_source(kind, parameters, literals):
-    return _FORMULA[kind](parameters, literals, "model") + """
+def _form(comp):
+    """The form of the compensator's model: a kind the model file names has its own, any other names it."""
+    return runtime.form_of({"kind": comp.kind, "form": comp.model.form})
+
+
+def _formula_source(form, parameters, literals):
+    return _FORMULA[form](parameters, literals, "model") + """
 static double error_arcmin(double theta)
 {
     return model_error_arcmin(theta);

@@ -80,6 +80,11 @@ class Model(ABC):
     ----------
     kind : str
         Registered name of the model family (``'fourier'``, ``'lut'``, ``'ann'``, ...).
+    form : str or None
+        For a kind the model-file format does not name: the form its ``parameters()`` take, one of
+        :data:`encal.runtime.FORMS` (a new kind stored as a Fourier series says ``'fourier'``), so that the
+        model file, the standalone runtime and the C export hold and evaluate it unchanged. None for the kinds
+        the format names (:data:`encal.runtime.KIND_FORMS`), which have their own form.
     encoder : dict
         The encoder's name and resolution (``{'name': str, 'resolution_bits': int | None}``).
     training : dict
@@ -94,6 +99,7 @@ class Model(ABC):
     """
 
     kind = "abstract"
+    form = None
     uncertainty = None
     reading_sign = 1
 
@@ -117,6 +123,12 @@ class Model(ABC):
     @abstractmethod
     def from_parameters(cls, parameters, *, encoder=None, training=None):
         """Rebuild a model from ``parameters()``."""
+
+    def file_entry(self):
+        """The model as a stack's member or a directional model's part stores it: ``{'kind', 'parameters'}``,
+        and ``'form'`` for a kind the model-file format does not name."""
+        return {"kind": self.kind, **({} if self.form is None else {"form": self.form}),
+                "parameters": self.parameters()}
 
     def predict(self, theta_enc_deg, return_std=False, direction=None):
         """Predicted error at the given encoder readings.

@@ -112,7 +112,7 @@ class DirectionalModel(Model):
 
     @staticmethod
     def _part_data(part):
-        data = {"kind": part.kind, "parameters": part.parameters()}
+        data = part.file_entry()
         if part.uncertainty is not None:
             data["uncertainty"] = part.uncertainty
         return data

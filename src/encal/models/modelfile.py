@@ -47,8 +47,9 @@ def model_to_dict(model, *, reproducible=False):
     Returns
     -------
     dict
-        ``format, version, kind, encoder``, ``reading_sign`` when it is -1
-        (then version 2, else 1), ``units, normalisation, parameters,
+        ``format, version, kind``, ``form`` for a kind the format does not name
+        (then version 3), ``encoder``, ``reading_sign`` when it is -1 (then
+        version 2, else 1) or in version 3, ``units, normalisation, parameters,
         training``, ``uncertainty`` when the model has one, and ``sha256``, in
         that order.
 
@@ -65,25 +66,32 @@ def model_to_dict(model, *, reproducible=False):
             or not isinstance(getattr(model, "kind", None), str):
         raise InputError(f"expected an encal Model to save, got {type(model).__name__}")
     where = f"the {model.kind} model of {model.encoder.get('name') or 'an unnamed encoder'}"
-    if model.kind not in runtime.KINDS:
+    form = runtime.KIND_FORMS.get(model.kind, getattr(model, "form", None))
+    if form not in runtime.FORMS:
         raise ModelFileError(f"{where}: format version {VERSION} holds the model kinds "
-                             f"{', '.join(runtime.KINDS)}, not {model.kind!r}")
+                             f"{', '.join(runtime.KINDS)}, and other kinds stored in one of the forms "
+                             f"{', '.join(runtime.FORMS)} (the class's 'form'); {model.kind!r} gives "
+                             f"{'no form' if form is None else f'the form {form!r}'}")
+    named = {} if model.kind in runtime.KIND_FORMS else {"form": form}
     parameters = _json_data(model.parameters(), "parameters", finite=True)
     with _encal_errors():
-        runtime.check_parameters(model.kind, parameters, where)
+        runtime.check_parameters(form, parameters, where)
     encoder = _json_data(model.encoder, "encoder", finite=False)
     sign = model.reading_sign
     if isinstance(sign, bool) or sign not in runtime.READING_SIGNS:
         raise ModelFileError(f"{where}: expected reading_sign 1 or -1, got {sign!r}")
+    version = runtime.version_for(sign, runtime.names_a_form({"kind": model.kind, **named,
+                                                              "parameters": parameters}))
     document = {
         "format": FORMAT,
-        "version": runtime.version_for(sign),
+        "version": version,
         "kind": model.kind,
+        **named,
         "encoder": {"name": encoder.pop("name", None) or "",
                     "resolution_bits": encoder.pop("resolution_bits", None), **encoder},
-        **({} if sign == 1 else {"reading_sign": int(sign)}),
+        **({} if version == 1 else {"reading_sign": int(sign)}),
         "units": dict(runtime.UNITS),
-        "normalisation": runtime.normalisation_of(model.kind, parameters),
+        "normalisation": runtime.normalisation_of(form, parameters),
         "parameters": parameters,
         "training": _training_metadata(model, reproducible),
     }

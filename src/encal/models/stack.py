@@ -86,7 +86,7 @@ class StackModel(Model):
         return sum(member.free_parameters() for member in self.members)
 
     def parameters(self):
-        return {"members": [{"kind": member.kind, "parameters": member.parameters()} for member in self.members],
+        return {"members": [member.file_entry() for member in self.members],
                 "weights": [float(weight) for weight in self.weights]}
 
     @classmethod
