@@ -4,6 +4,9 @@ import numpy as np
 import pytest
 
 import encal
+import encal.bidirectional
+import encal.encoder_report
+import encal.outliers
 from encal.calibration import write_calibration
 from encal.errors import InputError
 from encal.models.stack import fit_stack
@@ -87,3 +90,28 @@ def test_calibration_and_stack_entry_points_use_the_template(tmp_path, call, err
         call(path)
     assert str(info.value) == message
     assert path.read_text() == before
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda cal: encal.outliers.isolated_points(GRID, np.sin(np.radians(GRID)), factor=0),
+     "The 'factor' parameter of isolated_points must be a finite number > 0. Got 0 instead."),
+    (lambda cal: encal.outliers.isolated_points(GRID, np.sin(np.radians(GRID)), quantum_arcmin=-0.1),
+     "The 'quantum_arcmin' parameter of isolated_points must be a finite number >= 0 (arc-minutes, or None). "
+     "Got -0.1 instead."),
+    (lambda cal: encal.bidirectional.direction_subset(cal, 0),
+     "The 'direction' parameter of direction_subset must be 1 (forward) or -1 (reverse). Got 0 instead."),
+    (lambda cal: encal.bidirectional.reversal(GRID),
+     "The 'cal' parameter of reversal must be a Calibration. Got an object of type ndarray instead."),
+    (lambda cal: encal.encoder_report.encoder_report(cal, [cal, "b.csv"]),
+     "The 'tests[1]' parameter of encoder_report must be a Calibration. Got an object of type str instead."),
+    (lambda cal: encal.encoder_report.encoder_report(cal, zero="none"),
+     "The 'zero' parameter of encoder_report must be one of 'auto', 'arbitrary', 'fixed'. Got 'none' instead."),
+    (lambda cal: encal.encoder_report.encoder_report(cal, compare=None),
+     "The 'compare' parameter of encoder_report must be True or False. Got None instead."),
+])
+def test_the_analyses_and_the_report_use_the_template(call, message):
+    both = np.r_[GRID, GRID]
+    cal = encal.Calibration(both, both + 0.01, direction=np.repeat([1, -1], GRID.size))
+    with pytest.raises(InputError) as info:
+        call(cal)
+    assert str(info.value) == message

@@ -20,7 +20,8 @@ import numpy as np
 
 from .angles import ARCMIN_PER_DEG, lsb_arcmin, wrap360
 from .calibration import MIN_POINTS, Calibration
-from .errors import CalibrationError, InputError
+from .errors import CalibrationError
+from .parameters import check_type, invalid
 
 __all__ = [
     "MODES",
@@ -167,8 +168,7 @@ class ReversalAnalysis:
 
 def require_directions(cal, caller):
     """Refuse a calibration without at least MIN_POINTS points in each direction of travel (one sentence)."""
-    if not isinstance(cal, Calibration):
-        raise InputError(f"{caller} expects a Calibration. Got {type(cal).__name__} instead.")
+    check_type(cal, Calibration, "cal", caller, "a Calibration")
     if cal.direction is None:
         raise CalibrationError(f"{caller} expects a calibration with a direction column (+1/-1); "
                                f"{cal.source or cal.name or 'the calibration'} has none")
@@ -186,6 +186,9 @@ def has_both_directions(cal):
 
 def direction_subset(cal, direction):
     """The points of one direction of travel (+1 forward, -1 reverse), without the direction column."""
+    check_type(cal, Calibration, "cal", "direction_subset", "a Calibration")
+    if isinstance(direction, bool) or direction not in (1, -1):
+        raise invalid("direction", "direction_subset", "1 (forward) or -1 (reverse)", direction)
     keep = cal.direction == direction
     part = cal.subset(keep)
     return Calibration(part.reference_deg, part.encoder_deg, epoch=part.epoch, name=cal.name,

@@ -29,7 +29,9 @@ from ._version import __version__
 from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings
 from .calibration import Calibration
 from .errors import InputError
-from .profile import error_stats, harmonics, remove_offset, zero_is_arbitrary, zero_offset_arcmin, zero_sentence
+from .parameters import check_bool, check_choice, check_type, invalid
+from .profile import (ZERO_MODES, error_stats, harmonics, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
+                      zero_sentence)
 
 __all__ = ["EncoderReport", "encoder_report", "render_encoder_figures", "build_encoder_html",
            "write_encoder_report", "ENCODER_FIGURES"]
@@ -165,9 +167,18 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     from .drift import compare_calibrations, split_epochs
     from .fitting import evaluate, fit
 
-    if not isinstance(cal, Calibration) or not all(isinstance(t, Calibration) for t in tests):
-        raise InputError("encoder_report expects Calibration objects for the calibration and the tests")
-    tests = list(tests)
+    where = "encoder_report"
+    check_type(cal, Calibration, "cal", where, "a Calibration")
+    try:
+        tests = list(tests)
+    except TypeError:
+        raise invalid("tests", where, "a sequence of Calibrations", tests,
+                      shown=f"an object of type {type(tests).__name__}") from None
+    for index, test in enumerate(tests):
+        check_type(test, Calibration, f"tests[{index}]", where, "a Calibration")
+    check_choice(zero, "zero", where, ZERO_MODES)
+    uncertainty = check_bool(uncertainty, "uncertainty", where)
+    compare = check_bool(compare, "compare", where)
     offset = zero_offset_arcmin(cal.errors_arcmin)
     arbitrary = zero_is_arbitrary(zero, offset, *(zero_offset_arcmin(t.errors_arcmin) for t in tests))
     mode = "arbitrary" if arbitrary else "fixed"

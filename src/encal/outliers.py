@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .parameters import check_number
 from .profile import profile_arrays
 
 __all__ = ["IsolatedPoints", "isolated_points", "ISOLATION_FACTOR"]
@@ -82,6 +83,10 @@ def isolated_points(theta_enc_deg, error_arcmin, *, quantum_arcmin=None, factor=
     [7, 49.1]
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "isolated_points")
+    if quantum_arcmin is not None:
+        quantum_arcmin = check_number(quantum_arcmin, "quantum_arcmin", "isolated_points", low=0.0,
+                                      note="arc-minutes, or None")
+    factor = check_number(factor, "factor", "isolated_points", low=0.0, low_open=True)
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
     _, first = np.unique(np.stack([np.mod(theta, 360.0), error], axis=1), axis=0, return_index=True)
