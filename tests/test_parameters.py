@@ -7,6 +7,7 @@ import encal
 import encal.bidirectional
 import encal.encoder_report
 import encal.outliers
+from encal.selfcal import spin, steps, sweep
 from encal.calibration import write_calibration
 from encal.errors import InputError
 from encal.models.stack import fit_stack
@@ -114,4 +115,23 @@ def test_the_analyses_and_the_report_use_the_template(call, message):
     cal = encal.Calibration(both, both + 0.01, direction=np.repeat([1, -1], GRID.size))
     with pytest.raises(InputError) as info:
         call(cal)
+    assert str(info.value) == message
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda: spin([object()], max_order=0),
+     "The 'max_order' parameter of spin must be an int >= 1. Got 0 instead."),
+    (lambda: spin([object()], knot_revolutions=-1.0),
+     "The 'knot_revolutions' parameter of spin must be a finite number > 0 (revolutions). Got -1.0 instead."),
+    (lambda: sweep(GRID, GRID, np.ones(GRID.size), 0),
+     "The 'pole_pairs' parameter of sweep must be an int from 1 to 1000 (pole pairs: no motor has more). "
+     "Got 0 instead."),
+    (lambda: sweep(GRID, GRID, np.ones(GRID.size), 7, skip=-1),
+     "The 'skip' parameter of sweep must be an int >= 0 (samples). Got -1 instead."),
+    (lambda: steps(None, turn_deg=float("nan")),
+     "The 'turn_deg' parameter of steps must be a finite number (an angle in degrees, or None). Got nan instead."),
+])
+def test_the_self_calibrations_use_the_template(call, message):
+    with pytest.raises(InputError) as info:
+        call()
     assert str(info.value) == message

@@ -105,5 +105,6 @@ def test_result_plots_itself_with_its_band():
 
 def test_a_turn_that_is_not_a_number_is_refused():
     first, second = _pair(137.5)
-    with pytest.raises(InputError, match="finite angle"):
+    with pytest.raises(InputError, match=r"^The 'turn_deg' parameter of steps must be a finite number \(an angle in "
+                                         r"degrees, or None\)\. Got nan instead\.$"):
         steps(first.calibration, second.calibration, turn_deg=float("nan"))

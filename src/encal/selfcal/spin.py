@@ -17,6 +17,8 @@ from scipy.interpolate import BSpline
 
 from ..angles import ARCMIN_PER_DEG
 from ..errors import InputError
+from ..parameters import check_int, check_number
+from .._limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 
@@ -102,8 +104,11 @@ def spin(runs, *, pole_pairs=None, slots=None, max_order=32, ripple_orders=(), k
     runs = list(runs)
     if not runs:
         raise InputError("spin needs at least one log of (time, encoder reading)")
-    if isinstance(max_order, bool) or not isinstance(max_order, (int, np.integer)) or max_order < 1:
-        raise InputError(f"The 'max_order' parameter of spin must be an int >= 1. Got {max_order!r} instead.")
+    max_order = check_int(max_order, "max_order", "spin", low=1)
+    pole_pairs = None if pole_pairs is None else check_size("pole_pairs", pole_pairs, "spin")
+    slots = None if slots is None else check_size("slots", slots, "spin")
+    knot_revolutions = check_number(knot_revolutions, "knot_revolutions", "spin", low=0.0, low_open=True,
+                                    note="revolutions")
     orders = np.arange(1, max_order + 1)
     estimates = [_run_coefficients(run, orders, knot_revolutions) for run in runs]
     speeds = np.array([e["speed_rev_s"] for e in estimates])

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, wrap180
 from ..errors import InputError
+from ..parameters import check_int, check_number
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 
@@ -97,9 +98,11 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         standard uncertainty (``stepper_sigma_arcmin``), and the same error modelled as the 4-step
         pattern plus one error per tooth (``stepper_model_arcmin``, ``stepper_model_sigma_arcmin``).
     """
-    if turn_deg is not None and not np.isfinite(turn_deg):
-        raise InputError(f"The 'turn_deg' parameter of steps must be a finite angle in degrees. Got {turn_deg!r} "
-                         "instead.")
+    if turn_deg is not None:
+        turn_deg = check_number(turn_deg, "turn_deg", "steps", note="an angle in degrees, or None")
+    if step_shift is not None:
+        step_shift = check_int(step_shift, "step_shift", "steps", note="full steps, or None")
+    max_order = check_int(max_order, "max_order", "steps", low=1)
     reading_a, error_a = step_errors(first)
     n = reading_a.size
     if max_order >= n // 2:

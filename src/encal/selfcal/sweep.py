@@ -17,6 +17,8 @@ import numpy as np
 
 from ..angles import ARCMIN_PER_DEG
 from ..errors import InputError
+from ..parameters import check_int
+from .._limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 
@@ -76,8 +78,10 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
         For a wrong pole-pair count (the encoder's travel does not match), a sweep that does not cover
         the turn in both directions, or too few samples.
     """
-    if isinstance(pole_pairs, bool) or not isinstance(pole_pairs, (int, np.integer)) or pole_pairs < 1:
-        raise InputError(f"The 'pole_pairs' parameter of sweep must be an int >= 1. Got {pole_pairs!r} instead.")
+    pole_pairs = check_size("pole_pairs", pole_pairs, "sweep")
+    max_order = check_int(max_order, "max_order", "sweep", low=1)
+    slots = None if slots is None else check_size("slots", slots, "sweep")
+    skip = check_int(skip, "skip", "sweep", low=0, note="samples")
     phase = np.asarray(phase_deg_e, dtype=float).reshape(-1)[skip:]
     reading = np.asarray(encoder_deg, dtype=float).reshape(-1)[skip:]
     travel = np.asarray(travel).reshape(-1)[skip:]
