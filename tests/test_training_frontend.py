@@ -83,10 +83,24 @@ def test_x0_of_the_wrong_size(size):
         train(problem, "traingd", x0=np.zeros(size))
 
 
-def test_negative_epochs():
+@pytest.mark.parametrize("option, message", [
+    ({"epochs": -1}, "The 'epochs' parameter of train must be an int >= 0. Got -1 instead."),
+    ({"epochs": 2.5}, "The 'epochs' parameter of train must be an int >= 0. Got 2.5 instead."),
+    ({"goal": -1.0}, "The 'goal' parameter of train must be a finite number >= 0 (a mean squared error). "
+                     "Got -1.0 instead."),
+    ({"max_fail": 0}, "The 'max_fail' parameter of train must be an int >= 1. Got 0 instead."),
+    ({"time": "1 s"}, "The 'time' parameter of train must be a finite number >= 0 (seconds, or math.inf). "
+                      "Got '1 s' instead."),
+    ({"plateau_patience": 0}, "The 'plateau_patience' parameter of train must be an int >= 1 (epochs, or None). "
+                              "Got 0 instead."),
+    ({"plateau_tol": 1.5}, "The 'plateau_tol' parameter of train must be a finite number in [0, 1]. "
+                           "Got 1.5 instead."),
+])
+def test_bad_stopping_parameters_are_refused_in_one_sentence(option, message):
     problem, x0 = linear_problem()
-    with pytest.raises(InputError, match="epochs must be an int >= 0. Got -1 instead."):
-        train(problem, "trainscg", x0=x0, epochs=-1)
+    with pytest.raises(InputError) as info:
+        train(problem, "trainscg", x0=x0, **option)
+    assert str(info.value) == message
 
 
 def test_x0_is_not_modified():

@@ -7,6 +7,7 @@ import warnings
 import numpy as np
 
 from ..errors import InputError, TrainingLimitWarning
+from ..parameters import check_int, check_number
 from ._monitor import Monitor
 from ._result import TrainResult
 
@@ -118,8 +119,7 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
             f"{algorithm} does not take the option(s) {', '.join(sorted(unknown))}; "
             f"it takes: {', '.join(sorted(accepted | set(STOPPING_PARAMETERS))) or 'none'}"
         )
-    if int(stopping["epochs"]) < 0:
-        raise InputError(f"epochs must be an int >= 0. Got {stopping['epochs']} instead.")
+    stopping = _checked_stopping(stopping)
     x0 = np.array(x0, dtype=float, copy=True).reshape(-1)
     if x0.size != problem.n_params:
         raise InputError(f"x0 has {x0.size} values; the problem has {problem.n_params} parameters")
@@ -144,6 +144,23 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
         nfev=counted.nfev,
         time_s=monitor.elapsed,
     )
+
+
+def _checked_stopping(stopping):
+    """The stopping parameters after checking each (:mod:`encal.parameters`'s one template)."""
+    checked = dict(stopping)
+    checked["epochs"] = check_int(stopping["epochs"], "epochs", "train", low=0)
+    checked["goal"] = check_number(stopping["goal"], "goal", "train", low=0.0, note="a mean squared error")
+    checked["min_grad"] = check_number(stopping["min_grad"], "min_grad", "train", low=0.0)
+    checked["max_fail"] = check_int(stopping["max_fail"], "max_fail", "train", low=1)
+    if stopping["time"] != math.inf:
+        checked["time"] = check_number(stopping["time"], "time", "train", low=0.0, note="seconds, or math.inf")
+    if stopping.get("plateau_patience") is not None:
+        checked["plateau_patience"] = check_int(stopping["plateau_patience"], "plateau_patience", "train", low=1,
+                                                note="epochs, or None")
+    if "plateau_tol" in stopping:
+        checked["plateau_tol"] = check_number(stopping["plateau_tol"], "plateau_tol", "train", low=0.0, high=1.0)
+    return checked
 
 
 def _warn_if_cut_short(monitor, algorithm, epochs_given):
