@@ -17,7 +17,6 @@ travel gets a ``directional`` model whose parts may be stacks.
 
 import copy
 import math
-import numbers
 
 import numpy as np
 
