@@ -168,7 +168,8 @@ def deployments(kind_is_fourier):
             ("cortex-m4f", {"interpolation": "linear"}, "error_lsb", "float", "cortex-m4f table"),
             ("cortex-m4f", {"interpolation": "cubic"}, "correct_code", "uint32_t", "cortex-m4f table"),
             ("cortex-m4f", {"interpolation": "cubic"}, "error_lsb", "float", "cortex-m4f table"),
-            ("fixed", {}, "correct_code", "uint32_t", "fixed table")]
+            ("fixed", {"interpolation": "linear"}, "correct_code", "uint32_t", "fixed table"),
+            ("fixed", {"interpolation": "cubic"}, "correct_code", "uint32_t", "fixed table")]
     if kind_is_fourier:
         rows.append(("cortex-m4f", {"form": "formula"}, "correct_code", "uint32_t", "cortex-m4f formula"))
     return rows

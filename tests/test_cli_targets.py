@@ -61,7 +61,7 @@ def test_formula(tmp_path, capsys):
     (["--target", "fixed", "--dtype", "float32"], "not --dtype float32"),
     (["--target", "fixed", "--form", "formula"], "not --form formula"),
     (["--dtype", "int8"], "a dense table is int16 or float32"),
-    (["--target", "fixed", "--interpolation", "cubic"], "not --target fixed"),
+    (["--target", "cortex-m4f", "--form", "formula", "--interpolation", "cubic"], "not --form formula"),
     (["--interpolation", "cubic"], "apply to --target cortex-m4f or fixed"),
     (["--target", "cortex-m4f", "--interpolation", "cubic", "--cost", "bytes"], "--cost chooses the deployment"),
 ])

@@ -102,8 +102,8 @@ def test_bad_options():
         choose_compact(DATA / "model_v1_lut.json", tolerance_arcmin=0.0)
     with pytest.raises(InputError, match="interpolation among linear, cubic"):
         compile_compact(DATA / "model_v1_lut.json", 64, interpolation="quadratic")
-    with pytest.raises(InputError, match="float32 rule only"):
-        correction_bam(compile_compact(DATA / "model_v1_lut.json", 64, interpolation="cubic"), [0])
+    with pytest.raises(InputError, match="int8 or int16 table for the integer rule"):
+        correction_bam(compile_compact(DATA / "model_v1_lut.json", 64, dtype="float32"), [0])
 
 
 def cubic_spline_model(nodes, coefficients):
@@ -122,13 +122,16 @@ def test_a_cubic_b_spline_profile_is_reproduced_to_its_quantisation(dtype):
     coefficients = rng.uniform(-5, 5, 64)
     table = compile_compact(cubic_spline_model(64, coefficients), 64, dtype=dtype, bits=BITS,
                             interpolation="cubic")
-    assert table.interpolation == "cubic" and table.fixed_max_error_arcmin is None
+    assert table.interpolation == "cubic"
     # integer nodes are in units of 6 * scale (their run-time sum is six times the spline)
     stored = table.values.astype(float) * 6.0 * table.scale_arcmin + table.offset_arcmin
     bound = 3.0 * table.scale_arcmin if dtype == "int16" else 1e-5
     assert np.max(np.abs(stored - coefficients)) <= bound * (1 + 1e-9)
     # the weights of the four nodes sum to one: the value is off by at most a node's rounding
     assert table.max_error_arcmin <= bound + 1e-5
+    if dtype == "int16":  # the integer rule adds the rounding of three products, of the unit and of q8
+        q8 = 21600.0 / 2**BITS / 256
+        assert table.fixed_max_error_arcmin <= bound + 4 * table.scale_arcmin + BAM_ARCMIN + q8 / 2
 
 
 @pytest.mark.parametrize("interpolation, low, high", [("linear", 3.5, 4.5), ("cubic", 12.0, 24.0)])
@@ -146,8 +149,8 @@ def test_cubic_tables_make_a_high_harmonic_profile_smaller():
     cubic, met_cubic = choose_compact(model, tolerance_arcmin=0.03, dtypes=("int16",))
     assert met_linear and met_cubic and cubic.interpolation == "cubic"
     assert cubic.nodes * 4 <= linear.nodes and cubic.table_bytes <= 2048
-    fixed, _ = choose_compact(model, tolerance_arcmin=0.03, target="fixed")
-    assert fixed.interpolation == "linear"  # the integer rule is linear only
+    fixed, met_fixed = choose_compact(model, tolerance_arcmin=0.03, target="fixed")
+    assert met_fixed and fixed.interpolation == "cubic" and fixed.fixed_max_error_arcmin <= 0.03
 
 
 def test_a_large_constant_stays_out_of_the_integer_nodes():

@@ -139,6 +139,35 @@ def test_cortex_m4f_cubic_table_equals_its_python_rule_and_the_model_within_the_
 
 
 @needs_gcc
+@pytest.mark.parametrize("dtype", ["int8", "int16"])
+def test_fixed_cubic_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, dtype):
+    model = FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
+                         encoder={"resolution_bits": BITS})
+    _, summary = write_target(model, tmp_path, "fixed", prefix="enc", bits=BITS, nodes=512, dtype=dtype,
+                              interpolation="cubic")
+    table = summary["table"]
+    assert summary["interpolation"] == "cubic" and table.interpolation == "cubic"
+    out = run_c(tmp_path, FIXED_DRIVER, np.int32)
+    codes = np.arange(N, dtype=np.int64)
+    np.testing.assert_array_equal(out[:, 0], correction_bam(table, codes << 16))
+    q8 = correction_lsb_q8(table, codes, BITS)
+    np.testing.assert_array_equal(out[:, 1], q8)
+    np.testing.assert_array_equal(out[:, 2], (codes - ((q8 + 128) >> 8)) % N)
+    angles = (codes * 65537) & 0xFFFFFFFF
+    np.testing.assert_array_equal(out[:, 3].view(np.uint32), (angles - correction_bam(table, angles)) & 0xFFFFFFFF)
+    truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
+    error = np.abs(q8 / 256.0 * (21600.0 / N) - truth)
+    assert error.max() <= summary["max_error_arcmin"] + 1e-12
+    assert summary["max_error_arcmin"] < (0.2 if dtype == "int8" else 0.05)
+    # an alternating pattern of full-scale nodes: the largest partial sums of Horner's rule, no overflow
+    nodes = np.where(np.arange(512) % 2 == 0, 32767, -32767).astype(np.int16)
+    nodes[::4] = -32767
+    extreme = type(table)(nodes, table.scale_exponent, BITS, 0.0, 0.0, interpolation="cubic")
+    p = correction_bam(extreme, np.arange(0, 2**32, 2**14, dtype=np.int64))
+    assert np.all(np.abs(p) < 2**31)
+
+
+@needs_gcc
 @pytest.mark.parametrize("kind", KINDS)
 def test_fixed_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, kind):
     _, summary = write_target(model_path(kind), tmp_path, "fixed", prefix="enc", bits=BITS)
@@ -208,8 +237,10 @@ def test_explicit_nodes_and_dtype():
     files, summary = export_target(model_path("lut"), "cortex-m4f", nodes=64, dtype="int8", interpolation="cubic")
     assert summary["interpolation"] == "cubic" and summary["operations"] == 40
     assert "cubic B-spline" in files["encal.c"]
-    with pytest.raises(InputError, match="cubic tables are for cortex-m4f"):
-        export_target(model_path("lut"), "fixed", interpolation="cubic")
+    _, summary = export_target(model_path("lut"), "fixed", nodes=64, dtype="int8", interpolation="cubic")
+    assert summary["interpolation"] == "cubic" and summary["operations"] == 37
+    with pytest.raises(InputError, match="interpolation among linear, cubic"):
+        export_target(model_path("lut"), "fixed", interpolation="spline")
     with pytest.raises(InputError, match="integer node dtype"):
         export_target(model_path("lut"), "fixed", dtype="float32")
     with pytest.raises(InputError, match="power of two"):

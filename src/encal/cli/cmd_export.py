@@ -60,9 +60,9 @@ def add_arguments(parser):
                         help="C for cortex-m4f/fixed: nodes of the compact table, a power of two "
                              "(default: the fewest that meet --tolerance)")
     parser.add_argument("--interpolation", choices=("linear", "cubic"),
-                        help="C for cortex-m4f: between the compact table's nodes, linear or a cubic "
-                             "B-spline (fewer nodes for the same error, about twice the operations); "
-                             "default the smaller table in bytes that meets --tolerance")
+                        help="C for cortex-m4f/fixed: between the compact table's nodes, linear or a "
+                             "cubic B-spline (fewer nodes for the same error, about twice the "
+                             "operations); default the smaller table in bytes that meets --tolerance")
     parser.add_argument("--tolerance", type=float, metavar="ARCMIN",
                         help="C for cortex-m4f/fixed: pick the cheapest deployment (--cost) whose "
                              "deployed error against the model stays within ARCMIN, and say what it "
@@ -101,9 +101,8 @@ def _check_combinations(args):
                                   or args.interpolation is not None):
         _usage_error("--nodes, --interpolation, --tolerance and --form apply to --target cortex-m4f or fixed, "
                      "not host (its C evaluates the formula in double, or --table)")
-    if args.interpolation == "cubic" and (args.target == "fixed" or args.form == "formula"):
-        _usage_error("--interpolation cubic is for the compact tables of --target cortex-m4f (float32); "
-                     f"not {'--target fixed' if args.target == 'fixed' else '--form formula'}")
+    if args.interpolation is not None and args.form == "formula":
+        _usage_error("--interpolation is for the compact tables (--form table), not --form formula")
     if args.target != "host" and (args.table or args.constants != "auto"):
         _usage_error(f"--table and --constants apply to --target host, not {args.target}")
     if args.cost is not None and (args.nodes is not None or args.dtype is not None or args.form != "table"

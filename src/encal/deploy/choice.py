@@ -3,7 +3,7 @@
 The candidates, for the ``cortex-m4f`` target: compact tables of every node
 dtype and power-of-two size, interpolated linearly or by a cubic B-spline, and,
 for a model that is a Fourier series, the series itself in float32; for
-``fixed``: integer compact tables, interpolated linearly. Each has a
+``fixed``: integer compact tables, interpolated likewise. Each has a
 cost in flash bytes (of its data), entries (nodes or terms) and C operations
 per reading (:data:`encal.deploy.costs.OPERATIONS`; a sinf or cosf call counts
 as :data:`encal.deploy.costs.CALL_OPERATIONS`), and a deployed error against the model over all
@@ -85,7 +85,7 @@ def candidates(model, *, target="cortex-m4f", bits=None):
     reference = model_on_codes(comp, bits)
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     dtypes = ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
-    interpolations = ("linear",) if target == "fixed" else INTERPOLATIONS
+    interpolations = INTERPOLATIONS
     key = "error_bam32" if target == "fixed" else "error_lsb"
     fixed = target == "fixed"
     found = []

@@ -47,7 +47,7 @@ from .compensator import Compensator
 
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
            "error_lsb_float32", "cubic_terms",
-           "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
+           "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "CUBIC_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
            "default_tolerance_arcmin", "evaluation_bits", "model_on_codes"]
 
 NODE_DTYPES = ("int8", "int16", "float32")
@@ -58,6 +58,8 @@ _INT_LIMIT = {"int8": 127, "int16": 32767}
 BAM_ARCMIN = 21600.0 / 2**32
 #: Bits of the interpolation fraction in the fixed-point rule (products stay below 2^31).
 FIXED_FRACTION_BITS = 14
+#: The same for cubic tables: Horner's partial sums of int16 nodes stay below 2^19.7, times 2^11.
+CUBIC_FRACTION_BITS = 11
 MIN_NODES = 4
 MAX_NODES = 1 << 16
 _UNKNOWN_RESOLUTION_BITS = 16  # angles on which a table is measured when the resolution is unknown
@@ -179,7 +181,6 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None, i
     reference : ndarray, optional
         The model at every code (:func:`model_on_codes`), when already computed.
     interpolation : {'linear', 'cubic'}, default='linear'
-        Cubic tables have a float32 rule only (no integer rule: ``fixed_*`` are None).
 
     Returns
     -------
@@ -215,7 +216,7 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None, i
     deployed = predict_float32(table, codes, grid).astype(float)
     stats = {"max_error_arcmin": float(np.max(np.abs(deployed - target))),
              "rms_error_arcmin": float(np.sqrt(np.mean((deployed - target) ** 2)))}
-    if dtype != "float32" and not cubic:
+    if dtype != "float32":
         fixed = predict_fixed(table, codes, grid)
         stats.update(fixed_max_error_arcmin=float(np.max(np.abs(fixed - target))),
                      fixed_rms_error_arcmin=float(np.sqrt(np.mean((fixed - target) ** 2))))
@@ -242,8 +243,7 @@ def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dty
         depend on N.
     dtypes : sequence of str, default=NODE_DTYPES
     target : {'cortex-m4f', 'fixed'}, default='cortex-m4f'
-        Whose run-time rule's error counts (fixed allows integer dtypes and
-        linear interpolation only).
+        Whose run-time rule's error counts (fixed allows integer dtypes only).
     interpolations : sequence of str, default=INTERPOLATIONS
 
     Returns
@@ -263,7 +263,6 @@ def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dty
         raise InputError(f"expected cost 'bytes' or 'entries', got {cost!r}")
     if target == "fixed":
         dtypes = [d for d in dtypes if d != "float32"]
-        interpolations = [i for i in interpolations if i == "linear"]
     for interpolation in interpolations:
         if interpolation not in INTERPOLATIONS:
             raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
@@ -364,15 +363,18 @@ def cubic_terms(values, index):
     int32, then converted (exactly: below 2^24); float32 nodes: in float32, in
     this order, as the C computes them.
     """
-    size = values.size
     index = np.asarray(index, dtype=np.int64)
     if values.dtype == np.float32:
-        a, b, c, d = (values[(index + m) & (size - 1)] for m in (-1, 0, 1, 2))
+        a, b, c, d = (values[(index + m) & (values.size - 1)] for m in (-1, 0, 1, 2))
         three, four, six = np.float32(3.0), np.float32(4.0), np.float32(6.0)
         return ((a + four * b) + c, three * (c - a), three * (a + c) - six * b, (d - a) + three * (b - c))
-    a, b, c, d = (values.astype(np.int64)[(index + m) & (size - 1)] for m in (-1, 0, 1, 2))
-    terms = (a + 4 * b + c, 3 * (c - a), 3 * (a + c) - 6 * b, (d - a) + 3 * (b - c))
-    return tuple(p.astype(np.float32) for p in terms)
+    return tuple(p.astype(np.float32) for p in _cubic_integer_terms(values, index))
+
+
+def _cubic_integer_terms(values, index):
+    """``p0..p3`` of integer nodes, exact (int64; they fit int32: below 12 * 32767)."""
+    a, b, c, d = (values.astype(np.int64)[(index + m) & (values.size - 1)] for m in (-1, 0, 1, 2))
+    return a + 4 * b + c, 3 * (c - a), 3 * (a + c) - 6 * b, (d - a) + 3 * (b - c)
 
 
 def _interpolate_float32(table, index, fraction):
@@ -442,11 +444,25 @@ def shift_round(value, shift):
 
 
 def correction_bam(table, angles):
-    """The integer rule: the error in units of a 32-bit binary angle at 32-bit angles (linear tables)."""
-    if table.interpolation != "linear":
-        raise InputError("expected a linear table for the integer rule; cubic tables have a float32 rule only")
+    """The integer rule: the error in units of a 32-bit binary angle at 32-bit angles.
+
+    Linear: ``(t[i] * 2^14 + (t[i+1] - t[i]) * f)`` with a 14-bit fraction ``f``, then a rounding
+    shift to binary-angle units. Cubic: Horner's rule on ``p3 .. p0`` (:func:`cubic_terms`) with an
+    11-bit fraction, each product brought back by a rounding shift, then scaled by ``2^e``.
+    """
+    if table.dtype == "float32":
+        raise InputError("expected an int8 or int16 table for the integer rule, got float32")
     angles = np.asarray(angles, dtype=np.int64) & 0xFFFFFFFF
     n = table.nodes.bit_length() - 1
+    if table.interpolation == "cubic":
+        bits = CUBIC_FRACTION_BITS
+        index = angles >> (32 - n)
+        fraction = (angles >> (32 - n - bits)) & ((1 << bits) - 1)
+        p0, p1, p2, p3 = _cubic_integer_terms(table.values, index)
+        value = p3
+        for p in (p2, p1, p0):
+            value = p + shift_round(value * fraction, bits)
+        return shift_round(value, -table.scale_exponent) + table.offset_bam
     index = angles >> (32 - n)
     fraction = (angles >> (32 - n - FIXED_FRACTION_BITS)) & ((1 << FIXED_FRACTION_BITS) - 1)
     stored = table.values.astype(np.int64)

@@ -21,6 +21,8 @@ OPERATIONS = {
     ("cortex-m4f", "cubic", "correct_deg"): 46,
     ("fixed", "table", "error_bam32"): 14,
     ("fixed", "table", "correct_code"): 23,
+    ("fixed", "cubic", "error_bam32"): 37,
+    ("fixed", "cubic", "correct_code"): 46,
     ("cortex-m4f", "formula", "per_term"): 11,
 }
 

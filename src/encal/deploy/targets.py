@@ -10,7 +10,7 @@
   series itself (``form='formula'``), its phases taken exactly as 32-bit
   binary angles (``k * theta`` modulo one turn is an integer product).
 - ``fixed``: int32/int16 arithmetic only, for processors without an FPU: a
-  compact integer table interpolated in fixed point.
+  compact integer table interpolated in fixed point (linear or cubic B-spline).
 
 Every target takes and returns encoder codes as well as angles::
 
@@ -37,7 +37,7 @@ from .._atomic import write_file_set
 from ..errors import InputError
 from .cexport import _banner, _check_identifier, export_c
 from .choice import choose_deployment
-from .compact import (FIXED_FRACTION_BITS, INTERPOLATIONS, choose_compact, compile_compact,
+from .compact import (CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, choose_compact, compile_compact,
                       default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import OPERATIONS
@@ -72,8 +72,8 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
     tolerance_arcmin : float, optional
         Largest deployed error allowed when choosing the table (default a tenth of an LSB).
     interpolation : {'linear', 'cubic'}, optional
-        Of the compact table (cubic: cortex-m4f only); default the cheaper in bytes that meets
-        the tolerance (linear when both are as small).
+        Of the compact table; default the cheaper in bytes that meets the tolerance (linear when
+        both are as small).
     cost : {'bytes', 'entries', 'operations'}, optional
         Choose among every deployment of the target (tables and, for a Fourier series,
         the formula) the cheapest in this cost within the tolerance
@@ -222,9 +222,6 @@ def _table(comp, target, bits, nodes, dtype, tolerance, interpolation=None):
         raise InputError("expected an integer node dtype (int8 or int16) for the fixed target, got float32")
     if interpolation is not None and interpolation not in INTERPOLATIONS:
         raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
-    if interpolation == "cubic" and target == "fixed":
-        raise InputError("expected linear interpolation for the fixed target; cubic tables are for cortex-m4f "
-                         "(float32)")
     if nodes is not None:
         return compile_compact(comp, nodes, dtype=dtype or "int16", bits=bits,
                                interpolation=interpolation or "linear"), None
@@ -590,15 +587,40 @@ def _scale_by_power_of_two(expression, shift):
 def _fixed_table_files(comp, prefix, bits, table):
     n = table.nodes.bit_length() - 1
     sign = _sign_parts(comp)
-    how = (f"a {table.nodes}-node {table.dtype} table with linear interpolation in int32 fixed point "
+    cubic = table.interpolation == "cubic"
+    how = (f"a {table.nodes}-node {table.dtype} table with {'cubic B-spline' if cubic else 'linear'} "
+           f"interpolation in int32 fixed point "
            f"({table.table_bytes} bytes; deployed error against the model max "
            f"{table.fixed_max_error_arcmin:.3g}, RMS {table.fixed_rms_error_arcmin:.3g} arcmin){_sign_note(comp)}")
     banner = _banner(comp, prefix, how)
     declarations = _FIXED_DECLARATIONS.format(p=prefix)
     if bits is not None:
         declarations += _FIXED_CODE_DECLARATIONS.format(p=prefix, P=prefix.upper())
-    fb = FIXED_FRACTION_BITS
-    to_bam = _scale_by_power_of_two("scaled", fb - table.scale_exponent)
+    fb = CUBIC_FRACTION_BITS if cubic else FIXED_FRACTION_BITS
+    if cubic:
+        unit = f"6 * 2^{table.scale_exponent} / 2^32 turns; B-spline coefficients"
+        body = f"""\
+    const uint32_t i = angle >> {32 - n}u;
+    const int32_t fraction = (int32_t)((angle >> {32 - n - fb}u) & ((1u << FRACTION_BITS) - 1u));
+    const int32_t a = node[(i - 1u) & (NODES - 1u)];
+    const int32_t b = node[i];
+    const int32_t c = node[(i + 1u) & (NODES - 1u)];
+    const int32_t d = node[(i + 2u) & (NODES - 1u)];
+    /* Horner's rule on p3 .. p0: six times the B-spline, in units of 2^{table.scale_exponent} / 2^32 turns */
+    int32_t v = d - a + 3 * (b - c);
+    v = 3 * (a + c) - 6 * b + shift_round(v * fraction, FRACTION_BITS);
+    v = 3 * (c - a) + shift_round(v * fraction, FRACTION_BITS);
+    v = a + 4 * b + c + shift_round(v * fraction, FRACTION_BITS);
+    return {_scale_by_power_of_two("v", -table.scale_exponent)} + OFFSET_BAM;"""
+    else:
+        unit = f"2^{table.scale_exponent} / 2^32 turns; the error at i * 360 / NODES degrees"
+        body = f"""\
+    const uint32_t i = angle >> {32 - n}u;
+    const int32_t fraction = (int32_t)((angle >> {32 - n - fb}u) & ((1u << FRACTION_BITS) - 1u));
+    const int32_t left = node[i];
+    const int32_t step = (int32_t)node[(i + 1u) & (NODES - 1u)] - left;
+    const int32_t scaled = left * (1 << FRACTION_BITS) + step * fraction;
+    return {_scale_by_power_of_two("scaled", fb - table.scale_exponent)} + OFFSET_BAM;"""
     code_part = "" if bits is None else f"""
 #define CODE_MASK {"0xFFFFFFFFu" if bits == 32 else f"0x{(1 << bits) - 1:X}u"}
 
@@ -622,7 +644,7 @@ uint32_t {prefix}_correct_code(uint32_t code)
 #define FRACTION_BITS {fb}u
 #define OFFSET_BAM ((int32_t){table.offset_bam}) /* the mean error, kept out of the nodes */
 
-/* node i: the error at i * 360 / NODES degrees less OFFSET_BAM, in units of 2^{table.scale_exponent} / 2^32 turns */
+/* node i, less OFFSET_BAM, in units of {unit} */
 {_node_array(table)}
 /* round(value / 2^shift), halves up, for 1 <= shift <= 30, without shifting a negative number */
 static int32_t shift_round(int32_t value, uint32_t shift)
@@ -633,12 +655,7 @@ static int32_t shift_round(int32_t value, uint32_t shift)
 
 int32_t {prefix}_error_bam32(uint32_t angle)
 {{
-    const uint32_t i = angle >> {32 - n}u;
-    const int32_t fraction = (int32_t)((angle >> {32 - n - fb}u) & ((1u << FRACTION_BITS) - 1u));
-    const int32_t left = node[i];
-    const int32_t step = (int32_t)node[(i + 1u) & (NODES - 1u)] - left;
-    const int32_t scaled = left * (1 << FRACTION_BITS) + step * fraction;
-    return {to_bam} + OFFSET_BAM;
+{body}
 }}
 
 uint32_t {prefix}_correct_bam32(uint32_t angle)
