@@ -47,6 +47,7 @@ class InverseBFGS:
 
     def __init__(self, n_params):
         self.n_params = int(n_params)
+        self._work = None
 
     def restart(self, grad):
         self.inverse_hessian = np.eye(self.n_params)
@@ -62,10 +63,23 @@ class InverseBFGS:
                 self._scaled = True
             Hy = H @ grad_change
             rho = 1.0 / sy
-            # H ← (I - ρ s yᵀ) H (I - ρ y sᵀ) + ρ s sᵀ, expanded.
-            H -= rho * (np.outer(step, Hy) + np.outer(Hy, step))
-            H += (rho * rho * float(grad_change @ Hy) + rho) * np.outer(step, step)
+            # H ← (I - ρ s yᵀ) H (I - ρ y sᵀ) + ρ s sᵀ, expanded. Two n × n work arrays for the outer
+            # products instead of four new ones per epoch (the same products and sums, bit for bit).
+            outer, other = self._work_arrays()
+            np.multiply.outer(step, Hy, out=outer)
+            np.multiply.outer(Hy, step, out=other)
+            outer += other
+            outer *= rho
+            H -= outer
+            np.multiply.outer(step, step, out=outer)
+            outer *= rho * rho * float(grad_change @ Hy) + rho
+            H += outer
         return -(self.inverse_hessian @ grad)
+
+    def _work_arrays(self):
+        if self._work is None:
+            self._work = (np.empty((self.n_params, self.n_params)), np.empty((self.n_params, self.n_params)))
+        return self._work
 
 
 class OneStepSecant:

@@ -82,8 +82,10 @@ network in 7 of 12 demo runs (1:12:1, seeds 0-2); it is not done here because
 it departs further from ``trainbr.m`` and adds a tuning constant.
 """
 
+import functools
+
 import numpy as np
-from scipy.linalg import solve_triangular
+from scipy.linalg.lapack import dtrtrs
 
 from ._registry import register_algorithm
 from .trainlm import MU_FLOOR, check_mu_options, damped_system, sum_of_squares
@@ -105,10 +107,22 @@ def effective_parameters(system, beta, alpha):
         scaled = beta * np.clip(np.linalg.eigvalsh(system.gram), 0.0, None)
         ratio = np.divide(scaled, scaled + alpha, out=np.zeros_like(scaled), where=scaled + alpha > 0)
         return float(np.sum(ratio))
-    lower = np.tril(factor)
-    inverse = solve_triangular(lower, np.eye(k), lower=True, check_finite=False)
-    # tr(A⁻¹) = ||L⁻¹||_F² for A = L Lᵀ
+    # tr(A⁻¹) = ||L⁻¹||_F² for A = L Lᵀ. L⁻¹ = (Lᵀ)⁻ᵀ from LAPACK's triangular solve with Lᵀ (upper,
+    # transposed), which reads only the triangle that holds L: the C-ordered copy of the factor is
+    # Lᵀ in Fortran order, and no zeroing of the other triangle is needed.
+    upper = np.ascontiguousarray(factor).T
+    inverse, info = dtrtrs(upper, _identity(k), lower=0, trans=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"singular Cholesky factor: zero at diagonal {info - 1}")
     return float(k - alpha * np.sum(inverse * inverse))
+
+
+@functools.lru_cache(maxsize=4)
+def _identity(k):
+    """The k × k identity, made once per size (read only: trtrs copies its right-hand side)."""
+    identity = np.eye(k)
+    identity.flags.writeable = False
+    return identity
 
 
 @register_algorithm("trainbr")
