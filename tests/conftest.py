@@ -50,3 +50,21 @@ def grid_csv(step=2.0, offset=0.0, error=lambda ref: 0.01 * np.sin(np.radians(re
     ref = np.arange(0.0, 360.0, step) + offset
     lines = ["reference_deg,encoder_deg"] + [f"{float(r)!r},{float(r + error(r))!r}" for r in ref]
     return "\n".join(lines) + "\n"
+
+
+@pytest.fixture(scope="session")
+def tiny_demo(tmp_path_factory):
+    """``(out, result, printed text)`` of the smallest demo: two encoders, two sweep points, a few epochs.
+
+    One run serves test_demo.py and test_report.py (its files written to ``out``, no report or figures).
+    """
+    import io
+
+    from encal.demo import DemoSettings, run_demo
+
+    settings = DemoSettings(n_encoders=2, hidden=(8, 80), sweep_seeds=1, sweep_epochs=3, algorithm_seeds=2,
+                            algorithm_epochs=3, network_epochs=3)
+    out = tmp_path_factory.mktemp("demo")
+    stdout = io.StringIO()
+    result = run_demo(out, settings=settings, workers=0, progress=False, stdout=stdout, report=False)
+    return out, result, stdout.getvalue()

@@ -2,30 +2,34 @@
 
 import csv
 import io
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from encal import evaluate, load_model
-from encal.demo import DemoSettings, run_demo
+from encal.demo import run_demo
 from encal.errors import EncalError, InputError
 
-#: A demo small enough for a test: two encoders, two sweep points, a few epochs per fit.
-TINY = DemoSettings(n_encoders=2, hidden=(8, 80), sweep_seeds=1, sweep_epochs=3, algorithm_seeds=2,
-                    algorithm_epochs=3, network_epochs=3)
-
-
-def _run(out):
+def _run(out, settings):
     stdout = io.StringIO()
-    result = run_demo(out, settings=TINY, workers=0, progress=False, stdout=stdout, report=False)
+    result = run_demo(out, settings=settings, workers=0, progress=False, stdout=stdout, report=False)
     return result, stdout.getvalue()
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory):
-    out = tmp_path_factory.mktemp("demo")
-    result, text = _run(out)
-    return out, result, text
+def demo(tiny_demo):
+    """The smallest demo (conftest's ``tiny_demo``): two encoders, two sweep points, a few epochs."""
+    return tiny_demo
+
+
+def _without_model_selection(result):
+    """The demo's settings with one encoder whose model file is Table 3's Fourier series, not encal fit's choice.
+
+    For the tests of what the demo does with its files, which do not depend on the model: the choice
+    cross-validates every candidate family, most of a small demo's time.
+    """
+    return replace(result.settings, n_encoders=1, saved_model="fourier")
 
 
 def test_demo_prints_every_table(demo):
@@ -81,7 +85,7 @@ def test_each_model_file_is_the_one_encal_fit_chooses(demo):
 
 def test_demo_is_reproducible_to_the_byte(demo, tmp_path):
     out, first, _ = demo
-    second, _ = _run(tmp_path)
+    second, _ = _run(tmp_path, first.settings)
     for name in ("enc1.json", "enc2.json", "tables/table1_profiles.csv", "tables/fig2a_sweep.csv",
                  "tables/fig3_pruning.csv", "tables/table3_comparison.csv", "tables/reproducibility.csv"):
         assert (tmp_path / name).read_bytes() == (out / name).read_bytes(), name
@@ -96,25 +100,26 @@ def test_demo_records_stage_times(demo):
     assert result.workers == 0
 
 
-def test_demo_refuses_a_file_as_its_folder(tmp_path):
+def test_demo_refuses_a_file_as_its_folder(demo, tmp_path):
     path = tmp_path / "file"
     path.write_text("x")
     with pytest.raises(InputError, match="is a file; expected a folder"):
-        run_demo(path, settings=TINY, workers=0, progress=False, stdout=io.StringIO())
+        run_demo(path, settings=demo[1].settings, workers=0, progress=False, stdout=io.StringIO())
 
 
-def test_demo_stops_when_a_model_file_does_not_reproduce_the_report(tmp_path, monkeypatch):
+def test_demo_stops_when_a_model_file_does_not_reproduce_the_report(demo, tmp_path, monkeypatch):
     import encal.deploy
     from encal.models.fourier import FourierModel
 
     monkeypatch.setattr(encal.deploy, "load_model", lambda path: FourierModel([0], [0.0], [0.0]))
     with pytest.raises(EncalError, match="expected the saved model to reproduce the reported accuracy"):
-        run_demo(tmp_path, settings=TINY, workers=0, progress=False, stdout=io.StringIO(), report=False)
+        run_demo(tmp_path, settings=_without_model_selection(demo[1]), workers=0, progress=False,
+                 stdout=io.StringIO(), report=False)
 
 
-def test_demo_without_a_folder_writes_nothing(tmp_path, monkeypatch):
+def test_demo_without_a_folder_writes_nothing(demo, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    result, text = _run(None)
+    result, text = _run(None, _without_model_selection(demo[1]))
     assert result.files == {} and list(tmp_path.iterdir()) == []
     assert "no files written" in text
     assert np.isfinite(result.encoders["enc1"].floor_arcmin)

@@ -1,7 +1,6 @@
 """The HTML report (encal.report): one self-contained file with every table and figure."""
 
 import base64
-import io
 import re
 from html.parser import HTMLParser
 
@@ -11,17 +10,15 @@ matplotlib.use("Agg")
 
 import pytest  # noqa: E402
 
-from encal.demo import DemoSettings, run_demo  # noqa: E402
 from encal.report import FIGURES, build_report, render_figures, write_report  # noqa: E402
 
-TINY = DemoSettings(n_encoders=2, hidden=(8, 80), sweep_seeds=1, sweep_epochs=3, algorithm_seeds=2,
-                    algorithm_epochs=3, network_epochs=3)
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.fixture(scope="module")
-def result():
-    return run_demo(None, settings=TINY, workers=0, progress=False, stdout=io.StringIO(), report=False)
+def result(tiny_demo):
+    """The smallest demo's result (conftest's ``tiny_demo``, shared with test_demo.py)."""
+    return tiny_demo[1]
 
 
 @pytest.fixture(scope="module")
