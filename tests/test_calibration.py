@@ -235,8 +235,10 @@ def test_a_huge_cell_is_shown_shortened(write_csv, cell):
 
 
 def test_a_huge_header_is_shown_shortened(write_csv):
-    message = _refused(write_csv("[" * 100_000 + "\n" + "1,2\n" * 10), "the header lacks")
-    assert len(message) < 500
+    path = write_csv("[" * 100_000 + "\n" + "1,2\n" * 10)
+    message = _refused(path, "the header lacks")
+    # The file's name is as long as the temporary folder makes it (longer under pytest-xdist): not counted.
+    assert len(message) - len(str(path)) < 450
 
 
 def test_quoted_fields_are_read_as_csv(write_csv):

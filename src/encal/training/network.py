@@ -158,7 +158,10 @@ class NetworkProblem:
         # The accepted trial point of a Levenberg-Marquardt epoch is evaluated
         # again for its Jacobian: reuse the last forward pass.
         cached_w, h, y = self._last
-        if cached_w is None or not np.array_equal(w, cached_w):
+        # The weights' bytes identify the pass: a cheaper test than np.array_equal, and as safe (equal
+        # bytes give equal outputs).
+        key = np.asarray(w, dtype=float).tobytes()
+        if cached_w != key:
             W1, b1, W2, b2 = self.unpack(w)
             # One input: its outer product with the weights, exactly the matrix product's values
             # (each a single rounded product) without the matrix product's overhead on an inner size of 1.
@@ -166,7 +169,7 @@ class NetworkProblem:
             z += b1
             h = self._f(z, out=z)
             y = h @ W2 + b2
-            self._last = (np.array(w, dtype=float, copy=True), h, y)
+            self._last = (key, h, y)
             self._slopes = None
         return h, y
 

@@ -81,12 +81,14 @@ class DampedGaussNewton:
         # LAPACK factors it in place without another copy.
         if self._work is None:
             self._work = np.empty_like(self.gram)
+            # A view of the work array's diagonal (its memory is contiguous in either order).
+            self._diagonal = self._work.ravel(order="K")[::self._work.shape[0] + 1]
         A = self._work
         if scale == 1.0:
             np.copyto(A, self.gram)
         else:
             np.multiply(self.gram, scale, out=A)
-        A.flat[::A.shape[0] + 1] += shift
+        self._diagonal += shift
         lower, info = dpotrf(A, lower=1, clean=0, overwrite_a=1)
         return lower if info == 0 else None
 
@@ -111,14 +113,14 @@ class DampedGaussNewton:
             return None
         if self.dual:
             # Woodbury: (βJᵀJ + cI)⁻¹ = (I - βJᵀ(βJJᵀ + cI)⁻¹J) / c, with Jᵀ pushed through.
-            rhs = beta * self.e
+            rhs = self.e if beta == 1.0 else beta * self.e
             if alpha:
                 rhs = rhs - (alpha * beta / damping) * (self.J @ x)
             dx = -(self.J.T @ self._solve(factor, rhs))
             if alpha:
                 dx -= (alpha / damping) * x
             return dx
-        rhs = beta * self._Jte
+        rhs = self._Jte if beta == 1.0 else beta * self._Jte
         if alpha:
             rhs = rhs + alpha * x
         return -self._solve(factor, rhs)
