@@ -22,6 +22,8 @@ Sections:
   (with its stated error bound);
 - ``trainlm``: one trainlm epoch (raw 1:80:1, 180 points) against the back-to-back
   BLAS/LAPACK calls it makes;
+- ``fits``: whole 1000-epoch fits of the demo's costliest Table 2 algorithms (trainlm, trainbr,
+  trainbfg), CPU seconds and a hash of the weights, before against after;
 - ``stream``: ``encal correct`` lines per CPU second (a file, a pipe, ``--exact``) against a plain NumPy
   script, with and without the start-up;
 
@@ -356,6 +358,60 @@ def section_trainlm(sources, folder, quick):
               f"| {row['weights_sha256']} |")
 
 
+# -- whole fits of Table 2 -------------------------------------------------------------------
+
+FITS_WORKER = """\
+import hashlib, json, sys, time
+import numpy as np
+from encal.simulate import demo_fleet
+from encal.studies._fits import fit_network, task_seed
+cal = demo_fleet(1)[0].train.calibration
+epochs = int(sys.argv[1])
+out = {}
+for algorithm in sys.argv[2].split(","):
+    best = np.inf
+    for _ in range(2):
+        start = time.process_time()
+        model = fit_network(cal.encoder_deg, cal.errors_arcmin, hidden=80, algorithm=algorithm,
+                            seed=task_seed(0, 80, 0), epochs=epochs)
+        best = min(best, time.process_time() - start)
+    p = model.parameters()
+    weights = np.concatenate([np.ravel(np.asarray(p[k], dtype="<f8")) for k in ("W1", "b1", "W2", "b2")])
+    out[algorithm] = {"cpu_s": best, "epochs": int(model.train_result.epochs),
+                      "weights_sha256": hashlib.sha256(weights.tobytes()).hexdigest()[:16]}
+print(json.dumps(out))
+"""
+
+#: The algorithms of the demo's Table 2 whose fits cost the most CPU.
+FIT_ALGORITHMS = ("trainlm", "trainbr", "trainbfg")
+
+
+def section_fits(sources, folder, quick):
+    import json
+
+    epochs = 100 if quick else 1000
+    print(f"\n### Table 2 fits (demo encoder 1, raw 1:80:1, seed of fit 0, {epochs} epochs): CPU seconds\n")
+    best = {}
+    for _ in range(2):
+        for label, source in sources.items():
+            out = json.loads(run_with(source, sys.executable, "-c", FITS_WORKER, str(epochs),
+                                      ",".join(FIT_ALGORITHMS)).stdout)
+            for algorithm, row in out.items():
+                previous = best.setdefault(label, {}).get(algorithm)
+                if previous is None or row["cpu_s"] < previous["cpu_s"]:
+                    best[label][algorithm] = row
+    labels = list(sources)
+    print("| algorithm | epochs | " + " | ".join(f"{label} s (weights sha256)" for label in labels)
+          + (" | before / after |" if len(labels) == 2 else " |"))
+    print("|---|---|" + "---|" * (len(labels) + (len(labels) == 2)))
+    for algorithm in FIT_ALGORITHMS:
+        cells = [f"{best[label][algorithm]['cpu_s']:.3f} ({best[label][algorithm]['weights_sha256']})"
+                 for label in labels]
+        ratio = (f" | {best['before'][algorithm]['cpu_s'] / best['after'][algorithm]['cpu_s']:.2f}"
+                 if len(labels) == 2 else "")
+        print(f"| {algorithm} | {best['after'][algorithm]['epochs']} | " + " | ".join(cells) + ratio + " |")
+
+
 # -- harmonic analysis ------------------------------------------------------------------------
 
 HARMONICS_WORKER = """\
@@ -586,8 +642,9 @@ def section_stream(sources, folder, quick):
                   flush=True)
 
 
-SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm,
-            "harmonics": section_harmonics, "trigsums": section_trigsums, "demo": section_demo, "stream": section_stream}
+SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm, "fits": section_fits,
+            "harmonics": section_harmonics, "trigsums": section_trigsums, "demo": section_demo,
+            "stream": section_stream}
 
 
 def main():
