@@ -25,8 +25,9 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/encal demo --out encal-demo
 
+# One pytest-xdist worker per CPU; modules that share an expensive fixture stay on one worker.
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,bench]"
