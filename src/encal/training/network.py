@@ -217,7 +217,9 @@ class NetworkProblem:
         h, _ = self._forward(w)
         d_hidden = self._hidden_slopes(h, self.unpack(w)[2])
         if self._input_outer is None:
-            self._input_outer = self.inputs @ self.inputs.T + 1.0
+            # Fortran-ordered as syrk's result, so that the element-wise product runs over contiguous
+            # memory (the same values: a matrix's memory order does not change its entries).
+            self._input_outer = np.asfortranarray(self.inputs @ self.inputs.T + 1.0)
         # C-ordered (m, N) arrays transposed are Fortran-ordered: BLAS reads them in place.
         outer = dsyrk(1.0, d_hidden.T, trans=1, lower=1)
         outer *= self._input_outer
