@@ -25,9 +25,10 @@ venv: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/encal demo --out encal-demo
 
-# One pytest-xdist worker per CPU; modules that share an expensive fixture stay on one worker.
+# One pytest-xdist worker per CPU, each running whole test files (a file's module fixtures, some of them
+# a demo or a two-process run, are then made once).
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n auto --dist loadgroup
+	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 bench: $(STAMP)
 	$(BIN)/python -m pip install --quiet -e ".[test,bench]"

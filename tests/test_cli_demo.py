@@ -10,8 +10,6 @@ import pytest
 from encal import Calibration, evaluate, load_model, write_calibration
 from encal.cli import main
 
-# Its tests share expensive module fixtures: one pytest-xdist worker runs them all (`make test`).
-pytestmark = pytest.mark.xdist_group("test_cli_demo")
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

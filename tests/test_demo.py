@@ -11,8 +11,6 @@ from encal import evaluate, load_model
 from encal.demo import run_demo
 from encal.errors import EncalError, InputError
 
-# test_demo.py and test_report.py share the session's smallest demo: one pytest-xdist worker runs both.
-pytestmark = pytest.mark.xdist_group("tiny_demo")
 
 def _run(out, settings):
     stdout = io.StringIO()

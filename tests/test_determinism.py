@@ -19,8 +19,6 @@ import encal
 from encal.cli import main
 from encal.models.select import Candidate
 
-# Its tests share expensive module fixtures: one pytest-xdist worker runs them all (`make test`).
-pytestmark = pytest.mark.xdist_group("test_determinism")
 
 QUICK_AUTO = (
     Candidate("fourier", {"select": "top", "n_orders": 10}),

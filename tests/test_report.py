@@ -12,8 +12,6 @@ import pytest  # noqa: E402
 
 from encal.report import FIGURES, build_report, render_figures, write_report  # noqa: E402
 
-# test_demo.py and test_report.py share the session's smallest demo: one pytest-xdist worker runs both.
-pytestmark = pytest.mark.xdist_group("tiny_demo")
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

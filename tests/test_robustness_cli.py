@@ -31,8 +31,6 @@ import encal
 from encal.cli import build_parser, main
 from encal import runtime
 
-# Its tests share expensive module fixtures: one pytest-xdist worker runs them all (`make test`).
-pytestmark = pytest.mark.xdist_group("test_robustness_cli")
 
 # --------------------------------------------------------------------------- the files
 

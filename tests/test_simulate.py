@@ -43,8 +43,6 @@ from encal.simulate._parameters import (
 from encal.simulate._signal import converter_angle, hysteresis_codes
 from encal.simulate._spectrum import harmonic_amplitudes, top_orders
 
-# Its tests share expensive module fixtures: one pytest-xdist worker runs them all (`make test`).
-pytestmark = pytest.mark.xdist_group("test_simulate")
 
 LSB = lsb_arcmin(16)  # 0.3296 arcmin
 ORDERS = np.arange(2, 91)

@@ -15,8 +15,6 @@ import encal
 from encal.deploy import Compensator
 from encal.deploy.stream import correct_stream
 
-# Its tests share expensive module fixtures: one pytest-xdist worker runs them all (`make test`).
-pytestmark = pytest.mark.xdist_group("test_stream_buffering")
 
 GRID = np.arange(0.0, 360.0, 2.0)
 PROFILE = (2.0 * np.sin(np.radians(GRID) + 0.3) + 0.6 * np.cos(np.radians(2 * GRID))
