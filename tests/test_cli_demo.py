@@ -10,7 +10,6 @@ import pytest
 from encal import Calibration, evaluate, load_model, write_calibration
 from encal.cli import main
 
-
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 

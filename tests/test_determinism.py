@@ -19,7 +19,6 @@ import encal
 from encal.cli import main
 from encal.models.select import Candidate
 
-
 QUICK_AUTO = (
     Candidate("fourier", {"select": "top", "n_orders": 10}),
     Candidate("lut", {"interpolation": "cubic"}),

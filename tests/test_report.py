@@ -12,7 +12,6 @@ import pytest  # noqa: E402
 
 from encal.report import FIGURES, build_report, render_figures, write_report  # noqa: E402
 
-
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 

@@ -31,7 +31,6 @@ import encal
 from encal.cli import build_parser, main
 from encal import runtime
 
-
 # --------------------------------------------------------------------------- the files
 
 GRID_TRAIN = np.arange(0.0, 360.0, 2.0)

@@ -8,7 +8,6 @@ from encal.selfcal.simulate import MagneticEncoder, draw_magnetic_encoder, make_
 from encal.selfcal.spin import SpinLog, motor_ripple_orders, spin
 from selfcal_truth import GRID, rms, truth_at_orders
 
-
 ENCODER = draw_magnetic_encoder(11, eccentricity_deg=1.0)
 #: a 12-slot 14-pole motor with an unbalanced load: torque ripple of order 1, 12, 14, 84, 168
 MOTOR = make_motor(7, 12, 5, unbalance_nm=3e-5)

@@ -43,7 +43,6 @@ from encal.simulate._parameters import (
 from encal.simulate._signal import converter_angle, hysteresis_codes
 from encal.simulate._spectrum import harmonic_amplitudes, top_orders
 
-
 LSB = lsb_arcmin(16)  # 0.3296 arcmin
 ORDERS = np.arange(2, 91)
 GRID_RAD = np.deg2rad(TRAINING_GRID_DEG)

@@ -15,7 +15,6 @@ import encal
 from encal.deploy import Compensator
 from encal.deploy.stream import correct_stream
 
-
 GRID = np.arange(0.0, 360.0, 2.0)
 PROFILE = (2.0 * np.sin(np.radians(GRID) + 0.3) + 0.6 * np.cos(np.radians(2 * GRID))
            + 0.2 * np.sin(np.radians(16 * GRID)) + 0.05 * np.cos(np.radians(37 * GRID)))
