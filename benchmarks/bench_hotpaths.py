@@ -1,6 +1,6 @@
 """The hot paths beside their limits: every figure a ratio measured in one run.
 
-    python benchmarks/bench_hotpaths.py [--before REV] [--only SECTION,...] [--quick]
+    python benchmarks/bench_hotpaths.py [--before REV] [--only SECTION,...] [--quick] [--lines N]
 
 On a machine that other work shares absolute timings drift, so each row times
 a hot path and its limit (or peer) side by side, interleaved, best of several
@@ -597,11 +597,14 @@ def _cpu_seconds(command, env, stdin=None):
     return usage.ru_utime + usage.ru_stime
 
 
-def section_stream(sources, folder, quick):
-    n = 10**5 if quick else 10**6
+def section_stream(sources, folder, quick, lines=None):
+    n = lines or (10**5 if quick else 10**6)
     lines = folder / "angles.txt"
     angles = np.random.default_rng(1).uniform(0.0, 360.0, n)
     lines.write_text("".join(f"{a!r}\n" for a in angles.tolist()))
+    table = folder / "angles.csv"  # the same angles as a CSV column between two others
+    table.write_text("time_s,encoder_deg,temp_C\n"
+                     + "".join(f"{i * 1e-3:.3f},{a!r},{20 + i % 7}\n" for i, a in enumerate(angles.tolist())))
     empty = folder / "empty.txt"
     empty.write_text("")
     print(f"\n### `encal correct` on {n} angles (repr of uniform doubles): CPU seconds of the one process, "
@@ -617,6 +620,7 @@ def section_stream(sources, folder, quick):
             if label == "after":
                 runs["encal correct --exact FILE (after)"] = (source, encal + ["--exact", str(lines)], None)
                 runs["cat FILE | encal correct (after)"] = (source, encal, "pipe")
+                runs["encal correct CSV (time_s,encoder_deg,temp_C) (after)"] = (source, encal + [str(table)], None)
                 runs["start-up: encal correct EMPTY (after)"] = (source, encal + [str(empty)], None)
         runs["plain NumPy script (read all, correct, repr)"] = (sources["after"], [sys.executable, "-c", PLAIN_SCRIPT,
                                                                                    model, str(lines)], None)
@@ -652,6 +656,7 @@ def main():
     parser.add_argument("--before", help="git revision to measure side by side with the current src")
     parser.add_argument("--only", default=",".join(SECTIONS), help="comma-separated sections")
     parser.add_argument("--quick", action="store_true", help="smaller sizes, for a smoke test")
+    parser.add_argument("--lines", type=int, help="lines of the stream section (default 10^6)")
     args = parser.parse_args()
     print(f"machine: {machine()}")
     print(f"load average at start: {load()}")
@@ -663,7 +668,8 @@ def main():
             sources["before"] = extract_source(args.before, folder / "before")
         sources["after"] = ROOT / "src"
         for name in args.only.split(","):
-            SECTIONS[name](sources, folder, args.quick)
+            options = {"lines": args.lines} if name == "stream" and args.lines else {}
+            SECTIONS[name](sources, folder, args.quick, **options)
     print(f"\nload average at end: {load()}")
 
 

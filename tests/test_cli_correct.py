@@ -265,3 +265,38 @@ def test_closed_standard_output_is_one_sentence(tmp_path):
     assert done.returncode == 1
     assert done.stderr == ("encal correct: error: standard output is closed; expected somewhere to write the "
                            "corrected angles\n")
+
+
+def _csv_rows(angles, newline="\n"):
+    return "".join(f"{i * 0.001:.3f},{angle!r},{20 + i % 7}{newline}" for i, angle in enumerate(angles))
+
+
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_large_csv_in_blocks(tmp_path, capsys, compensator, newline):
+    """Rows of several read blocks, the column in the middle: each block's column read in NumPy."""
+    angles = np.random.default_rng(1).uniform(-400.0, 400.0, 30_000).tolist()
+    (tmp_path / "in.csv").write_bytes(("time_s,encoder_deg,temp_C" + newline + _csv_rows(angles, newline)).encode())
+    status, out, err = correct(capsys, tmp_path / "in.csv")
+    assert status == 0 and err == ""
+    assert out.splitlines() == fixed(compensator.correct(angles))
+
+
+def test_a_comment_row_with_the_header_s_fields_in_a_later_block_is_skipped(tmp_path, capsys, compensator):
+    angles = np.random.default_rng(2).uniform(0.0, 360.0, 20_000).tolist()
+    rows = _csv_rows(angles).splitlines(keepends=True)
+    rows.insert(8_000, "# paused,123.0,21\n")  # as many fields as the header: still a comment
+    rows.insert(19_000, '0.5,"77.25",21\n')  # a quoted field (in another block): the line-by-line reader
+    (tmp_path / "in.csv").write_text("time_s,encoder_deg,temp_C\n" + "".join(rows))
+    status, out, _ = correct(capsys, tmp_path / "in.csv")
+    expected = angles[:18_999] + [77.25] + angles[18_999:]
+    assert status == 0 and out.splitlines() == fixed(compensator.correct(expected))
+
+
+def test_a_short_csv_row_in_a_later_block_names_its_line(tmp_path, capsys):
+    angles = np.random.default_rng(3).uniform(0.0, 360.0, 20_000).tolist()
+    rows = _csv_rows(angles).splitlines(keepends=True)
+    rows[12_345] = "1.0,2.0\n"
+    (tmp_path / "in.csv").write_text("time_s,encoder_deg,temp_C\n" + "".join(rows))
+    status, out, err = correct(capsys, tmp_path / "in.csv")
+    assert status == 1 and "line 12347" in err and "2 fields, not 3" in err
+    assert len(out.splitlines()) == 12_345

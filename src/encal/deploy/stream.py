@@ -29,6 +29,7 @@ BLOCK_BYTES = 1 << 16
 #: Longest line accepted, in bytes: bounds the memory when no newline comes.
 MAX_LINE_BYTES = 1 << 16
 _HEADER_COLUMN = "encoder_deg"
+_LF, _CR, _COMMA = (np.uint8(ord(c)) for c in "\n\r,")
 
 
 def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None, exact=False):
@@ -121,20 +122,54 @@ class _LineParser:
     def parse(self, text):
         """Angles of ``text`` (bytes: whole lines, or the end of the input), and the error to raise after
         writing them (or None)."""
-        if self.column == -1 and text.endswith(b"\n"):
-            values = parse_lines(np.frombuffer(text, dtype=np.uint8))
+        if self.column is not None and text.endswith(b"\n"):
+            values = (parse_lines(np.frombuffer(text, dtype=np.uint8)) if self.column < 0
+                      else self._fast_column(text))
             if values is not None:
                 self.line_number += values.size
                 return values, None
         lines = text.split(b"\n") if text else []
         if text.endswith(b"\n"):
             lines.pop()  # the line end of the last line does not start another one
-        if self.column is not None:
+        if self.column is not None and not (self.column >= 0 and b"#" in text):  # (a comment's fields)
             values = self._fast(lines)
             if values is not None:
                 self.line_number += len(lines)
                 return values, None
         return self._slow(lines)
+
+    def _fast_column(self, text):
+        """The column's angles of a block of CSV rows, read in NumPy, or None (then line by line).
+
+        Only for plain rows: no quotes, no comments, CR only before LF, and every row with the header's
+        number of fields. The column's fields are copied into a buffer of their own, one per line, for
+        :func:`~encal._decimal_text.parse_lines`.
+        """
+        if b'"' in text or b"#" in text or text.count(b"\r") != text.count(b"\r\n"):
+            return None
+        data = np.frombuffer(text, dtype=np.uint8)
+        ends = np.flatnonzero(data == _LF)
+        commas = np.flatnonzero(data == _COMMA)
+        per_row = self.n_fields - 1
+        if commas.size != ends.size * per_row or (
+                per_row and np.any(np.searchsorted(commas, ends) != np.arange(1, ends.size + 1) * per_row)):
+            return None
+        commas = commas.reshape(ends.size, per_row)
+        if self.column == 0:
+            first = np.concatenate(([0], ends[:-1] + 1))
+        else:
+            first = commas[:, self.column - 1] + 1
+        if self.column == per_row:
+            last = ends - (data[np.maximum(ends - 1, 0)] == _CR)
+        else:
+            last = commas[:, self.column]
+        lengths = last - first
+        if np.any(lengths <= 0):
+            return None
+        stops = np.cumsum(lengths + 1)  # the fields, each followed by a line end, one after the other
+        field = data[np.arange(stops[-1]) + np.repeat(first - (stops - lengths - 1), lengths + 1)]
+        field[stops - 1] = _LF
+        return parse_lines(field)
 
     def _fast(self, lines):
         # The common case of a block: every line a finite number (in the column) and no quotes; else None.
