@@ -11,9 +11,9 @@ The stream is read in blocks of whatever is available (``read1``): a file
 gives large blocks, corrected with NumPy in one go; a pipe fed one line at a
 time gives one line, whose answer is written and flushed before the next is
 read, so the corrector can sit in a live acquisition chain. A block whose lines
-are all plain decimals (``[+-]digits[.digits]``, the common case) is read by
-:mod:`encal._decimal_text` in NumPy; any other block line by line, the exact
-reader whose messages name the line and column.
+are all plain decimals (``[+-]digits[.digits]``, the common case), or plain CSV
+rows whose column is, is read by :mod:`encal._decimal_text` in NumPy; any other
+block line by line, the exact reader whose messages name the line and column.
 """
 
 import numpy as np
