@@ -135,3 +135,16 @@ def test_the_self_calibrations_use_the_template(call, message):
     with pytest.raises(InputError) as info:
         call()
     assert str(info.value) == message
+
+
+@pytest.mark.parametrize(("direction", "message"), [
+    ([0], "The 'direction' parameter of predict must be +1 (forward), -1 (reverse) or None (unknown), one value or "
+          "one per reading. Got the values [0] instead."),
+    (np.ones(3), "The 'direction' parameter of predict must be +1 (forward), -1 (reverse) or None (unknown), one "
+                 "value or one per reading (the shape (2,) of the encoder angles). Got the shape (3,) instead."),
+])
+def test_predict_checks_the_direction_with_the_template(direction, message):
+    model = encal.fit(encal.Calibration(GRID, GRID + np.sin(np.radians(GRID)) / 60), method="fourier")
+    with pytest.raises(InputError) as info:
+        model.predict([1.0, 2.0], direction=direction)
+    assert str(info.value) == message

@@ -77,8 +77,10 @@ def test_run_tasks_keeps_task_order_in_this_process():
 
 @pytest.mark.parametrize("bad", [-1, 1.5, "2", True])
 def test_workers_must_be_a_count(bad):
-    with pytest.raises(InputError, match="workers must be an int >= 0"):
+    with pytest.raises(InputError) as info:
         Workers(bad)
+    assert str(info.value) == ("The 'workers' parameter of Workers must be an int from 0 to 64 (worker processes: "
+                               f"each is a Python interpreter; the studies' fits are small). Got {bad!r} instead.")
 
 
 def test_progress_prints_one_line_when_not_a_terminal():

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
+from ..parameters import invalid
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
@@ -46,14 +47,15 @@ def direction_mask(direction, shape):
         If a value is not +1 or -1, or the shape does not broadcast.
     """
     values = np.asarray(direction)
+    expected = "+1 (forward), -1 (reverse) or None (unknown), one value or one per reading"
     if values.dtype.kind not in "iuf" or not np.all(np.isin(values, (-1, 1))):
-        raise InputError("direction must be +1 (forward), -1 (reverse) or None (unknown); "
-                         f"got {np.unique(values)[:4].tolist()}")
+        raise invalid("direction", "predict", expected, direction,
+                      shown=f"the values {np.unique(values)[:4].tolist()}")
     try:
         return np.broadcast_to(values > 0, shape)
     except ValueError:
-        raise InputError(f"direction has shape {values.shape}, expected one value or the shape "
-                         f"{shape} of the encoder angles") from None
+        raise invalid("direction", "predict", f"{expected} (the shape {shape} of the encoder angles)", direction,
+                      shown=f"the shape {values.shape}") from None
 
 
 def in_chunks(function, theta, width=1):

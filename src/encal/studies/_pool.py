@@ -30,7 +30,6 @@ import time
 
 from .._progress import Progress
 from .._limits import check_size
-from ..errors import InputError
 
 __all__ = ["MAX_WORKERS", "default_workers", "Workers", "run_tasks"]
 
@@ -64,8 +63,6 @@ class Workers:
     def __init__(self, count=None):
         if count is None:
             count = default_workers()
-        if isinstance(count, bool) or not isinstance(count, int) or count < 0:
-            raise InputError(f"workers must be an int >= 0 or None. Got {count!r} instead.")
         self.count = check_size("workers", count, "Workers", low=0)
         self._executor = None
 
