@@ -210,8 +210,8 @@ def test_blind_intervals_under_cover_when_the_flat_level_is_all_noise():
     # Documented (docs/model-selection.md): the blind split gives the flat level a uniform prior; where
     # it is in truth all noise, the mean keeps part of it and the intervals cover less than 95 %.
     covered, without_noise = prior_draw_coverage()
-    assert 0.85 <= covered <= 0.95
-    assert 0.75 <= without_noise <= 0.95
+    assert 0.78 <= covered <= 0.93
+    assert 0.75 <= without_noise <= 0.93
 
 
 def test_irregular_angles_use_the_fourier_feature_path():

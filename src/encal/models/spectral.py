@@ -380,8 +380,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     split = None
     if noise_source == "blind":
         quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
-        # σ stays the flat level (all of it noise): a new reading's noise is at most that, and one run
-        # cannot say it is less; the mean of the split is recorded beside it.
+        # σ̂ stays the flat level (all of it noise), the figure to hold against LSB/√12; a new
+        # reading's predictive noise is the mixture's mean noise.
         post, mean_noise_var = _evidence.split_average(design, hyper, quantisation_var)
         split = {"points": _evidence.SPLIT_POINTS, "mean_noise_std_arcmin": math.sqrt(mean_noise_var),
                  "floor_arcmin": math.sqrt(quantisation_var)}
@@ -415,7 +415,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if bits is not None:
         training["readings_resolution_bits"] = bits
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
-    model.uncertainty = _posterior_std(design, post, highest, sigma)
+    predictive_sigma = sigma if split is None else split["mean_noise_std_arcmin"]
+    model.uncertainty = _posterior_std(design, post, highest, predictive_sigma)
     _advance(progress)
     return model
 
