@@ -101,21 +101,23 @@ def test_fft_and_fourier_feature_paths_agree():
                                by_features.predict(angles, return_std=True)[1], rtol=0, atol=1e-7)
 
 
-def test_nyquist_sine_is_pinned_on_an_even_regular_grid():
-    # A step alternation (-1)^j at the nodes of a grid starting at 1 degree: the model may put it only
-    # in cos(90 (θ - 1°)), which is zero half-way between the nodes. It gets a line of its own, so
-    # that it is not counted as noise.
+def test_the_nyquist_term_is_estimated_but_left_out_of_the_correction():
+    # A step alternation (-1)^j at the nodes of a grid starting at 1 degree (a stepper's alternate full
+    # steps): only cos(90 (θ - 1°)) can hold it, and between the nodes its value is unknown. It gets a
+    # line of its own, so it is not counted as noise, and the correction leaves it out.
     theta = GRID + 1.0
     alternation = 0.5 * (-1.0) ** np.arange(GRID.size)
-    model = fit_spectral(theta, line_profile(theta) + alternation, noise_arcmin=0.01)
+    rng = np.random.default_rng(3)
+    error = line_profile(theta) + alternation + rng.normal(0.0, 0.02, GRID.size)
+    model = fit_spectral(theta, error)
     assert 90 in model.training["lines"]
+    assert model.training["nyquist_term_arcmin"] == pytest.approx(0.5, abs=0.01)
+    assert model.training["noise"]["std_arcmin"] < 0.03  # not the 0.5 of the alternation
     k = list(model.orders).index(90)
-    amplitude, sine = model.cos[k], model.sin[k]
-    assert math.hypot(amplitude, sine) == pytest.approx(0.5, abs=0.01)
-    assert math.atan2(sine, amplitude) == pytest.approx(math.radians(90.0) % math.pi - math.pi, abs=1e-9) \
-        or math.atan2(sine, amplitude) == pytest.approx(math.radians(90.0) % math.pi, abs=1e-9)
-    nyquist = SpectralModel([90], [amplitude], [sine])
-    assert np.abs(nyquist.predict(theta + 1.0)).max() < 1e-9
+    assert model.cos[k] == 0.0 and model.sin[k] == 0.0
+    # Between the nodes the model is the profile, whose alternation a new reading does not share.
+    assert rms(model.predict(theta + 1.0) - line_profile(theta + 1.0)) < 0.02
+    assert SpectralModel([90], [0.0], [0.0]).predict(theta).max() == 0.0
 
 
 # -- noise supplied, estimated, or blind -----------------------------------------------------------

@@ -391,6 +391,13 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     np.add.at(cos, orders, post.mean * np.cos(shifts))
     np.add.at(sin, orders, post.mean * np.sin(shifts))
     cos[0] += offset
+    nyquist_term = 0.0
+    if regular_points is not None and regular_points % 2 == 0:
+        # Estimated, so that it is not counted as noise, but not part of the correction: between the
+        # nodes its value is unknown (safeguard 3), and read in encoder angles its cosine leaks into
+        # the midpoints. A stepper's alternate full steps (the reference's own error) land here.
+        nyquist_term = math.hypot(cos[regular_points // 2], sin[regular_points // 2])
+        cos[regular_points // 2] = sin[regular_points // 2] = 0.0
     kept, dropped_rms = _stored_orders(cos, sin, math.sqrt(hyper.noise_var))
     sigma = math.sqrt(hyper.noise_var)
     training = {
@@ -408,6 +415,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         "log_evidence_nats": post.log_evidence,
         "threshold_nats": float(threshold_nats),
         "dropped_rms_arcmin": dropped_rms,
+        "nyquist_term_arcmin": nyquist_term,
         "time_s": time.perf_counter() - start,
     }
     if noise_arcmin is not None:
