@@ -148,3 +148,18 @@ def test_predict_checks_the_direction_with_the_template(direction, message):
     with pytest.raises(InputError) as info:
         model.predict([1.0, 2.0], direction=direction)
     assert str(info.value) == message
+
+
+def test_the_report_checks_its_figures_resolution(tmp_path):
+    both = np.r_[GRID, GRID]
+    report = encal.encoder_report.encoder_report(encal.Calibration(GRID, GRID + np.sin(np.radians(GRID)) / 60),
+                                                 method="fourier", uncertainty=False, compare=False)
+    with pytest.raises(InputError) as info:
+        encal.encoder_report.write_encoder_report(report, tmp_path / "report.html", dpi=0)
+    assert str(info.value) == ("The 'dpi' parameter of write_encoder_report must be an int from 1 to 1200 (dots per "
+                               "inch). Got 0 instead.")
+    with pytest.raises(InputError) as info:
+        encal.encoder_report.render_encoder_figures(both)
+    assert str(info.value) == ("The 'report' parameter of render_encoder_figures must be an EncoderReport. "
+                               "Got an object of type ndarray instead.")
+    assert list(tmp_path.iterdir()) == []

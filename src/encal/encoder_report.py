@@ -29,7 +29,7 @@ from ._version import __version__
 from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings
 from .calibration import Calibration
 from .errors import InputError
-from .parameters import check_bool, check_choice, check_type, invalid
+from .parameters import check_bool, check_choice, check_int, check_type, invalid
 from .profile import (ZERO_MODES, error_stats, harmonics, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
                       zero_sentence)
 
@@ -353,6 +353,11 @@ _MAKERS = {
 }
 
 
+#: Largest resolution of the report's figures (dots per inch): its largest figure, 8 by 3.8 inches, is then
+#: 44 million pixels.
+MAX_DPI = 1200
+
+
 def render_encoder_figures(report, dpi=100):
     """Draw the report's figures.
 
@@ -363,6 +368,8 @@ def render_encoder_figures(report, dpi=100):
     """
     from .plots import figure_png
 
+    check_type(report, EncoderReport, "report", "render_encoder_figures", "an EncoderReport")
+    dpi = check_int(dpi, "dpi", "render_encoder_figures", low=1, high=MAX_DPI, note="dots per inch")
     return {name: figure_png(make(report), dpi=dpi) for name, (make, applies) in _MAKERS.items() if applies(report)}
 
 
@@ -534,6 +541,8 @@ def write_encoder_report(report, path, *, figures_dir=None, dpi=100):
     dict of str to Path
         ``'report'`` and one ``'figure:<name>'`` per figure.
     """
+    check_type(report, EncoderReport, "report", "write_encoder_report", "an EncoderReport")
+    dpi = check_int(dpi, "dpi", "write_encoder_report", low=1, high=MAX_DPI, note="dots per inch")
     path = Path(path)
     if not path.parent.is_dir():
         raise InputError(f"cannot write {path}: the folder {path.parent} does not exist")
