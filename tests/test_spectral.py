@@ -115,6 +115,8 @@ def test_the_nyquist_term_is_estimated_but_left_out_of_the_correction():
     assert model.training["noise"]["std_arcmin"] < 0.03  # not the 0.5 of the alternation
     k = list(model.orders).index(90)
     assert model.cos[k] == 0.0 and model.sin[k] == 0.0
+    assert "Nyquist order 90 (the alternation from one stop to the next): amplitude 0.5" in model.report()
+    assert "left out of the correction" in model.report()
     # Between the nodes the model is the profile, whose alternation a new reading does not share.
     assert rms(model.predict(theta + 1.0) - line_profile(theta + 1.0)) < 0.02
     assert SpectralModel([90], [0.0], [0.0]).predict(theta).max() == 0.0

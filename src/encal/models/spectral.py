@@ -136,6 +136,10 @@ class SpectralModel(FourierModel):
                 f"background {background['amplitude_arcmin2']:.3g} nu^-{background['exponent']:.2f} arcmin^2; "
                 f"{len(lines)} line(s) admitted by more than {t['threshold_nats']:.3g} nats"
                 + (f": {shown}" if lines else "")]
+        if t.get("nyquist_term_arcmin"):
+            text.append(f"Nyquist order {t['stops'] // 2} (the alternation from one stop to the next): amplitude "
+                        f"{t['nyquist_term_arcmin']:.3g} arcmin, estimated and left out of the correction (unknown "
+                        "between the stops)")
         sigma = t["noise"]["std_arcmin"]
         text.append(f"noise: sigma {sigma:.4g} arcmin; prior: {t['prior']}")
         bits = self.encoder.get("resolution_bits") or t.get("readings_resolution_bits")
