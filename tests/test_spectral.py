@@ -417,3 +417,17 @@ def test_cli_json_states_the_posterior_held_out_estimate(tmp_path, capsys):
     assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--method", "spectral", "--json"]) == 0
     note = json.loads(capsys.readouterr().out)["held_out_note"]
     assert note.startswith("held-out estimate (posterior") and "arcmin after correction" in note
+
+
+def test_cli_networks_option_cross_validates_them_and_applies_to_auto_only(tmp_path, capsys):
+    from encal.cli import main
+
+    grid = np.arange(0.0, 360.0, 5.0)
+    path = write_run(tmp_path / "a.csv", grid, line_profile(grid) + np.random.default_rng(4).normal(0, 0.05, grid.size))
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--networks", "--seed", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "spectral model against the networks, " in out and "hybrid" in out
+    selection = encal.load_model(tmp_path / "m.json").training["selection"]
+    assert [row["family"] for row in selection["table"]] == ["spectral", "hybrid", "ann", "ann"]
+    assert main(["fit", str(path), "-o", str(tmp_path / "s.json"), "--method", "spectral", "--networks"]) == 1
+    assert "--networks applies to --method auto, not spectral" in capsys.readouterr().err
