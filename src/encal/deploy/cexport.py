@@ -39,6 +39,7 @@ from .._atomic import write_file_set
 from .._version import __version__
 from ..errors import InputError
 from ..models import model_kind
+from ..parameters import check_choice, check_int, invalid
 from .compensator import Compensator
 from .table import compile_table
 
@@ -83,13 +84,13 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
     InputError
         If ``prefix`` is not a valid C identifier, or an option is invalid.
     """
-    _check_identifier(prefix)
+    _check_identifier(prefix, "export_c")
+    check_choice(table, "table", "export_c", (None, "int16", "float32"))
+    check_choice(constants, "constants", "export_c", ("auto", "float", "double"))
     comp = model if isinstance(model, Compensator) else Compensator(model)
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
     # Without a resolution, the formula is still exported: only the code functions are left out.
-    bits = None if bits is None and table is None else _check_bits(bits, table)
-    if constants not in ("auto", "float", "double"):
-        raise InputError(f"expected constants 'auto', 'float' or 'double', got {constants!r}")
+    bits = None if bits is None and table is None else _check_bits(bits, table, "export_c")
     if table is None:
         ctype, deviation = _constant_type(comp, constants)
         body = _formula_source(_form(comp), comp.model.parameters(), _Literals(ctype))
@@ -139,24 +140,20 @@ def write_c(model, directory, **options):
     return write_file_set(directory, files)
 
 
-def _check_identifier(prefix):
+def _check_identifier(prefix, caller):
     valid = isinstance(prefix, str) and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", prefix)
     reserved = valid and (prefix.startswith("__") or re.match(r"_[A-Z]", prefix))
     if not valid or reserved or prefix in C_KEYWORDS:
-        raise InputError(f"expected a C identifier for the prefix (letters, digits, '_', not "
-                         f"starting with a digit, '__' or '_' + capital, not a keyword), "
-                         f"got {prefix!r}")
+        raise invalid("prefix", caller, "a C identifier (letters, digits, '_', not starting with a digit, "
+                      "'__' or '_' + capital, not a keyword)", prefix)
 
 
-def _check_bits(bits, table):
-    limit = _MAX_C_TABLE_BITS if table else 32
+def _check_bits(bits, table, caller):
     if bits is None:
         raise InputError("expected the encoder resolution in bits (the model file does not "
                          "record it), got none; pass bits= (--bits on the command line)")
-    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= limit:
-        raise InputError(f"expected an encoder resolution from 1 to {limit} bits"
-                         f"{' for a C table' if table else ''}, got {bits!r}")
-    return int(bits)
+    return check_int(bits, "bits", caller, low=1, high=_MAX_C_TABLE_BITS if table else 32,
+                     note="the encoder resolution of a C table" if table else "the encoder resolution")
 
 
 # -- constants as float or double -------------------------------------------------------
@@ -167,13 +164,14 @@ def _constant_type(comp, constants):
         return "double", 0.0
     theta = np.arange(_CHECK_POINTS) * (360.0 / _CHECK_POINTS)
     parameters = comp.model.parameters()
-    with np.errstate(all="ignore"):
+    with np.errstate(over="ignore"):
         rounded = _map_floats(parameters, lambda v: float(np.float32(v)))
-        try:
-            deviation = max(float(np.max(np.abs(approximate - exact))) for approximate, exact in
-                            zip(_profiles(comp.kind, rounded, theta), _profiles(comp.kind, parameters, theta)))
-        except ValueError:  # a constant beyond float32's range became infinite
-            deviation = np.inf
+    if _all_finite(rounded):
+        form = _form(comp)
+        deviation = max(float(np.max(np.abs(approximate - exact))) for approximate, exact in
+                        zip(_profiles(form, rounded, theta), _profiles(form, parameters, theta)))
+    else:  # a constant beyond float32's range
+        deviation = np.inf
     if constants == "float":
         if not np.isfinite(deviation):
             raise InputError("expected model constants within float32's range, got larger "
@@ -182,25 +180,38 @@ def _constant_type(comp, constants):
     return ("float", deviation) if deviation <= FLOAT32_BUDGET_ARCMIN else ("double", deviation)
 
 
-def _profiles(kind, parameters, theta):
-    """The error profiles (arcmin at ``theta``) that the C formula evaluates: one per direction of travel."""
-    if kind == "directional":
-        return [_profile(parameters[part]["kind"], parameters[part]["parameters"], theta)
+def _profiles(form, parameters, theta):
+    """The error profiles (arcmin at ``theta``) that the C formula of ``form`` evaluates: one per direction.
+
+    The profiles are those of the form, as the C code evaluates it, not of the model's kind: a kind
+    stored in another's form (``spectral`` as ``fourier``, a user's kind) is checked like that form.
+    """
+    if form == "directional":
+        return [_profile(runtime.form_of(parameters[part]), parameters[part]["parameters"], theta)
                 for part in ("forward", "reverse")]
-    return [_profile(kind, parameters, theta)]
+    return [_profile(form, parameters, theta)]
 
 
-def _profile(kind, parameters, theta):
-    if kind == "stack":  # float32 weights need not sum to 1 as a StackModel's must: add them up as the C does
-        return sum(weight * _profile(member["kind"], member["parameters"], theta)
+def _profile(form, parameters, theta):
+    if form == "stack":  # float32 weights need not sum to 1 as a StackModel's must: add them up as the C does
+        return sum(weight * _profile(runtime.form_of(member), member["parameters"], theta)
                    for member, weight in zip(parameters["members"], parameters["weights"]))
-    if kind == "lut":
+    if form == "lut":
         # float32 breaks need not span exactly 360 degrees as a LookupTableModel's must. The C code wraps
         # with the first break and 360 and finds the segment by bisection, so the last break only ends the
         # last segment, where the pieces meet: closing the span at first + 360 changes nothing measurable.
         breaks = list(parameters["breaks_deg"])
         parameters = {**parameters, "breaks_deg": breaks[:-1] + [breaks[0] + 360.0]}
-    return model_kind(kind).read(parameters).predict(theta)
+    return model_kind(form).read(parameters).predict(theta)
+
+
+def _all_finite(value):
+    """True if every number in ``value`` (nested dicts and lists of model parameters) is finite."""
+    if isinstance(value, dict):
+        return all(_all_finite(item) for item in value.values())
+    if isinstance(value, list):
+        return all(_all_finite(item) for item in value)
+    return not isinstance(value, float) or np.isfinite(value)
 
 
 def _map_floats(value, function):

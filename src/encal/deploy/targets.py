@@ -95,7 +95,7 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         raise InputError(f"expected a target among {', '.join(TARGETS)}, got {target!r}")
     if form not in FORMS:
         raise InputError(f"expected a form among {', '.join(FORMS)}, got {form!r}")
-    _check_identifier(prefix)
+    _check_identifier(prefix, "export_target")
     comp = model if isinstance(model, Compensator) else Compensator(model)
     if target == "host":
         if nodes is not None or tolerance_arcmin is not None or form != "table":
