@@ -91,17 +91,42 @@ def test_an_unreachable_tolerance_says_so():
     assert not met and table.dtype == "int8"
 
 
-def test_bad_options():
-    with pytest.raises(InputError, match="power of two"):
-        compile_compact(DATA / "model_v1_lut.json", 100)
-    with pytest.raises(InputError, match="at most 2\\^6"):
-        compile_compact(DATA / "model_v1_lut.json", 128, bits=6)
-    with pytest.raises(InputError, match="node dtype"):
-        compile_compact(DATA / "model_v1_lut.json", 64, dtype="int32")
-    with pytest.raises(InputError, match="positive tolerance"):
-        choose_compact(DATA / "model_v1_lut.json", tolerance_arcmin=0.0)
-    with pytest.raises(InputError, match="interpolation among linear, cubic"):
-        compile_compact(DATA / "model_v1_lut.json", 64, interpolation="quadratic")
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda path: compile_compact(path, 100),
+     "The 'nodes' parameter of compile_compact must be a power of two from 4 to 65536. Got 100 instead."),
+    (lambda path: compile_compact(path, 128, bits=6),
+     "The 'nodes' parameter of compile_compact must be a power of two from 4 to 64 (for a 6-bit encoder). "
+     "Got 128 instead."),
+    (lambda path: compile_compact(path, 64, dtype="int32"),
+     "The 'dtype' parameter of compile_compact must be one of 'int8', 'int16', 'float32'. Got 'int32' instead."),
+    (lambda path: compile_compact(path, 64, interpolation="quadratic"),
+     "The 'interpolation' parameter of compile_compact must be one of 'linear', 'cubic'. Got 'quadratic' instead."),
+    (lambda path: compile_compact(path, 64, bits=33),
+     "The 'bits' parameter of compile_compact must be an int from 1 to 32 (the encoder resolution, or None for "
+     "the model file's). Got 33 instead."),
+    (lambda path: choose_compact(path, tolerance_arcmin=0.0),
+     "The 'tolerance_arcmin' parameter of choose_compact must be a finite number > 0 (arc-minutes, or None). "
+     "Got 0.0 instead."),
+    (lambda path: choose_compact(path, cost="ops"),
+     "The 'cost' parameter of choose_compact must be one of 'bytes', 'entries'. Got 'ops' instead."),
+    (lambda path: choose_compact(path, target="host"),
+     "The 'target' parameter of choose_compact must be one of 'cortex-m4f', 'fixed'. Got 'host' instead."),
+    (lambda path: choose_compact(path, interpolations=["linear", "spline"]),
+     "The 'interpolations' parameter of choose_compact must be one of 'linear', 'cubic'. Got 'spline' instead."),
+    (lambda path: choose_compact(path, dtypes=[]),
+     "The 'dtypes' parameter of choose_compact must be a non-empty sequence of 'int8', 'int16', 'float32'. "
+     "Got () instead."),
+    (lambda path: choose_compact(path, dtypes=["float32"], target="fixed"),
+     "The 'dtypes' parameter of choose_compact must be a sequence with 'int8' or 'int16' for the fixed "
+     "target. Got ('float32',) instead."),
+])
+def test_bad_options(call, message):
+    with pytest.raises(InputError) as info:
+        call(DATA / "model_v1_lut.json")
+    assert str(info.value) == message
+
+
+def test_the_integer_rule_refuses_a_float_table():
     with pytest.raises(InputError, match="int8 or int16 table for the integer rule"):
         correction_bam(compile_compact(DATA / "model_v1_lut.json", 64, dtype="float32"), [0])
 

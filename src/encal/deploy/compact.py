@@ -43,12 +43,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..parameters import check_choice, check_int, check_number, invalid
 from .compensator import Compensator
 
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
            "error_lsb_float32", "cubic_terms",
            "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "CUBIC_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
-           "default_tolerance_arcmin", "evaluation_bits", "model_on_codes"]
+           "default_tolerance_arcmin", "evaluation_bits", "model_on_codes", "check_nodes"]
 
 NODE_DTYPES = ("int8", "int16", "float32")
 #: Interpolation between nodes: piecewise linear (2 nodes per reading) or a cubic B-spline (4).
@@ -186,17 +187,13 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None, i
     -------
     CompactTable
     """
+    check_choice(dtype, "dtype", "compile_compact", NODE_DTYPES)
+    check_choice(interpolation, "interpolation", "compile_compact", INTERPOLATIONS)
     comp = model if isinstance(model, Compensator) else Compensator(model)
-    bits = _resolution(comp, bits)
-    nodes = _check_nodes(nodes, bits)
-    if dtype not in NODE_DTYPES:
-        raise InputError(f"expected a node dtype among {', '.join(NODE_DTYPES)}, got {dtype!r}")
-    if interpolation not in INTERPOLATIONS:
-        raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
-    cubic = interpolation == "cubic"
+    bits = _resolution(comp, bits, "compile_compact")
     grid = evaluation_bits(bits)
-    if nodes > 2**grid:
-        raise InputError(f"expected at most {2**grid} nodes for a {grid}-bit evaluation grid, got {nodes}")
+    nodes = check_nodes(nodes, bits, "compile_compact")
+    cubic = interpolation == "cubic"
     target = model_on_codes(comp, bits) if reference is None else reference
     mean = float(np.mean(target))
     offsets = {"offset_arcmin": float(np.float32(mean)),
@@ -254,18 +251,21 @@ def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dty
     met : bool
         Whether the tolerance is met.
     """
+    caller = "choose_compact"
+    if tolerance_arcmin is not None:
+        check_number(tolerance_arcmin, "tolerance_arcmin", caller, low=0.0, low_open=True,
+                     note="arc-minutes, or None")
+    check_choice(cost, "cost", caller, ("bytes", "entries"))
+    check_choice(target, "target", caller, ("cortex-m4f", "fixed"))
+    dtypes = _check_sequence(dtypes, "dtypes", caller, NODE_DTYPES)
+    interpolations = _check_sequence(interpolations, "interpolations", caller, INTERPOLATIONS)
     comp = model if isinstance(model, Compensator) else Compensator(model)
-    bits = _resolution(comp, bits)
+    bits = _resolution(comp, bits, caller)
     tolerance = default_tolerance_arcmin(bits) if tolerance_arcmin is None else float(tolerance_arcmin)
-    if not tolerance > 0.0 or not math.isfinite(tolerance):
-        raise InputError(f"expected a positive tolerance in arcmin, got {tolerance_arcmin!r}")
-    if cost not in ("bytes", "entries"):
-        raise InputError(f"expected cost 'bytes' or 'entries', got {cost!r}")
     if target == "fixed":
+        if set(dtypes) == {"float32"}:
+            raise invalid("dtypes", caller, "a sequence with 'int8' or 'int16' for the fixed target", dtypes)
         dtypes = [d for d in dtypes if d != "float32"]
-    for interpolation in interpolations:
-        if interpolation not in INTERPOLATIONS:
-            raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
     reference = model_on_codes(comp, bits)
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     best, met = None, False
@@ -295,23 +295,40 @@ def _error(table, target):
     return table.fixed_max_error_arcmin if target == "fixed" else table.max_error_arcmin
 
 
-def _resolution(comp, bits):
+def _resolution(comp, bits, caller):
+    """The encoder resolution: ``bits``, else the model file's (None when neither knows it)."""
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
     if bits is None:
         return None
-    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= 32:
-        raise InputError(f"expected an encoder resolution from 1 to 32 bits, got {bits!r}")
-    return int(bits)
+    return check_int(bits, "bits", caller, low=1, high=32, note="the encoder resolution, or None for the model "
+                     "file's")
 
 
-def _check_nodes(nodes, bits):
+def check_nodes(nodes, bits, caller):
+    """``nodes`` as an int: a power of two from :data:`MIN_NODES` to :data:`MAX_NODES`, at most 2^bits.
+
+    ``bits`` is the encoder resolution (None when unknown); ``caller`` the function named in the message.
+    """
+    largest = min(MAX_NODES, 2**evaluation_bits(bits))
     valid = isinstance(nodes, (int, np.integer)) and not isinstance(nodes, bool) \
-        and MIN_NODES <= nodes <= MAX_NODES and nodes & (nodes - 1) == 0
+        and MIN_NODES <= nodes <= largest and nodes & (nodes - 1) == 0
     if not valid:
-        raise InputError(f"expected a power of two from {MIN_NODES} to {MAX_NODES} nodes, got {nodes!r}")
-    if bits is not None and nodes > 2**bits:
-        raise InputError(f"expected at most 2^{bits} = {2**bits} nodes for a {bits}-bit encoder, got {nodes}")
+        note = f" (for a {bits}-bit encoder)" if largest < MAX_NODES else ""
+        raise invalid("nodes", caller, f"a power of two from {MIN_NODES} to {largest}{note}", nodes)
     return int(nodes)
+
+
+def _check_sequence(values, name, caller, choices):
+    """``values`` as a non-empty tuple, each one of ``choices``."""
+    if isinstance(values, str):
+        values = (values,)
+    try:
+        values = tuple(values)
+    except TypeError:
+        raise invalid(name, caller, f"a non-empty sequence of {', '.join(map(repr, choices))}", values) from None
+    if not values:
+        raise invalid(name, caller, f"a non-empty sequence of {', '.join(map(repr, choices))}", values)
+    return tuple(check_choice(value, name, caller, choices) for value in values)
 
 
 def _basis(interpolation, t):
