@@ -28,6 +28,32 @@ def test_bad_budgets(text):
         parse_budget(text)
 
 
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda: choose_deployment(FOURIER, tolerance_arcmin=0.01, cost="flash"),
+     "The 'cost' parameter of choose_deployment must be one of 'bytes', 'entries', 'operations'. "
+     "Got 'flash' instead."),
+    (lambda: choose_deployment(FOURIER, tolerance_arcmin=float("nan")),
+     "The 'tolerance_arcmin' parameter of choose_deployment must be a finite number > 0 (arc-minutes, or None). "
+     "Got nan instead."),
+    (lambda: choose_deployment(FOURIER, tolerance_arcmin=0.01, target="host"),
+     "The 'target' parameter of choose_deployment must be one of 'cortex-m4f', 'fixed'. Got 'host' instead."),
+    (lambda: choose_deployment(FOURIER, budget=("flash", 64)),
+     "The 'budget' parameter of choose_deployment must be a text such as '1KiB' or a pair (cost, value > 0) with "
+     "a cost among bytes, entries, operations. Got ('flash', 64) instead."),
+    (lambda: choose_deployment(FOURIER, budget=("bytes", -64)),
+     "The 'budget' parameter of choose_deployment must be a finite number > 0 (bytes). Got -64 instead."),
+    (lambda: choose_deployment(FOURIER, tolerance_arcmin=0.01, bits=0),
+     "The 'bits' parameter of choose_deployment must be an int from 1 to 32 (the encoder resolution, or None for "
+     "the model file's). Got 0 instead."),
+    (lambda: candidates(FOURIER, target="fixed-point"),
+     "The 'target' parameter of candidates must be one of 'cortex-m4f', 'fixed'. Got 'fixed-point' instead."),
+])
+def test_bad_options_use_the_template(call, message):
+    with pytest.raises(InputError) as info:
+        call()
+    assert str(info.value) == message
+
+
 def test_the_cheapest_within_the_tolerance_is_chosen_for_each_cost():
     every = candidates(FOURIER)
     for cost in ("bytes", "entries", "operations"):

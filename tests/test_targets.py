@@ -239,12 +239,39 @@ def test_explicit_nodes_and_dtype():
     assert "cubic B-spline" in files["encal.c"]
     _, summary = export_target(model_path("lut"), "fixed", nodes=64, dtype="int8", interpolation="cubic")
     assert summary["interpolation"] == "cubic" and summary["operations"] == 37
-    with pytest.raises(InputError, match="interpolation among linear, cubic"):
-        export_target(model_path("lut"), "fixed", interpolation="spline")
-    with pytest.raises(InputError, match="integer node dtype"):
-        export_target(model_path("lut"), "fixed", dtype="float32")
-    with pytest.raises(InputError, match="power of two"):
-        export_target(model_path("lut"), "fixed", nodes=100)
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"target": "fixed", "interpolation": "spline"},
+     "The 'interpolation' parameter of export_target must be one of None, 'linear', 'cubic'. Got 'spline' instead."),
+    ({"target": "fixed", "dtype": "float32"},
+     "The 'dtype' parameter of export_target must be an integer node dtype, 'int8' or 'int16', for the fixed "
+     "target (or None). Got 'float32' instead."),
+    ({"target": "cortex-m4f", "dtype": "int32"},
+     "The 'dtype' parameter of export_target must be one of None, 'int8', 'int16', 'float32'. Got 'int32' instead."),
+    ({"target": "fixed", "nodes": 100},
+     "The 'nodes' parameter of export_target must be a power of two from 4 to 65536. Got 100 instead."),
+    ({"target": "arm"},
+     "The 'target' parameter of export_target must be one of 'host', 'cortex-m4f', 'fixed'. Got 'arm' instead."),
+    ({"target": "cortex-m4f", "form": "series"},
+     "The 'form' parameter of export_target must be one of 'table', 'formula'. Got 'series' instead."),
+    ({"target": "cortex-m4f", "cost": "flash"},
+     "The 'cost' parameter of export_target must be one of None, 'bytes', 'entries', 'operations'. "
+     "Got 'flash' instead."),
+    ({"target": "cortex-m4f", "tolerance_arcmin": -0.5},
+     "The 'tolerance_arcmin' parameter of export_target must be a finite number > 0 (arc-minutes, or None). "
+     "Got -0.5 instead."),
+    ({"target": "fixed", "bits": 25},
+     "The 'bits' parameter of export_target must be an int from 1 to 24 (the encoder resolution for the fixed "
+     "target, or None for the model file's). Got 25 instead."),
+    ({"target": "cortex-m4f", "prefix": "int"},
+     "The 'prefix' parameter of export_target must be a C identifier (letters, digits, '_', not starting with "
+     "a digit, '__' or '_' + capital, not a keyword). Got 'int' instead."),
+])
+def test_bad_options_use_the_template(options, message):
+    with pytest.raises(InputError) as info:
+        export_target(model_path("lut"), **options)
+    assert str(info.value) == message
 
 
 @needs_gcc

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..parameters import check_choice, check_int, check_number, invalid
 from .compact import INTERPOLATIONS, MAX_NODES, MIN_NODES, compile_compact, evaluation_bits, model_on_codes
 from .compensator import Compensator
 from .costs import CALL_OPERATIONS, OPERATIONS
@@ -24,6 +25,8 @@ from .series32 import fourier_float32, fourier_terms
 __all__ = ["Deployment", "candidates", "choose_deployment", "parse_budget", "COSTS"]
 
 COSTS = ("bytes", "entries", "operations")
+#: The processors a deployment is chosen for: float32 arithmetic, or integers only.
+_TARGETS = ("cortex-m4f", "fixed")
 _UNITS = {"b": "bytes", "byte": "bytes", "bytes": "bytes", "kib": "bytes", "k": "bytes",
           "entries": "entries", "entry": "entries", "nodes": "entries", "n": "entries",
           "ops": "operations", "op": "operations", "operations": "operations"}
@@ -80,8 +83,9 @@ def parse_budget(text):
 
 def candidates(model, *, target="cortex-m4f", bits=None):
     """Every deployment of ``model`` for ``target`` (see the module), with its costs and error."""
+    check_choice(target, "target", "candidates", _TARGETS)
     comp = model if isinstance(model, Compensator) else Compensator(model)
-    bits = comp.encoder.get("resolution_bits") if bits is None else bits
+    bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits, "candidates")
     reference = model_on_codes(comp, bits)
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     dtypes = ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
@@ -140,17 +144,22 @@ def choose_deployment(model, *, tolerance_arcmin=None, budget=None, cost="bytes"
         sentence: the error given up against the model, and what the next
         better deployment would cost), ``budget``, ``tolerance_arcmin``.
     """
+    caller = "choose_deployment"
     if isinstance(budget, str):
         budget = parse_budget(budget)
     if budget is not None:
+        budget = _check_budget(budget, caller)
         cost = budget[0]
-    if cost not in COSTS:
-        raise InputError(f"expected a cost among {', '.join(COSTS)}, got {cost!r}")
-    if tolerance_arcmin is not None and not float(tolerance_arcmin) > 0:
-        raise InputError(f"expected a positive tolerance in arcmin, got {tolerance_arcmin!r}")
+    check_choice(cost, "cost", caller, COSTS)
+    if tolerance_arcmin is not None:
+        tolerance_arcmin = check_number(tolerance_arcmin, "tolerance_arcmin", caller, low=0.0, low_open=True,
+                                        note="arc-minutes, or None")
+    check_choice(target, "target", caller, _TARGETS)
     if tolerance_arcmin is None and budget is None:
         raise InputError("expected a tolerance, a budget or both to choose a deployment")
-    every = candidates(model, target=target, bits=bits)
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits, caller)
+    every = candidates(comp, target=target, bits=bits)
     affordable = [d for d in every if budget is None or d.cost(cost) <= budget[1]]
     if not affordable:
         cheapest = min(every, key=lambda d: d.cost(cost))
@@ -170,3 +179,21 @@ def choose_deployment(model, *, tolerance_arcmin=None, budget=None, cost="bytes"
     if nearest is not None:
         gave_up += f"; the next more accurate choice costs {nearest.cost(cost)} {cost}: {nearest.describe()}"
     return chosen, {"met": met, "gave_up": gave_up, "budget": budget, "tolerance_arcmin": tolerance_arcmin}
+
+
+def _check_budget(budget, caller):
+    """A budget as ``(cost, value)``: a cost of :data:`COSTS` and a finite value > 0."""
+    expected = f"a text such as '1KiB' or a pair (cost, value > 0) with a cost among {', '.join(COSTS)}"
+    try:
+        cost, value = budget
+    except (TypeError, ValueError):  # not a pair
+        raise invalid("budget", caller, expected, budget) from None
+    if cost not in COSTS:
+        raise invalid("budget", caller, expected, budget)
+    return cost, check_number(value, "budget", caller, low=0.0, low_open=True, note=f"{cost}")
+
+
+def _check_bits(bits, caller):
+    """The encoder resolution as an int from 1 to 32, or None when unknown."""
+    return None if bits is None else check_int(bits, "bits", caller, low=1, high=32,
+                                               note="the encoder resolution, or None for the model file's")

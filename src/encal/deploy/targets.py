@@ -35,10 +35,11 @@ import numpy as np
 
 from .._atomic import write_file_set
 from ..errors import InputError
+from ..parameters import check_choice, check_int, check_number, invalid
 from .cexport import _banner, _check_identifier, export_c
-from .choice import choose_deployment
-from .compact import (CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, choose_compact, compile_compact,
-                      default_tolerance_arcmin, evaluation_bits, model_on_codes)
+from .choice import COSTS, choose_deployment
+from .compact import (CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, NODE_DTYPES, check_nodes,
+                      choose_compact, compile_compact, default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import OPERATIONS
 from .series32 import fourier_float32, fourier_terms
@@ -91,11 +92,16 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         What was exported: ``target, form, nodes, dtype, table_bytes,
         max_error_arcmin, rms_error_arcmin, operations, bits, note``.
     """
-    if target not in TARGETS:
-        raise InputError(f"expected a target among {', '.join(TARGETS)}, got {target!r}")
-    if form not in FORMS:
-        raise InputError(f"expected a form among {', '.join(FORMS)}, got {form!r}")
-    _check_identifier(prefix, "export_target")
+    caller = "export_target"
+    check_choice(target, "target", caller, TARGETS)
+    check_choice(form, "form", caller, FORMS)
+    _check_identifier(prefix, caller)
+    check_choice(dtype, "dtype", caller, (None, *NODE_DTYPES))
+    check_choice(interpolation, "interpolation", caller, (None, *INTERPOLATIONS))
+    check_choice(cost, "cost", caller, (None, *COSTS))
+    if tolerance_arcmin is not None:
+        check_number(tolerance_arcmin, "tolerance_arcmin", caller, low=0.0, low_open=True,
+                     note="arc-minutes, or None")
     comp = model if isinstance(model, Compensator) else Compensator(model)
     if target == "host":
         if nodes is not None or tolerance_arcmin is not None or form != "table":
@@ -110,6 +116,8 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
     if host_options:
         raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
     bits = _bits(comp, bits, target)
+    if nodes is not None:
+        check_nodes(nodes, bits, caller)
     chosen = _chosen(comp, target, bits, form, nodes, dtype, tolerance_arcmin, cost, interpolation)
     if chosen is not None:
         form, nodes, dtype = chosen["form"], chosen["nodes"], chosen["dtype"]
@@ -188,11 +196,8 @@ def _bits(comp, bits, target):
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
     if bits is None:
         return None
-    limit = _MAX_FIXED_COUNT_BITS if target == "fixed" else 32
-    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) or not 1 <= bits <= limit:
-        raise InputError(f"expected an encoder resolution from 1 to {limit} bits for the {target} target, "
-                         f"got {bits!r}")
-    return int(bits)
+    return check_int(bits, "bits", "export_target", low=1, high=_MAX_FIXED_COUNT_BITS if target == "fixed" else 32,
+                     note=f"the encoder resolution for the {target} target, or None for the model file's")
 
 
 def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolation=None):
@@ -218,10 +223,9 @@ def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolati
 
 
 def _table(comp, target, bits, nodes, dtype, tolerance, interpolation=None):
-    if dtype is not None and target == "fixed" and dtype == "float32":
-        raise InputError("expected an integer node dtype (int8 or int16) for the fixed target, got float32")
-    if interpolation is not None and interpolation not in INTERPOLATIONS:
-        raise InputError(f"expected an interpolation among {', '.join(INTERPOLATIONS)}, got {interpolation!r}")
+    if target == "fixed" and dtype == "float32":
+        raise invalid("dtype", "export_target", "an integer node dtype, 'int8' or 'int16', for the fixed target "
+                      "(or None)", dtype)
     if nodes is not None:
         return compile_compact(comp, nodes, dtype=dtype or "int16", bits=bits,
                                interpolation=interpolation or "linear"), None
