@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from encal.deploy import Compensator, compile_table, load_table, save_table
+from encal.deploy import Compensator, CorrectionTable, compile_table, load_table, save_table
 from encal.errors import InputError, ModelFileError
 from encal.models.fourier import FourierModel
 
@@ -108,8 +108,10 @@ def test_invalid_codes_are_refused(codes, message):
 
 @pytest.mark.parametrize("bits", [0, 25, 16.0, True])
 def test_invalid_bits_are_refused(bits):
-    with pytest.raises(InputError, match="bits"):
+    with pytest.raises(InputError) as info:
         compile_table(FILES["fourier"], bits)
+    assert str(info.value) == ("The 'bits' parameter of compile_table must be an int from 1 to 24 (the encoder "
+                               f"resolution, or None for the model file's). Got {bits!r} instead.")
 
 
 def test_missing_bits_are_refused():
@@ -118,8 +120,35 @@ def test_missing_bits_are_refused():
 
 
 def test_unknown_dtype_is_refused():
-    with pytest.raises(InputError, match="int16, float32"):
+    with pytest.raises(InputError) as info:
         compile_table(FILES["fourier"], 8, dtype="int8")
+    assert str(info.value) == "The 'dtype' parameter of compile_table must be one of 'int16', 'float32'. Got 'int8' " \
+                              "instead."
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"bits": 25}, "The 'bits' parameter of CorrectionTable must be an int from 1 to 24. Got 25 instead."),
+    ({"values": np.zeros(255, dtype=np.int16)},
+     "The 'values' parameter of CorrectionTable must be an int16 or float32 array of 2^bits = 256 entries. "
+     "Got an array of int16 and shape (255,) instead."),
+    ({"values": np.zeros(256)},
+     "The 'values' parameter of CorrectionTable must be an int16 or float32 array of 2^bits = 256 entries. "
+     "Got an array of float64 and shape (256,) instead."),
+    ({"values": [0] * 256}, "The 'values' parameter of CorrectionTable must be an ndarray. "
+                            "Got an object of type list instead."),
+    ({"scale_arcmin": 0.0},
+     "The 'scale_arcmin' parameter of CorrectionTable must be a finite number > 0 (arc-minutes). Got 0.0 instead."),
+    ({"between_codes_arcmin": float("nan")},
+     "The 'between_codes_arcmin' parameter of CorrectionTable must be a finite number >= 0 (arc-minutes). "
+     "Got nan instead."),
+    ({"reading_sign": 0}, "The 'reading_sign' parameter of CorrectionTable must be 1 or -1. Got 0 instead."),
+])
+def test_the_constructor_checks_its_fields(change, message):
+    fields = {"bits": 8, "values": np.zeros(256, dtype=np.int16), "scale_arcmin": 2.0**-10,
+              "quantisation_arcmin": 0.0, "between_codes_arcmin": 0.0, **change}
+    with pytest.raises(InputError) as info:
+        CorrectionTable(**fields)
+    assert str(info.value) == message
 
 
 # -- the file ---------------------------------------------------------------------------
@@ -165,6 +194,9 @@ def test_unknown_model_checksum_is_stored_as_zeros(tmp_path):
     (lambda raw: raw[:8] + struct.pack("<H", 2) + raw[10:], "header of at least 88 bytes"),
     (lambda raw: raw[:11] + bytes([7]) + raw[12:], "dtype code"),
     (lambda raw: raw[:20], "ENCALTAB"),
+    (lambda raw: raw[:24] + struct.pack("<d", float("inf")) + raw[32:],
+     "the table header is damaged: The 'scale_arcmin' parameter of CorrectionTable must be a finite number > 0 "
+     r"\(arc-minutes\). Got inf instead."),
 ])
 def test_damaged_files_are_refused(tmp_path, damage, message):
     path = compile_table(FILES["fourier"], 8).save(tmp_path / "t.bin")

@@ -5,9 +5,9 @@ import os
 import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
-from ..errors import InputError
-from ..models.base import Model, as_angles
+from ..models.base import Model, as_angles, direction_mask
 from ..models.modelfile import model_to_dict, read_model
+from ..parameters import check_type
 
 __all__ = ["Compensator"]
 
@@ -35,14 +35,12 @@ class Compensator:
     """
 
     def __init__(self, model):
+        check_type(model, (Model, str, os.PathLike), "model", "Compensator", "a Model or the path of a model file")
         if isinstance(model, Model):
             self.model, self.source, self._sha256 = model, None, None
-        elif isinstance(model, (str, os.PathLike)):
+        else:
             self.model, self._sha256 = read_model(model)
             self.source = os.fspath(model)
-        else:
-            raise InputError(f"expected a Model or the path of a model file, "
-                             f"got {type(model).__name__}")
 
     @property
     def sha256(self):
@@ -89,7 +87,8 @@ class Compensator:
         theta = as_angles(theta_enc_deg)
         options = {"return_std": True} if return_std else {}
         if direction is not None:
-            options["direction"] = _directions(direction, theta.shape).reshape(-1)
+            forward = direction_mask(direction, theta.shape).reshape(-1)
+            options["direction"] = np.where(forward, 1, -1).astype(np.int8)
         # Models see one flat array, whatever the shape of the readings.
         result = self.model.predict(theta.reshape(-1), **options)
         if return_std:
@@ -122,15 +121,3 @@ class Compensator:
     def __repr__(self):
         origin = f" from {self.source}" if self.source else ""
         return f"<Compensator {self.model!r}{origin}>"
-
-
-def _directions(direction, shape):
-    direction = np.asarray(direction)
-    if not np.all(np.isin(direction, (-1, 1))):
-        raise InputError("expected direction values +1 or -1, got "
-                         f"{np.unique(direction[~np.isin(direction, (-1, 1))])[:3].tolist()}")
-    try:
-        return np.broadcast_to(direction, shape).astype(np.int8)
-    except ValueError:
-        raise InputError(f"expected one direction per angle (shape {shape}), "
-                         f"got shape {direction.shape}") from None

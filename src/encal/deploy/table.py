@@ -35,6 +35,7 @@ from .._atomic import atomic_write
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError, ModelFileError
 from ..models.base import as_angles
+from ..parameters import check_choice, check_int, check_number, check_type, invalid
 from .compensator import Compensator
 
 __all__ = ["CorrectionTable", "compile_table", "save_table", "load_table",
@@ -87,6 +88,21 @@ class CorrectionTable:
     between_codes_arcmin: float
     model_sha256: str | None = None
     reading_sign: int = 1
+
+    def __post_init__(self):
+        caller = "CorrectionTable"
+        check_int(self.bits, "bits", caller, low=1, high=MAX_TABLE_BITS)
+        check_type(self.values, np.ndarray, "values", caller, "an ndarray")
+        if self.values.dtype.name not in TABLE_DTYPES or self.values.shape != (2**self.bits,):
+            raise invalid("values", caller, f"an int16 or float32 array of 2^bits = {2**self.bits} entries",
+                          self.values, shown=f"an array of {self.values.dtype.name} and shape {self.values.shape}")
+        check_number(self.scale_arcmin, "scale_arcmin", caller, low=0.0, low_open=True, note="arc-minutes")
+        check_number(self.quantisation_arcmin, "quantisation_arcmin", caller, low=0.0, note="arc-minutes")
+        check_number(self.between_codes_arcmin, "between_codes_arcmin", caller, low=0.0, note="arc-minutes")
+        if self.model_sha256 is not None:
+            check_type(self.model_sha256, str, "model_sha256", caller, "a str or None")
+        if isinstance(self.reading_sign, bool) or self.reading_sign not in (1, -1):
+            raise invalid("reading_sign", caller, "1 or -1", self.reading_sign)
 
     @property
     def dtype(self):
@@ -178,10 +194,9 @@ def compile_table(model, bits=None, *, dtype="int16"):
     InputError
         If ``bits`` is missing or out of range, or ``dtype`` unknown.
     """
+    check_choice(dtype, "dtype", "compile_table", tuple(TABLE_DTYPES))
     comp = model if isinstance(model, Compensator) else Compensator(model)
     bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits)
-    if dtype not in TABLE_DTYPES:
-        raise InputError(f"expected a table dtype among {', '.join(TABLE_DTYPES)}, got {dtype!r}")
     n = 2**bits
     step = 360.0 / n
     codes = np.arange(n, dtype=float)
@@ -222,11 +237,8 @@ def _check_bits(bits):
     if bits is None:
         raise InputError("expected the encoder resolution in bits (the model file does not "
                          "record it), got none; pass bits= (--bits on the command line)")
-    if isinstance(bits, bool) or not isinstance(bits, (int, np.integer)) \
-            or not 1 <= bits <= MAX_TABLE_BITS:
-        raise InputError(f"expected a table resolution from 1 to {MAX_TABLE_BITS} bits, "
-                         f"got {bits!r}")
-    return int(bits)
+    return check_int(bits, "bits", "compile_table", low=1, high=MAX_TABLE_BITS,
+                     note="the encoder resolution, or None for the model file's")
 
 
 def save_table(table, path):
@@ -311,4 +323,7 @@ def load_table(path):
                              f"header, got {reading_sign}")
     values = np.frombuffer(data, dtype=dtype).astype(dtype.newbyteorder("="))
     model_sha256 = sha.hex() if any(sha) else None
-    return CorrectionTable(bits, values, scale, quantisation, between, model_sha256, reading_sign)
+    try:
+        return CorrectionTable(bits, values, scale, quantisation, between, model_sha256, reading_sign)
+    except InputError as error:  # a header field out of range (the CRC-32 covers the data only)
+        raise ModelFileError(f"{path}: the table header is damaged: {error}") from None
