@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 
 from encal.deploy import export_c
+from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
+                                   export_tinymovr, read_cal_capture, read_moteus_conf, read_tinymovr)
 from encal.errors import InputError
 from encal.models.base import Model
 from encal.models.fourier import FourierModel
@@ -60,3 +62,44 @@ def test_export_c_checks_float_constants_of_a_kind_outside_the_registry_by_its_f
     assert "static const float model_cos[2]" in source
     assert "constants stored as float (they change the model by at most" in source
     assert "float32 cannot hold them" not in source
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda: export_klipper(MODEL, full_steps=4),
+     "The 'full_steps' parameter of export_klipper must be an int from 8 to 4096 (full steps per turn). "
+     "Got 4 instead."),
+    (lambda: export_klipper(MODEL, full_steps=200.0),
+     "The 'full_steps' parameter of export_klipper must be an int from 8 to 4096 (full steps per turn). "
+     "Got 200.0 instead."),
+    (lambda: export_mechaduino(MODEL, bits=16),
+     "The 'bits' parameter of export_mechaduino must be 14 or None (Mechaduino's lookup[16384] is for its 14-bit "
+     "AS5047D; default the model file's resolution). Got 16 instead."),
+    (lambda: export_moteus(MODEL, source=3),
+     "The 'source' parameter of export_moteus must be an int from 0 to 2 (moteus's motor_position.sources.K). "
+     "Got 3 instead."),
+    (lambda: export_moteus(MODEL, bits=0),
+     "The 'bits' parameter of export_moteus must be an int from 1 to 32 (the encoder resolution, or None for the "
+     "model file's, else 16). Got 0 instead."),
+    (lambda: read_moteus_conf("", source=-1),
+     "The 'source' parameter of read_moteus_conf must be an int from 0 to 2 (moteus's motor_position.sources.K, "
+     "or None for the first). Got -1 instead."),
+    (lambda: read_cal_capture("capture.log", pole_pairs=0),
+     "The 'pole_pairs' parameter of read_cal_capture must be an int from 1 to 1000 (pole pairs: no motor has "
+     "more). Got 0 instead."),
+    (lambda: export_simplefoc(MODEL, nodes=1),
+     "The 'nodes' parameter of export_simplefoc must be an int from 2 to 4096 (CalibratedSensor's n_lut, at most "
+     "one per code of the 12-bit grid). Got 1 instead."),
+    (lambda: export_simplefoc(MODEL, bits=True),
+     "The 'bits' parameter of export_simplefoc must be an int from 1 to 32 (the encoder resolution, or None for "
+     "the model file's, else 16). Got True instead."),
+    (lambda: export_tinymovr(MODEL, bits=25),
+     "The 'bits' parameter of export_tinymovr must be an int from 6 to 24 (the sensor resolution; Tinymovr's rule "
+     "works in ticks of 2^bits per turn). Got 25 instead."),
+    (lambda: read_tinymovr("int16_t rec_table[1] = {0};", bits=5),
+     "The 'bits' parameter of read_tinymovr must be an int from 6 to 24 (the sensor resolution; Tinymovr's rule "
+     "works in ticks of 2^bits per turn). Got 5 instead."),
+])
+def test_the_firmware_exports_and_imports_use_the_template(call, message):
+    with pytest.raises(InputError) as info:
+        call()
+    assert str(info.value) == message

@@ -8,6 +8,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...models.lut import LookupTableModel
+from ...parameters import check_int
 from ..compact import _least_squares_nodes, evaluation_bits, model_on_codes
 from ..compensator import Compensator
 
@@ -89,9 +90,13 @@ def round_trip(deployed_arcmin, target_arcmin):
     return float(np.max(np.abs(gap))), float(np.sqrt(np.mean(gap**2)))
 
 
-def grid_bits(comp, bits, default=16):
+def grid_bits(comp, bits, caller, default=16):
+    """The bits of the code grid an export is measured on: ``bits``, else the model file's, else ``default``."""
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
-    return evaluation_bits(default if bits is None else int(bits))
+    if bits is not None:
+        bits = check_int(bits, "bits", caller, low=1, high=32, note="the encoder resolution, or None for the model "
+                         f"file's, else {default}")
+    return evaluation_bits(default if bits is None else bits)
 
 
 def correction_model(correction_arcmin, *, name="", note=""):

@@ -18,6 +18,7 @@ import numpy as np
 
 from ...calibration import Calibration
 from ...errors import InputError
+from ...parameters import check_int
 from ._common import FirmwareExport, compensator, read_text, round_trip
 
 __all__ = ["export_klipper", "read_klipper", "klipper_load", "klipper_apply"]
@@ -73,8 +74,7 @@ def klipper_apply(calibration, reversed_, angle):
 
 def export_klipper(model, *, full_steps=200):
     """The ``calibrate:`` option of Klipper's ``[angle]`` section for a stepper of ``full_steps`` per turn."""
-    if isinstance(full_steps, bool) or not isinstance(full_steps, (int, np.integer)) or not 8 <= full_steps <= 4096:
-        raise InputError(f"expected 8 to 4096 full steps per turn, got {full_steps!r}")
+    full_steps = check_int(full_steps, "full_steps", "export_klipper", low=8, high=4096, note="full steps per turn")
     comp = compensator(model)
     reference = np.arange(full_steps) * (360.0 / full_steps)
     sign = comp.reading_sign

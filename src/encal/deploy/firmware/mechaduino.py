@@ -11,6 +11,7 @@ import numpy as np
 
 from ...calibration import Calibration
 from ...errors import InputError
+from ...parameters import invalid
 from ._common import FirmwareExport, compensator, read_c_array, round_trip
 
 __all__ = ["export_mechaduino", "read_mechaduino", "COUNTS"]
@@ -22,8 +23,9 @@ def export_mechaduino(model, *, bits=None):
     """The ``lookup[16384]`` array: ``comp.correct`` at every count, to 0.001 degree."""
     comp = compensator(model)
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
-    if bits is not None and int(bits) != 14:
-        raise InputError(f"expected a 14-bit encoder for Mechaduino's lookup[16384] (its AS5047D), got {bits} bits")
+    if bits is not None and (isinstance(bits, bool) or bits != 14):
+        raise invalid("bits", "export_mechaduino", "14 or None (Mechaduino's lookup[16384] is for its 14-bit "
+                      "AS5047D; default the model file's resolution)", bits)
     angles = np.arange(COUNTS) * (360.0 / COUNTS)
     corrected = np.asarray(comp.correct(angles), dtype=float)
     stored = np.round(corrected, 3) % 360.0

@@ -30,6 +30,8 @@ import numpy as np
 from ...calibration import Calibration
 from ...errors import CalibrationError, InputError
 from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
+from ..._limits import check_size
+from ...parameters import check_int
 from ._common import (FirmwareExport, compensator, correction_model, correction_nodes, grid_bits, read_text,
                       round_trip)
 
@@ -68,10 +70,9 @@ def export_moteus(model, *, source=0, bits=None):
     -------
     FirmwareExport
     """
-    if isinstance(source, bool) or not isinstance(source, int) or not 0 <= source <= 2:
-        raise InputError(f"expected a moteus motor_position source 0, 1 or 2, got {source!r}")
+    check_int(source, "source", "export_moteus", low=0, high=2, note="moteus's motor_position.sources.K")
     comp = compensator(model)
-    grid = grid_bits(comp, bits)
+    grid = grid_bits(comp, bits, "export_moteus")
     nodes, target, offset = correction_nodes(comp, NODES, grid)
     revolutions = nodes / 21600.0
     scale = float(np.float32(np.max(np.abs(revolutions)))) or 1.0
@@ -98,6 +99,9 @@ def read_moteus_conf(source_text, *, source=None):
     LookupTableModel
         The firmware's correction as an error model (nodes at I/256 revolutions, linear with wrap).
     """
+    if source is not None:
+        check_int(source, "source", "read_moteus_conf", low=0, high=2,
+                  note="moteus's motor_position.sources.K, or None for the first")
     text, where = read_text(source_text)
     table, scale = {}, {}
     for number, line in enumerate(text.splitlines(), start=1):
@@ -184,6 +188,8 @@ def read_cal_capture(source, *, pole_pairs=None, name=None):
         ``reference_deg`` = unwrapped electrical phase / pole pairs (its zero is arbitrary),
         ``encoder_deg`` = encoder * 360 / 65536, ``direction`` +1 for dir 1 and 3, -1 for 2 and 4.
     """
+    if pole_pairs is not None:
+        pole_pairs = check_size("pole_pairs", pole_pairs, "read_cal_capture")
     capture = read_moteus_capture(source)
     where = capture.source
     if capture.phase.size < 8:
@@ -196,9 +202,11 @@ def read_cal_capture(source, *, pole_pairs=None, name=None):
         if travel == 0:
             raise CalibrationError(f"{where}: the encoder did not move while the phase turned up; "
                                    "expected a capture of a turning motor (or pass pole_pairs)")
-        pole_pairs = int(round(abs((phase[up][-1] - phase[up][0]) / travel)))
-    if isinstance(pole_pairs, bool) or not isinstance(pole_pairs, (int, np.integer)) or pole_pairs < 1:
-        raise InputError(f"expected a whole number of pole pairs >= 1, got {pole_pairs!r}")
+        ratio = abs((phase[up][-1] - phase[up][0]) / travel)
+        pole_pairs = int(round(ratio))
+        if pole_pairs < 1:
+            raise CalibrationError(f"{where}: the electrical phase turned {ratio:.3g} times the encoder travel "
+                                   "while turning up; expected at least one pole pair (or pass pole_pairs)")
     reference = phase * (360.0 / 65536.0) / pole_pairs
     return Calibration(reference, capture.encoder_deg, direction=np.where(up, 1, -1),
                        name=name or where, source=where, resolution_bits=16,

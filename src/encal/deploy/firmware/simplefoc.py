@@ -10,6 +10,7 @@ lut[(bucket + 1) % n]``, and the calibrated angle is ``raw + offset``.
 
 import numpy as np
 
+from ...parameters import check_int
 from ._common import FirmwareExport, compensator, correction_model, correction_nodes, grid_bits, read_c_array, \
     round_trip
 
@@ -43,7 +44,9 @@ def export_simplefoc(model, *, bits=None, nodes=NODES):
         ``n_lut`` (128 in CalibratedSensor.h; change both together).
     """
     comp = compensator(model)
-    grid = grid_bits(comp, bits)
+    grid = grid_bits(comp, bits, "export_simplefoc")
+    nodes = check_int(nodes, "nodes", "export_simplefoc", low=2, high=2**grid,
+                      note=f"CalibratedSensor's n_lut, at most one per code of the {grid}-bit grid")
     values, target, offset = correction_nodes(comp, nodes, grid)
     lut = (np.radians(values / 60.0)).astype(np.float32)
     raw = (np.arange(2**grid) * (2.0 * np.pi / 2**grid)).astype(np.float32)

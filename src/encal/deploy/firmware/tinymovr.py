@@ -12,6 +12,7 @@ the rectified angle is ``a + off``. Firmware before 2024 held ``int16_t``, curre
 import numpy as np
 
 from ...errors import InputError
+from ...parameters import check_int
 from ._common import FirmwareExport, compensator, correction_model, correction_nodes, read_c_array, round_trip
 
 __all__ = ["export_tinymovr", "tinymovr_rule", "read_tinymovr", "NODES"]
@@ -34,10 +35,10 @@ def export_tinymovr(model, *, bits=None):
     """``int16_t rec_table[64]`` in ticks of a ``bits``-bit sensor (default the model file's resolution)."""
     comp = compensator(model)
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
-    if bits is None or not 6 <= int(bits) <= 24:
-        raise InputError(f"expected the sensor resolution (6 to 24 bits; Tinymovr's rule works in ticks), "
-                         f"got {bits!r}; pass bits= (--bits)")
-    bits = int(bits)
+    if bits is None:
+        raise InputError("expected the sensor resolution (6 to 24 bits; Tinymovr's rule works in ticks), "
+                         "got none; pass bits= (--bits)")
+    bits = _check_bits(bits, "export_tinymovr")
     lsb = 21600.0 / 2**bits
     values, target, offset = correction_nodes(comp, NODES, bits)
     table = np.rint(values / lsb).astype(np.int64)
@@ -56,7 +57,13 @@ def export_tinymovr(model, *, bits=None):
 
 def read_tinymovr(source_text, *, bits):
     """An existing ``rec_table`` (ticks of a ``bits``-bit sensor) as an encal error model."""
+    bits = _check_bits(bits, "read_tinymovr")
     table = read_c_array(source_text, "rec_table")
     if table.size != NODES:
         raise InputError(f"expected {NODES} rec_table entries, got {table.size}")
     return correction_model(table * (21600.0 / 2**bits), name="Tinymovr rec_table", note="Tinymovr")
+
+
+def _check_bits(bits, caller):
+    return check_int(bits, "bits", caller, low=6, high=24, note="the sensor resolution; Tinymovr's rule works in "
+                     "ticks of 2^bits per turn")
