@@ -1,9 +1,12 @@
 """The deployment's entry points check their options with encal's one message template (encal.parameters)."""
 
+import io
+
 import numpy as np
 import pytest
 
-from encal.deploy import export_c
+from encal.deploy import Compensator, export_c
+from encal.deploy.stream import correct_stream
 from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
                                    export_tinymovr, read_cal_capture, read_moteus_conf, read_tinymovr)
 from encal.errors import InputError
@@ -103,3 +106,22 @@ def test_the_firmware_exports_and_imports_use_the_template(call, message):
     with pytest.raises(InputError) as info:
         call()
     assert str(info.value) == message
+
+
+@pytest.mark.parametrize(("options", "message"), [
+    ({"skip_bad": "yes"}, "The 'skip_bad' parameter of correct_stream must be True or False. Got 'yes' instead."),
+    ({"exact": 1}, "The 'exact' parameter of correct_stream must be True or False. Got 1 instead."),
+    ({"direction": 0},
+     "The 'direction' parameter of correct_stream must be +1 (forward), -1 (reverse) or None (unknown). "
+     "Got 0 instead."),
+    ({"direction": np.array([1, -1])},
+     "The 'direction' parameter of correct_stream must be +1 (forward), -1 (reverse) or None (unknown). "
+     "Got array([ 1, -1]) instead."),
+    ({"name": 3}, "The 'name' parameter of correct_stream must be a str. Got an object of type int instead."),
+])
+def test_correct_stream_uses_the_template_and_writes_nothing(options, message):
+    sink = io.BytesIO()
+    with pytest.raises(InputError) as info:
+        correct_stream(Compensator(MODEL), io.BytesIO(b"1.0\n2.0\n"), sink, **options)
+    assert str(info.value) == message
+    assert sink.getvalue() == b""

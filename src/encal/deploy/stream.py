@@ -16,11 +16,14 @@ rows whose column is, is read by :mod:`encal._decimal_text` in NumPy; any other
 block line by line, the exact reader whose messages name the line and column.
 """
 
+import numbers
+
 import numpy as np
 
 from .. import _csv
 from .._decimal_text import format_fixed, parse_lines
 from ..errors import InputError
+from ..parameters import check_bool, check_type, invalid
 
 __all__ = ["correct_stream", "BLOCK_BYTES", "MAX_LINE_BYTES"]
 
@@ -65,6 +68,13 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
         At the first malformed line (unless ``skip_bad``), naming its number
         and content; the answers to the lines before it are written first.
     """
+    caller = "correct_stream"
+    check_bool(skip_bad, "skip_bad", caller)
+    check_bool(exact, "exact", caller)
+    check_type(name, str, "name", caller, "a str")
+    if direction is not None and (isinstance(direction, bool) or not isinstance(direction, numbers.Integral)
+                                  or direction not in (1, -1)):
+        raise invalid("direction", caller, "+1 (forward), -1 (reverse) or None (unknown)", direction)
     parser = _LineParser(skip_bad, name)
     read = getattr(source, "read1", source.read)
     write = _format_repr if exact else format_fixed
