@@ -124,6 +124,19 @@ def test_moteus_cal_capture_gives_the_encoder_error(tmp_path):
     assert np.max(np.abs(error - truth)) <= 0.5 * 21600 / 65536 + 1e-9  # whole encoder counts
 
 
+def test_moteus_cal_capture_refuses_less_than_one_inferred_pole_pair(tmp_path):
+    # the phase turns a tenth of the encoder's travel: no whole number of pole pairs >= 1 fits
+    up = [f"1 {100 * i} {1000 * i}" for i in range(10)]
+    down = [f"2 {100 * i} {1000 * i}" for i in range(9, -1, -1)]
+    path = tmp_path / "cal.log"
+    path.write_text("\n".join(["CAL start", *up, *down, "CAL done"]) + "\n")
+    with pytest.raises(CalibrationError) as info:
+        read_cal_capture(path)
+    assert str(info.value) == (f"{path}: the electrical phase turned 0.1 times the encoder travel while turning up; "
+                               "expected at least one pole pair (or pass pole_pairs)")
+    assert read_cal_capture(path, pole_pairs=1).metadata["pole_pairs"] == 1
+
+
 def test_moteus_cal_capture_refusals(tmp_path):
     path = tmp_path / "cal.log"
     path.write_text("1 2 3\nCAL done\n")
