@@ -5,7 +5,7 @@ import io
 import numpy as np
 import pytest
 
-from encal.deploy import Compensator, export_c
+from encal.deploy import Compensator, export_c, save_table
 from encal.deploy.stream import correct_stream
 from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
                                    export_tinymovr, read_cal_capture, read_moteus_conf, read_tinymovr)
@@ -125,3 +125,14 @@ def test_correct_stream_uses_the_template_and_writes_nothing(options, message):
         correct_stream(Compensator(MODEL), io.BytesIO(b"1.0\n2.0\n"), sink, **options)
     assert str(info.value) == message
     assert sink.getvalue() == b""
+
+
+def test_the_compensator_and_the_table_file_check_their_arguments(tmp_path):
+    with pytest.raises(InputError) as info:
+        Compensator(MODEL).predict([1.0, 2.0], return_std="yes")
+    assert str(info.value) == "The 'return_std' parameter of predict must be True or False. Got 'yes' instead."
+    with pytest.raises(InputError) as info:
+        save_table(np.zeros(256, dtype=np.int16), tmp_path / "t.bin")
+    assert str(info.value) == ("The 'table' parameter of save_table must be a CorrectionTable. "
+                               "Got an object of type ndarray instead.")
+    assert list(tmp_path.iterdir()) == []

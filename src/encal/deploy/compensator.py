@@ -7,7 +7,7 @@ import numpy as np
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..models.base import Model, as_angles, direction_mask
 from ..models.modelfile import model_to_dict, read_model
-from ..parameters import check_type
+from ..parameters import check_bool, check_type
 
 __all__ = ["Compensator"]
 
@@ -85,7 +85,7 @@ class Compensator:
             Only with ``return_std=True``.
         """
         theta = as_angles(theta_enc_deg)
-        options = {"return_std": True} if return_std else {}
+        options = {"return_std": True} if check_bool(return_std, "return_std", "predict") else {}
         if direction is not None:
             forward = direction_mask(direction, theta.shape).reshape(-1)
             options["direction"] = np.where(forward, 1, -1).astype(np.int8)

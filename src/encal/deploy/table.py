@@ -268,6 +268,7 @@ def save_table(table, path):
     -------
     pathlib.Path
     """
+    check_type(table, CorrectionTable, "table", "save_table", "a CorrectionTable")
     code, dtype = TABLE_DTYPES[table.dtype]
     data = np.ascontiguousarray(table.values, dtype=dtype).tobytes()
     sha = bytes.fromhex(table.model_sha256) if table.model_sha256 else bytes(32)
