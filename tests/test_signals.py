@@ -445,3 +445,31 @@ def test_a_signal_at_any_moment_leaves_all_or_nothing(signal_inputs, tmp_path, n
         assert stderr.strip().splitlines()[-1].endswith(("terminated", "interrupted", "hung up")), stderr
     else:
         assert written, "the command finished but wrote nothing"
+
+
+def test_a_signal_while_an_extension_module_initialises_is_a_stop_not_a_traceback(monkeypatch, capsys):
+    # SIGHUP landing inside a C extension's initialisation (SciPy's, during the CLI's imports) reaches
+    # Python as "ImportError: initialization failed" caused by the signal's exception.
+    import encal.cli as cli
+
+    def failing_import():
+        try:
+            raise _signals.Terminated(signal.SIGHUP)
+        except _signals.Terminated as exc:
+            raise ImportError("initialization failed") from exc
+
+    monkeypatch.setattr(cli, "build_parser", failing_import)
+    assert main(["fit", "cal.csv", "-o", "m.json"]) == 128 + signal.SIGHUP
+    err = capsys.readouterr().err
+    assert err.strip() == "encal fit: hung up" and "Traceback" not in err
+
+
+def test_an_import_error_without_a_signal_is_not_taken_for_one(monkeypatch):
+    import encal.cli as cli
+
+    def failing_import():
+        raise ImportError("a missing module")
+
+    monkeypatch.setattr(cli, "build_parser", failing_import)
+    with pytest.raises(ImportError, match="a missing module"):
+        main(["fit", "cal.csv", "-o", "m.json"])

@@ -13,7 +13,7 @@ import os
 import signal
 import threading
 
-__all__ = ["STOP_SIGNALS", "Terminated", "install", "held", "pending", "exit_status"]
+__all__ = ["STOP_SIGNALS", "Terminated", "install", "held", "pending", "exit_status", "cause_of"]
 
 #: The signals that stop a command (SIGHUP does not exist on Windows).
 STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, name))
@@ -36,6 +36,21 @@ class Terminated(KeyboardInterrupt):
 def exit_status(exc):
     """The shell's exit status for a command stopped by ``exc``: 128 + the signal's number (130 for Ctrl-C)."""
     return 128 + (exc.signum if isinstance(exc, Terminated) else signal.SIGINT)
+
+
+def cause_of(exc):
+    """The KeyboardInterrupt (Ctrl-C or :class:`Terminated`) that caused ``exc``, or None.
+
+    A signal raised while a C extension module initialises reaches Python as the ImportError the
+    failed initialisation raises, with the signal's exception as its cause or context.
+    """
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def _raise(signum, frame):

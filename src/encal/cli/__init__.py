@@ -116,15 +116,27 @@ def _main(argv):
         _say(f"{_prefix(command)}: error: {where}{exc.strerror or exc}")
         return 1
     except KeyboardInterrupt as exc:
-        what = "interrupted" if not isinstance(exc, _signals.Terminated) else (
-            "hung up" if exc.signum == getattr(signal, "SIGHUP", None) else "terminated")
-        _say(f"{_prefix(command)}: {what}")
-        return _signals.exit_status(exc)
+        return _stopped(command, exc)
+    except ImportError as exc:
+        # A signal that lands while a C extension initialises (SciPy's, during the imports of the first
+        # seconds) surfaces as "ImportError: initialization failed" caused by the signal's exception.
+        interrupt = _signals.cause_of(exc)
+        if interrupt is None:
+            raise
+        return _stopped(command, interrupt)
     finally:
         restore()
         if stderr is None:
             sys.stderr.close()
             sys.stderr = None
+
+
+def _stopped(command, exc):
+    """Say that a signal stopped the command; the exit status for it (128 + the signal's number)."""
+    what = "interrupted" if not isinstance(exc, _signals.Terminated) else (
+        "hung up" if exc.signum == getattr(signal, "SIGHUP", None) else "terminated")
+    _say(f"{_prefix(command)}: {what}")
+    return _signals.exit_status(exc)
 
 
 def _named_command(argv):
