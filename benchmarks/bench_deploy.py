@@ -32,6 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
+from _ctiming import timing_driver  # benchmarks/_ctiming.py
 from encal.deploy import Compensator, compile_table, runtime, save_model, save_table, write_c
 from encal.models.ann import fit_ann
 
@@ -43,39 +44,6 @@ STORED = {"fourier (9 orders)": "model_v1_fourier.json",
           "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json",
           "stack (4 orders + cubic lut + 1:4:1)": "model_v1_stack.json"}
 
-C_BENCH = """\
-#define _POSIX_C_SOURCE 199309L
-#include <stdint.h>
-#include <stdio.h>
-#include <time.h>
-#include "{prefix}.h"
-
-static double now(void)
-{{
-    struct timespec t;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}}
-
-int main(void)
-{{
-    const uint32_t n = {n}u;
-    double best = 1e30, sum = 0.0;
-    int repeat;
-    for (repeat = 0; repeat < 3; ++repeat) {{
-        uint32_t k;
-        const double start = now();
-        double elapsed;
-        for (k = 0; k < n; ++k) {{
-            sum += (double){prefix}_{function}({argument});
-        }}
-        elapsed = now() - start;
-        if (elapsed < best) best = elapsed;
-    }}
-    printf("%.3f %g\\n", 1e9 * best / (double)n, sum);
-    return 0;
-}}
-"""
 
 
 def best_time(function, repeat=3):
@@ -135,8 +103,8 @@ def c_ns_per_angle(comp, folder, n, table=None):
     for function, argument in (("correct_deg", "(float)(k % 65536u) * (360.0f / 65536.0f)"),
                                ("correct_counts", "k & 0xFFFFu")):
         source = folder / f"bench_{function}.c"
-        source.write_text(C_BENCH.format(prefix=prefix, n=n, function=function,
-                                         argument=argument))
+        source.write_text(timing_driver(f"{prefix}_{function}({argument})", n=n,
+                                        header=f'#include "{prefix}.h"'))
         program = folder / f"bench_{function}"
         subprocess.run([gcc, "-std=c99", "-O2", "-I", str(folder), str(source),
                         str(folder / f"{prefix}.c"), "-lm", "-o", str(program)], check=True)

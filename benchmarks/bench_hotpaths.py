@@ -42,43 +42,10 @@ from pathlib import Path
 
 import numpy as np
 
+from _ctiming import timing_driver  # benchmarks/_ctiming.py
+
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
-
-C_DRIVER = """\
-#define _POSIX_C_SOURCE 199309L
-#include <stdint.h>
-#include <stdio.h>
-#include <time.h>
-
-float {function}(uint32_t code);
-
-static double now(void)
-{{
-    struct timespec t;
-    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}}
-
-int main(void)
-{{
-    const uint32_t n = {n}u;
-    double best = 1e30, sum = 0.0;
-    int repeat;
-    for (repeat = 0; repeat < 3; ++repeat) {{
-        uint32_t k;
-        const double start = now();
-        double elapsed;
-        for (k = 0; k < n; ++k) {{
-            sum += (double){function}(k * 40503u);  /* codes in a scattered order */
-        }}
-        elapsed = now() - start;
-        if (elapsed < best) best = elapsed;
-    }}
-    printf("%.3f %g\\n", 1e9 * best / (double)n, sum);
-    return 0;
-}}
-"""
 
 C_LOOKUP = """\
 #include <stdint.h>
@@ -141,7 +108,9 @@ def build_c(source, model, table, folder, n):
     gcc = shutil.which("gcc")
     folder.mkdir(parents=True)
     run_with(source, sys.executable, "-c", EXPORT_SCRIPT, str(model), str(folder), table)
-    (folder / "driver.c").write_text(C_DRIVER.format(function="bench_correct_counts", n=n))
+    # codes in a scattered order
+    (folder / "driver.c").write_text(timing_driver("bench_correct_counts(k * 40503u)", n=n,
+                                                  declaration="float bench_correct_counts(uint32_t code);"))
     program = folder / "program"
     subprocess.run([gcc, "-std=c99", "-O2", "-I", str(folder), str(folder / "driver.c"),
                     str(folder / "bench.c"), "-lm", "-o", str(program)], check=True)
@@ -158,7 +127,8 @@ def build_lookup(exported, folder, n):
     end = text.index("\n", end) + 1
     (folder / "bench_data.h").write_text(text[start:end])
     (folder / "lookup.c").write_text(C_LOOKUP.format(prefix="bench"))
-    (folder / "driver.c").write_text(C_DRIVER.format(function="lookup_counts", n=n))
+    (folder / "driver.c").write_text(timing_driver("lookup_counts(k * 40503u)", n=n,
+                                                  declaration="float lookup_counts(uint32_t code);"))
     program = folder / "program"
     subprocess.run([gcc, "-std=c99", "-O2", "-I", str(folder), str(folder / "driver.c"),
                     str(folder / "lookup.c"), "-o", str(program)], check=True)
