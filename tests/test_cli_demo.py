@@ -163,7 +163,7 @@ def test_study_algorithms_with_seeds_and_a_test_file(csv_files, tmp_path):
 @pytest.mark.parametrize("study, extra, message", [
     ("prune", ["--hidden", "0"], "--hidden must be"),
     ("prune", ["--hidden", "8,16"], "--hidden must be one whole number"),
-    ("prune", ["--threshold", "2"], "The 'threshold' parameter of svd_pruning must be a finite number in (0, 1)"),
+    ("prune", ["--threshold", "2"], "--threshold must be a finite number in (0, 1)"),
     ("algorithms", ["--algorithms", "trainlm,trainmagic"], "--algorithms must name some of"),
     ("sweep", ["--hidden", "4,x"], "--hidden must be comma-separated whole numbers"),
 ])

@@ -101,7 +101,7 @@ def test_a_saved_model_is_judged(capsys, files, tmp_path):
      "--method chooses the model fitted on the first calibration and cannot be used with --model"),
     (["{first}", "{repeat}", "--model", "{model}", "--seed", "3"], "--seed chooses the model fitted"),
     (["{first}", "{missing}"], "no such file"),
-    (["{first}", "{repeat}", "--tolerance", "-1"], "tolerance_arcmin"),
+    (["{first}", "{repeat}", "--tolerance", "-1"], "--tolerance must be"),
 ])
 def test_bad_input_exits_1_with_one_line(capsys, files, tmp_path, argv, message):
     model = tmp_path / "model.json"

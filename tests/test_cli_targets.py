@@ -2,8 +2,10 @@
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+import encal
 from encal.cli import main
 
 DATA = Path(__file__).parent / "data"
@@ -77,3 +79,21 @@ def test_formula_of_a_model_that_is_not_a_series_is_refused(tmp_path, capsys):
     status, _, err = export(capsys, DATA / "model_v1_lut.json", "--format", "c", "--target", "cortex-m4f",
                             "--form", "formula", "-o", tmp_path)
     assert status == 1 and "expected a Fourier series" in err and "Traceback" not in err
+
+
+def test_a_library_message_about_an_option_names_the_flag_the_user_gave(tmp_path, capsys):
+    from encal.cli import _in_flag_terms, build_parser, main
+
+    model = tmp_path / "m.json"
+    encal.save_model(encal.fit(encal.Calibration(np.arange(0.0, 360.0, 2.0),
+                                                 np.arange(0.0, 360.0, 2.0) + 0.01), method="fourier"), model)
+    assert main(["export", str(model), "--format", "c", "-o", str(tmp_path / "c"), "--target", "fixed",
+                 "--bits", "14", "--tolerance", "-1"]) == 1
+    err = capsys.readouterr().err
+    assert err == ("encal export: error: --tolerance must be a finite number > 0 (arc-minutes, or None). "
+                   "Got -1.0 instead.\n")
+    # A value the user did not give (from the model file, or a default) keeps the library's wording.
+    args = build_parser().parse_args(["export", str(model), "--format", "c", "-o", "x"])
+    text = "The 'bits' parameter of export_c must be an int from 1 to 32. Got 0 instead."
+    assert _in_flag_terms(text, args) == text
+    assert _in_flag_terms("no such file", args) == "no such file"

@@ -21,6 +21,7 @@ import argparse  # noqa: E402
 import contextlib  # noqa: E402
 import importlib  # noqa: E402
 import pkgutil  # noqa: E402
+import re  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
 
@@ -53,8 +54,33 @@ def build_parser():
         cmd = sub.add_parser(name, help=module.HELP, description=module.__doc__ or module.HELP,
                              formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_arguments(cmd)
-        cmd.set_defaults(_run=module.run, _claim_extras=getattr(module, "claim_extras", None))
+        cmd.set_defaults(_run=module.run, _claim_extras=getattr(module, "claim_extras", None), _parser=cmd)
     return parser
+
+
+#: A library message about a parameter: "The 'tolerance_arcmin' parameter of export_target must ...".
+_PARAMETER_MESSAGE = re.compile(r"The '(\w+)' parameter of [\w.]+ (must .*)", re.DOTALL)
+
+
+def _in_flag_terms(text, args):
+    """A library's message about a parameter, worded with the flag the user gave for it.
+
+    "The 'tolerance_arcmin' parameter of export_target must ..." becomes "--tolerance must ..."
+    when the command has that option (its name, or the name without a unit suffix) and the user
+    set it; otherwise (a value read from a file, an option left at its default) the text is kept.
+    """
+    match = _PARAMETER_MESSAGE.fullmatch(text)
+    parser = getattr(args, "_parser", None)
+    if match is None or parser is None:
+        return text
+    name = match.group(1)
+    names = {name, name.removesuffix("_arcmin"), name.removesuffix("_deg")}
+    for action in parser._actions:
+        if action.option_strings and action.dest in names:
+            value = getattr(args, action.dest, None)
+            if value is not None and value != action.default:
+                return f"{action.option_strings[-1]} {match.group(2)}"
+    return text
 
 
 def main(argv=None):
@@ -79,7 +105,7 @@ def main(argv=None):
 
 
 def _main(argv):
-    command = None
+    command = args = None
     restore = _signals.install()
     stderr = sys.stderr
     if stderr is None:
@@ -107,7 +133,7 @@ def _main(argv):
         with warnings_as_lines(command), output_that_may_close(command):
             return int(args._run(args) or 0)
     except EncalError as exc:
-        _say(f"{_prefix(command)}: error: {exc}")
+        _say(f"{_prefix(command)}: error: {_in_flag_terms(str(exc), args)}")
         return 1
     except BrokenPipeError:
         return 0
