@@ -4,7 +4,16 @@
 ``call`` (a C expression in the loop variable ``k``, a ``uint32_t``) for ``k = 0 .. n-1``, three
 times, and prints the least CPU time per call in nanoseconds and a checksum (so that the compiler
 cannot drop the calls).
+
+``machine()`` describes the machine such timings ran on: CPU, cores, system, Python, NumPy, gcc.
 """
+
+import os
+import platform
+import shutil
+import subprocess
+
+import numpy as np
 
 _TEMPLATE = """\
 #define _POSIX_C_SOURCE 199309L
@@ -45,3 +54,18 @@ int main(void)
 def timing_driver(call, *, n, header="", declaration=""):
     """C source of the timing program (see the module docstring)."""
     return _TEMPLATE.format(call=call, n=n, header=header, declaration=declaration)
+
+
+def machine():
+    """One line: the CPU, its cores, the system, Python, NumPy and gcc versions."""
+    cpu = "unknown CPU"
+    with open("/proc/cpuinfo", encoding="utf-8") as handle:
+        for line in handle:
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    gcc = "no gcc"
+    if shutil.which("gcc"):
+        gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.split("\n")[0]
+    return (f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
+            f"Python {platform.python_version()}, NumPy {np.__version__}; {gcc}")

@@ -21,7 +21,6 @@ epochs on a synthetic profile.
 
 import argparse
 import os
-import platform
 import resource
 import shutil
 import subprocess
@@ -32,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ctiming import timing_driver  # benchmarks/_ctiming.py
+from _ctiming import machine, timing_driver  # benchmarks/_ctiming.py
 from encal.deploy import Compensator, compile_table, runtime, save_model, save_table, write_c
 from encal.models.ann import fit_ann
 
@@ -111,20 +110,6 @@ def c_ns_per_angle(comp, folder, n, table=None):
         output = subprocess.run([str(program)], capture_output=True, text=True, check=True).stdout
         rows[function] = float(output.split()[0])
     return rows
-
-
-def machine():
-    cpu = "unknown CPU"
-    with open("/proc/cpuinfo", encoding="utf-8") as handle:
-        for line in handle:
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    gcc = "no gcc"
-    if shutil.which("gcc"):
-        gcc = subprocess.run(["gcc", "--version"], capture_output=True, text=True).stdout.split("\n")[0]
-    return (f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-            f"Python {platform.python_version()}, NumPy {np.__version__}; {gcc}")
 
 
 def main():

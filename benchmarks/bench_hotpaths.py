@@ -32,7 +32,6 @@ The load average is printed at the start and the end.
 
 import argparse
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -42,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from _ctiming import timing_driver  # benchmarks/_ctiming.py
+from _ctiming import machine, timing_driver  # benchmarks/_ctiming.py
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"
@@ -73,17 +72,6 @@ C_MODELS = {"fourier (9 orders up to 97)": "model_v1_fourier.json",
 
 def load():
     return f"{os.getloadavg()[0]:.2f}"
-
-
-def machine():
-    cpu = "unknown CPU"
-    with open("/proc/cpuinfo", encoding="utf-8") as handle:
-        for line in handle:
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    return (f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}; "
-            f"Python {platform.python_version()}, NumPy {np.__version__}")
 
 
 def extract_source(revision, folder):
@@ -220,7 +208,7 @@ def section_correct(sources, folder, quick):
     import json
 
     big = 10**6 if quick else 10**7
-    print(f"\n### Model.correct in NumPy: ns per angle and peak memory (tracemalloc) of one call\n")
+    print("\n### Model.correct in NumPy: ns per angle and peak memory (tracemalloc) of one call\n")
     print("| model | dense table ns | " + " | ".join(
         f"{label} ns at 1e5 / 1e6 / {big:.0e} | {label} peak MB at 1e6 / {big:.0e}" for label in sources)
         + " | after / before ns at 1e6 | after / table |")
