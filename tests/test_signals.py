@@ -177,6 +177,33 @@ def test_sighup_while_saving_is_handled_like_sigterm(calibration, tmp_path):
     assert _temporaries(tmp_path) == [] and not (tmp_path / "m.json").exists()
 
 
+_TERMINATED_WITH_A_BROKEN_TEARDOWN = """
+import atexit, os, signal, sys
+from encal import _atomic
+from encal.cli import main
+atexit.register(os.abort)  # stands for an extension whose initialisation the signal cut short
+fsync = os.fsync
+def terminate(fd):
+    fsync(fd)
+    os.kill(os.getpid(), signal.SIGTERM)
+_atomic.os.fsync = terminate
+sys.argv[1:] = {argv!r}
+sys.exit(main())
+"""
+
+
+def test_a_stopped_command_ends_with_the_signals_status_whatever_the_teardown(calibration, tmp_path):
+    """A signal that cut a C extension's initialisation short can leave a teardown that aborts the
+    interpreter at exit (seen once in CI: "Fatal Python error: PyThreadState_Get", status -6). The
+    command has cleaned up by then, so ``encal`` ends the process itself with the signal's status."""
+    argv = ["fit", str(calibration), "-o", str(tmp_path / "m.json"), "--method", "fourier"]
+    process = subprocess.run([sys.executable, "-c", _TERMINATED_WITH_A_BROKEN_TEARDOWN.format(argv=argv)],
+                             capture_output=True, text=True, timeout=120)
+    assert process.returncode == 143, process.stderr
+    assert process.stderr.strip() == "encal fit: terminated"
+    assert _temporaries(tmp_path) == [] and not (tmp_path / "m.json").exists()
+
+
 def test_a_signal_ignored_at_start_stays_ignored():
     previous = signal.signal(signal.SIGHUP, signal.SIG_IGN)
     try:

@@ -1,3 +1,4 @@
+import os
 import sys
 
 try:
@@ -5,6 +6,8 @@ try:
 except KeyboardInterrupt:  # Ctrl-C while Python imports the command line: stop as main() would
     if sys.stderr is not None:
         print("encal: interrupted", file=sys.stderr)
-    sys.exit(130)
+        sys.stderr.flush()
+    # Not through the interpreter's teardown: an extension whose import the signal cut short may abort it.
+    os._exit(130)
 
 sys.exit(main())

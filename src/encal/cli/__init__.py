@@ -93,14 +93,18 @@ def main(argv=None):
         stopped by Ctrl-C ends the process itself with status 130 (see the comment below).
     """
     status = _main(argv)
-    if status == 130 and argv is None:
-        # Ctrl-C caught while a library ran Python code through PyRun_String (NumPy's import does) leaves
-        # CPython's "unhandled KeyboardInterrupt" flag set, and the interpreter would then kill itself with
-        # SIGINT at exit instead of returning 130. The command has cleaned up: end the process here.
+    if status > 128 and argv is None:
+        # A signal stopped the command, which has cleaned up. End the process here rather than through
+        # the interpreter's teardown, which a signal can no longer be trusted to survive:
+        # - Ctrl-C caught while a library ran Python code through PyRun_String (NumPy's import does) leaves
+        #   CPython's "unhandled KeyboardInterrupt" flag set, and the interpreter kills itself with SIGINT
+        #   at exit instead of returning 130;
+        # - a signal that cut a C extension's initialisation short can leave it half set up, and its
+        #   teardown then aborts the process ("Fatal Python error: PyThreadState_Get", status -6).
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(Exception):
                 stream.flush()
-        os._exit(130)
+        os._exit(status)
     return status
 
 
