@@ -75,6 +75,32 @@ def order_power(coefficients):
     return power
 
 
+def informed_estimate(theta_deg, errors_arcmin, theta_test_deg, truth, sigma_arcmin, max_order=180):
+    """The informed (Bayes) estimate at ``theta_test_deg`` from a run on any grid.
+
+    The estimator is told the size of every harmonic of the true profile (orders 0..``max_order``,
+    taken from ``truth``, a function of the angle in degrees) and the noise standard deviation; it
+    does not know their phases. Under the Gaussian prior with those powers (each cosine and sine
+    coefficient of order ν has variance ``P_ν``, the order's mean-square contribution) and white
+    noise, the posterior mean is the estimator with the lowest expected error, aliased orders
+    included: on a uniform grid without aliasing it is the order-by-order Wiener shrinkage of
+    :func:`bound`, on a jittered grid it is what that shrinkage becomes there.
+    """
+    grid = np.arange(4 * max_order) * (360.0 / (4 * max_order))
+    power = order_power(harmonic_coefficients(truth(grid)))[: max_order + 1]
+    orders = np.arange(1, max_order + 1)
+
+    def features(angles):
+        r = np.radians(np.asarray(angles, dtype=float))[:, None]
+        return np.hstack([np.ones((r.shape[0], 1)), np.cos(orders * r), np.sin(orders * r)])
+
+    prior = np.concatenate([power[:1], power[1:], power[1:]])
+    phi = features(theta_deg) * prior
+    gram = features(theta_deg) @ phi.T + sigma_arcmin**2 * np.eye(len(theta_deg))
+    weights = np.linalg.solve(gram, np.asarray(errors_arcmin, dtype=float))
+    return features(theta_test_deg) @ (phi.T @ weights)
+
+
 def bound(member):
     train, test = member.train, member.test
     theta_train = np.round(train.calibration.reference_deg, 6)

@@ -9,6 +9,7 @@ import encal
 from encal.deploy import runtime
 from encal.errors import InputError
 from encal.models import _evidence
+from encal.models import spectral
 from encal.models._trigsums import trig_moments, trig_series
 from encal.models.spectral import (
     BLIND_PRIOR,
@@ -120,6 +121,51 @@ def test_the_nyquist_term_is_estimated_but_left_out_of_the_correction():
     # Between the nodes the model is the profile, whose alternation a new reading does not share.
     assert rms(model.predict(theta + 1.0) - line_profile(theta + 1.0)) < 0.02
     assert SpectralModel([90], [0.0], [0.0]).predict(theta).max() == 0.0
+
+
+CODE_12_BIT_DEG = 360.0 / 4096
+
+
+def small_profile(theta_deg, scale=1.0):
+    r = np.radians(theta_deg)
+    return scale * (1.2 * np.cos(r + 0.3) + 0.4 * np.sin(2 * r) + 0.15 * np.cos(16 * r + 1.0))
+
+
+def read_12_bit(reference_deg, seed, scale=1.0):
+    """Readings of a 12-bit encoder (5.27 arcmin codes) with 0.05 arcmin of noise before the rounding."""
+    rng = np.random.default_rng(seed)
+    exact = reference_deg + (small_profile(reference_deg, scale) + rng.normal(0.0, 0.05, reference_deg.size)) / 60.0
+    reading = np.round(exact / CODE_12_BIT_DEG) * CODE_12_BIT_DEG
+    return reading, (reading - reference_deg) * 60.0
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_rounding_of_a_coarse_encoder_on_a_grid_gets_no_line(seed, monkeypatch):
+    # A profile of 1.5 codes read at 2-degree steps: the rounding error is a sawtooth advancing
+    # 4096 / 180 = 22.76 codes per stop, so at the stops it is a pattern of order 4096 mod 180 = 136,
+    # folded to 44 (and 88, 48 for its harmonics), with another phase at the midpoints.
+    theta, error = read_12_bit(GRID, seed)
+    model = fit_spectral(theta, error)
+    assert model.training["rounding_orders"] == [*range(42, 51), *range(86, 91)]
+    assert not set(model.training["lines"]) & set(model.training["rounding_orders"])
+    assert "orders 42-50, 86-90: no line (where the rounding of the readings to whole codes lands" in model.report()
+    # Near what the three real orders' noise leaves (rounding noise 1.52 arcmin over 180 points, 6
+    # coefficients: 0.28); with lines allowed there, the fit follows the stops' rounding pattern.
+    assert rms(model.predict(MIDPOINTS) - small_profile(MIDPOINTS)) < 0.4
+    monkeypatch.setattr(spectral, "COHERENT_SWING_CODES", 0.0)
+    following = fit_spectral(theta, error)
+    assert following.training["rounding_orders"] == []
+    assert {43, 44, 45} <= set(following.training["lines"])
+    assert rms(following.predict(MIDPOINTS) - small_profile(MIDPOINTS)) > 0.8
+
+
+def test_the_rounding_of_a_profile_over_many_codes_is_noise():
+    theta, error = read_12_bit(GRID, 0, scale=8.0)  # about 11 codes from peak to peak
+    model = fit_spectral(theta, error)
+    assert model.training["rounding_orders"] == []
+    assert "rounding" not in model.report()
+    theta, error = read_12_bit(GRID + 0.37 * np.sin(np.radians(7 * GRID)), 0)  # no regular grid
+    assert fit_spectral(theta, error).training["rounding_orders"] == []
 
 
 # -- noise supplied, estimated, or blind -----------------------------------------------------------

@@ -47,6 +47,12 @@ MIN_REPEAT_DOF = 10
 _THRESHOLD_ORDER = 90
 #: Largest posterior-std grid (points per revolution).
 _STD_GRID_LIMIT = 3600
+#: Largest peak-to-peak stray of the readings from the grid's nodes, in codes, for which a quantised encoder's rounding on a
+#: regular grid is one coherent pattern (see ``_quantisation_orders``).
+COHERENT_SWING_CODES = 4.0
+#: Harmonics of the rounding pattern whose orders (each with this many on either side) carry no line.
+_ROUNDING_HARMONICS = 3
+_ROUNDING_WIDTH = 2
 
 
 class SpectralModel(FourierModel):
@@ -140,6 +146,9 @@ class SpectralModel(FourierModel):
             text.append(f"Nyquist order {t['stops'] // 2} (the alternation from one stop to the next): amplitude "
                         f"{t['nyquist_term_arcmin']:.3g} arcmin, estimated and left out of the correction (unknown "
                         "between the stops)")
+        if t.get("rounding_orders"):
+            text.append(f"orders {_ranges(t['rounding_orders'])}: no line (where the rounding of the readings to whole "
+                        "codes lands on this grid)")
         sigma = t["noise"]["std_arcmin"]
         text.append(f"noise: sigma {sigma:.4g} arcmin; prior: {t['prior']}")
         bits = self.encoder.get("resolution_bits") or t.get("readings_resolution_bits")
@@ -156,6 +165,17 @@ class SpectralModel(FourierModel):
     def __repr__(self):
         name = self.encoder.get("name") or "unnamed encoder"
         return f"<SpectralModel {self.orders.size} orders up to {int(self.orders.max(initial=0))} for {name}>"
+
+
+def _ranges(orders):
+    """'43-45, 88-90' for [43, 44, 45, 88, 89, 90]."""
+    runs = []
+    for order in orders:
+        if runs and order == runs[-1][1] + 1:
+            runs[-1][1] = order
+        else:
+            runs.append([order, order])
+    return ", ".join(f"{first}-{last}" if last > first else f"{first}" for first, last in runs)
 
 
 def _noise_meaning(ratio, source):
@@ -373,6 +393,9 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     offset = float(np.mean(error))
     centred = error - offset
     orders, shifts, lineable = _columns(highest, regular_points, phase)
+    bits = resolution_of_readings(theta)
+    rounding_orders = _quantisation_orders(bits, grid, theta)
+    lineable &= ~np.isin(orders, rounding_orders)
     if uniform is not None:
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
@@ -380,7 +403,6 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     _advance(progress)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats)
     _advance(progress)
-    bits = resolution_of_readings(theta)
     split = None
     if noise_source == "blind":
         quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
@@ -420,6 +442,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         "threshold_nats": float(threshold_nats),
         "dropped_rms_arcmin": dropped_rms,
         "nyquist_term_arcmin": nyquist_term,
+        "rounding_orders": [int(k) for k in rounding_orders],
         "time_s": time.perf_counter() - start,
     }
     if noise_arcmin is not None:
@@ -440,6 +463,50 @@ STAGES = 3
 def _advance(progress):
     if progress is not None:
         progress()
+
+
+def _quantisation_orders(bits, grid, theta):
+    """Orders where a quantised encoder's rounding lands on a regular grid as a line, or none.
+
+    A reading of a ``bits``-bit encoder is rounded to a whole code. At the ``N`` stops of a regular
+    grid the rounding error is a sawtooth of the position in codes, which advances ``2^bits / N``
+    codes from one stop to the next, so its ``h``-th harmonic appears at order ``h 2^bits mod N``
+    (folded into ``0..N/2``): 44 for a 12-bit encoder at 2° steps. While the readings stray from the
+    grid's nodes (by the error, and by the reference's own jitter) over only a few codes
+    (:data:`COHERENT_SWING_CODES`) the pattern stays coherent, spread by that swing over the
+    neighbouring orders, and looks like a line; but it is no part of the profile, and between the
+    stops the rounding has another phase. Those orders carry no line (the background still covers
+    them). When the readings swing over many codes the pattern is spread over all orders like
+    noise, and no order is excluded.
+
+    Parameters
+    ----------
+    bits : int or None
+        Resolution the readings show (:func:`encal.angles.resolution_of_readings`).
+    grid : ndarray or None
+        Nodes of the regular grid of the stops (degrees), None off a regular grid.
+    theta : ndarray
+        The readings, degrees.
+
+    Returns
+    -------
+    ndarray of int
+        The orders, sorted (empty when the rounding is no coherent pattern).
+    """
+    if not bits or grid is None:
+        return np.zeros(0, dtype=int)
+    stops = grid.size
+    spacing = 360.0 / stops
+    position = wrap360(theta - grid[0]) / spacing
+    stray_codes = (position - np.round(position)) * spacing * 2**bits / 360.0
+    if np.ptp(stray_codes) > COHERENT_SWING_CODES:
+        return np.zeros(0, dtype=int)
+    excluded = set()
+    for harmonic in range(1, _ROUNDING_HARMONICS + 1):
+        order = harmonic * 2**bits % stops
+        order = min(order, stops - order)
+        excluded.update(range(max(order - _ROUNDING_WIDTH, 1), order + _ROUNDING_WIDTH + 1))
+    return np.array(sorted(k for k in excluded if k <= stops // 2), dtype=int)
 
 
 def _prior_text(source):
