@@ -23,9 +23,11 @@ Per encoder, test RMS divided by the test run's measurement floor for: ``np.inte
 training points (periodic), the CV-chosen Fourier series, the paper's top-10 series, the cubic
 lookup table, the spectral model blind and with the noise supplied (the training run's actual
 noise standard deviation), the evidence-based auto (blind), optionally the cross-validated auto,
-and the informed (Wiener) estimator applied to the same run (benchmarks/bench_floor_bound.py;
-uniform-grid cases only). Then per case: ±2σ coverage of the spectral model's predictive
-intervals at the test points, and the ratios of auto to the best plain baseline.
+and the informed estimator applied to the same run (``informed_estimate`` of
+benchmarks/bench_floor_bound.py: told the true profile's power per order and the noise). Then per
+case: ±2σ coverage of the spectral model's predictive intervals at the test points, beside the
+coverage of a model that knew the profile, and the ratios of auto to the best plain baseline and
+to the informed estimator.
 """
 
 import os
