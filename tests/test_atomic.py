@@ -64,6 +64,62 @@ def test_writing_one_path_twice_keeps_the_last(tmp_path):
     assert path.read_text() == "second" and _leftovers(tmp_path) == []
 
 
+def _fail_on_nth_rename(monkeypatch, n):
+    """Make the n-th (1-based) os.replace of encal._atomic raise OSError."""
+    real = os.replace
+    count = iter(range(1, 10**6))
+
+    def failing(source, destination):
+        if next(count) == n:
+            raise PermissionError(13, "Permission denied")
+        return real(source, destination)
+
+    monkeypatch.setattr(atomic.os, "replace", failing)
+
+
+@pytest.mark.parametrize("failing", [1, 2, 3, 4])
+def test_a_rename_failing_part_way_through_a_set_puts_every_old_file_back(tmp_path, monkeypatch, failing):
+    files = {name: tmp_path / name for name in ("a.txt", "b.txt", "c.txt", "d.txt")}
+    files["a.txt"].write_text("old a")
+    files["c.txt"].write_text("old c")
+    os.symlink(files["c.txt"], tmp_path / "link-to-c")
+    _fail_on_nth_rename(monkeypatch, failing)
+    with pytest.raises(PermissionError):
+        with atomic_file_set():
+            for name in ("a.txt", "b.txt"):
+                atomic_write(files[name], f"new {name[0]}")
+            atomic_write(tmp_path / "link-to-c", "new c")
+            atomic_write(files["d.txt"], "new d")
+            atomic_write(files["a.txt"], "newer a")
+    assert files["a.txt"].read_text() == "old a" and files["c.txt"].read_text() == "old c"
+    assert not files["b.txt"].exists() and not files["d.txt"].exists()
+    assert os.readlink(tmp_path / "link-to-c") == str(files["c.txt"])
+    assert _leftovers(tmp_path) == []
+
+
+def test_a_set_over_old_files_leaves_no_second_name(tmp_path):
+    path = tmp_path / "a.txt"
+    path.write_text("old")
+    with atomic_file_set():
+        atomic_write(path, "new")
+    assert path.read_text() == "new" and sorted(p.name for p in tmp_path.iterdir()) == ["a.txt"]
+
+
+def test_a_set_keeps_old_files_by_copy_where_hard_links_are_refused(tmp_path, monkeypatch):
+    def no_links(source, destination):
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(atomic.os, "link", no_links)
+    (tmp_path / "a.txt").write_text("old a")
+    _fail_on_nth_rename(monkeypatch, 2)
+    with pytest.raises(PermissionError):
+        with atomic_file_set():
+            atomic_write(tmp_path / "a.txt", "new a")
+            atomic_write(tmp_path / "b.txt", "new b")
+    assert (tmp_path / "a.txt").read_text() == "old a" and not (tmp_path / "b.txt").exists()
+    assert _leftovers(tmp_path) == []
+
+
 def _fail_on_nth_write(monkeypatch, n):
     """Make the n-th (1-based) atomic_write of the process raise OSError."""
     real = atomic.atomic_open

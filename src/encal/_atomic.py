@@ -13,6 +13,8 @@ end, so a failure part-way leaves none of the new files and every old one.
 import contextlib
 import contextvars
 import os
+import secrets
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -49,10 +51,61 @@ def atomic_file_set():
     else:
         # A stop signal during the renames is held until they are all done: all new files or, above, none.
         with held():
-            for tmp, path in pending:
-                os.replace(tmp, path)
+            _replace_all(pending)
     finally:
         _PENDING.reset(token)
+
+
+def _replace_all(pending):
+    """Rename every temporary file over its destination; if one rename fails, undo the others.
+
+    Each destination that exists is kept under a second name (a hard link, or a copy where the file
+    system has none) until every rename has succeeded, so a failure part-way (a permission
+    changed, a file system gone, a destination made a folder meanwhile) puts every old file back,
+    removes every new one and leaves no temporary file.
+    """
+    kept = {}  # destination -> its old content's second name, or None when it did not exist
+    done = 0
+    try:
+        for tmp, path in pending:
+            if path not in kept:
+                kept[path] = _keep(path)
+            os.replace(tmp, path)
+            done += 1
+    except BaseException:
+        for tmp, _ in pending[done:]:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+        for path, old in kept.items():
+            if old is not None:
+                os.replace(old, path)
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(old)  # still there when ``path`` was never replaced: rename between two links is a no-op
+            else:
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(path)
+        raise
+    for old in kept.values():
+        if old is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(old)
+
+
+def _keep(path):
+    """A second name for the file at ``path`` in its folder, or None when there is no file there."""
+    if not os.path.lexists(path):
+        return None
+    folder = path.parent if str(path.parent) else Path(".")
+    prefix = f".{_shortened(path.name, _longest_name(folder) - 22)}."
+    while True:
+        old = folder / f"{prefix}{secrets.token_hex(4)}.old.tmp"
+        try:
+            os.link(path, old)
+        except FileExistsError:
+            continue
+        except OSError:  # a file system without hard links
+            shutil.copy2(path, old)
+        return old
 
 
 def _destination(path):
