@@ -10,6 +10,7 @@ error the export states.
 """
 
 import math
+import platform
 import shutil
 import subprocess
 from pathlib import Path
@@ -35,6 +36,10 @@ N = 1 << BITS
 KINDS = ["fourier", "lut", "ann", "hybrid", "stack", "directional"]
 
 needs_gcc = pytest.mark.skipif(GCC is None, reason="gcc is not installed")
+#: GCC's default (GNU) dialect, which fuses a * b + c where the CPU can: FMA3 on an x86-64 host.
+GNU_FMA_FLAGS = ["-std=gnu11", "-mfma", "-Wall", "-Wextra", "-Werror", "-O2"]
+HOST_HAS_FMA = platform.machine() == "x86_64" and Path("/proc/cpuinfo").exists() \
+    and " fma " in Path("/proc/cpuinfo").read_text().replace("\n", " ")
 needs_arm = pytest.mark.skipif(ARM_GCC is None or ARM_OBJDUMP is None,
                                reason="arm-none-eabi-gcc is not installed (Debian: gcc-arm-none-eabi)")
 
@@ -72,10 +77,10 @@ int main(void)
 """
 
 
-def run_c(folder, driver, dtype):
+def run_c(folder, driver, dtype, flags=CFLAGS):
     (folder / "driver.c").write_text(driver)
     program = folder / "driver"
-    built = subprocess.run([GCC, *CFLAGS, "-I", str(folder), str(folder / "driver.c"), str(folder / "enc.c"),
+    built = subprocess.run([GCC, *flags, "-I", str(folder), str(folder / "driver.c"), str(folder / "enc.c"),
                             "-lm", "-o", str(program)], capture_output=True, text=True, timeout=300)
     assert built.returncode == 0, built.stderr
     raw = subprocess.run([str(program)], capture_output=True, timeout=60, check=True).stdout
@@ -282,6 +287,39 @@ def test_compiles_on_the_host_without_the_code_functions(tmp_path):
         built = subprocess.run([GCC, *CFLAGS, "-c", str(tmp_path / target / "enc.c"), "-o",
                                 str(tmp_path / target / "enc.o")], capture_output=True, text=True, timeout=120)
         assert built.returncode == 0, built.stderr
+
+
+@needs_gcc
+@pytest.mark.skipif(not HOST_HAS_FMA, reason="the host is no x86-64 CPU with fused multiply-add (FMA3)")
+@pytest.mark.parametrize("interpolation", ["linear", "cubic"])
+def test_cortex_m4f_table_stays_bit_exact_where_the_compiler_may_fuse_multiply_adds(tmp_path, interpolation):
+    """GCC's GNU dialects (its default, and most firmware builds') fuse ``a * b + c`` where the CPU can:
+    VFMA on a Cortex-M4F, FMA3 here. The generated C turns that off, so the results stay those of the
+    arithmetic the deployed error was computed for, bit for bit."""
+    model = FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
+                         encoder={"resolution_bits": BITS})
+    _, summary = write_target(model, tmp_path, "cortex-m4f", prefix="enc", bits=BITS, nodes=512, dtype="float32",
+                              interpolation=interpolation)
+    out = run_c(tmp_path, FLOAT_DRIVER, np.float32, flags=GNU_FMA_FLAGS)
+    codes = np.arange(N)
+    np.testing.assert_array_equal(out[:, 0], error_lsb_float32(summary["table"], codes, BITS))
+    theta = codes.astype(np.float32) * np.float32(360.0 / N)
+    np.testing.assert_array_equal(out[:, 2], predict_float32_angle(summary["table"], theta))
+
+
+@needs_arm
+@pytest.mark.parametrize("form, interpolation", [("table", "linear"), ("table", "cubic"), ("formula", None)])
+def test_cortex_m4f_object_fuses_no_multiply_add_in_a_gnu_dialect(tmp_path, form, interpolation):
+    write_target(model_path("fourier"), tmp_path, "cortex-m4f", prefix="enc", bits=BITS, form=form,
+                 interpolation=interpolation)
+    obj = tmp_path / "enc.o"
+    built = subprocess.run([ARM_GCC, "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard",
+                            "-std=gnu11", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(tmp_path / "enc.c"),
+                            "-o", str(obj)], capture_output=True, text=True, timeout=120)
+    assert built.returncode == 0, built.stderr
+    listing = subprocess.run([ARM_OBJDUMP, "-d", str(obj)], capture_output=True, text=True, check=True).stdout
+    assert "vmul.f32" in listing
+    assert not any(f"{op}.f32" in listing for op in ("vfma", "vfms", "vfnma", "vfnms"))
 
 
 @needs_arm

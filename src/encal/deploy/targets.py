@@ -300,6 +300,18 @@ uint32_t {p}_correct_code(uint32_t code);
 float {p}_correct_counts(uint32_t code);
 """
 
+#: The deployed error is computed for float32 operations rounded one by one (and the tests compare the
+#: C with that arithmetic bit for bit); a compiler that fuses ``a * b + c`` into one rounding (GCC in
+#: its GNU dialects, its default, and clang: VFMA on a Cortex-M4F) would round differently.
+_NO_FUSED_MULTIPLY_ADD = """\
+/* Each float operation rounded on its own, as the deployed error above was computed: no fused multiply-add. */
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize ("fp-contract=off")
+#endif
+"""
+
 _FLOAT_COMMON = """\
 /* theta in [0, 360); NaN stays NaN */
 static float wrap360f(float angle)
@@ -442,6 +454,7 @@ float {prefix}_error_lsb(uint32_t code)
 #include <math.h>
 #include <stdint.h>
 
+{_NO_FUSED_MULTIPLY_ADD}
 #define NODES {table.nodes}u
 #define NODES_PER_DEG {_float(table.nodes / 360.0)}
 #define SCALE_ARCMIN {_float(table.scale_arcmin)} /* arc-minutes per unit of node_value */
@@ -505,6 +518,7 @@ float {prefix}_error_lsb(uint32_t code)
 #include <math.h>
 #include <stdint.h>
 
+{_NO_FUSED_MULTIPLY_ADD}
 #define TERMS {orders.size}
 #define PHASE_STEP {_float(2.0 * math.pi / 2**24)} /* radians per unit of a 24-bit phase */
 
