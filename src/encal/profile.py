@@ -16,7 +16,6 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from ._trigsums import trig_moments
 from .angles import ARCMIN_PER_DEG, wrap180, wrap360
@@ -602,6 +601,8 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     too_high = [k for k in orders if k > grid.max_order]
     if too_high:
         raise InputError(_aliasing_message(caller, too_high, grid))
+    import scipy.linalg  # here, not at the top: the commands that only read a model never import SciPy
+
     design, owners = _design(theta, orders, grid)
     # QR with column pivoting (gelsy): rank-revealing, and much faster than the SVD.
     solution, _, rank, _ = scipy.linalg.lstsq(design, error, cond=_RCOND, lapack_driver="gelsy",
@@ -664,6 +665,8 @@ def nested_harmonic_predictions(theta_deg, error_arcmin, ranked_orders, predict_
     check = design if grid.phase_rad is None else _design(_snap(theta, grid), orders, grid)[0]
     kept_orders = _identifiable_orders(check, owner, len(orders))
     kept = kept_orders[owner]
+    import scipy.linalg
+
     q, r = np.linalg.qr(design[:, kept])
     projected = q.T @ error
     # (X R^-1)^T, one row per kept column: its cumulative sums weighted by Qᵀε are the prefixes' predictions.
@@ -1094,6 +1097,8 @@ def _series_by_normal_equations(theta_deg, error_arcmin, max_order, grid):
     bordered by one row and column for ``d``. Returns None if conjugate
     gradients do not converge.
     """
+    import scipy.linalg
+
     theta = np.radians(theta_deg)
     order = max_order
     nyquist = order > 0 and order == grid.nyquist_order

@@ -8,7 +8,6 @@ so the model file alone evaluates it.
 """
 
 import numpy as np
-from scipy.interpolate import CubicSpline, PPoly
 
 from ..errors import InputError, ModelFileError
 from ..parameters import check_choice
@@ -80,7 +79,6 @@ class LookupTableModel(Model):
         self.interpolation = interpolation
         self.breaks_deg = breaks
         self.coefficients = coefficients
-        self._ppoly = PPoly(coefficients, breaks, extrapolate=True)
         self._pieces = _PieceIndex(breaks)
         # One row per piece, its break and its terms (constant first): one gather fetches a reading's all.
         self._rows = np.ascontiguousarray(np.vstack([breaks[:-1], coefficients[::-1]]).T)
@@ -234,6 +232,8 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=
     if interpolation == "linear":
         coefficients = np.vstack([np.diff(closed) / np.diff(breaks), values])
     else:
+        from scipy.interpolate import CubicSpline  # here: reading a table model needs no SciPy
+
         coefficients = CubicSpline(breaks, closed, bc_type="periodic").c
     training = {"interpolation": interpolation, "n_entries": int(angles.size)}
     if binned_from is not None:

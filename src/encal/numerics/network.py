@@ -40,7 +40,6 @@ model needs this module alone, not the optimisers.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import expit
 
 from ..errors import InputError
 
@@ -64,6 +63,14 @@ def _tansig_slope(h):
     return 1.0 - h * h
 
 
+def _logsig(z, out=None):
+    """The logistic function 1 / (1 + e^-z), SciPy's ``expit`` (imported on first use: a model file's reader
+    needs no SciPy)."""
+    from scipy.special import expit
+
+    return expit(z, out=out)
+
+
 def _logsig_slope(h):
     return h * (1.0 - h)
 
@@ -71,7 +78,7 @@ def _logsig_slope(h):
 #: name -> (activation f(z), its derivative written in terms of h = f(z))
 ACTIVATIONS = {
     "tansig": (np.tanh, _tansig_slope),
-    "logsig": (expit, _logsig_slope),
+    "logsig": (_logsig, _logsig_slope),
 }
 
 #: Half-width of each activation's active input region, MATLAB's
