@@ -9,17 +9,41 @@
 - :func:`compile_compact` / :func:`choose_compact`: a periodic table of N nodes (linear or cubic B-spline)
   with a stated deployed error; :func:`export_target`: C for ``host``,
   ``cortex-m4f`` (float32 only) or ``fixed`` (integers only).
+
+Public names are loaded on first use, as in :mod:`encal`: ``encal correct`` needs the compensator
+alone, not the C export and every model kind behind it.
 """
 
-from .cexport import export_c, write_c
-from .compact import CompactTable, choose_compact, compile_compact
-from .compensator import Compensator
-from .. import runtime  # the standalone reader, encal's bottom layer; here too, beside the other artefacts
-from ..models.modelfile import load_model, model_from_dict, model_to_dict, read_model, save_model
-from .table import CorrectionTable, compile_table, load_table, save_table
-from .targets import export_target, write_target
+import importlib
 
-__all__ = ["runtime", "save_model", "load_model", "read_model", "model_to_dict", "model_from_dict",
-           "Compensator", "CorrectionTable", "compile_table", "save_table", "load_table",
-           "export_c", "write_c", "CompactTable", "compile_compact", "choose_compact", "export_target",
-           "write_target"]
+# public name -> module that defines it
+_PUBLIC = {
+    "runtime": "encal.runtime",  # the standalone reader, encal's bottom layer; here too, beside the other artefacts
+    "save_model": "encal.models.modelfile", "load_model": "encal.models.modelfile",
+    "read_model": "encal.models.modelfile", "model_to_dict": "encal.models.modelfile",
+    "model_from_dict": "encal.models.modelfile",
+    "Compensator": "encal.deploy.compensator",
+    "CorrectionTable": "encal.deploy.table", "compile_table": "encal.deploy.table",
+    "save_table": "encal.deploy.table", "load_table": "encal.deploy.table",
+    "export_c": "encal.deploy.cexport", "write_c": "encal.deploy.cexport",
+    "CompactTable": "encal.deploy.compact", "compile_compact": "encal.deploy.compact",
+    "choose_compact": "encal.deploy.compact",
+    "export_target": "encal.deploy.targets", "write_target": "encal.deploy.targets",
+}
+
+__all__ = list(_PUBLIC)
+
+
+def __getattr__(name):
+    try:
+        module = _PUBLIC[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    module = importlib.import_module(module)
+    value = module if name == "runtime" else getattr(module, name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
