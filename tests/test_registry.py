@@ -172,3 +172,25 @@ def test_the_runtime_checks_a_files_kind_and_form(constant_kind, tmp_path, chang
 def test_a_kind_is_a_frozen_record():
     with pytest.raises(dataclasses.FrozenInstanceError):
         model_kind("fourier").randomised = True
+
+
+def test_a_kind_named_in_its_module_is_imported_on_first_use_and_checked_then(monkeypatch):
+    import encal.models.kind
+
+    registered = dict(REGISTERED, fourier=dataclasses.replace(REGISTERED["fourier"], model_class="FourierModel",
+                                                              fit="fit_fourier"))
+    monkeypatch.setattr("encal.models.kind.REGISTERED", registered)
+    entry = register_kind(ModelKind("series", "FourierModel", "fit_fourier", module="encal.models.fourier"))
+    assert registered["series"] is entry and entry.model_class == "FourierModel"  # nothing imported yet
+    with pytest.raises(InputError, match=r"^the model class of kind 'series' must have kind = 'series'\. "
+                                         r"Got 'fourier' instead\.$"):
+        model_kind("series")
+    loaded = model_kind("fourier")
+    assert loaded.model_class.__name__ == "FourierModel" and callable(loaded.fit)
+    assert encal.models.kind.REGISTERED["fourier"] is loaded and model_kind("fourier") is loaded
+
+
+def test_a_kind_named_without_its_module_is_refused():
+    with pytest.raises(InputError, match=r"^the model_class and fit of kind 'toy' given by name need the module "
+                                         r"that defines them\. Got module=None instead\.$"):
+        register_kind(ModelKind("toy", "ToyModel", "fit_toy"))

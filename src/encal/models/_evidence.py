@@ -20,8 +20,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 
 __all__ = ["Design", "Hyper", "Posterior", "evidence", "fit_hyperparameters", "LINE_THRESHOLD_NATS"]
 
@@ -163,6 +161,8 @@ def evidence(design, variances, noise_var, covariance=True):
         covariance = s * inverse_diagonal
         residual2 = yy - 2.0 * design.projection @ mean + np.sum(g * mean**2)
     else:
+        import scipy.linalg  # SciPy is imported by a fit, not by a spectral model file's reader
+
         g = design.gram
         big_b = (d[:, None] * g) * (d[None, :] / sigma2)
         big_b[np.diag_indices_from(big_b)] += 1.0
@@ -189,6 +189,8 @@ def evidence(design, variances, noise_var, covariance=True):
 def _cholesky(matrix):
     """Lower Cholesky factor of ``I + d G d / σ²``; where rounding makes it indefinite (noise-free data,
     σ² at its bound), a jitter of up to 1e-8 of its largest diagonal entry is added."""
+    import scipy.linalg
+
     factor, info = scipy.linalg.lapack.dpotrf(matrix, lower=1)
     jitter = 1e-14 * float(np.max(np.diag(matrix)))
     while info != 0 and jitter <= 1e-8 * float(np.max(np.diag(matrix))):
@@ -242,6 +244,8 @@ def _objective(x, design, hyper, line_orders, background_parts):
 
 def _optimise(design, hyper):
     """Maximise the evidence over every free hyperparameter from ``hyper`` (L-BFGS-B, analytic gradient)."""
+    import scipy.optimize
+
     line_orders = sorted(hyper.lines)
     scale = design.scale
     log_scale = math.log(scale)
