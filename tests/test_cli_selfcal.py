@@ -16,7 +16,7 @@ ENCODER = draw_magnetic_encoder(31, eccentricity_deg=1.0)
 
 
 def _export_formats():
-    parser = build_parser()
+    parser = build_parser(every_command=True)
     export = parser._subparsers._group_actions[0].choices["export"]
     return next(action.choices for action in export._actions if action.dest == "format")
 

@@ -1,8 +1,11 @@
 """The ``encal`` command line: a thin layer over the public API.
 
 Each command lives in a module ``cmd_<name>.py`` of this package with
-``HELP`` (one line), ``add_arguments(parser)`` and ``run(args) -> int``; the
-modules are found at start-up, so adding a command means adding a file.
+``add_arguments(parser)`` and ``run(args) -> int`` (its docstring is the
+command's ``--help`` text), and has one line in :data:`COMMANDS`. A command's
+module is imported only when that command runs (or shows its ``--help``), so
+that each command starts with only the libraries it needs: adding a command
+means adding its file and its line.
 
 Exit status: 0 on success, 1 on bad data or a failed operation (one line on
 stderr, no traceback), 2 on wrong usage (argparse), 130 on Ctrl-C, 143 on
@@ -20,7 +23,6 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
 import importlib  # noqa: E402
-import pkgutil  # noqa: E402
 import re  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
@@ -31,30 +33,69 @@ from ..errors import EncalError
 
 __all__ = ["main"]
 
-#: Order in ``encal --help``; commands not listed follow alphabetically.
-_ORDER = ["demo", "simulate", "profile", "fit", "report", "evaluate", "correct", "export",
-          "compare", "study", "drift"]
+#: Every command, in the order of ``encal --help``: name -> the line ``encal --help`` shows for it.
+COMMANDS = {
+    "demo": "the paper's whole procedure on the built-in demo fleet (tables, figures, report, model files)",
+    "simulate": 'write simulated calibration CSVs (train, test, epoch2, decoder2) of resolver encoders',
+    "profile": 'error statistics and harmonic analysis of one calibration',
+    "fit": 'fit an error model to a calibration and save it',
+    "report": 'HTML report (and PNG figures) for your own encoder',
+    "evaluate": 'residual statistics of a model on a calibration',
+    "correct": 'correct encoder angles (one per line, degrees) with a model file',
+    "export": 'export a model as a dense correction table or as C source for firmware',
+    "compare": 'compare Fourier, lookup-table and network models on a test calibration (Table 3)',
+    "study": 'hidden-node sweep, training-algorithm table or SVD pruning of the network on a calibration',
+    "drift": "drift of repeated calibrations and whether the first one's model still holds",
+    "import": "read a firmware's calibration output or correction table (moteus, Klipper, Mechaduino, ...)",
+    "selfcal": 'calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps',
+}
 
 
-def _command_modules():
-    names = [m.name[4:] for m in pkgutil.iter_modules(__path__) if m.name.startswith("cmd_")]
-    names.sort(key=lambda n: (_ORDER.index(n) if n in _ORDER else len(_ORDER), n))
-    return {name: importlib.import_module(f"{__name__}.cmd_{name}") for name in names}
+class _CommandsAction(argparse._SubParsersAction):
+    """The commands' sub-parsers: a command's options are added when argparse selects the command.
+
+    Until then a sub-parser holds only the command's name and help line, which is all ``encal --help``
+    shows; a command's module (and what it imports) is imported only for the command that runs.
+    """
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        command = self._name_parser_map.get(values[0])
+        if command is not None:
+            _add_options(command, values[0])
+        super().__call__(parser, namespace, values, option_string)
 
 
-def build_parser():
-    """The argument parser with every command."""
+def _add_options(command, name):
+    """Give the sub-parser ``command`` the options, description and run function of the command ``name``."""
+    if command.get_default("_run") is not None:
+        return
+    module = importlib.import_module(f"{__name__}.cmd_{name}")
+    command.description = module.__doc__ or COMMANDS[name]
+    module.add_arguments(command)
+    command.set_defaults(_run=module.run, _claim_extras=getattr(module, "claim_extras", None), _parser=command)
+
+
+def build_parser(*, every_command=False):
+    """The argument parser with every command.
+
+    Parameters
+    ----------
+    every_command : bool, default=False
+        Add every command's options now, importing every command's module (for a program that inspects
+        the parser); by default a command's options are added when parsing selects the command, which
+        parses and helps exactly alike.
+    """
     parser = argparse.ArgumentParser(
         prog="encal",
         description="Calibrate low-cost angle encoders and compensate their systematic error.",
     )
     parser.add_argument("--version", action="version", version=f"encal {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, module in _command_modules().items():
-        cmd = sub.add_parser(name, help=module.HELP, description=module.__doc__ or module.HELP,
-                             formatter_class=argparse.RawDescriptionHelpFormatter)
-        module.add_arguments(cmd)
-        cmd.set_defaults(_run=module.run, _claim_extras=getattr(module, "claim_extras", None), _parser=cmd)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", action=_CommandsAction)
+    for name, line in COMMANDS.items():
+        command = sub.add_parser(name, help=line, description=line,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+        if every_command:
+            _add_options(command, name)
     return parser
 
 
@@ -171,9 +212,8 @@ def _stopped(command, exc):
 
 def _named_command(argv):
     """The command ``argv`` names (its first word that is a command's name), or None; for messages
-    given before the commands are imported."""
-    names = {m.name[4:] for m in pkgutil.iter_modules(__path__) if m.name.startswith("cmd_")}
-    return next((word for word in argv if isinstance(word, str) and word in names), None)
+    given before the command is imported."""
+    return next((word for word in argv if isinstance(word, str) and word in COMMANDS), None)
 
 
 def _prefix(command):

@@ -12,8 +12,6 @@ Examples:
 
 from ._common import add_calibration_options, print_json, read_calibration_from_args, size_option
 
-HELP = "compare Fourier, lookup-table and network models on a test calibration (Table 3)"
-
 
 def add_arguments(parser):
     from ..studies.comparison import DEFAULT_MODELS

@@ -26,8 +26,6 @@ from ..deploy import Compensator
 from ..deploy.stream import correct_stream
 from ..errors import InputError
 
-HELP = "correct encoder angles (one per line, degrees) with a model file"
-
 
 def add_arguments(parser):
     parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")

@@ -13,10 +13,6 @@ Examples:
 
 from ._common import size_option
 
-HELP = "the paper's whole procedure on the built-in demo fleet (tables, figures, report, model files)"
-
-
-
 
 def add_arguments(parser):
     parser.add_argument("--out", default="encal-demo", metavar="DIR",

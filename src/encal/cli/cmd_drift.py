@@ -19,8 +19,6 @@ from pathlib import Path
 from ..errors import InputError
 from ._common import add_calibration_options, add_zero_options, print_json, read_calibration_from_args
 
-HELP = "drift of repeated calibrations and whether the first one's model still holds"
-
 
 def _number(text):
     try:

@@ -10,8 +10,6 @@ Example:
 
 from ._common import add_calibration_options, add_zero_options, print_json, read_calibration_from_args
 
-HELP = "residual statistics of a model on a calibration"
-
 
 def add_arguments(parser):
     parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")

@@ -36,8 +36,6 @@ FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 from ..errors import InputError
 from ._common import print_json
 
-HELP = "export a model as a dense correction table or as C source for firmware"
-
 
 def add_arguments(parser):
     parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")

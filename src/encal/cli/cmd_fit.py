@@ -15,8 +15,6 @@ the offset is stated apart and the training-set statistics are of the shape abou
 from ._common import (add_calibration_options, add_zero_options, int_in_range, print_json, read_calibration_from_args,
                       size_option)
 
-HELP = "fit an error model to a calibration and save it"
-
 
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV (reference_deg, encoder_deg)")

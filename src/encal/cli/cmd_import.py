@@ -14,8 +14,6 @@ model file that 'encal evaluate' scores on a calibration, beside encal's own mod
 
 from ._common import int_in_range
 
-HELP = "read a firmware's calibration output or correction table (moteus, Klipper, Mechaduino, ...)"
-
 CALIBRATIONS = ("moteus-compare", "moteus-cal", "klipper", "mechaduino")
 CORRECTIONS = ("moteus", "simplefoc", "tinymovr")
 

@@ -15,8 +15,6 @@ from ..angles import lsb_arcmin, resolution_of_readings
 from ..profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
 from ._common import add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
 
-HELP = "error statistics and harmonic analysis of one calibration"
-
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
     parser.add_argument("--json", action="store_true", help="print one JSON object")

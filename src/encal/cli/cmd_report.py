@@ -16,8 +16,6 @@ from pathlib import Path
 
 from ._common import add_calibration_options, add_zero_options, read_calibration_from_args
 
-HELP = "HTML report (and PNG figures) for your own encoder"
-
 
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV the model is fitted on")

@@ -21,8 +21,6 @@ from pathlib import Path
 from ..errors import InputError
 from ._common import add_calibration_options, int_in_range, size_option
 
-HELP = "calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps"
-
 
 def add_arguments(parser):
     methods = parser.add_subparsers(dest="method", metavar="METHOD", required=True)

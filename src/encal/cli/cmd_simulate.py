@@ -25,8 +25,6 @@ from ..calibration import write_calibration
 from ..errors import InputError
 from ._common import int_in_range, nonnegative_int
 
-HELP = "write simulated calibration CSVs (train, test, epoch2, decoder2) of resolver encoders"
-
 MAX_ENCODERS = 1000
 
 _RUN_DESCRIPTIONS = {
@@ -35,10 +33,6 @@ _RUN_DESCRIPTIONS = {
     "epoch2": "training grid 0:2:358 deg, epoch 2, decoder 1",
     "decoder2": "training grid 0:2:358 deg, epoch 1, decoder 2",
 }
-
-
-
-
 
 
 def add_arguments(parser):

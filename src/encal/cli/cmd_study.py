@@ -14,10 +14,6 @@ Examples:
 
 from ._common import add_calibration_options, nonnegative_int, read_calibration_from_args, size_option
 
-HELP = "hidden-node sweep, training-algorithm table or SVD pruning of the network on a calibration"
-
-
-
 
 def add_arguments(parser):
     parser.add_argument("study", choices=["sweep", "algorithms", "prune"], help="which study")
