@@ -26,6 +26,9 @@ Sections:
   trainbfg), CPU seconds and a hash of the weights, before against after;
 - ``stream``: ``encal correct`` lines per CPU second (a file, a pipe, ``--exact``) against a plain NumPy
   script, with and without the start-up;
+- ``startup``: the start-up of ``encal correct`` on an empty file and of ``encal --help``, and
+  ``encal correct`` lines/s with the start-up counted (10^6 and 10^7 lines, a file and a pipe, a table
+  and a Fourier model), wall and CPU seconds of the one process, before against after;
 
 The load average is printed at the start and the end.
 """
@@ -37,6 +40,7 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+import time
 from pathlib import Path
 
 import numpy as np
@@ -604,9 +608,72 @@ def section_stream(sources, folder, quick, lines=None):
                   flush=True)
 
 
+def _timed(command, env, stdin=None):
+    """(wall, CPU) seconds of one process running ``command``, its output discarded; ``stdin`` a file to
+    read or, as ``("pipe", path)``, a file that ``cat`` pipes in (its own time not counted as CPU)."""
+    start = time.perf_counter()
+    if isinstance(stdin, tuple):
+        with subprocess.Popen(["cat", str(stdin[1])], stdout=subprocess.PIPE) as cat:
+            with subprocess.Popen(command, env=env, stdin=cat.stdout, stdout=subprocess.DEVNULL) as process:
+                cat.stdout.close()
+                _, status, usage = os.wait4(process.pid, 0)
+                process.returncode = os.waitstatus_to_exitcode(status)
+    else:
+        with subprocess.Popen(command, env=env, stdin=stdin, stdout=subprocess.DEVNULL) as process:
+            _, status, usage = os.wait4(process.pid, 0)
+            process.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - start
+    if process.returncode != 0:
+        raise RuntimeError(f"{command} failed with status {process.returncode}")
+    return wall, usage.ru_utime + usage.ru_stime
+
+
+def section_startup(sources, folder, quick, lines=None):
+    sizes = [10**5] if quick else ([lines] if lines else [10**6, 10**7])
+    rng = np.random.default_rng(1)
+    files = {}
+    for n in sizes:
+        files[n] = folder / f"angles_{n}.txt"
+        with open(files[n], "w") as handle:
+            for start in range(0, n, 10**6):
+                block = rng.uniform(0.0, 360.0, min(10**6, n - start))
+                handle.write("".join(f"{a!r}\n" for a in block.tolist()))
+    empty = folder / "empty.txt"
+    empty.write_text("")
+    print("\n### Start-up and `encal correct` lines/s with the start-up counted: best of 3 of the one process, "
+          "wall and CPU seconds, before and after interleaved\n")
+    runs = {}  # (what, model, lines, source) -> (command, stdin)
+    for label, source in sources.items():
+        runs[("`encal --help`", "-", 0, label)] = ([sys.executable, "-m", "encal", "--help"], None)
+        for model_name in ("lut", "fourier"):
+            model = str(DATA / f"model_v1_{model_name}.json")
+            encal = [sys.executable, "-m", "encal", "correct", model]
+            runs[("`encal correct MODEL EMPTY`", model_name, 0, label)] = (encal + [str(empty)], None)
+            for n in sizes:
+                runs[("`encal correct MODEL FILE`", model_name, n, label)] = (encal + [str(files[n])], None)
+                runs[("`cat FILE \\| encal correct MODEL`", model_name, n, label)] = (encal, ("pipe", files[n]))
+    best = {key: (np.inf, np.inf) for key in runs}
+    for _ in range(3):
+        for key, (command, stdin) in runs.items():
+            env = {**os.environ, "PYTHONPATH": str(sources[key[3]]), "OPENBLAS_NUM_THREADS": "1"}
+            wall, cpu = _timed(command, env, stdin)
+            best[key] = (min(best[key][0], wall), min(best[key][1], cpu))
+    labels = list(sources)
+    print("| command | model | lines | " + " | ".join(f"{label} wall s | {label} CPU s" for label in labels)
+          + " | " + " | ".join(f"{label} lines/s (wall / CPU)" for label in labels) + " |")
+    print("|---|---|---|" + "---|---|" * len(labels) + "---|" * len(labels))
+    for key in dict.fromkeys(key[:3] for key in runs):
+        what, model_name, n = key
+        times = [best[(*key, label)] for label in labels]
+        rates = [f"{n / wall:.3g} / {n / cpu:.3g}" if n else "" for wall, cpu in times]
+        print(f"| {what} | {model_name} | {n or ''} | "
+              + " | ".join(f"{wall:.3f} | {cpu:.3f}" for wall, cpu in times) + " | " + " | ".join(rates) + " |",
+              flush=True)
+
+
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm, "fits": section_fits,
             "harmonics": section_harmonics, "trigsums": section_trigsums, "demo": section_demo,
-            "stream": section_stream}
+            "stream": section_stream, "startup": section_startup}
 
 
 def main():
@@ -626,7 +693,7 @@ def main():
             sources["before"] = extract_source(args.before, folder / "before")
         sources["after"] = ROOT / "src"
         for name in args.only.split(","):
-            options = {"lines": args.lines} if name == "stream" and args.lines else {}
+            options = {"lines": args.lines} if name in ("stream", "startup") and args.lines else {}
             SECTIONS[name](sources, folder, args.quick, **options)
     print(f"\nload average at end: {load()}")
 
