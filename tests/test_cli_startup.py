@@ -95,3 +95,12 @@ def test_the_command_list_is_the_same_when_no_command_is_loaded(capsys, monkeypa
     assert shown == build_parser(every_command=True).format_help()
     for name, line in COMMANDS.items():
         assert f"    {name}" in shown and line.split()[0] in shown
+
+
+def test_ctrl_c_while_the_command_is_imported_stops_it_cleanly(monkeypatch, capsys):
+    def interrupted(command, name):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(encal.cli, "_add_options", interrupted)
+    assert encal.cli.main(["correct", "model.json"]) == 130
+    assert capsys.readouterr().err == "encal correct: interrupted\n"
