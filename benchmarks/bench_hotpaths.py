@@ -26,6 +26,10 @@ Sections:
   trainbfg), CPU seconds and a hash of the weights, before against after;
 - ``stream``: ``encal correct`` lines per CPU second (a file, a pipe, ``--exact``) against a plain NumPy
   script, with and without the start-up;
+- ``series``: a Fourier series on one chunk of angles (8,192), ns per angle of the direct form
+  (``cos`` and ``sin`` of every ``k θ``) against the recurrence from one ``cos`` and ``sin`` along addition
+  chains: through every order up to the highest, by squaring each order, by the difference from the previous
+  order, and the planned chain (the cheaper route per order), with their numbers of products;
 - ``startup``: the start-up of ``encal correct`` on an empty file and of ``encal --help``, and
   ``encal correct`` lines/s with the start-up counted (10^6 and 10^7 lines, a file and a pipe, a table
   and a Fourier model), wall and CPU seconds of the one process, before against after;
@@ -671,9 +675,74 @@ def section_startup(sources, folder, quick, lines=None):
               flush=True)
 
 
+# -- a Fourier series: direct form against addition chains ----------------------------------
+
+SERIES_WORKER = """\
+import json, sys, time
+import numpy as np
+from encal.numerics.harmonic_series import HarmonicSeries, plan_products
+ORDER_SETS = json.loads(sys.argv[1])
+theta = np.radians(np.random.default_rng(0).uniform(0.0, 360.0, 8192))
+rounds = int(sys.argv[2])
+rows = {}
+for name, orders in ORDER_SETS.items():
+    orders = np.asarray(orders)
+    rng = np.random.default_rng(1)
+    a, b = rng.standard_normal(orders.size), rng.standard_normal(orders.size)
+    positive = [int(k) for k in orders if k > 0]
+    chains = {"every order": [(k, k - 1, 1) for k in range(2, max(positive) + 1)] if max(positive) <= 2000 else None,
+              "squaring": plan_products(positive, routes=("squaring",)),
+              "difference": plan_products(positive, routes=("difference",)),
+              "planned": plan_products(positive)}
+    forms = {"direct": HarmonicSeries(orders, a, b, method="direct")}
+    forms.update((label, HarmonicSeries(orders, a, b, method="recurrence", chain=chain))
+                 for label, chain in chains.items() if chain is not None)
+    best = dict.fromkeys(forms, np.inf)
+    for _ in range(3):
+        for label, series in forms.items():
+            start = time.process_time()
+            for _ in range(rounds):
+                series(theta)
+            best[label] = min(best[label], (time.process_time() - start) / rounds / theta.size * 1e9)
+    rows[name] = {"ns": best, "products": {label: len(chain) for label, chain in chains.items() if chain is not None},
+                  "chosen": HarmonicSeries(orders, a, b).method}
+print(json.dumps(rows))
+"""
+
+SERIES_ORDER_SETS = {
+    "stored model: 9 orders up to 97": [0, 1, 2, 3, 4, 8, 16, 50, 97],
+    "0..10": list(range(11)),
+    "0..200": list(range(201)),
+    "1, 2, 3 and 1000, 5000, 32767": [1, 2, 3, 1000, 5000, 32767],
+    "300 random up to 32767": sorted(np.random.default_rng(7).choice(32768, 300, replace=False).tolist()),
+    "1, 97": [1, 97],
+    "0, 12345": [0, 12345],
+    "32766, 32767": [32766, 32767],
+}
+
+
+def section_series(sources, folder, quick):
+    import json
+
+    rounds = 5 if quick else 40
+    rows = json.loads(run_with(sources["after"], sys.executable, "-c", SERIES_WORKER,
+                               json.dumps(SERIES_ORDER_SETS), str(rounds)).stdout)
+    labels = ["every order", "squaring", "difference", "planned"]
+    print("\n### A Fourier series on 8,192 angles: ns per angle (best of 3 CPU times) and products of each chain\n")
+    print("| orders | direct ns | " + " | ".join(f"{label} ns (products)" for label in labels)
+          + " | chosen | chosen / direct |")
+    print("|---|---|" + "---|" * len(labels) + "---|---|")
+    for name, row in rows.items():
+        chosen = row["ns"]["planned" if row["chosen"] == "recurrence" else "direct"]
+        print(f"| {name} | {row['ns']['direct']:.1f} | "
+              + " | ".join(f"{row['ns'][label]:.1f} ({row['products'][label]})" if label in row["ns"] else "-"
+                           for label in labels)
+              + f" | {row['chosen']} | {chosen / row['ns']['direct']:.2f} |", flush=True)
+
+
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm, "fits": section_fits,
             "harmonics": section_harmonics, "trigsums": section_trigsums, "demo": section_demo,
-            "stream": section_stream, "startup": section_startup}
+            "stream": section_stream, "startup": section_startup, "series": section_series}
 
 
 def main():

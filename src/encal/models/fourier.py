@@ -9,6 +9,7 @@ many of them to keep by cross-validation (``select='cv'``).
 import numpy as np
 
 from ..errors import InputError, ModelFileError
+from ..numerics.harmonic_series import HarmonicSeries
 from ..parameters import check_int
 from ..profile import (
     distinct_angles,
@@ -49,6 +50,7 @@ class FourierModel(Model):
     """
 
     kind = "fourier"
+    _harmonics = None  # the HarmonicSeries that evaluates it, planned on first use
 
     def __init__(self, orders, cos, sin, *, encoder=None, training=None):
         super().__init__(encoder=encoder, training=training)
@@ -76,17 +78,21 @@ class FourierModel(Model):
         self.sin = np.where(self.orders == 0, 0.0, sin)
 
     def _predict(self, theta_deg):
-        phase = np.multiply.outer(np.radians(theta_deg), self.orders)
-        # Row sums, not a matrix product: BLAS sums a row in an order that depends on where the row falls in
-        # the block, so a reading's correction would change in its last bit with the buffering of a stream.
-        return (np.cos(phase) * self.cos + np.sin(phase) * self.sin).sum(axis=1)
+        return self._series_evaluator()(np.radians(theta_deg))
+
+    def _series_evaluator(self):
+        """The :class:`~encal.numerics.harmonic_series.HarmonicSeries` of the coefficients (arc-minutes): one
+        ``cos`` and one ``sin`` per angle and an addition chain over the orders."""
+        if self._harmonics is None:
+            self._harmonics = HarmonicSeries(self.orders, self.cos, self.sin)
+        return self._harmonics
 
     def free_parameters(self):
         return sum(1 if k == 0 else 2 for k in self.orders.tolist())
 
     @property
     def evaluation_width(self):
-        return 2 * self.orders.size
+        return self._series_evaluator().width
 
     def parameters(self):
         return {
