@@ -680,6 +680,7 @@ def section_startup(sources, folder, quick, lines=None):
 SERIES_WORKER = """\
 import json, sys, time
 import numpy as np
+from encal._trigsums import SeriesEvaluator
 from encal.numerics.harmonic_series import HarmonicSeries, plan_products
 ORDER_SETS = json.loads(sys.argv[1])
 theta = np.radians(np.random.default_rng(0).uniform(0.0, 360.0, 8192))
@@ -697,6 +698,9 @@ for name, orders in ORDER_SETS.items():
     forms = {"direct": HarmonicSeries(orders, a, b, method="direct")}
     forms.update((label, HarmonicSeries(orders, a, b, method="recurrence", chain=chain))
                  for label, chain in chains.items() if chain is not None)
+    complex_coefficients = np.zeros(orders.max() + 1, dtype=complex)
+    complex_coefficients[orders] = a - 1j * b
+    forms["spectral's evaluator"] = SeriesEvaluator(complex_coefficients)  # as SpectralModel makes it
     best = dict.fromkeys(forms, np.inf)
     for _ in range(3):
         for label, series in forms.items():
@@ -730,14 +734,15 @@ def section_series(sources, folder, quick):
     labels = ["every order", "squaring", "difference", "planned"]
     print("\n### A Fourier series on 8,192 angles: ns per angle (best of 3 CPU times) and products of each chain\n")
     print("| orders | direct ns | " + " | ".join(f"{label} ns (products)" for label in labels)
-          + " | chosen | chosen / direct |")
-    print("|---|---|" + "---|" * len(labels) + "---|---|")
+          + " | spectral's evaluator ns | chosen | chosen / direct |")
+    print("|---|---|" + "---|" * len(labels) + "---|---|---|")
     for name, row in rows.items():
         chosen = row["ns"]["planned" if row["chosen"] == "recurrence" else "direct"]
+        spectral = row["ns"]["spectral's evaluator"]
         print(f"| {name} | {row['ns']['direct']:.1f} | "
               + " | ".join(f"{row['ns'][label]:.1f} ({row['products'][label]})" if label in row["ns"] else "-"
                            for label in labels)
-              + f" | {row['chosen']} | {chosen / row['ns']['direct']:.2f} |", flush=True)
+              + f" | {spectral:.1f} | {row['chosen']} | {chosen / row['ns']['direct']:.2f} |", flush=True)
 
 
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm, "fits": section_fits,
