@@ -12,6 +12,8 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from encal.models.base import CHUNK_ANGLES, CHUNK_NUMBERS
 from encal.models.fourier import MAX_ORDER, FourierModel
@@ -44,6 +46,15 @@ def test_the_chain_reaches_every_order_from_powers_made_before(orders):
     steps = plan_products(orders)
     assert {k for k in orders if k > 0} <= _made_by(steps)
     assert len({k for k, _, _ in steps}) == len(steps)  # nothing made twice
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(0, MAX_ORDER), max_size=40))
+def test_any_set_of_orders_gets_a_valid_chain_of_at_most_the_binary_methods_products(orders):
+    steps = plan_products(orders)
+    assert {k for k in orders if k > 0} <= _made_by(steps)
+    # each order costs at most its own binary method: squarings to its top bit, one product per other set bit
+    assert len(steps) <= sum(k.bit_length() + bin(k).count("1") - 2 for k in set(orders) if k > 0)
 
 
 def test_a_dense_run_costs_one_product_per_order_and_a_sparse_order_its_binary_digits():
@@ -177,5 +188,7 @@ def test_a_chain_that_misses_an_order_or_uses_an_unmade_power_is_refused():
                        chain=[(2, 1, 1), (4, 2, 2)])
     with pytest.raises(ValueError, match="both powers made before it"):
         HarmonicSeries(np.array([4]), np.ones(1), np.ones(1), method="recurrence", chain=[(4, 2, 2)])
+    with pytest.raises(ValueError, match="routes must be 'difference' or 'squaring'; got 'fast'"):
+        plan_products([5], routes=("fast",))
     with pytest.raises(ValueError, match="method must be"):
         HarmonicSeries(np.array([4]), np.ones(1), np.ones(1), method="fast")

@@ -70,15 +70,20 @@ def plan_products(orders, routes=("difference", "squaring")):
     made, highest = {1}, 1  # every power made so far is at most the last order reached, highest
     steps = []
     for k in sorted({int(k) for k in orders if k > 1}):
-        if k in made:
-            continue
-        candidates = {"difference": lambda: _binary_steps(k - highest, made) + [(k, highest, k - highest)],
-                      "squaring": lambda: _binary_steps(k, made)}
-        chosen = min((candidates[route]() for route in routes), key=len)
+        chosen = min((_route(route, k, highest, made) for route in routes), key=len)
         steps += chosen
         made.update(step[0] for step in chosen)
         highest = k
     return steps
+
+
+def _route(route, k, highest, made):
+    """The steps that make ``z^k`` by ``route`` from the powers ``made`` (``highest`` the largest of them)."""
+    if route == "difference":
+        return _binary_steps(k - highest, made) + [(k, highest, k - highest)]
+    if route == "squaring":
+        return _binary_steps(k, made)
+    raise ValueError(f"plan_products's routes must be 'difference' or 'squaring'; got {route!r}")
 
 
 def _binary_steps(exponent, made):
