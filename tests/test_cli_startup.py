@@ -50,7 +50,7 @@ def test_correct_imports_its_own_command_and_model_kind_and_no_scipy(tmp_path, m
     np.testing.assert_allclose([float(line) for line in out.splitlines()], Compensator(model).correct(angles),
                                rtol=0, atol=1e-12)
     assert [name for name in modules if name.startswith(("scipy", "matplotlib"))] == []
-    assert "numpy.ma" not in modules  # imported by np.unique's first call: 9 ms
+    assert "numpy.ma" not in modules  # imported by np.unique's first call: 8 ms
     assert [name for name in modules if name.startswith("encal.cli.cmd_")] == ["encal.cli.cmd_correct"]
     every_kind = {f"encal.models.{name}" for name in kind_names()}
     assert [name for name in modules if name in every_kind] == [f"encal.models.{kind}" for kind in kinds]

@@ -119,7 +119,7 @@ class FourierModel(Model):
 
 def _repeats(values):
     """Whether a 1-D array holds a value twice (without ``np.unique``, whose first call imports ``numpy.ma``:
-    9 ms of ``encal correct``'s start-up)."""
+    8 ms of ``encal correct``'s start-up)."""
     ordered = np.sort(values)
     return bool(np.any(ordered[1:] == ordered[:-1]))
 
