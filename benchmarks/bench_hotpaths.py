@@ -29,7 +29,8 @@ Sections:
 - ``series``: a Fourier series on one chunk of angles (8,192), ns per angle of the direct form
   (``cos`` and ``sin`` of every ``k θ``) against the recurrence from one ``cos`` and ``sin`` along addition
   chains: through every order up to the highest, by squaring each order, by the difference from the previous
-  order, and the planned chain (the cheaper route per order), with their numbers of products;
+  order, and the planned chain (the cheaper route per order), with their numbers of products, and the spectral
+  model's evaluator (Taylor expansion about the nodes of tables); the form ``HarmonicSeries`` chooses;
 - ``startup``: the start-up of ``encal correct`` on an empty file and of ``encal --help``, and
   ``encal correct`` lines/s with the start-up counted (10^6 and 10^7 lines, a file and a pipe, a table
   and a Fourier model), wall and CPU seconds of the one process, before against after;
@@ -737,7 +738,7 @@ def section_series(sources, folder, quick):
           + " | spectral's evaluator ns | chosen | chosen / direct |")
     print("|---|---|" + "---|" * len(labels) + "---|---|---|")
     for name, row in rows.items():
-        chosen = row["ns"]["planned" if row["chosen"] == "recurrence" else "direct"]
+        chosen = row["ns"][{"recurrence": "planned", "taylor": "spectral's evaluator"}.get(row["chosen"], "direct")]
         spectral = row["ns"]["spectral's evaluator"]
         print(f"| {name} | {row['ns']['direct']:.1f} | "
               + " | ".join(f"{row['ns'][label]:.1f} ({row['products'][label]})" if label in row["ns"] else "-"

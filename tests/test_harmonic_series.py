@@ -77,10 +77,11 @@ def test_the_cheaper_form_is_chosen():
         orders = np.asarray(orders)
         return HarmonicSeries(orders, np.ones(orders.size), np.ones(orders.size)).method
 
-    assert method(ORDER_SETS["the stored test model's"]) == "recurrence"
-    assert method(range(201)) == "recurrence"
-    assert method([0, 97]) == "recurrence"  # 7 products against a second cos and sin and a row sum
-    assert method([0, MAX_ORDER]) == "direct"  # 28 products
+    assert method(ORDER_SETS["the stored test model's"]) == "taylor"  # 11 products cost more than its lookups
+    assert method(range(201)) == "taylor"
+    assert method([0, 97]) == method([1, 2, 3, 4]) == "recurrence"  # 7 and 3 products
+    assert method(ORDER_SETS["random, up to the largest"]) == "recurrence"  # the Taylor tables would be 33 MB
+    assert method([0, MAX_ORDER]) == "direct"  # 28 products against a second cos and sin and a row sum
     assert method([12345]) == method([1]) == method([0]) == "direct"  # one order: its cos and sin, no sum
 
 
@@ -104,7 +105,7 @@ def _coefficients(orders, seed):
 
 
 @pytest.mark.skipif(not EXTENDED, reason="needs an extended-precision long double for the reference")
-@pytest.mark.parametrize("form", ["recurrence", "direct"])
+@pytest.mark.parametrize("form", ["recurrence", "taylor", "direct"])
 @pytest.mark.parametrize("orders", list(ORDER_SETS.values()), ids=list(ORDER_SETS))
 def test_within_the_stated_bound_of_the_exact_series_in_one_turn(orders, form):
     a, b = _coefficients(orders, 1)
@@ -130,13 +131,14 @@ def test_a_model_is_within_the_bound_for_readings_of_many_turns(orders):
     assert error.max() <= _bound(orders, a, model.sin, 25)
 
 
+@pytest.mark.parametrize("form", ["recurrence", "taylor"])
 @pytest.mark.parametrize("orders", list(ORDER_SETS.values()), ids=list(ORDER_SETS))
-def test_the_recurrence_and_the_direct_form_agree_to_the_bound(orders):
+def test_the_faster_forms_and_the_direct_form_agree_to_the_bound(orders, form):
     a, b = _coefficients(orders, 5)
     theta = np.radians(np.random.default_rng(6).uniform(0.0, 360.0, 2000))
-    recurrence = HarmonicSeries(np.asarray(orders), a, b, method="recurrence")(theta)
+    faster = HarmonicSeries(np.asarray(orders), a, b, method=form)(theta)
     direct = HarmonicSeries(np.asarray(orders), a, b, method="direct")(theta)
-    assert np.max(np.abs(recurrence - direct)) <= 2 * _bound(orders, a, b, 20)
+    assert np.max(np.abs(faster - direct)) <= 2 * _bound(orders, a, b, 20)
 
 
 def test_a_pure_harmonic_of_the_largest_order_is_exact_at_the_grid_it_repeats_on():
@@ -147,12 +149,14 @@ def test_a_pure_harmonic_of_the_largest_order_is_exact_at_the_grid_it_repeats_on
     assert np.max(np.abs(series(np.radians(theta)) - 1.0)) <= (20 * MAX_ORDER + 3) * U
 
 
-@pytest.mark.parametrize("orders", [ORDER_SETS["the stored test model's"], ORDER_SETS["random, up to the largest"]],
-                         ids=["stored", "random"])
-def test_an_angle_gives_the_same_bits_alone_and_anywhere_in_a_block(orders):
+@pytest.mark.parametrize("orders, form", [(ORDER_SETS["the stored test model's"], "taylor"),
+                                         (ORDER_SETS["the stored test model's"], "recurrence"),
+                                         (ORDER_SETS["random, up to the largest"], "recurrence")],
+                         ids=["stored-taylor", "stored-recurrence", "random-recurrence"])
+def test_an_angle_gives_the_same_bits_alone_and_anywhere_in_a_block(orders, form):
     a, b = _coefficients(orders, 8)
     model = FourierModel(orders, a, b)
-    assert model._series_evaluator().method == "recurrence"
+    model._harmonics = HarmonicSeries(model.orders, model.cos, model.sin, method=form)
     angles = np.random.default_rng(9).uniform(-720.0, 720.0, 3000)
     block = model.predict(angles)
     alone = np.array([model.predict(angle) for angle in angles[:100]])
@@ -165,10 +169,13 @@ def test_an_angle_gives_the_same_bits_alone_and_anywhere_in_a_block(orders):
         np.testing.assert_array_equal(model.predict(many)[-3000:], np.resize(block, size)[-3000:])
 
 
-def test_memory_is_the_result_and_one_chunk_of_the_stated_width():
-    orders = ORDER_SETS["random, up to the largest"]
+@pytest.mark.parametrize("name, form", [("random, up to the largest", "recurrence"), ("dense to 200", "taylor")])
+def test_memory_is_the_result_and_one_chunk_of_the_stated_width(name, form):
+    orders = ORDER_SETS[name]
     a, b = _coefficients(orders, 10)
     model = FourierModel(orders, a, b)
+    model.predict(0.0)  # the evaluator's tables are made once, on first use
+    assert model._series_evaluator().method == form
     width = model.evaluation_width
     assert width == model._series_evaluator().width < 2 * len(orders)  # fewer live pairs than orders
     angles = np.random.default_rng(11).uniform(0.0, 360.0, 50_000)

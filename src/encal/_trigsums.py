@@ -146,6 +146,12 @@ class SeriesEvaluator:
     True
     """
 
+    @staticmethod
+    def table_numbers(highest_order):
+        """Numbers in the tables of an evaluator of ``highest_order`` (the fine grid's size times the terms)."""
+        size, terms = _fine_grid(highest_order)
+        return size * terms
+
     def __init__(self, coefficients):
         coefficients = np.asarray(coefficients, dtype=complex).reshape(-1)
         self.size, terms = _fine_grid(coefficients.size - 1)

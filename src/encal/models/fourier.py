@@ -81,8 +81,8 @@ class FourierModel(Model):
         return self._series_evaluator()(np.radians(theta_deg))
 
     def _series_evaluator(self):
-        """The :class:`~encal.numerics.harmonic_series.HarmonicSeries` of the coefficients (arc-minutes): one
-        ``cos`` and one ``sin`` per angle and an addition chain over the orders."""
+        """The :class:`~encal.numerics.harmonic_series.HarmonicSeries` of the coefficients (arc-minutes), which
+        evaluates the series the cheapest way for its orders."""
         if self._harmonics is None:
             self._harmonics = HarmonicSeries(self.orders, self.cos, self.sin)
         return self._harmonics

@@ -1,4 +1,4 @@
-"""A sum of harmonics ``Σ a_k cos(k θ) + b_k sin(k θ)`` at many angles, from one cosine and one sine per angle.
+"""A sum of harmonics ``Σ a_k cos(k θ) + b_k sin(k θ)`` at many angles, without a cosine and a sine per order.
 
 The direct form computes the cosine and the sine of every ``k θ``: two transcendental functions per
 order and angle. Here ``(cos kθ, sin kθ)``, the power ``z^k`` of ``z = e^{iθ}``, is the product of two
@@ -17,15 +17,23 @@ roundings whatever the chain: ``k (e_1 + 3u)``, with ``e_1`` the error of ``(cos
 conversion to radians and the two functions, about ``4π u + 2u`` for θ below 2π). The direct form has the
 same ``k e_1`` from the conversion plus the rounding of ``k θ`` (``2π k u``), so the two agree to a few
 ``k u`` of the coefficients; ``tests/test_harmonic_series.py`` checks a stated bound against an extended
-precision reference for orders up to the model file's largest.
+precision reference for orders up to the model file's largest, for each of the three forms.
 
-Both forms are element-wise: the value at an angle does not depend on the other angles evaluated with it
+A series of many orders costs less still by the spectral model's evaluator
+(:class:`encal._trigsums.SeriesEvaluator`): the series and its derivatives tabulated once on a fine grid
+of angles, each angle then a Taylor expansion about its nearest node (a few lookups, whatever the number of
+orders). :class:`HarmonicSeries` chooses among the direct form, the chain and these tables by their
+measured costs; the tables are used only while they are small (orders up to about 5,000).
+
+All three forms are element-wise: the value at an angle does not depend on the other angles evaluated with it
 (a stream's answers must not depend on its buffering). The products are real multiplications, additions
 and subtractions, each rounded once in every NumPy loop; NumPy's complex multiplication is not used,
 since its vectorised loops fuse a multiplication and an addition and its scalar ones do not.
 """
 
 import numpy as np
+
+from .._trigsums import SeriesEvaluator
 
 __all__ = ["HarmonicSeries", "plan_products"]
 
@@ -38,6 +46,13 @@ TERM_COST = 0.06
 #: Each order of the direct form beyond the first: its ``cos`` and ``sin`` and the phase, products and row sum
 #: around them (45-50 ns; a single order alone costs one pair, its row sum being no sum).
 DIRECT_ORDER_COST = 2.0
+#: The spectral model's evaluator (:class:`encal._trigsums.SeriesEvaluator`: a Taylor expansion about the
+#: nodes of a fine grid, whose tables hold the series' derivatives), whatever the orders: 42-48 ns (chunks of
+#: 8,192 and 3,548 angles) while its tables stay in cache.
+TAYLOR_COST = 2.1
+#: Largest tables the evaluator may build (numbers: 4 MiB), so that they stay in cache and are built in a few
+#: milliseconds: orders up to about 5,000. Above, 33 MB for the largest order, 32767, built in 0.1 s.
+TAYLOR_TABLE_NUMBERS = 1 << 19
 
 
 def plan_products(orders, routes=("difference", "squaring")):
@@ -112,9 +127,11 @@ def _binary_steps(exponent, made):
 class HarmonicSeries:
     """``f(θ) = Σ_k a_k cos(k θ) + b_k sin(k θ)`` for fixed orders and coefficients, at any angles.
 
-    Evaluated by the addition chain of :func:`plan_products` where that costs less than the direct form
-    (by :data:`PRODUCT_COST`, :data:`TERM_COST` and :data:`DIRECT_ORDER_COST`): every series of two orders or
-    more unless they are a few very high ones. A series of one order keeps the direct form.
+    Evaluated the cheapest of three ways by the measured costs (:data:`PRODUCT_COST`, :data:`TERM_COST`,
+    :data:`DIRECT_ORDER_COST`, :data:`TAYLOR_COST`): the direct form for one order alone (or a few very high
+    ones); the addition chain of :func:`plan_products` for a few orders (up to about ten products); the
+    spectral model's evaluator for more, while its tables are small (:data:`TAYLOR_TABLE_NUMBERS`); the
+    chain again for series of higher orders.
 
     Parameters
     ----------
@@ -122,7 +139,7 @@ class HarmonicSeries:
         Distinct non-negative orders.
     cos, sin : ndarray of shape (m,)
         Coefficients ``a_k`` and ``b_k`` (any unit; the result has it).
-    method : {None, 'recurrence', 'direct'}, default=None
+    method : {None, 'recurrence', 'taylor', 'direct'}, default=None
         How to evaluate it; None chooses by the cost.
     chain : list of tuple of int, optional
         With ``method='recurrence'``: the addition chain to follow (steps ``(k, i, j)`` as
@@ -131,7 +148,7 @@ class HarmonicSeries:
 
     Attributes
     ----------
-    method : {'recurrence', 'direct'}
+    method : {'recurrence', 'taylor', 'direct'}
         How the series is evaluated.
     steps : list of tuple of int
         The products of the addition chain (empty for the direct form).
@@ -149,23 +166,36 @@ class HarmonicSeries:
         self.orders = np.asarray(orders, dtype=int).reshape(-1)
         self.cos = np.asarray(cos, dtype=float).reshape(-1)
         self.sin = np.asarray(sin, dtype=float).reshape(-1)
-        positive = np.count_nonzero(self.orders > 0)
+        highest = int(self.orders.max(initial=0))
         steps = plan_products(self.orders.tolist()) if chain is None else [tuple(step) for step in chain]
-        if method is None:  # both forms compute one cos and one sin at least
-            beyond = PRODUCT_COST * len(steps) + TERM_COST * self.orders.size
-            method = "recurrence" if positive and beyond < DIRECT_ORDER_COST * (self.orders.size - 1) else "direct"
-        if method not in ("recurrence", "direct"):
-            raise ValueError(f"HarmonicSeries's method must be None, 'recurrence' or 'direct'; got {method!r}")
+        if method is None:  # costs in units of one cos and one sin of the angles
+            costs = {"direct": 1.0 + DIRECT_ORDER_COST * max(self.orders.size - 1, 0)}
+            if highest > 0:
+                costs["recurrence"] = 1.0 + PRODUCT_COST * len(steps) + TERM_COST * self.orders.size
+                if SeriesEvaluator.table_numbers(highest) <= TAYLOR_TABLE_NUMBERS:
+                    costs["taylor"] = TAYLOR_COST
+            method = min(costs, key=costs.get)  # the first on a tie
+        if method not in ("recurrence", "taylor", "direct"):
+            raise ValueError("HarmonicSeries's method must be None, 'recurrence', 'taylor' or 'direct'; "
+                             f"got {method!r}")
+        self.method, self.steps = method, []
         if method == "recurrence":
             _check_chain(steps, self.orders)
-            self.method, self.steps = "recurrence", steps
+            self.steps = steps
             self._program = _program(steps, self.orders, self.cos, self.sin)
             self.width = 2 * self._program[1] + 4
+        elif method == "taylor":
+            coefficients = np.zeros(highest + 1, dtype=complex)
+            coefficients[self.orders] = self.cos - 1j * self.sin
+            self._taylor = SeriesEvaluator(coefficients)
+            self.width = 8  # its node, offset, power, sum and a term's products
         else:
-            self.method, self.steps, self.width = "direct", [], 2 * self.orders.size
+            self.width = 2 * self.orders.size
 
     def __call__(self, theta_rad):
         """The series at ``theta_rad`` (1-D ndarray of angles in radians, best within one turn)."""
+        if self.method == "taylor":
+            return self._taylor(theta_rad)
         if self.method == "direct":
             phase = np.multiply.outer(theta_rad, self.orders)
             # Row sums, not a matrix product: BLAS sums a row in an order that depends on where the row falls
