@@ -151,7 +151,7 @@ class HarmonicSeries:
     method : {'recurrence', 'taylor', 'direct'}
         How the series is evaluated.
     steps : list of tuple of int
-        The products of the addition chain (empty for the direct form).
+        The products of the addition chain (empty unless the chain is used).
     width : int
         Temporary numbers per angle of one evaluation (for :func:`encal.models.base.in_chunks`).
 
