@@ -1,9 +1,9 @@
-"""The Fourier series by one cosine and one sine per angle and an addition chain (encal.numerics.harmonic_series).
+"""The Fourier series by the direct form, an addition chain or tables (encal.numerics.harmonic_series).
 
 The bound checked here, stated in the module's docstring: at an angle θ in [0, 360) degrees, a series of
 m orders is within ``u Σ_k (|a_k| + |b_k|) (20 k + m + 2)`` (``u = 2^-53``; at most
 ``(20 K + m + 2) u Σ(|a_k| + |b_k|)`` for the highest order K) of the exact series at θ, evaluated in
-extended precision; the direct form keeps to the same bound. A reading outside [0, 360) is wrapped first,
+extended precision, by each of the three forms. A reading outside [0, 360) is wrapped first,
 as it always was, which adds ``4.5 k u`` per unit coefficient (the wrap rounds to half an ulp of 360):
 ``20 k`` becomes ``25 k`` from the exact series at the exact reduction of the reading.
 """

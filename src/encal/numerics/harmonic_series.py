@@ -16,8 +16,10 @@ errors add along the chain, so ``z^k`` carries ``k`` times the error of ``z`` pl
 roundings whatever the chain: ``k (e_1 + 3u)``, with ``e_1`` the error of ``(cos θ, sin θ)`` (the
 conversion to radians and the two functions, about ``4π u + 2u`` for θ below 2π). The direct form has the
 same ``k e_1`` from the conversion plus the rounding of ``k θ`` (``2π k u``), so the two agree to a few
-``k u`` of the coefficients; ``tests/test_harmonic_series.py`` checks a stated bound against an extended
-precision reference for orders up to the model file's largest, for each of the three forms.
+``k u`` of the coefficients. Stated bound, for θ in [0, 2π) and m orders: within
+``u Σ_k (|a_k| + |b_k|) (20 k + m + 2)`` of the exact series; ``tests/test_harmonic_series.py`` checks it
+against an extended precision reference for orders up to the model file's largest, for each of the three
+forms.
 
 A series of many orders costs less still by the spectral model's evaluator
 (:class:`encal._trigsums.SeriesEvaluator`): the series and its derivatives tabulated once on a fine grid
