@@ -210,7 +210,9 @@ print(json.dumps(result))
 CORRECT_MODELS = {"lut (cubic, 180 points)": "model_v1_lut.json",
                   "fourier (9 orders up to 97)": "model_v1_fourier.json",
                   "ann (periodic 1:8:1)": "model_v1_ann.json",
-                  "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json"}
+                  "hybrid (3 orders + 1:5:1)": "model_v1_hybrid.json",
+                  "stack (4 orders + cubic lut + 1:4:1)": "model_v1_stack.json",
+                  "spectral": "model_v1_spectral.json"}
 
 
 def section_correct(sources, folder, quick):
