@@ -87,6 +87,12 @@ def run_c(folder, driver, dtype, flags=CFLAGS):
     return np.frombuffer(raw, dtype=dtype).reshape(-1, 4)
 
 
+def offset_series():
+    """A series with a large mean error (1500 arcmin) and orders up to 100, for the cubic tables."""
+    return FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
+                        encoder={"resolution_bits": BITS})
+
+
 def model_path(kind):
     return DATA / f"model_v1_{kind}.json"
 
@@ -123,8 +129,7 @@ def test_cortex_m4f_table_equals_its_python_rule_and_the_model_within_the_stated
 @needs_gcc
 @pytest.mark.parametrize("dtype", ["int8", "int16", "float32"])
 def test_cortex_m4f_cubic_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, dtype):
-    model = FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
-                         encoder={"resolution_bits": BITS})
+    model = offset_series()
     _, summary = write_target(model, tmp_path, "cortex-m4f", prefix="enc", bits=BITS, nodes=512, dtype=dtype,
                               interpolation="cubic")
     table = summary["table"]
@@ -146,8 +151,7 @@ def test_cortex_m4f_cubic_table_equals_its_python_rule_and_the_model_within_the_
 @needs_gcc
 @pytest.mark.parametrize("dtype", ["int8", "int16"])
 def test_fixed_cubic_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, dtype):
-    model = FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
-                         encoder={"resolution_bits": BITS})
+    model = offset_series()
     _, summary = write_target(model, tmp_path, "fixed", prefix="enc", bits=BITS, nodes=512, dtype=dtype,
                               interpolation="cubic")
     table = summary["table"]
@@ -296,8 +300,7 @@ def test_cortex_m4f_table_stays_bit_exact_where_the_compiler_may_fuse_multiply_a
     """GCC's GNU dialects (its default, and most firmware builds') fuse ``a * b + c`` where the CPU can:
     VFMA on a Cortex-M4F, FMA3 here. The generated C turns that off, so the results stay those of the
     arithmetic the deployed error was computed for, bit for bit."""
-    model = FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
-                         encoder={"resolution_bits": BITS})
+    model = offset_series()
     _, summary = write_target(model, tmp_path, "cortex-m4f", prefix="enc", bits=BITS, nodes=512, dtype="float32",
                               interpolation=interpolation)
     out = run_c(tmp_path, FLOAT_DRIVER, np.float32, flags=GNU_FMA_FLAGS)
