@@ -87,6 +87,18 @@ def run_c(folder, driver, dtype, flags=CFLAGS):
     return np.frombuffer(raw, dtype=dtype).reshape(-1, 4)
 
 
+def assert_float_rule(out, table):
+    """The float C's error (LSB), corrected code and error (arcmin) on every code equal the Python
+    emulation of its arithmetic bit for bit; returns the float32 angles of the codes."""
+    codes = np.arange(N)
+    expected_lsb = error_lsb_float32(table, codes, BITS)
+    np.testing.assert_array_equal(out[:, 0], expected_lsb)
+    np.testing.assert_array_equal(out[:, 1], (codes - np.floor(expected_lsb + np.float32(0.5))) % N)
+    theta = codes.astype(np.float32) * np.float32(360.0 / N)
+    np.testing.assert_array_equal(out[:, 2], predict_float32_angle(table, theta))
+    return theta
+
+
 def offset_series():
     """A series with a large mean error (1500 arcmin) and orders up to 100, for the cubic tables."""
     return FourierModel([0, 1, 50, 100], [1500.0, 10.0, 2.0, 5.0], [0.0, 3.0, 1.0, -4.0],
@@ -108,13 +120,8 @@ def test_cortex_m4f_table_equals_its_python_rule_and_the_model_within_the_stated
     _, summary = write_target(model_path(kind), tmp_path, "cortex-m4f", prefix="enc", bits=BITS)
     table = summary["table"]
     out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
-    codes = np.arange(N)
     lsb = 21600.0 / N
-    expected_lsb = error_lsb_float32(table, codes, BITS)
-    np.testing.assert_array_equal(out[:, 0], expected_lsb)
-    np.testing.assert_array_equal(out[:, 1], (codes - np.floor(expected_lsb + np.float32(0.5))) % N)
-    theta = codes.astype(np.float32) * np.float32(360.0 / N)
-    np.testing.assert_array_equal(out[:, 2], predict_float32_angle(table, theta))
+    theta = assert_float_rule(out, table)
     deployed = out[:, 0].astype(float) * lsb
     error = np.abs(deployed - reference(kind))
     # stated for the arc-minute function; the LSB function rounds its constants differently (float32)
@@ -135,13 +142,8 @@ def test_cortex_m4f_cubic_table_equals_its_python_rule_and_the_model_within_the_
     table = summary["table"]
     assert summary["interpolation"] == "cubic" and table.interpolation == "cubic"
     out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
-    codes = np.arange(N)
     lsb = 21600.0 / N
-    expected_lsb = error_lsb_float32(table, codes, BITS)
-    np.testing.assert_array_equal(out[:, 0], expected_lsb)
-    np.testing.assert_array_equal(out[:, 1], (codes - np.floor(expected_lsb + np.float32(0.5))) % N)
-    theta = codes.astype(np.float32) * np.float32(360.0 / N)
-    np.testing.assert_array_equal(out[:, 2], predict_float32_angle(table, theta))
+    assert_float_rule(out, table)
     truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
     rounding = 2.0**-22 * np.max(np.abs(truth))  # float32 results near 1500 arcmin
     assert np.max(np.abs(out[:, 0].astype(float) * lsb - truth)) <= summary["max_error_arcmin"] + rounding
@@ -303,11 +305,7 @@ def test_cortex_m4f_table_stays_bit_exact_where_the_compiler_may_fuse_multiply_a
     model = offset_series()
     _, summary = write_target(model, tmp_path, "cortex-m4f", prefix="enc", bits=BITS, nodes=512, dtype="float32",
                               interpolation=interpolation)
-    out = run_c(tmp_path, FLOAT_DRIVER, np.float32, flags=GNU_FMA_FLAGS)
-    codes = np.arange(N)
-    np.testing.assert_array_equal(out[:, 0], error_lsb_float32(summary["table"], codes, BITS))
-    theta = codes.astype(np.float32) * np.float32(360.0 / N)
-    np.testing.assert_array_equal(out[:, 2], predict_float32_angle(summary["table"], theta))
+    assert_float_rule(run_c(tmp_path, FLOAT_DRIVER, np.float32, flags=GNU_FMA_FLAGS), summary["table"])
 
 
 @needs_arm
