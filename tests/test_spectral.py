@@ -17,6 +17,7 @@ from encal.models.spectral import (
     _columns,
     _fft_design,
     _general_design,
+    _alias_coherence,
     _uniform_nodes,
     fit_spectral,
     repeat_noise,
@@ -166,6 +167,71 @@ def test_the_rounding_of_a_profile_over_many_codes_is_noise():
     assert "rounding" not in model.report()
     theta, error = read_12_bit(GRID + 0.37 * np.sin(np.radians(7 * GRID)), 0)  # no regular grid
     assert fit_spectral(theta, error).training["rounding_orders"] == []
+
+
+def jittered_power_law(seed, noise_arcmin=0.05):
+    """72 stops of a 5° grid, each moved by up to ±1°, on a profile with a ν^-2 spectrum to order 120.
+
+    Returns the encoder angles, the errors and the noise-free profile (a function of degrees).
+    """
+    rng = np.random.default_rng(seed)
+    orders = np.arange(1, 121)
+    a, b = rng.normal(0.0, np.sqrt(2.0 / orders**2), (2, orders.size))
+
+    def truth(theta_deg):
+        r = np.radians(np.asarray(theta_deg, dtype=float))[:, None] * orders
+        return np.cos(r) @ a + np.sin(r) @ b
+
+    reference = np.arange(0.0, 360.0, 5.0) + rng.uniform(-1.0, 1.0, 72)
+    error = truth(reference) + rng.normal(0.0, noise_arcmin, reference.size)
+    return reference + error / 60.0, error, truth
+
+
+def test_alias_coherence_is_one_on_a_grid_of_stops_however_far_the_readings_stray():
+    assert _alias_coherence(GRID) == pytest.approx(1.0, abs=1e-12)
+    error = 20.0 * line_profile(GRID)  # readings up to 1.2° off the 2° grid: the stops are what count
+    assert fit_spectral(GRID + error / 60.0, error, noise_arcmin=0.1).training["alias_coherence"] \
+        == pytest.approx(1.0, abs=1e-9)
+    theta, error, _ = jittered_power_law(0)
+    # E cos(72 δ) for δ uniform in ±1°: sin(1.2566) / 1.2566 = 0.76
+    assert 0.65 < fit_spectral(theta, error).training["alias_coherence"] < 0.87
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_off_a_grid_with_the_noise_known_the_background_runs_beyond_the_nyquist_order(seed):
+    theta, error, truth = jittered_power_law(seed)
+    model = fit_spectral(theta, error, noise_arcmin=0.05)
+    assert (model.training["max_order"], model.training["line_limit"]) == (72, 36)
+    assert max(model.training["lines"], default=0) <= 36
+    cut = fit_spectral(theta, error, noise_arcmin=0.05, max_order=36)  # a named order is kept
+    assert cut.training["max_order"] == 36
+    test = np.arange(0.0, 360.0, 0.5)
+    # 30 seeds: 0.80-0.96 of the profile error of the series cut at Nyquist
+    assert rms(model.predict(test) - truth(test)) < 0.97 * rms(cut.predict(test) - truth(test))
+    blind = fit_spectral(theta, error)  # blind, the flat level would take the orders above Nyquist
+    assert (blind.training["max_order"], blind.training["line_limit"]) == (36, 36)
+
+
+def test_on_a_grid_of_stops_the_series_ends_at_the_nyquist_order_even_with_the_noise_known():
+    rng = np.random.default_rng(5)
+    error = line_profile(GRID) + rng.normal(0.0, 0.05, GRID.size)
+    model = fit_spectral(GRID + error / 60.0, error, noise_arcmin=0.05)
+    assert (model.training["max_order"], model.training["line_limit"]) == (90, 90)
+
+
+@pytest.mark.parametrize("seed", [5, 28])
+def test_a_search_collapsed_into_lines_at_every_order_is_repeated_from_the_power_law(seed, monkeypatch):
+    # With the noise known and small, every order starts as a line; on these seeds the background then
+    # shrinks under them (to nothing above Nyquist) and no line can leave. From a power law through the
+    # periodogram there are none, and the profile is closer (0.257 against 0.305, 0.274 against 0.473).
+    theta, error, truth = jittered_power_law(seed)
+    test = np.arange(0.0, 360.0, 0.5)
+    model = fit_spectral(theta, error, noise_arcmin=0.05)
+    assert len(model.training["lines"]) <= 3
+    monkeypatch.setattr(_evidence, "COLLAPSE_LINE_FRACTION", 1.0)
+    collapsed = fit_spectral(theta, error, noise_arcmin=0.05)
+    assert len(collapsed.training["lines"]) > 30
+    assert rms(model.predict(test) - truth(test)) < 0.9 * rms(collapsed.predict(test) - truth(test))
 
 
 # -- noise supplied, estimated, or blind -----------------------------------------------------------

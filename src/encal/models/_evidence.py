@@ -37,6 +37,9 @@ _MAX_ROUNDS = 40
 #: Objective (minus the evidence per reading) reported where the posterior cannot be computed.
 _FAILED_OBJECTIVE = 1e10
 _LINES_PER_ROUND = 8
+#: A search that ends with lines on more than this fraction of the orders has collapsed (the background
+#: shrank under them); it is repeated from a power law through the periodogram (safeguard 1).
+COLLAPSE_LINE_FRACTION = 1.0 / 3.0
 
 
 @dataclass
@@ -346,8 +349,12 @@ def _removal_gains(design, hyper, post, orders, cos_index, sin_index):
     return gains
 
 
-def _initial(design, noise_var, threshold):
-    """Safeguard 1: start from the periodogram (robust flat level, strong orders as lines)."""
+def _initial(design, noise_var, threshold, from_trend=False):
+    """Safeguard 1: start from the periodogram (robust flat level, strong orders as lines).
+
+    A line starts where an order's power exceeds the noise level (with ``from_trend``, the noise level
+    plus a power law through the periodogram, :func:`_trend`) by the factor ``ln P + threshold``.
+    """
     orders, cos_index, sin_index = _pairs(design)
     g = design.gram if design.diagonal else np.diag(design.gram)
     coefficient = design.projection / np.maximum(g, 1e-300)
@@ -364,12 +371,41 @@ def _initial(design, noise_var, threshold):
     else:
         sigma2, fixed = noise_var, True
     noise_level = sigma2 / typical_gram
-    cut = noise_level * (math.log(max(power.size, 2)) + threshold)
+    trend = _trend(orders, power, noise_level, threshold) if from_trend else None
+    background = 0.0 if trend is None else trend[0] * np.maximum(orders, 1).astype(float) ** -trend[1]
+    cut = (noise_level + background) * (math.log(max(power.size, 2)) + threshold)
     strong = power > cut
     lines = {int(k): float(p - noise_level) for k, p, st in zip(orders, power, strong) if st}
+    if trend is not None:
+        return Hyper(trend[0], float(np.clip(trend[1], *EXPONENT_BOUNDS)), sigma2, lines, fixed)
     low = power[(~strong) & (orders <= 10)]
     amplitude = max(float(np.median(low)) if low.size else noise_level, noise_level)
     return Hyper(amplitude, 2.0, sigma2, lines, fixed)
+
+
+def _trend(orders, power, noise_level, threshold, rounds=4):
+    """A power law ``A ν^-β`` (``β >= 1``) through the periodogram's excess over the noise: ``(A, β)`` or None.
+
+    Least squares on ``log`` power against ``log ν``, refitted ``rounds`` times without the orders more
+    than ``threshold`` above the line (lines); the log of an exponential variable averages minus Euler's
+    constant, which ``A`` adds back. Orders at or below the noise are left out.
+    """
+    excess = power - noise_level
+    keep = (orders > 0) & (excess > 0)
+    if keep.sum() < 4:
+        return None
+    x, y = np.log(orders[keep].astype(float)), np.log(excess[keep])
+    use = np.ones(x.size, dtype=bool)
+    for _ in range(rounds):
+        slope, intercept = np.polyfit(x[use], y[use], 1)
+        if slope > -EXPONENT_BOUNDS[0]:
+            slope = -EXPONENT_BOUNDS[0]
+            intercept = float(np.mean(y[use] - slope * x[use]))
+        within = y - (intercept + slope * x) < threshold
+        if within.sum() < 4:
+            break
+        use = within
+    return math.exp(intercept + np.euler_gamma), -slope
 
 
 def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS, progress=None):
@@ -392,13 +428,31 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     if design.yy <= 0.0 or not np.any(design.projection):
         hyper = Hyper(1e-30 * design.scale, 2.0, noise_var or 1e-30, {}, noise_var is not None)
         return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
-    initial = _initial(design, noise_var, threshold)
+    hyper = _search(design, noise_var, threshold, progress, from_trend=False)
+    if len(hyper.lines) > COLLAPSE_LINE_FRACTION * np.unique(design.orders[design.lineable]).size:
+        # Started with every order above the noise as a line (a small known noise, a smooth profile), the
+        # background can shrink under them until no line can leave. Start again from a power law through the
+        # periodogram and keep the better of the two, each line costing the threshold it had to pass.
+        again = _search(design, noise_var, threshold, progress, from_trend=True)
+        if _penalised_evidence(design, again, threshold) > _penalised_evidence(design, hyper, threshold):
+            hyper = again
+    return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
+
+
+def _penalised_evidence(design, hyper, threshold):
+    return evidence(design, hyper.variances(design), hyper.noise_var, covariance=False).log_evidence \
+        - threshold * len(hyper.lines)
+
+
+def _search(design, noise_var, threshold, progress, from_trend):
+    """Safeguard 1, the search from the periodogram: the background and noise first, then the lines in rounds."""
+    initial = _initial(design, noise_var, threshold, from_trend)
     hyper = _prefer_noise(design, _optimise(design, initial), initial.noise_var)
     blind = not hyper.noise_fixed
     hyper.noise_fixed = True  # the lines are chosen at this noise
     hyper = _rounds(design, hyper, threshold, progress)
     hyper.noise_fixed = not blind
-    return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
+    return hyper
 
 
 def _rounds(design, hyper, threshold, progress):

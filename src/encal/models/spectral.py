@@ -53,6 +53,11 @@ COHERENT_SWING_CODES = 4.0
 #: Harmonics of the rounding pattern whose orders (each with this many on either side) carry no line.
 _ROUNDING_HARMONICS = 3
 _ROUNDING_WIDTH = 2
+#: Below this alias coherence of the reference stops (see ``_alias_coherence``) the orders above the
+#: Nyquist order are not copies of those below, and with the noise known the series runs on.
+ALIAS_COHERENCE = 0.99
+#: How far the series runs on such a grid, in multiples of the Nyquist order (one band of aliases).
+BEYOND_NYQUIST = 2
 
 
 class SpectralModel(FourierModel):
@@ -379,8 +384,6 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if highest < nyquist:
         regular_points = None  # no Nyquist column below the cap
 
-    if threshold_nats is None:
-        threshold_nats = _evidence.LINE_THRESHOLD_NATS + max(0.0, math.log(highest / _THRESHOLD_ORDER))
     noise_source, repeat_dof = "supplied", None
     noise_var = None if noise_arcmin is None else float(noise_arcmin) ** 2
     if noise_var is None:
@@ -389,13 +392,23 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
             noise_var, noise_source = repeat_std**2, "repeated readings"
         else:
             noise_source, repeat_dof = "blind", None
+    line_limit = highest
+    coherence = _alias_coherence(reference)
+    if (noise_var is not None and max_order is None and uniform is None and highest == nyquist
+            and coherence < ALIAS_COHERENCE):
+        # Safeguard 5: off a regular grid the orders above Nyquist are only partly aliased; with the
+        # noise known the background (no lines) runs on to them. Blind, the flat level would absorb them.
+        highest = min(BEYOND_NYQUIST * nyquist, max(DEFAULT_MAX_ORDER_IRREGULAR, nyquist))
+        regular_points = None
+    if threshold_nats is None:
+        threshold_nats = _evidence.LINE_THRESHOLD_NATS + max(0.0, math.log(line_limit / _THRESHOLD_ORDER))
 
     offset = float(np.mean(error))
     centred = error - offset
     orders, shifts, lineable = _columns(highest, regular_points, phase)
     bits = resolution_of_readings(theta)
     rounding_orders = _quantisation_orders(bits, grid, theta)
-    lineable &= ~np.isin(orders, rounding_orders)
+    lineable &= ~np.isin(orders, rounding_orders) & (orders <= line_limit)
     if uniform is not None:
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
@@ -430,7 +443,9 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         "select": "evidence",
         "path": "fft" if design.diagonal else "fourier-features",
         "max_order": int(highest),
+        "line_limit": int(line_limit),
         "stops": int(m),
+        "alias_coherence": coherence,
         "prior": _prior_text(noise_source),
         "noise": {"source": noise_source, "std_arcmin": sigma,
                   **({"repeat_dof": int(repeat_dof)} if repeat_dof is not None else {}),
@@ -454,6 +469,18 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     model.uncertainty = _posterior_std(design, post, highest, predictive_sigma)
     _advance(progress)
     return model
+
+
+def _alias_coherence(reference_deg):
+    """``|mean exp(i m θ_j)|`` over the ``m`` distinct reference angles ``θ_j``: 1 on a uniform grid.
+
+    At stops ``θ_j = 2πj/m + δ_j`` an order ``m - k`` equals order ``k`` up to the phase ``m δ_j``;
+    the coherence is about ``E cos(m δ)``, the correlation of an order with its alias at the stops.
+    A uniform grid of stops (a stepper, a dividing head) gives 1 however far the encoder's readings
+    stray from it; a jittered or random set of stops less (±1° on a 5° grid: about 0.76).
+    """
+    distinct, _ = distinct_angles(reference_deg)
+    return float(abs(np.mean(np.exp(1j * distinct.size * np.radians(distinct)))))
 
 
 #: Stages after which fit_spectral calls ``progress``.
