@@ -203,6 +203,7 @@ def test_off_a_grid_with_the_noise_known_the_background_runs_beyond_the_nyquist_
     model = fit_spectral(theta, error, noise_arcmin=0.05)
     assert (model.training["max_order"], model.training["line_limit"]) == (72, 36)
     assert max(model.training["lines"], default=0) <= 36
+    assert "orders 37-72: background only (the stops are off a regular grid, alias coherence 0." in model.report()
     cut = fit_spectral(theta, error, noise_arcmin=0.05, max_order=36)  # a named order is kept
     assert cut.training["max_order"] == 36
     test = np.arange(0.0, 360.0, 0.5)
@@ -210,6 +211,7 @@ def test_off_a_grid_with_the_noise_known_the_background_runs_beyond_the_nyquist_
     assert rms(model.predict(test) - truth(test)) < 0.97 * rms(cut.predict(test) - truth(test))
     blind = fit_spectral(theta, error)  # blind, the flat level would take the orders above Nyquist
     assert (blind.training["max_order"], blind.training["line_limit"]) == (36, 36)
+    assert "background only" not in blind.report()
 
 
 def test_on_a_grid_of_stops_the_series_ends_at_the_nyquist_order_even_with_the_noise_known():

@@ -151,6 +151,9 @@ class SpectralModel(FourierModel):
             text.append(f"Nyquist order {t['stops'] // 2} (the alternation from one stop to the next): amplitude "
                         f"{t['nyquist_term_arcmin']:.3g} arcmin, estimated and left out of the correction (unknown "
                         "between the stops)")
+        if t.get("line_limit", t["max_order"]) < t["max_order"]:
+            text.append(f"orders {t['line_limit'] + 1}-{t['max_order']}: background only (the stops are off a regular grid, "
+                        f"alias coherence {t['alias_coherence']:.2f}, so these orders are not copies of those below)")
         if t.get("rounding_orders"):
             text.append(f"orders {_ranges(t['rounding_orders'])}: no line (where the rounding of the readings to whole "
                         "codes lands on this grid)")
