@@ -456,7 +456,11 @@ def _search(design, noise_var, threshold, progress, from_trend):
 
 
 def _rounds(design, hyper, threshold, progress):
-    """Drop the weakest line while it adds less than ``threshold``; else admit lines; re-optimise."""
+    """Drop every line that adds less than ``threshold``; else admit lines; re-optimise; until neither changes.
+
+    The lines are dropped together, not the weakest alone: off a uniform grid the periodogram's
+    leakage from a strong order can start dozens of lines, more than the rounds could drop one by one.
+    """
     orders, cos_index, sin_index = _pairs(design)
     seen = set()
     for _ in range(_MAX_ROUNDS):
@@ -464,10 +468,11 @@ def _rounds(design, hyper, threshold, progress):
             progress()
         post = evidence(design, hyper.variances(design), hyper.noise_var)
         removal = _removal_gains(design, hyper, post, orders, cos_index, sin_index)
-        weakest = min(removal, key=removal.get) if removal else None
-        if weakest is not None and removal[weakest] < threshold:
-            del hyper.lines[weakest]
-            seen.add(weakest)
+        weak = [k for k, gain in removal.items() if gain < threshold]
+        if weak:
+            for k in weak:
+                del hyper.lines[k]
+                seen.add(k)
             hyper = _optimise(design, hyper)
             continue
         if not _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
