@@ -63,6 +63,10 @@ class Design:
         Number of readings.
     lineable : ndarray of bool of shape (P,)
         Columns whose order may carry a line (every order but 0).
+    nyquist : int, optional
+        When the series runs past the Nyquist order of the stops: that order. A line above it needs
+        ``beyond_nyquist_nats`` more evidence and is not started from the periodogram.
+    beyond_nyquist_nats : float
     """
 
     orders: np.ndarray
@@ -72,6 +76,16 @@ class Design:
     yy: float
     n: int
     lineable: np.ndarray
+    nyquist: int = None
+    beyond_nyquist_nats: float = 0.0
+
+    def extra_nats(self, orders):
+        """Nats a line at each of ``orders`` needs beyond the threshold: ``beyond_nyquist_nats`` above
+        :attr:`nyquist` (an order that is only partly aliased to one below it), else 0."""
+        orders = np.asarray(orders)
+        if self.nyquist is None:
+            return np.zeros(orders.shape)
+        return np.where(orders > self.nyquist, self.beyond_nyquist_nats, 0.0)
 
     @property
     def diagonal(self):
@@ -357,7 +371,8 @@ def _initial(design, noise_var, threshold, from_trend=False):
     """
     orders, cos_index, sin_index = _pairs(design)
     g = design.gram if design.diagonal else np.diag(design.gram)
-    coefficient = design.projection / np.maximum(g, 1e-300)
+    # a column that vanishes at every stop (sin 90θ on a 2° grid) has no coefficient to speak of
+    coefficient = np.where(g > 1e-12 * float(np.max(g)), design.projection / np.maximum(g, 1e-300), 0.0)
     power = 0.5 * (coefficient[cos_index] ** 2 + coefficient[sin_index] ** 2)
     power[cos_index == sin_index] *= 2.0
     # The upper half of the orders is where white noise dominates a decaying profile.
@@ -374,7 +389,7 @@ def _initial(design, noise_var, threshold, from_trend=False):
     trend = _trend(orders, power, noise_level, threshold) if from_trend else None
     background = 0.0 if trend is None else trend[0] * np.maximum(orders, 1).astype(float) ** -trend[1]
     cut = (noise_level + background) * (math.log(max(power.size, 2)) + threshold)
-    strong = power > cut
+    strong = (power > cut) & (design.extra_nats(orders) == 0)  # leakage from below would start lines above Nyquist
     lines = {int(k): float(p - noise_level) for k, p, st in zip(orders, power, strong) if st}
     if trend is not None:
         return Hyper(trend[0], float(np.clip(trend[1], *EXPONENT_BOUNDS)), sigma2, lines, fixed)
@@ -468,7 +483,7 @@ def _rounds(design, hyper, threshold, progress):
             progress()
         post = evidence(design, hyper.variances(design), hyper.noise_var)
         removal = _removal_gains(design, hyper, post, orders, cos_index, sin_index)
-        weak = [k for k, gain in removal.items() if gain < threshold]
+        weak = [k for k, gain in removal.items() if gain < threshold + float(design.extra_nats(k))]
         if weak:
             for k in weak:
                 del hyper.lines[k]
@@ -530,6 +545,7 @@ def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
             break
         blocks, q = _blocks(design, post, hyper.noise_var, cos_index[free], sin_index[free])
         gains, variances = _best_gains(blocks, q, design.scale)
+        gains = gains - design.extra_nats(orders[free])
         if design.diagonal:
             passing = gains > threshold
             for k, v in zip(orders[free][passing], variances[passing]):

@@ -58,6 +58,8 @@ _ROUNDING_WIDTH = 2
 ALIAS_COHERENCE = 0.99
 #: How far the series runs on such a grid, in multiples of the Nyquist order (one band of aliases).
 BEYOND_NYQUIST = 2
+#: Evidence (nats) a line above the Nyquist order needs beyond the threshold: it competes with its alias.
+BEYOND_NYQUIST_NATS = 3.0
 
 
 class SpectralModel(FourierModel):
@@ -151,9 +153,11 @@ class SpectralModel(FourierModel):
             text.append(f"Nyquist order {t['stops'] // 2} (the alternation from one stop to the next): amplitude "
                         f"{t['nyquist_term_arcmin']:.3g} arcmin, estimated and left out of the correction (unknown "
                         "between the stops)")
-        if t.get("line_limit", t["max_order"]) < t["max_order"]:
-            text.append(f"orders {t['line_limit'] + 1}-{t['max_order']}: background only (the stops are off a regular grid, "
-                        f"alias coherence {t['alias_coherence']:.2f}, so these orders are not copies of those below)")
+        if "beyond_nyquist" in t:
+            beyond = t["beyond_nyquist"]
+            text.append(f"orders {beyond['from_order']}-{t['max_order']}: past the Nyquist order, a line needs "
+                        f"{beyond['line_nats']:.3g} nats (the stops are off a regular grid, alias coherence "
+                        f"{t['alias_coherence']:.2f}: these orders are only partly copies of those below)")
         if t.get("rounding_orders"):
             text.append(f"orders {_ranges(t['rounding_orders'])}: no line (where the rounding of the readings to whole "
                         "codes lands on this grid)")
@@ -395,27 +399,30 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
             noise_var, noise_source = repeat_std**2, "repeated readings"
         else:
             noise_source, repeat_dof = "blind", None
-    line_limit = highest
     coherence = _alias_coherence(reference)
-    if (noise_var is not None and max_order is None and uniform is None and highest == nyquist
-            and coherence < ALIAS_COHERENCE):
+    beyond = (noise_var is not None and max_order is None and uniform is None and highest == nyquist
+              and coherence < ALIAS_COHERENCE)
+    if beyond:
         # Safeguard 5: off a regular grid the orders above Nyquist are only partly aliased; with the
-        # noise known the background (no lines) runs on to them. Blind, the flat level would absorb them.
+        # noise known the series runs on to them. Blind, the flat level would absorb them.
         highest = min(BEYOND_NYQUIST * nyquist, max(DEFAULT_MAX_ORDER_IRREGULAR, nyquist))
         regular_points = None
     if threshold_nats is None:
-        threshold_nats = _evidence.LINE_THRESHOLD_NATS + max(0.0, math.log(line_limit / _THRESHOLD_ORDER))
+        threshold_nats = _evidence.LINE_THRESHOLD_NATS + max(0.0, math.log(nyquist if beyond else highest)
+                                                             - math.log(_THRESHOLD_ORDER))
 
     offset = float(np.mean(error))
     centred = error - offset
     orders, shifts, lineable = _columns(highest, regular_points, phase)
     bits = resolution_of_readings(theta)
     rounding_orders = _quantisation_orders(bits, grid, theta)
-    lineable &= ~np.isin(orders, rounding_orders) & (orders <= line_limit)
+    lineable &= ~np.isin(orders, rounding_orders)
     if uniform is not None:
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
+    if beyond:
+        design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats)
     _advance(progress)
@@ -446,9 +453,10 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         "select": "evidence",
         "path": "fft" if design.diagonal else "fourier-features",
         "max_order": int(highest),
-        "line_limit": int(line_limit),
         "stops": int(m),
         "alias_coherence": coherence,
+        **({"beyond_nyquist": {"from_order": nyquist + 1, "line_nats": float(threshold_nats + BEYOND_NYQUIST_NATS)}}
+           if beyond else {}),
         "prior": _prior_text(noise_source),
         "noise": {"source": noise_source, "std_arcmin": sigma,
                   **({"repeat_dof": int(repeat_dof)} if repeat_dof is not None else {}),
@@ -475,15 +483,20 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
 
 
 def _alias_coherence(reference_deg):
-    """``|mean exp(i m θ_j)|`` over the ``m`` distinct reference angles ``θ_j``: 1 on a uniform grid.
+    """``|mean exp(i N θ_j)|`` over the distinct reference angles ``θ_j``: 1 when they lie on a uniform grid.
 
-    At stops ``θ_j = 2πj/m + δ_j`` an order ``m - k`` equals order ``k`` up to the phase ``m δ_j``;
-    the coherence is about ``E cos(m δ)``, the correlation of an order with its alias at the stops.
-    A uniform grid of stops (a stepper, a dividing head) gives 1 however far the encoder's readings
-    stray from it; a jittered or random set of stops less (±1° on a 5° grid: about 0.76).
+    At stops ``θ_j = 2πj/N + δ_j`` an order ``N - k`` equals order ``k`` up to the phase ``N δ_j``;
+    the coherence is about ``E cos(N δ)``, the correlation of an order with its alias at the stops.
+    ``N`` is the number of stops, or the nodes of the grid their smallest gap suggests when that is
+    more (a grid with nodes missing, such as a cross-validation fold's). A uniform grid of stops (a
+    stepper, a dividing head) gives 1 however far the encoder's readings stray from it (by the error
+    itself); a jittered or random set of stops less (±1° on a 5° grid: about 0.76).
     """
     distinct, _ = distinct_angles(reference_deg)
-    return float(abs(np.mean(np.exp(1j * distinct.size * np.radians(distinct)))))
+    theta = np.radians(np.sort(distinct))
+    gaps = np.diff(np.r_[theta, theta[0] + 2.0 * math.pi])
+    nodes = {distinct.size, int(round(2.0 * math.pi / max(float(gaps.min()), 1e-12)))}
+    return max(float(abs(np.mean(np.exp(1j * n * theta)))) for n in nodes if n >= distinct.size)
 
 
 #: Stages after which fit_spectral calls ``progress``.
