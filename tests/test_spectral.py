@@ -202,7 +202,7 @@ def test_alias_coherence_is_one_on_a_grid_of_stops_however_far_the_readings_stra
 
 
 @pytest.mark.parametrize("seed", range(3))
-def test_off_a_grid_with_the_noise_known_the_series_runs_beyond_the_nyquist_order(seed):
+def test_off_a_grid_the_series_runs_beyond_the_nyquist_order(seed):
     theta, error, truth = jittered_power_law(seed)
     model = fit_spectral(theta, error, noise_arcmin=0.05)
     assert model.training["max_order"] == 72
@@ -215,9 +215,16 @@ def test_off_a_grid_with_the_noise_known_the_series_runs_beyond_the_nyquist_orde
     test = np.arange(0.0, 360.0, 0.5)
     # 30 seeds: 0.80-0.96 of the profile error of the series cut at Nyquist
     assert rms(model.predict(test) - truth(test)) < 0.97 * rms(cut.predict(test) - truth(test))
-    blind = fit_spectral(theta, error)  # blind, the flat level would take the orders above Nyquist
-    assert blind.training["max_order"] == 36 and "beyond_nyquist" not in blind.training
-    assert "past the Nyquist order" not in blind.report()
+    # Blind: the noise is the blind split's mean noise of the series up to Nyquist, then held fixed.
+    blind = fit_spectral(theta, error)
+    blind_cut = fit_spectral(theta, error, max_order=36)
+    assert blind.training["max_order"] == 72 and "beyond_nyquist" in blind.training
+    assert blind.training["prior"] == BLIND_PRIOR + spectral.BLIND_BEYOND_NYQUIST
+    assert blind.training["noise"] == blind_cut.training["noise"]  # σ̂ (the flat level) and the split
+    assert blind.uncertainty["noise_std_arcmin"] == pytest.approx(
+        blind_cut.training["noise"]["split"]["mean_noise_std_arcmin"], rel=1e-12)
+    # 30 seeds: 0.90-1.06 of the profile error of the blind series cut at Nyquist, median 0.98
+    assert rms(blind.predict(test) - truth(test)) < 1.1 * rms(blind_cut.predict(test) - truth(test))
 
 
 def test_off_a_grid_a_line_above_the_nyquist_order_is_found_rather_than_its_alias():
@@ -379,7 +386,8 @@ def test_irregular_angles_use_the_fourier_feature_path():
     theta = np.sort(rng.uniform(0.0, 360.0, 240))
     model = fit_spectral(theta, line_profile(theta) + rng.normal(0.0, 0.05, theta.size))
     assert model.training["path"] == "fourier-features"
-    assert model.training["max_order"] == 120
+    assert model.training["max_order"] == 200  # past the Nyquist order 120: the stops are random (safeguard 5)
+    assert model.training["beyond_nyquist"]["from_order"] == 121
     assert rms(model.predict(MIDPOINTS) - line_profile(MIDPOINTS)) < 0.04
 
 

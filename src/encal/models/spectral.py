@@ -39,6 +39,9 @@ DEFAULT_MAX_ORDER_IRREGULAR = 200
 BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot split between profile and noise, "
                "is split under a uniform prior (the posterior averaged over the splits), the noise never below "
                "the quantisation's LSB/sqrt(12) when the readings show the resolution")
+#: Added to the blind prior when the stops are off a regular grid (safeguard 5).
+BLIND_BEYOND_NYQUIST = ("; the stops being off a regular grid, the series then runs past the Nyquist order with "
+                        "the split's mean noise held fixed")
 #: Most orders stored in the model file; beyond, the smallest posterior-mean terms are dropped.
 STORED_ORDERS_LIMIT = 4096
 #: Fewest readings beyond the stops for the noise to be estimated from repeated readings.
@@ -400,11 +403,16 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         else:
             noise_source, repeat_dof = "blind", None
     coherence = _alias_coherence(reference)
-    beyond = (noise_var is not None and max_order is None and uniform is None and highest == nyquist
-              and coherence < ALIAS_COHERENCE)
+    beyond = max_order is None and uniform is None and highest == nyquist and coherence < ALIAS_COHERENCE
+    first_pass = None
+    if beyond and noise_var is None:
+        # Blind, the flat level would absorb the orders past Nyquist: the noise is the blind split's mean
+        # noise of the series up to Nyquist, then held fixed.
+        first_pass = fit_spectral(theta, error, max_order=nyquist, threshold_nats=threshold_nats, path=path)
+        noise_var = first_pass.training["noise"]["split"]["mean_noise_std_arcmin"] ** 2
     if beyond:
         # Safeguard 5: off a regular grid the orders above Nyquist are only partly aliased; with the
-        # noise known the series runs on to them. Blind, the flat level would absorb them.
+        # noise known the series runs on to them.
         highest = min(BEYOND_NYQUIST * nyquist, max(DEFAULT_MAX_ORDER_IRREGULAR, nyquist))
         regular_points = None
     if threshold_nats is None:
@@ -427,7 +435,9 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats)
     _advance(progress)
     split = None
-    if noise_source == "blind":
+    if first_pass is not None:
+        split = first_pass.training["noise"]["split"]
+    elif noise_source == "blind":
         quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
         # σ̂ stays the flat level (all of it noise), the figure to hold against LSB/√12; a new
         # reading's predictive noise is the mixture's mean noise.
@@ -448,7 +458,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         nyquist_term = math.hypot(cos[regular_points // 2], sin[regular_points // 2])
         cos[regular_points // 2] = sin[regular_points // 2] = 0.0
     kept, dropped_rms = _stored_orders(cos, sin, math.sqrt(hyper.noise_var))
-    sigma = math.sqrt(hyper.noise_var)
+    # blind, σ̂ is the flat level (all of it noise), the figure to hold against LSB/√12
+    sigma = math.sqrt(hyper.noise_var) if first_pass is None else first_pass.training["noise"]["std_arcmin"]
     training = {
         "select": "evidence",
         "path": "fft" if design.diagonal else "fourier-features",
@@ -457,7 +468,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         "alias_coherence": coherence,
         **({"beyond_nyquist": {"from_order": nyquist + 1, "line_nats": float(threshold_nats + BEYOND_NYQUIST_NATS)}}
            if beyond else {}),
-        "prior": _prior_text(noise_source),
+        "prior": _prior_text(noise_source) + (BLIND_BEYOND_NYQUIST if first_pass is not None else ""),
         "noise": {"source": noise_source, "std_arcmin": sigma,
                   **({"repeat_dof": int(repeat_dof)} if repeat_dof is not None else {}),
                   **({"split": split} if split is not None else {})},
