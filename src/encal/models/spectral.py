@@ -3,7 +3,8 @@
 ``ε(θ) = a_0 + Σ_{ν=1..K} a_ν cos νθ + b_ν sin νθ`` with independent Gaussian priors on the
 coefficients whose variance is a decaying background ``A ν^-β`` (``β ≥ 1``) plus "lines" on the
 orders where a line raises the marginal likelihood by more than about 3 nats; white noise of
-variance ``σ²``; ``K`` the Nyquist order of the calibration's stops. Every hyperparameter is
+variance ``σ²``; ``K`` the Nyquist order of the calibration's stops (twice that when the stops
+are off a regular grid, where the orders above it are only partly aliased). Every hyperparameter is
 chosen by type-II maximum likelihood (``σ`` too, unless the noise is known); the model's
 prediction is the posterior mean, its uncertainty the posterior standard deviation, with or
 without the noise of a new reading. See docs/model-selection.md for what each prior assumes.
@@ -333,10 +334,15 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     max_order : int, optional
         Highest order of the series. Default: the Nyquist order of the stops, ``⌊m/2⌋`` for
         ``m`` distinct reference angles, capped at :data:`DEFAULT_MAX_ORDER_IRREGULAR` on the
-        Fourier-feature path (a dense calibration off a uniform grid).
+        Fourier-feature path (a dense calibration off a uniform grid); when the stops are off a
+        regular grid (alias coherence below :data:`ALIAS_COHERENCE`), :data:`BEYOND_NYQUIST` times
+        that, within the same cap, a line past the Nyquist order needing :data:`BEYOND_NYQUIST_NATS`
+        more (safeguard 5; blind, the noise is then the blind split's mean noise of the series up to
+        the Nyquist order, held fixed). A ``max_order`` given is never exceeded.
     threshold_nats : float, optional
         Evidence (nats) a line must add to be kept. Default: 3 nats up to order 90, and
-        ``3 + ln(K / 90)`` for a highest order ``K`` above it, so that the expected number of
+        ``3 + ln(K / 90)`` for a highest order ``K`` (the Nyquist order, past which safeguard 5
+        adds its own) above it, so that the expected number of
         false lines on pure noise (about 0.4 per fit at ``K = 90``) does not grow with ``K``.
     path : {'auto', 'fft', 'features'}, default='auto'
         ``'auto'``: the FFT path when the encoder angles are a uniform grid with the same number
@@ -394,14 +400,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if highest < nyquist:
         regular_points = None  # no Nyquist column below the cap
 
-    noise_source, repeat_dof = "supplied", None
-    noise_var = None if noise_arcmin is None else float(noise_arcmin) ** 2
-    if noise_var is None:
-        repeat_std, repeat_dof = repeat_noise(reference, error)
-        if repeat_std is not None and repeat_std > 0:
-            noise_var, noise_source = repeat_std**2, "repeated readings"
-        else:
-            noise_source, repeat_dof = "blind", None
+    noise_var, noise_source, repeat_dof = _known_noise(noise_arcmin, reference, error)
     coherence = _alias_coherence(reference)
     beyond = max_order is None and uniform is None and highest == nyquist and coherence < ALIAS_COHERENCE
     first_pass = None
@@ -491,6 +490,16 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     model.uncertainty = _posterior_std(design, post, highest, predictive_sigma)
     _advance(progress)
     return model
+
+
+def _known_noise(noise_arcmin, reference_deg, error_arcmin):
+    """``(variance, source, repeat_dof)`` of the noise: supplied, from repeated readings, or ``(None, 'blind', None)``."""
+    if noise_arcmin is not None:
+        return float(noise_arcmin) ** 2, "supplied", None
+    repeat_std, repeat_dof = repeat_noise(reference_deg, error_arcmin)
+    if repeat_std is not None and repeat_std > 0:
+        return repeat_std**2, "repeated readings", repeat_dof
+    return None, "blind", None
 
 
 def _alias_coherence(reference_deg):
