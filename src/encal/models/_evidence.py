@@ -423,7 +423,7 @@ def _trend(orders, power, noise_level, threshold, rounds=4):
     return math.exp(intercept + np.euler_gamma), -slope
 
 
-def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS, progress=None):
+def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS, progress=None, start=None):
     """Type-II maximum likelihood: background, noise (unless given) and lines admitted by evidence.
 
     Parameters
@@ -435,6 +435,9 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
         Nats a line must add to the log evidence to be kept.
     progress : callable, optional
         Called with no argument after each round (for a progress bar).
+    start : Hyper, optional
+        Background and lines to start from (those of a fit of fewer orders to the same data), instead
+        of the periodogram; the noise is ``noise_var`` all the same.
 
     Returns
     -------
@@ -443,7 +446,11 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     if design.yy <= 0.0 or not np.any(design.projection):
         hyper = Hyper(1e-30 * design.scale, 2.0, noise_var or 1e-30, {}, noise_var is not None)
         return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
-    hyper = _search(design, noise_var, threshold, progress, from_trend=False)
+    if start is not None and noise_var is not None:
+        initial = Hyper(start.amplitude, start.exponent, noise_var, dict(start.lines), True)
+        hyper = _search(design, noise_var, threshold, progress, from_trend=False, initial=initial)
+    else:
+        hyper = _search(design, noise_var, threshold, progress, from_trend=False)
     if len(hyper.lines) > COLLAPSE_LINE_FRACTION * np.unique(design.orders[design.lineable]).size:
         # Started with every order above the noise as a line (a small known noise, a smooth profile), the
         # background can shrink under them until no line can leave. Start again from a power law through the
@@ -459,9 +466,10 @@ def _penalised_evidence(design, hyper, threshold):
         - threshold * len(hyper.lines)
 
 
-def _search(design, noise_var, threshold, progress, from_trend):
-    """Safeguard 1, the search from the periodogram: the background and noise first, then the lines in rounds."""
-    initial = _initial(design, noise_var, threshold, from_trend)
+def _search(design, noise_var, threshold, progress, from_trend, initial=None):
+    """Safeguard 1, the search from the periodogram (or ``initial``): background and noise, then lines in rounds."""
+    if initial is None:
+        initial = _initial(design, noise_var, threshold, from_trend)
     hyper = _prefer_noise(design, _optimise(design, initial), initial.noise_var)
     blind = not hyper.noise_fixed
     hyper.noise_fixed = True  # the lines are chosen at this noise

@@ -403,12 +403,15 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     noise_var, noise_source, repeat_dof = _known_noise(noise_arcmin, reference, error)
     coherence = _alias_coherence(reference)
     beyond = max_order is None and uniform is None and highest == nyquist and coherence < ALIAS_COHERENCE
-    first_pass = None
+    first_pass = first_prior = None
     if beyond and noise_var is None:
         # Blind, the flat level would absorb the orders past Nyquist: the noise is the blind split's mean
-        # noise of the series up to Nyquist, then held fixed.
+        # noise of the series up to Nyquist, then held fixed; the search starts from that fit's prior.
         first_pass = fit_spectral(theta, error, max_order=nyquist, threshold_nats=threshold_nats, path=path)
         noise_var = first_pass.training["noise"]["split"]["mean_noise_std_arcmin"] ** 2
+        first = first_pass.training
+        first_prior = _evidence.Hyper(first["background"]["amplitude_arcmin2"], first["background"]["exponent"],
+                                      noise_var, dict(zip(first["lines"], first["line_variances_arcmin2"])))
     if beyond:
         # Safeguard 5: off a regular grid the orders above Nyquist are only partly aliased; with the
         # noise known the series runs on to them.
@@ -431,7 +434,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
-    hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats)
+    hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
+                                                start=first_prior)
     _advance(progress)
     split = None
     if first_pass is not None:
