@@ -390,12 +390,45 @@ def _initial(design, noise_var, threshold, from_trend=False):
     background = 0.0 if trend is None else trend[0] * np.maximum(orders, 1).astype(float) ** -trend[1]
     cut = (noise_level + background) * (math.log(max(power.size, 2)) + threshold)
     strong = (power > cut) & (design.extra_nats(orders) == 0)  # leakage from below would start lines above Nyquist
-    lines = {int(k): float(p - noise_level) for k, p, st in zip(orders, power, strong) if st}
+    if design.diagonal:
+        lines = {int(k): float(p - noise_level) for k, p, st in zip(orders, power, strong) if st}
+    else:
+        lines = _pursuit(design, orders, cos_index, sin_index, g, strong, np.broadcast_to(cut, power.shape),
+                         noise_level)
     if trend is not None:
         return Hyper(trend[0], float(np.clip(trend[1], *EXPONENT_BOUNDS)), sigma2, lines, fixed)
     low = power[(~strong) & (orders <= 10)]
     amplitude = max(float(np.median(low)) if low.size else noise_level, noise_level)
     return Hyper(amplitude, 2.0, sigma2, lines, fixed)
+
+
+def _pursuit(design, orders, cos_index, sin_index, g, candidates, cut, noise_level):
+    """The strong orders one at a time, each fitted and taken out of the projections before the next.
+
+    Off a uniform grid the columns are correlated: a strong order leaks into every other order's
+    periodogram (3 arcmin at order 1 on 180 stops moved by ±0.2 spacings started 52 lines, and the
+    first optimisation over them took 0.9 of the fit's time). Taken out in turn, the strongest
+    first, only the orders still above ``cut`` once the stronger ones are fitted start as lines.
+    """
+    residual = design.projection.astype(float).copy()
+    usable = g > 1e-12 * float(np.max(g))
+    lines, left = {}, candidates.copy()
+    while np.any(left):
+        coefficient = np.where(usable, residual / np.maximum(g, 1e-300), 0.0)
+        power = 0.5 * (coefficient[cos_index] ** 2 + coefficient[sin_index] ** 2)
+        power[cos_index == sin_index] *= 2.0
+        ratio = np.where(left, power / cut, 0.0)
+        best = int(np.argmax(ratio))
+        if ratio[best] <= 1.0:
+            break
+        lines[int(orders[best])] = float(power[best] - noise_level)
+        left[best] = False
+        columns = np.unique([cos_index[best], sin_index[best]])
+        columns = columns[usable[columns]]
+        if columns.size:
+            block = design.gram[np.ix_(columns, columns)]
+            residual -= design.gram[:, columns] @ np.linalg.lstsq(block, residual[columns], rcond=None)[0]
+    return lines
 
 
 def _trend(orders, power, noise_level, threshold, rounds=4):
