@@ -6,6 +6,8 @@ Usage::
     python benchmarks/bench_spectral.py --cases fleet      # one case
     python benchmarks/bench_spectral.py --cv-auto          # also the cross-validated auto (slow)
     python benchmarks/bench_spectral.py --scaling          # fit time and memory against n
+    python benchmarks/bench_spectral.py --background-bound --cases fleet fleet+ rough
+                                    # what a better smooth background could gain (expected errors)
 
 Cases (each encoder fitted on its training run, 0:2:358 degrees, and tested on its test run,
 1:2:359 degrees, fresh noise):
@@ -36,6 +38,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
 import argparse  # noqa: E402
+import math  # noqa: E402
 import platform  # noqa: E402
 import time  # noqa: E402
 
@@ -47,7 +50,7 @@ from encal.models.lut import fit_lut  # noqa: E402
 from encal.models.spectral import fit_spectral  # noqa: E402
 from encal.simulate import demo_fleet, measurement_floor, simulate_fleet  # noqa: E402
 
-from bench_floor_bound import harmonic_coefficients, informed_estimate, synthesise  # noqa: E402
+from bench_floor_bound import harmonic_coefficients, informed_estimate, order_power, synthesise  # noqa: E402
 
 PLAIN = ("interp", "fourier cv", "fourier top10")
 
@@ -239,13 +242,66 @@ def jittered_cost(repeats=3):
         print(f"| {m} | {' | '.join(cells)} | {highest} |")
 
 
+def background_bound(names, highest=90):
+    """What the best smooth background could gain over the fitted one, in expected profile error.
+
+    For each encoder on a uniform grid, with the true power ``P_ν`` of every order (from the noise-free
+    profile) and the noise variance per coefficient ``V = 2σ²/n``: the expected squared error of the
+    posterior mean under prior variances ``s_ν`` is ``Σ (1 - λ)² P + λ² V``, ``λ = s / (s + V)``. The
+    orders where the fit (noise supplied) admitted lines keep ``s = P``; elsewhere ``s`` is the fitted
+    power law, the best power law ``A ν^-β`` and the best log-quadratic background (slope ``-β₀`` at
+    ν = 1 and ``-β_K`` at ν = 90, both in [1, 8]) chosen with the truth known, or ``P`` itself (the
+    informed estimator). Printed as the implied test-RMS ratio to the informed estimator,
+    ``sqrt((floor² + E) / (floor² + E_informed))``.
+    """
+    import scipy.optimize
+
+    print("## the background: expected test RMS / the informed estimator's (noise supplied)\n")
+    print("| case | encoder | fitted power law | best power law | best log-quadratic |")
+    print("|---|---|---|---|---|")
+    nu = np.arange(1, highest + 1, dtype=float)
+    log_nu, log_top = np.log(nu), math.log(highest)
+    for case_name, encoder, case in cases(names):
+        theta, error, sigma = case["theta"], case["y"], case["sigma"]
+        variance = 2.0 * sigma**2 / error.size
+        power = order_power(harmonic_coefficients(case["truth"](np.arange(720) * 0.5)))[1:highest + 1]
+        model = fit_spectral(theta, error, noise_arcmin=sigma)
+        is_line = np.isin(nu, model.training["lines"])
+
+        def expected(s):
+            s = np.where(is_line, power, s)
+            shrink = s / (s + variance)
+            return float(np.sum((1.0 - shrink) ** 2 * power + shrink**2 * variance))
+
+        def power_law(x):
+            return expected(np.exp(x[0] - x[1] * log_nu))
+
+        def log_quadratic(x):
+            return expected(np.exp(x[0] - x[1] * log_nu - (x[2] - x[1]) * log_nu**2 / (2.0 * log_top)))
+
+        starts = [(a, b) for a in (-5.0, -2.0, 0.0) for b in (1.0, 2.0, 4.0)]
+        best_law = min(scipy.optimize.minimize(power_law, x0, bounds=[(-30, 5), (1, 8)]).fun for x0 in starts)
+        best_quadratic = min(scipy.optimize.minimize(log_quadratic, (a, b, c), bounds=[(-30, 5), (1, 8), (1, 8)]).fun
+                             for a, b in starts for c in (1.0, 2.0, 4.0))
+        background = model.training["background"]
+        fitted = expected(background["amplitude_arcmin2"] * nu ** -background["exponent"])
+        floor2, informed = case["floor"] ** 2, expected(power)
+        ratios = [math.sqrt((floor2 + e) / (floor2 + informed)) for e in (fitted, best_law, best_quadratic)]
+        print(f"| {case_name} | {encoder} | " + " | ".join(f"{r:.3f}" for r in ratios) + " |")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=["fleet", "fleet+"],
                         choices=["fleet", "fleet+", "rough", "12bit", "jitter", "epoch"])
     parser.add_argument("--cv-auto", action="store_true", help="also the cross-validated auto (slow)")
     parser.add_argument("--scaling", action="store_true", help="only the fit time against n (and off a regular grid)")
+    parser.add_argument("--background-bound", action="store_true",
+                        help="only what the best smooth background could gain (uniform-grid cases)")
     args = parser.parse_args()
+    if args.background_bound:
+        background_bound(args.cases)
+        return
     if args.scaling:
         print(f"# spectral model, time against n; load {open('/proc/loadavg').read().split()[0]}\n")
         scaling()
