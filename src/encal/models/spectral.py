@@ -58,7 +58,7 @@ COHERENT_SWING_CODES = 4.0
 _ROUNDING_HARMONICS = 3
 _ROUNDING_WIDTH = 2
 #: Below this alias coherence of the reference stops (see ``_alias_coherence``) the orders above the
-#: Nyquist order are not copies of those below, and with the noise known the series runs on.
+#: Nyquist order are not copies of those below, and the series runs on (safeguard 5).
 ALIAS_COHERENCE = 0.99
 #: How far the series runs on such a grid, in multiples of the Nyquist order (one band of aliases).
 BEYOND_NYQUIST = 2
@@ -413,8 +413,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         first_prior = _evidence.Hyper(first["background"]["amplitude_arcmin2"], first["background"]["exponent"],
                                       noise_var, dict(zip(first["lines"], first["line_variances_arcmin2"])))
     if beyond:
-        # Safeguard 5: off a regular grid the orders above Nyquist are only partly aliased; with the
-        # noise known the series runs on to them.
+        # Safeguard 5: off a regular grid the orders above Nyquist are only partly aliased, and the
+        # series runs on to them (the noise known or fixed by the first pass).
         highest = min(BEYOND_NYQUIST * nyquist, max(DEFAULT_MAX_ORDER_IRREGULAR, nyquist))
         regular_points = None
     if threshold_nats is None:
