@@ -19,7 +19,9 @@ Cases (each encoder fitted on its training run, 0:2:358 degrees, and tested on i
 - ``12bit``: the fleet+ encoders read by a 12-bit encoder (readings rounded to 360/4096 degrees);
 - ``jitter``: a jittered 5-degree grid (72 stops, each moved by up to ±1 degree) tested at 360
   random angles, on the fleet+ encoders' noise-free profiles plus the training run's noise level;
-- ``epoch``: the fleet+ encoders tested on their later epoch (``member.epoch2``) instead.
+- ``epoch``: the fleet+ encoders tested on their later epoch (``member.epoch2``) instead;
+- ``jitter+``: 32 more jittered cases, ``simulate_fleet(8, 7)`` and ``simulate_fleet(8, 11)`` with two
+  draws of the jitter each (the encoder's name, a letter for the member, the draw).
 
 Per encoder, test RMS divided by the test run's measurement floor for: ``np.interp`` of the
 training points (periodic), the CV-chosen Fourier series, the paper's top-10 series, the cubic
@@ -85,6 +87,11 @@ def cases(names):
         elif name == "jitter":
             for i, member in enumerate(fleet_plus):
                 yield name, member.name, _jitter_case(member, i)
+        elif name == "jitter+":
+            more = fleet_plus + list(simulate_fleet(8, 11))
+            for draw in (0, 1):
+                for i, member in enumerate(more):
+                    yield name, f"{member.name}{'abcdefghijklmnop'[i]}{draw}", _jitter_case(member, 5000 + 100 * draw + i)
 
 
 def _truth_function(member):
@@ -293,7 +300,7 @@ def background_bound(names, highest=90):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=["fleet", "fleet+"],
-                        choices=["fleet", "fleet+", "rough", "12bit", "jitter", "epoch"])
+                        choices=["fleet", "fleet+", "rough", "12bit", "jitter", "jitter+", "epoch"])
     parser.add_argument("--cv-auto", action="store_true", help="also the cross-validated auto (slow)")
     parser.add_argument("--scaling", action="store_true", help="only the fit time against n (and off a regular grid)")
     parser.add_argument("--background-bound", action="store_true",
