@@ -308,16 +308,22 @@ def test_cortex_m4f_table_stays_bit_exact_where_the_compiler_may_fuse_multiply_a
     assert_float_rule(run_c(tmp_path, FLOAT_DRIVER, np.float32, flags=GNU_FMA_FLAGS), summary["table"])
 
 
-@needs_arm
-@pytest.mark.parametrize("form, interpolation", [("table", "linear"), ("table", "cubic"), ("formula", None)])
-def test_cortex_m4f_object_fuses_no_multiply_add_in_a_gnu_dialect(tmp_path, form, interpolation):
+def m4f_object(tmp_path, form, interpolation, flags):
+    """The Fourier model's cortex-m4f C compiled for a Cortex-M4F with ``flags``: the object file's path."""
     write_target(model_path("fourier"), tmp_path, "cortex-m4f", prefix="enc", bits=BITS, form=form,
                  interpolation=interpolation)
     obj = tmp_path / "enc.o"
     built = subprocess.run([ARM_GCC, "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard",
-                            "-std=gnu11", "-O2", "-Wall", "-Wextra", "-Werror", "-c", str(tmp_path / "enc.c"),
-                            "-o", str(obj)], capture_output=True, text=True, timeout=120)
+                            *flags, "-c", str(tmp_path / "enc.c"), "-o", str(obj)],
+                           capture_output=True, text=True, timeout=120)
     assert built.returncode == 0, built.stderr
+    return obj
+
+
+@needs_arm
+@pytest.mark.parametrize("form, interpolation", [("table", "linear"), ("table", "cubic"), ("formula", None)])
+def test_cortex_m4f_object_fuses_no_multiply_add_in_a_gnu_dialect(tmp_path, form, interpolation):
+    obj = m4f_object(tmp_path, form, interpolation, ["-std=gnu11", "-O2", "-Wall", "-Wextra", "-Werror"])
     listing = subprocess.run([ARM_OBJDUMP, "-d", str(obj)], capture_output=True, text=True, check=True).stdout
     assert "vmul.f32" in listing
     assert not any(f"{op}.f32" in listing for op in ("vfma", "vfms", "vfnma", "vfnms"))
@@ -326,13 +332,7 @@ def test_cortex_m4f_object_fuses_no_multiply_add_in_a_gnu_dialect(tmp_path, form
 @needs_arm
 @pytest.mark.parametrize("form, interpolation", [("table", "linear"), ("table", "cubic"), ("formula", None)])
 def test_cortex_m4f_object_has_no_double_precision(tmp_path, form, interpolation):
-    write_target(model_path("fourier"), tmp_path, "cortex-m4f", prefix="enc", bits=BITS, form=form,
-                 interpolation=interpolation)
-    obj = tmp_path / "enc.o"
-    built = subprocess.run([ARM_GCC, "-mcpu=cortex-m4", "-mthumb", "-mfpu=fpv4-sp-d16", "-mfloat-abi=hard",
-                            *CFLAGS, "-c", str(tmp_path / "enc.c"), "-o", str(obj)],
-                           capture_output=True, text=True, timeout=120)
-    assert built.returncode == 0, built.stderr
+    obj = m4f_object(tmp_path, form, interpolation, CFLAGS)
     listing = subprocess.run([ARM_OBJDUMP, "-dr", str(obj)], capture_output=True, text=True, check=True).stdout
     assert "vcvt.f32.f64" not in listing and "f64" not in listing
     assert "__aeabi_d" not in listing  # software double helpers
