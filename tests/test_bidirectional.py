@@ -274,3 +274,29 @@ def test_directional_model_survives_save_and_load(tmp_path):
     for direction in (None, 1, -1):
         assert_allclose(loaded.predict(theta, return_std=True, direction=direction),
                         model.predict(theta, return_std=True, direction=direction), rtol=1e-12)
+
+
+# ---------------------------------------------------------------- the spectral model's posterior
+
+
+def test_auto_keeps_each_directions_posterior_with_uncertainty_true():
+    # encal.fit(..., uncertainty=True) on a bidirectional calibration used to stop with StopIteration:
+    # the evidence scheme's selection has no table row to refit from.
+    cal = bidirectional(np.arange(0.0, 360.0, 2.0), rng=6, noise=0.1)
+    model = encal.fit(cal, uncertainty=True, rng=0)
+    for part in (model.forward, model.reverse):
+        assert part.uncertainty["method"] == "posterior"
+        assert part.uncertainty["noise_std_arcmin"] == pytest.approx(0.1, rel=0.35)
+
+
+def test_spectral_mean_model_adds_the_half_reversal_once():
+    cal = bidirectional(np.arange(0.0, 360.0, 2.0), rng=7, noise=0.1)
+    model = encal.fit(cal, bidirectional="mean")
+    posterior_noise = encal.fit(mean_calibration(cal)).uncertainty["noise_std_arcmin"]
+    half = model.uncertainty["half_reversal_rms_arcmin"]
+    assert model.uncertainty["method"] == "posterior"
+    assert half == pytest.approx(REVERSAL / 2, rel=0.1)
+    assert model.uncertainty["noise_std_arcmin"] == pytest.approx(np.hypot(posterior_noise, half), rel=1e-12)
+    again = add_uncertainty(model, cal, rng=0)
+    assert again.uncertainty["noise_std_arcmin"] == pytest.approx(np.hypot(posterior_noise, half), rel=1e-12)
+    assert encal.fit(cal, bidirectional="mean", uncertainty=True, rng=0).uncertainty == model.uncertainty

@@ -93,6 +93,11 @@ def test_unknown_method_and_wrong_arguments():
      "The 'zero' parameter of evaluate must be one of 'auto', 'arbitrary', 'fixed'. Got 'none' instead."),
     (lambda cal: encal.error_stats(cal, zero=0),
      "The 'zero' parameter of error_stats must be one of 'auto', 'arbitrary', 'fixed'. Got 0 instead."),
+    (lambda cal: encal.fit(cal, method="lut", noise_arcmin=0.1),
+     "method 'lut' does not take the option(s) noise_arcmin; it takes: interpolation, max_entries"),
+    (lambda cal: encal.fit(cal, method="spectral", noise=0.1),
+     "method 'spectral' does not take the option(s) noise; it takes: noise_arcmin, max_order, threshold_nats, "
+     "path, progress"),
 ])
 def test_fit_and_evaluate_refuse_bad_parameters_in_one_sentence(call, message):
     with pytest.raises(InputError) as info:

@@ -103,6 +103,26 @@ def test_fft_and_fourier_feature_paths_agree():
                                by_features.predict(angles, return_std=True)[1], rtol=0, atol=1e-7)
 
 
+def test_the_nyquist_order_the_grid_cannot_see_counts_in_the_uncertainty():
+    # A pattern of order 90 on 180 stops at 1, 3, 5 ... degrees: its cosine is the alternation at the
+    # nodes (estimated, left out of the correction), its sine is zero at every node and ±0.4 at the
+    # midpoints, where a new reading meets it. The uncertainty holds both: the left-out cosine at the
+    # nodes, the sine's prior (the column's line) between them. It used to say 0.02 arcmin there.
+    theta = GRID + 1.0
+    phase = np.radians(90.0 * (theta - 1.0))
+    rng = np.random.default_rng(4)
+    error = line_profile(theta) + 0.5 * np.cos(phase) + rng.normal(0.0, 0.02, GRID.size)
+    model = fit_spectral(theta, error)
+    _, at_nodes = model.predict(theta, return_std=True, include_noise=False)
+    midpoints = theta + 1.0
+    _, between = model.predict(midpoints, return_std=True, include_noise=False)
+    assert np.all((at_nodes > 0.49) & (at_nodes < 0.53))
+    assert np.all((between > 0.4) & (between < 0.7))
+    fresh = line_profile(midpoints) + 0.4 * np.sin(np.radians(90.0 * (midpoints - 1.0)))
+    mean, std = model.predict(midpoints, return_std=True)
+    assert np.all(np.abs(fresh - mean) <= 2.0 * std)
+
+
 def test_the_nyquist_term_is_estimated_but_left_out_of_the_correction():
     # A step alternation (-1)^j at the nodes of a grid starting at 1 degree (a stepper's alternate full
     # steps): only cos(90 (θ - 1°)) can hold it, and between the nodes its value is unknown. It gets a

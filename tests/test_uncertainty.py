@@ -10,6 +10,7 @@ import encal
 from encal import Calibration, InputError, ModelFileError
 from encal.uncertainty import (
     add_uncertainty,
+    refit_spec,
     check_uncertainty,
     coverage,
     cross_validated_residuals,
@@ -292,3 +293,21 @@ def test_uncertainty_survives_save_and_load(tmp_path):
     loaded = encal.load_model(path)
     theta = np.linspace(-10.0, 370.0, 77)
     assert_allclose(loaded.predict(theta, return_std=True), model.predict(theta, return_std=True), rtol=1e-12)
+
+
+def test_add_uncertainty_keeps_the_spectral_posterior():
+    ref = np.arange(0.0, 360.0, 2.0)
+    noise = np.random.default_rng(3).normal(0.0, 0.2, ref.size)
+    cal = encal.Calibration(ref, ref + (np.sin(np.radians(ref)) + noise) / 60)
+    model = encal.fit(cal)
+    posterior = model.uncertainty
+    assert add_uncertainty(model, cal, rng=0).uncertainty is posterior
+
+
+@pytest.mark.parametrize("options, expected", [({"noise_arcmin": None, "networks": False}, {}),
+                                               ({"noise_arcmin": 0.2, "networks": False}, {"noise_arcmin": 0.2})])
+def test_refit_spec_of_auto_chosen_by_evidence_is_the_spectral_model(options, expected):
+    ref = np.arange(0.0, 360.0, 2.0)
+    cal = encal.Calibration(ref, ref + np.sin(np.radians(ref)) / 60)
+    model = encal.fit(cal, noise_arcmin=options["noise_arcmin"]) if options["noise_arcmin"] else encal.fit(cal)
+    assert refit_spec(model, "auto", model.training["fit_options"]) == ("spectral", expected)

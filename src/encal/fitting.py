@@ -7,6 +7,7 @@ model came from.
 """
 
 import hashlib
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,7 +27,7 @@ from .models import Model, kind_names, model_kind
 from .parameters import check_bool, check_choice, check_seed, check_type
 from .profile import (ZERO_MODES, ErrorStats, error_stats, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
                       zero_sentence)
-from .uncertainty import add_uncertainty, refit_spec
+from .uncertainty import add_uncertainty, has_posterior, refit_spec, with_half_reversal
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
 
@@ -140,6 +141,7 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     elif rng is not None and not uncertainty:
         raise InputError(f"method {method!r} draws no random numbers; rng must be None "
                          "(it seeds only the bootstrap of uncertainty=True)")
+    _check_options(method, fit_family, options)
     model = fit_family(cal.encoder_deg, cal.errors_arcmin, **options)
     model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
     model.training = {
@@ -234,6 +236,8 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
     if mode == "mean":
         model = _fit_one_direction(mean_calibration(cal), method, generator, options)
         model.training.update(record)
+        if has_posterior(model):
+            model.uncertainty = with_half_reversal(model.uncertainty, cal)
     else:
         parts = [_fit_one_direction(direction_subset(cal, sign), method, generator, options) for sign in (1, -1)]
         for part in parts:
@@ -246,6 +250,19 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
         model.training.setdefault("seed", int(rng))
     return model
 
+
+
+def _check_options(method, fit_family, options):
+    """Refuse an option the method's fit function does not take (one that takes ``**options`` checks its own)."""
+    parameters = inspect.signature(fit_family).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()):
+        return
+    accepted = [name for name, p in list(parameters.items())[2:]
+                if p.kind in (inspect.Parameter.KEYWORD_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        raise InputError(f"method {method!r} does not take the option(s) {', '.join(unknown)}; it takes: "
+                         f"{', '.join(accepted) or 'none'}")
 
 
 def _reversal_or_none(cal):

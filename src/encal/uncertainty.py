@@ -10,7 +10,9 @@ A model's prediction ``ε̂(θ)`` misses a new reading's error for two reasons:
 The predictive standard uncertainty of a new residual is ``sqrt(σ_model(θ)² + σ_noise²)``, and the expanded
 uncertainty of the corrected angle is ``U = k · std`` (``k = 2`` by default).
 
-How they are estimated (:func:`add_uncertainty`), with the same method and options as the model:
+The spectral model is Bayesian: its uncertainty is its posterior, made by the fit
+(:mod:`encal.models.spectral`), and :func:`add_uncertainty` keeps it. For every other family they are
+estimated by :func:`add_uncertainty`, with the same method and options as the model:
 
 1. A parametric bootstrap refits the model ``n_boot`` times to its own prediction plus Gaussian trial noise of
    size ``s``, each randomised refit (a network) from a new random start: the refits are an ensemble over
@@ -75,6 +77,8 @@ __all__ = [
     "cross_validated_residuals",
     "recorded_options",
     "refit_spec",
+    "has_posterior",
+    "with_half_reversal",
     "check_uncertainty",
 ]
 
@@ -170,7 +174,10 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
     Returns
     -------
     Model
-        The same model, with ``uncertainty`` set (see the module docstring for the data).
+        The same model, with ``uncertainty`` set (see the module docstring for the data). A model whose
+        uncertainty is its posterior (the spectral model, :func:`has_posterior`) keeps it: a bootstrap
+        would measure the spread of refits, not the posterior the model is made of. A model of the mean of
+        both directions of travel gets the half reversal value added to its noise either way.
 
     Raises
     ------
@@ -194,6 +201,8 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
     if has_both_directions(cal) or getattr(model, "kind", None) == "directional":
         return _add_bidirectional_uncertainty(model, cal, method=method, options=options, n_boot=n_boot,
                                              n_folds=n_folds, grid_step_deg=grid_step_deg, rng=rng)
+    if has_posterior(model):
+        return model
     model.uncertainty = estimate_uncertainty(
         model, cal.encoder_deg, cal.errors_arcmin, method=method, options=options, n_boot=n_boot,
         n_folds=n_folds, grid_step_deg=grid_step_deg, rng=rng)
@@ -452,22 +461,47 @@ def _add_bidirectional_uncertainty(model, cal, *, method=None, options=None, n_b
     if model.kind == "directional":
         require_directions(cal, "add_uncertainty of a directional model")
         for sign, part in ((1, model.forward), (-1, model.reverse)):
+            if has_posterior(part):
+                continue
             side = direction_subset(cal, sign)
             part_method, part_options = refit_spec(part, method or part.training.get("method"), options)
             part.uncertainty = estimate_uncertainty(
                 part, side.encoder_deg, side.errors_arcmin, method=part_method, options=part_options,
                 rng=generator, **settings)
         return model
-    analysis = reversal(cal)
-    mean = mean_calibration(cal)
-    mean_method, mean_options = refit_spec(model, method or model.training.get("method"), options)
-    uncertainty = estimate_uncertainty(model, mean.encoder_deg, mean.errors_arcmin, method=mean_method,
-                                       options=mean_options, rng=generator, **settings)
-    half_reversal = math.sqrt(float(np.mean(np.square(analysis.reversal_arcmin))) / 4.0)
-    uncertainty["half_reversal_rms_arcmin"] = half_reversal
-    uncertainty["noise_std_arcmin"] = math.hypot(uncertainty["noise_std_arcmin"], half_reversal)
-    model.uncertainty = uncertainty
+    if not has_posterior(model):
+        mean = mean_calibration(cal)
+        mean_method, mean_options = refit_spec(model, method or model.training.get("method"), options)
+        model.uncertainty = estimate_uncertainty(model, mean.encoder_deg, mean.errors_arcmin, method=mean_method,
+                                                 options=mean_options, rng=generator, **settings)
+    model.uncertainty = with_half_reversal(model.uncertainty, cal)
     return model
+
+
+def has_posterior(model):
+    """Whether ``model.uncertainty`` is the model's own posterior (the spectral model's), not a bootstrap."""
+    uncertainty = getattr(model, "uncertainty", None)
+    return isinstance(uncertainty, dict) and uncertainty.get("method") == "posterior"
+
+
+def with_half_reversal(uncertainty, cal):
+    """``uncertainty`` with the RMS half reversal value of ``cal`` added to its noise in quadrature.
+
+    For a model of the mean of both directions of travel: a new reading comes from one direction, unknown
+    to the model, and lies about half the reversal value ``B_i`` from the mean, ``sqrt(mean(B_i²) / 4)``
+    (arcmin) in RMS. Added once: an uncertainty that records ``half_reversal_rms_arcmin`` is returned as
+    it is.
+
+    Raises
+    ------
+    CalibrationError
+        If no target position of ``cal`` was approached in both directions.
+    """
+    if "half_reversal_rms_arcmin" in uncertainty:
+        return uncertainty
+    half_reversal = math.sqrt(float(np.mean(np.square(reversal(cal).reversal_arcmin))) / 4.0)
+    return {**uncertainty, "half_reversal_rms_arcmin": half_reversal,
+            "noise_std_arcmin": math.hypot(uncertainty["noise_std_arcmin"], half_reversal)}
 
 
 def refit_spec(model, method, options):
@@ -479,7 +513,10 @@ def refit_spec(model, method, options):
     selection = model.training.get("selection")
     if method != "auto" or selection is None:
         return method, dict(options)
-    chosen = next(row for row in selection["table"] if row["label"] == selection["chosen"])
+    chosen = next((row for row in selection["table"] if row["label"] == selection["chosen"]), None)
+    if chosen is None:  # the evidence scheme's spectral model, chosen without a table
+        noise = options.get("noise_arcmin")
+        return "spectral", {} if noise is None else {"noise_arcmin": noise}
     return chosen["family"], dict(chosen["options"])
 
 

@@ -454,12 +454,16 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     np.add.at(sin, orders, post.mean * np.sin(shifts))
     cos[0] += offset
     nyquist_term = 0.0
+    unseen = None
     if regular_points is not None and regular_points % 2 == 0:
         # Estimated, so that it is not counted as noise, but not part of the correction: between the
         # nodes its value is unknown (safeguard 3), and read in encoder angles its cosine leaks into
         # the midpoints. A stepper's alternate full steps (the reference's own error) land here.
         nyquist_term = math.hypot(cos[regular_points // 2], sin[regular_points // 2])
         cos[regular_points // 2] = sin[regular_points // 2] = 0.0
+        column = int(np.flatnonzero(orders == regular_points // 2)[0])
+        unseen = (regular_points // 2, float(shifts[column]), float(post.mean[column]),
+                  float(hyper.variances(design)[column]))
     kept, dropped_rms = _stored_orders(cos, sin, math.sqrt(hyper.noise_var))
     # blind, σ̂ is the flat level (all of it noise), the figure to hold against LSB/√12
     sigma = math.sqrt(hyper.noise_var) if first_pass is None else first_pass.training["noise"]["std_arcmin"]
@@ -491,7 +495,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         training["readings_resolution_bits"] = bits
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
     predictive_sigma = sigma if split is None else split["mean_noise_std_arcmin"]
-    model.uncertainty = _posterior_std(design, post, highest, predictive_sigma)
+    model.uncertainty = _posterior_std(design, post, highest, predictive_sigma, unseen)
     _advance(progress)
     return model
 
@@ -608,8 +612,14 @@ def _stored_orders(cos, sin, sigma):
     return kept, dropped
 
 
-def _posterior_std(design, post, highest, sigma):
-    """The model file's uncertainty: posterior std of the profile on a uniform grid, and the noise."""
+def _posterior_std(design, post, highest, sigma, nyquist=None):
+    """The model file's uncertainty: posterior std of the profile on a uniform grid, and the noise.
+
+    ``nyquist``: ``(order, shift, value, prior variance)`` of a regular grid's Nyquist column, left out
+    of the correction (safeguard 3). The profile then misses ``value · cos(order θ - shift)``, known, and
+    the sine of that order, which the grid cannot see and which has the column's prior variance: both
+    count in the model's uncertainty, ``value² cos² + prior sin²``, the second between the nodes.
+    """
     points = int(min(max(360, 4 * highest), _STD_GRID_LIMIT))
     theta = 2.0 * math.pi * np.arange(points) / points
     if design.diagonal:
@@ -625,6 +635,10 @@ def _posterior_std(design, post, highest, sigma):
         terms = np.zeros(points, dtype=complex)
         np.add.at(terms, design.orders % points, deviation * np.exp(-1j * design.shifts))
         variance = variance + np.real(np.fft.ifft(terms) * points) ** 2
+    if nyquist is not None:
+        order, shift, value, prior = nyquist
+        phase = order * theta - shift
+        variance = variance + value**2 * np.cos(phase) ** 2 + prior * np.sin(phase) ** 2
     return {
         "method": "posterior",
         "grid_step_deg": 360.0 / points,
