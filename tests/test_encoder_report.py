@@ -103,6 +103,18 @@ def test_a_bidirectional_run_shows_the_reversal_with_a_direction_column(tmp_path
     assert float(value.group(1)) == pytest.approx(1.0, abs=1e-6)
 
 
+def test_a_bidirectional_run_reports_with_the_default_model_and_its_uncertainty(tmp_path, capsys):
+    # auto with its uncertainty on a direction column used to stop with a StopIteration traceback
+    ref = np.tile(np.arange(0.0, 360.0, 2.0), 2)
+    direction = np.repeat([1, -1], 180)
+    cal = Calibration(ref, ref + (shape_arcmin(ref) + 0.5 * direction) / 60.0, direction=direction, name="table")
+    out = tmp_path / "table.html"
+    assert main(["report", str(write(tmp_path, cal)), "-o", str(out), "--no-comparison"]) == 0
+    assert "Traceback" not in capsys.readouterr().err
+    page = out.read_text(encoding="utf-8")
+    assert "its 95 % band for a new reading" in page and "reverse (-1)" in page
+
+
 def test_the_model_is_the_one_encal_fit_makes(tmp_path, capsys):
     path = write(tmp_path, stepper(0.0, 3, "small"))
     fitted, reported = tmp_path / "fit.json", tmp_path / "report.json"
