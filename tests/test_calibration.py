@@ -123,6 +123,70 @@ def test_conflicting_duplicates_refused_or_averaged(write_csv):
     assert_allclose(cal.encoder_deg[i], (4.0 + 0.01 * np.sin(np.radians(4.0)) + 4.02) / 2)
 
 
+def _rows(reference, encoder, labels=None, header="reference_deg,encoder_deg"):
+    """CSV text of the given rows (``labels``: an extra last column, named in ``header``)."""
+    cells = zip(reference, encoder, labels if labels is not None else [None] * len(reference))
+    return header + "\n" + "".join(f"{float(r)!r},{float(e)!r}" + (f",{x}" if x is not None else "") + "\n"
+                                    for r, e, x in cells)
+
+
+def _noisy(reference, seed=0):
+    """Readings of the grid_csv profile with 0.1 arcmin of noise (degrees)."""
+    noise = np.random.default_rng(seed).normal(0.0, 0.1 / 60.0, np.size(reference))
+    return np.asarray(reference) + 0.01 * np.sin(np.radians(reference)) + noise
+
+
+GRID = np.arange(0.0, 360.0, 2.0)
+
+
+@pytest.mark.parametrize("reference", [np.repeat(GRID, 3), np.tile(GRID, 2),
+                                       np.tile(np.random.default_rng(1).permutation(GRID), 3)],
+                         ids=["three-in-a-row", "two-passes", "three-passes-in-a-shuffled-order"])
+def test_the_same_number_of_readings_at_every_stop_is_read_as_repeated_readings(write_csv, reference):
+    cal = read_calibration(write_csv(_rows(reference, _noisy(reference))))
+    assert len(cal) == reference.size
+    assert_array_equal(cal.reference_deg, reference)
+    # --average-duplicates still averages them
+    assert len(read_calibration(write_csv(_rows(reference, _noisy(reference))), duplicates="average")) == 180
+
+
+@pytest.mark.parametrize("reference", [
+    np.r_[GRID, 10.0],                          # a stray repeated row
+    np.r_[np.repeat(GRID, 3), 10.0],            # four readings at one stop, three at the others
+    np.r_[GRID, GRID[::-1]],                    # there and back: a second direction of travel
+    np.r_[np.repeat(GRID[:90], 2), GRID[90:]],  # half the stops read twice
+], ids=["stray", "one-count-differs", "there-and-back", "half-the-stops"])
+def test_repeats_without_a_deliberate_pattern_are_refused(write_csv, reference):
+    path = write_csv(_rows(reference, _noisy(reference)))
+    message = _refused(path, "appears more than once with different readings")
+    assert "or the same number at every angle" in message
+    assert "use --keep-duplicates to keep them as repeated readings of one stop" in message
+    assert len(read_calibration(path, duplicates="keep")) == reference.size
+
+
+def test_repeats_are_judged_within_each_epoch(write_csv):
+    reference = np.r_[np.repeat(GRID, 2), GRID]
+    labels = ["a"] * 360 + ["b"] * 180
+    text = _rows(reference, _noisy(reference), labels, header="reference_deg,encoder_deg,epoch")
+    assert len(read_calibration(write_csv(text))) == 540
+    # a stray repeat in epoch b is still refused
+    reference = np.r_[reference, 10.0]
+    text = _rows(reference, _noisy(reference), labels + ["b"], header="reference_deg,encoder_deg,epoch")
+    _refused(write_csv(text), "reference angle 10 deg appears more than once")
+
+
+def test_is_repeated_stops():
+    from encal.calibration import is_repeated_stops
+
+    assert is_repeated_stops(np.repeat(GRID, 2))
+    assert is_repeated_stops(np.tile(GRID, 4) + 360.0)  # angles wrap
+    assert not is_repeated_stops(GRID)  # nothing repeated
+    assert not is_repeated_stops(np.r_[GRID, GRID[::-1]])
+    runs = np.r_[np.zeros(360, int), np.ones(360, int)]
+    assert is_repeated_stops(np.r_[np.tile(GRID, 2), np.repeat(GRID, 2)], runs)
+    assert not is_repeated_stops(np.r_[np.tile(GRID, 2), np.repeat(GRID, 2)])  # one run: no pattern
+
+
 def test_identical_duplicates_kept(write_csv):
     text = grid_csv()
     repeat = text.splitlines()[3]

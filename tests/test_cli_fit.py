@@ -144,3 +144,81 @@ def test_fit_of_a_csv_with_a_direction_column_corrects_each_direction(tmp_path, 
     assert model.kind == "directional"
     assert float(model.predict(ref[0] + error[0] / 60.0, direction=1)) == pytest.approx(error[0], abs=1e-3)
     assert float(model.predict(ref[-1] + error[-1] / 60.0, direction=-1)) == pytest.approx(error[-1], abs=1e-3)
+
+
+# ---------------------------------------------------------------- repeated readings and --repeat
+
+def _pass(path, reference, seed, shift_arcmin=0.0, sign=1, direction=None):
+    """A calibration run with 0.1 arcmin of noise; ``sign=-1`` writes an encoder that counts backwards."""
+    theta = np.radians(reference)
+    error = (1.2 * np.sin(theta + 0.4) + 0.5 * np.cos(2 * theta) + shift_arcmin
+             + np.random.default_rng(seed).normal(0.0, 0.1, reference.size))
+    encal.write_calibration(path, encal.Calibration(reference, sign * (reference + error / 60.0), direction=direction))
+    return path
+
+
+GRID = np.arange(0.0, 360.0, 2.0)
+
+
+def test_fit_takes_the_noise_from_three_readings_at_every_stop(tmp_path, capsys):
+    path = _pass(tmp_path / "three.csv", np.repeat(GRID, 3), seed=1)
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--method", "spectral"]) == 0
+    assert "prior: noise from repeated readings at the same reference angle" in capsys.readouterr().out
+    noise = encal.load_model(tmp_path / "m.json").training["noise"]
+    assert noise["source"] == "repeated readings"
+    assert noise["std_arcmin"] == pytest.approx(0.1, rel=0.1)
+
+
+def test_fit_keeps_irregular_repeats_only_when_asked(tmp_path, capsys):
+    path = _pass(tmp_path / "some.csv", np.r_[GRID, GRID[:60]], seed=2)  # a third of the stops read twice
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--method", "spectral"]) == 1
+    assert "use --keep-duplicates to keep them as repeated readings" in capsys.readouterr().err
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--method", "spectral", "--keep-duplicates"]) == 0
+    assert encal.load_model(tmp_path / "m.json").training["noise"]["source"] == "repeated readings"
+    with pytest.raises(SystemExit) as info:
+        main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--keep-duplicates", "--average-duplicates"])
+    assert info.value.code == 2
+
+
+def test_a_repeat_pass_on_another_grid_is_refused(tmp_path, capsys):
+    first, other = _pass(tmp_path / "a.csv", GRID, seed=3), _pass(tmp_path / "b.csv", GRID + 1.0, seed=4)
+    assert main(["fit", str(first), "-o", str(tmp_path / "m.json"), "--repeat", str(other)]) == 1
+    err = capsys.readouterr().err
+    assert err == (f"encal fit: error: --repeat {other}: 180 of its 180 stops (1, 3, 5, ... deg) are not stops of "
+                   f"{first}; expected a second pass over the same reference angles (within 1e-9 deg), since only "
+                   "readings at the same angle measure the noise (give a known noise with --noise, or fit the other "
+                   "grid on its own)\n")
+    fewer = _pass(tmp_path / "c.csv", GRID[:-1], seed=4)
+    assert main(["fit", str(first), "-o", str(tmp_path / "m.json"), "--repeat", str(fewer)]) == 1
+    assert f"--repeat {fewer}: it lacks 1 of the 180 stops of {first} (358 deg)" in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_a_repeat_pass_at_another_zero_is_refused(tmp_path, capsys):
+    first = _pass(tmp_path / "a.csv", GRID, seed=3)
+    moved = _pass(tmp_path / "b.csv", GRID, seed=4, shift_arcmin=0.5)  # 0.5 arcmin against 0.14 of scatter
+    assert main(["fit", str(first), "-o", str(tmp_path / "m.json"), "--repeat", str(moved)]) == 1
+    err = capsys.readouterr().err
+    assert f"--repeat {moved}: its readings are +0.5" in err and f"off those of {first}" in err
+    assert "so the zero moved between the passes" in err and "encal drift" in err
+    same = _pass(tmp_path / "c.csv", GRID, seed=5)
+    assert main(["fit", str(first), "-o", str(tmp_path / "m.json"), "--repeat", str(same)]) == 0
+
+
+def test_a_repeat_pass_keeps_the_reading_sign_and_the_direction(tmp_path, capsys):
+    first, second = (_pass(tmp_path / f"{n}.csv", GRID, seed=n, sign=-1) for n in (1, 2))
+    assert main(["fit", str(first), "-o", str(tmp_path / "m.json"), "--repeat", str(second), "--reverse",
+                 "--method", "spectral"]) == 0
+    model = encal.load_model(tmp_path / "m.json")
+    assert model.reading_sign == -1
+    cal = encal.read_calibration(first, reverse=True)
+    assert encal.evaluate(model, cal).after.rms < 0.15  # 1.57 arcmin when the combined passes lost the sign
+    both = np.tile(GRID, 2)
+    direction = np.repeat([1, -1], GRID.size)
+    with_direction = _pass(tmp_path / "d.csv", both, seed=3, direction=direction)
+    plain = _pass(tmp_path / "p.csv", GRID, seed=6)
+    assert main(["fit", str(with_direction), "-o", str(tmp_path / "d.json"), "--repeat", str(plain)]) == 1
+    assert f"{with_direction} has a direction column but {plain} has none" in capsys.readouterr().err
+    again = _pass(tmp_path / "e.csv", both, seed=4, direction=direction)
+    assert main(["fit", str(with_direction), "-o", str(tmp_path / "d.json"), "--repeat", str(again)]) == 0
+    assert encal.load_model(tmp_path / "d.json").kind == "directional"

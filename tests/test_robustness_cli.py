@@ -95,6 +95,11 @@ def _make_files(folder):
         "bad_bits": "# resolution_bits: 99\n" + good,
         "seven_points": _csv_text(GRID_TRAIN[::26][:7], GRID_TRAIN[::26][:7]),
         "duplicate": good + "10.0,10.5\n",
+        # Three readings at every stop, one after another: a repeated-readings calibration, read without a flag.
+        "repeated": _csv_text(np.repeat(GRID_TRAIN, 3), np.repeat(encoder, 3)
+                              + np.random.default_rng(0).normal(0.0, 0.1, 3 * GRID_TRAIN.size) / 60.0),
+        # The training pass with its zero moved by 79.2 degrees (a motor's repeat, docs/drift.md).
+        "shifted": _good_csv(offset_deg=79.2),
         "radians": _csv_text(np.radians(GRID_TRAIN), np.radians(encoder)),
         "reversed": _csv_text(GRID_TRAIN, -encoder),
         "gap": _csv_text(GRID_TRAIN[GRID_TRAIN < 300], encoder[GRID_TRAIN < 300]),
@@ -312,6 +317,12 @@ CASES = [
     # The repeat of 10 degrees reads 30 arcmin off the first: averaged on request, and named as a misread.
     Case("profile-duplicates-averaged", ("profile", "{duplicate}", "--average-duplicates"), 0,
          prints=("180 points",), warns=("line 182 (encoder 10.500 deg)", "misread")),
+    # Kept as repeated readings on request: 181 points.
+    Case("profile-duplicates-kept", ("profile", "{duplicate}", "--keep-duplicates"), 0,
+         prints=("181 points",), warns=("line 182 (encoder 10.500 deg)", "misread")),
+    Case("profile-duplicates-kept-and-averaged", ("profile", "{duplicate}", "--keep-duplicates",
+                                                  "--average-duplicates"), 2),
+    Case("profile-repeated-readings-accepted", ("profile", "{repeated}"), 0, prints=("540 points",)),
     Case("profile-reversed-accepted", ("profile", "{reversed}", "--reverse"), 0),
     Case("profile-gap-accepted", ("profile", "{gap}", "--allow-gaps"), 0),
     Case("profile-radians-accepted-with-warning", ("profile", "{radians}", "--allow-gaps", "--json"), 0,
@@ -329,6 +340,15 @@ CASES = [
     Case("fit-duplicates-averaged", ("fit", "{duplicate}", "-o", "{scratch}/avg.json", "--method", "lut",
                                      "--average-duplicates"), 0, prints=("180 points",),
          warns=("line 182 (encoder 10.500 deg)", "misread")),
+    Case("fit-repeated-readings-accepted", ("fit", "{repeated}", "-o", "{scratch}/rep.json", "--method", "spectral"),
+         0, prints=("540 points", "prior: noise from repeated readings")),
+    Case("fit-duplicates-kept-and-averaged", ("fit", "{duplicate}", "-o", "{out}/m.json", "--keep-duplicates",
+                                              "--average-duplicates"), 2),
+    # A repeat pass on another grid, or at another zero, is no repeat.
+    Case("fit-repeat-on-another-grid", ("fit", "{train}", "-o", "{out}/m.json", "--repeat", "{test}"), 1,
+         ("--repeat", "test.csv", "180 of its 180 stops", "are not stops of", "train.csv")),
+    Case("fit-repeat-at-another-zero", ("fit", "{train}", "-o", "{out}/m.json", "--repeat", "{shifted}"), 1,
+         ("--repeat", "shifted.csv", "+79.2 deg", "train.csv", "zero moved")),
     Case("fit-reversed-accepted", ("fit", "{reversed}", "-o", "{scratch}/rev.json", "--method", "fourier",
                                    "--reverse"), 0),
     Case("fit-output-folder-missing", ("fit", "{train}", "-o", "{nodir}/m.json"), 1, ("does not exist",)),
@@ -382,6 +402,8 @@ CASES = [
     Case("evaluate-model-is-a-csv", ("evaluate", "{train}", "{test}"), 1, ("train.csv", "JSON")),
     Case("evaluate-model-is-a-folder", ("evaluate", "{out}", "{test}"), 1, ("out",)),
     Case("evaluate-one-argument", ("evaluate", "{model}"), 2),
+    Case("evaluate-repeated-readings-accepted", ("evaluate", "{model}", "{repeated}", "--json"), 0,
+         prints=('"n": 540',)),
     # ---------------------------------------------------------------- correct
     Case("correct-model-missing", ("correct", "{out}/none.json", "{angles_ok}"), 1, ("none.json",)),
     Case("correct-model-not-json", ("correct", "{not_json}", "{angles_ok}"), 1, ("not_json.json", "JSON")),

@@ -77,6 +77,14 @@ def test_not_full_steps_is_refused():
         step_errors(cal, "x.csv")
 
 
+def test_repeated_readings_at_the_full_steps_are_named_as_such():
+    reference = np.repeat(np.arange(0, 360, 1.8), 2)
+    cal = Calibration(reference, reference + np.tile([0.0, 0.01], 200))
+    with pytest.raises(InputError, match=r"x.csv: has 400 readings at 200 reference angles; expected one reading per "
+                                         r"full step \(--average-duplicates"):
+        step_errors(cal, "x.csv")
+
+
 @pytest.mark.skipif(not REAL.is_dir(), reason="real data not found")
 def test_real_repeats_of_one_board_are_recognised_as_repeats():
     with warnings.catch_warnings():

@@ -10,7 +10,8 @@ from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap
 from .errors import CalibrationError, EncalWarning
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
 
-__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution"]
+__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution",
+           "is_repeated_stops"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -252,9 +253,12 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         otherwise.
     duplicates : {'refuse', 'average', 'keep'}, default='refuse'
         What to do with repeated reference angles whose readings disagree (points of one direction and
-        epoch). Identical repeats are always kept as they are. A file that is plainly a log of several
-        revolutions (:func:`is_multi_revolution`) keeps its repeats as repeated readings unless
-        ``'average'`` is asked for.
+        epoch). Identical repeats are always kept as they are. ``'keep'`` keeps every repeat as a
+        repeated reading of its stop (the spectral model takes the noise from their scatter). A file that
+        is plainly a log of several revolutions (:func:`is_multi_revolution`) keeps its repeats as
+        repeated readings unless ``'average'`` is asked for, and so does a run (points of one direction
+        and epoch) with the same number of readings at every stop, in a row or in passes
+        (:func:`is_repeated_stops`); a stray repeat elsewhere is still refused.
     reference_column, encoder_column : str or int, default='reference_deg', 'encoder_deg'
         The columns of the reference and the encoder angle: a header name (any letter case) or a
         column number from 1. With numbers for both, a file whose first row is numbers has no header.
@@ -362,7 +366,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     rows = cal
     if duplicates == "refuse" and is_multi_revolution(reference):
         duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
-    cal = _check_duplicates(path, cal, duplicates, first_data_line=data[0][0])
+    # k readings at every stop of a run: repeated readings; a stray repeat in another run is still refused
+    repeated = _repeat_pattern(cal.reference_deg, _runs(cal))[0] if duplicates == "refuse" else None
+    cal = _check_duplicates(path, cal, duplicates, first_data_line=data[0][0], repeated=repeated)
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
     _check_coverage(path, cal, allow_gaps)
@@ -532,7 +538,74 @@ def is_multi_revolution(reference_deg):
     return bool(one_way and abs(turned[-1] - turned[0]) >= 540.0)
 
 
-def _check_duplicates(path, cal, duplicates, first_data_line):
+def is_repeated_stops(reference_deg, runs=None):
+    """Whether reference angles, in file order, are the same number of readings at every stop.
+
+    True when, within each run (``runs``: a label per point, e.g. of its direction and epoch; one run
+    by default), the reference angles are k >= 2 copies of one sequence of distinct stops, either each
+    stop k times in a row (``0, 0, 0, 2, 2, 2, ...``) or the whole sequence k times over
+    (``0, 2, ..., 358, 0, 2, ..., 358``, the stops in the same order in every pass), with at least one
+    run so repeated and the others without repeats. Angles are the same stop when equal to 1e-9 degree
+    (as :func:`read_calibration` compares them). Such a file is a deliberate repeated-readings
+    calibration, and its repeats are the noise of one reading; a stray repeated row, a different count
+    at some stops, or a pass back in the reverse order (a second direction of travel, whose hysteresis
+    is not noise) is not.
+
+    Parameters
+    ----------
+    reference_deg : array-like of shape (n,)
+        Reference angles in degrees, in file order.
+    runs : array-like of shape (n,), optional
+        Label of each point's run; the pattern is checked within each run.
+
+    Examples
+    --------
+    >>> is_repeated_stops(np.repeat(np.arange(0.0, 360.0, 2.0), 3))
+    True
+    >>> is_repeated_stops(np.tile(np.arange(0.0, 360.0, 2.0), 2))
+    True
+    >>> is_repeated_stops(np.r_[np.arange(0.0, 360.0, 2.0), 10.0])
+    False
+    """
+    repeated, irregular = _repeat_pattern(reference_deg, runs)
+    return bool(repeated.any() and not irregular.any())
+
+
+def _repeat_pattern(reference_deg, runs=None):
+    """``(repeated, irregular)``, masks over the points: those of runs that follow the pattern of
+    :func:`is_repeated_stops` with k >= 2, and those of runs with repeats that do not."""
+    keys = np.round(wrap360(np.asarray(reference_deg, dtype=float).reshape(-1)), 9)
+    runs = np.zeros(keys.size, dtype=int) if runs is None else np.asarray(runs).reshape(-1)
+    repeated, irregular = np.zeros(keys.size, dtype=bool), np.zeros(keys.size, dtype=bool)
+    for run in np.unique(runs):
+        members = runs == run
+        sequence = keys[members]
+        stops, counts = np.unique(sequence, return_counts=True)
+        if counts.max() == 1:
+            continue
+        k = int(counts[0])
+        regular = counts.min() == counts.max()
+        if regular:
+            in_a_row, passes = sequence.reshape(stops.size, k), sequence.reshape(k, stops.size)
+            regular = bool(np.all(in_a_row == in_a_row[:, :1]) or np.all(passes == passes[:1]))
+        (repeated if regular else irregular)[members] = True
+    return repeated, irregular
+
+
+def _runs(cal):
+    """A label per point of its run (direction and epoch), or None for a calibration of one run."""
+    if cal.direction is None and cal.epoch is None:
+        return None
+    runs = np.zeros(len(cal), dtype=int)
+    for labels in (cal.direction, cal.epoch):
+        if labels is not None:
+            runs = runs * (len(cal) + 1) + np.unique(labels, return_inverse=True)[1].reshape(-1)
+    return runs
+
+
+def _check_duplicates(path, cal, duplicates, first_data_line, repeated=None):
+    """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
+    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept."""
     if duplicates == "keep":
         return cal
     keys = np.round(cal.reference_deg, 9)
@@ -548,7 +621,8 @@ def _check_duplicates(path, cal, duplicates, first_data_line):
         key = tuple(g[index] for g in groups)
         if key in seen:
             first = seen[key][0]
-            if abs(wrap180(cal.encoder_deg[index] - cal.encoder_deg[first])) > 1e-9:
+            if abs(wrap180(cal.encoder_deg[index] - cal.encoder_deg[first])) > 1e-9 and not (
+                    repeated is not None and repeated[index]):
                 conflicts.append((first, index))
             seen[key].append(index)
         else:
@@ -560,8 +634,9 @@ def _check_duplicates(path, cal, duplicates, first_data_line):
         raise CalibrationError(
             f"{path}: reference angle {cal.reference_deg[index]:g} deg appears more than once with "
             f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, data rows "
-            f"{first + 1} and {index + 1}); expected one reading per reference angle "
-            "(use --average-duplicates to average them)")
+            f"{first + 1} and {index + 1}); expected one reading per reference angle, or the same number at "
+            "every angle (use --keep-duplicates to keep them as repeated readings of one stop, "
+            "--average-duplicates to average them)")
     keep, encoder = [], []
     for indices in seen.values():
         keep.append(indices[0])

@@ -18,8 +18,13 @@ def add_calibration_options(parser):
                         help="accept a calibration with a coverage gap over 30 degrees")
     parser.add_argument("--reverse", action="store_true",
                         help="the encoder counts against the reference: negate its angles")
-    parser.add_argument("--average-duplicates", action="store_true",
-                        help="average repeated reference angles instead of refusing them")
+    duplicates = parser.add_mutually_exclusive_group()
+    duplicates.add_argument("--average-duplicates", dest="duplicates", action="store_const", const="average",
+                            default="refuse", help="average repeated reference angles instead of refusing them")
+    duplicates.add_argument("--keep-duplicates", dest="duplicates", action="store_const", const="keep",
+                            help="keep repeated reference angles as repeated readings of one stop (their scatter "
+                                 "is the noise of one reading); a file with the same number of readings at every "
+                                 "angle, or a log of several turns, is read so without it")
     parser.add_argument("--ref-col", metavar="NAME", default="reference_deg",
                         help="the reference column: its header name or number from 1 (default reference_deg)")
     parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg",
@@ -64,7 +69,7 @@ def read_calibration_from_args(path, args):
         path,
         allow_gaps=getattr(args, "allow_gaps", False),
         reverse=getattr(args, "reverse", False),
-        duplicates="average" if getattr(args, "average_duplicates", False) else "refuse",
+        duplicates=getattr(args, "duplicates", "refuse"),
         resolution_bits=getattr(args, "bits", None),
         reference_column=getattr(args, "ref_col", "reference_deg"),
         encoder_column=getattr(args, "enc_col", "encoder_deg"),

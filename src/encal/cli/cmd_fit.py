@@ -25,8 +25,10 @@ def add_arguments(parser):
     parser.add_argument("--noise", type=_positive_float, metavar="ARCMIN",
                         help="standard deviation of one reading's noise in arc-minutes, if known (spectral, auto)")
     parser.add_argument("--repeat", metavar="CAL2.csv",
-                        help="a second pass over the same reference angles: fitted together with the first, "
-                             "the noise is estimated from the two readings at each angle (spectral, auto)")
+                        help="a second pass over the same reference angles at the same zero: fitted together "
+                             "with the first, the noise is estimated from the two readings at each angle; a pass "
+                             "on other angles or shifted by more than the readings' scatter is refused "
+                             "(spectral, auto)")
     parser.add_argument("--hidden", type=size_option("hidden"), help="hidden nodes of the network (ann)")
     parser.add_argument("--algorithm", help="training algorithm of the network, MATLAB's name (ann)")
     parser.add_argument("--encoding", choices=["raw", "periodic"],
@@ -179,14 +181,102 @@ def _choose_deployment(model, args):
 
 
 def _with_repeat(cal, second):
-    """Both passes as one calibration, each pass an epoch of its own."""
+    """Both passes as one calibration, each pass an epoch of its own.
+
+    ``second`` must be a second pass at the same stops as ``cal`` (see :func:`_check_same_stops`) and at the same
+    zero (see :func:`_check_same_zero`); otherwise its readings are no repeats and the noise drawn from them is wrong.
+    """
     import numpy as np
 
     from ..calibration import Calibration
+    from ..errors import InputError
 
+    _check_same_stops(cal, second)
+    _check_same_zero(cal, second)
+    if (cal.direction is None) != (second.direction is None):
+        has, lacks = (cal, second) if cal.direction is not None else (second, cal)
+        raise InputError(f"{has.source} has a direction column but {lacks.source} has none; expected both passes "
+                         "with the direction of travel of every reading, or neither")
+    direction = None if cal.direction is None else np.r_[cal.direction, second.direction]
+    passes = [np.full(len(c), label) if c.epoch is None else np.char.add(f"{label}/", c.epoch)
+              for label, c in (("1", cal), ("2", second))]
     return Calibration(np.r_[cal.reference_deg, second.reference_deg], np.r_[cal.encoder_deg, second.encoder_deg],
-                       epoch=np.r_[np.full(len(cal), "1"), np.full(len(second), "2")], name=cal.name,
-                       resolution_bits=cal.resolution_bits or second.resolution_bits, source=cal.source)
+                       direction=direction, epoch=np.r_[passes[0], passes[1]], name=cal.name,
+                       resolution_bits=cal.resolution_bits or second.resolution_bits, source=cal.source,
+                       reading_sign=cal.reading_sign)
+
+
+def _check_same_stops(cal, second):
+    """Refuse a repeat pass whose reference angles are not the stops of the calibration.
+
+    Only readings at one reference angle (within :data:`encal.profile.ANGLE_TOLERANCE_DEG`, 1e-9 degree, as the
+    spectral model groups them) are repeats; a pass on another grid
+    (the test grid 1, 3, ..., 359 degrees against the training grid 0, 2, ..., 358) would be fitted as more stops
+    of one calibration and its noise taken blind, under a message that says a repeat was given.
+    """
+    import numpy as np
+
+    from ..angles import wrap180
+    from ..errors import InputError
+    from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles
+
+    stops = [distinct_angles(c.reference_deg)[0] for c in (cal, second)]
+
+    def missing(these, those):
+        """The angles of ``these`` farther than the tolerance from every angle of ``those``."""
+        index = np.searchsorted(those, these) % those.size
+        near = np.minimum(np.abs(wrap180(these - those[index])), np.abs(wrap180(these - those[index - 1])))
+        return these[near > ANGLE_TOLERANCE_DEG]
+
+    extra, lacking = missing(stops[1], stops[0]), missing(stops[0], stops[1])
+    if extra.size or lacking.size:
+        which = (f"{extra.size} of its {stops[1].size} stops ({_angles(extra)}) are not stops of {cal.source}"
+                 if extra.size else
+                 f"it lacks {lacking.size} of the {stops[0].size} stops of {cal.source} ({_angles(lacking)})")
+        raise InputError(f"--repeat {second.source}: {which}; expected a second pass over the same reference angles "
+                         "(within 1e-9 deg), since only readings at the same angle measure the noise "
+                         "(give a known noise with --noise, or fit the other grid on its own)")
+
+
+def _angles(values, shown=3):
+    """'1, 3, 5, ... deg' for a message."""
+    text = ", ".join(f"{v:g}" for v in values[:shown])
+    return text + (", ..." if values.size > shown else "") + " deg"
+
+
+def _check_same_zero(cal, second):
+    """Refuse a repeat pass whose readings are shifted from the calibration's by more than their scatter.
+
+    A shift ``d`` between the passes adds ``d**2 / 2`` to the variance the repeats give, so the noise estimate would
+    be mostly the shift when ``|d|`` exceeds the scatter of the differences. A reference whose zero is arbitrary (a
+    motor's full steps counted from power-on, docs/drift.md) moves its zero between passes by degrees: its readings
+    at one reference angle are then at different shaft positions and not repeats at all. ``encal drift`` is the
+    command that compares such calibrations, removing the change of zero.
+    """
+    import numpy as np
+
+    from ..angles import ARCMIN_PER_DEG, wrap180
+    from ..errors import InputError
+    from ..profile import distinct_angles
+
+    reference = np.r_[cal.reference_deg, second.reference_deg]
+    _, group = distinct_angles(reference)
+    stops = int(group.max()) + 1
+    first, other = group[:len(cal)], group[len(cal):]
+    base = cal.encoder_deg[0] - cal.reference_deg[0]
+    means = []
+    for members, c in ((first, cal), (other, second)):
+        offset = wrap180(c.encoder_deg - c.reference_deg - base)
+        means.append(np.bincount(members, weights=offset, minlength=stops) / np.bincount(members, minlength=stops))
+    difference = (means[1] - means[0]) * ARCMIN_PER_DEG
+    shift = float(difference.mean())
+    scatter = float(difference.std(ddof=1))
+    if abs(shift) > scatter and abs(shift) > 4.0 * scatter / np.sqrt(stops):
+        raise InputError(f"--repeat {second.source}: its readings are {shift:+.4g} arcmin ({shift / 60:+.4g} deg) off "
+                         f"those of {cal.source} at the same reference angles on average, more than the scatter of "
+                         f"the differences ({scatter:.3g} arcmin), so the zero moved between the passes; expected a "
+                         "second pass at the same zero, whose readings differ by noise only (a motor's zero is "
+                         "arbitrary: compare such passes with 'encal drift', which removes the change of zero)")
 
 
 def _held_out_line(model, cal, method, options):

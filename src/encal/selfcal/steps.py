@@ -21,6 +21,7 @@ import numpy as np
 from ..angles import ARCMIN_PER_DEG, wrap180
 from ..errors import InputError
 from ..parameters import check_int, check_number
+from ..profile import distinct_angles
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 
@@ -53,6 +54,10 @@ def step_errors(cal, where=None):
     """
     where = where or cal.source or cal.name or "calibration"
     n = len(cal)
+    stops = distinct_angles(cal.reference_deg)[0].size
+    if stops < n:
+        raise InputError(f"{where}: has {n} readings at {stops} reference angles; expected one reading per full "
+                         "step (--average-duplicates averages repeated readings)")
     if n < 16 or n % 4:
         raise InputError(f"{where}: has {n} full steps; expected a whole revolution of full steps, a multiple of 4 "
                          "(200 for a 1.8 deg stepper)")
