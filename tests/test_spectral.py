@@ -572,6 +572,29 @@ def test_cli_blind_fit_states_the_prior_and_sigma_against_the_quantisation(tmp_p
     out = capsys.readouterr().out
     assert f"prior: {BLIND_PRIOR}" in out
     assert "sigma / (LSB/sqrt(12)) = " in out and "(16-bit encoder)" in out
+    sigma = encal.load_model(tmp_path / "m.json").training["noise"]["std_arcmin"]
+    ratio = sigma / (21600.0 / 2**16 / math.sqrt(12.0))
+    assert ratio == pytest.approx(1.06, abs=0.01)  # 0.1 arcmin of noise against 0.095 of a 16-bit encoder's rounding
+    assert f"= {ratio:.2f} (16-bit encoder): consistent with the encoder's quantisation alone;" in out
+
+
+@pytest.mark.parametrize("ratio, source, start", [
+    (1.05, "blind", "consistent with the encoder's quantisation alone"),
+    (1.19, "repeated readings", "consistent with the encoder's quantisation alone"),
+    # the simulator's reading noise (0.099 arcmin) is about its quantisation noise (0.095): both count
+    (1.44, "repeated readings", "comparable to the quantisation: reading noise of about 1.0 LSB/sqrt(12)"),
+    (1.25, "supplied", "comparable to the quantisation: reading noise of about 0.8 LSB/sqrt(12)"),
+    (1.81, "blind", "comparable to the quantisation: a part of about 1.5 LSB/sqrt(12) adds to the rounding"),
+    (2.0, "repeated readings", "well above the quantisation: the reading noise"),
+    (4.05, "blind", "well above the quantisation: reading noise, or structure finer"),
+    (0.6, "repeated readings", "below the quantisation alone: the scatter of the repeated readings leaves out"),
+    (0.6, "supplied", "below the quantisation alone: the noise given leaves out"),
+])
+def test_the_noise_verdict_says_what_the_ratio_to_the_quantisation_allows(ratio, source, start):
+    meaning = spectral._noise_meaning(ratio, source)
+    assert meaning.startswith(start)
+    assert ("--repeat" in meaning) == (source == "blind" and ratio >= 1.2)
+    assert "nothing finer" not in meaning
 
 
 def test_a_multi_revolution_log_is_read_as_repeated_readings(tmp_path):

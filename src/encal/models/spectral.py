@@ -195,9 +195,32 @@ def _ranges(orders):
 
 
 def _noise_meaning(ratio, source):
-    """What the noise's ratio to the quantisation noise says, in a sentence."""
-    if ratio < 1.5:
-        return "the noise is the encoder's quantisation; nothing finer is left to calibrate"
+    """What the noise's ratio to the quantisation noise says, in a sentence.
+
+    Independent noises add in variance: a reading noise ``s`` on top of the rounding to whole codes
+    (``q = LSB/sqrt(12)``) gives ``ratio**2 = 1 + (s/q)**2``. Below 1.2 the reading noise is under two
+    thirds of ``q`` (the rounding is over 70 % of the variance): the noise is consistent with the
+    quantisation alone. From 2 on it is over 1.7 ``q`` (over 75 % of the variance): the reading noise
+    dominates. Between, both contribute and the sentence gives the other part, ``sqrt(ratio**2 - 1)``
+    times ``q``. Below 1, with the noise supplied or from repeats (blind, the noise is kept at ``q`` or
+    above when the readings show the resolution): a reading's rounding is the same each time the
+    encoder stops at one angle, so repeats barely differ and miss it.
+    """
+    if ratio < 1.0 and source != "blind":
+        measured = "the noise given" if source == "supplied" else "the scatter of the repeated readings"
+        return (f"below the quantisation alone: {measured} leaves out the rounding to whole codes, which is the "
+                "same at every reading of one angle, and a reading at any other angle carries it (LSB/sqrt(12))")
+    if ratio < 1.2:
+        return "consistent with the encoder's quantisation alone; little finer is left to calibrate"
+    if ratio < 2.0:
+        other = math.sqrt(ratio**2 - 1.0)
+        if source == "blind":
+            return (f"comparable to the quantisation: a part of about {other:.1f} LSB/sqrt(12) adds to the rounding "
+                    "to whole codes, reading noise or structure finer than the calibration's spacing that one pass "
+                    "cannot tell from noise; a second pass over the same angles (--repeat) or a known noise "
+                    "(--noise) would separate them")
+        return (f"comparable to the quantisation: reading noise of about {other:.1f} LSB/sqrt(12) adds to the "
+                "rounding to whole codes, both contribute")
     if source == "blind":
         return ("well above the quantisation: reading noise, or structure finer than the calibration's spacing "
                 "that one pass cannot tell from noise; a second pass over the same angles (--repeat) or a known "
