@@ -105,6 +105,6 @@ def test_fit_budget_records_the_deployment_and_export_uses_it(tmp_path, capsys):
 
 
 def test_fit_target_without_budget_is_refused(tmp_path, capsys):
-    status = main(["fit", str(DATA / "model_v1_fourier.json"), "-o", str(tmp_path / "m.json"),
-                   "--target", "fixed"])
-    assert status == 1 and "--target names the processor of --budget" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:  # a usage error
+        main(["fit", str(DATA / "model_v1_fourier.json"), "-o", str(tmp_path / "m.json"), "--target", "fixed"])
+    assert info.value.code == 2 and "--target names the processor of --budget" in capsys.readouterr().err

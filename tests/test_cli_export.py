@@ -62,11 +62,15 @@ def test_c_constants_option(tmp_path, capsys):
     assert "static const double model_cos" in (tmp_path / "encal.c").read_text()
 
 
-def test_missing_bits_exit_1(tmp_path, capsys):
+def test_table_without_bits_is_a_usage_error_in_command_line_terms(tmp_path, capsys):
     path = FourierModel([1], [1.0], [0.0]).save(tmp_path / "m.json")
-    status, _, err = export(capsys, path, "--format", "table", "-o", tmp_path / "t.tab")
-    assert status == 1 and "--bits" in err
-    assert not (tmp_path / "t.tab").exists()
+    with pytest.raises(SystemExit) as info:
+        main(["export", str(path), "--format", "table", "-o", str(tmp_path / "t.tab")])
+    err = capsys.readouterr().err
+    assert info.value.code == 2
+    assert err.strip().splitlines()[-1] == (f"encal export: error: --format table has one entry per code, and {path} "
+                                            "records no encoder resolution; pass --bits B")
+    assert "bits=" not in err and not (tmp_path / "t.tab").exists()
 
 
 def test_invalid_prefix_exit_1_and_writes_nothing(tmp_path, capsys):

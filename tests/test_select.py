@@ -464,7 +464,9 @@ def test_encal_fit_no_stack_applies_to_auto_only(tmp_path, capsys):
     assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--no-stack", "--seed", "0"]) == 0
     out = capsys.readouterr().out
     assert "cross-validation over" in out and " stack 0." not in out
-    assert main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--no-stack", "--method", "fourier"]) == 1
+    with pytest.raises(SystemExit) as info:  # a usage error
+        main(["fit", str(path), "-o", str(tmp_path / "m.json"), "--no-stack", "--method", "fourier"])
+    assert info.value.code == 2
     assert "--no-stack applies to --method auto, not fourier" in capsys.readouterr().err
 
 

@@ -557,7 +557,9 @@ def test_cli_fit_spectral_with_noise_and_with_a_repeat_pass(tmp_path, capsys):
     assert sigma == pytest.approx(0.1, rel=0.2)
     assert main(["fit", str(first), "-o", str(tmp_path / "l.json"), "--method", "lut"]) == 0
     assert "held-out estimate: RMS" in capsys.readouterr().out
-    assert main(["fit", str(first), "-o", str(tmp_path / "x.json"), "--method", "lut", "--noise", "0.1"]) == 1
+    with pytest.raises(SystemExit) as info:  # a usage error
+        main(["fit", str(first), "-o", str(tmp_path / "x.json"), "--method", "lut", "--noise", "0.1"])
+    assert info.value.code == 2
     assert "--noise applies to --method spectral or auto" in capsys.readouterr().err
 
 
@@ -663,5 +665,7 @@ def test_cli_networks_option_cross_validates_them_and_applies_to_auto_only(tmp_p
     assert "spectral model against the networks, " in out and "hybrid" in out
     selection = encal.load_model(tmp_path / "m.json").training["selection"]
     assert [row["family"] for row in selection["table"]] == ["spectral", "hybrid", "ann", "ann"]
-    assert main(["fit", str(path), "-o", str(tmp_path / "s.json"), "--method", "spectral", "--networks"]) == 1
+    with pytest.raises(SystemExit) as info:  # a usage error
+        main(["fit", str(path), "-o", str(tmp_path / "s.json"), "--method", "spectral", "--networks"])
+    assert info.value.code == 2
     assert "--networks applies to --method auto, not spectral" in capsys.readouterr().err

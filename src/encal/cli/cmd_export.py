@@ -140,6 +140,9 @@ def run(args):
         print(f"wrote {output}: {written.describe()}")
         return 0
     if args.format == "table":
+        if args.bits is None and compensator.encoder.get("resolution_bits") is None:
+            args.export_parser.error(f"--format table has one entry per code, and {args.model} records no "
+                                     "encoder resolution; pass --bits B")
         table = compile_table(compensator, args.bits, dtype=args.dtype or "int16")
         save_table(table, output)
         if args.json:

@@ -38,8 +38,10 @@ def add_arguments(parser):
     parser.add_argument("--n-orders", type=size_option("n_orders"), help="keep the N largest harmonics (fourier)")
     parser.add_argument("--interpolation", choices=["linear", "cubic"], help="lookup-table interpolation (lut)")
     parser.add_argument("--folds", type=size_option("folds", 2), metavar="K",
-                        help="cross-validation folds of the automatic choice (auto; default 5, fewer for small "
-                             "calibrations)")
+                        help="choose among the model families by K-fold cross-validation (the older scheme; "
+                             "it may choose a weighted mean of several) instead of auto's default, the "
+                             "spectral model by its evidence; any K switches, 5 included (auto; "
+                             "docs/model-selection.md)")
     parser.add_argument("--at-steps", action="store_const", const=True, default=None,
                         help="the encoder will be read only at the calibrated angles (a motor's full steps): "
                              "validate the candidates there, so a per-step pattern of the reference counts "
@@ -70,6 +72,7 @@ def add_arguments(parser):
                         help="print one JSON object (model, seed, training-set statistics, selection table)")
     add_zero_options(parser)
     add_calibration_options(parser)
+    parser.set_defaults(fit_parser=parser)
 
 
 #: option -> the methods it applies to
@@ -103,14 +106,13 @@ def _positive_float(text):
 
 
 def _options(args):
-    from ..errors import InputError
-
+    usage_error = args.fit_parser.error  # usage and one line on stderr, exit status 2
     for name, methods in _APPLIES_TO.items():
         if getattr(args, name) is not None and args.method not in methods:
             flag = "--no-stack" if name == "stack" else "--" + name.replace("_", "-")
-            raise InputError(f"{flag} applies to --method {' or '.join(methods)}, not {args.method}")
+            usage_error(f"{flag} applies to --method {' or '.join(methods)}, not {args.method}")
     if args.orders is not None and args.n_orders is not None:
-        raise InputError("--orders and --n-orders both choose the Fourier orders; expected one of them")
+        usage_error("--orders and --n-orders both choose the Fourier orders; expected one of them")
     options = {}
     for name in ("hidden", "algorithm", "encoding", "epochs", "interpolation", "n_orders", "folds", "stack"):
         value = getattr(args, name)
@@ -128,8 +130,7 @@ def _options(args):
         try:
             options["orders"] = [int(o) for o in args.orders.split(",") if o.strip()]
         except ValueError:
-            raise InputError(f"--orders must be whole numbers separated by commas. Got {args.orders!r} "
-                             "instead.") from None
+            usage_error(f"--orders must be whole numbers separated by commas. Got {args.orders!r} instead.")
     return options
 
 
@@ -279,54 +280,15 @@ def _check_same_zero(cal, second):
                          "arbitrary: compare such passes with 'encal drift', which removes the change of zero)")
 
 
-def _held_out_line(model, cal, method, options):
-    """An estimate of the error at readings the fit did not see (the training RMS of a table is 0).
-
-    A spectral model states its posterior's (its report); a network chosen by auto its CV RMS;
-    any other method is cross-validated here over 5 interleaved folds.
-    """
-    import numpy as np
-
-    from ..models import select
-
-    selection = model.training.get("selection")
-    if model.kind == "spectral":
-        expected = model.expected_rms_between_points()
-        return None if expected is None else (f"held-out estimate (posterior, readings at angles not "
-                                              f"calibrated): RMS {expected:.4g} arcmin after correction")
-    if selection is not None and selection.get("scheme") == "evidence":
-        row = next((r for r in selection["table"] if r["label"] == selection["chosen"]), None)
-        return None if row is None else (f"held-out estimate: CV RMS {row['cv_rms_arcmin']:.4g} arcmin over "
-                                         f"{selection['folds']} interleaved folds")
-    if selection is not None:
-        return None  # the CV table above is the held-out estimate
-    family = "directional" if model.kind == "directional" else method
-    if family == "directional":
-        return None
-    folds = min(select.DEFAULT_FOLDS, max(2, len(cal) // select.MIN_POINTS_PER_FOLD))
-    fold = select.interleaved_folds(cal.encoder_deg, folds)
-    candidate = select.Candidate(family, {k: v for k, v in options.items() if k != "rng"})
-    seed = options.get("rng")
-    seeds = np.random.SeedSequence(seed if isinstance(seed, int) else 0).spawn(folds)
-    score = select.cross_validate(cal.encoder_deg, cal.errors_arcmin, candidate, fold, seeds=seeds)
-    if score.error is not None:
-        return f"held-out estimate: not available ({score.error})"
-    caveat = (" (between points twice as far apart as the calibration's, so it overstates the error of a "
-              "lookup table or a long series between the calibrated angles)")
-    return (f"held-out estimate: RMS {score.rms_arcmin:.4g} arcmin over {folds} interleaved folds of the same "
-            f"method{caveat}")
-
-
 def run(args):
     from ..fitting import evaluate, fit
+    from . import _fit_report
 
-    _check_output(args.output, args.calibration)
     if args.target is not None and args.budget is None:
-        from ..errors import InputError
-
-        raise InputError("--target names the processor of --budget; expected it with --budget")
-    cal = read_calibration_from_args(args.calibration, args)
+        args.fit_parser.error("--target names the processor of --budget; expected it with --budget")
     options = _options(args)
+    _check_output(args.output, args.calibration)
+    cal = read_calibration_from_args(args.calibration, args)
     if args.repeat is not None:
         cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args))
     if args.seed is not None:
@@ -345,16 +307,17 @@ def run(args):
     deployment = _choose_deployment(model, args) if args.budget is not None else None
     model.save(args.output, reproducible=args.reproducible)
     selection = model.training.get("selection")
-    held_out = _held_out_line(model, cal, args.method, options)
+    held_out = _fit_report.held_out(model, cal, args.method, options)
+    held_out_text = _fit_report.held_out_lines(held_out)
     if args.json:
         print_json({"name": cal.name, "model_kind": model.kind, "output": str(args.output), "n_points": len(cal),
                     "seed": model.training.get("seed"), "resolution_bits": model.encoder.get("resolution_bits"),
                     "training_set": fitted.as_dict(), "zero_note": fitted.zero_sentence(), "selection": selection,
-                    "held_out_note": held_out or None, "deployment": str(deployment) if deployment else None})
+                    "held_out": held_out, "noise": _fit_report.noise(model),
+                    "held_out_note": "; ".join(held_out_text) or None,
+                    "deployment": str(deployment) if deployment else None})
         return 0
-    report = getattr(model, "report", None)
-    if callable(report):
-        print(report())
+    _print_report(model)
     if selection is not None and selection.get("scheme") == "evidence":
         from ..models.choice import format_choice
 
@@ -366,8 +329,13 @@ def run(args):
     if model.kind == "directional":
         print(f"{cal.name}: both directions of travel, one {model.forward.kind} model per direction "
               "(the mean of both when a reading's direction is not known)")
-    if held_out and model.kind != "spectral":  # a spectral model's report states it
-        print(held_out)
+        for name, part in held_out.items():
+            if part is not None and getattr(model, name).kind != "spectral":  # a spectral part's report states it
+                print(f"{name}: {part['text']}")
+    elif held_out_text and model.kind != "spectral":  # a spectral model's report states it
+        print(held_out_text[0])
+    if held_out is not None and held_out.get("mean_note"):
+        print(held_out["mean_note"])
     print(_resolution_line(cal, model.encoder.get("resolution_bits")))
     shape = ""
     if fitted.arbitrary_zero:
@@ -379,6 +347,16 @@ def run(args):
     if deployment:
         print(deployment)
     return 0
+
+
+def _print_report(model):
+    """A model's own report (a spectral model's prior, noise and held-out estimate); each direction's."""
+    parts = [("", model)] if model.kind != "directional" else [("forward: ", model.forward),
+                                                                  ("reverse: ", model.reverse)]
+    for prefix, part in parts:
+        report = getattr(part, "report", None)
+        if callable(report):
+            print("\n".join(prefix + line for line in report().splitlines()))
 
 
 def _resolution_line(cal, bits):
