@@ -1,11 +1,13 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import re
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from . import _csv
+from ._csv_numbers import plain_rows
 from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
@@ -138,6 +140,9 @@ MAX_FOLD_DEG = 0.5
 #: calibration (``/dev/zero``, an endless pipe) and reading on would exhaust the memory.
 MAX_FILE_BYTES = 1 << 30
 _READ_CHUNK = 1 << 20
+#: Lines the careful (line-by-line) reader reads between two calls of ``progress``.
+_PROGRESS_LINES = 50_000
+_LINE_END_BYTES = re.compile(rb"\r\n|\r|\n")
 #: What :func:`read_calibration` may do with conflicting repeated reference angles.
 DUPLICATES = ("refuse", "average", "keep")
 
@@ -176,6 +181,38 @@ def _decode(path, raw):
         line = text[: text.index("\x00")].count("\n") + 1
         _fail(path, line, "contains NUL bytes (is this a binary file?); expected a calibration CSV")
     return text
+
+
+def _head_of_plain(raw):
+    """The lines of an ASCII file up to its first that is not blank or a comment, and where that line and the
+    rest begin: ``(lines, header_start, body_start)`` in bytes; None if the file is not ASCII or the rest holds
+    a ``#`` or a double quote (comments and quoted fields are for the careful reader).
+
+    Line ends are those of :func:`encal._csv.split_lines` (LF, CRLF or CR).
+    """
+    if not raw.isascii():
+        return None
+    lines, start = [], 0
+    for match in _LINE_END_BYTES.finditer(raw):
+        line = raw[start:match.start()].decode("ascii")
+        lines.append(line)
+        line_start, start = start, match.end()
+        if not _csv.is_skipped(line):
+            break
+    else:
+        line_start = start
+        if start < len(raw):
+            lines.append(raw[start:].decode("ascii"))
+            start = len(raw)
+    if raw.find(b"#", start) >= 0 or raw.find(b'"', start) >= 0:
+        return None
+    return lines, line_start, start
+
+
+def _plain_angles(values, unit):
+    """True if every value is finite and within +-1e9 degrees in ``unit`` (what :func:`_parse_float` checks)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return bool(np.all(np.isfinite(values)) and np.all(np.abs(values * unit.degrees_per_unit) <= MAX_ABS_DEG))
 
 
 def _cells(path, number, line):
@@ -227,7 +264,7 @@ def _separator(path, line, header):
 
 def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
                      duplicates="refuse", reference_column="reference_deg", encoder_column="encoder_deg",
-                     reference_unit="deg", encoder_unit="deg"):
+                     reference_unit="deg", encoder_unit="deg", progress=None):
     """Read a calibration CSV (see DESIGN.md).
 
     The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
@@ -265,6 +302,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     reference_unit, encoder_unit : str, default='deg'
         Unit of each column: 'deg', 'rad', 'rev' (turns) or 'counts:B' (codes of a B-bit encoder; an
         encoder column in counts also sets ``resolution_bits`` to B when the file does not say).
+    progress : callable, optional
+        Called as ``progress(done, total)`` while the rows are read (bytes or lines done of the total), for
+        a progress bar on a long file.
 
     Returns
     -------
@@ -303,9 +343,14 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
-    text = _decode(path, _read_bytes(path))
-    lines = _csv.split_lines(text)
-    records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
+    raw = _read_bytes(path)
+    head = _head_of_plain(raw)
+    if head is not None:  # a plain body: only the lines up to the header are needed as text
+        lines, header_start, body_start = head
+        records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
+    else:
+        lines = _csv.split_lines(_decode(path, raw))
+        records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
     if resolution_bits is None:
         resolution_bits = _resolution_from_comments(path, lines)
     if not records:
@@ -327,22 +372,44 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ref_col, enc_col = columns["reference"], columns["encoder"]
     ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
-    reference, encoder, direction, epoch = [], [], [], []
-    data = records[1:] if has_header else records
-    for number, line in data:
-        cells = cells_of(number, line)
-        if len(cells) != n_columns:
-            _fail(path, number, _field_count_problem(line, len(cells), n_columns))
-        reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
-        encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
-        if dir_col is not None:
-            cell = cells[dir_col].strip().lower()
-            if cell not in _DIRECTIONS:
-                _fail(path, number, f"direction is {cells[dir_col].strip()!r}, expected +1, -1, cw or ccw",
-                      dir_col + 1)
-            direction.append(_DIRECTIONS[cell])
-        if epoch_col is not None:
-            epoch.append(cells[epoch_col].strip())
+    table = None
+    if head is not None and dir_col is None and epoch_col is None:
+        first = header_line + 1 if has_header else header_line
+        table = plain_rows(raw[body_start if has_header else header_start:], separator, n_columns,
+                           progress=progress)
+        if table is not None:
+            reference, encoder = table[:, ref_col].copy(), table[:, enc_col].copy()
+            if not (_plain_angles(reference, units[0]) and _plain_angles(encoder, units[1])):
+                table = None  # the careful reader names the first bad value
+    if table is not None:
+        del table
+        line_numbers = np.arange(first, first + reference.size)
+        direction, epoch = [], []
+    else:
+        if head is not None:
+            lines = _csv.split_lines(_decode(path, raw))
+            records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
+        reference, encoder, direction, epoch = [], [], [], []
+        data = records[1:] if has_header else records
+        for count, (number, line) in enumerate(data, start=1):
+            cells = cells_of(number, line)
+            if len(cells) != n_columns:
+                _fail(path, number, _field_count_problem(line, len(cells), n_columns))
+            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
+            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
+            if dir_col is not None:
+                cell = cells[dir_col].strip().lower()
+                if cell not in _DIRECTIONS:
+                    _fail(path, number, f"direction is {cells[dir_col].strip()!r}, expected +1, -1, cw or ccw",
+                          dir_col + 1)
+                direction.append(_DIRECTIONS[cell])
+            if epoch_col is not None:
+                epoch.append(cells[epoch_col].strip())
+            if progress is not None and count % _PROGRESS_LINES == 0:
+                progress(count, len(data))
+        line_numbers = np.array([number for number, _ in data], dtype=np.int64)
+        del lines, records, data
+    del raw
     if len(reference) < MIN_POINTS:
         raise CalibrationError(f"{path}: has {len(reference)} calibration points, expected at least "
                                f"{MIN_POINTS} to model an error profile")
@@ -368,11 +435,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
     # k readings at every stop of a run: repeated readings; a stray repeat in another run is still refused
     repeated = _repeat_pattern(cal.reference_deg, _runs(cal))[0] if duplicates == "refuse" else None
-    cal = _check_duplicates(path, cal, duplicates, first_data_line=data[0][0], repeated=repeated)
+    cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
     _check_coverage(path, cal, allow_gaps)
-    _warn_if_isolated(path, rows, [number for number, _ in data])
+    _warn_if_isolated(path, rows, line_numbers)
     return cal
 
 
@@ -389,29 +456,44 @@ def _field_count_problem(line, n_fields, n_columns):
 
 
 def _warn_if_isolated(path, cal, line_numbers):
-    """Warn about readings far off their neighbours on both sides (:mod:`encal.outliers`), per direction and epoch."""
+    """Warn about readings far off their neighbours on both sides, or off the other readings at their reference
+    angle when most angles were read several times (:mod:`encal.outliers`), per direction and epoch."""
     from .outliers import ISOLATION_FACTOR, isolated_points
 
     quantum = None if cal.resolution_bits is None else 360.0 * ARCMIN_PER_DEG / 2**cal.resolution_bits
-    keys = list(zip(*(labels for labels in (cal.direction, cal.epoch) if labels is not None))) or [()] * len(cal)
+    runs = _runs(cal)
+    if runs is None:
+        runs = np.zeros(len(cal), dtype=int)
     errors = cal.errors_arcmin
     found = []
-    for key in dict.fromkeys(keys):
-        members = np.flatnonzero([k == key for k in keys])
-        isolated = isolated_points(cal.encoder_deg[members], errors[members], quantum_arcmin=quantum)
-        found += [(members[i], d, isolated.typical_step_arcmin)
+    each = np.unique(runs)
+    for run in each:
+        members = np.flatnonzero(runs == run) if each.size > 1 else slice(None)  # one run: no copies
+        isolated = isolated_points(cal.encoder_deg[members], errors[members], reference_deg=cal.reference_deg[members],
+                                   quantum_arcmin=quantum)
+        members = np.arange(len(cal))[members]
+        found += [(members[i], d, isolated.typical_step_arcmin, isolated.repeated)
                   for i, d in zip(isolated.index, isolated.deviation_arcmin)]
     if not found:
         return
     found.sort()
-    index, deviation, step = found[0]
+    index, deviation, step, repeated = found[0]
     where = f"line {line_numbers[index]} (encoder {cal.encoder_deg[index]:.3f} deg)"
     more = f", and {len(found) - 1} more reading{'s' if len(found) > 2 else ''} like it" if len(found) > 1 else ""
+    if repeated:
+        off = (f"{abs(deviation):.4g} arcmin off the median of the readings at its reference angle, over "
+               f"{ISOLATION_FACTOR:g} times the readings' typical spread of {step:.3g} arcmin")
+    else:
+        off = (f"{abs(deviation):.4g} arcmin off its neighbours on both sides, over {ISOLATION_FACTOR:g} times their "
+               f"typical step of {step:.3g} arcmin")
     warnings.warn(
-        f"{path}: {where} has an error of {errors[index]:.4g} arcmin, {abs(deviation):.4g} arcmin off its "
-        f"neighbours on both sides, over {ISOLATION_FACTOR:g} times their typical step of {step:.3g} arcmin"
-        f"{more}: a misread? Every model follows it; measure it again or remove the line",
-        EncalWarning, stacklevel=3)
+        f"{path}: {where} has an error of {errors[index]:.4g} arcmin, {off}{more}: a misread? {MISREAD_EFFECT}; "
+        "measure it again or remove the line", EncalWarning, stacklevel=3)
+
+
+#: What a misread does to the models, in the warning about it.
+MISREAD_EFFECT = ("It pulls every model towards it, and one that passes through the calibrated points (a lookup "
+                  "table with a node at each, a network) follows it")
 
 
 def _resolution_from_comments(path, lines):
@@ -603,7 +685,7 @@ def _runs(cal):
     return runs
 
 
-def _check_duplicates(path, cal, duplicates, first_data_line, repeated=None):
+def _check_duplicates(path, cal, duplicates, repeated=None):
     """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
     ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept."""
     if duplicates == "keep":
