@@ -480,3 +480,9 @@ def test_the_printed_table_names_a_stack_briefly_and_lists_its_members(resolver)
     listed = " + ".join(f"{w:.2f} x ({Candidate(**m).label})" for w, m in zip(weights, members))
     assert f"stack of {len(members)}: {listed}" in text
     assert f"chosen: the stack of {len(members)} has the lowest CV RMS" in text
+
+
+def test_a_candidates_label_shows_a_float_option_to_four_digits():
+    # the spectral reference of auto --networks carries the fitted noise, printed in the table
+    assert Candidate("spectral", {"noise_arcmin": 0.17180339817719387}).label == "spectral noise_arcmin=0.1718"
+    assert Candidate("ann", {"hidden": 12, "algorithm": "trainlm"}).label == "ann hidden=12 algorithm=trainlm"

@@ -123,7 +123,8 @@ class Candidate:
             parts = (f"{weight:.2f} {_as_candidate(member).label}"
                      for member, weight in zip(self.options["members"], self.options["weights"]))
             return "stack " + " + ".join(parts)
-        return " ".join([self.family, *(f"{key}={value}" for key, value in self.options.items())])
+        return " ".join([self.family, *(f"{key}={value:.4g}" if isinstance(value, float) else f"{key}={value}"
+                                        for key, value in self.options.items())])
 
     def fit(self, theta_deg, error_arcmin, rng=None, grid_points=None):
         """Fit this candidate.
