@@ -9,7 +9,7 @@ import warnings
 from ..errors import EncalWarning
 
 __all__ = ["add_calibration_options", "add_zero_options", "read_calibration_from_args", "positive_int", "print_json",
-           "warnings_as_lines", "check_environment", "output_that_may_close"]
+           "warnings_as_lines", "check_environment", "output_that_may_close", "activity"]
 
 
 def add_calibration_options(parser):
@@ -61,12 +61,24 @@ def add_zero_options(parser):
                        help="same as --zero arbitrary")
 
 
-def read_calibration_from_args(path, args):
-    """Read ``path`` with the options of :func:`add_calibration_options`."""
+def activity(command, enabled=True):
+    """The progress line of a command that may run long on a dense calibration (:class:`encal._progress.Activity`):
+    on a terminal from 2 seconds on, elsewhere one closing line for runs of 10 seconds or more."""
+    from .._progress import Activity
+
+    return Activity(f"encal {command}", enabled=enabled)
+
+
+def read_calibration_from_args(path, args, progress=None):
+    """Read ``path`` with the options of :func:`add_calibration_options`; ``progress`` (an
+    :func:`activity`) shows the reading as a stage of its own."""
     from ..calibration import read_calibration
 
+    if progress is not None:
+        progress.stage(f"reading {path}")
     return read_calibration(
         path,
+        progress=None if progress is None else progress.update,
         allow_gaps=getattr(args, "allow_gaps", False),
         reverse=getattr(args, "reverse", False),
         duplicates=getattr(args, "duplicates", "refuse"),
@@ -145,6 +157,9 @@ def warnings_as_lines(command, stream=None):
             if stream is None:  # stderr closed: print(file=None) would write into the data on stdout
                 return
             if issubclass(category, EncalWarning):
+                from .._progress import clear_line
+
+                clear_line()  # a progress line on the terminal: the warning takes its place, the line comes back
                 print(f"encal {command}: warning: {message}", file=stream)
             else:
                 shown(message, category, filename, lineno, file, line)

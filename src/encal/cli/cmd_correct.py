@@ -18,6 +18,7 @@ line (the answers to the lines before it are already written); with
 --skip-bad it gets ``nan`` and the stream goes on.
 """
 
+import contextlib
 import os
 import sys
 
@@ -62,14 +63,64 @@ def run(args):
             correct_stream(compensator, sys.stdin.buffer, sink, skip_bad=args.skip_bad,
                            direction=args.direction, exact=args.exact)
         else:
-            with open(args.input, "rb") as source:
-                correct_stream(compensator, source, sink, skip_bad=args.skip_bad,
+            with open(args.input, "rb") as source, _file_activity(source, args.input) as counted:
+                correct_stream(compensator, counted, sink, skip_bad=args.skip_bad,
                                name=args.input, direction=args.direction, exact=args.exact)
     except BrokenPipeError:
         # The reader went away (`encal correct ... | head`): stop quietly, and keep
         # Python from failing again when it flushes stdout at exit.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return 0
+
+
+@contextlib.contextmanager
+def _file_activity(source, name):
+    """``source`` counted into the progress line of a long correction of a FILE (:func:`._common.activity`).
+
+    Only when the answers go to a file or a pipe: on a terminal they are the progress, and a line drawn
+    among them would garble them. Standard input is a live stream with no end to show.
+    """
+    from ._common import activity
+
+    try:
+        answers_on_terminal = sys.stdout.isatty()
+    except (AttributeError, OSError, ValueError):
+        answers_on_terminal = False
+    with activity("correct", enabled=not answers_on_terminal) as progress:
+        try:
+            size = os.fstat(source.fileno()).st_size or None
+        except (AttributeError, OSError, ValueError):
+            size = None
+        progress.stage(f"correcting {name}", total=size)
+        yield _Counted(source, progress)
+
+
+class _Counted:
+    """A binary file whose reads are counted into a progress line (bytes read so far)."""
+
+    def __init__(self, source, progress):
+        self._source, self._progress, self._done = source, progress, 0
+
+    def _count(self, data):
+        self._done += len(data)
+        self._progress.update(self._done)
+        return data
+
+    def read(self, *size):
+        return self._count(self._source.read(*size))
+
+    def read1(self, *size):
+        return self._count(self._source.read1(*size))
+
+    def readinto(self, buffer):
+        n = self._source.readinto(buffer)
+        if n:
+            self._done += n
+            self._progress.update(self._done)
+        return n
+
+    def __getattr__(self, name):
+        return getattr(self._source, name)
 
 
 def _sink(stdout):

@@ -8,7 +8,7 @@ Example:
   encal evaluate enc1.json enc1_test.csv --json
 """
 
-from ._common import add_calibration_options, add_zero_options, print_json, read_calibration_from_args
+from ._common import activity, add_calibration_options, add_zero_options, print_json, read_calibration_from_args
 
 
 def add_arguments(parser):
@@ -23,9 +23,12 @@ def run(args):
     from ..deploy import load_model
     from ..fitting import evaluate
 
-    model = load_model(args.model)
-    cal = read_calibration_from_args(args.calibration, args)
-    result = evaluate(model, cal, zero=args.zero)
+    with activity("evaluate") as progress:
+        progress.stage(f"reading {args.model}")
+        model = load_model(args.model)
+        cal = read_calibration_from_args(args.calibration, args, progress)
+        progress.stage("evaluating")
+        result = evaluate(model, cal, zero=args.zero)
     if args.json:
         print_json({"name": cal.name, "model_kind": model.kind, **result.as_dict(),
                     "zero_note": result.zero_sentence()})

@@ -12,7 +12,7 @@ reference's zero. When that zero is arbitrary (--zero; by default when the offse
 the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
-from ._common import (add_calibration_options, add_zero_options, int_in_range, print_json, read_calibration_from_args,
+from ._common import (activity, add_calibration_options, add_zero_options, int_in_range, print_json, read_calibration_from_args,
                       size_option)
 
 
@@ -82,10 +82,6 @@ _APPLIES_TO = {
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
     "at_steps": ("auto",), "stack": ("auto",), "networks": ("auto",), "noise": ("spectral", "auto"), "repeat": ("spectral", "auto"),
 }
-
-
-#: Calibrations of at least this many readings get a progress bar (their fit takes seconds).
-_PROGRESS_ROWS = 50_000
 
 
 def _cv_options(options):
@@ -281,6 +277,7 @@ def _check_same_zero(cal, second):
 
 
 def run(args):
+    from ..bidirectional import has_both_directions
     from ..fitting import evaluate, fit
     from . import _fit_report
 
@@ -288,26 +285,34 @@ def run(args):
         args.fit_parser.error("--target names the processor of --budget; expected it with --budget")
     options = _options(args)
     _check_output(args.output, args.calibration)
-    cal = read_calibration_from_args(args.calibration, args)
-    if args.repeat is not None:
-        cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args))
-    if args.seed is not None:
-        options["rng"] = args.seed
-    if args.method in ("spectral", "auto") and len(cal) >= _PROGRESS_ROWS and not _cv_options(options):
-        from .._progress import Progress
-        from ..models.spectral import STAGES
+    with activity("fit") as progress:
+        cal = read_calibration_from_args(args.calibration, args, progress)
+        if args.repeat is not None:
+            cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args, progress))
+        if args.seed is not None:
+            options["rng"] = args.seed
+        if args.method in ("spectral", "auto") and not _cv_options(options) and not has_both_directions(cal):
+            from ..models.spectral import STAGES
 
-        with Progress(STAGES, f"fitting {len(cal)} readings") as bar:
-            model = fit(cal, method=args.method, progress=bar.advance, **options)
-    else:
-        model = fit(cal, method=args.method, **options)
-    fitted = evaluate(model, cal, zero=args.zero)
-    model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
-    model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
-    deployment = _choose_deployment(model, args) if args.budget is not None else None
-    model.save(args.output, reproducible=args.reproducible)
-    selection = model.training.get("selection")
-    held_out = _fit_report.held_out(model, cal, args.method, options)
+            progress.stage(f"fitting ({args.method})", total=STAGES)
+            model = fit(cal, method=args.method, progress=progress.advance, **options)
+            # fit records its options for a refit; a callback is no option of the model (nor JSON)
+            model.training.get("fit_options", {}).pop("progress", None)
+        else:
+            progress.stage(f"fitting ({args.method})")
+            model = fit(cal, method=args.method, **options)
+        progress.stage("training-set statistics")
+        fitted = evaluate(model, cal, zero=args.zero)
+        model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
+        model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
+        if args.budget is not None:
+            progress.stage("choosing the deployment")
+        deployment = _choose_deployment(model, args) if args.budget is not None else None
+        progress.stage(f"writing {args.output}")
+        model.save(args.output, reproducible=args.reproducible)
+        selection = model.training.get("selection")
+        progress.stage("held-out estimate")
+        held_out = _fit_report.held_out(model, cal, args.method, options)
     held_out_text = _fit_report.held_out_lines(held_out)
     if args.json:
         print_json({"name": cal.name, "model_kind": model.kind, "output": str(args.output), "n_points": len(cal),

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..angles import lsb_arcmin, resolution_of_readings
 from ..profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
-from ._common import add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
+from ._common import activity, add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
 
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
@@ -25,18 +25,22 @@ def add_arguments(parser):
 
 
 def run(args):
-    cal = read_calibration_from_args(args.calibration, args)
-    stats = error_stats(cal, zero=args.zero)
-    offset = zero_offset_arcmin(cal.errors_arcmin)
-    arbitrary = stats.offset is not None
-    shape = remove_offset(cal.errors_arcmin, offset) if arbitrary else cal.errors_arcmin
-    analysis = harmonics(cal.encoder_deg, shape)
-    top = analysis.as_list(args.top or None)
-    note = zero_sentence(args.zero, offset, arbitrary)
-    bits, inferred = cal.resolution_bits, False
-    if bits is None:
-        bits = resolution_of_readings(cal.encoder_deg)
-        inferred = bits is not None
+    with activity("profile") as progress:
+        cal = read_calibration_from_args(args.calibration, args, progress)
+        progress.stage("statistics")
+        stats = error_stats(cal, zero=args.zero)
+        offset = zero_offset_arcmin(cal.errors_arcmin)
+        arbitrary = stats.offset is not None
+        shape = remove_offset(cal.errors_arcmin, offset) if arbitrary else cal.errors_arcmin
+        progress.stage("harmonics")
+        analysis = harmonics(cal.encoder_deg, shape)
+        top = analysis.as_list(args.top or None)
+        note = zero_sentence(args.zero, offset, arbitrary)
+        bits, inferred = cal.resolution_bits, False
+        if bits is None:
+            progress.stage("resolution")
+            bits = resolution_of_readings(cal.encoder_deg)
+            inferred = bits is not None
     if args.json:
         print(json.dumps({"name": cal.name, "resolution_bits": bits, "resolution_inferred": inferred,
                           **stats.as_dict(),

@@ -14,7 +14,7 @@ Examples:
 
 from pathlib import Path
 
-from ._common import add_calibration_options, add_zero_options, read_calibration_from_args
+from ._common import activity, add_calibration_options, add_zero_options, read_calibration_from_args
 
 
 def add_arguments(parser):
@@ -47,13 +47,17 @@ def run(args):
     for source in (args.calibration, *args.tests):
         if output.exists() and Path(source).exists() and output.samefile(source):
             raise InputError(f"-o {output} is an input calibration; expected another file for the report")
-    cal = read_calibration_from_args(args.calibration, args)
-    tests = [read_calibration_from_args(path, args) for path in args.tests]
-    report = encoder_report(cal, tests, method=args.method, zero=args.zero, rng=args.seed,
-                            uncertainty=args.uncertainty, compare=args.compare)
-    written = write_encoder_report(report, output, figures_dir=args.figures)
-    if args.model is not None:
-        report.model.save(args.model)
+    with activity("report") as progress:
+        cal = read_calibration_from_args(args.calibration, args, progress)
+        tests = [read_calibration_from_args(path, args, progress) for path in args.tests]
+        progress.stage(f"fitting ({args.method})" + (", comparing the models" if args.compare else "")
+                       + (", the uncertainty band" if args.uncertainty else ""))
+        report = encoder_report(cal, tests, method=args.method, zero=args.zero, rng=args.seed,
+                                uncertainty=args.uncertainty, compare=args.compare)
+        progress.stage(f"writing {output} and its figures")
+        written = write_encoder_report(report, output, figures_dir=args.figures)
+        if args.model is not None:
+            report.model.save(args.model)
     for note in report.notes:
         print(note)
     figures = [path for key, path in written.items() if key.startswith("figure:")]
