@@ -159,3 +159,10 @@ def test_the_bidirectional_option_needs_both_directions():
                                          r"both directions of travel in its direction column\. Got 'mean' for "
                                          r"enc, which has one direction\.$"):
         encal.fit(_calibration(lambda ref: np.sin(np.radians(ref))), method="lut", bidirectional="mean")
+
+
+def test_a_progress_callback_is_not_recorded_and_the_model_saves(tmp_path):
+    calls = []
+    model = encal.fit(_calibration(harmonic_profile), method="spectral", progress=lambda: calls.append(1))
+    assert len(calls) == 3 and "progress" not in model.training["fit_options"]
+    assert encal.load_model(model.save(tmp_path / "m.json")).kind == "spectral"

@@ -134,7 +134,8 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     options = dict(options)
     fit_family = fitter(method)
     check_folds(cal, where=cal.source or cal.name or "calibration")
-    fit_options = dict(options)
+    # recorded for a refit; a progress callback is no option of the model (nor JSON)
+    fit_options = {key: value for key, value in options.items() if key != "progress"}
     randomised = model_kind(method).randomised
     if randomised:
         options["rng"] = rng

@@ -296,8 +296,6 @@ def run(args):
 
             progress.stage(f"fitting ({args.method})", total=STAGES)
             model = fit(cal, method=args.method, progress=progress.advance, **options)
-            # fit records its options for a refit; a callback is no option of the model (nor JSON)
-            model.training.get("fit_options", {}).pop("progress", None)
         else:
             progress.stage(f"fitting ({args.method})")
             model = fit(cal, method=args.method, **options)
