@@ -13,7 +13,11 @@ from ..compact import _least_squares_nodes, evaluation_bits, model_on_codes
 from ..compensator import Compensator
 
 __all__ = ["FirmwareExport", "correction_on_codes", "correction_nodes", "correction_model", "read_c_array",
-           "round_trip", "read_text"]
+           "round_trip", "read_text", "checked", "ROUND_TRIP_RATIO"]
+
+# A table whose round trip through the firmware's rule leaves more than this fraction of the correction's
+# RMS (beyond the storage rounding) does not do what encal would say it does: it is refused.
+ROUND_TRIP_RATIO = 0.25
 
 
 @dataclass(frozen=True)
@@ -82,6 +86,37 @@ def correction_nodes(comp, nodes, bits, *, remove_mean=True):
     offset = float(np.mean(target)) if remove_mean else 0.0
     target = target - offset
     return _least_squares_nodes(target, nodes), target, offset
+
+
+def checked(export, correction_arcmin, *, ratio=ROUND_TRIP_RATIO):
+    """``export``, unless its round trip is not far smaller than the correction it stands for.
+
+    Parameters
+    ----------
+    export : FirmwareExport
+    correction_arcmin : array-like
+        The correction the table should apply (arc-minutes, on the codes the round trip was measured
+        on, with any constant left out of the table already removed).
+    ratio : float
+        The largest RMS round trip allowed, as a fraction of the correction's RMS. A round trip within
+        the storage rounding (``export.quantisation_arcmin``) is always allowed: a near-zero correction
+        is not refused for the rounding of its last digit.
+
+    Raises
+    ------
+    InputError
+        When the firmware, applying the written table with its own rule, would leave more than
+        ``ratio`` of the correction's RMS: the file would mis-correct with exit 0.
+    """
+    correction = np.asarray(correction_arcmin, dtype=float)
+    size = float(np.sqrt(np.mean(correction**2))) if correction.size else 0.0
+    if export.rms_error_arcmin > max(ratio * size, export.quantisation_arcmin):
+        raise InputError(
+            f"the {export.firmware} table would not do what the model says: through the firmware's own rule it "
+            f"misses the model's correction by RMS {export.rms_error_arcmin:.3g} arcmin (max "
+            f"{export.max_error_arcmin:.3g}), against a correction of RMS {size:.3g} arcmin; expected at most "
+            f"{ratio:g} of it, so no file was written")
+    return export
 
 
 def round_trip(deployed_arcmin, target_arcmin):

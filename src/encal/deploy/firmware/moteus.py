@@ -32,7 +32,7 @@ from ...errors import CalibrationError, InputError
 from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
 from ..._limits import check_size
 from ...parameters import check_int
-from ._common import (FirmwareExport, compensator, correction_model, correction_nodes, grid_bits, read_text,
+from ._common import (FirmwareExport, checked, compensator, correction_model, correction_nodes, grid_bits, read_text,
                       round_trip)
 
 __all__ = ["export_moteus", "moteus_rule", "read_moteus_conf", "read_compare_encoders", "read_cal_capture",
@@ -84,8 +84,8 @@ def export_moteus(model, *, source=0, bits=None):
     lines = [f"{prefix}.compensation_table.{i} {v}" for i, v in enumerate(values)]
     lines.append(f"{prefix}.compensation_scale {scale:.9g}")
     note = "send the lines with moteus_tool --console (or tview), then 'conf write'"
-    return FirmwareExport("moteus", "\n".join(lines) + "\n", max_error, rms_error,
-                          0.5 * scale / 127.0 * 21600.0, cpr, note, offset)
+    return checked(FirmwareExport("moteus", "\n".join(lines) + "\n", max_error, rms_error,
+                          0.5 * scale / 127.0 * 21600.0, cpr, note, offset), target)
 
 
 _CONF = re.compile(r"^\s*(?:conf\s+set\s+)?motor_position\.sources\.(\d+)\.compensation_(table\.(\d+)|scale)\s+(\S+)\s*$")

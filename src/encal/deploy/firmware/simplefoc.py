@@ -11,7 +11,7 @@ lut[(bucket + 1) % n]``, and the calibrated angle is ``raw + offset``.
 import numpy as np
 
 from ...parameters import check_int
-from ._common import FirmwareExport, compensator, correction_model, correction_nodes, grid_bits, read_c_array, \
+from ._common import FirmwareExport, checked, compensator, correction_model, correction_nodes, grid_bits, read_c_array, \
     round_trip
 
 __all__ = ["export_simplefoc", "simplefoc_rule", "read_simplefoc", "NODES", "TWO_PI"]
@@ -57,8 +57,8 @@ def export_simplefoc(model, *, bits=None, nodes=NODES):
     text = (f"// encal: correction in radians added to the raw mechanical angle, node i at i*2*PI/{nodes}\n"
             f"float calibrationLut[{nodes}] = {{\n    {rows}\n}};\n")
     note = f"copy into CalibratedSensor (n_lut = {nodes}) instead of running its calibrate()"
-    return FirmwareExport("simplefoc", text, max_error, rms_error,
-                          float(np.max(np.abs(lut))) * 2.0**-24 * 10800.0 / np.pi, 2**grid, note, offset)
+    return checked(FirmwareExport("simplefoc", text, max_error, rms_error,
+                          float(np.max(np.abs(lut))) * 2.0**-24 * 10800.0 / np.pi, 2**grid, note, offset), target)
 
 
 def read_simplefoc(source_text):

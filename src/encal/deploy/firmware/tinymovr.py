@@ -13,7 +13,7 @@ import numpy as np
 
 from ...errors import InputError
 from ...parameters import check_int
-from ._common import FirmwareExport, compensator, correction_model, correction_nodes, read_c_array, round_trip
+from ._common import FirmwareExport, checked, compensator, correction_model, correction_nodes, read_c_array, round_trip
 
 __all__ = ["export_tinymovr", "tinymovr_rule", "read_tinymovr", "NODES"]
 
@@ -52,7 +52,7 @@ def export_tinymovr(model, *, bits=None):
             f"i << {bits - 6} */\nint16_t rec_table[{NODES}] = {{\n    {rows}\n}};\n")
     note = "the rounding to whole ticks and the 64-node interpolation are the format's; set rec_calibrated"
     # node rounding (half a tick) plus the floor of the interpolation (under one tick)
-    return FirmwareExport("tinymovr", text, max_error, rms_error, 1.5 * lsb, 2**bits, note, offset)
+    return checked(FirmwareExport("tinymovr", text, max_error, rms_error, 1.5 * lsb, 2**bits, note, offset), target)
 
 
 def read_tinymovr(source_text, *, bits):
