@@ -11,8 +11,8 @@ lut[(bucket + 1) % n]``, and the calibrated angle is ``raw + offset``.
 import numpy as np
 
 from ...parameters import check_int
-from ._common import FirmwareExport, checked, compensator, correction_model, correction_nodes, grid_bits, read_c_array, \
-    round_trip
+from ._common import (FirmwareExport, checked, compensator, correction_model, correction_nodes, grid_bits,
+                      read_c_array, round_trip)
 
 __all__ = ["export_simplefoc", "simplefoc_rule", "read_simplefoc", "NODES", "TWO_PI"]
 
