@@ -22,6 +22,17 @@ settings.load_profile("ci" if os.environ.get("CI") else "dev")
 REAL_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "mechaduino"
 
 
+@pytest.fixture(autouse=True)
+def _close_pyplot_figures():
+    """Plots drawn with ax=None go to pyplot's current figure (Matplotlib's convention): close them after
+    each test, so that no test draws on another's axes."""
+    yield
+    import sys
+
+    if "matplotlib.pyplot" in sys.modules:
+        sys.modules["matplotlib.pyplot"].close("all")
+
+
 @pytest.fixture
 def real_data_dir():
     """The folder of real AS5047D calibrations (shared/ beside the repository); skips when absent."""

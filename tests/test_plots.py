@@ -84,15 +84,44 @@ def test_every_plot_draws_on_the_axes_it_is_given(runs, studies):
         assert ax.lines or ax.collections, name
 
 
-def test_every_plot_without_axes_makes_a_figure_pyplot_does_not_manage(runs, studies):
+def test_every_plot_in_detached_figures_makes_a_figure_pyplot_does_not_manage(runs, studies):
     import matplotlib.pyplot as plt
 
     before = plt.get_fignums()
-    for name, draw in _draw_all(runs, studies).items():
-        ax = draw(None)
-        assert isinstance(ax, Axes) and isinstance(ax.figure, Figure), name
-        assert plots.figure_png(ax.figure).startswith(PNG_MAGIC), name
+    with plots.detached_figures():
+        for name, draw in _draw_all(runs, studies).items():
+            ax = draw(None)
+            assert isinstance(ax, Axes) and isinstance(ax.figure, Figure), name
+            assert plots.figure_png(ax.figure).startswith(PNG_MAGIC), name
     assert plt.get_fignums() == before
+
+
+def test_every_plot_without_axes_draws_on_pyplots_current_figure(runs, studies, tmp_path):
+    """Matplotlib's convention, so that a notebook shows the figure and plt.savefig saves it."""
+    import matplotlib.pyplot as plt
+
+    for name, draw in _draw_all(runs, studies).items():
+        plt.close("all")
+        ax = draw(None)
+        assert ax is plt.gca() and ax.figure is plt.gcf(), name
+        assert ax.lines or ax.collections or ax.patches, name
+        path = tmp_path / f"{name}.png"
+        plt.savefig(path)
+        blank = tmp_path / "blank.png"
+        plt.figure().savefig(blank)
+        assert path.stat().st_size > 2 * blank.stat().st_size, name  # something drawn, not an empty canvas
+    plt.close("all")
+
+
+def test_a_plot_draws_on_the_users_own_current_axes(runs):
+    import matplotlib.pyplot as plt
+
+    train, _ = runs
+    fig, (left, right) = plt.subplots(1, 2)
+    plt.sca(right)
+    ax = plots.plot_profile(train.encoder_deg, train.errors_arcmin)
+    assert ax is right and not left.lines
+    plt.close(fig)
 
 
 def test_singular_value_plot_shows_both_matrices_and_the_count(studies):
@@ -139,3 +168,19 @@ def test_panels_past_z_are_labelled_aa_ab_and_so_on():
     from encal.plots import _panel_label
     assert [_panel_label(i) for i in (0, 25, 26, 27, 51, 52, 701, 702)] == \
         ["a", "z", "aa", "ab", "az", "ba", "zz", "aaa"]
+
+
+def test_results_display_richly_in_a_notebook_without_touching_pyplot(runs):
+    import matplotlib.pyplot as plt
+
+    import encal
+
+    train, test = runs
+    model = encal.fit(train, method="fourier", n_orders=8)
+    results = {"model": model, "evaluation": encal.evaluate(model, test), "stats": encal.error_stats(train),
+               "harmonics": encal.harmonics(train.encoder_deg, train.errors_arcmin)}
+    for name, result in results.items():
+        page = result._repr_html_()
+        assert page.startswith("<pre>") and 'src="data:image/png;base64,' in page, name
+        assert str(result).splitlines()[0].strip()[:10] in page, name
+    assert plt.get_fignums() == []

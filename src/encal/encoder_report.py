@@ -366,11 +366,13 @@ def render_encoder_figures(report, dpi=100):
     dict of str to bytes
         Figure name (a key of :data:`ENCODER_FIGURES`) -> PNG, for the sections that apply.
     """
-    from .plots import figure_png
+    from .plots import detached_figures, figure_png
 
     check_type(report, EncoderReport, "report", "render_encoder_figures", "an EncoderReport")
     dpi = check_int(dpi, "dpi", "render_encoder_figures", low=1, high=MAX_DPI, note="dots per inch")
-    return {name: figure_png(make(report), dpi=dpi) for name, (make, applies) in _MAKERS.items() if applies(report)}
+    with detached_figures():
+        return {name: figure_png(make(report), dpi=dpi) for name, (make, applies) in _MAKERS.items()
+                if applies(report)}
 
 
 # --------------------------------------------------------------------------- the page

@@ -334,6 +334,12 @@ class Evaluation:
             lines.append("(arbitrary zero: each column is about its own zero offset)")
         return "\n".join(lines)
 
+    def _repr_html_(self):
+        """Rich display in a notebook: the text table and the figure."""
+        from .plots import html_repr
+
+        return html_repr(self)
+
     def plot(self, ax=None, *, title=None):
         """Errors before and residuals after compensation on the same axes (each about its zero offset
         when the zero is arbitrary); returns the axes."""

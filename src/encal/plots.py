@@ -1,17 +1,19 @@
 """Figures of the paper's procedure, drawn with Matplotlib.
 
-Every ``plot_*`` function draws on ``ax`` and returns it. With ``ax=None`` it
-makes a new :class:`matplotlib.figure.Figure` that pyplot does not manage, so
-nothing opens a window and figures made in a loop are freed with their last
-reference; show one with ``ax.figure`` in a notebook, or save it with
-:func:`save_figure`. The ``*_figure`` functions lay out one panel per encoder,
-(a)-(d) as in the paper.
+Every ``plot_*`` function (and every result's ``plot()`` method) draws on ``ax`` and returns it. With
+``ax=None`` it follows Matplotlib's own convention: it draws on pyplot's current axes (a new figure when
+there is none), so a notebook shows it and ``plt.savefig`` saves it. encal's own reports draw inside
+:func:`detached_figures`, where ``ax=None`` makes a :class:`matplotlib.figure.Figure` that pyplot does
+not manage: nothing opens a window, and figures made in a loop are freed with their last reference.
+The ``*_figure`` functions lay out one panel per encoder, (a)-(d) as in the paper.
 
 The smooth curves through error profiles and residuals (the paper's
 "smoothened spline") are periodic smoothing splines, computed by
 :func:`encal.numerics.spline.periodic_smoothing_spline`; this module only draws.
 """
 
+import contextlib
+import contextvars
 import io
 import math
 
@@ -22,6 +24,8 @@ from .errors import InputError
 from .numerics.spline import periodic_smoothing_spline
 
 __all__ = [
+    "detached_figures",
+    "html_repr",
     "new_axes",
     "panel_figure",
     "save_figure",
@@ -48,13 +52,46 @@ _CURVE_COLOUR = "#222222"
 _FLOOR_COLOUR = "#bbbbbb"
 
 
+_DETACHED = contextvars.ContextVar("encal_detached_figures", default=False)
+
+
+@contextlib.contextmanager
+def detached_figures():
+    """Within this context, ``ax=None`` draws on a new Figure that pyplot does not manage.
+
+    encal's reports draw their figures inside it: they never touch the user's pyplot state, open no
+    window, and free each figure with its last reference.
+    """
+    token = _DETACHED.set(True)
+    try:
+        yield
+    finally:
+        _DETACHED.reset(token)
+
+
+def new_figure(figsize=(6.4, 3.6)):
+    """A new figure of ``figsize`` inches: detached inside :func:`detached_figures`, else pyplot's."""
+    if _DETACHED.get():
+        from matplotlib.figure import Figure
+
+        return Figure(figsize=figsize, layout="constrained")
+    import matplotlib.pyplot as plt
+
+    return plt.figure(figsize=figsize, layout="constrained")
+
+
 def new_axes(ax=None, figsize=(6.4, 3.6)):
-    """``ax``, or the axes of a new Figure (not managed by pyplot) when ``ax`` is None."""
+    """``ax``; else pyplot's current axes (a new figure of ``figsize`` inches when pyplot has none), or,
+    inside :func:`detached_figures`, the axes of a new Figure that pyplot does not manage."""
     if ax is not None:
         return ax
-    from matplotlib.figure import Figure
+    if _DETACHED.get():
+        return new_figure(figsize).add_subplot()
+    import matplotlib.pyplot as plt
 
-    return Figure(figsize=figsize, layout="constrained").add_subplot()
+    if not plt.get_fignums():
+        new_figure(figsize)
+    return plt.gca()
 
 
 def panel_figure(items, draw, *, title=None, ncols=2, panel_size=(4.6, 3.0), sharey=False):
@@ -77,15 +114,12 @@ def panel_figure(items, draw, *, title=None, ncols=2, panel_size=(4.6, 3.0), sha
     -------
     matplotlib.figure.Figure
     """
-    from matplotlib.figure import Figure
-
     names = list(items)
     if not names:
         raise InputError("panel_figure needs at least one item to draw. Got none.")
     ncols = min(ncols, len(names))
     nrows = math.ceil(len(names) / ncols)
-    fig = Figure(figsize=(panel_size[0] * ncols, panel_size[1] * nrows + (0.4 if title else 0)),
-                 layout="constrained")
+    fig = new_figure((panel_size[0] * ncols, panel_size[1] * nrows + (0.4 if title else 0)))
     axes = np.atleast_1d(fig.subplots(nrows, ncols, sharey=sharey, squeeze=False).ravel())
     for index, (name, ax) in enumerate(zip(names, axes)):
         draw(items[name], ax)
@@ -95,6 +129,21 @@ def panel_figure(items, draw, *, title=None, ncols=2, panel_size=(4.6, 3.0), sha
     if title:
         fig.suptitle(title)
     return fig
+
+
+def html_repr(obj, *, dpi=80):
+    """A notebook's rich display of an encal result: its text table and its figure (``obj.plot``).
+
+    The figure is drawn detached from pyplot, so displaying a result leaves the user's figures alone.
+    """
+    import base64
+    import html
+
+    with detached_figures():
+        figure = obj.plot().figure
+        png = base64.b64encode(figure_png(figure, dpi=dpi)).decode("ascii")
+    return (f"<pre>{html.escape(str(obj))}</pre>"
+            f'<img alt="{html.escape(type(obj).__name__)}" src="data:image/png;base64,{png}">')
 
 
 def figure_png(fig, dpi=100):

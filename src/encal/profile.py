@@ -224,6 +224,12 @@ class ErrorStats:
             lines.append(f"{label:<22}{value:>10d}" if label == "n" else f"{label:<22}{value:>10.3f}")
         return "\n".join(lines)
 
+    def _repr_html_(self):
+        """Rich display in a notebook: the text table and the figure."""
+        from .plots import html_repr
+
+        return html_repr(self)
+
     def plot(self, ax=None, *, label=None):
         """Horizontal bars of MAE, RMS, STD and max |error| (arcmin); returns the axes.
 
@@ -848,6 +854,12 @@ class Harmonics:
                  f"{'order':>5}{'amplitude/arcmin':>19}{'phase/deg':>12}"]
         lines += [f"{e['order']:>5d}{e['amplitude_arcmin']:>19.3f}{e['phase_deg']:>12.1f}" for e in self.as_list(10)]
         return "\n".join(lines)
+
+    def _repr_html_(self):
+        """Rich display in a notebook: the text table and the figure."""
+        from .plots import html_repr
+
+        return html_repr(self)
 
     def plot(self, ax=None, *, n_label=10, title=None):
         """The amplitude spectrum (:func:`encal.plots.plot_harmonics`); returns the axes."""

@@ -128,10 +128,11 @@ _MAKERS = {
 
 def _render(task):
     """PNG of one figure (runs in a worker process)."""
-    from .plots import figure_png
+    from .plots import detached_figures, figure_png
 
     name, result = task
-    return figure_png(_MAKERS[name](result))
+    with detached_figures():
+        return figure_png(_MAKERS[name](result))
 
 
 def render_figures(result, *, workers=0, progress=False):

@@ -126,9 +126,9 @@ def run(args):
     print(table.to_text())
     if out is not None:
         from .._atomic import atomic_file_set
-        from ..plots import save_figure
+        from ..plots import detached_figures, save_figure
 
-        with atomic_file_set():  # the table and every figure, or none of them
+        with atomic_file_set(), detached_figures():  # the table and every figure, or none of them
             table.write_csv(out / f"{table.name}.csv")
             for name, plot in figures.items():
                 save_figure(plot().figure, out / f"{name}.png")

@@ -215,6 +215,12 @@ class Model(ABC):
         width = max(len(label) for label, _ in rows)
         return "\n".join(f"{label:<{width}}  {value}" for label, value in rows)
 
+    def _repr_html_(self):
+        """Rich display in a notebook: the text table and the figure."""
+        from ..plots import html_repr
+
+        return html_repr(self)
+
     def plot(self, ax=None, *, data=None, title=None):
         """The predicted error (arcmin) against the encoder angle (deg), with its uncertainty band when the
         model has one and the calibration points ``data = (theta_deg, error_arcmin)`` if given; returns the axes."""
