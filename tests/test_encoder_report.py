@@ -171,3 +171,60 @@ def test_the_page_displays_every_figure_in_a_headless_browser(tmp_path):
     assert pixels.shape[:2] == (4000, 1200)
     assert float(pixels.std()) > 0.05  # not blank
     assert float(np.mean(pixels.min(axis=-1) < 0.5)) > 0.01  # text and curves, not an empty white page
+
+
+def test_with_a_test_calibration_every_candidate_is_scored_on_it(tmp_path):
+    train, test = stepper(0.0, 1, "train"), stepper(0.9, 2, "test")  # the test between the training steps
+    report = encoder_report(train, [test], method="fourier", zero="fixed", rng=0, uncertainty=False)
+    comparison = report.comparison
+    assert comparison["scheme"] == "tests" and comparison["folds"] == 0
+    row = next(r for r in comparison["table"] if r["label"] == "fourier select=cv")
+    from encal.models import select
+
+    fitted = select.Candidate("fourier", {"select": "cv"}).fit(train.encoder_deg, train.errors_arcmin,
+                                                              rng=np.random.default_rng(0))
+    residual = test.errors_arcmin - fitted.predict(test.encoder_deg)
+    assert row["cv_rms_arcmin"] == pytest.approx(np.sqrt(np.mean(residual**2)), rel=1e-9)
+    out = tmp_path / "r.html"
+    write_encoder_report(report, out)
+    page = out.read_text(encoding="utf-8")
+    assert "scored on the test calibrations" in page and "test RMS (arcmin)" in page
+
+
+def test_the_page_says_which_figure_to_trust_when_the_comparison_ranks_the_choice_low():
+    report = encoder_report(stepper(0.0, 1, "train"), method="fourier", zero="fixed", rng=0, uncertainty=False,
+                            compare=False)
+    chosen = report.model.training.get("method", report.model.kind)
+    from encal.encoder_report import _trust_sentence
+
+    rows = [{"label": "other", "family": "lut", "cv_rms_arcmin": 1.0},
+            {"label": "mine", "family": chosen, "cv_rms_arcmin": 5.0}]
+    report.comparison = {"scheme": "report", "folds": 5, "table": rows, "chosen": "mine", "reason": ""}
+    sentence = _trust_sentence(report)
+    assert "ranks 2 of 2" in sentence and "interleaved folds" in sentence and "TEST.csv" in sentence
+    report.comparison = {**report.comparison, "scheme": "tests"}
+    assert "fit --method lut" in _trust_sentence(report)
+    rows[1]["cv_rms_arcmin"] = 1.02  # within 5 % of the best: nothing to say
+    assert _trust_sentence(report) == ""
+
+
+def test_a_dense_log_leaves_the_comparison_out_and_says_why(tmp_path, monkeypatch, capsys):
+    import encal.encoder_report as module
+
+    monkeypatch.setattr(module, "COMPARISON_MAX_POINTS", 100)  # the 200 full steps count as dense here
+    path = write(tmp_path, stepper(0.0, 1, "dense"))
+    out = tmp_path / "r.html"
+    assert main(["report", str(path), "-o", str(out), "--method", "fourier", "--no-uncertainty"]) == 0
+    assert "The model comparison was left out" in capsys.readouterr().out
+    page = out.read_text(encoding="utf-8")
+    assert "The model comparison was left out" in page and "selection" not in figures_in(page)
+    assert main(["report", str(path), "-o", str(out), "--method", "fourier", "--no-uncertainty",
+                 "--comparison"]) == 0
+    assert "selection" in figures_in(out.read_text(encoding="utf-8"))
+
+
+def test_comparison_and_no_comparison_together_are_a_usage_error(tmp_path, capsys):
+    path = write(tmp_path, stepper(0.0, 1, "cal"))
+    with pytest.raises(SystemExit) as exit_info:
+        main(["report", str(path), "-o", str(tmp_path / "r.html"), "--comparison", "--no-comparison"])
+    assert exit_info.value.code == 2

@@ -34,15 +34,20 @@ from .profile import (ZERO_MODES, error_stats, harmonics, remove_offset, zero_is
                       zero_sentence)
 
 __all__ = ["EncoderReport", "encoder_report", "render_encoder_figures", "build_encoder_html",
-           "write_encoder_report", "ENCODER_FIGURES"]
+           "write_encoder_report", "model_comparison", "ENCODER_FIGURES", "COMPARISON_MAX_POINTS"]
+
+#: ``compare='auto'`` leaves the model comparison out above this many calibration points: it refits every
+#: candidate family on each fold, and on a dense log that costs minutes (BENCHMARKS.md, "The report on dense
+#: logs").
+COMPARISON_MAX_POINTS = 5000
 
 #: Figure name -> caption, in page order (a figure is drawn only when its section applies).
 ENCODER_FIGURES = {
     "profile": "Error profile against the encoder angle: the calibration points, the model's prediction and "
                "its 95 % band for a new reading.",
     "harmonics": "Harmonic amplitudes of the error profile; the ten largest orders are labelled.",
-    "selection": "Model comparison: cross-validated RMS of every candidate on points it did not see; the "
-                 "chosen model in orange.",
+    "selection": "Model comparison: RMS of every candidate on points it did not see (a test calibration, or "
+                 "interleaved cross-validation folds without one); the chosen model in orange.",
     "before_after": "Errors before (raw) and residuals after compensation, on the same axes.",
     "reversal": "Reversal (ISO 230-2): mean deviation approached forward and reverse at each target, and "
                 "their difference B_i.",
@@ -81,8 +86,12 @@ class EncoderReport:
     drift : DriftReport or None
         With several epochs.
     comparison : dict or None
-        Cross-validated accuracy of the spectral model and every candidate family of the automatic choice
-        (:func:`model_comparison`), the model ``encal fit`` made marked as chosen.
+        Held-out accuracy of the spectral model and every candidate family of the automatic choice
+        (:func:`model_comparison`): on the test calibrations when there are any, else cross-validated; the
+        model ``encal fit`` made marked as chosen.
+    comparison_note : str
+        Why the comparison was left out, or which figure to trust when the comparison cannot judge the
+        chosen model; "" when there is nothing to say.
     resolution_bits : int or None
         Given, or inferred from readings on a 2^B grid.
     method : str
@@ -104,6 +113,7 @@ class EncoderReport:
     reversal: object = None
     drift: object = None
     comparison: dict | None = None
+    comparison_note: str = ""
     resolution_bits: int | None = None
     method: str = "auto"
     seed: int | None = None
@@ -127,7 +137,9 @@ class EncoderReport:
         if callable(expected) and expected() is not None:
             return float(expected())
         selection = self.selection
-        row = None if selection is None else selection.chosen_row()
+        if selection is None or selection.table.get("scheme") == "tests":
+            return None
+        row = selection.chosen_row()
         return None if row is None else row["cv_rms_arcmin"]
 
     def shape(self, cal):
@@ -136,7 +148,7 @@ class EncoderReport:
         return remove_offset(errors, zero_offset_arcmin(errors)) if self.arbitrary_zero else errors
 
 
-def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncertainty=True, compare=True,
+def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncertainty=True, compare="auto",
                    **fit_options):
     """Measure everything the report on one encoder shows.
 
@@ -154,8 +166,9 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         Seed; drawn and recorded when None, as ``encal fit`` does.
     uncertainty : bool, default=True
         Estimate the model's prediction uncertainty for the band (bootstrap refits of the chosen family).
-    compare : bool, default=True
-        Cross-validate the candidate families for the model comparison (:func:`model_comparison`).
+    compare : bool or 'auto', default='auto'
+        Score the candidate families for the model comparison (:func:`model_comparison`); 'auto' does so up
+        to :data:`COMPARISON_MAX_POINTS` calibration points and says why it left it out above.
     **fit_options
         Passed to :func:`encal.fit`.
 
@@ -178,7 +191,8 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         check_type(test, Calibration, f"tests[{index}]", where, "a Calibration")
     check_choice(zero, "zero", where, ZERO_MODES)
     uncertainty = check_bool(uncertainty, "uncertainty", where)
-    compare = check_bool(compare, "compare", where)
+    if not (isinstance(compare, str) and compare == "auto"):
+        compare = check_bool(compare, "compare", where)
     offset = zero_offset_arcmin(cal.errors_arcmin)
     arbitrary = zero_is_arbitrary(zero, offset, *(zero_offset_arcmin(t.errors_arcmin) for t in tests))
     mode = "arbitrary" if arbitrary else "fixed"
@@ -197,8 +211,17 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
         fitted=evaluate(model, cal, zero=mode),
         held_out=[(t.name or f"test {i + 1}", evaluate(model, t, zero=mode)) for i, t in enumerate(tests)],
         resolution_bits=bits, method=method, seed=seed, notes=notes)
+    if compare == "auto" and len(cal) > COMPARISON_MAX_POINTS:
+        compare = False
+        report.comparison_note = (
+            f"The model comparison was left out: it refits {len(_candidates())} candidate families on every "
+            f"fold, which on {len(cal)} points costs minutes; the figure above "
+            f"is the model's own held-out estimate (encal report --comparison runs it anyway).")
+    elif not compare:
+        report.comparison_note = "No model comparison (--no-comparison)."
     if compare:
-        report.comparison = model_comparison(cal, model, seed)
+        report.comparison = model_comparison(cal, model, seed, tests=tests, zero=mode)
+        report.comparison_note = _trust_sentence(report)
     if cal.direction is not None and np.unique(cal.direction).size == 2:
         report.reversal = reversal(cal)
     epochs = split_epochs(cal)
@@ -210,12 +233,22 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     return report
 
 
-def model_comparison(cal, model, seed=None):
+def _candidates():
+    from .models import select
+
+    return [select.Candidate("spectral", {}), *select.DEFAULT_CANDIDATES]
+
+
+def model_comparison(cal, model, seed=None, *, tests=(), zero="fixed"):
     """Held-out accuracy of the spectral model and of every candidate family of the automatic choice.
 
-    Each candidate is fitted on all but one of k interleaved folds and scored on the one left out
-    (:func:`encal.models.select.cross_validate`, k = 5 or fewer for small calibrations); rows of the
-    model's own selection table that are not among them are added. Directions of travel are pooled.
+    With test calibrations, every candidate is fitted on the whole calibration and scored on the tests
+    pooled (points none of them saw, each test about its own zero offset when ``zero='arbitrary'``): a
+    validation that judges what each candidate predicts between the calibration's points. Without, each is
+    fitted on all but one of k interleaved folds and scored on the one left out
+    (:func:`encal.models.select.cross_validate`, k = 5 or fewer for small calibrations), which cannot see
+    between the points (docs/model-selection.md). Rows of the model's own selection table that are not
+    among them are added. Directions of travel are pooled.
 
     Parameters
     ----------
@@ -223,32 +256,93 @@ def model_comparison(cal, model, seed=None):
     model : Model
         The model ``encal fit`` made; its candidate is marked as chosen.
     seed : int, optional
-        Seeds the networks' folds.
+        Seeds the networks.
+    tests : sequence of Calibration, default=()
+    zero : {'fixed', 'arbitrary'}, default='fixed'
 
     Returns
     -------
     dict
-        ``{'folds', 'table', 'chosen', 'reason'}`` in the shape of a selection table.
+        ``{'scheme', 'folds', 'table', 'chosen', 'reason'}`` in the shape of a selection table; ``scheme`` is
+        'tests' or 'report' (interleaved folds), and the ``cv_*`` figures are those of the scheme.
     """
     from .models import select
 
     theta, error = cal.encoder_deg, cal.errors_arcmin
-    folds = min(select.DEFAULT_FOLDS, max(2, len(cal) // select.MIN_POINTS_PER_FOLD))
-    fold = select.interleaved_folds(theta, folds)
-    candidates = [select.Candidate("spectral", {}), *select.DEFAULT_CANDIDATES]
+    candidates = _candidates()
     streams = np.random.SeedSequence(seed if isinstance(seed, (int, np.integer)) else 0).spawn(len(candidates))
-    table = [select.cross_validate(theta, error, candidate, fold, seeds=stream.spawn(folds)).as_dict()
-             for candidate, stream in zip(candidates, streams)]
+    if tests:
+        table = [_score_on_tests(theta, error, candidate, stream, tests, zero).as_dict()
+                 for candidate, stream in zip(candidates, streams)]
+        scheme, folds = "tests", 0
+    else:
+        folds = min(select.DEFAULT_FOLDS, max(2, len(cal) // select.MIN_POINTS_PER_FOLD))
+        fold = select.interleaved_folds(theta, folds)
+        table = [select.cross_validate(theta, error, candidate, fold, seeds=stream.spawn(folds)).as_dict()
+                 for candidate, stream in zip(candidates, streams)]
+        scheme = "report"
+        own_rows = (model.training.get("selection") or {}).get("table") or []
+        labels = {row["label"] for row in table}
+        table += [row for row in own_rows if row["label"] not in labels and row.get("family") != "spectral"]
     own = model.training.get("selection") or {}
-    labels = {row["label"] for row in table}
-    table += [row for row in own.get("table") or [] if row["label"] not in labels and row.get("family") != "spectral"]
     if own:
         chosen, reason = own.get("chosen"), f"encal fit chose {own.get('chosen')}: {own.get('reason')}"
     else:
         family = model.training.get("method", model.kind)
         chosen = next((row["label"] for row in table if row["family"] == family), None)
         reason = f"--method {family}: the closest candidate is marked"
-    return {"scheme": "report", "folds": int(folds), "table": table, "chosen": chosen, "reason": reason}
+    return {"scheme": scheme, "folds": int(folds), "table": table, "chosen": chosen, "reason": reason}
+
+
+def _score_on_tests(theta, error, candidate, stream, tests, zero):
+    """A candidate fitted on the whole calibration, scored on the test calibrations pooled (a CVScore)."""
+    import time
+
+    from .errors import EncalError
+    from .models import select
+
+    start = time.perf_counter()
+    try:
+        fitted = candidate.fit(theta, error, rng=np.random.default_rng(stream))
+    except EncalError as exc:
+        return select.CVScore(candidate, np.inf, np.inf, np.inf, np.inf, time.perf_counter() - start, error=str(exc))
+    residuals = []
+    for test in tests:
+        residual = test.errors_arcmin - np.asarray(fitted.predict(test.encoder_deg))
+        residuals.append(remove_offset(residual, zero_offset_arcmin(residual)) if zero == "arbitrary" else residual)
+    residual = np.concatenate(residuals)
+    if not np.all(np.isfinite(residual)):
+        return select.CVScore(candidate, np.inf, np.inf, np.inf, np.inf, time.perf_counter() - start,
+                              error="non-finite predictions")
+    return select.CVScore(candidate, float(np.sqrt(np.mean(residual**2))), float(np.mean(np.abs(residual))),
+                          float(np.max(np.abs(residual))), float(fitted.free_parameters()),
+                          time.perf_counter() - start)
+
+
+def _trust_sentence(report):
+    """One sentence when the page's comparison and encal fit's choice disagree: which figure to trust, and why."""
+    from .models.choice import is_chosen
+
+    table = report.comparison
+    rows = sorted((row for row in table["table"] if row.get("cv_rms_arcmin") is not None),
+                  key=lambda row: row["cv_rms_arcmin"])
+    chosen = next((row for row in rows if is_chosen(row, table)), None)
+    if not rows or chosen is None or chosen["cv_rms_arcmin"] <= 1.05 * rows[0]["cv_rms_arcmin"]:
+        return ""
+    rank = rows.index(chosen) + 1
+    if table["scheme"] == "tests":
+        return (f"On the test calibrations encal fit's choice ranks {rank} of {len(rows)} "
+                f"({chosen['cv_rms_arcmin']:.3g} against {rows[0]['cv_rms_arcmin']:.3g} arcmin for "
+                f"{rows[0]['label']}): these points none of the candidates saw are the figure to trust here, so "
+                f"fit --method {rows[0]['family']} for this encoder.")
+    own = report.model.expected_rms_between_points() if callable(
+        getattr(report.model, "expected_rms_between_points", None)) else None
+    estimate = f" ({own:.3g} arcmin)" if own is not None else ""
+    return (f"Here encal fit's choice ranks {rank} of {len(rows)}, but interleaved folds leave out points that "
+            "lie between points still in the fit, so they cannot judge what a model predicts between the "
+            f"calibration's points (docs/model-selection.md); trust the model's own held-out estimate{estimate}, "
+            "and give a test calibration (encal report CAL.csv TEST.csv) to score every candidate on points "
+            "none of them saw.")
 
 
 def _run_label(cal, index):
@@ -434,16 +528,22 @@ def _selection_table(report):
 
     selection = report.selection
     if selection is None:
-        return _html.paragraph("No model comparison (--no-comparison).")
+        return _html.paragraph(report.comparison_note or "No model comparison.")
     rows = []
     for row in selection.rows():
         name = (f"stack of {len(row['options']['members'])}" if row["family"] == "stack" else row["label"])
         mark = "chosen" if is_chosen(row, selection.table) else ""
         rows.append([name, _f(row.get("cv_rms_arcmin")), _f(row.get("cv_mae_arcmin")),
                      _f(row.get("n_parameters"), 3), mark])
-    return (_html.table(["candidate", "CV RMS (arcmin)", "CV MAE (arcmin)", "parameters", ""], rows,
-                        f"Cross-validation over {selection.table['folds']} interleaved folds (held-out points)")
-            + _html.paragraph(f"{selection.reason}."))
+    if selection.table.get("scheme") == "tests":
+        headings = ["candidate", "test RMS (arcmin)", "test MAE (arcmin)", "parameters", ""]
+        caption = ("Every candidate fitted on the whole calibration and scored on the test calibrations "
+                   "(points none of them saw)")
+    else:
+        headings = ["candidate", "CV RMS (arcmin)", "CV MAE (arcmin)", "parameters", ""]
+        caption = f"Cross-validation over {selection.table['folds']} interleaved folds (held-out points)"
+    note = _html.paragraph(report.comparison_note) if report.comparison_note else ""
+    return _html.table(headings, rows, caption) + _html.paragraph(f"{selection.reason}.") + note
 
 
 def _held_out_tables(report):

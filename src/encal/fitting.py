@@ -63,7 +63,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
         members of the other families.
     rng : int or numpy.random.Generator, optional
         Seed for the methods that draw random numbers (network initialisation) and, with
-        ``uncertainty=True``, for the bootstrap; for ``'fourier'`` and ``'lut'`` only then. When
+        ``uncertainty=True``, for the bootstrap; ``'fourier'`` and ``'lut'`` use it only then and ignore it otherwise. When
         None and one is needed, a seed is drawn and recorded as ``model.training['seed']``, so the
         model file says how to fit the same model again.
     uncertainty : bool, default=False
@@ -138,10 +138,7 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     fit_options = {key: value for key, value in options.items() if key != "progress"}
     randomised = model_kind(method).randomised
     if randomised:
-        options["rng"] = rng
-    elif rng is not None and not uncertainty:
-        raise InputError(f"method {method!r} draws no random numbers; rng must be None "
-                         "(it seeds only the bootstrap of uncertainty=True)")
+        options["rng"] = rng  # a deterministic method ignores rng (scikit-learn's random_state does the same)
     _check_options(method, fit_family, options)
     model = fit_family(cal.encoder_deg, cal.errors_arcmin, **options)
     model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}

@@ -395,7 +395,9 @@ def plot_selection(selection, ax=None):
         ax.set_xscale("log")  # one failed family must not flatten the others
     ax.set_yticks(y, names, fontsize="x-small")
     ax.invert_yaxis()
-    ax.set_xlabel(f"cross-validated RMS over {selection['folds']} folds (arcmin); chosen in orange")
+    what = ("RMS on the test calibrations" if selection.get("scheme") == "tests"
+            else f"cross-validated RMS over {selection['folds']} folds")
+    ax.set_xlabel(f"{what} (arcmin); chosen in orange")
     return ax
 
 

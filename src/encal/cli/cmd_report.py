@@ -29,8 +29,13 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=int, help="random seed, as for encal fit")
     parser.add_argument("--no-uncertainty", dest="uncertainty", action="store_false",
                         help="skip the uncertainty band (it costs 30 to 100 refits of the chosen model)")
-    parser.add_argument("--no-comparison", dest="compare", action="store_false",
-                        help="skip the model comparison (cross-validation of every candidate family)")
+    comparison = parser.add_mutually_exclusive_group()
+    comparison.add_argument("--no-comparison", dest="compare", action="store_const", const=False, default="auto",
+                            help="skip the model comparison (every candidate family scored on the test "
+                                 "calibrations, or cross-validated without one)")
+    comparison.add_argument("--comparison", dest="compare", action="store_const", const=True,
+                            help="run the model comparison also on a calibration of more than 5000 points, "
+                                 "where it is left out by default (it costs minutes there)")
     parser.add_argument("--model", metavar="MODEL.json",
                         help="also write the model file (the same model encal fit writes)")
     add_zero_options(parser)
@@ -50,7 +55,7 @@ def run(args):
     with activity("report") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress)
         tests = [read_calibration_from_args(path, args, progress) for path in args.tests]
-        progress.stage(f"fitting ({args.method})" + (", comparing the models" if args.compare else "")
+        progress.stage(f"fitting ({args.method})" + (", comparing the models" if args.compare is not False else "")
                        + (", the uncertainty band" if args.uncertainty else ""))
         report = encoder_report(cal, tests, method=args.method, zero=args.zero, rng=args.seed,
                                 uncertainty=args.uncertainty, compare=args.compare)
@@ -58,7 +63,7 @@ def run(args):
         written = write_encoder_report(report, output, figures_dir=args.figures)
         if args.model is not None:
             report.model.save(args.model)
-    for note in report.notes:
+    for note in report.notes + ([report.comparison_note] if report.comparison_note else []):
         print(note)
     figures = [path for key, path in written.items() if key.startswith("figure:")]
     print(f"{report.name}: {report.model.kind} model (seed {report.seed}); wrote {output} and "
