@@ -63,8 +63,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
         members of the other families.
     rng : int or numpy.random.Generator, optional
         Seed for the methods that draw random numbers (network initialisation) and, with
-        ``uncertainty=True``, for the bootstrap; ``'fourier'`` and ``'lut'`` use it only then and ignore it otherwise. When
-        None and one is needed, a seed is drawn and recorded as ``model.training['seed']``, so the
+        ``uncertainty=True``, for the bootstrap; ``'fourier'`` and ``'lut'`` use it only then and ignore
+        it otherwise. When None and one is needed, a seed is drawn and recorded as ``model.training['seed']``, so the
         model file says how to fit the same model again.
     uncertainty : bool, default=False
         Also estimate the prediction uncertainty (bootstrap refits; see :mod:`encal.uncertainty`), so that
