@@ -171,6 +171,19 @@ def test_the_page_displays_every_figure_in_a_headless_browser(tmp_path):
     assert pixels.shape[:2] == (4000, 1200)
     assert float(pixels.std()) > 0.05  # not blank
     assert float(np.mean(pixels.min(axis=-1) < 0.5)) > 0.01  # text and curves, not an empty white page
+    # a desktop and a phone: nothing sticks out past the page's width (tables scroll inside their box). A
+    # headless window is at least 500 px wide, so the page is laid out in a frame of each width.
+    for width in (1400, 390):
+        frame = tmp_path / f"frame{width}.html"
+        frame.write_text(f'<!DOCTYPE html><html><body><iframe id="f" src="{page.name}" style="width:{width}px;'
+                         'height:900px;border:0"></iframe><script>document.getElementById("f").addEventListener('
+                         '"load", function () { var d = this.contentDocument.documentElement; document.body.'
+                         'setAttribute("data-widths", d.scrollWidth + " " + d.clientWidth); });</script>'
+                         '</body></html>', encoding="utf-8")
+        dom = subprocess.run([browser, *flags, "--allow-file-access-from-files", "--dump-dom", frame.as_uri()],
+                             capture_output=True, text=True, timeout=120, check=True).stdout
+        laid_out, window = map(int, re.search(r'data-widths="(\d+) (\d+)"', dom).groups())
+        assert 0 < laid_out <= window <= width, width
 
 
 def test_with_a_test_calibration_every_candidate_is_scored_on_it(tmp_path):
@@ -228,3 +241,23 @@ def test_comparison_and_no_comparison_together_are_a_usage_error(tmp_path, capsy
     with pytest.raises(SystemExit) as exit_info:
         main(["report", str(path), "-o", str(tmp_path / "r.html"), "--comparison", "--no-comparison"])
     assert exit_info.value.code == 2
+
+
+def test_the_page_opens_with_a_verdict_on_the_data_it_rests_on(tmp_path, capsys):
+    from encal.encoder_report import verdict
+
+    train, test = stepper(0.0, 1, "train"), stepper(0.9, 2, "test")
+    with_test = encoder_report(train, [test], method="fourier", zero="fixed", uncertainty=False, compare=False)
+    line = verdict(with_test)
+    evaluation = with_test.held_out[0][1]
+    assert f"RMS {with_test.stats.rms:.3g} arcmin" in line
+    assert f"after correction RMS {evaluation.after.rms:.3g} arcmin is left on {len(test)} test points" in line
+    alone = encoder_report(train, method="spectral", zero="fixed", uncertainty=False, compare=False)
+    assert "the model's own estimate" in verdict(alone)
+    other = Calibration(test.reference_deg, test.reference_deg - (test.encoder_deg - test.reference_deg), name="x")
+    worse = encoder_report(train, [other], method="fourier", zero="fixed", uncertainty=False, compare=False)
+    assert "the correction makes it worse there" in verdict(worse)
+    out = tmp_path / "r.html"
+    write_encoder_report(alone, out)
+    page = out.read_text(encoding="utf-8")
+    assert page.index('class="verdict"') < page.index("<h2>Summary</h2>")

@@ -184,3 +184,47 @@ def test_results_display_richly_in_a_notebook_without_touching_pyplot(runs):
         assert page.startswith("<pre>") and 'src="data:image/png;base64,' in page, name
         assert str(result).splitlines()[0].strip()[:10] in page, name
     assert plt.get_fignums() == []
+
+
+def test_a_dense_profile_is_drawn_as_a_band_per_bin_not_a_blob_of_dots():
+    rng = np.random.default_rng(0)
+    theta = rng.uniform(0.0, 360.0, 50_000)
+    error = 2.0 * np.sin(np.radians(theta)) + rng.normal(0.0, 0.1, theta.size)
+    with plots.detached_figures():
+        ax = plots.plot_profile(theta, error, smooth=False)
+    assert not any(line.get_marker() == "." for line in ax.lines)  # no dot per point
+    band = ax.collections[0].get_paths()[0].vertices
+    assert band[:, 0].min() >= 0.0 and band[:, 0].max() <= 360.0
+    median = ax.lines[0].get_ydata()
+    assert median.size == 2000  # 25 points a bin
+    centres = ax.lines[0].get_xdata()
+    np.testing.assert_allclose(median, 2.0 * np.sin(np.radians(centres)), atol=0.15)  # 6 sigma of a median of 25
+    assert "middle 95 %" in ax.get_legend_handles_labels()[1][0]
+
+
+def test_a_sparse_profile_keeps_one_dot_per_point(runs):
+    train, _ = runs
+    with plots.detached_figures():
+        ax = plots.plot_profile(train.encoder_deg, train.errors_arcmin, smooth=False)
+    assert ax.lines[0].get_marker() == "." and ax.lines[0].get_xdata().size == len(train)
+
+
+def test_the_harmonics_chart_spans_the_orders_that_carry_the_error():
+    import encal
+
+    rng = np.random.default_rng(1)
+    theta = np.arange(16384) * 360.0 / 16384
+    error = 3.0 * np.sin(np.radians(theta)) + 0.5 * np.sin(np.radians(200 * theta)) + rng.normal(0, 0.05, 16384)
+    with plots.detached_figures():
+        ax = plots.plot_harmonics(encal.harmonics(theta, error))
+    low, high = ax.get_xlim()
+    assert 200 < high < 300  # order 200 shown, not the 8192 orders of the grid
+
+
+def test_a_floor_and_the_rms_in_a_legend_carry_their_unit(runs):
+    train, _ = runs
+    with plots.detached_figures():
+        ax = plots.plot_before_after(train.encoder_deg, train.errors_arcmin, 0.1 * train.errors_arcmin,
+                                     floor_arcmin=1.32)
+    labels = ax.get_legend_handles_labels()[1]
+    assert "± 1.32 arcmin" in labels and all("arcmin" in label for label in labels)

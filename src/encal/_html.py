@@ -26,6 +26,8 @@ figure { margin: 1.2em 0; }
 figure img { max-width: 100%; height: auto; border: 1px solid #eee; }
 figcaption { font-size: 0.88em; color: #444; max-width: 60em; }
 ul.summary li { margin-bottom: 0.5em; }
+p.verdict { font-size: 1.08em; background: #f3f7fb; border-left: 4px solid #1f77b4; padding: 0.6em 0.9em;
+            max-width: 60em; }
 .scroll { overflow-x: auto; }
 """
 
@@ -63,14 +65,16 @@ def table(header, rows, caption=None, numeric=None):
     return f'<div class="scroll"><table>{title}<thead><tr>{head}</tr></thead><tbody>{body}</tbody></table></div>'
 
 
-#: Counts the figures the browser decoded and writes the count into ``<body data-figures-loaded>``, so a
-#: headless browser's dumped DOM shows whether every figure displays.
+#: Counts the figures the browser decoded and writes the count into ``<body data-figures-loaded>``, and the
+#: page's laid-out width into ``data-page-width``, so a headless browser's dumped DOM shows whether every
+#: figure displays and whether anything sticks out past the window.
 _FIGURE_CHECK = """<script>
 window.addEventListener("load", function () {
   var images = document.querySelectorAll("img[data-figure]"), loaded = 0;
   images.forEach(function (img) { if (img.complete && img.naturalWidth > 0) { loaded += 1; } });
   document.body.setAttribute("data-figures-loaded", String(loaded));
   document.body.setAttribute("data-figures", String(images.length));
+  document.body.setAttribute("data-page-width", String(document.documentElement.scrollWidth));
 });
 </script>"""
 

@@ -364,7 +364,7 @@ def _unique(labels):
 
 
 def _profile_figure(report):
-    from .plots import new_axes, plot_model
+    from .plots import draw_points, new_axes, plot_model
 
     ax = new_axes(figsize=(8.0, 3.8))
     cal = report.calibration
@@ -374,9 +374,9 @@ def _profile_figure(report):
     for index, (label, evaluation) in enumerate(report.held_out):
         # each test about its own zero offset: a motor calibrated again starts elsewhere
         own = evaluation.before.offset if evaluation.arbitrary_zero else 0.0
-        ax.plot(evaluation.encoder_deg, _shape_of(evaluation.error_arcmin, own), "x", ms=3,
-                color=f"C{index + 2}", label=f"{label} (test)")
-    ax.legend(fontsize="x-small", loc="best", frameon=True, framealpha=0.75, edgecolor="none")
+        draw_points(ax, evaluation.encoder_deg, _shape_of(evaluation.error_arcmin, own), colour=f"C{index + 2}",
+                    label=f"{label} (test)", marker="x")
+    ax.legend(fontsize="small", loc="best", frameon=True, framealpha=0.75, edgecolor="none")
     return ax.figure
 
 
@@ -516,6 +516,41 @@ def _summary(report):
     return '<ul class="summary">' + "".join(f"<li>{html.escape(line)}</li>" for line in lines) + "</ul>"
 
 
+def verdict(report):
+    """The page's first line: the encoder's error, what is left after correction, how sure, on which data."""
+    stats = report.stats
+    what = "shape (zero offset apart)" if report.arbitrary_zero else "error"
+    head = f"{report.name}: the encoder's {what} is RMS {stats.rms:.3g} arcmin (peak-to-peak {stats.pp:.3g})"
+    if report.held_out:
+        points = sum(evaluation.after.n for _, evaluation in report.held_out)
+        before = _pooled_rms([evaluation.before.rms for _, evaluation in report.held_out],
+                             [evaluation.before.n for _, evaluation in report.held_out])
+        after = _pooled_rms([evaluation.after.rms for _, evaluation in report.held_out],
+                            [evaluation.after.n for _, evaluation in report.held_out])
+        worse = " — the correction makes it worse there" if after > before else ""
+        left = (f"; after correction RMS {after:.3g} arcmin is left on {points} test points the model never saw "
+                f"(RMS {before:.3g} before){worse}")
+    elif report.held_out_rms() is not None:
+        left = (f"; after correction about RMS {report.held_out_rms():.3g} arcmin is expected at readings it did "
+                "not see (the model's own estimate from this one calibration: give a test calibration to measure it)")
+    else:
+        left = (f"; after correction RMS {report.fitted.after.rms:.3g} arcmin is left on the calibration's own "
+                "points (optimistic: give a test calibration to measure it)")
+    band = ""
+    if getattr(report.model, "uncertainty", None) is not None:
+        from scipy.stats import norm
+
+        _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
+        half_width = float(norm.ppf(0.975) * np.mean(std))
+        band = f"; the model's 95 % band for a new reading is ± {half_width:.3g} arcmin on average"
+    return head + left + band + "."
+
+
+def _pooled_rms(values, counts):
+    counts = np.asarray(counts, dtype=float)
+    return float(np.sqrt(np.sum(np.asarray(values, dtype=float) ** 2 * counts) / np.sum(counts)))
+
+
 def _harmonics_table(report):
     rows = [[str(e["order"]), f"{e['amplitude_arcmin']:.4g}", f"{e['phase_deg']:.1f}"]
             for e in report.harmonics.as_list(10)]
@@ -605,6 +640,7 @@ def build_encoder_html(report, figures):
         f"<h1>Encoder report: {html.escape(report.name)}</h1>",
         _html.paragraph(f"{cal.source or report.name}: {len(cal)} points; {resolution}. encal {__version__}; "
                         f"model: encal fit --method {report.method}{seed} -> {model.kind}.", "meta"),
+        _html.paragraph(verdict(report), "verdict"),
         "<h2>Summary</h2>", _summary(report),
         "<h2>Zero offset</h2>",
         *(_html.paragraph(note) for note in report.notes),

@@ -186,11 +186,11 @@ def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, ti
     ax = new_axes(ax)
     theta = np.asarray(theta_deg, dtype=float)
     error = np.asarray(error_arcmin, dtype=float)
-    ax.plot(theta, error, ".", ms=3.5, color=_TRAIN_COLOUR, label=label)
+    draw_points(ax, theta, error, colour=_TRAIN_COLOUR, label=label)
     all_theta, all_error = theta, error
     if test is not None:
         test_theta, test_error = (np.asarray(a, dtype=float) for a in test)
-        ax.plot(test_theta, test_error, ".", ms=3.5, color=_TEST_COLOUR, label=test_label)
+        draw_points(ax, test_theta, test_error, colour=_TEST_COLOUR, label=test_label)
         all_theta, all_error = np.r_[theta, test_theta], np.r_[error, test_error]
     if smooth:
         spline = periodic_smoothing_spline(all_theta, all_error)
@@ -233,13 +233,25 @@ def plot_harmonics(harmonics, *, n_label=10, ax=None, title=None):
             labelled.append(k)
     ax.set_yscale("log")
     ax.set_ylim(floor, amplitude.max() * 3)
-    ax.set_xlim(-1, orders.max() + 1)
+    ax.set_xlim(-1, _orders_that_carry(orders, amplitude, top) + 1)
     ax.set_xlabel("harmonic order (cycles per revolution)")
     ax.set_ylabel("amplitude (arcmin)")
     if title is not None:
         ax.set_title(title)
-    ax.legend(loc="upper right", fontsize="x-small", frameon=False)
+    ax.legend(loc="upper right", fontsize="small", frameon=False)
     return ax
+
+
+def _orders_that_carry(orders, amplitude, top):
+    """The highest order worth showing: past every order well above the spectrum's noise (five times its
+    median amplitude), with a margin; at least 20, at most the highest order. A top-10 order in the noise
+    (a profile with fewer lines) stays in the legend but does not stretch the axis."""
+    if orders.size <= 20:
+        return int(orders.max())
+    noise = float(np.median(amplitude[1:]))
+    carrying = orders[amplitude > 5.0 * noise]
+    last = max(([int(carrying.max())] if carrying.size else []) + [20])
+    return int(min(orders.max(), np.ceil(1.15 * last) + 2))
 
 
 # --------------------------------------------------------------------------- results of the public API
@@ -306,7 +318,7 @@ def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_a
     shift = lambda values: _wrapped_arcmin(np.asarray(values, dtype=float) - offset_arcmin)  # noqa: E731
     if data is not None:
         theta, error = (np.asarray(a, dtype=float) for a in data)
-        ax.plot(theta, shift(error), ".", ms=3.5, color=_TRAIN_COLOUR, label="calibration")
+        draw_points(ax, theta, shift(error), colour=_TRAIN_COLOUR, label="calibration")
     if getattr(model, "uncertainty", None) is not None:
         mean, std = model.predict(grid, return_std=True)
         mean = shift(mean)
@@ -351,12 +363,12 @@ def plot_before_after(theta_deg, before_arcmin, after_arcmin, *, ax=None, title=
     order = np.argsort(theta)
     if floor_arcmin is not None:
         ax.axhspan(-floor_arcmin, floor_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,
-                   label=f"± {floor_arcmin:.3g}")
+                   label=f"± {floor_arcmin:.3g} arcmin")
     rms = lambda values: float(np.sqrt(np.mean(values**2)))  # noqa: E731
-    ax.plot(theta[order], before[order], ".", ms=3.5, color=_TRAIN_COLOUR,
-            label=f"{labels[0]} (RMS {rms(before):.3g})")
-    ax.plot(theta[order], after[order], ".", ms=3.5, color=_TEST_COLOUR,
-            label=f"{labels[1]} (RMS {rms(after):.3g})")
+    draw_points(ax, theta[order], before[order], colour=_TRAIN_COLOUR,
+                label=f"{labels[0]} (RMS {rms(before):.3g} arcmin)")
+    draw_points(ax, theta[order], after[order], colour=_TEST_COLOUR,
+                label=f"{labels[1]} (RMS {rms(after):.3g} arcmin)")
     ax.axhline(0.0, color=_CURVE_COLOUR, lw=0.5)
     _angle_axis(ax)
     ax.set_ylabel("error (arcmin)")
@@ -397,7 +409,8 @@ def plot_selection(selection, ax=None):
     ax.invert_yaxis()
     what = ("RMS on the test calibrations" if selection.get("scheme") == "tests"
             else f"cross-validated RMS over {selection['folds']} folds")
-    ax.set_xlabel(f"{what} (arcmin); chosen in orange")
+    ax.set_xlabel(f"{what} (arcmin)")
+    ax.set_title("encal fit's choice in orange", fontsize="small")
     return ax
 
 
@@ -638,8 +651,36 @@ def _wrapped_arcmin(values):
 
 
 def _legend(ax):
-    """A small framed legend that lets the data show through."""
-    ax.legend(fontsize="x-small", loc="best", frameon=True, framealpha=0.75, edgecolor="none")
+    """A framed legend, legible at a page's width, that lets the data show through."""
+    ax.legend(fontsize="small", loc="best", frameon=True, framealpha=0.75, edgecolor="none")
+
+
+#: Above this many points a profile is drawn as a band per angle bin instead of one dot per point (dots
+#: would merge into a solid blob).
+DENSE_POINTS = 2000
+
+def draw_points(ax, theta_deg, values_arcmin, *, colour, label, marker="."):
+    """Points of a profile: one dot each, or, above :data:`DENSE_POINTS`, the median and the middle 95 % of
+    each bin of angle as a line in a band (a dense log drawn dot by dot is a blob). The bins hold about 25
+    points each, between 360 and 3600 bins a turn, so a detent ripple of a 200-step motor stays visible."""
+    theta = np.asarray(theta_deg, dtype=float)
+    values = np.asarray(values_arcmin, dtype=float)
+    if theta.size <= DENSE_POINTS:
+        ax.plot(theta, values, marker, ms=3.5, color=colour, label=label, ls="none")
+        return
+    bins = int(np.clip(theta.size // 25, 360, 3600))
+    width = 360.0 / bins
+    index = np.clip((np.mod(theta, 360.0) / width).astype(int), 0, bins - 1)
+    order = np.argsort(index, kind="stable")
+    sorted_index, sorted_values = index[order], values[order]
+    starts = np.searchsorted(sorted_index, np.arange(bins + 1))
+    low, middle, high = (np.full(bins, np.nan) for _ in range(3))
+    for k in np.flatnonzero(np.diff(starts)):
+        low[k], middle[k], high[k] = np.percentile(sorted_values[starts[k]:starts[k + 1]], [2.5, 50.0, 97.5])
+    centres = (np.arange(bins) + 0.5) * width
+    ax.fill_between(centres, low, high, color=colour, alpha=0.35, lw=0,
+                    label=f"{label}: median, middle 95 % per {width:.2g}° ({theta.size} points)")
+    ax.plot(centres, middle, "-", lw=0.8, color=colour, label="_nolegend_")
 
 
 def _angle_axis(ax):

@@ -43,7 +43,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..encoder_report import encoder_report, write_encoder_report
+    from ..encoder_report import encoder_report, verdict, write_encoder_report
     from ..errors import InputError
 
     output = Path(args.output)
@@ -63,6 +63,7 @@ def run(args):
         written = write_encoder_report(report, output, figures_dir=args.figures)
         if args.model is not None:
             report.model.save(args.model)
+    print(verdict(report))
     for note in report.notes + ([report.comparison_note] if report.comparison_note else []):
         print(note)
     figures = [path for key, path in written.items() if key.startswith("figure:")]
