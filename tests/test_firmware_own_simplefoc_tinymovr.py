@@ -116,7 +116,8 @@ def test_read_simplefoc_applies_each_version_as_its_code_does():
         # what the firmware itself prints, without encal's comment
         bare = out.text[out.text.index("float" if version != "uint16" else "uint16_t"):]
         if version == "uint16":
-            assert np.allclose(read_simplefoc("// Calibrated Sensor LUT\n" + bare).predict(theta), reread.predict(theta))
+            printed = read_simplefoc("// Calibrated Sensor LUT\n" + bare)
+            assert np.allclose(printed.predict(theta), reread.predict(theta))
         else:
             with pytest.raises(InputError, match="--firmware-version"):
                 read_simplefoc(bare)

@@ -46,7 +46,8 @@ _LIBRARIES = {}
 
 def unavailable():
     for path in (SOURCE / "arduino-foc" / "src" / "common" / "base_classes" / "Sensor.cpp",
-                 SOURCE / "drivers-v1.0.8" / "CalibratedSensor.cpp", SOURCE / "drivers-v1.0.9" / "CalibratedSensor.cpp"):
+                 SOURCE / "drivers-v1.0.8" / "CalibratedSensor.cpp",
+                 SOURCE / "drivers-v1.0.9" / "CalibratedSensor.cpp"):
         if not path.is_file():
             return f"SimpleFOC's own code is not here ({path} is missing)"
     if shutil.which("g++") is None:

@@ -44,7 +44,8 @@ def run(args):
     readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
                "mechaduino": firmware.read_mechaduino,
                "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),
-               "moteus": firmware.read_moteus_conf, "simplefoc": lambda path: firmware.read_simplefoc(path, firmware_version=args.firmware_version),
+               "moteus": firmware.read_moteus_conf,
+               "simplefoc": lambda path: firmware.read_simplefoc(path, firmware_version=args.firmware_version),
                "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
     result = readers[args.kind](args.input)
     if args.kind in CALIBRATIONS:
