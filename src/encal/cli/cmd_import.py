@@ -6,7 +6,7 @@
   encal import mechaduino FILE -o CAL.csv         a lookup[16384] table (every count against its angle)
   encal import moteus FILE -o MODEL.json          conf set ...compensation_table lines (an existing correction)
   encal import simplefoc FILE -o MODEL.json       a calibrationLut[] [--firmware-version 1.0.8|1.0.9|uint16]
-  encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (ticks of a B-bit sensor)
+  encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (native ticks of the B-bit sensor)
 
 Calibrations can be fitted, profiled and compared; an existing correction becomes a
 model file that 'encal evaluate' scores on a calibration, beside encal's own models.
