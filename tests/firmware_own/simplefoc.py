@@ -12,9 +12,11 @@ shared files, and the snapshot of the upstream repository that could be fetched 
 (2024-08). Its run-time rule is modelled here from the code as read in two public forks that carry it,
 Schnilz/Arduino-FOC-drivers@89b8e9597e1b0ca90b1685e671678f6353d56f78 and
 Moddingear/Arduino-FOC-drivers@ed697c86115ffb857a01fb67703111de75513a4a,
-``src/encoders/calibrated/CalibratedSensor.h`` (``LUT_SCALE 10430.2191955f``, ``LUT_OFFSET 32767.0f``,
-``decodeOffsetU16(u) = (u - LUT_OFFSET) / LUT_SCALE``) and ``CalibratedSensor.cpp``
-(``getSensorAngle``: ``lut_index = raw_angle * lut_resolution_inv``, the upper index
+``src/encoders/calibrated/CalibratedSensor.h`` (lines 15-16 of the Schnilz commit: ``LUT_SCALE
+10430.2191955f``, ``LUT_OFFSET 32767.0f``; the inline ``decodeOffsetU16(u) = (u - LUT_OFFSET) / LUT_SCALE``)
+and ``CalibratedSensor.cpp`` (lines 7-11, the constructor's ``lut_resolution = _2PI / n_lut`` and
+``lut_resolution_inv = 1.0f / lut_resolution``; lines 35-65, ``getSensorAngle``:
+``lut_index = raw_angle * lut_resolution_inv``, the upper index
 ``lut_index >= n_lut-1 ? 0 : lut_index + 1``, ``distance_lower = (raw_angle - lut_index *
 lut_resolution) * lut_resolution_inv``, ``raw_angle - correction_offset`` normalised into [0, 2 pi)),
 written independently of encal's copy below, in float32.
