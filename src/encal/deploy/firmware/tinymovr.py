@@ -67,7 +67,8 @@ def export_tinymovr(model, *, bits=None):
             f"and set rec_calibrated */\nint32_t rec_table[{NODES}] = {{\n    {rows}\n}};\n")
     note = (f"entries in native ticks of the {bits}-bit sensor (not the 13-bit common ticks of the firmware's own "
             "calibration); int32_t (firmware since 2024-02): copy element by element, not with memcpy from "
-            "int16_t; set rec_calibrated. The rounding to whole ticks and the 64-node interpolation are the format's")
+            "int16_t; set rec_calibrated. The rounding to whole ticks and the 64-node interpolation are the format's"
+            + (f"; measured on 2^{grid} evenly spaced codes of the 2^{bits}" if grid < bits else ""))
     # node rounding (half a tick) plus the floor of the interpolation (under one tick)
     return checked(FirmwareExport("tinymovr", text, max_error, rms_error, 1.5 * lsb, 2**grid, note, offset), target)
 
