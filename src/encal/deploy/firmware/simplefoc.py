@@ -41,7 +41,6 @@ __all__ = ["export_simplefoc", "simplefoc_angle", "read_simplefoc", "VERSIONS", 
 VERSIONS = ("1.0.8", "1.0.9", "uint16")
 DEFAULT_VERSION = "1.0.9"  # the current release
 DEFAULT_NODES = {"1.0.8": 128, "1.0.9": 200, "uint16": 200}
-NODES = DEFAULT_NODES["1.0.8"]
 TWO_PI = np.float32(6.28318530718)  # SimpleFOC's _2PI
 LUT_SCALE = np.float32(10430.2191955)  # the uint16 LUT's radians -> counts
 LUT_OFFSET = np.float32(32767.0)
