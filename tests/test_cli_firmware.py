@@ -20,10 +20,13 @@ def run(capsys, *args):
 
 @pytest.mark.parametrize("fmt, extra, marker", [
     ("moteus", ["--source", "2"], "conf set motor_position.sources.2.compensation_table.0 "),
-    ("simplefoc", [], "float calibrationLut[128]"),
+    ("simplefoc", [], "float calibrationLut[200]"),
+    ("simplefoc", ["--firmware-version", "1.0.8"], "float calibrationLut[128]"),
+    ("simplefoc", ["--firmware-version", "uint16"], "uint16_t calibrationLut[200]"),
     ("klipper", ["--full-steps", "400"], "calibrate:"),
     ("mechaduino", ["--bits", "14"], "lookup[16384]"),
-    ("tinymovr", ["--bits", "13"], "int16_t rec_table[64]"),
+    ("tinymovr", ["--bits", "13"], "int32_t rec_table[64]"),
+    ("tinymovr", ["--bits", "24"], "int32_t rec_table[64]"),
 ])
 def test_export_firmware_formats(tmp_path, capsys, fmt, extra, marker):
     path = tmp_path / "out.txt"
@@ -60,3 +63,41 @@ def test_import_refusals(tmp_path, capsys):
     (tmp_path / "cap.log").write_text("hello\n")
     status, _, err = run(capsys, "import", "moteus-cal", tmp_path / "cap.log", "-o", tmp_path / "c.csv")
     assert status == 1 and "CAL start" in err and not (tmp_path / "c.csv").exists()
+
+
+def test_firmware_version_is_for_simplefoc_only(tmp_path, capsys):
+    for args in (["export", MODEL, "--format", "moteus", "-o", tmp_path / "x", "--firmware-version", "1.0.9"],
+                 ["import", "moteus", MODEL, "-o", tmp_path / "x", "--firmware-version", "1.0.9"]):
+        with pytest.raises(SystemExit) as info:
+            run(capsys, *args)
+        assert info.value.code == 2 and "--firmware-version" in capsys.readouterr().err
+
+
+def test_import_simplefoc_versions(tmp_path, capsys):
+    """Each version's table comes back with its own sign; a bare float array needs --firmware-version."""
+    theta = np.arange(0.0, 360.0, 0.5)
+    truth = encal.load_model(MODEL).predict(theta)
+    for version in ("1.0.8", "1.0.9", "uint16"):
+        run(capsys, "export", MODEL, "--format", "simplefoc", "--firmware-version", version, "-o", tmp_path / "s.h")
+        status, out, err = run(capsys, "import", "simplefoc", tmp_path / "s.h", "-o", tmp_path / "s.json")
+        assert status == 0, err
+        reread = encal.load_model(tmp_path / "s.json").predict(theta)
+        gap = reread - truth
+        assert np.std(gap) < 0.2, version  # up to the constant left out of the table
+    (tmp_path / "bare.h").write_text("float calibrationLut[3] = {0.001, 0.0, -0.001};\n")
+    status, _, err = run(capsys, "import", "simplefoc", tmp_path / "bare.h", "-o", tmp_path / "b.json")
+    assert status == 1 and "--firmware-version" in err and err.count("\n") == 1 and not (tmp_path / "b.json").exists()
+    status, _, _ = run(capsys, "import", "simplefoc", tmp_path / "bare.h", "-o", tmp_path / "b.json",
+                       "--firmware-version", "1.0.9")
+    assert status == 0
+
+
+@pytest.mark.parametrize("content, message", [
+    ("float calibrationLut[3] = {};\n", "holds no values"),
+    ("float calibrationLut[3] = {0.1,\n0.2,\nnan};\n", "line 3: element 2"),
+])
+def test_import_simplefoc_refuses_empty_and_nan(tmp_path, capsys, content, message):
+    (tmp_path / "t.h").write_text(content)
+    status, _, err = run(capsys, "import", "simplefoc", tmp_path / "t.h", "-o", tmp_path / "t.json",
+                         "--firmware-version", "1.0.9")
+    assert status == 1 and message in err and str(tmp_path / "t.h") in err and "Traceback" not in err

@@ -152,29 +152,35 @@ def test_moteus_cal_capture_refusals(tmp_path):
 
 # -- SimpleFOC: CalibratedSensor::getSensorAngle --------------------------------------------------------
 
-def simplefoc_offset(lut, raw):
+def simplefoc_angle(lut, raw, version):
+    """CalibratedSensor::getSensorAngle of drivers 1.0.8 (raw + lut) and 1.0.9 (raw - lut), float32."""
     f = np.float32
     two_pi = f(6.28318530718)
     n = len(lut)
     width = two_pi / f(n)
-    bucket = np.floor(raw.astype(float) / float(width)).astype(np.int64)
-    remainder = raw - width * bucket.astype(f)
-    y0 = lut[bucket]
-    y1 = lut[(bucket + 1) % n]
-    return ((width - remainder) / width) * y0 + (remainder / width) * y1
+    if version == "1.0.8":
+        bucket = np.floor(raw / width).astype(np.int64)
+        remainder = raw - width * bucket.astype(f)
+        return raw + (((width - remainder) / width) * lut[bucket] + (remainder / width) * lut[(bucket + 1) % n])
+    index = (raw / width).astype(np.int64)
+    distance = (raw - index.astype(f) * width) / width
+    return raw - ((f(1) - distance) * lut[index] + distance * lut[(index + 1) % n])
 
 
+@pytest.mark.parametrize("version, nodes", [("1.0.8", 128), ("1.0.9", 200)])
 @pytest.mark.parametrize("kind", KINDS)
-def test_simplefoc_round_trip(kind):
+def test_simplefoc_round_trip(kind, version, nodes):
     comp = model(kind)
-    out = export_simplefoc(comp)
+    out = export_simplefoc(comp, firmware_version=version)
     lut = np.array([float(v.strip().rstrip("f")) for v in re.search(r"\{(.*)\}", out.text, re.S).group(1).split(",")],
                    dtype=np.float32)
-    assert lut.size == 128 and "float calibrationLut[128]" in out.text
+    assert lut.size == nodes and f"float calibrationLut[{nodes}]" in out.text and lut[0] == 0
     codes = np.arange(65536)
-    raw = (codes * (2 * np.pi / 65536)).astype(np.float32)
-    offset_arcmin = np.degrees(simplefoc_offset(lut, raw).astype(float)) * 60
-    gap = np.abs(offset_arcmin + out.offset_arcmin - correction_arcmin(comp, codes * 360.0 / 65536))
+    raw = (codes.astype(np.float32) / np.float32(65536)) * np.float32(6.28318530718)
+    angle = simplefoc_angle(lut, raw, version)
+    assert np.all(angle >= 0)  # Sensor::update would drop a negative one
+    applied_arcmin = np.degrees(angle.astype(float) - codes * (2 * np.pi / 65536)) * 60
+    gap = np.abs(applied_arcmin + out.offset_arcmin - correction_arcmin(comp, codes * 360.0 / 65536))
     assert gap.max() <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
     reread = read_simplefoc(out.text)
     theta = np.arange(0, 360, 0.5)
@@ -288,7 +294,7 @@ def test_tinymovr_round_trip(kind):
     comp = model(kind)
     out = export_tinymovr(comp, bits=13)
     table = np.array([int(v) for v in re.search(r"\{(.*)\}", out.text, re.S).group(1).split(",")])
-    assert table.size == 64 and "int16_t rec_table[64]" in out.text
+    assert table.size == 64 and "int32_t rec_table[64]" in out.text
     angles = np.arange(1 << 13)
     rectified = tinymovr_rectified(table, angles, 13)
     gap = np.abs((rectified - angles) * (21600 / 8192) + out.offset_arcmin - correction_arcmin(comp, angles * 360 / 8192))
@@ -334,9 +340,11 @@ def test_a_profile_the_formats_can_hold_round_trips_within_their_storage_roundin
     """Known truth: linear between the firmware's own nodes, so only the stored values' rounding is left."""
     moteus = export_moteus(piecewise_linear(256, 16, 1))
     assert moteus.max_error_arcmin <= moteus.quantisation_arcmin + 1e-4  # float32 arithmetic of the rule
-    simplefoc = export_simplefoc(piecewise_linear(128, 16, 2))
-    # SimpleFOC finds the position within a bucket in float32 (ulps of 5e-7 rad over 0.049-rad buckets)
+    simplefoc = export_simplefoc(piecewise_linear(128, 16, 2), firmware_version="1.0.8")
+    # SimpleFOC finds the position within a bucket in float32 (ulps of 5e-7 rad over 0.049-rad buckets); the
+    # float32 raw and returned angles are in quantisation_arcmin
     assert simplefoc.max_error_arcmin <= simplefoc.quantisation_arcmin + 1e-3
+    assert export_simplefoc(piecewise_linear(200, 16, 2)).max_error_arcmin <= simplefoc.quantisation_arcmin + 1e-3
     tinymovr = export_tinymovr(piecewise_linear(64, 13, 3), bits=13)
     assert tinymovr.max_error_arcmin <= tinymovr.quantisation_arcmin + 1e-9
     # and the rounding is all there is: a table with twice the nodes' detail cannot be held

@@ -108,6 +108,11 @@ def _make_files(folder):
         "angles": "10\n20\nabc\n30\n",
         "angles_ok": "# encoder angles\n10\n20.5\n\n-3\n725\n",
         "afile": "not a folder\n",
+        # issues 25/26 (fw-sfoc-tiny): firmware tables
+        "sfoc_empty": "float calibrationLut[3] = {};\n",
+        "sfoc_nan": "float calibrationLut[3] = {0.001,\n0.0,\nnan};\n",
+        "sfoc_bare": "float calibrationLut[3] = {0.001, 0.0, -0.001};\n",
+        "tiny_inf": "int32_t rec_table[64] = {1, inf};\n",
     }
     paths = {}
     for key, text in texts.items():
@@ -532,6 +537,23 @@ CASES = [
     Case("selfcal-no-method", ("selfcal",), 2),
     Case("selfcal-sweep-no-pole-pairs", ("selfcal", "sweep", "{train}", "-o", "{out}/c.csv"), 2),
     Case("selfcal-spin-no-output", ("selfcal", "spin", "{train}"), 2),
+    # ---------------------------------------------------------------- issues 25/26 (fw-sfoc-tiny): firmware tables
+    Case("import-simplefoc-empty", ("import", "simplefoc", "{sfoc_empty}", "-o", "{out}/s.json",
+                                    "--firmware-version", "1.0.9"), 1, ("sfoc_empty.csv", "no values")),
+    Case("import-simplefoc-nan", ("import", "simplefoc", "{sfoc_nan}", "-o", "{out}/s.json", "--firmware-version",
+                                  "1.0.9"), 1, ("sfoc_nan.csv", "line 3", "element 2", "finite")),
+    Case("import-simplefoc-version-unknown", ("import", "simplefoc", "{sfoc_bare}", "-o", "{out}/s.json"), 1,
+         ("sfoc_bare.csv", "--firmware-version")),
+    Case("import-simplefoc-bad-version", ("import", "simplefoc", "{sfoc_bare}", "-o", "{out}/s.json",
+                                          "--firmware-version", "2.0"), 2),
+    Case("import-tinymovr-inf", ("import", "tinymovr", "{tiny_inf}", "-o", "{out}/t.json", "--bits", "14"), 1,
+         ("tiny_inf.csv", "element 1")),
+    Case("import-firmware-version-not-simplefoc", ("import", "tinymovr", "{tiny_inf}", "-o", "{out}/t.json",
+                                                   "--bits", "14", "--firmware-version", "1.0.9"), 2),
+    Case("export-tinymovr-24-bits", ("export", "{model}", "--format", "tinymovr", "--bits", "24", "-o",
+                                     "{scratch}/t.h"), 0, prints=("round trip",)),
+    Case("export-firmware-version-not-simplefoc", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg",
+                                                   "--firmware-version", "1.0.9"), 2),
 ]
 
 # ---------------------------------------------------------------- issue 17: dialects, re-signed files, environments

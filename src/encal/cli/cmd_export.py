@@ -18,7 +18,8 @@
                  calibrationLut; Klipper: the [angle] calibrate: list;
                  Mechaduino: lookup[16384]; Tinymovr: rec_table[64]); -o is
                  the file. Prints the round trip through that firmware's own
-                 run-time rule against the model, on every code.
+                 run-time rule against the model, on every code. SimpleFOC:
+                 --firmware-version 1.0.8|1.0.9|uint16 (default 1.0.9).
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
@@ -33,6 +34,7 @@ from .._atomic import atomic_write
 from ..deploy.targets import FORMS, TARGETS, describe, write_target
 
 FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
+SIMPLEFOC_VERSIONS = ("1.0.8", "1.0.9", "uint16")
 from ..errors import InputError
 from ._common import print_json
 
@@ -72,6 +74,10 @@ def add_arguments(parser):
                         help="moteus: motor_position.sources.K (default 0)")
     parser.add_argument("--full-steps", type=int, default=200, metavar="N",
                         help="klipper: full steps per turn of the stepper (default 200)")
+    parser.add_argument("--firmware-version", choices=SIMPLEFOC_VERSIONS, metavar="V",
+                        help="simplefoc: the Arduino-FOC-drivers CalibratedSensor the table is for: 1.0.8 (adds a "
+                             "float LUT of 128), 1.0.9 (subtracts a float LUT of 200; default) or uint16 (subtracts "
+                             "a uint16 LUT of 200, pull request #75 after 1.0.9)")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", default="encal", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -92,6 +98,9 @@ def _check_combinations(args):
                      or args.interpolation is not None):
         _usage_error(f"--format {args.format} writes that firmware's own table; --target, --table, --nodes, "
                      "--dtype, --interpolation, --tolerance, --cost and --form are for --format c")
+    if args.firmware_version is not None and args.format != "simplefoc":
+        _usage_error(f"--firmware-version chooses the SimpleFOC CalibratedSensor version; it does not apply to "
+                     f"--format {args.format}")
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
@@ -131,6 +140,8 @@ def run(args):
         options = {"moteus": {"source": args.source}, "klipper": {"full_steps": args.full_steps}}.get(args.format, {})
         if args.format != "klipper":
             options["bits"] = args.bits
+        if args.format == "simplefoc" and args.firmware_version is not None:
+            options["firmware_version"] = args.firmware_version
         written = EXPORTERS[args.format](compensator, **options)
         atomic_write(output, written.text)
         if args.json:

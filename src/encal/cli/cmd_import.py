@@ -5,8 +5,8 @@
   encal import klipper FILE -o CAL.csv            an [angle] calibrate: list (one angle per full step)
   encal import mechaduino FILE -o CAL.csv         a lookup[16384] table (every count against its angle)
   encal import moteus FILE -o MODEL.json          conf set ...compensation_table lines (an existing correction)
-  encal import simplefoc FILE -o MODEL.json       a calibrationLut[] (radians)
-  encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (ticks of a B-bit sensor)
+  encal import simplefoc FILE -o MODEL.json       a calibrationLut[] [--firmware-version 1.0.8|1.0.9|uint16]
+  encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (native ticks of the B-bit sensor)
 
 Calibrations can be fitted, profiled and compared; an existing correction becomes a
 model file that 'encal evaluate' scores on a calibration, beside encal's own models.
@@ -27,6 +27,9 @@ def add_arguments(parser):
                         help="moteus-cal: motor pole pairs (default: from the capture)")
     parser.add_argument("--bits", type=int_in_range(6, 24), metavar="B",
                         help="tinymovr: sensor resolution in bits")
+    parser.add_argument("--firmware-version", choices=("1.0.8", "1.0.9", "uint16"), metavar="V",
+                        help="simplefoc: the Arduino-FOC-drivers version whose table it is (1.0.8 adds it, 1.0.9 "
+                             "and uint16 subtract it); default what the file says, else refused")
     parser.set_defaults(import_parser=parser)
 
 
@@ -36,10 +39,13 @@ def run(args):
 
     if args.kind == "tinymovr" and args.bits is None:
         args.import_parser.error("tinymovr tables are in ticks: --bits is required")
+    if args.firmware_version is not None and args.kind != "simplefoc":
+        args.import_parser.error(f"--firmware-version is for simplefoc tables, not {args.kind}")
     readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
                "mechaduino": firmware.read_mechaduino,
                "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),
-               "moteus": firmware.read_moteus_conf, "simplefoc": firmware.read_simplefoc,
+               "moteus": firmware.read_moteus_conf,
+               "simplefoc": lambda path: firmware.read_simplefoc(path, firmware_version=args.firmware_version),
                "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
     result = readers[args.kind](args.input)
     if args.kind in CALIBRATIONS:

@@ -41,6 +41,8 @@ class FirmwareExport:
         A constant left out of the table (the mean correction: the reference's arbitrary zero, as
         the firmware's own calibration leaves it out); the round trip is against the correction
         minus it. Set it as the firmware's zero offset if the absolute angle matters.
+    offset_note : str
+        What that constant is, when not the mean correction (e.g. the correction at node 0).
     """
 
     firmware: str
@@ -51,11 +53,13 @@ class FirmwareExport:
     codes: int
     note: str = ""
     offset_arcmin: float = 0.0
+    offset_note: str = ""
 
     def describe(self):
+        what = self.offset_note or "the mean correction, the reference's zero"
+        why = "" if self.offset_note else ", as the firmware's own calibration leaves it out"
         offset = "" if self.offset_arcmin == 0.0 else (
-            f"; a constant {self.offset_arcmin:.6g} arcmin (the mean correction, the reference's zero) is left "
-            "out of the table, as the firmware's own calibration leaves it out")
+            f"; a constant {self.offset_arcmin:.6g} arcmin ({what}) is left out of the table{why}")
         return (f"{self.firmware}: round trip through its own run-time rule within max "
                 f"{self.max_error_arcmin:.3g}, RMS {self.rms_error_arcmin:.3g} arcmin of the model on all "
                 f"{self.codes} codes (storage rounding at most {self.quantisation_arcmin:.3g} arcmin)"
@@ -175,19 +179,32 @@ def read_c_array(source, name):
         If there is no such array, or an element is not a number (the message names the element).
     """
     text, where = read_text(source)
-    text = re.sub(r"/\*.*?\*/|//[^\n]*", " ", text, flags=re.S)
+    # comments blanked to spaces (newlines kept), so positions still give line numbers
+    text = re.sub(r"/\*.*?\*/|//[^\n]*", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text, flags=re.S)
     match = re.search(rf"\b{re.escape(name)}\s*\[\s*(\w*)\s*\]\s*=\s*\{{(.*?)\}}", text, flags=re.S)
     if not match:
         raise InputError(f"{where}: expected a C array '{name}[...] = {{...}};', found none")
     items = [item.strip() for item in match.group(2).split(",")]
     if items and items[-1] == "":
         items.pop()
+    if not items or items == [""]:
+        raise InputError(f"{where}: {name}[] holds no values, expected its table's numbers")
+    parts = match.group(2).split(",")
+    # where each element starts in the text (its first non-blank character), for its line number
+    starts = match.start(2) + np.cumsum([0] + [len(part) + 1 for part in parts])[:-1] \
+        + [len(part) - len(part.lstrip()) for part in parts]
     values = []
     for index, item in enumerate(items):
+        line = text.count("\n", 0, int(starts[index])) + 1
         try:
-            values.append(float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16)))
+            value = float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16))
         except ValueError:
-            raise InputError(f"{where}: element {index} of {name}[] is {item!r}, expected a number") from None
+            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {item!r}, expected a number") \
+                from None
+        if not np.isfinite(value):
+            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {item!r}, expected a finite "
+                             "number")
+        values.append(value)
     declared = match.group(1)
     if declared.isdigit() and int(declared) != len(values):
         raise InputError(f"{where}: {name}[{declared}] holds {len(values)} values, expected {declared}")

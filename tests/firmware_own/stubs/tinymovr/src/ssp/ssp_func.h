@@ -1,0 +1,1 @@
+/* encal test stub: nothing of the SSP driver is needed on the host. */
