@@ -19,7 +19,8 @@ def run(capsys, *args):
 
 
 @pytest.mark.parametrize("fmt, extra, marker", [
-    ("moteus", ["--source", "2"], "conf set motor_position.sources.2.compensation_table.0 "),
+    ("moteus", ["--source", "2"], "\nmotor_position.sources.2.compensation_table.0 "),
+    ("moteus", ["--source", "2", "--moteus-style", "console"], "conf set motor_position.sources.2.compensation_table.0 "),
     ("simplefoc", [], "float calibrationLut[128]"),
     ("klipper", ["--full-steps", "400"], "calibrate:"),
     ("mechaduino", ["--bits", "14"], "lookup[16384]"),
