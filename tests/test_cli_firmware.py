@@ -61,3 +61,50 @@ def test_import_refusals(tmp_path, capsys):
     (tmp_path / "cap.log").write_text("hello\n")
     status, _, err = run(capsys, "import", "moteus-cal", tmp_path / "cap.log", "-o", tmp_path / "c.csv")
     assert status == 1 and "CAL start" in err and not (tmp_path / "c.csv").exists()
+
+
+def _dump(sign=-1, offset="1000.000000", cpr=16384, commutation=0, entries=256):
+    lines = [f"motor_position.sources.0.cpr {cpr}", f"motor_position.sources.0.offset {offset}",
+             f"motor_position.sources.0.sign {sign}", f"motor_position.commutation_source {commutation}"]
+    lines += [f"motor_position.sources.0.compensation_table.{i} 0" for i in range(entries)]
+    if entries == 256:
+        lines.append("motor_position.sources.0.compensation_scale 0.000000")
+    return "\n".join(lines) + "\n"
+
+
+def test_export_moteus_reads_the_source_from_a_conf_dump(tmp_path, capsys):
+    """Issue 26: --conf takes the sign, offset and cpr of the source from 'conf enumerate', as --sign/--offset/--bits."""
+    (tmp_path / "dump.txt").write_text(_dump())
+    status, out, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "a.cfg",
+                           "--conf", tmp_path / "dump.txt")
+    assert status == 0 and err == ""
+    assert "on a 14-bit encoder" in out and "source 0 is the commutation source: calibrate" in out
+    status, _, _ = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "b.cfg", "--sign", "-1",
+                       "--offset", "1000", "--bits", "14")
+    a, b = (tmp_path / "a.cfg").read_text(), (tmp_path / "b.cfg").read_text()
+    assert status == 0 and a.splitlines()[4:] == b.splitlines()[4:] and "sign -1 and" in a
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "c.cfg", "--conf", tmp_path / "dump.txt",
+            "--sign", "1")
+    assert info.value.code == 2 and "--conf reads the sign and offset" in capsys.readouterr().err
+    status, _, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "c.cfg", "--conf",
+                         tmp_path / "dump.txt", "--bits", "16")
+    assert status == 1 and "--bits 16 but" in err and "2^14" in err and not (tmp_path / "c.cfg").exists()
+    (tmp_path / "old.txt").write_text(_dump(entries=32))
+    status, _, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "c.cfg", "--conf",
+                         tmp_path / "old.txt")
+    assert status == 1 and "firmware before 0x0109" in err and not (tmp_path / "c.cfg").exists()
+
+
+def test_import_moteus_source_option(tmp_path, capsys):
+    run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "m.cfg", "--source", "1")
+    (tmp_path / "both.cfg").write_text(_dump() + (tmp_path / "m.cfg").read_text())
+    status, _, err = run(capsys, "import", "moteus", tmp_path / "both.cfg", "-o", tmp_path / "m.json")
+    assert status == 1 and "pass --source K" in err and not (tmp_path / "m.json").exists()
+    status, _, _ = run(capsys, "import", "moteus", tmp_path / "both.cfg", "-o", tmp_path / "m.json", "--source", "1")
+    assert status == 0
+    theta = np.arange(0.0, 360.0, 0.5)
+    reread = encal.load_model(tmp_path / "m.json")
+    assert np.max(np.abs(reread.predict(theta) - reread.predict(theta).mean()
+                         - (encal.load_model(MODEL).predict(theta) - encal.load_model(MODEL).predict(theta).mean())))\
+        < 0.05

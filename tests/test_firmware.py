@@ -88,6 +88,88 @@ def test_moteus_rounds_rather_than_truncates():
     assert np.mean(np.asarray(values) - revolutions / np.max(np.abs(revolutions)) * 127) == pytest.approx(0, abs=0.1)
 
 
+def moteus_lines(values, scale=None, source=0, prefix=""):
+    lines = [f"{prefix}motor_position.sources.{source}.compensation_table.{i} {v}" for i, v in enumerate(values)]
+    if scale is not None:
+        lines.append(f"{prefix}motor_position.sources.{source}.compensation_scale {scale}")
+    return "\n".join(lines) + "\n"
+
+
+def test_moteus_table_for_the_sources_sign_and_offset():
+    """Issue 26: the table is indexed by offset_value = wrap((raw + offset) * sign): the node at offset value v holds
+    sign times the correction at raw = sign * v - offset."""
+    comp = Compensator(FourierModel([1, 3], [4.0, 1.0], [1.0, -0.5], encoder={"resolution_bits": 14}))
+    plain = read_moteus_conf(export_moteus(comp).text)
+    for sign, offset in ((-1, 0), (1, 1000), (-1, 1000)):
+        out = export_moteus(comp, sign=sign, offset=offset)
+        assert f"sign {sign} and motor_position.sources.0.offset {offset}" in out.text.splitlines()[1]
+        table = read_moteus_conf(out.text)  # an error model of the offset value
+        offset_value = np.arange(0, 16384, 16)
+        raw = (sign * offset_value - offset) % 16384
+        at_offset_value = -table.predict(offset_value * 360 / 16384)
+        at_raw = -plain.predict(raw * 360 / 16384)
+        assert np.max(np.abs(at_offset_value - sign * at_raw)) < 0.05
+    assert export_moteus(comp, offset=1000.9).text == export_moteus(comp, offset=1000).text  # int32_t(offset)
+
+
+def test_moteus_refuses_what_it_cannot_write():
+    """Issue 25: --bits outside 8..24 and a correction that is not a correction are one sentence each."""
+    comp = Compensator(FourierModel([1], [1e100], [0.0], encoder={"resolution_bits": 14}))
+    with pytest.raises(InputError, match="under half a turn"):
+        export_moteus(comp)
+    for bits in (1, 4, 7, 25):
+        with pytest.raises(InputError, match=f"a {bits}-bit encoder cannot hold the table; expected --bits from 8"):
+            export_moteus(model("lut"), bits=bits)
+    with pytest.raises(InputError, match="'sign' parameter"):
+        export_moteus(model("lut"), sign=0)
+
+
+def test_read_moteus_conf_formats_and_refusals(tmp_path):
+    values = [int(round(100 * math.sin(2 * math.pi * i / 256))) for i in range(256)]
+    for prefix in ("", "conf set "):
+        reread = read_moteus_conf(moteus_lines(values, "0.001000", prefix=prefix))
+        assert reread.predict(np.array([90.0]))[0] == pytest.approx(-100 * 0.001 / 127 * 21600)
+    # firmware before 0x0109: 32 float bins, revolutions, no scale
+    old = read_moteus_conf(moteus_lines([0.001 * math.cos(2 * math.pi * i / 32) for i in range(32)]))
+    assert old.predict(np.array([0.0, 90.0]))[0] == pytest.approx(-0.001 * 21600)
+    # issue 25: 256 entries without a scale were read as revolutions (10 deg corrected to 50)
+    with pytest.raises(InputError, match="has no motor_position.sources.0.compensation_scale line"):
+        read_moteus_conf(moteus_lines(values))
+    with pytest.raises(InputError, match="32-entry table .* with a compensation_scale"):
+        read_moteus_conf(moteus_lines([0.0] * 32, "0.5"))
+    two = moteus_lines(values, "0.001") + moteus_lines([0] * 256, "0", source=1)
+    with pytest.raises(InputError, match=r"sources 0, 1 \(non-zero: 0\); expected one, so pass --source K"):
+        read_moteus_conf(two)
+    assert read_moteus_conf(two, source=0).predict(np.array([90.0]))[0] != 0
+    mixed = moteus_lines(values) + "motor_position.sources.1.compensation_scale 0.001\n"
+    with pytest.raises(InputError, match="the compensation_scale is of source 1 and the table of source 0.*--source"):
+        read_moteus_conf(mixed)
+    path = tmp_path / "bad.cfg"
+    for bad, line, words in (("inf", 257, "compensation_scale is 'inf'; expected a finite number"),
+                             ("nan", 257, "compensation_scale is 'nan'"),):
+        path.write_text(moteus_lines(values, bad))
+        with pytest.raises(InputError, match=f"bad.cfg, line {line}: .*{words}"):
+            read_moteus_conf(path)
+    path.write_text(moteus_lines(values[:5] + ["1e999"] + values[6:], "0.001"))
+    with pytest.raises(InputError, match="bad.cfg, line 6: motor_position.sources.0.compensation_table.5 is '1e999'"):
+        read_moteus_conf(path)
+    path.write_text(moteus_lines(values[:5] + [300] + values[6:], "0.001"))
+    with pytest.raises(InputError, match="line 6: compensation_table.5 is 300; expected a whole number from -128"):
+        read_moteus_conf(path)
+
+
+def test_read_moteus_source_config():
+    from encal.deploy.firmware.moteus import read_moteus_source_config
+
+    dump = ("motor_position.sources.0.cpr 16384\nmotor_position.sources.0.offset 1000.000000\n"
+            "motor_position.sources.0.sign -1\nmotor_position.sources.1.sign 1\nmotor_position.commutation_source 0\n"
+            + moteus_lines([0] * 256, "0.000000"))
+    assert read_moteus_source_config(dump) == {"bits": 14, "offset": 1000.0, "sign": -1, "commutation_source": 0,
+                                               "table_entries": 256}
+    with pytest.raises(InputError, match="line 1: motor_position.sources.0.cpr is 1000; expected a power of two"):
+        read_moteus_source_config("motor_position.sources.0.cpr 1000\n")
+
+
 def test_compare_encoders_output(tmp_path):
     ref = np.linspace(0, 2, 400, endpoint=False)  # two revolutions
     measured = ref + 0.001 * np.sin(2 * np.pi * ref) + 0.25
@@ -97,6 +179,12 @@ def test_compare_encoders_output(tmp_path):
     assert len(cal) == 400
     error = cal.errors_arcmin - 0.25 * 21600
     assert np.max(np.abs(error - 0.001 * 21600 * np.sin(2 * np.pi * ref))) < 1e-6
+    path.write_text("0,1 0,2\n")  # issue 25: decimal commas were read as four numbers, the first two kept
+    with pytest.raises(CalibrationError, match="line 1: '0,1 0,2' has decimal commas"):
+        read_compare_encoders(path)
+    path.write_text("0.1 0.2\n0.2 inf\n")
+    with pytest.raises(CalibrationError, match="line 2, column 2: expected a finite number, got 'inf'"):
+        read_compare_encoders(path)
     path.write_text("0.1 0.2\n0.2 x\n")
     with pytest.raises(CalibrationError, match="line 2, column 2: expected a finite number"):
         read_compare_encoders(path)
