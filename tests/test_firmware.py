@@ -235,6 +235,26 @@ def test_moteus_cal_capture_import_profiles_and_fits_a_lagging_rotor(tmp_path, c
     assert "error" not in capsys.readouterr().err
 
 
+def test_moteus_cal_capture_of_an_encoder_counting_against_the_phase(tmp_path, capsys):
+    """The phase's sense is the wiring's: the reference is taken in the encoder's sense, as selfcal sweep takes it."""
+    from encal.cli import main
+
+    lines = cal_capture(lag_deg=0.5).splitlines()
+    mirrored = [line if line.startswith("CAL") else " ".join([*line.split()[:2], str(-int(line.split()[2]) % 65536)])
+                for line in lines]
+    path = tmp_path / "cal.log"
+    path.write_text("\n".join(mirrored) + "\n")
+    cal = read_cal_capture(path)
+    assert cal.metadata["encoder_counts_against_phase"]
+    assert cal.metadata["lag_arcmin"] == pytest.approx(30, abs=0.05)
+    # the mirrored encoder's error at reading r is minus the error at 360 - r
+    truth = -40.0 * 21600 / 65536 * np.sin(np.radians(-cal.reference_deg))
+    error = cal.errors_arcmin - np.mean(cal.errors_arcmin)
+    assert np.max(np.abs(error - truth)) <= 0.5 * 21600 / 65536 + 0.05
+    assert main(["import", "moteus-cal", str(path), "-o", str(tmp_path / "cal.csv")]) == 0
+    assert main(["profile", str(tmp_path / "cal.csv")]) == 0 and "--reverse" not in capsys.readouterr().err
+
+
 def test_moteus_cal_capture_refuses_the_pole_pairs_selfcal_sweep_refuses(tmp_path):
     """Issue 25: one reader, one check: --pole-pairs 8 on a 7-pole-pair capture is refused by both."""
     from encal.selfcal.moteus_capture import read_moteus_capture
