@@ -20,7 +20,8 @@ def run(capsys, *args):
 
 @pytest.mark.parametrize("fmt, extra, marker", [
     ("moteus", ["--source", "2"], "\nmotor_position.sources.2.compensation_table.0 "),
-    ("moteus", ["--source", "2", "--moteus-style", "console"], "conf set motor_position.sources.2.compensation_table.0 "),
+    ("moteus", ["--source", "2", "--moteus-style", "console"],
+     "conf set motor_position.sources.2.compensation_table.0 "),
     ("simplefoc", [], "float calibrationLut[128]"),
     ("klipper", ["--full-steps", "400"], "calibrate:"),
     ("mechaduino", ["--bits", "14"], "lookup[16384]"),
@@ -73,7 +74,8 @@ def _dump(sign=-1, offset="1000.000000", cpr=16384, commutation=0, entries=256):
 
 
 def test_export_moteus_reads_the_source_from_a_conf_dump(tmp_path, capsys):
-    """Issue 26: --conf takes the sign, offset and cpr of the source from 'conf enumerate', as --sign/--offset/--bits."""
+    """Issue 26: --conf takes the sign, offset and cpr of the source from 'conf enumerate', like --sign, --offset,
+    --bits."""
     (tmp_path / "dump.txt").write_text(_dump())
     status, out, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "a.cfg",
                            "--conf", tmp_path / "dump.txt")

@@ -41,7 +41,8 @@ def run(args):
     readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
                "mechaduino": firmware.read_mechaduino,
                "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),
-               "moteus": lambda path: firmware.read_moteus_conf(path, source=args.source), "simplefoc": firmware.read_simplefoc,
+               "moteus": lambda path: firmware.read_moteus_conf(path, source=args.source),
+               "simplefoc": firmware.read_simplefoc,
                "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
     result = readers[args.kind](args.input)
     if args.kind in CALIBRATIONS:
