@@ -19,10 +19,12 @@ def run(capsys, *args):
 
 
 @pytest.mark.parametrize("fmt, extra, marker", [
-    ("moteus", ["--source", "2"], "conf set motor_position.sources.2.compensation_table.0 "),
     ("simplefoc", [], "float calibrationLut[200]"),
     ("simplefoc", ["--firmware-version", "1.0.8"], "float calibrationLut[128]"),
     ("simplefoc", ["--firmware-version", "uint16"], "uint16_t calibrationLut[200]"),
+    ("moteus", ["--source", "2"], "\nmotor_position.sources.2.compensation_table.0 "),
+    ("moteus", ["--source", "2", "--moteus-style", "console"],
+     "conf set motor_position.sources.2.compensation_table.0 "),
     ("klipper", ["--full-steps", "400"], "calibrate:"),
     ("mechaduino", ["--bits", "14"], "lookup[16384]"),
     ("tinymovr", ["--bits", "13"], "int32_t rec_table[64]"),
@@ -101,3 +103,49 @@ def test_import_simplefoc_refuses_empty_and_nan(tmp_path, capsys, content, messa
     status, _, err = run(capsys, "import", "simplefoc", tmp_path / "t.h", "-o", tmp_path / "t.json",
                          "--firmware-version", "1.0.9")
     assert status == 1 and message in err and str(tmp_path / "t.h") in err and "Traceback" not in err
+def _dump(sign=-1, offset="1000.000000", cpr=16384, commutation=0, entries=256):
+    lines = [f"motor_position.sources.0.cpr {cpr}", f"motor_position.sources.0.offset {offset}",
+             f"motor_position.sources.0.sign {sign}", f"motor_position.commutation_source {commutation}"]
+    lines += [f"motor_position.sources.0.compensation_table.{i} 0" for i in range(entries)]
+    if entries == 256:
+        lines.append("motor_position.sources.0.compensation_scale 0.000000")
+    return "\n".join(lines) + "\n"
+
+
+def test_export_moteus_reads_the_source_from_a_conf_dump(tmp_path, capsys):
+    """Issue 26: --conf takes the sign, offset and cpr of the source from 'conf enumerate', like --sign, --offset,
+    --bits."""
+    (tmp_path / "dump.txt").write_text(_dump())
+    status, out, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "a.cfg",
+                           "--conf", tmp_path / "dump.txt")
+    assert status == 0 and err == ""
+    assert "on a 14-bit encoder" in out and "source 0 is the commutation source: calibrate" in out
+    status, _, _ = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "b.cfg", "--sign", "-1",
+                       "--offset", "1000", "--bits", "14")
+    a, b = (tmp_path / "a.cfg").read_text(), (tmp_path / "b.cfg").read_text()
+    assert status == 0 and a.splitlines()[4:] == b.splitlines()[4:] and "sign -1 and" in a
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "c.cfg", "--conf", tmp_path / "dump.txt",
+            "--sign", "1")
+    assert info.value.code == 2 and "--conf reads the sign and offset" in capsys.readouterr().err
+    status, _, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "c.cfg", "--conf",
+                         tmp_path / "dump.txt", "--bits", "16")
+    assert status == 1 and "--bits 16 but" in err and "2^14" in err and not (tmp_path / "c.cfg").exists()
+    (tmp_path / "old.txt").write_text(_dump(entries=32))
+    status, _, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "c.cfg", "--conf",
+                         tmp_path / "old.txt")
+    assert status == 1 and "firmware before 0x0109" in err and not (tmp_path / "c.cfg").exists()
+
+
+def test_import_moteus_source_option(tmp_path, capsys):
+    run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "m.cfg", "--source", "1")
+    (tmp_path / "both.cfg").write_text(_dump() + (tmp_path / "m.cfg").read_text())
+    status, _, err = run(capsys, "import", "moteus", tmp_path / "both.cfg", "-o", tmp_path / "m.json")
+    assert status == 1 and "pass --source K" in err and not (tmp_path / "m.json").exists()
+    status, _, _ = run(capsys, "import", "moteus", tmp_path / "both.cfg", "-o", tmp_path / "m.json", "--source", "1")
+    assert status == 0
+    theta = np.arange(0.0, 360.0, 0.5)
+    reread = encal.load_model(tmp_path / "m.json")
+    assert np.max(np.abs(reread.predict(theta) - reread.predict(theta).mean()
+                         - (encal.load_model(MODEL).predict(theta) - encal.load_model(MODEL).predict(theta).mean())))\
+        < 0.05

@@ -81,11 +81,11 @@ def test_export_c_checks_float_constants_of_a_kind_outside_the_registry_by_its_f
      "The 'source' parameter of export_moteus must be an int from 0 to 2 (moteus's motor_position.sources.K). "
      "Got 3 instead."),
     (lambda: export_moteus(MODEL, bits=0),
-     "The 'bits' parameter of export_moteus must be an int from 1 to 32 (the encoder resolution, or None for the "
-     "model file's, else 16). Got 0 instead."),
+     "moteus: a 0-bit encoder cannot hold the table; expected --bits from 8 (its 256 nodes need at least 256 codes) "
+     "to 24 (the largest cpr moteus handles)"),
     (lambda: read_moteus_conf("", source=-1),
      "The 'source' parameter of read_moteus_conf must be an int from 0 to 2 (moteus's motor_position.sources.K, "
-     "or None for the first). Got -1 instead."),
+     "or None for the only one). Got -1 instead."),
     (lambda: read_cal_capture("capture.log", pole_pairs=0),
      "The 'pole_pairs' parameter of read_cal_capture must be an int from 1 to 1000 (pole pairs: no motor has "
      "more). Got 0 instead."),

@@ -163,6 +163,7 @@ def _make_files(folder):
     paths["out"].mkdir()
     paths["scratch"].mkdir()
     _make_dialect_and_edited_files(folder, paths, good, document)
+    _make_moteus_files(folder, paths, document)
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -668,6 +669,87 @@ ISSUE17_CASES = [
     Case("profile-repeated-rows-no-warning", ("profile", "{repeated_rows}"), 0, prints=("420 points",)),
 ]
 CASES += ISSUE17_CASES
+
+# ---------------------------------------------------------------- issue 25/26 moteus: tables, dumps, captures
+
+
+def _make_moteus_files(folder, paths, document):
+    """The inputs of the issue 25/26 moteus cases."""
+    import math
+
+    def table(values, scale=None, source=0):
+        lines = [f"motor_position.sources.{source}.compensation_table.{i} {v}" for i, v in enumerate(values)]
+        return lines + ([f"motor_position.sources.{source}.compensation_scale {scale}"] if scale is not None else [])
+
+    values = [int(round(100 * math.sin(2 * math.pi * i / 256))) for i in range(256)]
+    dump = ["motor_position.sources.0.cpr 16384", "motor_position.sources.0.offset 1000.000000",
+            "motor_position.sources.0.sign -1", "motor_position.commutation_source 0"]
+
+    def capture(pole_pairs=7, lag_deg=0.3):
+        lines = ["CAL start"]
+        for direction, order in ((1, range(pole_pairs * 64)), (2, range(pole_pairs * 64 - 1, -1, -1))):
+            for i in order:
+                turn = i / 64 / pole_pairs - (1 if direction == 1 else -1) * lag_deg / 360
+                encoder = round(turn * 65536 + 40 * math.sin(2 * math.pi * turn)) % 65536
+                lines.append(f"{direction} {i * 1024 % 65536} {encoder}")
+        return lines + ["CAL done"]
+
+    texts = {
+        "moteus_noscale.cfg": table(values),
+        "moteus_two_sources.cfg": table(values, "0.001") + table([0] * 256, "0.000000", source=1),
+        "moteus_mixed.cfg": table(values) + ["motor_position.sources.1.compensation_scale 0.001"],
+        "moteus_nan.cfg": table(values, "nan"),
+        "moteus_old.cfg": table([f"{0.001 * math.cos(2 * math.pi * i / 32):.6f}" for i in range(32)]),
+        "moteus_dump.txt": dump + table([0] * 256, "0.000000"),
+        "moteus_cal.log": capture(),
+        "moteus_compare_comma.txt": [f"{i / 20:.4f} {i / 20 + 0.001:.4f}".replace(".", ",") for i in range(20)],
+    }
+    for name, lines in texts.items():
+        paths[name.replace(".", "_")] = folder / name
+        paths[name.replace(".", "_")].write_text("\n".join(lines) + "\n", encoding="utf-8")
+    huge = json.loads(json.dumps(document))
+    huge["parameters"]["cos"][0] = 1e100
+    huge.pop("sha256", None)
+    paths["moteus_huge"] = folder / "moteus_huge.json"
+    paths["moteus_huge"].write_text(_resigned(huge), encoding="utf-8")
+
+
+MOTEUS_CASES = [
+    Case("import-moteus-without-scale", ("import", "moteus", "{moteus_noscale_cfg}", "-o", "{out}/m.json"), 1,
+         ("moteus_noscale.cfg", "compensation_scale")),
+    Case("import-moteus-two-sources", ("import", "moteus", "{moteus_two_sources_cfg}", "-o", "{out}/m.json"), 1,
+         ("moteus_two_sources.cfg", "--source")),
+    Case("import-moteus-two-sources-with-source", ("import", "moteus", "{moteus_two_sources_cfg}", "-o",
+                                                   "{scratch}/m2.json", "--source", "0"), 0),
+    Case("import-moteus-scale-of-another-source", ("import", "moteus", "{moteus_mixed_cfg}", "-o", "{out}/m.json"), 1,
+         ("source 1", "--source")),
+    Case("import-moteus-nan-scale", ("import", "moteus", "{moteus_nan_cfg}", "-o", "{out}/m.json"), 1,
+         ("moteus_nan.cfg", "line 257", "finite")),
+    Case("import-moteus-32-bins-accepted", ("import", "moteus", "{moteus_old_cfg}", "-o", "{scratch}/old.json"), 0),
+    Case("import-moteus-source-3", ("import", "moteus", "{moteus_old_cfg}", "-o", "{out}/m.json", "--source", "3"), 2),
+    Case("import-moteus-cal-wrong-pole-pairs", ("import", "moteus-cal", "{moteus_cal_log}", "-o", "{out}/c.csv",
+                                                "--pole-pairs", "8"), 1, ("moteus_cal.log", "pole-pair count 7")),
+    Case("import-moteus-cal-lagging-accepted", ("import", "moteus-cal", "{moteus_cal_log}", "-o",
+                                                "{scratch}/lagging.csv"), 0),
+    Case("import-moteus-compare-decimal-comma", ("import", "moteus-compare", "{moteus_compare_comma_txt}", "-o",
+                                                 "{out}/c.csv"), 1, ("moteus_compare_comma.txt", "line 1",
+                                                                     "decimal commas")),
+    *(Case(f"export-moteus-bits-{bits}", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg", "--bits",
+                                          str(bits)), 1, (f"{bits}-bit", "--bits from 8")) for bits in (1, 4, 7)),
+    Case("export-moteus-huge-coefficient", ("export", "{moteus_huge}", "--format", "moteus", "-o", "{out}/m.cfg"), 1,
+         ("half a turn",)),
+    Case("export-moteus-conf-accepted", ("export", "{model}", "--format", "moteus", "-o", "{scratch}/conf.cfg",
+                                         "--conf", "{moteus_dump_txt}"), 0, prints=("sign -1", "14-bit")),
+    Case("export-moteus-conf-and-sign", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg", "--conf",
+                                         "{moteus_dump_txt}", "--sign", "1"), 2),
+    Case("export-moteus-conf-other-bits", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg", "--conf",
+                                           "{moteus_dump_txt}", "--bits", "16"), 1, ("--bits 16", "2^14")),
+    Case("export-moteus-sign-0", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg", "--sign", "0"), 2),
+    Case("export-moteus-console-accepted", ("export", "{model}", "--format", "moteus", "-o", "{scratch}/console.cfg",
+                                            "--moteus-style", "console", "--sign", "-1", "--offset", "1000"), 0,
+         prints=("console",)),
+]
+CASES += MOTEUS_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -14,7 +14,7 @@
                  --form formula for a Fourier series. Angle functions and code functions (PREFIX_error_lsb,
                  PREFIX_correct_code, PREFIX_correct_counts).
 --format moteus|simplefoc|klipper|mechaduino|tinymovr
-                 the firmware's own table (moteus: conf set lines; SimpleFOC:
+                 the firmware's own table (moteus: --restore-config lines; SimpleFOC:
                  calibrationLut; Klipper: the [angle] calibrate: list;
                  Mechaduino: lookup[16384]; Tinymovr: rec_table[64]); -o is
                  the file. Prints the round trip through that firmware's own
@@ -72,6 +72,17 @@ def add_arguments(parser):
                              "(default: operations per reading, then bytes)")
     parser.add_argument("--source", type=int, default=0, metavar="K",
                         help="moteus: motor_position.sources.K (default 0)")
+    parser.add_argument("--sign", type=int, choices=(1, -1), metavar="{1,-1}",
+                        help="moteus: motor_position.sources.K.sign of the source (default 1): the table is indexed "
+                             "by offset_value = wrap((raw + offset) * sign)")
+    parser.add_argument("--offset", type=float, metavar="COUNTS",
+                        help="moteus: motor_position.sources.K.offset of the source, counts (default 0)")
+    parser.add_argument("--conf", metavar="FILE",
+                        help="moteus: a 'conf enumerate' dump of the device: the sign, offset and cpr of source K "
+                             "and the commutation source are read from it")
+    parser.add_argument("--moteus-style", choices=("restore", "console"), default="restore",
+                        help="moteus: 'restore' (default) writes lines for moteus_tool --restore-config FILE (no "
+                             "'conf set'; comments); 'console' writes 'conf set' lines to send at a console")
     parser.add_argument("--full-steps", type=int, default=200, metavar="N",
                         help="klipper: full steps per turn of the stepper (default 200)")
     parser.add_argument("--firmware-version", choices=SIMPLEFOC_VERSIONS, metavar="V",
@@ -121,6 +132,32 @@ def _check_combinations(args):
                      f"{'--dtype float32' if args.dtype == 'float32' else '--form formula'}")
 
 
+def _moteus_options(args):
+    """export_moteus's options: --source, --moteus-style, and the sign, offset and cpr (--sign, --offset,
+    --bits, or those of source K in the --conf dump)."""
+    from ..deploy.firmware.moteus import NODES, OLD_NODES, read_moteus_source_config
+
+    options = {"source": args.source, "style": args.moteus_style,
+               "sign": 1 if args.sign is None else args.sign, "offset": 0.0 if args.offset is None else args.offset}
+    if args.conf is None:
+        return options
+    if args.sign is not None or args.offset is not None:
+        args.export_parser.error("--conf reads the sign and offset of the source from the dump; expected it without "
+                                 "--sign and --offset")
+    device = read_moteus_source_config(args.conf, source=args.source)
+    if device["table_entries"] == OLD_NODES:
+        raise InputError(f"{args.conf}: source {args.source} has a 32-entry compensation_table, firmware before "
+                         f"0x0109; expected firmware 0x0109 or later ({NODES} int8 entries and a scale), which is "
+                         "what encal writes: upgrade the firmware first")
+    if "bits" in device:
+        if args.bits is not None and args.bits != device["bits"]:
+            raise InputError(f"--bits {args.bits} but {args.conf} gives source {args.source} a cpr of "
+                             f"2^{device['bits']}; expected the same resolution (leave out --bits)")
+        args.bits = device["bits"]
+    options.update({key: device[key] for key in ("sign", "offset", "commutation_source") if key in device})
+    return options
+
+
 def run(args):
     _check_combinations(args)
     output = Path(args.output)
@@ -137,7 +174,7 @@ def run(args):
     if args.format in FIRMWARE:
         from ..deploy.firmware import EXPORTERS
 
-        options = {"moteus": {"source": args.source}, "klipper": {"full_steps": args.full_steps}}.get(args.format, {})
+        options = {"moteus": _moteus_options(args), "klipper": {"full_steps": args.full_steps}}.get(args.format, {})
         if args.format != "klipper":
             options["bits"] = args.bits
         if args.format == "simplefoc" and args.firmware_version is not None:

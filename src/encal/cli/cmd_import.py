@@ -4,9 +4,9 @@
   encal import moteus-cal FILE -o CAL.csv         a raw 'CAL start' ... 'CAL done' capture [--pole-pairs P]
   encal import klipper FILE -o CAL.csv            an [angle] calibrate: list (one angle per full step)
   encal import mechaduino FILE -o CAL.csv         a lookup[16384] table (every count against its angle)
-  encal import moteus FILE -o MODEL.json          conf set ...compensation_table lines (an existing correction)
   encal import simplefoc FILE -o MODEL.json       a calibrationLut[] [--firmware-version 1.0.8|1.0.9|uint16]
   encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (native ticks of the B-bit sensor)
+  encal import moteus FILE -o MODEL.json          compensation_table lines (an existing correction) [--source K]
 
 Calibrations can be fitted, profiled and compared; an existing correction becomes a
 model file that 'encal evaluate' scores on a calibration, beside encal's own models.
@@ -25,6 +25,8 @@ def add_arguments(parser):
                         help="calibration CSV (calibrations) or model file (corrections) to write")
     parser.add_argument("--pole-pairs", type=int_in_range(1), metavar="P",
                         help="moteus-cal: motor pole pairs (default: from the capture)")
+    parser.add_argument("--source", type=int_in_range(0, 2), metavar="K",
+                        help="moteus: the table of motor_position.sources.K (required when the file holds several)")
     parser.add_argument("--bits", type=int_in_range(6, 24), metavar="B",
                         help="tinymovr: sensor resolution in bits")
     parser.add_argument("--firmware-version", choices=("1.0.8", "1.0.9", "uint16"), metavar="V",
@@ -44,8 +46,8 @@ def run(args):
     readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
                "mechaduino": firmware.read_mechaduino,
                "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),
-               "moteus": firmware.read_moteus_conf,
                "simplefoc": lambda path: firmware.read_simplefoc(path, firmware_version=args.firmware_version),
+               "moteus": lambda path: firmware.read_moteus_conf(path, source=args.source),
                "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
     result = readers[args.kind](args.input)
     if args.kind in CALIBRATIONS:

@@ -22,7 +22,7 @@ from .._limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 
-__all__ = ["sweep", "sweep_capture"]
+__all__ = ["sweep", "sweep_capture", "check_sweep_travel"]
 
 #: Largest relative mismatch between the encoder's travel and the commanded travel / pole pairs (and at
 #: most half a pole pair's worth).
@@ -96,15 +96,7 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
         if members.size < 2 * orders.size + 8:
             raise InputError(f"{where}: the sweep {label} has {members.size} samples; expected at least "
                              f"{2 * orders.size + 8} for order {max_order}")
-        commanded = reference[members[-1]] - reference[members[0]]
-        moved = encoder[members[-1]] - encoder[members[0]]
-        tolerance = min(MAX_TRAVEL_MISMATCH, 0.5 / pole_pairs)  # a pole pair more or less is caught
-        if abs(commanded) < 1e-9 or abs(abs(moved / commanded) - 1) > tolerance:
-            suggestion = abs(moved) and abs(commanded) * pole_pairs / abs(moved)
-            raise InputError(f"{where}: the encoder turned {abs(moved):.1f} deg while the phase / {pole_pairs} pole "
-                             f"pairs turned {abs(commanded):.1f} deg in the sweep {label}; expected the same (is the "
-                             f"pole-pair count {max(1, round(suggestion))}?)")
-        counts_against = moved * commanded < 0
+        counts_against = check_sweep_travel(where, label, reference[members], encoder[members], pole_pairs)
         _check_coverage(where, label, reading[members], max_order)
         fits[label] = members
     sense = -1.0 if counts_against else 1.0
@@ -146,6 +138,38 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
                      "low orders) is not removed and would stay in the result")
                   + f"; orders above {max_order} are not estimated")
     return SelfCalibration("sweep", series, removed, confounded, details, name)
+
+
+def check_sweep_travel(where, label, reference_deg, encoder_deg, pole_pairs):
+    """True when the encoder counts against the phase; refuses a pole-pair count its travel does not match.
+
+    The one check of a sweep's pole pairs, for ``encal selfcal sweep`` and ``encal import moteus-cal``.
+
+    Parameters
+    ----------
+    where, label : str
+        The input and the pass (``'up'``, ``'down'``), for the message.
+    reference_deg : ndarray
+        The unwrapped commanded phase / ``pole_pairs`` over one pass, degrees.
+    encoder_deg : ndarray
+        The unwrapped encoder readings over the same pass, degrees.
+    pole_pairs : int
+
+    Raises
+    ------
+    InputError
+        When the encoder's travel differs from the commanded travel / ``pole_pairs`` by more than
+        :data:`MAX_TRAVEL_MISMATCH` (and at most half a pole pair's worth), naming the count that fits.
+    """
+    commanded = reference_deg[-1] - reference_deg[0]
+    moved = encoder_deg[-1] - encoder_deg[0]
+    tolerance = min(MAX_TRAVEL_MISMATCH, 0.5 / pole_pairs)  # a pole pair more or less is caught
+    if abs(commanded) < 1e-9 or abs(abs(moved / commanded) - 1) > tolerance:
+        suggestion = abs(moved) and abs(commanded) * pole_pairs / abs(moved)
+        raise InputError(f"{where}: the encoder turned {abs(moved):.1f} deg while the phase / {pole_pairs} pole "
+                         f"pairs turned {abs(commanded):.1f} deg in the sweep {label}; expected the same (is the "
+                         f"pole-pair count {max(1, round(suggestion))}?)")
+    return bool(moved * commanded < 0)
 
 
 def _motor_orders(pole_pairs, slots, samples):

@@ -4,7 +4,7 @@ One module per firmware; each writes that firmware's own format, implements its
 run-time rule in NumPy to state the round-trip error on every code, and reads
 the format (and the firmware's calibration output) back:
 
-- :mod:`~encal.deploy.firmware.moteus`: ``conf set`` compensation table lines,
+- :mod:`~encal.deploy.firmware.moteus`: compensation table lines (``--restore-config`` or ``conf set``),
   ``compare_encoders`` output, the raw ``CAL start`` ... ``CAL done`` capture;
 - :mod:`~encal.deploy.firmware.simplefoc`: ``CalibratedSensor``'s ``calibrationLut``;
 - :mod:`~encal.deploy.firmware.klipper`: the ``[angle]`` section's ``calibrate:`` list;
