@@ -32,6 +32,7 @@ from .errors import InputError
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
 from .profile import (ZERO_MODES, error_stats, harmonics, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
                       zero_sentence)
+from ._threads import single_blas_thread
 
 __all__ = ["EncoderReport", "encoder_report", "render_encoder_figures", "build_encoder_html",
            "write_encoder_report", "model_comparison", "ENCODER_FIGURES", "COMPARISON_MAX_POINTS"]
@@ -148,6 +149,7 @@ class EncoderReport:
         return remove_offset(errors, zero_offset_arcmin(errors)) if self.arbitrary_zero else errors
 
 
+@single_blas_thread
 def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncertainty=True, compare="auto",
                    **fit_options):
     """Measure everything the report on one encoder shows.

@@ -28,6 +28,7 @@ from .parameters import check_bool, check_choice, check_seed, check_type
 from .profile import (ZERO_MODES, ErrorStats, error_stats, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
                       zero_sentence)
 from .uncertainty import add_uncertainty, has_posterior, refit_spec, with_half_reversal
+from ._threads import single_blas_thread
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
 
@@ -51,6 +52,7 @@ def fitter(method):
     return model_kind(method).fit
 
 
+@single_blas_thread
 def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, **options):
     """Fit an error model to a calibration.
 
@@ -349,6 +351,7 @@ class Evaluation:
         return plot_before_after(self.encoder_deg, before, after, ax=ax, title=title)
 
 
+@single_blas_thread
 def evaluate(model, cal, *, zero="fixed"):
     """Residual statistics of a model on a calibration (ideally one it was not fitted on).
 

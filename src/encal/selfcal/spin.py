@@ -21,6 +21,7 @@ from ..parameters import check_int, check_number
 from .._limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
+from .._threads import single_blas_thread
 
 __all__ = ["SpinLog", "spin", "motor_ripple_orders"]
 
@@ -69,6 +70,7 @@ def motor_ripple_orders(max_order, pole_pairs=None, slots=None):
     return tuple(sorted(orders))
 
 
+@single_blas_thread
 def spin(runs, *, pole_pairs=None, slots=None, max_order=32, ripple_orders=(), knot_revolutions=4.0, name=""):
     """Recover the encoder error from spins at one or more (nearly) constant speeds.
 

@@ -24,6 +24,7 @@ from ..parameters import check_int, check_number
 from ..profile import distinct_angles
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
+from .._threads import single_blas_thread
 
 __all__ = ["steps", "step_errors"]
 
@@ -74,6 +75,7 @@ def step_errors(cal, where=None):
     return reading, (centre + wrap180(difference - centre)) * ARCMIN_PER_DEG
 
 
+@single_blas_thread
 def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, name=""):
     """Recover the encoder error from one or two full-step calibrations.
 

@@ -21,6 +21,7 @@ from ..parameters import check_int
 from .._limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
+from .._threads import single_blas_thread
 
 __all__ = ["sweep", "sweep_capture", "check_sweep_travel"]
 
@@ -31,6 +32,7 @@ MAX_TRAVEL_MISMATCH = 0.1
 DEFAULT_SKIP = 4
 
 
+@single_blas_thread
 def sweep_capture(capture, pole_pairs, **options):
     """:func:`sweep` of a :class:`~encal.selfcal.moteus_capture.MoteusCapture`."""
     name = options.pop("name", None)
@@ -42,6 +44,7 @@ def sweep_capture(capture, pole_pairs, **options):
                  where=capture.source or "sweep", **options)
 
 
+@single_blas_thread
 def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=None, skip=DEFAULT_SKIP, name="",
           where="sweep"):
     """Recover the encoder error from an open-loop sweep of the electrical angle, up and down.

@@ -18,6 +18,7 @@ from ..parameters import check_bool, invalid
 from ._checks import check_algorithms, check_calibration, check_encoding, check_epochs, check_seed
 from ._fits import task_seed, train_once
 from ._pool import run_tasks
+from .._threads import single_blas_thread
 
 __all__ = ["PAPER_ALGORITHMS", "EXTRA_ALGORITHMS", "AlgorithmRow", "AlgorithmStudy", "compare_algorithms"]
 
@@ -185,6 +186,7 @@ class AlgorithmStudy:
                                     ax=ax)
 
 
+@single_blas_thread
 def compare_algorithms(cal, test=None, *, algorithms=(*PAPER_ALGORITHMS, *EXTRA_ALGORITHMS), hidden=80,
                        encoding="raw", epochs=1000, seeds=5, rng=0, workers=None, progress=False):
     """Train the 1:N:1 network with every algorithm from the same initial weights (Table 2).

@@ -23,6 +23,7 @@ from .._limits import check_size
 from ..parameters import check_number, invalid
 from ._checks import check_calibration, check_seed
 from ._fits import task_seed
+from .._threads import single_blas_thread
 
 __all__ = ["ModelSpec", "PAPER_STOPPING", "PAPER_NETWORK", "DEFAULT_MODELS", "ComparisonEntry", "Comparison",
            "compare_models"]
@@ -161,6 +162,7 @@ class Comparison:
         return plot_residuals(self, key=key, ax=ax)
 
 
+@single_blas_thread
 def compare_models(train, test, *, models=DEFAULT_MODELS, floor_arcmin=None, epochs=1000, rng=0):
     """Fit every model to ``train`` and measure its residual on ``test`` (Table 3 for one encoder).
 

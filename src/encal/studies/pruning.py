@@ -37,6 +37,7 @@ from ..models.ann import ANNModel
 from ..parameters import check_number, check_type
 from ._checks import check_algorithms, check_calibration, check_encoding, check_seed
 from ._fits import fit_network, hidden_layer, task_seed, training_mse_arcmin2
+from .._threads import single_blas_thread
 
 __all__ = ["DEFAULT_THRESHOLD", "SENSITIVITY_THRESHOLDS", "PruningResult", "significant_count",
            "svd_pruning"]
@@ -121,6 +122,7 @@ def _test_rms(model, test):
     return float(np.sqrt(np.mean(residual**2)))
 
 
+@single_blas_thread
 def svd_pruning(cal, test=None, *, hidden=80, encoding="raw", algorithm="trainlm", epochs=1000,
                 threshold=DEFAULT_THRESHOLD, rng=0, model=None, **train_options):
     """Count the significant hidden nodes of a trained 1:N:1 network by SVD, and retrain at that size.

@@ -25,6 +25,7 @@ from ..parameters import check_int, check_number, check_type, invalid
 from ..profile import error_stats
 from ._checks import check_calibration, check_seed
 from ._fits import task_seed
+from .._threads import single_blas_thread
 
 __all__ = ["RepeatRun", "Reproducibility", "reproducibility", "matched_difference"]
 
@@ -151,6 +152,7 @@ def matched_difference(first, repeat, tolerance_deg=1e-3):
     return reference[sort], difference[sort]
 
 
+@single_blas_thread
 def reproducibility(first, repeats, *, model=None, test=None, resolution_bits=None, floors=None, rng=0):
     """Compare repeat calibrations with the first one, and correct them with the first one's model.
 

@@ -17,6 +17,7 @@ from ..parameters import check_bool, check_choice
 from ._checks import check_algorithms, check_calibration, check_counts, check_encoding, check_epochs, check_seed
 from ._fits import task_seed, train_once
 from ._pool import run_tasks
+from .._threads import single_blas_thread
 
 __all__ = ["PAPER_HIDDEN", "SweepResult", "hidden_node_sweep"]
 
@@ -116,6 +117,7 @@ class SweepResult:
                                     ax=ax)
 
 
+@single_blas_thread
 def hidden_node_sweep(cal, test=None, *, hidden=PAPER_HIDDEN, algorithms=("trainlm", "traingd"), encoding="raw",
                       epochs=1000, seeds=1, curve_hidden=80, rng=0, workers=None, progress=False):
     """Train the 1:N:1 network for every N and algorithm; record the final MSE (Fig. 2a) and curves (Fig. 2b).

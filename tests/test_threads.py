@@ -1,0 +1,50 @@
+"""encal limits BLAS to one thread around its own work, whatever the calling program set."""
+
+import numpy as np
+import scipy.linalg  # noqa: F401  (SciPy's own BLAS loaded, as in a program that uses encal)
+from threadpoolctl import threadpool_info, threadpool_limits
+
+import encal
+from encal._threads import single_blas_thread
+
+
+def blas_threads():
+    return sorted({pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"})
+
+
+def test_a_decorated_function_runs_on_one_blas_thread_and_restores_the_callers_setting():
+    seen = []
+
+    @single_blas_thread
+    def work():
+        seen.append(blas_threads())
+        inner()
+
+    @single_blas_thread
+    def inner():
+        seen.append(blas_threads())
+
+    with threadpool_limits(limits=2, user_api="blas"):
+        assert blas_threads() == [2]
+        work()
+        assert blas_threads() == [2]  # the caller's setting back
+    assert seen == [[1], [1]]
+
+
+def test_fit_runs_on_one_blas_thread(monkeypatch):
+    from encal import fitting
+
+    seen = []
+    original = fitting.fitter
+
+    def spying(method):
+        seen.append(blas_threads())
+        return original(method)
+
+    monkeypatch.setattr(fitting, "fitter", spying)
+    reference = np.arange(0.0, 360.0, 2.0)
+    cal = encal.Calibration(reference, reference + np.sin(np.radians(reference)) / 60.0)
+    with threadpool_limits(limits=2, user_api="blas"):
+        encal.fit(cal, method="fourier")
+        assert blas_threads() == [2]
+    assert seen and all(threads == [1] for threads in seen)
