@@ -143,7 +143,7 @@ _NEEDS_RESOLUTION = {
 
 
 def _check_resolution(args, compensator):
-    """A usage error (naming --bits) for an export that needs the resolution when neither --bits nor the model has it."""
+    """A usage error (naming --bits) for an export that needs the resolution that neither --bits nor the model gives."""
     export = "c --table" if args.format == "c" and args.table else args.format
     if export in _NEEDS_RESOLUTION and args.bits is None and compensator.encoder.get("resolution_bits") is None:
         args.export_parser.error(f"{_NEEDS_RESOLUTION[export]}, and {args.model} records no encoder resolution; "

@@ -183,7 +183,7 @@ def _constant_type(comp, constants):
 
 
 def _check_profiles(comp):
-    """Refuse a formula whose error (each direction's, each as the C evaluates it) leaves a turn anywhere on the grid."""
+    """Refuse a formula whose error (each direction's, as the C evaluates it) leaves a turn anywhere on the grid."""
     theta = np.arange(_CHECK_POINTS) * (360.0 / _CHECK_POINTS)
     with np.errstate(all="ignore"):
         profiles = _profiles(_form(comp), comp.model.parameters(), theta)

@@ -38,8 +38,8 @@ from ..errors import InputError
 from ..parameters import check_choice, check_int, check_number, invalid
 from .cexport import _banner, _check_identifier, export_c
 from .choice import COSTS, choose_deployment
-from .compact import (CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MIN_TABLE_BITS, NODE_DTYPES,
-                      check_exportable, check_nodes, choose_compact, compile_compact, correction_bam,
+from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MIN_TABLE_BITS,
+                      NODE_DTYPES, check_exportable, check_nodes, choose_compact, compile_compact,
                       default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import OPERATIONS
@@ -138,7 +138,7 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         interpolation = chosen["interpolation"]
     table, met = _table(comp, target, bits, nodes, dtype, tolerance_arcmin, interpolation)
     if target == "fixed":
-        _check_int32(comp, table, bits)
+        _check_int32(comp, table)
     files = (_float_table_files if target == "cortex-m4f" else _fixed_table_files)(comp, prefix, bits, table)
     fixed = target == "fixed"
     summary = {"target": target, "form": "table", "nodes": table.nodes, "dtype": table.dtype,
@@ -201,28 +201,24 @@ def _bits(comp, bits, target, form="table"):
         return None
     # a compact table has at least MIN_NODES nodes, at most one per code; the formula takes any code
     low = 1 if form == "formula" else MIN_TABLE_BITS
-    table = "" if form == "formula" else f"; a compact table has at least {2**MIN_TABLE_BITS} nodes, one per code at most"
+    table = ("" if form == "formula"
+             else f"; a compact table has at least {2**MIN_TABLE_BITS} nodes, one per code at most")
     return check_int(bits, "bits", "export_target", low=low, high=_MAX_FIXED_COUNT_BITS if target == "fixed" else 32,
                      note=f"the encoder resolution for the {target} target{table}; or None for the model file's")
 
 
-def _check_int32(comp, table, bits):
-    """Refuse a fixed-point table whose run-time sums (the interpolated error, then with its offset) leave int32.
+def _check_int32(comp, table):
+    """Refuse a fixed-point table whose mean error (OFFSET_BAM, an int32 binary angle) would be clipped.
 
-    The integer rule of :func:`encal.deploy.compact.correction_bam` computes in int64; the C computes in int32,
-    where a larger sum overflows (undefined behaviour in C). Such errors are beyond half a turn.
+    The fixed target's sums are congruent modulo a turn (2^32 binary-angle units), so a profile reaching
+    past half a turn still corrects rightly; its constant offset must hold in int32 itself, else
+    :func:`encal.deploy.compact.compile_compact` clips it and every correction is wrong by the excess.
     """
-    grid = evaluation_bits(bits)
-    angles = np.arange(2**grid, dtype=np.int64) << (32 - grid)
-    total = correction_bam(table, angles)
-    worst = int(np.argmax(np.maximum(np.abs(total), np.abs(total - table.offset_bam))))
-    if max(abs(int(total[worst])), abs(int(total[worst]) - table.offset_bam)) > 2**31 - 1 \
-            or abs(table.offset_bam) >= 2**31 - 1:
+    if abs(table.offset_arcmin) / BAM_ARCMIN > 2**31:  # clipped by one unit (5e-6 arcmin) at most: a rounding
         where = comp.source or "the model given to export_target"
-        raise InputError(f"{where}: the model's error reaches {float(model_on_codes(comp, bits)[worst]):.6g} arcmin "
-                         f"at {worst * 360.0 / 2**grid:.6g} deg, beyond the fixed target's int32 binary angles "
-                         "(half a turn, |error| < 10800 arcmin); expected smaller errors, or use --target "
-                         "cortex-m4f")
+        raise InputError(f"{where}: the model's mean error, {table.offset_arcmin:.6g} arcmin, is beyond the fixed "
+                         f"target's int32 binary angles (half a turn, {2**31 * BAM_ARCMIN:g} arcmin); expected a "
+                         "mean error within half a turn (a zero offset of at most 180 degrees), or --target cortex-m4f")
 
 
 def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolation=None):
