@@ -184,6 +184,22 @@ def test_float32_literals_are_never_inf():
     assert _float(3.0e38) == "3.00000001e+38f"
 
 
+@pytest.mark.parametrize("deployment, says", [
+    ({"target": "cortex-m4f", "form": "table", "nodes": 3, "dtype": "int16"}, "nodes a power of two from 4 to 16384"),
+    ({"target": "cortex-m4f", "form": "table", "nodes": 10**400, "dtype": "int16"}, "got 1000000000000000000000000"),
+    ({"target": "fixed", "form": "table", "nodes": 64, "dtype": "float32"}, "dtype 'int8' or 'int16'"),
+    ({"target": "fixed", "form": "formula"}, "form 'table'"),
+    ({"target": "cortex-m4f", "form": "table", "nodes": 64, "budget": "1KiB\x1b[2J"}, "budget the text"),
+])
+def test_a_resigned_recorded_deployment_names_the_file_and_field(deployment, says, model_file):
+    """Before: 'The 'nodes' parameter of compile_compact must be ...', a parameter the user never gave."""
+    edited = _resigned(model_file, lambda d: d["training"].__setitem__("deployment", deployment))
+    with pytest.raises(InputError, match=r"model\.json: expected the training\.deployment recorded by 'encal fit "
+                                         r"--budget' to hold") as info:
+        export_target(edited, deployment["target"])
+    assert says in str(info.value) and len(str(info.value)) < 400
+
+
 # --------------------------------------------------------------------------- 4. names in C comments
 
 HOSTILE = 'evil /* x */ "q" ??/\n#define y \\ \t\u00e9\u2028 */'

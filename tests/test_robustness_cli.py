@@ -660,7 +660,10 @@ def _make_issue25_files(folder, paths, document):
     hostile["encoder"]["name"] = 'enc /* x */ "q" ??/\n#define y \\'
     with_bits = json.loads(json.dumps(document))
     with_bits["encoder"]["resolution_bits"] = 14
-    for key, content in (("huge_coefficient", huge), ("hostile_name", hostile), ("model_14bit", with_bits)):
+    bad_deployment = json.loads(json.dumps(with_bits))
+    bad_deployment["training"]["deployment"] = {"target": "fixed", "form": "table", "nodes": 3, "dtype": "int8"}
+    for key, content in (("huge_coefficient", huge), ("hostile_name", hostile), ("model_14bit", with_bits),
+                         ("bad_deployment", bad_deployment)):
         content.pop("sha256", None)
         paths[key] = Path(folder) / f"{key}.json"
         paths[key].write_text(_resigned(content), encoding="utf-8")
@@ -697,6 +700,9 @@ def _issue25_cases():
                                             "-o", "{out}/c"), 1, ("--tolerance",)),
         Case("export-nodes-not-a-number", (*export, "--format", "c", "--target", "fixed", "--nodes", "1e3", "-o",
                                            "{out}/c"), 2),
+        Case("export-bad-recorded-deployment", ("export", "{bad_deployment}", "--format", "c", "--target", "fixed",
+                                                "-o", "{out}/c"), 1, ("bad_deployment.json", "training.deployment",
+                                                                      "nodes")),
         # a hostile encoder name is escaped in the C comments (tests/test_export_options.py compiles it)
         Case("export-hostile-name-accepted", ("export", "{hostile_name}", "--format", "c", "--target", "cortex-m4f",
                                               "-o", "{scratch}/hostile"), 0),

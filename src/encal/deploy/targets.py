@@ -38,9 +38,9 @@ from ..errors import InputError
 from ..parameters import check_choice, check_int, check_number, invalid
 from .cexport import _banner, _check_identifier, export_c
 from .choice import COSTS, choose_deployment
-from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MIN_TABLE_BITS,
-                      NODE_DTYPES, check_exportable, check_nodes, choose_compact, compile_compact,
-                      default_tolerance_arcmin, evaluation_bits, model_on_codes)
+from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MAX_NODES,
+                      MIN_NODES, MIN_TABLE_BITS, NODE_DTYPES, check_exportable, check_nodes, choose_compact,
+                      compile_compact, default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import OPERATIONS
 from .series32 import fourier_float32, fourier_terms
@@ -237,10 +237,40 @@ def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolati
     recorded = comp.model.training.get("deployment")
     if tolerance is None and isinstance(recorded, dict) and recorded.get("target") == target \
             and recorded.get("form") in FORMS:
+        _check_recorded(comp, recorded, target, bits)
         return {"form": recorded["form"], "nodes": recorded.get("nodes"), "dtype": recorded.get("dtype"),
                 "interpolation": recorded.get("interpolation") or "linear",
                 "recorded": f"the deployment chosen by encal fit --budget {recorded.get('budget', '')}".rstrip()}
     return None
+
+
+def _check_recorded(comp, recorded, target, bits):
+    """Refuse a deployment recorded in the model file (``encal fit --budget``) that ``target`` cannot export.
+
+    A file edited by hand and re-signed can hold any value there; the message names the file and the field
+    rather than a parameter the user never gave.
+    """
+    dtypes = ("int8", "int16") if target == "fixed" else NODE_DTYPES
+    largest = min(MAX_NODES, 2**evaluation_bits(bits))
+    nodes = recorded.get("nodes")
+    checks = [("form", recorded["form"] == "table" or target == "cortex-m4f", "'table' (or 'formula' for cortex-m4f)"),
+              ("budget", isinstance(recorded.get("budget", ""), str) and recorded.get("budget", "").isprintable()
+               and len(recorded.get("budget", "")) <= 64, "the text of --budget")]
+    if recorded["form"] == "table":
+        checks += [
+            ("nodes", nodes is None or (isinstance(nodes, int) and not isinstance(nodes, bool) and MIN_NODES <= nodes
+                                        <= largest and nodes & (nodes - 1) == 0),
+             f"a power of two from {MIN_NODES} to {largest}"),
+            ("dtype", recorded.get("dtype") in (None, *dtypes), " or ".join(map(repr, dtypes))),
+            ("interpolation", recorded.get("interpolation") in (None, *INTERPOLATIONS),
+             " or ".join(map(repr, INTERPOLATIONS)))]
+    for field, ok, expected in checks:
+        if not ok:
+            shown = repr(recorded.get(field))
+            shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            raise InputError(f"{comp.source or 'the model given to export_target'}: expected the training.deployment "
+                             f"recorded by 'encal fit --budget' to hold {field} {expected} for the {target} target, "
+                             f"got {shown}; fit again with --budget, or choose with --nodes, --dtype or --tolerance")
 
 
 def _table(comp, target, bits, nodes, dtype, tolerance, interpolation=None):
