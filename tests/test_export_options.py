@@ -109,6 +109,20 @@ def test_documented_defaults_still_apply(model_file, tmp_path, capsys):
     assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["encal.c", "encal.h"]
 
 
+@pytest.mark.parametrize("options, says", [
+    (["--dtype", "float32"], "--dtype is the storage of a table"),
+    (["--table", "--constants", "double"], "--constants is the storage of the host formula's constants"),
+    (["--target", "cortex-m4f", "--form", "formula", "--nodes", "64"], "not --form formula"),
+    (["--target", "cortex-m4f", "--form", "formula", "--dtype", "int8"], "not --form formula"),
+    (["--target", "cortex-m4f", "--form", "formula", "--tolerance", "0.1"], "not --form formula"),
+])
+def test_c_options_the_chosen_c_ignores_are_usage_errors(options, says, model_file, tmp_path, capsys):
+    """Before: written with exit 0, the option silently ignored (the host formula has no table to store...)."""
+    status, err = _run(["export", model_file, "--format", "c", *options, "-o", tmp_path / "c"], capsys)
+    assert status == 2 and says in err.splitlines()[-1], err
+    assert not (tmp_path / "c").exists()
+
+
 # --------------------------------------------------------------------------- 2. --bits 1 for a compact table
 
 @pytest.mark.parametrize("target, high", [("cortex-m4f", 32), ("fixed", 24)])

@@ -680,6 +680,11 @@ def _issue25_cases():
         Case("export-name-with-table", (*export, "--format", "table", "--name", "x", "-o", "{out}/t.bin"), 2),
         Case("export-target-with-table", (*export, "--format", "table", "--target", "fixed", "-o", "{out}/t.bin"), 2),
         Case("export-table-flag-with-simplefoc", (*export, "--format", "simplefoc", "--table", "-o", "{out}/s.h"), 2),
+        Case("export-dtype-with-host-formula", (*export, "--format", "c", "--dtype", "float32", "-o", "{out}/c"), 2),
+        Case("export-constants-with-table", (*export, "--format", "c", "--table", "--constants", "double", "-o",
+                                             "{out}/c"), 2),
+        Case("export-nodes-with-formula", (*export, "--format", "c", "--target", "cortex-m4f", "--form", "formula",
+                                           "--nodes", "64", "-o", "{out}/c"), 2),
         # the resolution an export needs: a usage error naming --bits
         Case("export-c-table-without-resolution", ("export", "{model}", "--format", "c", "--table", "-o", "{out}/c"),
              2),

@@ -106,6 +106,7 @@ def _check_applies(args):
         if getattr(args, name, None) is not None and args.format not in formats:
             shown = " or ".join(", ".join(formats).rsplit(", ", 1)) if len(formats) > 1 else formats[0]
             args.export_parser.error(f"--{name.replace('_', '-')} applies to --format {shown}, not {args.format}")
+    args.given = {name for name in _APPLIES_TO if getattr(args, name, None) is not None}
     for name, value in _DEFAULTS.items():
         if getattr(args, name, None) is None:
             setattr(args, name, value)
@@ -121,8 +122,16 @@ def _check_combinations(args):
                                   or args.interpolation is not None):
         _usage_error("--nodes, --interpolation, --tolerance and --form apply to --target cortex-m4f or fixed, "
                      "not host (its C evaluates the formula in double, or --table)")
-    if args.interpolation is not None and args.form == "formula":
-        _usage_error("--interpolation is for the compact tables (--form table), not --form formula")
+    if args.form == "formula" and (args.interpolation is not None or args.nodes is not None or args.dtype is not None
+                                   or args.tolerance is not None):
+        _usage_error("--interpolation, --nodes, --dtype and --tolerance are for the compact tables (--form table), "
+                     "not --form formula (the series itself)")
+    if args.format == "c" and args.target == "host" and not args.table and args.dtype is not None:
+        _usage_error("--dtype is the storage of a table (--table, or --target cortex-m4f or fixed); the host "
+                     "formula has none")
+    if args.table and "constants" in args.given:
+        _usage_error("--constants is the storage of the host formula's constants; --table stores a table "
+                     "(--dtype)")
     if args.target != "host" and (args.table or args.constants != "auto"):
         _usage_error(f"--table and --constants apply to --target host, not {args.target}")
     if args.cost is not None and (args.nodes is not None or args.dtype is not None or args.form != "table"
