@@ -23,7 +23,8 @@
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
 
-The encoder resolution (--bits) defaults to the one recorded in the model file.
+The encoder resolution (--bits) defaults to the one recorded in the model file. An option given with a
+--format it does not apply to (_APPLIES_TO below) is a usage error, never silently ignored.
 """
 
 from pathlib import Path
