@@ -302,19 +302,36 @@ def test_constants_round_trip_float32():
     assert [float(v) for v in block.replace("\n", " ").split(",")] == expected
 
 
+def unused_huge_weight():
+    """A network with one more hidden unit whose input weights and bias are 0 and whose output weight is 1e39.
+
+    tanh(0) = 0, so the unit adds exactly nothing: the model's errors are a few arc-minutes, but float32
+    cannot hold one of its constants.
+    """
+    from encal.models import model_kind
+
+    parameters = trained_ann("periodic").parameters()
+    parameters["W1"].append([0.0, 0.0])
+    parameters["b1"].append(0.0)
+    parameters["W2"].append(1e39)
+    model = model_kind("ann").read(parameters)
+    model.encoder["resolution_bits"] = BITS
+    return model
+
+
 def test_auto_constants_fall_back_to_double_when_float32_is_not_enough():
-    # Two huge cancelling terms: float32 coefficients would move the model by arc-minutes.
-    model = FourierModel([1, 2], [1e6 + 0.1, 0.0], [0.0, 1e6], encoder={"resolution_bits": 12})
+    # Large terms: float32 coefficients would move the model by more than the budget.
+    model = FourierModel([1, 2], [1e4 + 0.1, 0.0], [0.0, 1e4], encoder={"resolution_bits": 12})
     assert "static const double model_cos" in export_c(model)["encal.c"]
     assert "static const float model_cos" in export_c(DATA / "model_v1_fourier.json")["encal.c"]
 
 
 def test_the_banner_states_what_float_constants_would_change():
-    huge = FourierModel([1], [1e39], [0.0], encoder={"resolution_bits": 12})
+    huge = unused_huge_weight()
     assert "constants stored as double (float32 cannot hold them)" in export_c(huge)["encal.c"]
     with pytest.raises(InputError, match="expected model constants within float32's range"):
         export_c(huge, constants="float")
-    cancelling = FourierModel([1, 2], [1e6 + 0.1, 0.0], [0.0, 1e6], encoder={"resolution_bits": 12})
+    cancelling = FourierModel([1, 2], [1e4 + 0.1, 0.0], [0.0, 1e4], encoder={"resolution_bits": 12})
     assert re.search(r"constants stored as double \(float would change the model by at most 0\.0\d+ arcmin",
                      export_c(cancelling)["encal.c"])
     assert re.search(r"constants stored as float \(they change the model by at most \S+ arcmin",
@@ -422,7 +439,7 @@ def test_only_directional_formulas_have_directed_functions():
 
 
 def test_constants_beyond_float32_range():
-    model = FourierModel([1], [1e39], [0.0], encoder={"resolution_bits": 8})
-    assert "static const double model_cos" in export_c(model)["encal.c"]
+    model = unused_huge_weight()
+    assert "static const double model_W2" in export_c(model)["encal.c"]
     with pytest.raises(InputError, match="float32's range"):
         export_c(model, constants="float")

@@ -43,8 +43,8 @@ def test_bad_budgets(text):
     (lambda: choose_deployment(FOURIER, budget=("bytes", -64)),
      "The 'budget' parameter of choose_deployment must be a finite number > 0 (bytes). Got -64 instead."),
     (lambda: choose_deployment(FOURIER, tolerance_arcmin=0.01, bits=0),
-     "The 'bits' parameter of choose_deployment must be an int from 1 to 32 (the encoder resolution, or None for "
-     "the model file's). Got 0 instead."),
+     "The 'bits' parameter of choose_deployment must be an int from 2 to 32 (the encoder resolution: a compact "
+     "table has at least 4 nodes and at most one per code; or None for the model file's). Got 0 instead."),
     (lambda: candidates(FOURIER, target="fixed-point"),
      "The 'target' parameter of candidates must be one of 'cortex-m4f', 'fixed'. Got 'fixed-point' instead."),
 ])

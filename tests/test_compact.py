@@ -102,8 +102,8 @@ def test_an_unreachable_tolerance_says_so():
     (lambda path: compile_compact(path, 64, interpolation="quadratic"),
      "The 'interpolation' parameter of compile_compact must be one of 'linear', 'cubic'. Got 'quadratic' instead."),
     (lambda path: compile_compact(path, 64, bits=33),
-     "The 'bits' parameter of compile_compact must be an int from 1 to 32 (the encoder resolution, or None for "
-     "the model file's). Got 33 instead."),
+     "The 'bits' parameter of compile_compact must be an int from 2 to 32 (the encoder resolution: a compact table has "
+     "at least 4 nodes and at most one per code; or None for the model file's). Got 33 instead."),
     (lambda path: choose_compact(path, tolerance_arcmin=0.0),
      "The 'tolerance_arcmin' parameter of choose_compact must be a finite number > 0 (arc-minutes, or None). "
      "Got 0.0 instead."),

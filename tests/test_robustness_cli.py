@@ -164,6 +164,7 @@ def _make_files(folder):
     paths["scratch"].mkdir()
     _make_dialect_and_edited_files(folder, paths, good, document)
     _make_moteus_files(folder, paths, document)
+    _make_issue25_files(folder, paths, document)
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -750,6 +751,98 @@ MOTEUS_CASES = [
          prints=("console",)),
 ]
 CASES += MOTEUS_CASES
+# ---------------------------------------------------------------- issue 25: export and fit options
+
+
+def _make_issue25_files(folder, paths, document):
+    """A re-signed model whose first coefficient is 1e100 (finite, within the file's range), and one whose encoder
+    name is hostile C; a model with a resolution (the catalogue's own records none)."""
+    huge = json.loads(json.dumps(document))
+    huge["parameters"]["cos"][0] = 1e100
+    hostile = json.loads(json.dumps(document))
+    hostile["encoder"]["name"] = 'enc /* x */ "q" ??/\n#define y \\'
+    with_bits = json.loads(json.dumps(document))
+    with_bits["encoder"]["resolution_bits"] = 14
+    bad_deployment = json.loads(json.dumps(with_bits))
+    bad_deployment["training"]["deployment"] = {"target": "fixed", "form": "table", "nodes": 3, "dtype": "int8"}
+    for key, content in (("huge_coefficient", huge), ("hostile_name", hostile), ("model_14bit", with_bits),
+                         ("bad_deployment", bad_deployment)):
+        content.pop("sha256", None)
+        paths[key] = Path(folder) / f"{key}.json"
+        paths[key].write_text(_resigned(content), encoding="utf-8")
+
+
+def _issue25_cases():
+    export = ("export", "{model_14bit}")
+    cases = [
+        # an option of another format is a usage error naming the option and the formats it is for
+        Case("export-bits-with-klipper", (*export, "--format", "klipper", "--bits", "12", "-o", "{out}/k.cfg"), 2),
+        Case("export-source-with-table", (*export, "--format", "table", "--source", "1", "-o", "{out}/t.bin"), 2),
+        Case("export-full-steps-with-moteus", (*export, "--format", "moteus", "--full-steps", "100", "-o",
+                                               "{out}/m.cfg"), 2),
+        Case("export-name-with-table", (*export, "--format", "table", "--name", "x", "-o", "{out}/t.bin"), 2),
+        Case("export-target-with-table", (*export, "--format", "table", "--target", "fixed", "-o", "{out}/t.bin"), 2),
+        Case("export-table-flag-with-simplefoc", (*export, "--format", "simplefoc", "--table", "-o", "{out}/s.h"), 2),
+        Case("export-dtype-with-host-formula", (*export, "--format", "c", "--dtype", "float32", "-o", "{out}/c"), 2),
+        Case("export-constants-with-table", (*export, "--format", "c", "--table", "--constants", "double", "-o",
+                                             "{out}/c"), 2),
+        Case("export-nodes-with-formula", (*export, "--format", "c", "--target", "cortex-m4f", "--form", "formula",
+                                           "--nodes", "64", "-o", "{out}/c"), 2),
+        # the resolution an export needs: a usage error naming --bits
+        Case("export-c-table-without-resolution", ("export", "{model}", "--format", "c", "--table", "-o", "{out}/c"),
+             2),
+        Case("export-tinymovr-without-resolution", ("export", "{model}", "--format", "tinymovr", "-o", "{out}/t.h"),
+             2),
+        # a compact table needs 4 nodes, one per code at most
+        Case("export-m4f-bits-1", (*export, "--format", "c", "--target", "cortex-m4f", "--bits", "1", "-o",
+                                   "{out}/c"), 1, ("--bits", "from 2 to 32")),
+        Case("export-fixed-bits-1", (*export, "--format", "c", "--target", "fixed", "--bits", "1", "-o", "{out}/c"),
+             1, ("--bits", "from 2 to 24")),
+        Case("export-m4f-formula-bits-1-accepted", (*export, "--format", "c", "--target", "cortex-m4f", "--form",
+                                                    "formula", "--bits", "1", "-o", "{scratch}/f1"), 0),
+        Case("export-m4f-nodes-3", (*export, "--format", "c", "--target", "cortex-m4f", "--nodes", "3", "-o",
+                                    "{out}/c"), 1, ("--nodes", "power of two")),
+        Case("export-m4f-tolerance-nan", (*export, "--format", "c", "--target", "cortex-m4f", "--tolerance", "nan",
+                                          "-o", "{out}/c"), 1, ("--tolerance",)),
+        Case("export-fixed-tolerance-inf", (*export, "--format", "c", "--target", "fixed", "--tolerance", "inf",
+                                            "-o", "{out}/c"), 1, ("--tolerance",)),
+        Case("export-nodes-not-a-number", (*export, "--format", "c", "--target", "fixed", "--nodes", "1e3", "-o",
+                                           "{out}/c"), 2),
+        Case("export-bad-recorded-deployment", ("export", "{bad_deployment}", "--format", "c", "--target", "fixed",
+                                                "-o", "{out}/c"), 1, ("bad_deployment.json", "training.deployment",
+                                                                      "nodes")),
+        # a hostile encoder name is escaped in the C comments (tests/test_export_options.py compiles it)
+        Case("export-hostile-name-accepted", ("export", "{hostile_name}", "--format", "c", "--target", "cortex-m4f",
+                                              "-o", "{scratch}/hostile"), 0),
+        # fit --noise: finite, > 0, at most a turn (usage); at least the errors' resolution (the data's)
+        Case("fit-noise-huge", ("fit", "{train}", "-o", "{out}/m.json", "--method", "spectral", "--noise", "1e300"),
+             2),
+        Case("fit-noise-inf", ("fit", "{train}", "-o", "{out}/m.json", "--noise", "inf"), 2),
+        Case("fit-noise-nan", ("fit", "{train}", "-o", "{out}/m.json", "--noise", "nan"), 2),
+        Case("fit-noise-zero", ("fit", "{train}", "-o", "{out}/m.json", "--method", "spectral", "--noise", "0"), 2),
+        Case("fit-noise-tiny", ("fit", "{train}", "-o", "{out}/m.json", "--method", "spectral", "--noise",
+                                "1e-300"), 1, ("--noise", "3.41e-12", "21600")),
+        Case("fit-noise-tiny-auto", ("fit", "{train}", "-o", "{out}/m.json", "--noise", "1e-300"), 1,
+             ("--noise", "3.41e-12")),
+        Case("fit-noise-at-a-turn-accepted", ("fit", "{train}", "-o", "{scratch}/noisy.json", "--method",
+                                              "spectral", "--noise", "21600"), 0),
+        Case("fit-noise-with-fourier", ("fit", "{train}", "-o", "{out}/m.json", "--method", "fourier", "--noise",
+                                        "0.1"), 2),
+    ]
+    # a re-signed coefficient of 1e100: every C target and the dense table refuse it, naming the file
+    for name, options in (("host", ()), ("host-table", ("--table",)), ("m4f", ("--target", "cortex-m4f")),
+                          ("m4f-formula", ("--target", "cortex-m4f", "--form", "formula")),
+                          ("fixed", ("--target", "fixed"))):
+        cases.append(Case(f"export-huge-coefficient-{name}", ("export", "{huge_coefficient}", "--format", "c",
+                                                              *options, "--bits", "12", "-o", "{out}/c"), 1,
+                          ("huge_coefficient.json", "1e+100 arcmin", "one turn")))
+    cases.append(Case("export-huge-coefficient-table", ("export", "{huge_coefficient}", "--format", "table",
+                                                        "--dtype", "float32", "--bits", "12", "-o", "{out}/t.bin"), 1,
+                      ("huge_coefficient.json", "1e+100 arcmin", "one turn")))
+    return cases
+
+
+CASES += _issue25_cases()
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -273,8 +273,9 @@ def test_explicit_nodes_and_dtype():
      "The 'tolerance_arcmin' parameter of export_target must be a finite number > 0 (arc-minutes, or None). "
      "Got -0.5 instead."),
     ({"target": "fixed", "bits": 25},
-     "The 'bits' parameter of export_target must be an int from 1 to 24 (the encoder resolution for the fixed "
-     "target, or None for the model file's). Got 25 instead."),
+     "The 'bits' parameter of export_target must be an int from 2 to 24 (the encoder resolution for the fixed "
+     "target; a compact table has at least 4 nodes, one per code at most; or None for the model file's). "
+     "Got 25 instead."),
     ({"target": "cortex-m4f", "prefix": "int"},
      "The 'prefix' parameter of export_target must be a C identifier (letters, digits, '_', not starting with "
      "a digit, '__' or '_' + capital, not a keyword). Got 'int' instead."),

@@ -24,7 +24,8 @@
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
 
-The encoder resolution (--bits) defaults to the one recorded in the model file.
+The encoder resolution (--bits) defaults to the one recorded in the model file. An option given with a
+--format it does not apply to (_APPLIES_TO below) is a usage error, never silently ignored.
 """
 
 from pathlib import Path
@@ -50,10 +51,10 @@ def add_arguments(parser):
     parser.add_argument("--dtype", choices=("int8", "int16", "float32"),
                         help="storage of the table's errors (dense table: int16 or float32, default int16; "
                              "compact table: default the cheapest that meets --tolerance)")
-    parser.add_argument("--target", choices=TARGETS, default="host",
+    parser.add_argument("--target", choices=TARGETS,
                         help="C: host (double), cortex-m4f (float32 only) or fixed (integers only); "
                              "default host")
-    parser.add_argument("--form", choices=FORMS, default="table",
+    parser.add_argument("--form", choices=FORMS,
                         help="C for cortex-m4f: a compact table (every kind; default) or the formula "
                              "(a Fourier series)")
     parser.add_argument("--nodes", type=int, metavar="N",
@@ -70,7 +71,7 @@ def add_arguments(parser):
     parser.add_argument("--cost", choices=("bytes", "entries", "operations"),
                         help="C for cortex-m4f/fixed: what 'cheapest' means for --tolerance "
                              "(default: operations per reading, then bytes)")
-    parser.add_argument("--source", type=int, default=0, metavar="K",
+    parser.add_argument("--source", type=int, metavar="K",
                         help="moteus: motor_position.sources.K (default 0)")
     parser.add_argument("--sign", type=int, choices=(1, -1), metavar="{1,-1}",
                         help="moteus: motor_position.sources.K.sign of the source (default 1): the table is indexed "
@@ -80,38 +81,60 @@ def add_arguments(parser):
     parser.add_argument("--conf", metavar="FILE",
                         help="moteus: a 'conf enumerate' dump of the device: the sign, offset and cpr of source K "
                              "and the commutation source are read from it")
-    parser.add_argument("--moteus-style", choices=("restore", "console"), default="restore",
+    parser.add_argument("--moteus-style", choices=("restore", "console"),
                         help="moteus: 'restore' (default) writes lines for moteus_tool --restore-config FILE (no "
                              "'conf set'; comments); 'console' writes 'conf set' lines to send at a console")
-    parser.add_argument("--full-steps", type=int, default=200, metavar="N",
+    parser.add_argument("--full-steps", type=int, metavar="N",
                         help="klipper: full steps per turn of the stepper (default 200)")
     parser.add_argument("--firmware-version", choices=SIMPLEFOC_VERSIONS, metavar="V",
                         help="simplefoc: the Arduino-FOC-drivers CalibratedSensor the table is for: 1.0.8 (adds a "
                              "float LUT of 128), 1.0.9 (subtracts a float LUT of 200; default) or uint16 (subtracts "
                              "a uint16 LUT of 200, pull request #75 after 1.0.9)")
     parser.set_defaults(export_parser=parser)
-    parser.add_argument("--name", default="encal", metavar="PREFIX",
+    parser.add_argument("--name", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
-    parser.add_argument("--table", action="store_true",
+    parser.add_argument("--table", action="store_true", default=None,
                         help="C: look up a dense per-code table instead of evaluating the formula")
     parser.add_argument("--json", action="store_true",
                         help="print one JSON object naming what was written (files, bytes, table deviation)")
-    parser.add_argument("--constants", choices=("auto", "float", "double"), default="auto",
+    parser.add_argument("--constants", choices=("auto", "float", "double"),
                         help="C: storage of the formula's constants (default: float when it "
                              "changes the model by at most 1e-4 arcmin, else double)")
 
 
+#: option (its argparse dest) -> the --formats it applies to. Given with another format it is a usage error, not
+#: silently ignored: each option here defaults to None (so that "given" shows), and its documented default, if
+#: any, is in _DEFAULTS. A new format-specific option is one line here.
+_APPLIES_TO = {
+    "bits": ("c", "table", "moteus", "simplefoc", "mechaduino", "tinymovr"),
+    "dtype": ("c", "table"),
+    "target": ("c",), "form": ("c",), "nodes": ("c",), "interpolation": ("c",), "tolerance": ("c",),
+    "cost": ("c",), "name": ("c",), "table": ("c",), "constants": ("c",),
+    "source": ("moteus",), "sign": ("moteus",), "offset": ("moteus",), "conf": ("moteus",),
+    "moteus_style": ("moteus",),
+    "firmware_version": ("simplefoc",),
+    "full_steps": ("klipper",),
+}
+#: the defaults of the options above, applied once the formats are checked
+_DEFAULTS = {"target": "host", "form": "table", "name": "encal", "table": False, "constants": "auto",
+             "source": 0, "moteus_style": "restore", "full_steps": 200}
+
+
+def _check_applies(args):
+    """Refuse an option given with a --format it does not apply to; then set the defaults of those not given."""
+    for name, formats in _APPLIES_TO.items():
+        if getattr(args, name, None) is not None and args.format not in formats:
+            shown = " or ".join(", ".join(formats).rsplit(", ", 1)) if len(formats) > 1 else formats[0]
+            args.export_parser.error(f"--{name.replace('_', '-')} applies to --format {shown}, not {args.format}")
+    args.given = {name for name in _APPLIES_TO if getattr(args, name, None) is not None}
+    for name, value in _DEFAULTS.items():
+        if getattr(args, name, None) is None:
+            setattr(args, name, value)
+
+
 def _check_combinations(args):
     _usage_error = args.export_parser.error  # usage and one line on stderr, exit status 2
-    firmware = args.format in FIRMWARE
-    if firmware and (args.target != "host" or args.table or args.nodes is not None or args.dtype is not None
-                     or args.tolerance is not None or args.cost is not None or args.form != "table"
-                     or args.interpolation is not None):
-        _usage_error(f"--format {args.format} writes that firmware's own table; --target, --table, --nodes, "
-                     "--dtype, --interpolation, --tolerance, --cost and --form are for --format c")
-    if args.firmware_version is not None and args.format != "simplefoc":
-        _usage_error(f"--firmware-version chooses the SimpleFOC CalibratedSensor version; it does not apply to "
-                     f"--format {args.format}")
+    _check_applies(args)
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
@@ -119,8 +142,16 @@ def _check_combinations(args):
                                   or args.interpolation is not None):
         _usage_error("--nodes, --interpolation, --tolerance and --form apply to --target cortex-m4f or fixed, "
                      "not host (its C evaluates the formula in double, or --table)")
-    if args.interpolation is not None and args.form == "formula":
-        _usage_error("--interpolation is for the compact tables (--form table), not --form formula")
+    if args.form == "formula" and (args.interpolation is not None or args.nodes is not None or args.dtype is not None
+                                   or args.tolerance is not None):
+        _usage_error("--interpolation, --nodes, --dtype and --tolerance are for the compact tables (--form table), "
+                     "not --form formula (the series itself)")
+    if args.format == "c" and args.target == "host" and not args.table and args.dtype is not None:
+        _usage_error("--dtype is the storage of a table (--table, or --target cortex-m4f or fixed); the host "
+                     "formula has none")
+    if args.table and "constants" in args.given:
+        _usage_error("--constants is the storage of the host formula's constants; --table stores a table "
+                     "(--dtype)")
     if args.target != "host" and (args.table or args.constants != "auto"):
         _usage_error(f"--table and --constants apply to --target host, not {args.target}")
     if args.cost is not None and (args.nodes is not None or args.dtype is not None or args.form != "table"
@@ -156,6 +187,20 @@ def _moteus_options(args):
         args.bits = device["bits"]
     options.update({key: device[key] for key in ("sign", "offset", "commutation_source") if key in device})
     return options
+#: the exports that need the encoder resolution, and why (the others leave the code functions out, or assume one)
+_NEEDS_RESOLUTION = {
+    "table": "--format table has one entry per code",
+    "c --table": "--format c --table looks up one entry per code",
+    "tinymovr": "--format tinymovr works in ticks of the sensor (6 to 24 bits)",
+}
+
+
+def _check_resolution(args, compensator):
+    """A usage error (naming --bits) for an export that needs the resolution that neither --bits nor the model gives."""
+    export = "c --table" if args.format == "c" and args.table else args.format
+    if export in _NEEDS_RESOLUTION and args.bits is None and compensator.encoder.get("resolution_bits") is None:
+        args.export_parser.error(f"{_NEEDS_RESOLUTION[export]}, and {args.model} records no encoder resolution; "
+                                 "pass --bits B")
 
 
 def run(args):
@@ -171,6 +216,7 @@ def run(args):
                 raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
                                  "a different folder or --name (the export would overwrite the model)")
     compensator = Compensator(args.model)
+    _check_resolution(args, compensator)
     if args.format in FIRMWARE:
         from ..deploy.firmware import EXPORTERS
 
@@ -188,9 +234,6 @@ def run(args):
         print(f"wrote {output}: {written.describe()}")
         return 0
     if args.format == "table":
-        if args.bits is None and compensator.encoder.get("resolution_bits") is None:
-            args.export_parser.error(f"--format table has one entry per code, and {args.model} records no "
-                                     "encoder resolution; pass --bits B")
         table = compile_table(compensator, args.bits, dtype=args.dtype or "int16")
         save_table(table, output)
         if args.json:

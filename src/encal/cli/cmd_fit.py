@@ -92,12 +92,16 @@ def _positive_float(text):
     import argparse
     import math
 
+    from ..models.spectral import MAX_NOISE_ARCMIN
+
+    expected = f"expected a number of arc-minutes > 0 and at most {MAX_NOISE_ARCMIN:g} (a turn)"
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes > 0, got {text!r}") from None
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes > 0, got {text!r}")
+        raise argparse.ArgumentTypeError(f"{expected}, got {text!r}") from None
+    # the lower bound depends on the data (the errors' resolution): fit_spectral checks it
+    if not (math.isfinite(value) and 0 < value <= MAX_NOISE_ARCMIN):
+        raise argparse.ArgumentTypeError(f"{expected}, got {text!r}")
     return value
 
 

@@ -16,8 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
-from ..parameters import check_choice, check_int, check_number, invalid
-from .compact import INTERPOLATIONS, MAX_NODES, MIN_NODES, compile_compact, evaluation_bits, model_on_codes
+from ..parameters import check_choice, check_number, invalid
+from .compact import (INTERPOLATIONS, MAX_NODES, MIN_NODES, check_exportable, check_table_bits, compile_compact,
+                      evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import CALL_OPERATIONS, OPERATIONS
 from .series32 import fourier_float32, fourier_terms
@@ -86,7 +87,7 @@ def candidates(model, *, target="cortex-m4f", bits=None):
     check_choice(target, "target", "candidates", _TARGETS)
     comp = model if isinstance(model, Compensator) else Compensator(model)
     bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits, "candidates")
-    reference = model_on_codes(comp, bits)
+    reference = check_exportable(model_on_codes(comp, bits), comp, "candidates")
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     dtypes = ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
     interpolations = INTERPOLATIONS
@@ -194,6 +195,5 @@ def _check_budget(budget, caller):
 
 
 def _check_bits(bits, caller):
-    """The encoder resolution as an int from 1 to 32, or None when unknown."""
-    return None if bits is None else check_int(bits, "bits", caller, low=1, high=32,
-                                               note="the encoder resolution, or None for the model file's")
+    """The encoder resolution as an int from 2 to 32 (a compact table's 4 nodes, one per code), or None when unknown."""
+    return check_table_bits(bits, caller)

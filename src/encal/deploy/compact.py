@@ -49,7 +49,8 @@ from .compensator import Compensator
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
            "error_lsb_float32", "cubic_terms",
            "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "CUBIC_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
-           "default_tolerance_arcmin", "evaluation_bits", "model_on_codes", "check_nodes"]
+           "default_tolerance_arcmin", "evaluation_bits", "model_on_codes", "check_nodes",
+           "MIN_TABLE_BITS", "MAX_EXPORT_ERROR_ARCMIN", "check_table_bits", "check_exportable"]
 
 NODE_DTYPES = ("int8", "int16", "float32")
 #: Interpolation between nodes: piecewise linear (2 nodes per reading) or a cubic B-spline (4).
@@ -63,6 +64,13 @@ FIXED_FRACTION_BITS = 14
 CUBIC_FRACTION_BITS = 11
 MIN_NODES = 4
 MAX_NODES = 1 << 16
+#: Fewest encoder bits a compact table serves: :data:`MIN_NODES` nodes, at most one per code.
+MIN_TABLE_BITS = MIN_NODES.bit_length() - 1
+#: Largest model error, in arc-minutes, that an export writes: one turn. An encoder's error is an angle
+#: difference within a turn (a fitted model's stays within about half a turn of zero); beyond it the
+#: exported arithmetic is wrong (the float32 targets wrap a corrected angle once, the fixed target's
+#: int32 binary angles hold half a turn) or meaningless (a correction of 1e30 arcmin modulo 360 degrees).
+MAX_EXPORT_ERROR_ARCMIN = 21600.0
 _UNKNOWN_RESOLUTION_BITS = 16  # angles on which a table is measured when the resolution is unknown
 _MAX_EVALUATION_BITS = 20      # beyond, the error is measured on 2^20 evenly spaced codes
 
@@ -162,6 +170,55 @@ def model_on_codes(model, bits):
                            for i in range(0, theta.size, chunk)])
 
 
+def check_exportable(error_arcmin, comp, caller, angles_deg=None):
+    """Refuse model errors an export cannot write: NaN, infinite, or beyond :data:`MAX_EXPORT_ERROR_ARCMIN`.
+
+    Parameters
+    ----------
+    error_arcmin : ndarray
+        The model's error at the angles the export is evaluated on, arc-minutes.
+    comp : Compensator
+        The model (its file is named in the message).
+    caller : str
+        The function named in the message when the model has no file.
+    angles_deg : ndarray, optional
+        Those angles, degrees; default ``error_arcmin.size`` evenly spaced angles over a turn.
+
+    Returns
+    -------
+    ndarray
+        ``error_arcmin``, unchanged.
+
+    Raises
+    ------
+    InputError
+        At the first such error, naming its value and angle (a model file edited by hand and re-signed
+        can hold coefficients up to 1e100).
+    """
+    values = np.asarray(error_arcmin, dtype=float)
+    bad = ~(np.abs(values) <= MAX_EXPORT_ERROR_ARCMIN)  # NaN included
+    if np.any(bad):
+        first = int(np.argmax(bad))
+        angle = (first * 360.0 / values.size if angles_deg is None
+                 else float(np.asarray(angles_deg, dtype=float).reshape(-1)[first]))
+        where = comp.source if comp.source else f"the model given to {caller}"
+        raise InputError(f"{where}: the model predicts an error of {values.reshape(-1)[first]:.4g} arcmin at "
+                         f"{angle:.6g} deg; expected errors within one turn (|error| <= "
+                         f"{MAX_EXPORT_ERROR_ARCMIN:g} arcmin) to export, since an encoder's error is an angle "
+                         "difference within a turn and the exported arithmetic holds no more (was the model "
+                         "file edited by hand?)")
+    return error_arcmin
+
+
+def check_table_bits(bits, caller):
+    """``bits`` as an int from :data:`MIN_TABLE_BITS` to 32, or None: the resolution of a compact table."""
+    if bits is None:
+        return None
+    return check_int(bits, "bits", caller, low=MIN_TABLE_BITS, high=32,
+                     note=f"the encoder resolution: a compact table has at least {MIN_NODES} nodes and at most "
+                          "one per code; or None for the model file's")
+
+
 def default_tolerance_arcmin(bits):
     """The default deployed-error tolerance: a tenth of an LSB, or 0.01 arcmin when the resolution is unknown."""
     return 0.01 if bits is None else 0.1 * 21600.0 / 2**bits
@@ -194,7 +251,8 @@ def compile_compact(model, nodes, *, dtype="int16", bits=None, reference=None, i
     grid = evaluation_bits(bits)
     nodes = check_nodes(nodes, bits, "compile_compact")
     cubic = interpolation == "cubic"
-    target = model_on_codes(comp, bits) if reference is None else reference
+    target = check_exportable(model_on_codes(comp, bits), comp, "compile_compact") if reference is None \
+        else reference
     mean = float(np.mean(target))
     offsets = {"offset_arcmin": float(np.float32(mean)),
                "offset_bam": int(np.clip(np.rint(mean / BAM_ARCMIN), -(2**31 - 1), 2**31 - 1))}
@@ -266,7 +324,7 @@ def choose_compact(model, *, tolerance_arcmin=None, bits=None, cost="bytes", dty
         if set(dtypes) == {"float32"}:
             raise invalid("dtypes", caller, "a sequence with 'int8' or 'int16' for the fixed target", dtypes)
         dtypes = [d for d in dtypes if d != "float32"]
-    reference = model_on_codes(comp, bits)
+    reference = check_exportable(model_on_codes(comp, bits), comp, caller)
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     best, met = None, False
     candidates = []
@@ -297,11 +355,7 @@ def _error(table, target):
 
 def _resolution(comp, bits, caller):
     """The encoder resolution: ``bits``, else the model file's (None when neither knows it)."""
-    bits = comp.encoder.get("resolution_bits") if bits is None else bits
-    if bits is None:
-        return None
-    return check_int(bits, "bits", caller, low=1, high=32, note="the encoder resolution, or None for the model "
-                     "file's")
+    return check_table_bits(comp.encoder.get("resolution_bits") if bits is None else bits, caller)
 
 
 def check_nodes(nodes, bits, caller):

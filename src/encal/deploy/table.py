@@ -36,6 +36,7 @@ from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError, ModelFileError
 from ..models.base import as_angles
 from ..parameters import check_choice, check_int, check_number, check_type, invalid
+from .compact import check_exportable
 from .compensator import Compensator
 
 __all__ = ["CorrectionTable", "compile_table", "save_table", "load_table",
@@ -200,8 +201,8 @@ def compile_table(model, bits=None, *, dtype="int16"):
     n = 2**bits
     step = 360.0 / n
     codes = np.arange(n, dtype=float)
-    error = _evaluate(comp, codes * step)
-    midpoint = _evaluate(comp, (codes + 0.5) * step)
+    error = check_exportable(_evaluate(comp, codes * step), comp, "compile_table")
+    midpoint = check_exportable(_evaluate(comp, (codes + 0.5) * step), comp, "compile_table", (codes + 0.5) * step)
     between = max(np.max(np.abs(midpoint - error), initial=0.0),
                   np.max(np.abs(midpoint - np.roll(error, -1)), initial=0.0))
     if dtype == "int16":

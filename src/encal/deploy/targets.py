@@ -38,8 +38,9 @@ from ..errors import InputError
 from ..parameters import check_choice, check_int, check_number, invalid
 from .cexport import _banner, _check_identifier, export_c
 from .choice import COSTS, choose_deployment
-from .compact import (CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, NODE_DTYPES, check_nodes,
-                      choose_compact, compile_compact, default_tolerance_arcmin, evaluation_bits, model_on_codes)
+from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MAX_NODES,
+                      MIN_NODES, MIN_TABLE_BITS, NODE_DTYPES, check_exportable, check_nodes, choose_compact,
+                      compile_compact, default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
 from .costs import OPERATIONS
 from .series32 import fourier_float32, fourier_terms
@@ -115,7 +116,7 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
                        "note": note}
     if host_options:
         raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
-    bits = _bits(comp, bits, target)
+    bits = _bits(comp, bits, target, form)
     if nodes is not None:
         check_nodes(nodes, bits, caller)
     chosen = _chosen(comp, target, bits, form, nodes, dtype, tolerance_arcmin, cost, interpolation)
@@ -136,6 +137,8 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
     if chosen is not None and chosen.get("interpolation"):
         interpolation = chosen["interpolation"]
     table, met = _table(comp, target, bits, nodes, dtype, tolerance_arcmin, interpolation)
+    if target == "fixed":
+        _check_int32(comp, table)
     files = (_float_table_files if target == "cortex-m4f" else _fixed_table_files)(comp, prefix, bits, table)
     fixed = target == "fixed"
     summary = {"target": target, "form": "table", "nodes": table.nodes, "dtype": table.dtype,
@@ -192,12 +195,30 @@ def describe(summary):
     return text
 
 
-def _bits(comp, bits, target):
+def _bits(comp, bits, target, form="table"):
     bits = comp.encoder.get("resolution_bits") if bits is None else bits
     if bits is None:
         return None
-    return check_int(bits, "bits", "export_target", low=1, high=_MAX_FIXED_COUNT_BITS if target == "fixed" else 32,
-                     note=f"the encoder resolution for the {target} target, or None for the model file's")
+    # a compact table has at least MIN_NODES nodes, at most one per code; the formula takes any code
+    low = 1 if form == "formula" else MIN_TABLE_BITS
+    table = ("" if form == "formula"
+             else f"; a compact table has at least {2**MIN_TABLE_BITS} nodes, one per code at most")
+    return check_int(bits, "bits", "export_target", low=low, high=_MAX_FIXED_COUNT_BITS if target == "fixed" else 32,
+                     note=f"the encoder resolution for the {target} target{table}; or None for the model file's")
+
+
+def _check_int32(comp, table):
+    """Refuse a fixed-point table whose mean error (OFFSET_BAM, an int32 binary angle) would be clipped.
+
+    The fixed target's sums are congruent modulo a turn (2^32 binary-angle units), so a profile reaching
+    past half a turn still corrects rightly; its constant offset must hold in int32 itself, else
+    :func:`encal.deploy.compact.compile_compact` clips it and every correction is wrong by the excess.
+    """
+    if abs(table.offset_arcmin) / BAM_ARCMIN > 2**31:  # clipped by one unit (5e-6 arcmin) at most: a rounding
+        where = comp.source or "the model given to export_target"
+        raise InputError(f"{where}: the model's mean error, {table.offset_arcmin:.6g} arcmin, is beyond the fixed "
+                         f"target's int32 binary angles (half a turn, {2**31 * BAM_ARCMIN:g} arcmin); expected a "
+                         "mean error within half a turn (a zero offset of at most 180 degrees), or --target cortex-m4f")
 
 
 def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolation=None):
@@ -216,10 +237,40 @@ def _chosen(comp, target, bits, form, nodes, dtype, tolerance, cost, interpolati
     recorded = comp.model.training.get("deployment")
     if tolerance is None and isinstance(recorded, dict) and recorded.get("target") == target \
             and recorded.get("form") in FORMS:
+        _check_recorded(comp, recorded, target, bits)
         return {"form": recorded["form"], "nodes": recorded.get("nodes"), "dtype": recorded.get("dtype"),
                 "interpolation": recorded.get("interpolation") or "linear",
                 "recorded": f"the deployment chosen by encal fit --budget {recorded.get('budget', '')}".rstrip()}
     return None
+
+
+def _check_recorded(comp, recorded, target, bits):
+    """Refuse a deployment recorded in the model file (``encal fit --budget``) that ``target`` cannot export.
+
+    A file edited by hand and re-signed can hold any value there; the message names the file and the field
+    rather than a parameter the user never gave.
+    """
+    dtypes = ("int8", "int16") if target == "fixed" else NODE_DTYPES
+    largest = min(MAX_NODES, 2**evaluation_bits(bits))
+    nodes = recorded.get("nodes")
+    checks = [("form", recorded["form"] == "table" or target == "cortex-m4f", "'table' (or 'formula' for cortex-m4f)"),
+              ("budget", isinstance(recorded.get("budget", ""), str) and recorded.get("budget", "").isprintable()
+               and len(recorded.get("budget", "")) <= 64, "the text of --budget")]
+    if recorded["form"] == "table":
+        checks += [
+            ("nodes", nodes is None or (isinstance(nodes, int) and not isinstance(nodes, bool) and MIN_NODES <= nodes
+                                        <= largest and nodes & (nodes - 1) == 0),
+             f"a power of two from {MIN_NODES} to {largest}"),
+            ("dtype", recorded.get("dtype") in (None, *dtypes), " or ".join(map(repr, dtypes))),
+            ("interpolation", recorded.get("interpolation") in (None, *INTERPOLATIONS),
+             " or ".join(map(repr, INTERPOLATIONS)))]
+    for field, ok, expected in checks:
+        if not ok:
+            shown = repr(recorded.get(field))
+            shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            raise InputError(f"{comp.source or 'the model given to export_target'}: expected the training.deployment "
+                             f"recorded by 'encal fit --budget' to hold {field} {expected} for the {target} target, "
+                             f"got {shown}; fit again with --budget, or choose with --nodes, --dtype or --tolerance")
 
 
 def _table(comp, target, bits, nodes, dtype, tolerance, interpolation=None):
@@ -237,9 +288,26 @@ def _table(comp, target, bits, nodes, dtype, tolerance, interpolation=None):
 
 # -- C text ----------------------------------------------------------------------------------
 
+def _check_float32(comp, arrays):
+    """Refuse constants that float32 cannot hold (they would be written as ``inff``, not C)."""
+    for name, values in arrays.items():
+        values = np.asarray(values, dtype=float)
+        with np.errstate(over="ignore"):
+            bad = ~np.isfinite(values.astype(np.float32))
+        if np.any(bad):
+            where = comp.source or "the model given to export_target"
+            raise InputError(f"{where}: the Fourier coefficient {name}[{int(np.argmax(bad))}] = "
+                             f"{values[np.argmax(bad)]:.4g} arcmin is beyond float32's range (3.4e38); expected "
+                             "coefficients a float32 holds for the cortex-m4f formula")
+
+
 def _float(value):
     """A float32 C literal that reads back to float32(value)."""
-    text = f"{float(np.float32(value)):.9g}"
+    with np.errstate(over="ignore"):
+        rounded = float(np.float32(value))
+    if not math.isfinite(rounded):  # 'inff' or 'nanf' is no C: the callers check their values first
+        raise InputError(f"expected a number a float32 holds for the C source, got {float(value):.4g}")
+    text = f"{rounded:.9g}"
     if not any(c in text for c in ".eEn"):
         text += ".0"
     return text + "f"
@@ -492,8 +560,9 @@ def _fourier_files(comp, prefix, bits, terms, note):
     orders, cos, sin = terms
     grid = evaluation_bits(bits)
     codes = np.arange(2**grid, dtype=np.int64)
+    reference = check_exportable(model_on_codes(comp, bits), comp, "export_target")
+    _check_float32(comp, {"cos": cos, "sin": sin})
     deployed = fourier_float32(orders, cos, sin, codes << (32 - grid)).astype(float)
-    reference = model_on_codes(comp, bits)
     max_error = float(np.max(np.abs(deployed - reference)))
     rms_error = float(np.sqrt(np.mean((deployed - reference) ** 2)))
     sign = _sign_parts(comp)

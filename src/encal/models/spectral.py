@@ -391,11 +391,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if path not in ("auto", "fft", "features"):
         raise InputError(f"The 'path' parameter of fit_spectral must be 'auto', 'fft' or 'features'. "
                          f"Got {path!r} instead.")
-    if noise_arcmin is not None and not (isinstance(noise_arcmin, (int, float, np.floating))
-                                         and not isinstance(noise_arcmin, bool)
-                                         and math.isfinite(noise_arcmin) and noise_arcmin > 0):
-        raise InputError("The 'noise_arcmin' parameter of fit_spectral must be a number of arc-minutes > 0. "
-                         f"Got {noise_arcmin!r} instead.")
+    if noise_arcmin is not None:
+        _check_noise(noise_arcmin, error)
     if threshold_nats is not None and not (isinstance(threshold_nats, (int, float)) and threshold_nats >= 0):
         raise InputError(f"The 'threshold_nats' parameter of fit_spectral must be a number >= 0. "
                          f"Got {threshold_nats!r} instead.")
@@ -521,6 +518,31 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     model.uncertainty = _posterior_std(design, post, highest, predictive_sigma, unseen)
     _advance(progress)
     return model
+
+
+#: Largest known noise, in arc-minutes: a turn (a reading's noise beyond it is no angle's; 1e300 overflowed).
+MAX_NOISE_ARCMIN = 21600.0
+
+
+def noise_resolution_arcmin(error_arcmin):
+    """The smallest known noise that means something for these errors (arc-minutes): their float resolution.
+
+    The larger of the spacing of double-precision numbers at 360 degrees (a reading within a turn, in
+    arc-minutes: 3.4e-12) and at the largest error (arc-minutes). A noise below it is below what the
+    numbers hold; 1e-300 broke the evidence's logarithms.
+    """
+    largest = float(np.max(np.abs(error_arcmin), initial=0.0))
+    return max(60.0 * float(np.spacing(360.0)), float(np.spacing(largest)))
+
+
+def _check_noise(noise_arcmin, error_arcmin):
+    """Refuse a known noise that is not a finite number from the errors' resolution to a turn."""
+    low = noise_resolution_arcmin(error_arcmin)
+    if isinstance(noise_arcmin, bool) or not isinstance(noise_arcmin, (int, float, np.integer, np.floating)) \
+            or not low <= noise_arcmin <= MAX_NOISE_ARCMIN:
+        raise InputError(f"The 'noise_arcmin' parameter of fit_spectral must be a number of arc-minutes from "
+                         f"{low:.3g} (the resolution of these errors in double precision) to "
+                         f"{MAX_NOISE_ARCMIN:g} (a turn). Got {noise_arcmin!r} instead.")
 
 
 def _known_noise(noise_arcmin, reference_deg, error_arcmin):
