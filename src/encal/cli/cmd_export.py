@@ -72,6 +72,10 @@ def add_arguments(parser):
                         help="moteus: motor_position.sources.K (default 0)")
     parser.add_argument("--full-steps", type=int, default=200, metavar="N",
                         help="klipper: full steps per turn of the stepper (default 200)")
+    parser.add_argument("--step-zero", type=_finite_degrees, metavar="DEG",
+                        help="klipper, mechaduino: the reference angle, degrees, of a full step at driver phase 0 "
+                             "(electrical zero); the table is written from it (required: both firmwares tie the "
+                             "table to the stepper's phase)")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", default="encal", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -84,8 +88,30 @@ def add_arguments(parser):
                              "changes the model by at most 1e-4 arcmin, else double)")
 
 
+def _finite_degrees(text):
+    """argparse type: a finite angle in degrees."""
+    import argparse
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite angle in degrees, got {text!r}")
+    return value
+
+
 def _check_combinations(args):
     _usage_error = args.export_parser.error  # usage and one line on stderr, exit status 2
+    # --step-zero (issue 26): Klipper's and Mechaduino's tables are tied to the stepper's phase
+    if args.step_zero is not None and args.format not in ("klipper", "mechaduino"):
+        _usage_error(f"--step-zero is for --format klipper and mechaduino (tables tied to the stepper's phase), "
+                     f"not {args.format}")
+    if args.step_zero is None and args.format in ("klipper", "mechaduino"):
+        _usage_error(f"--format {args.format} needs --step-zero DEG: the reference angle of a full step at driver "
+                     "phase 0 (electrical zero), as the table is tied to the stepper's phase (0 for a model fitted "
+                     "to a calibration imported from that firmware)")
     firmware = args.format in FIRMWARE
     if firmware and (args.target != "host" or args.table or args.nodes is not None or args.dtype is not None
                      or args.tolerance is not None or args.cost is not None or args.form != "table"
@@ -129,8 +155,9 @@ def run(args):
         from ..deploy.firmware import EXPORTERS
 
         options = {"moteus": {"source": args.source}, "klipper": {"full_steps": args.full_steps}}.get(args.format, {})
-        if args.format != "klipper":
-            options["bits"] = args.bits
+        options["bits"] = args.bits
+        if args.format in ("klipper", "mechaduino"):
+            options["step_zero_deg"] = args.step_zero
         written = EXPORTERS[args.format](compensator, **options)
         atomic_write(output, written.text)
         if args.json:

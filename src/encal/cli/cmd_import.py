@@ -31,7 +31,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..calibration import write_calibration
+    from ..calibration import Calibration, write_calibration
     from ..deploy import firmware
 
     if args.kind == "tinymovr" and args.bits is None:
@@ -43,8 +43,15 @@ def run(args):
                "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
     result = readers[args.kind](args.input)
     if args.kind in CALIBRATIONS:
-        write_calibration(args.output, result, comments=[f"read by encal import {args.kind} from {args.input}"])
-        print(f"wrote {args.output}: {len(result)} points")
+        comments = [f"read by encal import {args.kind} from {args.input}"]
+        reverse = ""
+        if result.reading_sign == -1:  # the raw readings, to be read back with --reverse (a CSV holds no sign)
+            result = Calibration(result.reference_deg, -result.encoder_deg, name=result.name,
+                                 resolution_bits=result.resolution_bits, metadata=result.metadata)
+            comments.append("the encoder counts against the reference: read this file with --reverse")
+            reverse = "; the encoder counts against the reference: fit it with --reverse"
+        write_calibration(args.output, result, comments=comments)
+        print(f"wrote {args.output}: {len(result)} points{reverse}")
     else:
         result.save(args.output)
         print(f"wrote {args.output}: the {args.kind} correction as a model file (kind {result.kind})")
