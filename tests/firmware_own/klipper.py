@@ -36,7 +36,8 @@ FULL_STEPS = 200
 MICROSTEPS = 16
 ZEROS_DEG = (0.0, 0.45, 0.9, 1.8, 2.5, 3.6, 7.2, 30.0)
 
-__all__ = ["unavailable", "matrix", "cases", "Case", "load_klipper", "saved_printer_cfg", "model_for"]
+__all__ = ["unavailable", "matrix", "cases", "Case", "load_klipper", "saved_printer_cfg", "model_for", "run_case",
+           "phase_errors", "printer_cfg", "step_readings_of"]
 
 
 def unavailable():
@@ -179,6 +180,16 @@ def phase_errors(calibration, readings_units):
     return np.asarray(errors)
 
 
+def step_readings_of(comp, theta_deg):
+    """The sensor's angle (16-bit units, continuous) where the model's corrected angle is ``theta_deg``."""
+    theta_deg = np.asarray(theta_deg, dtype=float)
+    sign = comp.reading_sign
+    reading = sign * theta_deg % 360.0
+    for _ in range(60):  # corrected = sign * reading - error / 60, so reading = sign * (theta + error / 60)
+        reading = sign * (theta_deg + np.asarray(comp.predict(reading)) / 60.0) % 360.0
+    return reading * (65536 / 360.0)
+
+
 def model_for(bits, reversed_, encoder_zero_deg, high_order=False):
     """The matrix's model: an error of a few tens of arcmin (orders 1-3, or a 90th order Klipper's 64 buckets
     cannot hold), the encoder's zero ``encoder_zero_deg`` ahead of the reference's."""
@@ -213,37 +224,34 @@ def _configurations():
 
 def cases():
     """Every configuration of the matrix through Klipper's own code."""
+    for bits, reversed_, encoder_zero, step_zero, what in _configurations():
+        label = f"{bits}-bit, {'reversed, ' if reversed_ else ''}{what}"
+        yield run_case(model_for(bits, reversed_, encoder_zero), bits, step_zero, label)
+    yield run_case(model_for(16, False, 0.0), 16, None, "16-bit, no --step-zero")
+    yield run_case(model_for(16, False, 0.0, high_order=True), 16, 0.0,
+                   "16-bit, a 90th order Klipper's 64 buckets cannot hold")
+
+
+def run_case(comp, bits, step_zero, label):
+    """One export of ``comp`` (``step_zero`` the reference angle of step 0, or None) through Klipper's code."""
     from encal.deploy.firmware import export_klipper
-    from encal.deploy.firmware.klipper import step_readings
     from encal.errors import InputError
 
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "printer.cfg"
-        for bits, reversed_, encoder_zero, step_zero, what in _configurations():
-            label = f"{bits}-bit, {'reversed, ' if reversed_ else ''}{what}"
-            comp = model_for(bits, reversed_, encoder_zero)
-            yield _case(path, comp, bits, step_zero, label, export_klipper, step_readings, InputError)
-        comp = model_for(16, False, 0.0)
-        yield _case(path, comp, 16, None, "16-bit, no --step-zero", export_klipper, step_readings, InputError)
-        comp = model_for(16, False, 0.0, high_order=True)
-        yield _case(path, comp, 16, 0.0, "16-bit, a 90th order Klipper's 64 buckets cannot hold", export_klipper,
-                    step_readings, InputError)
-
-
-def _case(path, comp, bits, step_zero, label, export_klipper, step_readings, InputError):
     try:
         written = export_klipper(comp, full_steps=FULL_STEPS, step_zero_deg=step_zero)
     except InputError as error:
         return Case(Row("klipper", label, None, None, None, None, str(error)), None, None)
-    path.write_text(printer_cfg(written.text))
-    calibration, _ = load_klipper(path)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "printer.cfg"
+        path.write_text(printer_cfg(written.text))
+        calibration, _ = load_klipper(path)
     codes = np.arange(2**bits, dtype=np.int64) << (16 - bits)
     position = (klipper_positions(calibration, codes) + calibration.angle_phase_offset) * (360.0 / 65536)
     expected = np.asarray(comp.correct(codes * (360.0 / 65536))) - step_zero
     period = 4 * 360.0 / FULL_STEPS
     gap = ((position - expected + period / 2) % period - period / 2) * 60.0
     steps = step_zero + np.arange(FULL_STEPS) * (360.0 / FULL_STEPS)
-    readings = step_readings(comp, steps) * (65536 / 360.0)
+    readings = step_readings_of(comp, steps)
     phase = phase_errors(calibration, readings)
     row = Row("klipper", label, written.rms_error_arcmin, written.max_error_arcmin,
               float(np.sqrt(np.mean(gap**2))), float(np.max(np.abs(gap))))
@@ -263,13 +271,11 @@ def saved_printer_cfg(folder, comp, step_zero_deg, *, first_step=100):
     turn past its phase-0 start); the rest is Klipper's code: averaging, ordering, writing the option, and
     ``SAVE_CONFIG`` writing the ``#*#`` block.
     """
-    from encal.deploy.firmware.klipper import step_readings
-
     path = Path(folder) / "printer.cfg"
     path.write_text(printer_cfg("") + "\n[printer]\nkinematics: none\n")
     calibration, printer = load_klipper(path)
     steps = step_zero_deg + (first_step + np.arange(FULL_STEPS)) * (360.0 / FULL_STEPS)
-    readings = step_readings(comp, steps) * (65536 / 360.0)
+    readings = step_readings_of(comp, steps)
     measured = {i: [float(r)] for i, r in enumerate(readings)}
     calibration.do_calibration_moves = lambda: (measured, measured)
     gcmd = _Gcmd()

@@ -52,7 +52,8 @@ POLE_PAIRS = SPR // 4
 ZEROS_DEG = (0.0, 0.45, 0.9, 1.8, 2.5, 3.6, 7.2, 30.0)
 U_MAX = int((255 / 3.3) * (1.0 * 10 * 0.150))  # Parameters.cpp 43-45
 
-__all__ = ["unavailable", "matrix", "cases", "Case", "calibrate", "Motor", "torque_factor"]
+__all__ = ["unavailable", "matrix", "cases", "Case", "calibrate", "Motor", "torque_factor", "run_case",
+           "firmware_calibration", "read_lookup"]
 
 
 def unavailable():
@@ -253,9 +254,6 @@ class Case:
 
 
 def cases():
-    from encal.deploy.firmware import export_mechaduino
-    from encal.errors import InputError
-
     from .klipper import model_for
 
     for bits in (14, 16):
@@ -266,18 +264,27 @@ def cases():
                     if what.startswith("step 0 at 0 "):
                         continue
                     label = f"{bits}-bit, {'reversed, ' if reversed_ else ''}{what}"
-                    comp = model_for(bits, reversed_, encoder_zero)
-                    yield _case(comp, step_zero, label, export_mechaduino, InputError)
-    yield _case(model_for(14, False, 0.0), None, "14-bit, no --step-zero", export_mechaduino, InputError)
+                    yield run_case(model_for(bits, reversed_, encoder_zero), step_zero, label)
+    yield run_case(model_for(14, False, 0.0), None, "14-bit, no --step-zero")
 
 
-def _case(comp, step_zero, label, export_mechaduino, InputError):
+def read_lookup(text):
+    """The floats of a written ``lookup[16384] = {...}`` (as the compiler stores them: float32)."""
+    body = text[text.index("{") + 1:text.rindex("}")]
+    return np.array([float(v) for v in body.split(",")], dtype=np.float32)
+
+
+def run_case(comp, step_zero, label):
+    """encal's table for ``comp`` (``step_zero`` the reference angle of step 0, or None) through the firmware's
+    rules, beside the firmware's own calibrate() on the same motor and encoder."""
+    from encal.deploy.firmware import export_mechaduino
+    from encal.errors import InputError
+
     try:
         written = export_mechaduino(comp, step_zero_deg=step_zero)
     except InputError as error:
         return Case(Row("mechaduino", label, None, None, None, None, str(error)), None, None, None)
-    body = written.text[written.text.index("{") + 1:written.text.rindex("}")]
-    lookup = np.array([float(v) for v in body.split(",")], dtype=np.float32)
+    lookup = read_lookup(written.text)
     own, wiring = firmware_calibration(comp, step_zero)
     theta = np.asarray(comp.correct(np.arange(CPR) * (360.0 / CPR)), dtype=float)
     frame = (-wiring * (theta - step_zero)) % 360.0  # the rotor's angle from step 0, the way the firmware counts
