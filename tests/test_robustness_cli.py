@@ -108,6 +108,10 @@ def _make_files(folder):
         "angles": "10\n20\nabc\n30\n",
         "angles_ok": "# encoder angles\n10\n20.5\n\n-3\n725\n",
         "afile": "not a folder\n",
+        # issue 26 (Klipper, Mechaduino imports): a non-finite angle in a calibrate list and in a lookup[]
+        "klipper_nan": "[angle s]\ncalibrate:\n    " + ", ".join(["1.0"] * 7 + ["nan"]) + "\n",
+        "mechaduino_inf": "const float lookup[16384] = {\n" + ", ".join(
+            [f"{v:.3f}" for v in np.arange(16383) * 360 / 16384] + ["INFINITY"]) + "\n};\n",
     }
     paths = {}
     for key, text in texts.items():
@@ -646,6 +650,22 @@ ISSUE17_CASES = [
     Case("profile-repeated-rows-no-warning", ("profile", "{repeated_rows}"), 0, prints=("420 points",)),
 ]
 CASES += ISSUE17_CASES
+
+# issue 26: Klipper's and Mechaduino's tables are tied to the stepper's phase (--step-zero); their imports
+ISSUE26_CASES = [
+    Case("export-klipper-without-step-zero", ("export", "{model}", "--format", "klipper", "-o", "{out}/k.cfg"), 2),
+    Case("export-mechaduino-step-zero-nan", ("export", "{model}", "--format", "mechaduino", "--bits", "14",
+                                             "--step-zero", "nan", "-o", "{out}/m.c"), 2),
+    Case("export-moteus-step-zero", ("export", "{model}", "--format", "moteus", "--step-zero", "0",
+                                     "-o", "{out}/m.cfg"), 2),
+    Case("export-klipper-step-zero", ("export", "{model}", "--format", "klipper", "--step-zero", "0.9",
+                                      "-o", "{scratch}/k.cfg"), 0, prints=("round trip",)),
+    Case("import-klipper-nan", ("import", "klipper", "{klipper_nan}", "-o", "{out}/k.csv"), 1,
+         ("klipper_nan.csv, line 3", "finite", "'nan'")),
+    Case("import-mechaduino-infinity", ("import", "mechaduino", "{mechaduino_inf}", "-o", "{out}/m.csv"), 1,
+         ("element 16383", "finite")),
+]
+CASES += ISSUE26_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
