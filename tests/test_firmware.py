@@ -304,7 +304,8 @@ def test_klipper_non_finite_refused_with_its_line(tmp_path, item):
     values[11] = item
     path = tmp_path / "k.cfg"
     path.write_text("[angle s]\ncalibrate:\n    " + ", ".join(values[:8]) + ",\n    " + ", ".join(values[8:]) + "\n")
-    with pytest.raises(InputError, match=rf"k.cfg, line 4: expected a finite angle in the calibrate list, got '{item}'"):
+    with pytest.raises(InputError, match=rf"k.cfg, line 4: expected a finite angle in the calibrate list, got "
+                                         rf"'{item}'"):
         read_klipper(path)
 
 

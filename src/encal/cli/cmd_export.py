@@ -18,7 +18,9 @@
                  calibrationLut; Klipper: the [angle] calibrate: list;
                  Mechaduino: lookup[16384]; Tinymovr: rec_table[64]); -o is
                  the file. Prints the round trip through that firmware's own
-                 run-time rule against the model, on every code.
+                 run-time rule against the model, on every code. Klipper and
+                 Mechaduino need --step-zero DEG: the reference angle of a full
+                 step at driver phase 0 (their tables follow the stepper's phase).
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.

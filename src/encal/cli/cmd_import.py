@@ -2,7 +2,8 @@
 
   encal import moteus-compare FILE -o CAL.csv     utils/compare_encoders.py -o output (revolutions)
   encal import moteus-cal FILE -o CAL.csv         a raw 'CAL start' ... 'CAL done' capture [--pole-pairs P]
-  encal import klipper FILE -o CAL.csv            an [angle] calibrate: list (one angle per full step)
+  encal import klipper FILE -o CAL.csv            a calibrate list: the option, an [angle] section, or
+                                                  printer.cfg's #*# SAVE_CONFIG block (one angle per full step)
   encal import mechaduino FILE -o CAL.csv         a lookup[16384] table (every count against its angle)
   encal import moteus FILE -o MODEL.json          conf set ...compensation_table lines (an existing correction)
   encal import simplefoc FILE -o MODEL.json       a calibrationLut[] (radians)

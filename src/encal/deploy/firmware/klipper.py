@@ -222,7 +222,7 @@ def read_klipper(source_text, *, name=None):
                          f"{'reversed' if reversed_ else 'forward'}; rotate it to start at its lowest angle "
                          "(its highest for a reversed sensor), as ANGLE_CALIBRATE does")
     sign = -1 if reversed_ else 1
-    metadata = {"format": "Klipper angle calibrate", "full_steps": steps}
+    metadata = {"format": "Klipper angle calibrate", "full_steps": steps, "step_zero_deg": 0.0}
     if section:
         metadata["section"] = section
     return Calibration(np.arange(steps) * (360.0 / steps), sign * values * (360.0 / 2**ANGLE_BITS),

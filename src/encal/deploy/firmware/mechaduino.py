@@ -95,8 +95,8 @@ def read_mechaduino(source_text, *, name=None):
         raise InputError(f"{where}: expected {COUNTS} lookup entries, got {lookup.size}")
     bad = np.flatnonzero(~np.isfinite(lookup))
     if bad.size:
-        raise InputError(f"{where}: element {bad[0]} of lookup[] is {float(lookup[bad[0]])!r}, expected a finite angle in "
-                         "degrees")
+        raise InputError(f"{where}: element {bad[0]} of lookup[] is {float(lookup[bad[0]])!r}, expected a finite "
+                         "angle in degrees")
     turn = float(np.sum(wrap180(np.diff(lookup, append=lookup[:1]))))
     if abs(abs(turn) - 360.0) > 1.0:
         raise InputError(f"{where}: expected a lookup[] that goes once round the turn with the count (+360 "
