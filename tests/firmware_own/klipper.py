@@ -37,7 +37,7 @@ MICROSTEPS = 16
 ZEROS_DEG = (0.0, 0.45, 0.9, 1.8, 2.5, 3.6, 7.2, 30.0)
 
 __all__ = ["unavailable", "matrix", "cases", "Case", "load_klipper", "saved_printer_cfg", "model_for", "run_case",
-           "phase_errors", "printer_cfg", "step_readings_of"]
+           "phase_errors", "printer_cfg", "step_readings_of", "measure"]
 
 
 def unavailable():
@@ -241,9 +241,18 @@ def run_case(comp, bits, step_zero, label):
         written = export_klipper(comp, full_steps=FULL_STEPS, step_zero_deg=step_zero)
     except InputError as error:
         return Case(Row("klipper", label, None, None, None, None, str(error)), None, None)
+    rms, largest, phase, reversed_ = measure(comp, bits, step_zero, written.text)
+    row = Row("klipper", label, written.rms_error_arcmin, written.max_error_arcmin, rms, largest)
+    return Case(row, phase, reversed_)
+
+
+def measure(comp, bits, step_zero, calibrate_text):
+    """A ``calibrate:`` text through Klipper's own code: (RMS, max) arcmin of the stepper position it gives
+    against the model's from step 0 (modulo 4 full steps) on every code, the largest phase error (full
+    steps) of ``calc_mcu_pos_offset`` over the full steps, and whether Klipper reads the list as reversed."""
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "printer.cfg"
-        path.write_text(printer_cfg(written.text))
+        path.write_text(printer_cfg(calibrate_text))
         calibration, _ = load_klipper(path)
     codes = np.arange(2**bits, dtype=np.int64) << (16 - bits)
     position = (klipper_positions(calibration, codes) + calibration.angle_phase_offset) * (360.0 / 65536)
@@ -251,11 +260,9 @@ def run_case(comp, bits, step_zero, label):
     period = 4 * 360.0 / FULL_STEPS
     gap = ((position - expected + period / 2) % period - period / 2) * 60.0
     steps = step_zero + np.arange(FULL_STEPS) * (360.0 / FULL_STEPS)
-    readings = step_readings_of(comp, steps)
-    phase = phase_errors(calibration, readings)
-    row = Row("klipper", label, written.rms_error_arcmin, written.max_error_arcmin,
-              float(np.sqrt(np.mean(gap**2))), float(np.max(np.abs(gap))))
-    return Case(row, float(np.max(np.abs(phase))), bool(calibration.calibration_reversed))
+    phase = phase_errors(calibration, step_readings_of(comp, steps))
+    return (float(np.sqrt(np.mean(gap**2))), float(np.max(np.abs(gap))), float(np.max(np.abs(phase))),
+            bool(calibration.calibration_reversed))
 
 
 def matrix():
