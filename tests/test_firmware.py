@@ -325,6 +325,9 @@ def test_klipper_lists_that_klipper_would_not_read_as_written_are_refused(tmp_pa
     path.write_text("[angle a]\nsensor_type: as5047d\n")
     with pytest.raises(InputError, match="expected a 'calibrate' option in an \\[angle\\] section"):
         read_klipper(path)
+    path.write_text("[include angle.cfg]\n[stepper_x]\nstep_pin: PA1\n")
+    with pytest.raises(InputError, match="files are not followed: pass the file that holds it"):
+        read_klipper(path)
 
 
 # -- Mechaduino: y = lookup[readEncoder()] ---------------------------------------------------------------

@@ -282,8 +282,10 @@ def _calibrate_option(lines, where):
     if found[1] is not None:
         return found[1]
     if any(re.match(r"\s*\[", line) or re.match(r"\s*[A-Za-z_]\w*\s*[:=]", line) for line in lines):
+        included = any(re.match(r"\s*\[include\s", line) for line in lines)
         raise InputError(f"{where}: expected a 'calibrate' option in an [angle] section (or its SAVE_CONFIG "
-                         "block), found none")
+                         "block), found none" + ("; [include] files are not followed: pass the file that holds it"
+                                                 if included else ""))
     return None, [(i + 1, _strip_comment(line)) for i, line in enumerate(lines)]
 
 
