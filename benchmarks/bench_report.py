@@ -2,7 +2,8 @@
 
     python benchmarks/bench_report.py [--rows 20000 200000 1000000] [--with-comparison 20000]
 
-Each log is a continuous sweep at uniformly random reference angles (so no two rows share a stop) with
+Each log is one slow turn sampled at jittered reference angles (each row in its own slot of 360/rows
+degrees, so no two rows share a stop) with
 orders 1, 2, 16 and a 200-step detent at order 200 (3, 1.5, 0.6 and 0.3 arcmin) plus 0.1 arcmin of
 noise, written with 10 decimals. Every report runs as its own process (``python -m encal report LOG -o
 r.html --seed 0``), timed by wall clock; its peak memory is that process's maximum resident set size. By
@@ -25,7 +26,7 @@ import numpy as np
 
 def write_log(path, rows, seed=1):
     rng = np.random.default_rng(seed)
-    reference = rng.uniform(0.0, 360.0, rows)
+    reference = (np.arange(rows) + rng.uniform(0.1, 0.9, rows)) * (360.0 / rows)
     r = np.radians(reference)
     error = (3.0 * np.sin(r + 0.3) + 1.5 * np.sin(2 * r + 1.1) + 0.6 * np.sin(16 * r + 2.0)
              + 0.3 * np.sin(200 * r) + rng.normal(0.0, 0.1, rows))

@@ -25,8 +25,8 @@ def run(capsys, *args):
     ("moteus", ["--source", "2"], "\nmotor_position.sources.2.compensation_table.0 "),
     ("moteus", ["--source", "2", "--moteus-style", "console"],
      "conf set motor_position.sources.2.compensation_table.0 "),
-    ("klipper", ["--full-steps", "400"], "calibrate:"),
-    ("mechaduino", ["--bits", "14"], "lookup[16384]"),
+    ("klipper", ["--full-steps", "400", "--step-zero", "0.9"], "calibrate:"),
+    ("mechaduino", ["--bits", "14", "--step-zero", "0"], "lookup[16384]"),
     ("tinymovr", ["--bits", "13"], "int32_t rec_table[64]"),
     ("tinymovr", ["--bits", "24"], "int32_t rec_table[64]"),
 ])
@@ -50,9 +50,42 @@ def test_import_round_trips(tmp_path, capsys):
     theta = np.arange(0.0, 360.0, 0.5)
     reread = encal.load_model(tmp_path / "m.json")
     assert np.max(np.abs(reread.predict(theta) - encal.load_model(MODEL).predict(theta))) < 0.05
-    run(capsys, "export", MODEL, "--format", "klipper", "-o", tmp_path / "k.cfg")
+    run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "-o", tmp_path / "k.cfg")
     status, out, _ = run(capsys, "import", "klipper", tmp_path / "k.cfg", "-o", tmp_path / "k.csv")
     assert status == 0 and "200 points" in out and len(encal.read_calibration(tmp_path / "k.csv")) == 200
+
+
+def test_step_zero_is_required_for_the_stepper_firmwares_and_only_for_them(tmp_path, capsys):
+    for fmt in ("klipper", "mechaduino"):
+        with pytest.raises(SystemExit) as info:
+            run(capsys, "export", MODEL, "--format", fmt, "-o", tmp_path / "x")
+        err = capsys.readouterr().err
+        assert info.value.code == 2 and f"--format {fmt} needs --step-zero DEG" in err
+        assert not (tmp_path / "x").exists()
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "export", MODEL, "--format", "moteus", "--step-zero", "1", "-o", tmp_path / "x")
+    assert info.value.code == 2 and "--step-zero applies to --format klipper or mechaduino, not moteus" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "nan", "-o", tmp_path / "x")
+    assert info.value.code == 2 and "expected a finite angle in degrees, got 'nan'" in capsys.readouterr().err
+    assert "klipper, mechaduino:" in capsys.readouterr().out + _help(capsys)
+
+
+def _help(capsys):
+    with pytest.raises(SystemExit):
+        run(capsys, "export", "--help")
+    return capsys.readouterr().out
+
+
+def test_import_of_a_reversed_list_says_to_fit_with_reverse(tmp_path, capsys):
+    values = ", ".join(f"{65400 - i * 327.68:.1f}" for i in range(200))
+    (tmp_path / "k.cfg").write_text(f"[angle s]\ncalibrate:\n    {values}\n")
+    status, out, _ = run(capsys, "import", "klipper", tmp_path / "k.cfg", "-o", tmp_path / "k.csv")
+    assert status == 0 and "fit it with --reverse" in out
+    with pytest.raises(encal.errors.CalibrationError, match="use --reverse"):
+        encal.read_calibration(tmp_path / "k.csv")
+    cal = encal.read_calibration(tmp_path / "k.csv", reverse=True)
+    assert cal.reading_sign == -1 and len(cal) == 200
 
 
 def test_import_refusals(tmp_path, capsys):

@@ -66,7 +66,7 @@ def _run(argv, capsys):
 _VALUES = {"bits": "14", "dtype": "int16", "target": "host", "form": "table", "nodes": "64", "interpolation": "linear",
            "tolerance": "0.1", "cost": "bytes", "name": "enc", "table": None, "constants": "auto", "source": "1",
            "full_steps": "200", "sign": "-1", "offset": "1000", "conf": "dump.txt", "moteus_style": "console",
-           "firmware_version": "1.0.8"}
+           "firmware_version": "1.0.8", "step_zero": "0"}
 
 
 @pytest.mark.parametrize("option, fmt", [(option, fmt) for option, formats in _APPLIES_TO.items()
@@ -83,11 +83,10 @@ def test_an_option_of_other_formats_is_a_usage_error(option, fmt, model_file, tm
     assert not (tmp_path / "out").exists()
 
 
-def test_bits_with_klipper_names_every_format_that_takes_it(model_file, tmp_path, capsys):
-    status, err = _run(["export", model_file, "--format", "klipper", "--bits", "12", "-o", tmp_path / "k"], capsys)
+def test_an_option_of_another_format_names_the_formats_that_take_it(model_file, tmp_path, capsys):
+    status, err = _run(["export", model_file, "--format", "moteus", "--step-zero", "0", "-o", tmp_path / "k"], capsys)
     assert status == 2
-    assert err.splitlines()[-1].endswith(
-        "--bits applies to --format c, table, moteus, simplefoc, mechaduino or tinymovr, not klipper")
+    assert err.splitlines()[-1].endswith("--step-zero applies to --format klipper or mechaduino, not moteus")
 
 
 def test_every_format_specific_option_defaults_to_none():

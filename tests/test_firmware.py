@@ -375,21 +375,42 @@ def klipper_new_angle(calibration, reversed_, angle):
 @pytest.mark.parametrize("kind", ["fourier", "lut"])
 def test_klipper_round_trip(kind):
     comp = model(kind)
-    out = export_klipper(comp, full_steps=200)
+    out = export_klipper(comp, full_steps=200, step_zero_deg=0.9)
     assert out.text.startswith("calibrate:\n")
     angles = [float(v) for v in out.text.split(":", 1)[1].replace("\n", " ").split(",")]
     assert len(angles) == 200
     calibration, reversed_ = klipper_calibration(angles)
-    new = np.array([klipper_new_angle(calibration, reversed_, a) for a in range(65536)]) * (360 / 65536)
-    gap = (new - comp.correct(np.arange(65536) * 360 / 65536) + 180) % 360 - 180
-    gap = (gap - math.degrees(math.atan2(np.mean(np.sin(np.radians(gap))), np.mean(np.cos(np.radians(gap)))))) * 60
-    assert np.max(np.abs(gap)) <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
+    phase_offset = (angles.index(min(angles)) & 3) * 65536 / 200  # angle_phase_offset
+    new = np.array([klipper_new_angle(calibration, reversed_, a) for a in range(65536)])
+    position = (new + phase_offset) * (360 / 65536)
+    # the stepper's position from step 0 (at 0.9 deg of the reference), modulo the driver's 4-step cycle
+    gap = ((position - (comp.correct(np.arange(65536) * 360 / 65536) - 0.9) + 3.6) % 7.2 - 3.6) * 60
+    assert np.max(np.abs(gap)) == pytest.approx(out.max_error_arcmin, rel=1e-9)
+    assert np.sqrt(np.mean(gap**2)) == pytest.approx(out.rms_error_arcmin, rel=1e-9)
     # what 64 buckets lose: under the profile's own size
     assert out.max_error_arcmin < 0.5 * np.ptp(comp.predict(np.arange(0, 360, 0.1)))
     cal = read_klipper(out.text)
     assert len(cal) == 200
-    residual = cal.errors_arcmin - comp.predict(cal.encoder_deg)
-    assert np.ptp(residual) < 2 * 0.05 * 21600 / 65536 + 1e-6  # "%.1f" of 16-bit units
+    # the list starts at a multiple of 4 steps from step 0: its index i is at 0.9 + (i + 4k) * 1.8 deg
+    shift = (cal.encoder_deg - cal.reference_deg - 0.9 + 180) % 360 - 180
+    k4 = np.round(np.median(shift) / 7.2) * 7.2
+    residual = (cal.errors_arcmin - comp.predict(cal.encoder_deg)) - (0.9 + k4) * 60
+    assert np.max(np.abs(residual)) < 1.01 * 0.05 * 21600 / 65536  # "%.1f" of 16-bit units (times the slope)
+
+
+def test_klipper_list_starts_as_angle_calibrate_orders_it():
+    # the sensor's zero 3 deg ahead: the step at 358.2 deg reads past the wrap; Klipper's reverse test
+    # angles[-2] > angles[-1] would read the list backwards (issue 26: RMS 1171 arcmin with exit 0)
+    comp = Compensator(FourierModel([0, 1], [180.0, 20.0], [0.0, 0.0], encoder={"resolution_bits": 16}))
+    out = export_klipper(comp, step_zero_deg=0.0)
+    angles = [float(v) for v in out.text.split(":", 1)[1].replace("\n", " ").split(",")]
+    assert angles.index(min(angles)) < 4 and angles[-2] < angles[-1]
+    assert out.rms_error_arcmin < 1.0
+
+
+def test_klipper_needs_a_stepper_of_whole_electrical_cycles():
+    with pytest.raises(InputError, match="multiple of 4"):
+        export_klipper(model("fourier"), full_steps=202, step_zero_deg=0.0)
 
 
 def test_klipper_list_in_a_config_section(tmp_path):
@@ -397,33 +418,114 @@ def test_klipper_list_in_a_config_section(tmp_path):
     values = ", ".join(f"{i * 327.68 + 3:.1f}" for i in range(200))
     path.write_text(f"[angle my_sensor]\nsensor_type: a1333\ncalibrate:\n    {values}\n[stepper_x]\nstep_pin: PA1\n")
     cal = read_klipper(path)
-    assert len(cal) == 200 and cal.metadata["full_steps"] == 200
+    assert len(cal) == 200 and cal.metadata["full_steps"] == 200 and cal.metadata["section"] == "angle my_sensor"
     path.write_text("calibrate:\n    1.0, 2.0, banana\n")
     with pytest.raises(InputError, match="line 2: expected a number"):
         read_klipper(path)
 
 
+def klipper_save_config(values, section="angle my_sensor"):
+    """A printer.cfg whose calibration is in the SAVE_CONFIG block, as Klipper's configfile.py writes it."""
+    rows = [",".join(f"{v:.1f}" for v in values[i:i + 8]) for i in range(0, len(values), 8)]
+    body = ",\n".join(f"#*# \t{row}" for row in rows)
+    return ("[stepper_x]\nstep_pin: PA1\n\n[angle my_sensor]\nsensor_type: as5047d\nstepper: stepper_x\n\n"
+            "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+            "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n"
+            f"#*# [{section}]\n#*# calibrate =\n{body}\n")
+
+
+def test_klipper_save_config_block_read_whole(tmp_path):
+    # issue 26: 175 of 200 points read silently, or an error at the [angle] header
+    values = [(i * 327.68 + 3.0) % 65536 for i in range(200)]
+    path = tmp_path / "printer.cfg"
+    path.write_text(klipper_save_config(values))
+    cal = read_klipper(path)
+    assert len(cal) == 200 and cal.reading_sign == 1
+    assert np.allclose(cal.encoder_deg * 65536 / 360, np.round(values, 1), atol=1e-6)
+    path.write_text(klipper_save_config(values[::-1]))  # a sensor counting against the stepper
+    cal = read_klipper(path)
+    assert len(cal) == 200 and cal.reading_sign == -1
+    # a line of the block edited without its prefix: Klipper ignores the whole block, encal refuses
+    path.write_text(klipper_save_config(values).replace("#*# \t", "\t", 1))
+    with pytest.raises(InputError, match="line 13: expected every line of the SAVE_CONFIG block to start"):
+        read_klipper(path)
+
+
+@pytest.mark.parametrize("item", ["nan", "inf", "-Infinity"])
+def test_klipper_non_finite_refused_with_its_line(tmp_path, item):
+    values = [f"{i * 327.68:.1f}" for i in range(16)]
+    values[11] = item
+    path = tmp_path / "k.cfg"
+    path.write_text("[angle s]\ncalibrate:\n    " + ", ".join(values[:8]) + ",\n    " + ", ".join(values[8:]) + "\n")
+    with pytest.raises(InputError, match=rf"k.cfg, line 4: expected a finite angle in the calibrate list, got "
+                                         rf"'{item}'"):
+        read_klipper(path)
+
+
+def test_klipper_lists_that_klipper_would_not_read_as_written_are_refused(tmp_path):
+    path = tmp_path / "k.cfg"
+    path.write_text("calibrate:\n    1.0, 2.0\n    3.0, 4.0\n")  # no comma at the line's end
+    with pytest.raises(InputError, match="line 3: expected a comma after the last angle of line 2"):
+        read_klipper(path)
+    # rising, with the sensor's wrap between its last two: Klipper's angles[-2] > angles[-1] reads it backwards
+    values = ", ".join(f"{(i * 327.68 + 400.0) % 65536:.1f}" for i in range(200))
+    path.write_text(f"calibrate:\n    {values}\n")
+    with pytest.raises(InputError, match="make Klipper read it as reversed; rotate it to start at its lowest"):
+        read_klipper(path)
+    path.write_text("[angle a]\ncalibrate: 1, 2, 3, 4, 5, 6, 7, 8\n[angle b]\ncalibrate: 1, 2, 3, 4, 5, 6, 7, 8\n")
+    with pytest.raises(InputError, match=r"expected one \[angle\] section with a calibrate list, got 2"):
+        read_klipper(path)
+    path.write_text("[angle a]\nsensor_type: as5047d\n")
+    with pytest.raises(InputError, match="expected a 'calibrate' option in an \\[angle\\] section"):
+        read_klipper(path)
+    path.write_text("[include angle.cfg]\n[stepper_x]\nstep_pin: PA1\n")
+    with pytest.raises(InputError, match="files are not followed: pass the file that holds it"):
+        read_klipper(path)
+
+
 # -- Mechaduino: y = lookup[readEncoder()] ---------------------------------------------------------------
 
-def test_mechaduino_round_trip():
+@pytest.mark.parametrize("step_zero", [0.0, 2.5])
+def test_mechaduino_round_trip(step_zero):
     comp = Compensator(FourierModel([1, 2, 4], [30.0, -12.0, 3.0], [10.0, 4.0, -1.0],
                                     encoder={"resolution_bits": 14}))
-    out = export_mechaduino(comp)
+    out = export_mechaduino(comp, step_zero_deg=step_zero)
     lookup = np.array([float(v) for v in re.search(r"\{(.*)\}", out.text, re.S).group(1).split(",")],
                       dtype=np.float32)
     assert lookup.size == 16384 and "lookup[16384]" in out.text
     y = lookup[np.arange(16384)].astype(float)  # the firmware's rule: one entry per raw count
-    gap = ((y - comp.correct(np.arange(16384) * 360 / 16384) + 180) % 360 - 180) * 60
+    gap = ((y - (comp.correct(np.arange(16384) * 360 / 16384) - step_zero) + 180) % 360 - 180) * 60
     assert np.max(np.abs(gap)) <= out.max_error_arcmin + 1e-9 <= out.quantisation_arcmin
     assert out.quantisation_arcmin == pytest.approx((0.0005 + 2**-16) * 60)  # 0.001 degree, then float32
     cal = read_mechaduino(out.text)
-    assert len(cal) == 16384 and cal.resolution_bits == 14
-    assert np.max(np.abs(cal.errors_arcmin - comp.predict(cal.encoder_deg))) <= out.quantisation_arcmin
+    assert len(cal) == 16384 and cal.resolution_bits == 14 and cal.reading_sign == 1
+    assert np.max(np.abs(cal.errors_arcmin - step_zero * 60 - comp.predict(cal.encoder_deg))) <= out.quantisation_arcmin
 
 
 def test_mechaduino_needs_14_bits():
     with pytest.raises(InputError, match="14-bit"):
-        export_mechaduino(model("fourier"))
+        export_mechaduino(model("fourier"), step_zero_deg=0.0)
+
+
+def mechaduino_text(values):
+    return ("const float lookup[16384] = {\n" + ", ".join(f"{v:.3f}" if isinstance(v, float) else v for v in values)
+            + "\n};\n")
+
+
+def test_mechaduino_decreasing_table_read_as_an_encoder_counting_against_it():
+    angles = np.arange(16384) * 360 / 16384 + 0.1 * np.sin(np.radians(np.arange(16384) * 360 / 16384))
+    cal = read_mechaduino(mechaduino_text(list((-angles) % 360)))
+    assert cal.reading_sign == -1
+    assert np.max(np.abs(cal.errors_arcmin - 0.1 * 60 * np.sin(np.radians(-cal.encoder_deg)))) < 0.05
+
+
+def test_mechaduino_refuses_what_is_not_one_turn_and_non_finite_elements():
+    with pytest.raises(InputError, match=r"expected a lookup\[\] that goes once round the turn.*got one that goes \+0"):
+        read_mechaduino(mechaduino_text([1.0] * 16384))
+    values = [f"{v:.3f}" for v in np.arange(16384) * 360 / 16384]
+    values[517] = "NAN"
+    with pytest.raises(InputError, match=r"line 2: element 517 of lookup\[\] is .NAN., expected a finite number"):
+        read_mechaduino(mechaduino_text(values))
 
 
 # -- Tinymovr: sensor_get_angle_rectified -----------------------------------------------------------------

@@ -113,6 +113,10 @@ def _make_files(folder):
         "sfoc_nan": "float calibrationLut[3] = {0.001,\n0.0,\nnan};\n",
         "sfoc_bare": "float calibrationLut[3] = {0.001, 0.0, -0.001};\n",
         "tiny_inf": "int32_t rec_table[64] = {1, inf};\n",
+        # issue 26 (Klipper, Mechaduino imports): a non-finite angle in a calibrate list and in a lookup[]
+        "klipper_nan": "[angle s]\ncalibrate:\n    " + ", ".join(["1.0"] * 7 + ["nan"]) + "\n",
+        "mechaduino_inf": "const float lookup[16384] = {\n" + ", ".join(
+            [f"{v:.3f}" for v in np.arange(16383) * 360 / 16384] + ["INFINITY"]) + "\n};\n",
     }
     paths = {}
     for key, text in texts.items():
@@ -776,7 +780,8 @@ def _issue25_cases():
     export = ("export", "{model_14bit}")
     cases = [
         # an option of another format is a usage error naming the option and the formats it is for
-        Case("export-bits-with-klipper", (*export, "--format", "klipper", "--bits", "12", "-o", "{out}/k.cfg"), 2),
+        Case("export-firmware-version-with-tinymovr", (*export, "--format", "tinymovr", "--firmware-version", "1.0.9",
+                                                       "-o", "{out}/t.h"), 2),
         Case("export-source-with-table", (*export, "--format", "table", "--source", "1", "-o", "{out}/t.bin"), 2),
         Case("export-full-steps-with-moteus", (*export, "--format", "moteus", "--full-steps", "100", "-o",
                                                "{out}/m.cfg"), 2),
@@ -843,6 +848,21 @@ def _issue25_cases():
 
 
 CASES += _issue25_cases()
+# issue 26: Klipper's and Mechaduino's tables are tied to the stepper's phase (--step-zero); their imports
+ISSUE26_CASES = [
+    Case("export-klipper-without-step-zero", ("export", "{model}", "--format", "klipper", "-o", "{out}/k.cfg"), 2),
+    Case("export-mechaduino-step-zero-nan", ("export", "{model}", "--format", "mechaduino", "--bits", "14",
+                                             "--step-zero", "nan", "-o", "{out}/m.c"), 2),
+    Case("export-moteus-step-zero", ("export", "{model}", "--format", "moteus", "--step-zero", "0",
+                                     "-o", "{out}/m.cfg"), 2),
+    Case("export-klipper-step-zero", ("export", "{model}", "--format", "klipper", "--step-zero", "0.9",
+                                      "-o", "{scratch}/k.cfg"), 0, prints=("round trip",)),
+    Case("import-klipper-nan", ("import", "klipper", "{klipper_nan}", "-o", "{out}/k.csv"), 1,
+         ("klipper_nan.csv, line 3", "finite", "'nan'")),
+    Case("import-mechaduino-infinity", ("import", "mechaduino", "{mechaduino_inf}", "-o", "{out}/m.csv"), 1,
+         ("element 16383", "finite")),
+]
+CASES += ISSUE26_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

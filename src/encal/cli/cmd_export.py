@@ -20,6 +20,9 @@
                  the file. Prints the round trip through that firmware's own
                  run-time rule against the model, on every code. SimpleFOC:
                  --firmware-version 1.0.8|1.0.9|uint16 (default 1.0.9).
+                 run-time rule against the model, on every code. Klipper and
+                 Mechaduino need --step-zero DEG: the reference angle of a full
+                 step at driver phase 0 (their tables follow the stepper's phase).
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
@@ -90,6 +93,10 @@ def add_arguments(parser):
                         help="simplefoc: the Arduino-FOC-drivers CalibratedSensor the table is for: 1.0.8 (adds a "
                              "float LUT of 128), 1.0.9 (subtracts a float LUT of 200; default) or uint16 (subtracts "
                              "a uint16 LUT of 200, pull request #75 after 1.0.9)")
+    parser.add_argument("--step-zero", type=_finite_degrees, metavar="DEG",
+                        help="klipper, mechaduino: the reference angle, degrees, of a full step at driver phase 0 "
+                             "(electrical zero); the table is written from it (required: both firmwares tie the "
+                             "table to the stepper's phase)")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -106,14 +113,13 @@ def add_arguments(parser):
 #: silently ignored: each option here defaults to None (so that "given" shows), and its documented default, if
 #: any, is in _DEFAULTS. A new format-specific option is one line here.
 _APPLIES_TO = {
-    "bits": ("c", "table", "moteus", "simplefoc", "mechaduino", "tinymovr"),
     "dtype": ("c", "table"),
     "target": ("c",), "form": ("c",), "nodes": ("c",), "interpolation": ("c",), "tolerance": ("c",),
     "cost": ("c",), "name": ("c",), "table": ("c",), "constants": ("c",),
     "source": ("moteus",), "sign": ("moteus",), "offset": ("moteus",), "conf": ("moteus",),
     "moteus_style": ("moteus",),
     "firmware_version": ("simplefoc",),
-    "full_steps": ("klipper",),
+    "full_steps": ("klipper",), "step_zero": ("klipper", "mechaduino"),
 }
 #: the defaults of the options above, applied once the formats are checked
 _DEFAULTS = {"target": "host", "form": "table", "name": "encal", "table": False, "constants": "auto",
@@ -130,11 +136,28 @@ def _check_applies(args):
     for name, value in _DEFAULTS.items():
         if getattr(args, name, None) is None:
             setattr(args, name, value)
+def _finite_degrees(text):
+    """argparse type: a finite angle in degrees."""
+    import argparse
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite angle in degrees, got {text!r}")
+    return value
 
 
 def _check_combinations(args):
     _usage_error = args.export_parser.error  # usage and one line on stderr, exit status 2
     _check_applies(args)
+    # --step-zero (issue 26): Klipper's and Mechaduino's tables are tied to the stepper's phase
+    if args.step_zero is None and args.format in ("klipper", "mechaduino"):
+        _usage_error(f"--format {args.format} needs --step-zero DEG: the reference angle of a full step at driver "
+                     "phase 0 (electrical zero), as the table is tied to the stepper's phase (0 for a model fitted "
+                     "to a calibration imported from that firmware)")
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
@@ -221,10 +244,11 @@ def run(args):
         from ..deploy.firmware import EXPORTERS
 
         options = {"moteus": _moteus_options(args), "klipper": {"full_steps": args.full_steps}}.get(args.format, {})
-        if args.format != "klipper":
-            options["bits"] = args.bits
+        options["bits"] = args.bits
         if args.format == "simplefoc" and args.firmware_version is not None:
             options["firmware_version"] = args.firmware_version
+        if args.format in ("klipper", "mechaduino"):
+            options["step_zero_deg"] = args.step_zero
         written = EXPORTERS[args.format](compensator, **options)
         atomic_write(output, written.text)
         if args.json:

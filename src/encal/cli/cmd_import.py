@@ -2,7 +2,8 @@
 
   encal import moteus-compare FILE -o CAL.csv     utils/compare_encoders.py -o output (revolutions)
   encal import moteus-cal FILE -o CAL.csv         a raw 'CAL start' ... 'CAL done' capture [--pole-pairs P]
-  encal import klipper FILE -o CAL.csv            an [angle] calibrate: list (one angle per full step)
+  encal import klipper FILE -o CAL.csv            a calibrate list: the option, an [angle] section, or
+                                                  printer.cfg's #*# SAVE_CONFIG block (one angle per full step)
   encal import mechaduino FILE -o CAL.csv         a lookup[16384] table (every count against its angle)
   encal import simplefoc FILE -o MODEL.json       a calibrationLut[] [--firmware-version 1.0.8|1.0.9|uint16]
   encal import tinymovr FILE -o MODEL.json --bits B   a rec_table[64] (native ticks of the B-bit sensor)
@@ -36,7 +37,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..calibration import write_calibration
+    from ..calibration import Calibration, write_calibration
     from ..deploy import firmware
 
     if args.kind == "tinymovr" and args.bits is None:
@@ -51,8 +52,15 @@ def run(args):
                "tinymovr": lambda path: firmware.read_tinymovr(path, bits=args.bits)}
     result = readers[args.kind](args.input)
     if args.kind in CALIBRATIONS:
-        write_calibration(args.output, result, comments=[f"read by encal import {args.kind} from {args.input}"])
-        print(f"wrote {args.output}: {len(result)} points")
+        comments = [f"read by encal import {args.kind} from {args.input}"]
+        reverse = ""
+        if result.reading_sign == -1:  # the raw readings, to be read back with --reverse (a CSV holds no sign)
+            result = Calibration(result.reference_deg, -result.encoder_deg, name=result.name,
+                                 resolution_bits=result.resolution_bits, metadata=result.metadata)
+            comments.append("the encoder counts against the reference: read this file with --reverse")
+            reverse = "; the encoder counts against the reference: fit it with --reverse"
+        write_calibration(args.output, result, comments=comments)
+        print(f"wrote {args.output}: {len(result)} points{reverse}")
     else:
         result.save(args.output)
         print(f"wrote {args.output}: the {args.kind} correction as a model file (kind {result.kind})")
