@@ -1,7 +1,7 @@
 """The methods the accuracy benchmarks compare, shared by bench_accuracy.py and bench_real_data.py."""
 
 from encal.models import kind_names
-from encal.studies.comparison import PAPER_NETWORK  # 1:80:1 raw, trainlm, the paper's stopping rule
+from encal.paper.studies.comparison import PAPER_NETWORK  # 1:80:1 raw, trainlm, the paper's stopping rule
 
 #: benchmark name -> (method of encal.fit, options)
 METHODS = {

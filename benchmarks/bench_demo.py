@@ -50,7 +50,7 @@ def main():
     import scipy
 
     from encal._version import __version__
-    from encal.demo import run_demo
+    from encal.paper.demo import run_demo
 
     load = os.getloadavg()
     print(f"machine: {platform.machine()}, {os.cpu_count()} CPUs, {platform.platform()}")

@@ -20,7 +20,7 @@ import argparse
 import numpy as np
 
 from encal.cli._fit_report import held_out
-from encal.fitting import fit
+from encal.models.fitting import fit
 from encal.models.hybrid import fit_hybrid
 from encal.models.validation import interleaved_folds
 from encal.simulate import demo_fleet, simulate_fleet

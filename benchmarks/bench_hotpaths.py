@@ -333,7 +333,7 @@ FITS_WORKER = """\
 import hashlib, json, sys, time
 import numpy as np
 from encal.simulate import demo_fleet
-from encal.studies._fits import fit_network, task_seed
+from encal.paper.studies._fits import fit_network, task_seed
 cal = demo_fleet(1)[0].train.calibration
 epochs = int(sys.argv[1])
 out = {}
@@ -387,7 +387,7 @@ HARMONICS_WORKER = """\
 import json, sys, time
 import numpy as np
 from encal.models.fourier import fit_fourier
-from encal.profile import harmonics
+from encal.analysis.profile import harmonics
 n = int(sys.argv[1])
 rng = np.random.default_rng(0)
 theta = (np.arange(n) + rng.uniform(-0.3, 0.3, n)) * (360.0 / n)  # a real grid: jittered, not uniform
@@ -431,8 +431,8 @@ def section_harmonics(sources, folder, quick):
 TRIGSUMS_WORKER = """\
 import json, sys, time
 import numpy as np
-from encal._trigsums import trig_moments
-from encal.profile import harmonics
+from encal.numerics.trigsums import trig_moments
+from encal.analysis.profile import harmonics
 n, orders = int(sys.argv[1]), [int(k) for k in sys.argv[2].split(",")]
 rng = np.random.default_rng(0)
 nodes = np.arange(n) * (360.0 / n)
@@ -683,7 +683,7 @@ def section_startup(sources, folder, quick, lines=None):
 SERIES_WORKER = """\
 import json, sys, time
 import numpy as np
-from encal._trigsums import SeriesEvaluator
+from encal.numerics.trigsums import SeriesEvaluator
 from encal.numerics.harmonic_series import HarmonicSeries, plan_products
 ORDER_SETS = json.loads(sys.argv[1])
 theta = np.radians(np.random.default_rng(0).uniform(0.0, 360.0, 8192))

@@ -8,7 +8,7 @@ orders 1, 2, 16 and a 200-step detent at order 200 (3, 1.5, 0.6 and 0.3 arcmin) 
 noise, written with 10 decimals. Every report runs as its own process (``python -m encal report LOG -o
 r.html --seed 0``), timed by wall clock; its peak memory is that process's maximum resident set size. By
 default the comparison of the candidate families is left out above 5000 rows
-(``encal.encoder_report.COMPARISON_MAX_POINTS``); ``--with-comparison N`` also times the log of N rows
+(``encal.reports.encoder.COMPARISON_MAX_POINTS``); ``--with-comparison N`` also times the log of N rows
 with ``--comparison``, and prints the ratio. This is the table of BENCHMARKS.md "encal report on dense
 logs".
 """

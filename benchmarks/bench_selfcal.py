@@ -41,7 +41,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from encal.calibration import read_calibration  # noqa: E402
+from encal.data.calibration import read_calibration  # noqa: E402
 from encal.selfcal import SpinLog, spin, steps, sweep  # noqa: E402
 from encal.selfcal.simulate import (MagneticEncoder, draw_magnetic_encoder, draw_stepper, make_motor,  # noqa: E402
                                     simulate_spin, simulate_steps, simulate_sweep)

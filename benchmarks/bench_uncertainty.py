@@ -1,7 +1,7 @@
 """Does the predictive uncertainty cover the residuals it claims to? Measured on the demo fleet.
 
 For every demo encoder and method: fit on the training run (0:2:358), estimate the uncertainty with
-:func:`encal.uncertainty.add_uncertainty`, and count the share of residuals inside ±2σ on
+:func:`encal.models.uncertainty.add_uncertainty`, and count the share of residuals inside ±2σ on
 
 - the test run (1:2:359, same epoch and decoder): what the uncertainty is made for, nominally 95 %;
 - the second epoch (0:2:358 again, after the mount and resolver drifted): outside what it is made for, shown
@@ -49,12 +49,12 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import encal  # noqa: E402
-from encal.bidirectional import reversal  # noqa: E402
-from encal.fitting import fit_bidirectional  # noqa: E402
-from encal.fitting import refit_spec  # noqa: E402
+from encal.data.reversal import reversal  # noqa: E402
+from encal.models.fitting import fit_bidirectional  # noqa: E402
+from encal.models.fitting import refit_spec  # noqa: E402
 from encal.simulate import TEST_GRID_DEG, TRAINING_GRID_DEG, calibration_run, measurement_floor  # noqa: E402
 from encal.simulate import demo_fleet  # noqa: E402
-from encal.uncertainty import add_uncertainty, coverage, has_posterior  # noqa: E402
+from encal.models.uncertainty import add_uncertainty, coverage, has_posterior  # noqa: E402
 
 
 #: Benchmark labels that fit a method with options of their own: label -> (method, options).

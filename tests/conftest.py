@@ -71,7 +71,7 @@ def tiny_demo(tmp_path_factory):
     """
     import io
 
-    from encal.demo import DemoSettings, run_demo
+    from encal.paper.demo import DemoSettings, run_demo
 
     settings = DemoSettings(n_encoders=2, hidden=(8, 80), sweep_seeds=1, sweep_epochs=3, algorithm_seeds=2,
                             algorithm_epochs=3, network_epochs=3)

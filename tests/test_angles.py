@@ -3,7 +3,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from encal.angles import angle_difference, arcmin_to_lsb, lsb_arcmin, wrap180, wrap360
+from encal._core.angles import angle_difference, arcmin_to_lsb, lsb_arcmin, wrap180, wrap360
 
 finite = st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_infinity=False)
 

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from encal.errors import InputError, ModelFileError, TrainingLimitWarning
+from encal._core.errors import InputError, ModelFileError, TrainingLimitWarning
 from encal.models.ann import DEFAULT_HIDDEN, DEFAULT_STOPPING, ANNModel, fit_ann
 from encal.models import model_kind
 from encal.training import TrainResult, train

@@ -1,4 +1,4 @@
-"""Whole-or-nothing writes: single files and sets of files (encal._atomic)."""
+"""Whole-or-nothing writes: single files and sets of files (encal._core.atomic)."""
 
 import os
 import signal
@@ -6,10 +6,10 @@ import stat
 
 import pytest
 
-import encal._atomic as atomic
-from encal._atomic import atomic_file_set, atomic_write, staged_path
+import encal._core.atomic as atomic
+from encal._core.atomic import atomic_file_set, atomic_write, staged_path
 from encal.cli import main
-from encal.errors import InputError
+from encal._core.errors import InputError
 
 
 class _Boom(Exception):
@@ -65,7 +65,7 @@ def test_writing_one_path_twice_keeps_the_last(tmp_path):
 
 
 def _fail_on_nth_rename(monkeypatch, n):
-    """Make the n-th (1-based) os.replace of encal._atomic raise OSError."""
+    """Make the n-th (1-based) os.replace of encal._core.atomic raise OSError."""
     real = os.replace
     count = iter(range(1, 10**6))
 

@@ -8,11 +8,11 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 import encal
 from encal import Calibration, CalibrationError, InputError
-from encal.bidirectional import mean_calibration, reversal
-from encal.fitting import fit_bidirectional
+from encal.data.reversal import mean_calibration, reversal
+from encal.models.fitting import fit_bidirectional
 from encal.models.directional import DirectionalModel
 from encal.models.fourier import FourierModel
-from encal.uncertainty import add_uncertainty, coverage
+from encal.models.uncertainty import add_uncertainty, coverage
 
 REVERSAL = 0.4  # arcmin: forward readings exceed reverse ones by this much
 ORDERS = [0, 1, 2, 3]

@@ -9,7 +9,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 
 from conftest import grid_csv
 from encal import Calibration, CalibrationError, read_calibration, write_calibration
-from encal.errors import EncalWarning
+from encal._core.errors import EncalWarning
 
 
 # ---------------------------------------------------------------- refused, in one sentence
@@ -176,7 +176,7 @@ def test_repeats_are_judged_within_each_epoch(write_csv):
 
 
 def test_is_repeated_stops():
-    from encal.calibration import is_repeated_stops
+    from encal.data.calibration import is_repeated_stops
 
     assert is_repeated_stops(np.repeat(GRID, 2))
     assert is_repeated_stops(np.tile(GRID, 4) + 360.0)  # angles wrap

@@ -23,7 +23,7 @@ import pytest
 import encal
 from encal.deploy import Compensator, compile_table, export_c, write_c
 from encal.deploy.cexport import FLOAT32_BUDGET_ARCMIN
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.ann import fit_ann
 from encal.models.fourier import FourierModel
 from encal.models.lut import fit_lut

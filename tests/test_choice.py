@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from encal.cli import main
-from encal.deploy.choice import candidates, choose_deployment, parse_budget
+from encal.deploy.deployment import candidates, choose_deployment, parse_budget
 from encal.deploy.targets import export_target
-from encal.errors import InputError
+from encal._core.errors import InputError
 
 DATA = Path(__file__).parent / "data"
 FOURIER = DATA / "model_v1_fourier.json"

@@ -82,7 +82,7 @@ def test_import_of_a_reversed_list_says_to_fit_with_reverse(tmp_path, capsys):
     (tmp_path / "k.cfg").write_text(f"[angle s]\ncalibrate:\n    {values}\n")
     status, out, _ = run(capsys, "import", "klipper", tmp_path / "k.cfg", "-o", tmp_path / "k.csv")
     assert status == 0 and "fit it with --reverse" in out
-    with pytest.raises(encal.errors.CalibrationError, match="use --reverse"):
+    with pytest.raises(encal._core.errors.CalibrationError, match="use --reverse"):
         encal.read_calibration(tmp_path / "k.csv")
     cal = encal.read_calibration(tmp_path / "k.csv", reverse=True)
     assert cal.reading_sign == -1 and len(cal) == 200

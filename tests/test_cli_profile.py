@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from encal.cli import main
-from encal.angles import wrap180
-from encal.profile import error_stats
+from encal._core.angles import wrap180
+from encal.analysis.profile import error_stats
 
 STAT_KEYS = {"n", "mae_arcmin", "rms_arcmin", "std_arcmin", "min_arcmin", "max_arcmin",
              "max_abs_arcmin", "pp_arcmin"}

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from encal.calibration import read_calibration
+from encal.data.calibration import read_calibration
 from encal.cli import build_parser, main
 from encal.deploy import load_model
 from encal.selfcal.moteus_capture import write_moteus_capture
@@ -87,7 +87,7 @@ def test_missing_method_is_a_usage_error(capsys):
 
 
 def test_steps_with_two_calibrations_writes_the_calibration_and_the_stepper(tmp_path, capsys):
-    from encal.calibration import write_calibration
+    from encal.data.calibration import write_calibration
     from encal.selfcal.simulate import draw_stepper, simulate_steps
 
     stepper = draw_stepper(4)
@@ -108,7 +108,7 @@ def test_steps_with_two_calibrations_writes_the_calibration_and_the_stepper(tmp_
 
 
 def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
-    from encal.calibration import write_calibration
+    from encal.data.calibration import write_calibration
     from encal.selfcal.simulate import draw_stepper, simulate_steps
 
     path = tmp_path / "a.csv"

@@ -5,7 +5,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from encal._version import __version__
-from encal.calibration import read_calibration
+from encal.data.calibration import read_calibration
 from encal.cli import main
 from encal.simulate import RUN_NAMES, TEST_GRID_DEG, TRAINING_GRID_DEG, demo_fleet, simulate_fleet
 

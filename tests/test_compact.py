@@ -8,7 +8,7 @@ import pytest
 
 from encal.deploy.compact import (BAM_ARCMIN, CompactTable, choose_compact, compile_compact, correction_bam,
                                   model_on_codes, predict_fixed, predict_float32)
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
 from encal.models.lut import LookupTableModel
 

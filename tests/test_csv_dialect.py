@@ -1,4 +1,4 @@
-"""One CSV dialect for every reader and writer of encal (``encal._csv``).
+"""One CSV dialect for every reader and writer of encal (``encal._core.csv_dialect``).
 
 The calibration reader and the ``encal correct`` stream agree on: quoted fields holding commas (a
 quoted header name must not shift the columns), the field count of every row (a decimal comma in
@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 import encal
-from encal import _csv
-from encal.calibration import read_calibration, write_calibration
+from encal._core import csv_dialect as _csv
+from encal.data.calibration import read_calibration, write_calibration
 from encal.deploy import Compensator
 from encal.deploy.stream import correct_stream
-from encal.errors import CalibrationError, InputError
+from encal._core.errors import CalibrationError, InputError
 from encal.models.fourier import FourierModel
 
 # A constant +30 arcmin: a corrected angle is the reading minus 0.5 degree.
@@ -88,7 +88,7 @@ def test_calibration_reader_and_stream_find_the_same_column(write_csv):
     cal = read_calibration(path)
     np.testing.assert_allclose(cal.encoder_deg, np.arange(0.0, 360.0, 10.0) + 0.01)
     stream = correct_text(path.read_text())
-    np.testing.assert_allclose(stream, encal.angles.wrap360(cal.encoder_deg - 0.5))
+    np.testing.assert_allclose(stream, encal._core.angles.wrap360(cal.encoder_deg - 0.5))
 
 
 # ------------------------------------------------------------------ item 4: field count

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import encal
-from encal._csv_numbers import CHUNK_BYTES, plain_rows
-from encal.errors import CalibrationError, EncalWarning
+from encal._core.csv_numbers import CHUNK_BYTES, plain_rows
+from encal._core.errors import CalibrationError, EncalWarning
 
 
 def sweep_text(rows=20_000, seed=0, newline="\n"):
@@ -124,12 +124,12 @@ def test_a_file_without_a_header_is_read_from_its_first_row(tmp_path):
 
 def test_a_plain_file_is_not_parsed_line_by_line(tmp_path, monkeypatch):
     """The careful reader took 3.9 s of a 6 s fit of 10^6 rows; a plain file is read in NumPy (BENCHMARKS.md)."""
-    import encal.calibration
+    import encal.data.calibration
 
     def no_cell_by_cell(*args):
         raise AssertionError("parsed cell by cell")
 
-    monkeypatch.setattr(encal.calibration, "_parse_float", no_cell_by_cell)
+    monkeypatch.setattr(encal.data.calibration, "_parse_float", no_cell_by_cell)
     path = tmp_path / "plain.csv"
     path.write_text("# resolution_bits: 24\n\n" + sweep_text())
     assert len(read_quietly(path)) == 20_000

@@ -1,4 +1,4 @@
-"""Decimal text to doubles and back in NumPy (``encal._decimal_text``): exactly Python's answers.
+"""Decimal text to doubles and back in NumPy (``encal._core.decimal_text``): exactly Python's answers.
 
 ``parse_lines`` must give the double ``float()`` gives for every line it accepts (correct rounding, also
 for 17-digit significands and text a hair from the midpoint between two doubles), and refuse every
@@ -12,7 +12,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from encal._decimal_text import format_fixed, parse_lines
+from encal._core.decimal_text import format_fixed, parse_lines
 
 
 def parse(lines, newline="\n"):
@@ -126,7 +126,7 @@ def test_every_written_angle_is_within_5e13_degrees():
 
 
 def test_a_quotient_the_residual_cannot_vouch_for_is_read_by_float(monkeypatch):
-    import encal._decimal_text as decimal_text
+    import encal._core.decimal_text as decimal_text
 
     texts = _near_midpoints(300, 17, seed=5)
     monkeypatch.setattr(decimal_text, "_MARGIN", 0.49)  # almost every quotient left unsure

@@ -1,4 +1,4 @@
-"""The demo orchestration (encal.demo): tables, files, model files checked against the report."""
+"""The demo orchestration (encal.paper.demo): tables, files, model files checked against the report."""
 
 import csv
 import io
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from encal import evaluate, load_model
-from encal.demo import run_demo
-from encal.errors import EncalError, InputError
+from encal.paper.demo import run_demo
+from encal._core.errors import EncalError, InputError
 
 
 def _run(out, settings):

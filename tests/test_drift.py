@@ -6,7 +6,7 @@ from numpy.testing import assert_allclose
 
 import encal
 from encal import Calibration, InputError
-from encal.drift import (
+from encal.reports.drift import (
     circular_mean_offset_arcmin,
     compare_calibrations,
     infer_resolution_bits,

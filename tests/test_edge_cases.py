@@ -3,7 +3,7 @@
 Each family (Fourier, linear and cubic lookup tables, the periodic and the paper's raw-angle network,
 the hybrid, and auto) is fitted to each profile of :data:`PROFILES`. Every fit must either succeed
 with finite predictions everywhere and the accuracy stated in :data:`BOUNDS`, or refuse with an
-:class:`~encal.errors.EncalError`; no NaN, no overflow, no warning (pytest turns warnings into
+:class:`~encal._core.errors.EncalError`; no NaN, no overflow, no warning (pytest turns warnings into
 errors). Accuracy is measured on a test grid between the calibration points (odd degrees), as the
 residual RMS after correction, in arc-minutes.
 
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 import encal
-from encal.angles import ARCMIN_PER_DEG
-from encal.calibration import Calibration
+from encal._core.angles import ARCMIN_PER_DEG
+from encal.data.calibration import Calibration
 from encal.deploy import Compensator
-from encal.errors import CalibrationError, EncalError
+from encal._core.errors import CalibrationError, EncalError
 from encal.models.select import Candidate
 from encal.training import ALGORITHMS
 

@@ -1,4 +1,4 @@
-"""``encal report``: the HTML page and figures for the user's own encoder (encal.encoder_report)."""
+"""``encal report``: the HTML page and figures for the user's own encoder (encal.reports.encoder)."""
 
 import re
 import shutil
@@ -9,7 +9,7 @@ import pytest
 
 from encal import Calibration, load_model, read_calibration, write_calibration
 from encal.cli import main
-from encal.encoder_report import ENCODER_FIGURES, encoder_report, write_encoder_report
+from encal.reports.encoder import ENCODER_FIGURES, encoder_report, write_encoder_report
 
 STEPS = np.arange(0.0, 360.0, 1.8)
 
@@ -208,7 +208,7 @@ def test_the_page_says_which_figure_to_trust_when_the_comparison_ranks_the_choic
     report = encoder_report(stepper(0.0, 1, "train"), method="fourier", zero="fixed", rng=0, uncertainty=False,
                             compare=False)
     chosen = report.model.training.get("method", report.model.kind)
-    from encal.encoder_report import _trust_sentence
+    from encal.reports.encoder import _trust_sentence
 
     rows = [{"label": "other", "family": "lut", "cv_rms_arcmin": 1.0},
             {"label": "mine", "family": chosen, "cv_rms_arcmin": 5.0}]
@@ -222,7 +222,7 @@ def test_the_page_says_which_figure_to_trust_when_the_comparison_ranks_the_choic
 
 
 def test_a_dense_log_leaves_the_comparison_out_and_says_why(tmp_path, monkeypatch, capsys):
-    import encal.encoder_report as module
+    import encal.reports.encoder as module
 
     monkeypatch.setattr(module, "COMPARISON_MAX_POINTS", 100)  # the 200 full steps count as dense here
     path = write(tmp_path, stepper(0.0, 1, "dense"))
@@ -244,7 +244,7 @@ def test_comparison_and_no_comparison_together_are_a_usage_error(tmp_path, capsy
 
 
 def test_the_page_opens_with_a_verdict_on_the_data_it_rests_on(tmp_path, capsys):
-    from encal.encoder_report import verdict
+    from encal.reports.encoder import verdict
 
     train, test = stepper(0.0, 1, "train"), stepper(0.9, 2, "test")
     with_test = encoder_report(train, [test], method="fourier", zero="fixed", uncertainty=False, compare=False)

@@ -21,7 +21,7 @@ from encal.cli.cmd_export import _APPLIES_TO, _DEFAULTS, add_arguments
 from encal.deploy import compile_table, export_c
 from encal.deploy.compact import MAX_EXPORT_ERROR_ARCMIN, choose_compact, compile_compact
 from encal.deploy.targets import export_target
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
 from encal.models.spectral import MAX_NOISE_ARCMIN, fit_spectral, noise_resolution_arcmin
 

@@ -18,7 +18,7 @@ from encal.deploy import Compensator
 from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
                                    export_tinymovr, read_cal_capture, read_compare_encoders, read_klipper,
                                    read_mechaduino, read_moteus_conf, read_simplefoc, read_tinymovr)
-from encal.errors import CalibrationError, EncalError, InputError
+from encal._core.errors import CalibrationError, EncalError, InputError
 from encal.models.fourier import FourierModel
 
 DATA = Path(__file__).parent / "data"

@@ -14,7 +14,7 @@ from encal import fit
 from encal.deploy import Compensator
 from encal.deploy.firmware import export_klipper, export_mechaduino, read_klipper
 from encal.deploy.firmware.klipper import klipper_apply, klipper_load, klipper_phase_offset
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
 from tests.firmware_own import agrees
 from tests.firmware_own import klipper as klipper_own

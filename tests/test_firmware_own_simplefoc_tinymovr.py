@@ -12,7 +12,7 @@ import pytest
 
 from encal.deploy import Compensator
 from encal.deploy.firmware import export_simplefoc, export_tinymovr, read_simplefoc, read_tinymovr
-from encal.errors import InputError
+from encal._core.errors import InputError
 from tests.firmware_own import agrees
 from tests.firmware_own import simplefoc as sfoc
 from tests.firmware_own import tinymovr as tiny

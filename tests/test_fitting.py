@@ -5,8 +5,8 @@ import pytest
 from numpy.testing import assert_allclose
 
 import encal
-from encal.errors import InputError
-from encal.fitting import calibration_sha256
+from encal._core.errors import InputError
+from encal.models.fitting import calibration_sha256
 
 
 def _calibration(error_arcmin, step=2.0, offset=0.0, name="enc"):

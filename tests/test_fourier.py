@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 import encal
-from encal.errors import InputError, ModelFileError
+from encal._core.errors import InputError, ModelFileError
 from encal.models import model_kind
 from encal.models.fourier import FourierModel, cross_validate_order_count, fit_fourier
 
@@ -316,7 +316,7 @@ def test_cross_validation_leaves_out_orders_a_fold_cannot_identify():
     # leaves the last of them out of its fits instead of extrapolating an undetermined combination.
     theta = STEPS + np.random.default_rng(2).normal(0.0, 0.02, STEPS.size)
     truth = np.cos(np.radians(20 * STEPS)) + 0.5 * np.cos(np.radians(60 * STEPS)) + 0.8 * (-1.0) ** np.arange(200)
-    predicted = encal.profile.nested_harmonic_predictions(
+    predicted = encal.analysis.profile.nested_harmonic_predictions(
         theta[np.arange(200) % 5 != 0], truth[np.arange(200) % 5 != 0], [20, 100, 60],
         theta[::5], grid_deg=STEPS)
     assert np.all(np.isfinite(predicted)) and np.max(np.abs(predicted)) < 3.0
@@ -340,7 +340,7 @@ def test_irregular_angles_keep_the_identifiable_order_and_refuse_a_grid():
     theta = np.sort(rng.uniform(0.0, 360.0, 150))
     observed = np.cos(np.radians(theta)) + rng.normal(0.0, 0.05, theta.size)
     model = fit_fourier(theta, observed, select="cv")
-    assert model.training["max_order"] == encal.profile.identifiable_order(theta)
+    assert model.training["max_order"] == encal.analysis.profile.identifiable_order(theta)
     with pytest.raises(InputError, match="uniform grid"):
         fit_fourier(theta, observed, grid_points=200)
 
@@ -353,5 +353,5 @@ def test_the_count_range_grows_only_while_the_curve_needs_it():
     counts, rms, se = cross_validate_order_count(TRAIN, observed)
     assert counts.size == 64
     full = encal.models.fourier._cv_curve(TRAIN, observed, np.arange(TRAIN.size) % 5,
-                                          encal.profile.rank_orders(TRAIN, observed), TRAIN)
+                                          encal.analysis.profile.rank_orders(TRAIN, observed), TRAIN)
     assert_allclose(rms, full[0][:64], rtol=1e-12)

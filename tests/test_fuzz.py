@@ -1,7 +1,7 @@
 """Property-based tests (Hypothesis) of encal's readers and of every model's periodicity.
 
 - The calibration CSV reader, fed random bytes, random valid files and random edits of a valid file,
-  raises nothing but encal's own errors (:class:`~encal.errors.EncalError` subclasses); a valid file
+  raises nothing but encal's own errors (:class:`~encal._core.errors.EncalError` subclasses); a valid file
   reads back exactly the numbers written, and write -> read is the identity.
 - The model-file loader, fed random byte edits of valid files (checksum intact or not) and random
   structural edits re-signed with a correct checksum, raises nothing but EncalErrors, and a model it
@@ -28,12 +28,12 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import encal
-from encal.angles import ARCMIN_PER_DEG, wrap360
-from encal.fitting import fit_bidirectional
-from encal.calibration import Calibration, read_calibration, write_calibration
+from encal._core.angles import ARCMIN_PER_DEG, wrap360
+from encal.models.fitting import fit_bidirectional
+from encal.data.calibration import Calibration, read_calibration, write_calibration
 from encal.deploy import Compensator, load_model, runtime
 from encal.deploy.stream import correct_stream
-from encal.errors import EncalError, EncalWarning, InputError, ModelFileError
+from encal._core.errors import EncalError, EncalWarning, InputError, ModelFileError
 
 FAST = settings(max_examples=60, deadline=None, derandomize=True, database=None,
                 suppress_health_check=[HealthCheck.too_slow])

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-import encal.profile as profile
-from encal.errors import InputError
+import encal.analysis.profile as profile
+from encal._core.errors import InputError
 
 
 def jittered(n, seed=4):

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 import encal
 from encal import runtime
-from encal.errors import InputError, ModelFileError
+from encal._core.errors import InputError, ModelFileError
 from encal.models.ann import fit_ann
 from encal.models.fourier import fit_fourier
 from encal.models.hybrid import HybridModel, fit_hybrid

@@ -9,7 +9,7 @@ import pytest
 
 from encal import read_calibration
 from encal.cli import main
-from encal.errors import CalibrationError
+from encal._core.errors import CalibrationError
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 STEPPER = ["--ref-col", "step_deg", "--enc-col", "counts", "--enc-unit", "counts:14"]

@@ -1,6 +1,6 @@
 """Sizes that can run, and parameters that make sense (issue 17, items 8 and 10).
 
-Every size option is bounded by what a workstation can run (``encal._limits``), with one sentence;
+Every size option is bounded by what a workstation can run (``encal._core.limits``), with one sentence;
 a model file edited by hand and re-signed is held to a range for every parameter, so that it can
 neither give NaN with exit status 0 nor a traceback; and a wide model is evaluated in chunks, in
 bounded memory.
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import encal
-from encal import _limits
+from encal._core import limits as _limits
 from encal.cli import main
 from encal.deploy import runtime
-from encal.errors import InputError, ModelFileError
+from encal._core.errors import InputError, ModelFileError
 from encal.models.ann import ANNModel
 
 from conftest import grid_csv
@@ -75,7 +75,7 @@ def test_the_largest_size_is_accepted_by_the_parser():
 def test_library_entry_points_share_the_bounds():
     with pytest.raises(InputError, match="'hidden' parameter of fit_ann must be an int from 1 to 1000"):
         encal.fit(encal.Calibration(np.arange(0, 360, 10.0), np.arange(0, 360, 10.0)), "ann", hidden=1001)
-    from encal.studies._pool import Workers
+    from encal.paper.studies._pool import Workers
 
     with pytest.raises(InputError, match="'workers' parameter of Workers"):
         Workers(10**4)

@@ -11,8 +11,8 @@ from numpy.testing import assert_allclose
 from scipy.interpolate import PPoly
 
 import encal
-from encal.angles import wrap360
-from encal.errors import InputError, ModelFileError
+from encal._core.angles import wrap360
+from encal._core.errors import InputError, ModelFileError
 from encal.models import model_kind
 from encal.models.lut import LookupTableModel, fit_lut
 

@@ -15,7 +15,7 @@ from encal.deploy import load_model, model_from_dict, model_to_dict, read_model,
 from encal.models.modelfile import dumps
 from encal import runtime
 from encal.runtime import content_sha256
-from encal.errors import InputError, ModelFileError
+from encal._core.errors import InputError, ModelFileError
 from encal.models.base import Model
 from encal.models.fourier import FourierModel
 from encal.models.lut import fit_lut

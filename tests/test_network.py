@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.training.network import (
     ACTIVATIONS,
     ENCODINGS,

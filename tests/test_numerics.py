@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.numerics.spline import periodic_smoothing_spline
 
 GRID = np.arange(0.0, 360.0, 2.0)

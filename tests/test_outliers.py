@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import encal
-from encal.errors import EncalWarning
-from encal.outliers import ISOLATION_FACTOR, isolated_points
+from encal._core.errors import EncalWarning
+from encal.analysis.outliers import ISOLATION_FACTOR, isolated_points
 from encal.simulate import demo_fleet
 
 THETA = np.arange(0.0, 360.0, 10.0)

@@ -1,17 +1,17 @@
-"""One message template for every bad parameter (encal.parameters)."""
+"""One message template for every bad parameter (encal._core.parameters)."""
 
 import numpy as np
 import pytest
 
 import encal
-import encal.bidirectional
-import encal.encoder_report
-import encal.outliers
+import encal.data.reversal
+import encal.reports.encoder
+import encal.analysis.outliers
 from encal.selfcal import spin, steps, sweep
-from encal.calibration import write_calibration
-from encal.errors import InputError
+from encal.data.calibration import write_calibration
+from encal._core.errors import InputError
 from encal.models.stack import fit_stack
-from encal.parameters import check_bool, check_choice, check_int, check_number, check_seed, invalid
+from encal._core.parameters import check_bool, check_choice, check_int, check_number, check_seed, invalid
 
 GRID = np.arange(0.0, 360.0, 2.0)
 
@@ -94,20 +94,20 @@ def test_calibration_and_stack_entry_points_use_the_template(tmp_path, call, err
 
 
 @pytest.mark.parametrize(("call", "message"), [
-    (lambda cal: encal.outliers.isolated_points(GRID, np.sin(np.radians(GRID)), factor=0),
+    (lambda cal: encal.analysis.outliers.isolated_points(GRID, np.sin(np.radians(GRID)), factor=0),
      "The 'factor' parameter of isolated_points must be a finite number > 0. Got 0 instead."),
-    (lambda cal: encal.outliers.isolated_points(GRID, np.sin(np.radians(GRID)), quantum_arcmin=-0.1),
+    (lambda cal: encal.analysis.outliers.isolated_points(GRID, np.sin(np.radians(GRID)), quantum_arcmin=-0.1),
      "The 'quantum_arcmin' parameter of isolated_points must be a finite number >= 0 (arc-minutes, or None). "
      "Got -0.1 instead."),
-    (lambda cal: encal.bidirectional.direction_subset(cal, 0),
+    (lambda cal: encal.data.reversal.direction_subset(cal, 0),
      "The 'direction' parameter of direction_subset must be 1 (forward) or -1 (reverse). Got 0 instead."),
-    (lambda cal: encal.bidirectional.reversal(GRID),
+    (lambda cal: encal.data.reversal.reversal(GRID),
      "The 'cal' parameter of reversal must be a Calibration. Got an object of type ndarray instead."),
-    (lambda cal: encal.encoder_report.encoder_report(cal, [cal, "b.csv"]),
+    (lambda cal: encal.reports.encoder.encoder_report(cal, [cal, "b.csv"]),
      "The 'tests[1]' parameter of encoder_report must be a Calibration. Got an object of type str instead."),
-    (lambda cal: encal.encoder_report.encoder_report(cal, zero="none"),
+    (lambda cal: encal.reports.encoder.encoder_report(cal, zero="none"),
      "The 'zero' parameter of encoder_report must be one of 'auto', 'arbitrary', 'fixed'. Got 'none' instead."),
-    (lambda cal: encal.encoder_report.encoder_report(cal, compare=None),
+    (lambda cal: encal.reports.encoder.encoder_report(cal, compare=None),
      "The 'compare' parameter of encoder_report must be True or False. Got None instead."),
 ])
 def test_the_analyses_and_the_report_use_the_template(call, message):
@@ -152,14 +152,14 @@ def test_predict_checks_the_direction_with_the_template(direction, message):
 
 def test_the_report_checks_its_figures_resolution(tmp_path):
     both = np.r_[GRID, GRID]
-    report = encal.encoder_report.encoder_report(encal.Calibration(GRID, GRID + np.sin(np.radians(GRID)) / 60),
+    report = encal.reports.encoder.encoder_report(encal.Calibration(GRID, GRID + np.sin(np.radians(GRID)) / 60),
                                                  method="fourier", uncertainty=False, compare=False)
     with pytest.raises(InputError) as info:
-        encal.encoder_report.write_encoder_report(report, tmp_path / "report.html", dpi=0)
+        encal.reports.encoder.write_encoder_report(report, tmp_path / "report.html", dpi=0)
     assert str(info.value) == ("The 'dpi' parameter of write_encoder_report must be an int from 1 to 1200 (dots per "
                                "inch). Got 0 instead.")
     with pytest.raises(InputError) as info:
-        encal.encoder_report.render_encoder_figures(both)
+        encal.reports.encoder.render_encoder_figures(both)
     assert str(info.value) == ("The 'report' parameter of render_encoder_figures must be an EncoderReport. "
                                "Got an object of type ndarray instead.")
     assert list(tmp_path.iterdir()) == []

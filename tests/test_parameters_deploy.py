@@ -1,4 +1,4 @@
-"""The deployment's entry points check their options with encal's one message template (encal.parameters)."""
+"""The deployment's entry points check their options with encal's one message template (encal._core.parameters)."""
 
 import io
 
@@ -9,7 +9,7 @@ from encal.deploy import Compensator, export_c, save_table
 from encal.deploy.stream import correct_stream
 from encal.deploy.firmware import (export_klipper, export_mechaduino, export_moteus, export_simplefoc,
                                    export_tinymovr, read_cal_capture, read_moteus_conf, read_tinymovr)
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.base import Model
 from encal.models.fourier import FourierModel
 

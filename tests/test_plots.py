@@ -1,4 +1,4 @@
-"""Figures (encal.plots): every plot draws on the axes it is given, or on a new pyplot-free figure."""
+"""Figures (encal.figures): every plot draws on the axes it is given, or on a new pyplot-free figure."""
 
 import matplotlib
 
@@ -10,16 +10,16 @@ from matplotlib.axes import Axes  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from encal import Calibration, harmonics  # noqa: E402
-from encal import plots  # noqa: E402
-from encal.errors import InputError  # noqa: E402
-from encal.studies import (  # noqa: E402
+from encal import figures as plots  # noqa: E402
+from encal._core.errors import InputError  # noqa: E402
+from encal.paper.studies import (  # noqa: E402
     compare_algorithms,
     compare_models,
     hidden_node_sweep,
     reproducibility,
     svd_pruning,
 )
-from encal.studies.comparison import DEFAULT_MODELS  # noqa: E402
+from encal.paper.studies.comparison import DEFAULT_MODELS  # noqa: E402
 
 GRID = np.arange(0.0, 360.0, 2.0)
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -165,7 +165,7 @@ def test_save_figure_writes_a_png(tmp_path):
 
 
 def test_panels_past_z_are_labelled_aa_ab_and_so_on():
-    from encal.plots import _panel_label
+    from encal.figures._plots import _panel_label
     assert [_panel_label(i) for i in (0, 25, 26, 27, 51, 52, 701, 702)] == \
         ["a", "z", "aa", "ab", "az", "ba", "zz", "aaa"]
 

@@ -1,4 +1,4 @@
-"""Error statistics and harmonic analysis (encal.profile)."""
+"""Error statistics and harmonic analysis (encal.analysis.profile)."""
 
 import numpy as np
 import pytest
@@ -7,8 +7,8 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from encal import Calibration, ErrorStats, Harmonics, error_stats, harmonics, wrap180
-from encal.errors import InputError
-from encal.profile import distinct_angles, fit_harmonic_series, identifiable_order
+from encal._core.errors import InputError
+from encal.analysis.profile import distinct_angles, fit_harmonic_series, identifiable_order
 
 finite_errors = st.lists(st.floats(-1e4, 1e4, allow_nan=False), min_size=1, max_size=200)
 
@@ -324,7 +324,7 @@ def test_harmonics_fall_back_on_the_qr_when_conjugate_gradients_do_not_converge(
     theta = GRIDS["random"]
     errors = np.cos(np.radians(3.0 * theta))
     expected = harmonics(theta, errors)
-    monkeypatch.setattr("encal.profile._CG_MAX_ITER", 1)
+    monkeypatch.setattr("encal.analysis.profile._CG_MAX_ITER", 1)
     result = harmonics(theta, errors)
     assert_allclose(result.cos_arcmin, expected.cos_arcmin, rtol=0, atol=1e-12)
     assert_allclose(result.sin_arcmin, expected.sin_arcmin, rtol=0, atol=1e-12)

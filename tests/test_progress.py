@@ -12,10 +12,10 @@ import warnings
 import numpy as np
 import pytest
 
-import encal._progress as progress_module
-from encal._progress import LOG_AFTER_S, SHOW_AFTER_S, Activity, clear_line
+import encal._core.progress as progress_module
+from encal._core.progress import LOG_AFTER_S, SHOW_AFTER_S, Activity, clear_line
 from encal.cli import main
-from encal.errors import EncalWarning
+from encal._core.errors import EncalWarning
 
 
 class Terminal(io.StringIO):

@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 import encal
-from encal.angles import model_input, wrap180
+from encal._core.angles import model_input, wrap180
 from encal.cli import main
 from encal.deploy import Compensator, compile_table, load_table, runtime, save_table, write_c
-from encal.errors import ModelFileError
+from encal._core.errors import ModelFileError
 
 GCC = shutil.which("gcc")
 TOLERANCE_ARCMIN = 1e-3
@@ -34,7 +34,7 @@ def delta_deg(ref_deg):
 
 
 def raw_reading(ref_deg):
-    return encal.angles.wrap360(-(ref_deg + delta_deg(ref_deg)))
+    return encal._core.angles.wrap360(-(ref_deg + delta_deg(ref_deg)))
 
 
 def off_arcmin(corrected_deg, ref_deg):
@@ -213,11 +213,11 @@ def test_compiled_c(reversed_model, tmp_path, table):
 
 def test_model_input_is_its_own_inverse():
     theta = np.array([0.0, 1.5, 359.25, -720.0 + 3.0])
-    np.testing.assert_allclose(model_input(model_input(theta, -1), -1), encal.angles.wrap360(theta))
+    np.testing.assert_allclose(model_input(model_input(theta, -1), -1), encal._core.angles.wrap360(theta))
 
 
 def test_bidirectional_reversed_parts_count_with_the_reference():
-    from encal.fitting import fit_bidirectional
+    from encal.models.fitting import fit_bidirectional
 
     ref = np.tile(np.arange(0.0, 360.0, 5.0), 2)
     direction = np.repeat([1, -1], 72)
@@ -225,5 +225,5 @@ def test_bidirectional_reversed_parts_count_with_the_reference():
     cal = encal.Calibration(ref, ref + delta, direction=direction, reading_sign=-1)
     model = fit_bidirectional(cal, method="fourier", orders=[0, 1])
     assert model.reading_sign == -1 and model.forward.reading_sign == 1
-    raw = encal.angles.wrap360(-(ref + delta))
+    raw = encal._core.angles.wrap360(-(ref + delta))
     assert off_arcmin(model.correct(raw, direction=direction), ref).max() < TOLERANCE_ARCMIN

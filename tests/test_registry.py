@@ -10,7 +10,7 @@ from numpy.testing import assert_allclose
 import encal
 from encal import runtime
 from encal.deploy.cexport import export_c
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models import Model, ModelKind, kind_names, model_kind
 from encal.models.kind import REGISTERED, register_kind
 from encal.models.select import Candidate, families, fit_auto

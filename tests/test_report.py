@@ -1,4 +1,4 @@
-"""The HTML report (encal.report): one self-contained file with every table and figure."""
+"""The HTML report (encal.paper.report): one self-contained file with every table and figure."""
 
 import base64
 import re
@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 
 import pytest  # noqa: E402
 
-from encal.report import FIGURES, build_report, render_figures, write_report  # noqa: E402
+from encal.paper.report import FIGURES, build_report, render_figures, write_report  # noqa: E402
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -94,7 +94,7 @@ def test_no_python_representation_reaches_the_page(page):
 
 
 def test_before_and_after_share_the_axes_of_one_panel_per_encoder(result):
-    from encal.report import _before_after
+    from encal.paper.report import _before_after
 
     fig = _before_after(result)
     panels = [ax for ax in fig.axes if ax.get_visible()]

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import encal
-from encal.angles import resolution_of_readings
+from encal._core.angles import resolution_of_readings
 from encal.cli import main
-from encal.fitting import resolution_bits
+from encal.models.fitting import resolution_bits
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "mechaduino"
 

@@ -565,7 +565,7 @@ CASES = [
 # ---------------------------------------------------------------- issue 17: dialects, re-signed files, environments
 
 def _dialect_cases():
-    """CSV dialect cases for every command that reads a calibration (encal._csv: one dialect)."""
+    """CSV dialect cases for every command that reads a calibration (encal._core.csv_dialect: one dialect)."""
     cases = []
     for command, before, after in (("profile", (), ()), ("fit", (), ("-o", "{scratch}/d.json", "--method", "lut")),
                                    ("evaluate", ("{model}",), ())):
@@ -1064,7 +1064,7 @@ class _Boom(Exception):
 def test_failure_while_saving_leaves_nothing(where, calibration_file, existing_model, tmp_path, monkeypatch,
                                              capsys):
     """A failure at any step of saving: no temporary file is left and the old file is untouched."""
-    import encal._atomic as atomic
+    import encal._core.atomic as atomic
     import encal.models.modelfile as modelfile
 
     failure = OSError(28, "No space left on device")
@@ -1093,7 +1093,7 @@ def test_failure_while_saving_leaves_nothing(where, calibration_file, existing_m
 
 def test_interrupted_write_leaves_nothing(calibration_file, tmp_path, monkeypatch, capsys):
     """Ctrl-C while the file is written: status 130, no model, no temporary file."""
-    import encal._atomic as atomic
+    import encal._core.atomic as atomic
 
     monkeypatch.setattr(atomic.os, "fsync", lambda fd: (_ for _ in ()).throw(KeyboardInterrupt()))
     target = tmp_path / "m.json"
@@ -1104,7 +1104,7 @@ def test_interrupted_write_leaves_nothing(calibration_file, tmp_path, monkeypatc
 
 def test_failed_calibration_write_keeps_the_old_file(tmp_path, monkeypatch):
     """write_calibration failing half-way through its rows leaves the previous file as it was."""
-    import encal.calibration as calibration
+    import encal.data.calibration as calibration
 
     path = tmp_path / "cal.csv"
     path.write_text("old\n", encoding="utf-8")
@@ -1151,7 +1151,7 @@ def test_radians_warn_in_python(convention, tmp_path):
     """read_calibration warns with an EncalWarning naming the likely unit; with allow_gaps it goes on."""
     radians = np.radians(GRID_TRAIN) - (np.pi if convention == "-pi..pi" else 0.0)
     path = _write(tmp_path, radians, radians + 1e-4)
-    with pytest.warns(encal.errors.EncalWarning, match="radians"):
+    with pytest.warns(encal._core.errors.EncalWarning, match="radians"):
         cal = encal.read_calibration(path, allow_gaps=True)
     assert len(cal) == GRID_TRAIN.size
 

@@ -17,7 +17,7 @@ from encal.deploy import Compensator, load_model, save_model
 from encal.models.ann import fit_ann
 from encal.models.hybrid import fit_hybrid
 from encal.runtime import ModelFileError
-from encal.errors import InputError
+from encal._core.errors import InputError
 
 DATA = Path(__file__).parent / "data"
 V1_FILES = sorted(DATA.glob("model_v1_*.json"))

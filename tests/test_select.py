@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 import encal
 from encal.cli import main
-from encal.errors import EncalWarning, InputError
+from encal._core.errors import EncalWarning, InputError
 from encal.models import select
 from encal.models.fourier import fit_fourier
 from encal.models.kind import REGISTERED

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.selfcal.simulate import MagneticEncoder, draw_magnetic_encoder, make_motor, simulate_spin
 from encal.selfcal.spin import SpinLog, motor_ripple_orders, spin
 from selfcal_truth import GRID, rms, truth_at_orders

@@ -6,8 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from encal.calibration import Calibration, read_calibration
-from encal.errors import InputError
+from encal.data.calibration import Calibration, read_calibration
+from encal._core.errors import InputError
 from encal.selfcal.simulate import draw_magnetic_encoder, draw_stepper, simulate_steps
 from encal.selfcal.steps import step_errors, steps
 from selfcal_truth import GRID, rms, truth_at_orders

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.selfcal.moteus_capture import read_moteus_capture, write_moteus_capture
 from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_sweep
 from encal.selfcal.sweep import sweep, sweep_capture

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from encal import _atomic, _signals
+from encal._core import atomic as _atomic, signals as _signals
 from encal.cli import main
 from encal.models.fourier import FourierModel
 
@@ -157,7 +157,7 @@ def test_a_signal_right_after_the_temporary_file_is_made_leaves_nothing(calibrat
 
 _HANG_UP_WHILE_SAVING = """
 import os, signal, sys
-from encal import _atomic
+from encal._core import atomic as _atomic
 from encal.cli import main
 fsync = os.fsync
 def hang_up(fd):
@@ -179,7 +179,7 @@ def test_sighup_while_saving_is_handled_like_sigterm(calibration, tmp_path):
 
 _TERMINATED_WITH_A_BROKEN_TEARDOWN = """
 import atexit, os, signal, sys
-from encal import _atomic
+from encal._core import atomic as _atomic
 from encal.cli import main
 atexit.register(os.abort)  # stands for an extension whose initialisation the signal cut short
 fsync = os.fsync

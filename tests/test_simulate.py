@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from encal.angles import lsb_arcmin
-from encal.calibration import Calibration
-from encal.errors import InputError
+from encal._core.angles import lsb_arcmin
+from encal.data.calibration import Calibration
+from encal._core.errors import InputError
 from encal.simulate import (
     DEMO_SEEDS,
     RUN_NAMES,

@@ -7,10 +7,10 @@ import pytest
 
 import encal
 from encal.deploy import runtime
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models import _evidence
 from encal.models import spectral
-from encal.models._trigsums import trig_moments, trig_series
+from encal.numerics.trigsums import trig_moments, trig_series
 from encal.models.spectral import (
     BLIND_PRIOR,
     SpectralModel,
@@ -497,7 +497,7 @@ def test_dense_table_and_c_export_evaluate_the_series(tmp_path):
 # -- auto and the command line ----------------------------------------------------------------------
 
 def test_auto_is_the_spectral_model_and_a_network_asked_for_must_cross_validate_clearly_better():
-    from encal.models.choice import fit_auto
+    from encal.models.auto import fit_auto
 
     error = line_profile(GRID) + np.random.default_rng(1).normal(0.0, 0.05, GRID.size)
     model = fit_auto(GRID, error, rng=0)
@@ -517,7 +517,7 @@ def test_auto_is_the_spectral_model_and_a_network_asked_for_must_cross_validate_
 
 
 def test_auto_skips_the_networks_on_large_calibrations():
-    from encal.models.choice import fit_auto
+    from encal.models.auto import fit_auto
 
     theta = np.arange(0.0, 360.0, 0.5)
     model = fit_auto(theta, line_profile(theta) + np.random.default_rng(2).normal(0.0, 0.05, theta.size),
@@ -527,7 +527,7 @@ def test_auto_skips_the_networks_on_large_calibrations():
 
 
 def test_auto_with_candidates_is_the_cross_validated_choice():
-    from encal.models.choice import fit_auto
+    from encal.models.auto import fit_auto
 
     model = fit_auto(GRID, line_profile(GRID), candidates=[{"family": "fourier", "options": {}}], stack=False)
     assert model.kind == "fourier" and model.training["selection"]["folds"] == 5
@@ -614,7 +614,7 @@ def test_a_multi_revolution_log_is_read_as_repeated_readings(tmp_path):
     # One pass with conflicting repeats in no particular order is still refused.
     shuffled = write_run(tmp_path / "rows.csv", np.r_[GRID, GRID[::-1]],
                          np.r_[line_profile(GRID), line_profile(GRID) + 1])
-    with pytest.raises(encal.errors.CalibrationError, match="appears more than once"):
+    with pytest.raises(encal._core.errors.CalibrationError, match="appears more than once"):
         encal.read_calibration(shuffled)
 
 

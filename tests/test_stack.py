@@ -12,7 +12,7 @@ from encal.cli import main
 from encal.deploy import Compensator, compile_table, export_c, load_model, model_to_dict, read_model, save_model, write_c
 from encal import runtime
 from encal.deploy.cexport import FLOAT32_BUDGET_ARCMIN
-from encal.errors import InputError, ModelFileError
+from encal._core.errors import InputError, ModelFileError
 from encal.models.ann import fit_ann
 from encal.models.directional import DirectionalModel
 from encal.models.fourier import FourierModel, fit_fourier

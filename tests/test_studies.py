@@ -1,4 +1,4 @@
-"""The paper's studies (encal.studies): sweep, algorithm table, SVD pruning, comparison, reproducibility, tables."""
+"""The paper's studies (encal.paper.studies): sweep, algorithm table, SVD pruning, comparison, reproducibility, tables."""
 
 import csv
 import io
@@ -11,10 +11,10 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose, assert_array_equal
 
 from encal import Calibration, error_stats
-from encal.angles import lsb_arcmin
-from encal.errors import InputError, TrainingLimitWarning
+from encal._core.angles import lsb_arcmin
+from encal._core.errors import InputError, TrainingLimitWarning
 from encal.models.ann import ANNModel
-from encal.studies import (
+from encal.paper.studies import (
     DEFAULT_MODELS,
     compare_algorithms,
     compare_models,
@@ -23,11 +23,11 @@ from encal.studies import (
     significant_count,
     svd_pruning,
 )
-from encal.studies._fits import hidden_layer, task_seed
-from encal.studies._pool import Workers, run_tasks
-from encal.studies.reproducibility import matched_difference
-from encal.studies.tables import Column, Table, profile_table
-from encal._progress import Progress
+from encal.paper.studies._fits import hidden_layer, task_seed
+from encal.paper.studies._pool import Workers, run_tasks
+from encal.paper.studies.reproducibility import matched_difference
+from encal.paper.studies.tables import Column, Table, profile_table
+from encal._core.progress import Progress
 
 TRAIN_GRID = np.arange(0.0, 360.0, 2.0)
 TEST_GRID = np.arange(1.0, 360.0, 2.0)
@@ -204,7 +204,7 @@ def test_sweep_refuses_what_is_not_a_calibration():
 
 
 def test_sweep_statistics_over_seeds():
-    from encal.studies import SweepResult
+    from encal.paper.studies import SweepResult
 
     mse = np.array([[1.0], [0.1], [0.011], [0.01]])
     sweep = SweepResult(encoder="enc", hidden=np.array([10, 20, 30, 40]), algorithms=("trainlm",), encoding="raw",

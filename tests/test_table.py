@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from encal.deploy import Compensator, CorrectionTable, compile_table, load_table, save_table
-from encal.errors import InputError, ModelFileError
+from encal._core.errors import InputError, ModelFileError
 from encal.models.fourier import FourierModel
 
 DATA = Path(__file__).parent / "data"

@@ -22,7 +22,7 @@ from encal.deploy import Compensator
 from encal.deploy.compact import correction_bam, correction_lsb_q8, error_lsb_float32, predict_float32_angle
 from encal.deploy.series32 import fourier_float32, fourier_terms
 from encal.deploy.targets import export_target, write_target
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
 
 DATA = Path(__file__).parent / "data"

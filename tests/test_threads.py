@@ -5,7 +5,7 @@ import scipy.linalg  # noqa: F401  (SciPy's own BLAS loaded, as in a program tha
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import encal
-from encal._threads import single_blas_thread
+from encal._core.threads import single_blas_thread
 
 
 def blas_threads():
@@ -32,7 +32,7 @@ def test_a_decorated_function_runs_on_one_blas_thread_and_restores_the_callers_s
 
 
 def test_fit_runs_on_one_blas_thread(monkeypatch):
-    from encal import fitting
+    from encal.models import fitting
 
     seen = []
     original = fitting.fitter

@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.training import ALGORITHMS, LinearLeastSquares, train
 from encal.training.conjugate_gradient import ConjugateDirections
 from encal.training.linesearch import LineSearch

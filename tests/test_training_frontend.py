@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from encal.errors import EncalWarning, InputError, TrainingLimitWarning
+from encal._core.errors import EncalWarning, InputError, TrainingLimitWarning
 from encal.training import ALGORITHMS, STOP_REASONS, LinearLeastSquares, train
 
 EVERY_ALGORITHM = sorted(ALGORITHMS)

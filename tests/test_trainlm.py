@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.training import ALGORITHMS, LinearLeastSquares, train
 from encal.training.network import MapMinMax, NetworkProblem, encode_angles, nguyen_widrow
 from encal.training.trainlm import MU_FLOOR, DampedGaussNewton

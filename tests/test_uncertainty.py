@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 import encal
 from encal import Calibration, InputError, ModelFileError
-from encal.uncertainty import (
+from encal.models.uncertainty import (
     add_uncertainty,
     refit_spec,
     check_uncertainty,

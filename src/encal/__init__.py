@@ -14,21 +14,22 @@ from ._version import __version__
 
 # public name -> module that defines it
 _PUBLIC = {
-    "wrap360": "angles", "wrap180": "angles", "angle_difference": "angles", "lsb_arcmin": "angles",
-    "Calibration": "calibration", "read_calibration": "calibration",
-    "write_calibration": "calibration",
-    "ErrorStats": "profile", "error_stats": "profile", "harmonics": "profile",
-    "Harmonics": "profile",
-    "fit": "fitting", "evaluate": "fitting", "Evaluation": "fitting",
-    "Model": "models", "Selection": "models.choice",
-    "plot_profile": "plots", "plot_model": "plots", "plot_before_after": "plots",
-    "hidden_node_sweep": "studies", "compare_algorithms": "studies", "svd_pruning": "studies",
-    "compare_models": "studies", "reproducibility": "studies",
+    "wrap360": "_core.angles", "wrap180": "_core.angles", "angle_difference": "_core.angles",
+    "lsb_arcmin": "_core.angles",
+    "Calibration": "data.calibration", "read_calibration": "data.calibration",
+    "write_calibration": "data.calibration",
+    "ErrorStats": "analysis.profile", "error_stats": "analysis.profile", "harmonics": "analysis.profile",
+    "Harmonics": "analysis.profile",
+    "fit": "models.fitting", "evaluate": "models.fitting", "Evaluation": "models.fitting",
+    "Model": "models", "Selection": "models.auto",
+    "plot_profile": "figures", "plot_model": "figures", "plot_before_after": "figures",
+    "hidden_node_sweep": "paper.studies", "compare_algorithms": "paper.studies", "svd_pruning": "paper.studies",
+    "compare_models": "paper.studies", "reproducibility": "paper.studies",
     "demo_fleet": "simulate", "simulate_fleet": "simulate", "measurement_floor": "simulate",
     "save_model": "deploy", "load_model": "deploy", "Compensator": "deploy",
     "SelfCalibration": "selfcal",
-    "EncalError": "errors", "CalibrationError": "errors", "ModelFileError": "errors",
-    "InputError": "errors", "EncalWarning": "errors", "TrainingLimitWarning": "errors",
+    "EncalError": "_core.errors", "CalibrationError": "_core.errors", "ModelFileError": "_core.errors",
+    "InputError": "_core.errors", "EncalWarning": "_core.errors", "TrainingLimitWarning": "_core.errors",
 }
 
 __all__ = ["__version__", *_PUBLIC]

@@ -329,7 +329,7 @@ def check_uncertainty(uncertainty, where, field="uncertainty"):
 
     It holds ``method``, ``grid_step_deg`` (dividing 360), ``model_std_arcmin``
     (one value >= 0 per grid angle) and ``noise_std_arcmin`` (>= 0); see
-    encal's ``encal.uncertainty``.
+    encal's ``encal.models.uncertainty``.
     """
     if uncertainty is None:
         return

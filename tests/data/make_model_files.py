@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from encal._atomic import atomic_write
+from encal._core.atomic import atomic_write
 from encal import runtime
 from encal.models.modelfile import dumps, model_to_dict
 from encal.models.base import Model

@@ -235,7 +235,7 @@ def cases():
 def run_case(comp, bits, step_zero, label):
     """One export of ``comp`` (``step_zero`` the reference angle of step 0, or None) through Klipper's code."""
     from encal.deploy.firmware import export_klipper
-    from encal.errors import InputError
+    from encal._core.errors import InputError
 
     try:
         written = export_klipper(comp, full_steps=FULL_STEPS, step_zero_deg=step_zero)

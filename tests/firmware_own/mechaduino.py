@@ -279,7 +279,7 @@ def run_case(comp, step_zero, label):
     """encal's table for ``comp`` (``step_zero`` the reference angle of step 0, or None) through the firmware's
     rules, beside the firmware's own calibrate() on the same motor and encoder."""
     from encal.deploy.firmware import export_mechaduino
-    from encal.errors import InputError
+    from encal._core.errors import InputError
 
     try:
         written = export_mechaduino(comp, step_zero_deg=step_zero)

@@ -146,7 +146,7 @@ def _configurations():
 def matrix():
     """One row per configuration: 14/16 bits, reversed, reference zero, sign, offset, file style, dump."""
     from encal.deploy.firmware import export_moteus
-    from encal.errors import EncalError
+    from encal._core.errors import EncalError
 
     for bits, reversed_reading, zero, sign, offset, style, dump in _configurations():
         name = (f"{bits}-bit{', reversed' if reversed_reading else ''}, zero {zero:g} deg, sign {sign}, "

@@ -33,7 +33,7 @@ import numpy as np
 
 from encal.deploy import Compensator
 from encal.deploy.firmware import export_simplefoc
-from encal.errors import InputError
+from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
 
 from . import FIRMWARE, Row

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from encal.deploy.firmware import export_tinymovr
-from encal.errors import InputError
+from encal._core.errors import InputError
 
 from . import FIRMWARE, Row
 from .simplefoc import BITS, ZEROS_DEG, build_dir, compiled, measured, profile_model

@@ -9,7 +9,7 @@ means adding its file and its line.
 
 Exit status: 0 on success, 1 on bad data or a failed operation (one line on
 stderr, no traceback), 2 on wrong usage (argparse), 130 on Ctrl-C, 143 on
-SIGTERM and 129 on SIGHUP (all clean up as a failure does; see :mod:`encal._signals`).
+SIGTERM and 129 on SIGHUP (all clean up as a failure does; see :mod:`encal._core.signals`).
 """
 
 import os
@@ -27,9 +27,9 @@ import re  # noqa: E402
 import signal  # noqa: E402
 import sys  # noqa: E402
 
-from .. import _signals
+from .._core import signals as _signals
 from .._version import __version__
-from ..errors import EncalError
+from .._core.errors import EncalError
 
 __all__ = ["main"]
 

@@ -6,7 +6,7 @@ import os
 import sys
 import warnings
 
-from ..errors import EncalWarning
+from .._core.errors import EncalWarning
 
 __all__ = ["add_calibration_options", "add_zero_options", "read_calibration_from_args", "positive_int", "print_json",
            "warnings_as_lines", "check_environment", "output_that_may_close", "activity"]
@@ -41,7 +41,7 @@ def angle_unit_argument(text):
     """argparse type: a unit of angle readings (deg, rad, rev or counts:B)."""
     import argparse
 
-    from ..angles import angle_unit
+    from .._core.angles import angle_unit
 
     try:
         return angle_unit(text)
@@ -62,9 +62,9 @@ def add_zero_options(parser):
 
 
 def activity(command, enabled=True):
-    """The progress line of a command that may run long on a dense calibration (:class:`encal._progress.Activity`):
+    """The progress line of a command that may run long on a dense calibration (:class:`encal._core.progress.Activity`):
     on a terminal from 2 seconds on, elsewhere one closing line for runs of 10 seconds or more."""
-    from .._progress import Activity
+    from .._core.progress import Activity
 
     return Activity(f"encal {command}", enabled=enabled)
 
@@ -72,7 +72,7 @@ def activity(command, enabled=True):
 def read_calibration_from_args(path, args, progress=None):
     """Read ``path`` with the options of :func:`add_calibration_options`; ``progress`` (an
     :func:`activity`) shows the reading as a stage of its own."""
-    from ..calibration import read_calibration
+    from ..data.calibration import read_calibration
 
     if progress is not None:
         progress.stage(f"reading {path}")
@@ -110,10 +110,11 @@ def int_in_range(low, high=None):
 
 
 def size_option(name, low=1):
-    """argparse type of a size option: a whole number from ``low`` to its bound in :data:`encal._limits.SIZE_LIMITS`."""
+    """argparse type of a size option: a whole number from ``low`` to its bound in
+    :data:`encal._core.limits.SIZE_LIMITS`."""
     import argparse
 
-    from .._limits import size_message
+    from .._core.limits import size_message
 
     def parse(text):
         try:
@@ -121,7 +122,7 @@ def size_option(name, low=1):
         except ValueError:
             raise argparse.ArgumentTypeError(size_message(name, low, repr(text))) from None
         try:
-            from .._limits import check_size
+            from .._core.limits import check_size
 
             return check_size(name, value, "encal", low)
         except ValueError:
@@ -144,7 +145,7 @@ def print_json(data, stream=None):
 
 @contextlib.contextmanager
 def warnings_as_lines(command, stream=None):
-    """Print every :class:`~encal.errors.EncalWarning` raised in the block as one line on stderr.
+    """Print every :class:`~encal._core.errors.EncalWarning` raised in the block as one line on stderr.
 
     The line reads ``encal COMMAND: warning: <message>``; other warnings are shown as Python shows them.
     """
@@ -157,7 +158,7 @@ def warnings_as_lines(command, stream=None):
             if stream is None:  # stderr closed: print(file=None) would write into the data on stdout
                 return
             if issubclass(category, EncalWarning):
-                from .._progress import clear_line
+                from .._core.progress import clear_line
 
                 clear_line()  # a progress line on the terminal: the warning takes its place, the line comes back
                 print(f"encal {command}: warning: {message}", file=stream)
@@ -174,7 +175,7 @@ def check_environment():
     ``SOURCE_DATE_EPOCH`` is checked before anything reads it (SciPy's import reads it, and a malformed
     value stopped every command with a traceback).
     """
-    from .._environment import source_date_epoch
+    from .._core.environment import source_date_epoch
 
     source_date_epoch()
 

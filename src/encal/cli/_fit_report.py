@@ -77,7 +77,7 @@ def held_out(model, cal, method, options):
         cross-validation (and ``mean_note`` for the model of the mean of both directions); for a directional model ``{'forward': ..., 'reverse': ...}``. None when the
         CV table of an auto fit is the estimate.
     """
-    from ..bidirectional import direction_subset, has_both_directions, mean_calibration
+    from ..data.reversal import direction_subset, has_both_directions, mean_calibration
 
     if model.kind == "directional":
         return {name: _one(getattr(model, name), direction_subset(cal, sign), method, options)

@@ -14,7 +14,7 @@ from ._common import add_calibration_options, print_json, read_calibration_from_
 
 
 def add_arguments(parser):
-    from ..studies.comparison import DEFAULT_MODELS
+    from ..paper.studies.comparison import DEFAULT_MODELS
 
     parser.add_argument("train", metavar="TRAIN.csv", help="calibration the models are fitted to")
     parser.add_argument("test", metavar="TEST.csv", help="calibration the models are judged on")
@@ -28,8 +28,8 @@ def add_arguments(parser):
 
 
 def _models(text):
-    from ..errors import InputError
-    from ..studies.comparison import DEFAULT_MODELS
+    from .._core.errors import InputError
+    from ..paper.studies.comparison import DEFAULT_MODELS
 
     if text is None:
         return DEFAULT_MODELS
@@ -42,8 +42,8 @@ def _models(text):
 
 
 def run(args):
-    from ..errors import InputError
-    from ..studies.comparison import compare_models
+    from .._core.errors import InputError
+    from ..paper.studies.comparison import compare_models
 
     if args.seed < 0:
         raise InputError(f"--seed must be a whole number >= 0. Got {args.seed} instead.")

@@ -22,10 +22,10 @@ import contextlib
 import os
 import sys
 
-from .. import _signals
+from .._core import signals as _signals
 from ..deploy import Compensator
 from ..deploy.stream import correct_stream
-from ..errors import InputError
+from .._core.errors import InputError
 
 
 def add_arguments(parser):
@@ -136,7 +136,7 @@ def _sink(stdout):
 class _WholeLines:
     """Writes blocks of whole lines to a file descriptor; a stop signal never cuts a line in two.
 
-    Ctrl-C, SIGTERM or SIGHUP during a write are held (:func:`encal._signals.held`): the line being
+    Ctrl-C, SIGTERM or SIGHUP during a write are held (:func:`encal._core.signals.held`): the line being
     written is finished, the rest of the block is dropped, and then the signal stops the command, so
     the output ends with a whole line (a pipe reader never sees ``0.856519`` for ``0.8565199569925398``).
     A second signal stops at once.

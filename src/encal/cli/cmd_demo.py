@@ -30,10 +30,10 @@ def add_arguments(parser):
 def run(args):
     from dataclasses import replace
 
-    from ..demo import FULL, QUICK, run_demo
+    from ..paper.demo import FULL, QUICK, run_demo
 
     if args.seed < 0:
-        from ..errors import InputError
+        from .._core.errors import InputError
 
         raise InputError(f"--seed must be a whole number >= 0. Got {args.seed} instead.")
     settings = replace(QUICK if args.quick else FULL, n_encoders=args.encoders)

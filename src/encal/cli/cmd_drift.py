@@ -16,7 +16,7 @@ Examples:
 import argparse
 from pathlib import Path
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._common import add_calibration_options, add_zero_options, print_json, read_calibration_from_args
 
 
@@ -46,8 +46,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..drift import circular_mean_offset_arcmin, compare_calibrations, split_epochs
-    from ..profile import zero_is_arbitrary, zero_sentence
+    from ..reports.drift import circular_mean_offset_arcmin, compare_calibrations, split_epochs
+    from ..analysis.profile import zero_is_arbitrary, zero_sentence
 
     cals, labels = [], []
     for path in args.calibrations:

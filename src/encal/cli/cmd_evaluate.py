@@ -21,7 +21,7 @@ def add_arguments(parser):
 
 def run(args):
     from ..deploy import load_model
-    from ..fitting import evaluate
+    from ..models.fitting import evaluate
 
     with activity("evaluate") as progress:
         progress.stage(f"reading {args.model}")

@@ -34,12 +34,12 @@ The encoder resolution (--bits) defaults to the one recorded in the model file. 
 from pathlib import Path
 
 from ..deploy import Compensator, compile_table, save_table
-from .._atomic import atomic_write
+from .._core.atomic import atomic_write
 from ..deploy.targets import FORMS, TARGETS, describe, write_target
 
 FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 SIMPLEFOC_VERSIONS = ("1.0.8", "1.0.9", "uint16")
-from ..errors import InputError
+from .._core.errors import InputError
 from ._common import print_json
 
 

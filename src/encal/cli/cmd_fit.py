@@ -138,8 +138,8 @@ def _check_output(output, calibration):
     """Refuse an output path that cannot be written, before a fit that may take minutes."""
     from pathlib import Path
 
-    from .._atomic import check_name_length
-    from ..errors import InputError
+    from .._core.atomic import check_name_length
+    from .._core.errors import InputError
 
     path = Path(output)
     check_name_length(path)
@@ -155,8 +155,8 @@ def _check_output(output, calibration):
 def _budget(text):
     import argparse
 
-    from ..deploy.choice import parse_budget
-    from ..errors import InputError
+    from ..deploy.deployment import parse_budget
+    from .._core.errors import InputError
 
     try:
         cost, value = parse_budget(text)
@@ -167,7 +167,7 @@ def _budget(text):
 
 def _choose_deployment(model, args):
     """Record in the model the deployment --budget chooses; return the line that says what it is."""
-    from ..deploy.choice import choose_deployment
+    from ..deploy.deployment import choose_deployment
     from ..deploy.compact import default_tolerance_arcmin
 
     bits = model.encoder.get("resolution_bits")
@@ -189,8 +189,8 @@ def _with_repeat(cal, second):
     """
     import numpy as np
 
-    from ..calibration import Calibration
-    from ..errors import InputError
+    from ..data.calibration import Calibration
+    from .._core.errors import InputError
 
     _check_same_stops(cal, second)
     _check_same_zero(cal, second)
@@ -210,16 +210,16 @@ def _with_repeat(cal, second):
 def _check_same_stops(cal, second):
     """Refuse a repeat pass whose reference angles are not the stops of the calibration.
 
-    Only readings at one reference angle (within :data:`encal.profile.ANGLE_TOLERANCE_DEG`, 1e-9 degree, as the
+    Only readings at one reference angle (within :data:`encal.analysis.profile.ANGLE_TOLERANCE_DEG`, 1e-9 degree, as the
     spectral model groups them) are repeats; a pass on another grid
     (the test grid 1, 3, ..., 359 degrees against the training grid 0, 2, ..., 358) would be fitted as more stops
     of one calibration and its noise taken blind, under a message that says a repeat was given.
     """
     import numpy as np
 
-    from ..angles import wrap180
-    from ..errors import InputError
-    from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles
+    from .._core.angles import wrap180
+    from .._core.errors import InputError
+    from ..analysis.profile import ANGLE_TOLERANCE_DEG, distinct_angles
 
     stops = [distinct_angles(c.reference_deg)[0] for c in (cal, second)]
 
@@ -256,9 +256,9 @@ def _check_same_zero(cal, second):
     """
     import numpy as np
 
-    from ..angles import ARCMIN_PER_DEG, wrap180
-    from ..errors import InputError
-    from ..profile import distinct_angles
+    from .._core.angles import ARCMIN_PER_DEG, wrap180
+    from .._core.errors import InputError
+    from ..analysis.profile import distinct_angles
 
     reference = np.r_[cal.reference_deg, second.reference_deg]
     _, group = distinct_angles(reference)
@@ -281,8 +281,8 @@ def _check_same_zero(cal, second):
 
 
 def run(args):
-    from ..bidirectional import has_both_directions
-    from ..fitting import evaluate, fit
+    from ..data.reversal import has_both_directions
+    from ..models.fitting import evaluate, fit
     from . import _fit_report
 
     if args.target is not None and args.budget is None:
@@ -326,7 +326,7 @@ def run(args):
         return 0
     _print_report(model)
     if selection is not None and selection.get("scheme") == "evidence":
-        from ..models.choice import format_choice
+        from ..models.auto import format_choice
 
         print(format_choice(selection))
     elif selection is not None:

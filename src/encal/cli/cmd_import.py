@@ -37,7 +37,7 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..calibration import Calibration, write_calibration
+    from ..data.calibration import Calibration, write_calibration
     from ..deploy import firmware
 
     if args.kind == "tinymovr" and args.bits is None:

@@ -11,8 +11,8 @@ import json
 
 import numpy as np
 
-from ..angles import lsb_arcmin, resolution_of_readings
-from ..profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
+from .._core.angles import lsb_arcmin, resolution_of_readings
+from ..analysis.profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
 from ._common import activity, add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
 
 def add_arguments(parser):

@@ -43,8 +43,8 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..encoder_report import encoder_report, verdict, write_encoder_report
-    from ..errors import InputError
+    from ..reports.encoder import encoder_report, verdict, write_encoder_report
+    from .._core.errors import InputError
 
     output = Path(args.output)
     if not (output.parent if str(output.parent) else Path(".")).is_dir():

@@ -18,7 +18,7 @@ See docs/self-calibration.md.
 
 from pathlib import Path
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._common import add_calibration_options, int_in_range, size_option
 
 
@@ -76,7 +76,7 @@ def run(args):
         result = _steps(args)
     else:
         result = _sweep(args)
-    from .._atomic import atomic_file_set
+    from .._core.atomic import atomic_file_set
 
     bits = args.bits if args.bits is not None or args.method != "sweep" else 16
     with atomic_file_set():
@@ -134,7 +134,7 @@ def _steps(args):
 
 def _write_stepper(path, details):
     """The stepper's error at each full step of the first calibration, as a CSV."""
-    from .._atomic import atomic_open
+    from .._core.atomic import atomic_open
 
     error, sigma = details["stepper_error_arcmin"], details["stepper_sigma_arcmin"]
     model, model_sigma = details["stepper_model_arcmin"], details["stepper_model_sigma_arcmin"]

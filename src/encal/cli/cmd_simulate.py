@@ -19,10 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_file_set
+from .._core.atomic import atomic_file_set
 from .._version import __version__
-from ..calibration import write_calibration
-from ..errors import InputError
+from ..data.calibration import write_calibration
+from .._core.errors import InputError
 from ._common import int_in_range, nonnegative_int
 
 MAX_ENCODERS = 1000

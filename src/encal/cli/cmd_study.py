@@ -42,8 +42,8 @@ def add_arguments(parser):
 
 
 def _counts(text, default, single):
-    from .._limits import SIZE_LIMITS
-    from ..errors import InputError
+    from .._core.limits import SIZE_LIMITS
+    from .._core.errors import InputError
 
     if text is None:
         return default
@@ -66,7 +66,7 @@ def _names(text, default):
 
 
 def _check_algorithms(names):
-    from ..errors import InputError
+    from .._core.errors import InputError
     from ..training import ALGORITHMS
 
     unknown = [name for name in names if name not in ALGORITHMS]
@@ -77,7 +77,7 @@ def _check_algorithms(names):
 
 
 def _sweep(args, train, test):
-    from ..studies.sweep import PAPER_HIDDEN, hidden_node_sweep
+    from ..paper.studies.sweep import PAPER_HIDDEN, hidden_node_sweep
 
     hidden = _counts(args.hidden, PAPER_HIDDEN, single=False)
     algorithms = _check_algorithms(_names(args.algorithms, ("trainlm", "traingd")))
@@ -89,7 +89,7 @@ def _sweep(args, train, test):
 
 
 def _algorithms(args, train, test):
-    from ..studies.algorithms import EXTRA_ALGORITHMS, PAPER_ALGORITHMS, compare_algorithms
+    from ..paper.studies.algorithms import EXTRA_ALGORITHMS, PAPER_ALGORITHMS, compare_algorithms
 
     algorithms = _check_algorithms(_names(args.algorithms, (*PAPER_ALGORITHMS, *EXTRA_ALGORITHMS)))
     result = compare_algorithms(train, test, algorithms=algorithms, hidden=_counts(args.hidden, 80, single=True),
@@ -99,8 +99,8 @@ def _algorithms(args, train, test):
 
 
 def _prune(args, train, test):
-    from ..studies.pruning import svd_pruning
-    from ..studies.tables import pruning_table
+    from ..paper.studies.pruning import svd_pruning
+    from ..paper.studies.tables import pruning_table
 
     result = svd_pruning(train, test, hidden=_counts(args.hidden, 80, single=True), encoding=args.encoding,
                          epochs=args.epochs, threshold=args.threshold, rng=args.seed)
@@ -113,7 +113,7 @@ _STUDIES = {"sweep": _sweep, "algorithms": _algorithms, "prune": _prune}
 def run(args):
     from pathlib import Path
 
-    from ..errors import InputError
+    from .._core.errors import InputError
 
     train = read_calibration_from_args(args.train, args)
     test = read_calibration_from_args(args.test, args) if args.test else None
@@ -125,8 +125,8 @@ def run(args):
     table, figures = _STUDIES[args.study](args, train, test)
     print(table.to_text())
     if out is not None:
-        from .._atomic import atomic_file_set
-        from ..plots import detached_figures, save_figure
+        from .._core.atomic import atomic_file_set
+        from ..figures import detached_figures, save_figure
 
         with atomic_file_set(), detached_figures():  # the table and every figure, or none of them
             table.write_csv(out / f"{table.name}.csv")

@@ -35,11 +35,11 @@ import re
 import numpy as np
 
 from .. import runtime
-from .._atomic import write_file_set
+from .._core.atomic import write_file_set
 from .._version import __version__
-from ..errors import InputError
+from .._core.errors import InputError
 from ..models import model_kind
-from ..parameters import check_choice, check_int, invalid
+from .._core.parameters import check_choice, check_int, invalid
 from .compact import check_exportable
 from .compensator import Compensator
 from .table import compile_table
@@ -136,7 +136,7 @@ def write_c(model, directory, **options):
     """Write the files of :func:`export_c` into ``directory`` (created if missing); return their paths.
 
     The header and the source are written as one set (see
-    :func:`encal._atomic.atomic_file_set`): both or neither.
+    :func:`encal._core.atomic.atomic_file_set`): both or neither.
     """
     files = export_c(model, **options)
     return write_file_set(directory, files)

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from ..parameters import check_choice, check_int, check_number, invalid
+from .._core.errors import InputError
+from .._core.parameters import check_choice, check_int, check_number, invalid
 from .compensator import Compensator
 
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",

@@ -4,10 +4,10 @@ import os
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, model_input, wrap360
+from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..models.base import Model, as_angles, direction_mask
 from ..models.modelfile import model_to_dict, read_model
-from ..parameters import check_bool, check_type
+from .._core.parameters import check_bool, check_type
 
 __all__ = ["Compensator"]
 
@@ -59,7 +59,7 @@ class Compensator:
 
     @property
     def reading_sign(self):
-        """1, or -1 when the model negates readings first (see :func:`encal.angles.model_input`)."""
+        """1, or -1 when the model negates readings first (see :func:`encal._core.angles.model_input`)."""
         return self.model.reading_sign
 
     def predict(self, theta_enc_deg, direction=None, return_std=False):

@@ -12,7 +12,7 @@ gives large blocks, corrected with NumPy in one go; a pipe fed one line at a
 time gives one line, whose answer is written and flushed before the next is
 read, so the corrector can sit in a live acquisition chain. A block whose lines
 are all plain decimals (``[+-]digits[.digits]``, the common case), or plain CSV
-rows whose column is, is read by :mod:`encal._decimal_text` in NumPy; any other
+rows whose column is, is read by :mod:`encal._core.decimal_text` in NumPy; any other
 block line by line, the exact reader whose messages name the line and column.
 """
 
@@ -20,11 +20,11 @@ import numbers
 
 import numpy as np
 
-from .. import _csv
-from .._decimal_text import format_fixed, parse_lines
-from ..errors import InputError
+from .._core import csv_dialect as _csv
+from .._core.decimal_text import format_fixed, parse_lines
+from .._core.errors import InputError
 from ..models.base import CHUNK_NUMBERS
-from ..parameters import check_bool, check_type, invalid
+from .._core.parameters import check_bool, check_type, invalid
 
 __all__ = ["correct_stream", "BLOCK_BYTES", "MAX_LINE_BYTES"]
 
@@ -134,7 +134,7 @@ def _format_repr(values):
 class _LineParser:
     """Turns blocks of lines into angles, remembering line numbers and the header.
 
-    Lines are read in encal's one CSV dialect (:mod:`encal._csv`): ``#`` comments, quoted fields,
+    Lines are read in encal's one CSV dialect (:mod:`encal._core.csv_dialect`): ``#`` comments, quoted fields,
     and every row of a CSV table with as many fields as its header.
     """
 
@@ -169,7 +169,7 @@ class _LineParser:
 
         Only for plain rows: no quotes, no comments, CR only before LF, and every row with the header's
         number of fields. The column's fields are copied into a buffer of their own, one per line, for
-        :func:`~encal._decimal_text.parse_lines`.
+        :func:`~encal._core.decimal_text.parse_lines`.
         """
         if b'"' in text or b"#" in text or text.count(b"\r") != text.count(b"\r\n"):
             return None

@@ -31,11 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .._atomic import atomic_write
-from ..angles import ARCMIN_PER_DEG, model_input, wrap360
-from ..errors import InputError, ModelFileError
+from .._core.atomic import atomic_write
+from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
+from .._core.errors import InputError, ModelFileError
 from ..models.base import as_angles
-from ..parameters import check_choice, check_int, check_number, check_type, invalid
+from .._core.parameters import check_choice, check_int, check_number, check_type, invalid
 from .compact import check_exportable
 from .compensator import Compensator
 

@@ -33,11 +33,11 @@ import math
 
 import numpy as np
 
-from .._atomic import write_file_set
-from ..errors import InputError
-from ..parameters import check_choice, check_int, check_number, invalid
+from .._core.atomic import write_file_set
+from .._core.errors import InputError
+from .._core.parameters import check_choice, check_int, check_number, invalid
 from .cexport import _banner, _check_identifier, export_c
-from .choice import COSTS, choose_deployment
+from .deployment import COSTS, choose_deployment
 from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MAX_NODES,
                       MIN_NODES, MIN_TABLE_BITS, NODE_DTYPES, check_exportable, check_nodes, choose_compact,
                       compile_compact, default_tolerance_arcmin, evaluation_bits, model_on_codes)
@@ -79,7 +79,7 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
     cost : {'bytes', 'entries', 'operations'}, optional
         Choose among every deployment of the target (tables and, for a Fourier series,
         the formula) the cheapest in this cost within the tolerance
-        (:func:`encal.deploy.choice.choose_deployment`). Without it, and without
+        (:func:`encal.deploy.deployment.choose_deployment`). Without it, and without
         ``nodes``/``dtype``, the deployment recorded by ``encal fit --budget`` is used
         when there is one for this target, else the smallest table within the tolerance.
     **host_options

@@ -23,11 +23,11 @@ import numbers
 
 import numpy as np
 
-from .._limits import check_size
-from ..errors import CalibrationError, InputError, ModelFileError
-from ..profile import profile_arrays
+from .._core.limits import check_size
+from .._core.errors import CalibrationError, InputError, ModelFileError
+from ..analysis.profile import profile_arrays
 from ..numerics.network import ACTIVATIONS, ENCODINGS, MapMinMax, encode_angles, pack_weights
-from ..parameters import check_choice, check_seed
+from .._core.parameters import check_choice, check_seed
 from .base import Model
 
 __all__ = ["ANNModel", "fit_ann", "DEFAULT_HIDDEN", "DEFAULT_STOPPING"]

@@ -14,9 +14,9 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, model_input, wrap360
-from ..errors import InputError
-from ..parameters import invalid
+from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
+from .._core.errors import InputError
+from .._core.parameters import invalid
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
@@ -92,11 +92,11 @@ class Model(ABC):
     training : dict
         How the model was made (method, algorithm, options, seed, data hash, ...).
     uncertainty : dict or None
-        Prediction uncertainty as JSON-ready data (see :mod:`encal.uncertainty`), or ``None`` when the
+        Prediction uncertainty as JSON-ready data (see :mod:`encal.models.uncertainty`), or ``None`` when the
         model has none. The model file stores it as its ``uncertainty`` field.
     reading_sign : {1, -1}
         -1 when the encoder counts against its reference (the calibration was read with ``reverse=True``):
-        the model is then evaluated at ``-theta_enc`` (see :func:`encal.angles.model_input`) and the
+        the model is then evaluated at ``-theta_enc`` (see :func:`encal._core.angles.model_input`) and the
         corrected angle is in the reference's sense. Set by :func:`encal.fit`; stored in the model file.
     """
 
@@ -144,7 +144,7 @@ class Model(ABC):
             them: a model with ``reading_sign=-1`` negates them first.
         return_std : bool, default=False
             Also return the standard uncertainty of a new reading's residual
-            (needs :attr:`uncertainty`, see :func:`encal.uncertainty.add_uncertainty`).
+            (needs :attr:`uncertainty`, see :func:`encal.models.uncertainty.add_uncertainty`).
         direction : {+1, -1} or array-like of them, optional
             Direction of travel into each reading (broadcast against ``theta_enc_deg``), ``None`` when not
             known. A model of one profile has the same error both ways: it checks the values and ignores
@@ -217,14 +217,14 @@ class Model(ABC):
 
     def _repr_html_(self):
         """Rich display in a notebook: the text table and the figure."""
-        from ..plots import html_repr
+        from ..figures import html_repr
 
         return html_repr(self)
 
     def plot(self, ax=None, *, data=None, title=None):
         """The predicted error (arcmin) against the encoder angle (deg), with its uncertainty band when the
         model has one and the calibration points ``data = (theta_deg, error_arcmin)`` if given; returns the axes."""
-        from ..plots import plot_model
+        from ..figures import plot_model
 
         return plot_model(self, data=data, ax=ax, title=title)
 

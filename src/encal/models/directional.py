@@ -8,8 +8,8 @@ direction is not known. Fit one with :func:`encal.fit` from a calibration with a
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, model_input, wrap360
-from ..errors import InputError, ModelFileError
+from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
+from .._core.errors import InputError, ModelFileError
 from .base import Model, as_angles, direction_mask
 from .kind import model_kind
 from .stored_uncertainty import check_uncertainty

@@ -8,10 +8,10 @@ many of them to keep by cross-validation (``select='cv'``).
 
 import numpy as np
 
-from ..errors import InputError, ModelFileError
+from .._core.errors import InputError, ModelFileError
 from ..numerics.harmonic_series import HarmonicSeries
-from ..parameters import check_int
-from ..profile import (
+from .._core.parameters import check_int
+from ..analysis.profile import (
     distinct_angles,
     fit_harmonic_series,
     identifiable_order,
@@ -143,7 +143,7 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
         that is given) that the angles identify together. None may exceed
         the highest order ``m`` distinct angles determine, ``m // 2`` on a
         regular grid and ``(m - 1) // 2`` otherwise (see
-        :func:`~encal.profile.identifiable_order`): above it an order aliases
+        :func:`~encal.analysis.profile.identifiable_order`): above it an order aliases
         a lower one, and a fit that is exact at the points is wrong between
         them. When given, ``select`` and ``n_orders`` are not used.
     n_orders : int, default=10
@@ -160,7 +160,7 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
           :func:`cross_validate_order_count`).
     max_order : int, optional
         Highest order ranked by ``select``; default and upper limit
-        :func:`~encal.profile.identifiable_order` of the angles (the Nyquist
+        :func:`~encal.analysis.profile.identifiable_order` of the angles (the Nyquist
         order on a uniform grid).
     folds : int, default=5
         Number of cross-validation folds for ``select='cv'``.
@@ -174,7 +174,7 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
         go up to that order even when the angles are a subset of the grid
         with gaps, such as a cross-validation fold's training part; an order
         set that the occupied nodes cannot identify is refused (``orders``)
-        or avoided (``select``; see :func:`~encal.profile.rank_orders`).
+        or avoided (``select``; see :func:`~encal.analysis.profile.rank_orders`).
         ``fit_auto`` passes it for a calibration on a uniform grid. Between
         the nodes a Nyquist term interpolates a ``cos(N/2 · θ)`` wave: right
         when the per-step pattern it fits is real at the angles the model
@@ -250,7 +250,7 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     """Cross-validated RMS error of keeping the ``c`` largest harmonics, for every ``c``.
 
     The orders are ranked as :func:`fit_fourier` ranks them (the paper's
-    ranking by amplitude, :func:`~encal.profile.rank_orders`); cross-validation
+    ranking by amplitude, :func:`~encal.analysis.profile.rank_orders`); cross-validation
     chooses how many of them to keep. The distinct encoder angles, sorted
     around the circle, are dealt to the folds in turn (0, 1, ..., folds-1,
     0, 1, ...), so every fold is spread evenly over the circle and the other
@@ -259,7 +259,7 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     with the terms of the whole grid (a Nyquist order keeps its single term),
     and predict the held-out errors; an order that a fold's training angles
     cannot identify together with the orders before it is left out of that
-    fold's fits (see :func:`~encal.profile.nested_harmonic_predictions`). One
+    fold's fits (see :func:`~encal.analysis.profile.nested_harmonic_predictions`). One
     QR per fold gives every count: O(n p²) for ``p`` terms.
 
     Counts are tried up to 64 orders first, and the range is doubled only
@@ -287,7 +287,7 @@ def cross_validate_order_count(theta_enc_deg, error_arcmin, *, folds=5, max_orde
     folds : int, default=5
         Number of folds, 2 to the number of distinct angles.
     max_order : int, optional
-        Highest order ranked; default :func:`~encal.profile.identifiable_order`,
+        Highest order ranked; default :func:`~encal.analysis.profile.identifiable_order`,
         or ``grid_points // 2``.
     grid_points : int, optional
         The angles lie on a uniform grid of so many points (see :func:`fit_fourier`).

@@ -18,9 +18,9 @@ import numbers
 
 import numpy as np
 
-from ..errors import ModelFileError
-from ..parameters import check_int, invalid
-from ..profile import profile_arrays
+from .._core.errors import ModelFileError
+from .._core.parameters import check_int, invalid
+from ..analysis.profile import profile_arrays
 from .ann import ANNModel, fit_ann
 from .base import Model
 from .fourier import FourierModel, fit_fourier

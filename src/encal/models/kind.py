@@ -18,7 +18,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Callable
 
-from ..errors import InputError
+from .._core.errors import InputError
 
 __all__ = ["ModelKind", "REGISTERED", "register_kind", "model_kind", "kind_names"]
 

@@ -9,9 +9,9 @@ so the model file alone evaluates it.
 
 import numpy as np
 
-from ..errors import InputError, ModelFileError
-from ..parameters import check_choice
-from ..profile import distinct_angles, profile_arrays
+from .._core.errors import InputError, ModelFileError
+from .._core.parameters import check_choice
+from ..analysis.profile import distinct_angles, profile_arrays
 from .base import Model
 
 __all__ = ["LookupTableModel", "fit_lut"]

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from .. import runtime
-from .._atomic import atomic_write
-from .._environment import source_date_epoch
+from .._core.atomic import atomic_write
+from .._core.environment import source_date_epoch
 from .._version import __version__
-from ..errors import InputError, ModelFileError
+from .._core.errors import InputError, ModelFileError
 from .kind import kind_names, model_kind
 
 __all__ = ["save_model", "load_model", "read_model", "model_to_dict", "model_from_dict", "dumps",

@@ -33,7 +33,7 @@ KINDS = (
     ModelKind("stack", "StackModel", "fit_stack", module="encal.models.stack", randomised=True, simplicity=90,
               directional_part=True),
     ModelKind("directional", "DirectionalModel", None, module="encal.models.directional"),
-    ModelKind("auto", None, "fit_auto", module="encal.models.choice", randomised=True),
+    ModelKind("auto", None, "fit_auto", module="encal.models.auto", randomised=True),
 )
 
 for _kind in KINDS:

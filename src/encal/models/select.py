@@ -41,9 +41,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import EncalError, EncalWarning, InputError
-from ..parameters import check_bool, check_int, check_number, check_seed
-from ..profile import distinct_angles, profile_arrays, uniform_grid
+from .._core.errors import EncalError, EncalWarning, InputError
+from .._core.parameters import check_bool, check_int, check_number, check_seed
+from ..analysis.profile import distinct_angles, profile_arrays, uniform_grid
 from .kind import kind_names, model_kind
 from .validation import held_out_predictions, interleaved_folds
 
@@ -240,7 +240,7 @@ def cross_validate(theta_deg, error_arcmin, candidate, fold, *, seeds, grid_poin
         One per fold, for the randomised families.
     grid_points : int, optional
         The calibration lies on a uniform grid of so many points per revolution
-        (:func:`~encal.profile.uniform_grid`): the Fourier fold fits may use orders up
+        (:func:`~encal.analysis.profile.uniform_grid`): the Fourier fold fits may use orders up
         to its Nyquist order although each fold's training part has gaps.
 
     Returns

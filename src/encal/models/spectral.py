@@ -23,11 +23,11 @@ import time
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, model_input, resolution_of_readings, wrap360
-from ..errors import InputError
-from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays, uniform_grid
+from .._core.angles import ARCMIN_PER_DEG, model_input, resolution_of_readings, wrap360
+from .._core.errors import InputError
+from ..analysis.profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays, uniform_grid
 from . import _evidence
-from ._trigsums import SeriesEvaluator, trig_moments
+from ..numerics.trigsums import SeriesEvaluator, trig_moments
 from .fourier import MAX_ORDER, FourierModel
 
 __all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
@@ -373,7 +373,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         general path (for checks); ``'fft'`` refuses data it does not apply to.
     progress : callable, optional
         Called with no argument after each of the fit's 3 stages (the design, the hyperparameters,
-        the posterior), for a progress bar (:class:`encal._progress.Progress` ``.advance``).
+        the posterior), for a progress bar (:class:`encal._core.progress.Progress` ``.advance``).
 
     Returns
     -------
@@ -598,7 +598,7 @@ def _quantisation_orders(bits, grid, theta):
     Parameters
     ----------
     bits : int or None
-        Resolution the readings show (:func:`encal.angles.resolution_of_readings`).
+        Resolution the readings show (:func:`encal._core.angles.resolution_of_readings`).
     grid : ndarray or None
         Nodes of the regular grid of the stops (degrees), None off a regular grid.
     theta : ndarray

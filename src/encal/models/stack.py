@@ -20,9 +20,9 @@ import math
 
 import numpy as np
 
-from ..errors import InputError, ModelFileError
-from ..parameters import check_seed
-from ..profile import profile_arrays
+from .._core.errors import InputError, ModelFileError
+from .._core.parameters import check_seed
+from ..analysis.profile import profile_arrays
 from .base import Model
 from .kind import kind_names, model_kind
 

@@ -7,15 +7,15 @@ A model may carry :attr:`~encal.models.base.Model.uncertainty`, JSON data that t
 
 ``σ_model`` between grid angles is the periodic linear interpolation of the table, and the predictive
 standard uncertainty of a new reading's residual is ``sqrt(σ_model(θ)² + σ_noise²)``. Estimating it
-(refitting the model) is :mod:`encal.uncertainty`'s job; this module only reads it.
+(refitting the model) is :mod:`encal.models.uncertainty`'s job; this module only reads it.
 """
 
 import math
 
 import numpy as np
 
-from ..angles import wrap360
-from ..errors import InputError, ModelFileError
+from .._core.angles import wrap360
+from .._core.errors import InputError, ModelFileError
 
 __all__ = ["check_uncertainty", "predictive_std", "grid_size"]
 
@@ -101,7 +101,7 @@ def predictive_std(uncertainty, theta_enc_deg):
     """
     if uncertainty is None:
         raise InputError("return_std=True needs a model with an uncertainty; this model has none "
-                         "(add one with encal.uncertainty.add_uncertainty or fit(..., uncertainty=True))")
+                         "(add one with encal.models.uncertainty.add_uncertainty or fit(..., uncertainty=True))")
     uncertainty = check_uncertainty(uncertainty)
     theta = np.asarray(theta_enc_deg, dtype=float)
     step = float(uncertainty["grid_step_deg"])

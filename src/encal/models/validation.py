@@ -2,15 +2,15 @@
 
 The automatic choice of a model family (:func:`encal.models.select.fit_auto`), the number of Fourier
 orders of ``fit_fourier(select='cv')`` and the noise of an uncertainty estimate
-(:mod:`encal.uncertainty`) all ask the same question: how well does a fit predict calibration points it
+(:mod:`encal.models.uncertainty`) all ask the same question: how well does a fit predict calibration points it
 did not see? They deal the points into the same folds (:func:`interleaved_folds`) and run the same loop
 (:func:`held_out_predictions`); only what they fit differs.
 """
 
 import numpy as np
 
-from ..angles import wrap360
-from ..profile import distinct_angles
+from .._core.angles import wrap360
+from ..analysis.profile import distinct_angles
 
 __all__ = ["interleaved_folds", "held_out_predictions"]
 

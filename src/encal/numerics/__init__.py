@@ -1,2 +1,2 @@
-"""Numerical building blocks below the models: the network's forward pass, the Fourier series, the
-periodic smoothing spline."""
+"""Numerical building blocks below the models: trigonometric sums at arbitrary angles (a non-uniform
+FFT), the Fourier series, the network's forward pass, the periodic smoothing spline."""

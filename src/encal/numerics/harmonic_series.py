@@ -22,7 +22,7 @@ against an extended precision reference for orders up to the model file's larges
 forms.
 
 A series of many orders costs less still by the spectral model's evaluator
-(:class:`encal._trigsums.SeriesEvaluator`): the series and its derivatives tabulated once on a fine grid
+(:class:`encal.numerics.trigsums.SeriesEvaluator`): the series and its derivatives tabulated once on a fine grid
 of angles, each angle then a Taylor expansion about its nearest node (a few lookups, whatever the number of
 orders). :class:`HarmonicSeries` chooses among the direct form, the chain and these tables by their
 measured costs; the tables are used only while they are small (orders up to about 5,000).
@@ -35,7 +35,7 @@ since its vectorised loops fuse a multiplication and an addition and its scalar 
 
 import numpy as np
 
-from .._trigsums import SeriesEvaluator
+from .trigsums import SeriesEvaluator
 
 __all__ = ["HarmonicSeries", "plan_products"]
 
@@ -48,7 +48,7 @@ TERM_COST = 0.06
 #: Each order of the direct form beyond the first: its ``cos`` and ``sin`` and the phase, products and row sum
 #: around them (45-50 ns; a single order alone costs one pair, its row sum being no sum).
 DIRECT_ORDER_COST = 2.0
-#: The spectral model's evaluator (:class:`encal._trigsums.SeriesEvaluator`: a Taylor expansion about the
+#: The spectral model's evaluator (:class:`encal.numerics.trigsums.SeriesEvaluator`: a Taylor expansion about the
 #: nodes of a fine grid, whose tables hold the series' derivatives), whatever the orders: 42-48 ns (chunks of
 #: 8,192 and 3,548 angles) while its tables stay in cache.
 TAYLOR_COST = 2.1

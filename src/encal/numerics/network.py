@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from .._core.errors import InputError
 
 __all__ = [
     "ENCODINGS",

@@ -2,14 +2,14 @@
 
 The paper draws a "smoothened spline" through its error profiles and residuals; encal's is the periodic
 cubic smoothing spline of Wahba (1975), its smoothing chosen by generalised cross-validation. The figures
-(:mod:`encal.plots`) draw it; this module computes it.
+(:mod:`encal.figures`) draw it; this module computes it.
 """
 
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from .._core.errors import InputError
 
 __all__ = ["PeriodicSpline", "periodic_smoothing_spline"]
 

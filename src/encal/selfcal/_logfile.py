@@ -4,8 +4,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _csv
-from ..errors import InputError
+from .._core import csv_dialect as _csv
+from .._core.errors import InputError
 
 __all__ = ["read_columns"]
 
@@ -16,7 +16,7 @@ def _fail(path, line, message, column=None):
 
 
 def _fields(path, number, line, lower=False):
-    """The fields of a line in encal's CSV dialect (:mod:`encal._csv`)."""
+    """The fields of a line in encal's CSV dialect (:mod:`encal._core.csv_dialect`)."""
     try:
         cells = _csv.fields(line)
     except _csv.QuotingError as exc:

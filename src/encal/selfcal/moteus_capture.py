@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from .._core.errors import InputError
 
 __all__ = ["MoteusCapture", "read_moteus_capture", "write_moteus_capture", "UP_CODES", "DOWN_CODES"]
 
@@ -137,7 +137,7 @@ def write_moteus_capture(path, direction, phase, encoder):
     direction, phase, encoder : array-like of int
         As in :class:`MoteusCapture`.
     """
-    from .._atomic import atomic_open
+    from .._core.atomic import atomic_open
 
     with atomic_open(path, "w", newline="\n") as handle:
         handle.write("CAL start\n")

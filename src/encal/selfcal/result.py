@@ -4,8 +4,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG
-from ..calibration import Calibration
+from .._core.angles import ARCMIN_PER_DEG
+from ..data.calibration import Calibration
 
 __all__ = ["SelfCalibration"]
 
@@ -54,7 +54,7 @@ class SelfCalibration:
         return np.arange(points) * (360.0 / points)
 
     def calibration(self, points=DEFAULT_POINTS):
-        """The recovered error as a :class:`~encal.calibration.Calibration` on a uniform grid of readings.
+        """The recovered error as a :class:`~encal.data.calibration.Calibration` on a uniform grid of readings.
 
         ``reference_deg = encoder_deg - error/60``, so a model fitted to it (``encal fit``) predicts the
         recovered error; its zero offset is zero.
@@ -69,7 +69,7 @@ class SelfCalibration:
 
         The comment lines say the method, the orders left out and what could not be separated.
         """
-        from ..calibration import write_calibration
+        from ..data.calibration import write_calibration
 
         cal = self.calibration(points)
         if resolution_bits is not None:

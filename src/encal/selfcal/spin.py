@@ -15,13 +15,13 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import BSpline
 
-from ..angles import ARCMIN_PER_DEG
-from ..errors import InputError
-from ..parameters import check_int, check_number
-from .._limits import check_size
+from .._core.angles import ARCMIN_PER_DEG
+from .._core.errors import InputError
+from .._core.parameters import check_int, check_number
+from .._core.limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
-from .._threads import single_blas_thread
+from .._core.threads import single_blas_thread
 
 __all__ = ["SpinLog", "spin", "motor_ripple_orders"]
 

@@ -42,7 +42,7 @@ def read_spin_log(path):
 
 def write_spin_log(path, logs):
     """Write spin logs as one CSV (atomically), each with its ``run`` label (1, 2, ...)."""
-    from .._atomic import atomic_open
+    from .._core.atomic import atomic_open
 
     with atomic_open(path, "w", newline="\n") as handle:
         handle.write("time_s,encoder_deg,run\n")

@@ -18,13 +18,13 @@ once the steps are paired (the same start, or a known shift between the starts; 
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, wrap180
-from ..errors import InputError
-from ..parameters import check_int, check_number
-from ..profile import distinct_angles
+from .._core.angles import ARCMIN_PER_DEG, wrap180
+from .._core.errors import InputError
+from .._core.parameters import check_int, check_number
+from ..analysis.profile import distinct_angles
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
-from .._threads import single_blas_thread
+from .._core.threads import single_blas_thread
 
 __all__ = ["steps", "step_errors"]
 

@@ -15,13 +15,13 @@ reading, where the encoder's is. See docs/self-calibration.md.
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG
-from ..errors import InputError
-from ..parameters import check_int
-from .._limits import check_size
+from .._core.angles import ARCMIN_PER_DEG
+from .._core.errors import InputError
+from .._core.parameters import check_int
+from .._core.limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
-from .._threads import single_blas_thread
+from .._core.threads import single_blas_thread
 
 __all__ = ["sweep", "sweep_capture", "check_sweep_travel"]
 

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._logfile import read_columns
 
 __all__ = ["SweepLog", "read_sweep_log"]

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._parameters import (
     DecoderParameters,
     MountParameters,

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._encoder import SimulatedEncoder, draw_encoder
 from ._run import TEST_GRID_DEG, TRAINING_GRID_DEG, SimulatedRun, calibration_run
 

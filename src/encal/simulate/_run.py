@@ -4,9 +4,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..angles import ARCMIN_PER_DEG, wrap180, wrap360
-from ..calibration import Calibration
-from ..errors import InputError
+from .._core.angles import ARCMIN_PER_DEG, wrap180, wrap360
+from ..data.calibration import Calibration
+from .._core.errors import InputError
 from ._parameters import LSB_RAD, RESOLUTION_BITS
 from ._signal import approach_directions, converter_angle, hysteresis_codes
 

@@ -1,6 +1,6 @@
 """Harmonic amplitudes of a profile sampled on a uniform grid (the spec's convention).
 
-The general least-squares analysis for any angle list is ``encal.profile``;
+The general least-squares analysis for any angle list is ``encal.analysis.profile``;
 this is the FFT shortcut the simulator's own checks use.
 """
 

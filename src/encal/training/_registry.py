@@ -6,8 +6,8 @@ import warnings
 
 import numpy as np
 
-from ..errors import InputError, TrainingLimitWarning
-from ..parameters import check_int, check_number
+from .._core.errors import InputError, TrainingLimitWarning
+from .._core.parameters import check_int, check_number
 from ._monitor import Monitor
 from ._result import TrainResult
 
@@ -20,7 +20,7 @@ ALGORITHMS = {}
 STOPPING_PARAMETERS = ("epochs", "goal", "min_grad", "max_fail", "time", "plateau_patience", "plateau_tol")
 
 #: "Still improving" when the plateau rule is off: the paper's rule, the RMS error fell by at least 1 % over
-#: the last 20 epochs (:class:`~encal.errors.TrainingLimitWarning`).
+#: the last 20 epochs (:class:`~encal._core.errors.TrainingLimitWarning`).
 IMPROVING_WINDOW, IMPROVING_FALL = 20, 0.01
 
 
@@ -147,7 +147,7 @@ def train(problem, algorithm="trainlm", *, x0, validation=None, callback=None, *
 
 
 def _checked_stopping(stopping):
-    """The stopping parameters after checking each (:mod:`encal.parameters`'s one template)."""
+    """The stopping parameters after checking each (:mod:`encal._core.parameters`'s one template)."""
     checked = dict(stopping)
     checked["epochs"] = check_int(stopping["epochs"], "epochs", "train", low=0)
     checked["goal"] = check_number(stopping["goal"], "goal", "train", low=0.0, note="a mean squared error")
@@ -164,7 +164,7 @@ def _checked_stopping(stopping):
 
 
 def _warn_if_cut_short(monitor, algorithm, epochs_given):
-    """Warn (:class:`~encal.errors.TrainingLimitWarning`) when a limit, not a criterion, ended a run that was
+    """Warn (:class:`~encal._core.errors.TrainingLimitWarning`) when a limit, not a criterion, ended a run that was
     still improving: the default epoch limit, or the time limit (whatever the error did)."""
     if monitor.reason == "time":
         window = monitor.plateau_patience or IMPROVING_WINDOW

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import line_search as _scipy_strong_wolfe
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._trial import trial_mse_and_gradient
 from .trainlm import check_option
 

@@ -10,7 +10,7 @@ analytic Jacobian. Its names of :mod:`encal.numerics.network` are that module's.
 import numpy as np
 from scipy.linalg.blas import dsyrk
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ..numerics.network import (
     ACTIVATIONS,
     ACTIVE_HALF_WIDTH,

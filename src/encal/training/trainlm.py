@@ -29,7 +29,7 @@ import numpy as np
 from scipy.linalg.blas import dsyrk
 from scipy.linalg.lapack import dpotrf, dpotrs
 
-from ..errors import InputError
+from .._core.errors import InputError
 from ._registry import register_algorithm
 
 __all__ = ["trainlm", "DampedGaussNewton", "MU_FLOOR"]

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import InputError
+from ..._core.errors import InputError
 from ...models.lut import LookupTableModel
-from ...parameters import check_int
+from ..._core.parameters import check_int
 from ..compact import _least_squares_nodes, evaluation_bits, model_on_codes
 from ..compensator import Compensator
 

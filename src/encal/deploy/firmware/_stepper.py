@@ -10,8 +10,8 @@ of a full step at driver phase 0.
 
 import numpy as np
 
-from ...errors import InputError
-from ...parameters import check_number
+from ..._core.errors import InputError
+from ..._core.parameters import check_number
 
 __all__ = ["check_step_zero", "check_full_steps"]
 
@@ -29,7 +29,7 @@ def check_step_zero(step_zero_deg, firmware, caller):
 
 def check_full_steps(full_steps, caller):
     """Full steps per turn: an int from 8 to 4096 and a multiple of 4 (a two-phase stepper's electrical cycle)."""
-    from ...parameters import check_int, invalid
+    from ..._core.parameters import check_int, invalid
 
     full_steps = check_int(full_steps, "full_steps", caller, low=8, high=4096, note="full steps per turn")
     if full_steps % 4:

@@ -24,9 +24,9 @@ import re
 
 import numpy as np
 
-from ...angles import wrap180
-from ...calibration import Calibration
-from ...errors import InputError
+from ..._core.angles import wrap180
+from ...data.calibration import Calibration
+from ..._core.errors import InputError
 from ._common import FirmwareExport, checked, compensator, correction_on_codes, grid_bits, read_text, round_trip
 from ._stepper import check_full_steps, check_step_zero, wrap_period
 

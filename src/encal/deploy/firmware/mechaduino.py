@@ -20,10 +20,10 @@ thousandth of a degree.
 
 import numpy as np
 
-from ...angles import wrap180
-from ...calibration import Calibration
-from ...errors import InputError
-from ...parameters import invalid
+from ..._core.angles import wrap180
+from ...data.calibration import Calibration
+from ..._core.errors import InputError
+from ..._core.parameters import invalid
 from ._common import FirmwareExport, checked, compensator, correction_on_codes, read_c_array, read_text, round_trip
 from ._stepper import check_step_zero
 

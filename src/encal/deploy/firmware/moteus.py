@@ -41,12 +41,12 @@ import re
 
 import numpy as np
 
-from ...calibration import Calibration
-from ...errors import CalibrationError, InputError
+from ...data.calibration import Calibration
+from ..._core.errors import CalibrationError, InputError
 from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
 from ...selfcal.sweep import DEFAULT_SKIP, check_sweep_travel
-from ..._limits import check_size
-from ...parameters import check_choice, check_int, check_number
+from ..._core.limits import check_size
+from ..._core.parameters import check_choice, check_int, check_number
 from ..compact import _least_squares_nodes, evaluation_bits
 from ._common import FirmwareExport, checked, compensator, correction_model, read_text, round_trip
 

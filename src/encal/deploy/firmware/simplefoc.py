@@ -30,8 +30,8 @@ import numpy as np
 from scipy import sparse
 from scipy.sparse.linalg import spsolve
 
-from ...errors import InputError
-from ...parameters import check_int
+from ..._core.errors import InputError
+from ..._core.parameters import check_int
 from ._common import (FirmwareExport, checked, compensator, correction_model, correction_on_codes, grid_bits,
                       read_c_array, read_text, round_trip)
 

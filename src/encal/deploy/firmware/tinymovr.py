@@ -15,8 +15,8 @@ loads the table: it is compiled in, element by element.
 
 import numpy as np
 
-from ...errors import InputError
-from ...parameters import check_int
+from ..._core.errors import InputError
+from ..._core.parameters import check_int
 from ..compact import evaluation_bits
 from ._common import FirmwareExport, checked, compensator, correction_model, correction_nodes, read_c_array, round_trip
 

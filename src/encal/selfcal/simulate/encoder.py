@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...angles import ARCMIN_PER_DEG, wrap180, wrap360
+from ..._core.angles import ARCMIN_PER_DEG, wrap180, wrap360
 
 __all__ = ["MagneticEncoder", "draw_magnetic_encoder"]
 

@@ -14,7 +14,7 @@ from math import lcm
 
 import numpy as np
 
-from ...angles import wrap360
+from ..._core.angles import wrap360
 
 __all__ = ["Motor", "make_motor", "SpinRun", "simulate_spin", "SweepCapture", "simulate_sweep"]
 

@@ -4,8 +4,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...angles import ARCMIN_PER_DEG
-from ...calibration import Calibration
+from ..._core.angles import ARCMIN_PER_DEG
+from ...data.calibration import Calibration
 
 __all__ = ["Stepper", "draw_stepper", "StepperCalibration", "simulate_steps"]
 

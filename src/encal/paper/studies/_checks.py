@@ -1,14 +1,14 @@
-"""Checking the options every study takes, with encal's one message template (:mod:`encal.parameters`)."""
+"""Checking the options every study takes, with encal's one message template (:mod:`encal._core.parameters`)."""
 
 import numbers
 
 import numpy as np
 
-from .._limits import SIZE_LIMITS, check_size
-from ..calibration import Calibration
-from ..numerics.network import ENCODINGS
-from ..parameters import check_choice, check_int, check_type, invalid
-from ..training import ALGORITHMS
+from ..._core.limits import SIZE_LIMITS, check_size
+from ...data.calibration import Calibration
+from ...numerics.network import ENCODINGS
+from ..._core.parameters import check_choice, check_int, check_type, invalid
+from ...training import ALGORITHMS
 
 __all__ = ["check_algorithms", "check_calibration", "check_counts", "check_encoding", "check_epochs",
            "check_seed"]

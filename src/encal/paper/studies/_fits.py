@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from ..training.network import ACTIVATIONS, NetworkProblem, encode_angles
+from ...training.network import ACTIVATIONS, NetworkProblem, encode_angles
 
 __all__ = ["task_seed", "fit_network", "training_mse_arcmin2", "mse_history_arcmin2", "hidden_layer",
            "held_out_problem", "train_once"]
@@ -30,7 +30,7 @@ def task_seed(base_seed, *key):
 def fit_network(theta_deg, error_arcmin, *, hidden, algorithm="trainlm", encoding="raw", seed=0,
                 **train_options):
     """A 1:N:1 network fitted with :func:`encal.models.ann.fit_ann` (MATLAB defaults otherwise)."""
-    from ..models.ann import fit_ann
+    from ...models.ann import fit_ann
 
     return fit_ann(theta_deg, error_arcmin, hidden=int(hidden), algorithm=algorithm, encoding=encoding,
                    rng=seed, **train_options)

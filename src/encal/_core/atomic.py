@@ -18,7 +18,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from ._signals import held
+from .signals import held
 from .errors import InputError
 
 __all__ = ["atomic_write", "atomic_open", "atomic_file_set", "write_file_set", "staged_path", "check_name_length"]

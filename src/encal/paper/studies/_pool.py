@@ -28,8 +28,8 @@ import os
 import threading
 import time
 
-from .._progress import Progress
-from .._limits import check_size
+from ..._core.progress import Progress
+from ..._core.limits import check_size
 
 __all__ = ["MAX_WORKERS", "default_workers", "Workers", "run_tasks"]
 

@@ -1,0 +1,860 @@
+"""Calibration data: encoder readings against a reference, and its CSV form."""
+
+import re
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._core import csv_dialect as _csv
+from .._core.csv_numbers import plain_rows
+from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
+from .._core.errors import CalibrationError, EncalWarning
+from .._core.parameters import check_bool, check_choice, check_int, check_type, invalid
+
+__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution",
+           "is_repeated_stops"]
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """One calibration run of one encoder.
+
+    Parameters
+    ----------
+    reference_deg : array-like of shape (n,)
+        Reference (true) angles in degrees; wrapped to [0, 360).
+    encoder_deg : array-like of shape (n,)
+        Encoder readings in degrees; wrapped to [0, 360).
+    direction : array-like of shape (n,) of {+1, -1}, optional
+        Direction of travel at each point, for bidirectional runs.
+    epoch : array-like of shape (n,) of str, optional
+        Label of the calibration run each point belongs to.
+    name : str, default=''
+        Encoder name.
+    resolution_bits : int, optional
+        Encoder resolution in bits, if known.
+    source : str, optional
+        File the calibration was read from.
+    metadata : dict, optional
+        Anything else known about the run.
+    reading_sign : {1, -1}, default=1
+        -1 when the encoder counts against the reference: ``encoder_deg`` then holds the negated readings
+        (see ``reverse`` of :func:`read_calibration`), and models fitted to it record it.
+    """
+
+    reference_deg: np.ndarray
+    encoder_deg: np.ndarray
+    direction: np.ndarray | None = None
+    epoch: np.ndarray | None = None
+    name: str = ""
+    resolution_bits: int | None = None
+    source: str | None = None
+    metadata: dict = field(default_factory=dict)
+    reading_sign: int = 1
+
+    def __post_init__(self):
+        ref = np.asarray(self.reference_deg, dtype=float).reshape(-1)
+        enc = np.asarray(self.encoder_deg, dtype=float).reshape(-1)
+        if ref.shape != enc.shape:
+            raise CalibrationError(
+                f"reference_deg has {ref.size} values but encoder_deg has {enc.size}; "
+                "expected one reading per reference angle"
+            )
+        if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(enc))):
+            raise CalibrationError("calibration angles must be finite numbers (found NaN or infinity)")
+        if self.resolution_bits is not None:
+            object.__setattr__(self, "resolution_bits", check_int(
+                self.resolution_bits, "resolution_bits", "Calibration", low=1, high=MAX_BITS,
+                note="or None when unknown", error=CalibrationError))
+        if self.reading_sign not in READING_SIGNS or isinstance(self.reading_sign, bool):
+            raise invalid("reading_sign", "Calibration", "1 or -1", self.reading_sign, error=CalibrationError)
+        object.__setattr__(self, "reference_deg", wrap360(ref).reshape(-1))
+        object.__setattr__(self, "encoder_deg", wrap360(enc).reshape(-1))
+        if self.direction is not None:
+            direction = np.asarray(self.direction, dtype=np.int8).reshape(-1)
+            if direction.shape != ref.shape or not np.all(np.isin(direction, (-1, 1))):
+                raise CalibrationError("direction must hold +1 or -1 for every point")
+            object.__setattr__(self, "direction", direction)
+        if self.epoch is not None:
+            epoch = np.asarray(self.epoch, dtype=str).reshape(-1)
+            if epoch.shape != ref.shape:
+                raise CalibrationError("epoch must hold one label for every point")
+            object.__setattr__(self, "epoch", epoch)
+
+    def __len__(self):
+        return self.reference_deg.size
+
+    @property
+    def errors_arcmin(self):
+        """Error ``encoder - reference`` of every point, in arc-minutes.
+
+        Each difference is wrapped to within 180 degrees of the differences' circular mean. For the usual
+        small errors that is the (-180, 180] degree convention of DESIGN.md; for a calibration whose zero
+        offset is near 180 degrees it keeps the profile continuous instead of splitting it into values near
+        +10800 and -10800 arcmin.
+        """
+        difference = np.radians(self.encoder_deg - self.reference_deg)
+        centre = np.degrees(np.arctan2(np.sin(difference).mean(), np.cos(difference).mean()))
+        if abs(centre) < 90.0:
+            centre = 0.0  # the common case: plain (-180, 180] wrapping
+        delta = wrap180(self.encoder_deg - self.reference_deg - centre)
+        return (centre + delta) * ARCMIN_PER_DEG
+
+    @property
+    def readings_deg(self):
+        """The encoder readings as the encoder gave them, in degrees in [0, 360) (``encoder_deg`` un-negated)."""
+        return model_input(self.encoder_deg, self.reading_sign)
+
+    def subset(self, index):
+        """A calibration holding only the points selected by ``index`` (mask or indices)."""
+        pick = lambda a: None if a is None else a[index]  # noqa: E731
+        return Calibration(
+            self.reference_deg[index],
+            self.encoder_deg[index],
+            direction=pick(self.direction),
+            epoch=pick(self.epoch),
+            name=self.name,
+            resolution_bits=self.resolution_bits,
+            source=self.source,
+            metadata=dict(self.metadata),
+            reading_sign=self.reading_sign,
+        )
+
+
+# --------------------------------------------------------------------------- CSV
+
+_REQUIRED = ("reference_deg", "encoder_deg")
+_DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
+MIN_POINTS = 8
+MAX_GAP_DEG = 30.0
+#: Encoder resolutions a calibration may declare, in bits.
+MAX_BITS = 32
+#: Largest |angle| read from a file, in degrees (2.8 million turns): up to it a double keeps the angle to
+#: better than 1e-5 arcmin after wrapping to [0, 360); far beyond it the column is not angles in degrees.
+MAX_ABS_DEG = 1e9
+#: Largest backward travel of the encoder, in degrees, while the reference moves forward, taken for
+#: reading noise (see :func:`check_folds`).
+MAX_FOLD_DEG = 0.5
+#: Largest calibration file read, in bytes (a million rows take about 40 MB): beyond it the input is not a
+#: calibration (``/dev/zero``, an endless pipe) and reading on would exhaust the memory.
+MAX_FILE_BYTES = 1 << 30
+_READ_CHUNK = 1 << 20
+#: Lines the careful (line-by-line) reader reads between two calls of ``progress``.
+_PROGRESS_LINES = 50_000
+_LINE_END_BYTES = re.compile(rb"\r\n|\r|\n")
+#: What :func:`read_calibration` may do with conflicting repeated reference angles.
+DUPLICATES = ("refuse", "average", "keep")
+
+
+def _fail(path, line, message, column=None):
+    where = f"{path}, line {line}" + (f", column {column}" if column is not None else "")
+    raise CalibrationError(f"{where}: {message}")
+
+
+def _read_bytes(path):
+    """The file's bytes, read in chunks: a binary or endless input is refused at its first NUL byte or at
+    :data:`MAX_FILE_BYTES`, not after it has filled the memory."""
+    chunks, size = [], 0
+    with open(path, "rb") as handle:
+        while chunk := handle.read(_READ_CHUNK):
+            if b"\x00" in chunk:
+                before = b"".join(chunks) + chunk[:chunk.index(b"\x00")]
+                _decode(path, before)  # UTF-16 and other encodings are named as such
+                _fail(path, before.count(b"\n") + 1, "contains NUL bytes (is this a binary file?); expected a "
+                                                      "calibration CSV")
+            size += len(chunk)
+            if size > MAX_FILE_BYTES:
+                raise CalibrationError(f"{path}: is larger than {MAX_FILE_BYTES >> 20} MiB; expected a calibration "
+                                       "CSV (is this an endless stream or a device?)")
+            chunks.append(chunk)
+    return b"".join(chunks)
+
+
+def _decode(path, raw):
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        _fail(path, line, "not UTF-8 text (is this a binary file?); expected a calibration CSV")
+    if "\x00" in text:
+        line = text[: text.index("\x00")].count("\n") + 1
+        _fail(path, line, "contains NUL bytes (is this a binary file?); expected a calibration CSV")
+    return text
+
+
+def _head_of_plain(raw):
+    """The lines of an ASCII file up to its first that is not blank or a comment, and where that line and the
+    rest begin: ``(lines, header_start, body_start)`` in bytes; None if the file is not ASCII or the rest holds
+    a ``#`` or a double quote (comments and quoted fields are for the careful reader).
+
+    Line ends are those of :func:`encal._core.csv_dialect.split_lines` (LF, CRLF or CR).
+    """
+    if not raw.isascii():
+        return None
+    lines, start = [], 0
+    for match in _LINE_END_BYTES.finditer(raw):
+        line = raw[start:match.start()].decode("ascii")
+        lines.append(line)
+        line_start, start = start, match.end()
+        if not _csv.is_skipped(line):
+            break
+    else:
+        line_start = start
+        if start < len(raw):
+            lines.append(raw[start:].decode("ascii"))
+            start = len(raw)
+    if raw.find(b"#", start) >= 0 or raw.find(b'"', start) >= 0:
+        return None
+    return lines, line_start, start
+
+
+def _plain_angles(values, unit):
+    """True if every value is finite and within +-1e9 degrees in ``unit`` (what :func:`_parse_float` checks)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return bool(np.all(np.isfinite(values)) and np.all(np.abs(values * unit.degrees_per_unit) <= MAX_ABS_DEG))
+
+
+def _cells(path, number, line):
+    """The fields of line ``number`` in encal's CSV dialect (:mod:`encal._core.csv_dialect`)."""
+    try:
+        return _csv.fields(line)
+    except _csv.QuotingError as exc:
+        _fail(path, number, f"{exc}")
+
+
+def _shown(text, limit=40):
+    """``text`` for a message: whole if short, else its start and '...' (a cell may be megabytes long)."""
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+_UNIT_WORDS = {"deg": "degrees", "rad": "radians", "rev": "revolutions", "counts": "counts"}
+
+
+def _parse_float(path, line, column, name, cell, unit=None):
+    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``."""
+    words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
+    try:
+        value = float(cell)
+    except ValueError:
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}", column)
+    if not np.isfinite(value):
+        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
+    degrees = value if unit is None else value * unit.degrees_per_unit
+    if abs(degrees) > MAX_ABS_DEG:
+        _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected an angle within +-{MAX_ABS_DEG:g} "
+                          f"degrees (beyond that a double cannot hold the angle within a turn to 1e-5 arcmin; "
+                          f"is this column counts or time stamps? Say so with a unit, e.g. --enc-unit counts:14)",
+              column)
+    return value
+
+
+def _separator(path, line, header):
+    """',' for a comma-separated file, None for a whitespace-separated one (a header without commas that
+    splits at blanks into two or more names); semicolons are refused."""
+    if "," in header or '"' in header:
+        return ","
+    if len(header.split()) >= 2:
+        return None
+    if ";" in header:
+        _fail(path, line, "fields are separated by semicolons; expected commas or blanks (save the file as "
+                          "comma-separated CSV)")
+    return ","
+
+
+def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
+                     duplicates="refuse", reference_column="reference_deg", encoder_column="encoder_deg",
+                     reference_unit="deg", encoder_unit="deg", progress=None):
+    """Read a calibration CSV (see DESIGN.md).
+
+    The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
+    :mod:`encal._core.csv_dialect`) or, when its header has no comma, separated by blanks (spaces or tabs), with one
+    header row naming at least the reference and the encoder column (``reference_deg`` and
+    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored), ``#``
+    comment lines, and LF or CRLF line ends. Angles may be any finite numbers within +-1e9 degrees
+    (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The CSV file.
+    allow_gaps : bool, default=False
+        Accept a calibration whose largest gap between neighbouring encoder angles exceeds 30 degrees.
+        No model knows the error where the encoder was never seen, so this is refused by default.
+    reverse : bool, default=False
+        The encoder counts against the reference: use ``-encoder_deg`` (mod 360).
+    name : str, optional
+        Encoder name; by default the file's stem.
+    resolution_bits : int, optional
+        Encoder resolution in bits (1 to 32), if known; read from a ``# resolution_bits: B`` comment
+        otherwise.
+    duplicates : {'refuse', 'average', 'keep'}, default='refuse'
+        What to do with repeated reference angles whose readings disagree (points of one direction and
+        epoch). Identical repeats are always kept as they are. ``'keep'`` keeps every repeat as a
+        repeated reading of its stop (the spectral model takes the noise from their scatter). A file that
+        is plainly a log of several revolutions (:func:`is_multi_revolution`) keeps its repeats as
+        repeated readings unless ``'average'`` is asked for, and so does a run (points of one direction
+        and epoch) with the same number of readings at every stop, in a row or in passes
+        (:func:`is_repeated_stops`); a stray repeat elsewhere is still refused.
+    reference_column, encoder_column : str or int, default='reference_deg', 'encoder_deg'
+        The columns of the reference and the encoder angle: a header name (any letter case) or a
+        column number from 1. With numbers for both, a file whose first row is numbers has no header.
+    reference_unit, encoder_unit : str, default='deg'
+        Unit of each column: 'deg', 'rad', 'rev' (turns) or 'counts:B' (codes of a B-bit encoder; an
+        encoder column in counts also sets ``resolution_bits`` to B when the file does not say).
+    progress : callable, optional
+        Called as ``progress(done, total)`` while the rows are read (bytes or lines done of the total), for
+        a progress bar on a long file.
+
+    Returns
+    -------
+    Calibration
+
+    Raises
+    ------
+    CalibrationError
+        With one sentence naming the file, line and column, for: a missing or empty file, no header or a
+        header without the two columns, a semicolon-separated file, a row whose field count differs from
+        the header's, a unit other than the four above, non-numeric, NaN, infinite or
+        absurdly large (beyond +-1e9 degrees) values, a resolution outside 1 to 32 bits, fewer than 8 points,
+        a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
+        (unless ``reverse``), an encoder that goes back while the reference goes forward (see
+        :func:`check_folds`), conflicting repeated reference angles.
+
+    Warns
+    -----
+    EncalWarning
+        When a column's values all lie within one turn measured in radians and span most of it: angles
+        in radians over a full revolution, probably, where degrees were expected.
+    """
+    from pathlib import Path
+
+    where = "read_calibration"
+    allow_gaps = check_bool(allow_gaps, "allow_gaps", where)
+    reverse = check_bool(reverse, "reverse", where)
+    if resolution_bits is not None:
+        resolution_bits = check_int(resolution_bits, "resolution_bits", where, low=1, high=MAX_BITS,
+                                    note="or None: from the file's comment, if any")
+    duplicates = check_choice(duplicates, "duplicates", where, DUPLICATES)
+    if name is not None:
+        check_type(name, str, "name", where, "a str or None")
+    path = Path(path)
+    if not path.exists():
+        raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
+    if path.is_dir():
+        raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
+    raw = _read_bytes(path)
+    head = _head_of_plain(raw)
+    if head is not None:  # a plain body: only the lines up to the header are needed as text
+        lines, header_start, body_start = head
+        records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
+    else:
+        lines = _csv.split_lines(_decode(path, raw))
+        records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
+    if resolution_bits is None:
+        resolution_bits = _resolution_from_comments(path, lines)
+    if not records:
+        raise CalibrationError(f"{path}: the file is empty; expected a header row "
+                               "'reference_deg,encoder_deg' and at least 8 rows of angles")
+    try:
+        units = angle_unit(reference_unit), angle_unit(encoder_unit)
+    except ValueError as exc:
+        raise CalibrationError(f"{path}: {exc}") from None
+    header_line, header = records[0]
+    separator = _separator(path, header_line, header)
+
+    def cells_of(number, line):
+        return _cells(path, number, line) if separator == "," else line.split()
+
+    names = cells_of(header_line, header)
+    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column)
+    n_columns = len(names)
+    ref_col, enc_col = columns["reference"], columns["encoder"]
+    ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
+    dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
+    table = None
+    if head is not None and dir_col is None and epoch_col is None:
+        first = header_line + 1 if has_header else header_line
+        table = plain_rows(raw[body_start if has_header else header_start:], separator, n_columns,
+                           progress=progress)
+        if table is not None:
+            reference, encoder = table[:, ref_col].copy(), table[:, enc_col].copy()
+            if not (_plain_angles(reference, units[0]) and _plain_angles(encoder, units[1])):
+                table = None  # the careful reader names the first bad value
+    if table is not None:
+        del table
+        line_numbers = np.arange(first, first + reference.size)
+        direction, epoch = [], []
+    else:
+        if head is not None:
+            lines = _csv.split_lines(_decode(path, raw))
+            records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
+        reference, encoder, direction, epoch = [], [], [], []
+        data = records[1:] if has_header else records
+        for count, (number, line) in enumerate(data, start=1):
+            cells = cells_of(number, line)
+            if len(cells) != n_columns:
+                _fail(path, number, _field_count_problem(line, len(cells), n_columns))
+            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
+            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
+            if dir_col is not None:
+                cell = cells[dir_col].strip().lower()
+                if cell not in _DIRECTIONS:
+                    _fail(path, number, f"direction is {cells[dir_col].strip()!r}, expected +1, -1, cw or ccw",
+                          dir_col + 1)
+                direction.append(_DIRECTIONS[cell])
+            if epoch_col is not None:
+                epoch.append(cells[epoch_col].strip())
+            if progress is not None and count % _PROGRESS_LINES == 0:
+                progress(count, len(data))
+        line_numbers = np.array([number for number, _ in data], dtype=np.int64)
+        del lines, records, data
+    del raw
+    if len(reference) < MIN_POINTS:
+        raise CalibrationError(f"{path}: has {len(reference)} calibration points, expected at least "
+                               f"{MIN_POINTS} to model an error profile")
+    in_degrees = {ref_name: np.asarray(reference), enc_name: np.asarray(encoder)}
+    _warn_if_radians(path, {key: values for (key, values), unit in zip(in_degrees.items(), units)
+                            if unit.name == "deg"})
+    reference, encoder = units[0].to_degrees(reference), units[1].to_degrees(encoder)
+    if resolution_bits is None and units[1].name == "counts":
+        resolution_bits = units[1].bits
+    if reverse:
+        encoder = -encoder
+    cal = Calibration(
+        np.asarray(reference), encoder,
+        direction=np.asarray(direction) if dir_col is not None else None,
+        epoch=np.asarray(epoch) if epoch_col is not None else None,
+        name=name if name is not None else path.stem,
+        resolution_bits=resolution_bits,
+        source=str(path),
+        reading_sign=-1 if reverse else 1,
+    )
+    rows = cal
+    if duplicates == "refuse" and is_multi_revolution(reference):
+        duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
+    # k readings at every stop of a run: repeated readings; a stray repeat in another run is still refused
+    repeated = _repeat_pattern(cal.reference_deg, _runs(cal))[0] if duplicates == "refuse" else None
+    cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
+    _check_direction_of_count(path, cal, reverse)
+    check_folds(cal, where=str(path))
+    _check_coverage(path, cal, allow_gaps)
+    _warn_if_isolated(path, rows, line_numbers)
+    return cal
+
+
+def _field_count_problem(line, n_fields, n_columns):
+    """Why a row of ``n_fields`` fields does not fit a header of ``n_columns`` columns (a message)."""
+    fields = f"{n_fields} field" + ("s" if n_fields != 1 else "")
+    if n_fields > n_columns:
+        why = ("a decimal comma, or a value holding a comma that is not quoted? Name every extra column "
+               "in the header")
+    else:
+        separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
+        why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
+    return f"has {fields}, expected {n_columns} as in the header ({why})"
+
+
+def _warn_if_isolated(path, cal, line_numbers):
+    """Warn about readings far off their neighbours on both sides, or off the other readings at their reference
+    angle when most angles were read several times (:mod:`encal.analysis.outliers`), per direction and epoch."""
+    from ..analysis.outliers import ISOLATION_FACTOR, isolated_points
+
+    quantum = None if cal.resolution_bits is None else 360.0 * ARCMIN_PER_DEG / 2**cal.resolution_bits
+    runs = _runs(cal)
+    if runs is None:
+        runs = np.zeros(len(cal), dtype=int)
+    errors = cal.errors_arcmin
+    found = []
+    each = np.unique(runs)
+    for run in each:
+        members = np.flatnonzero(runs == run) if each.size > 1 else slice(None)  # one run: no copies
+        isolated = isolated_points(cal.encoder_deg[members], errors[members], reference_deg=cal.reference_deg[members],
+                                   quantum_arcmin=quantum)
+        members = np.arange(len(cal))[members]
+        found += [(members[i], d, isolated.typical_step_arcmin, isolated.repeated)
+                  for i, d in zip(isolated.index, isolated.deviation_arcmin)]
+    if not found:
+        return
+    found.sort()
+    index, deviation, step, repeated = found[0]
+    where = f"line {line_numbers[index]} (encoder {cal.encoder_deg[index]:.3f} deg)"
+    more = f", and {len(found) - 1} more reading{'s' if len(found) > 2 else ''} like it" if len(found) > 1 else ""
+    if repeated:
+        off = (f"{abs(deviation):.4g} arcmin off the median of the readings at its reference angle, over "
+               f"{ISOLATION_FACTOR:g} times the readings' typical spread of {step:.3g} arcmin")
+    else:
+        off = (f"{abs(deviation):.4g} arcmin off its neighbours on both sides, over {ISOLATION_FACTOR:g} times their "
+               f"typical step of {step:.3g} arcmin")
+    warnings.warn(
+        f"{path}: {where} has an error of {errors[index]:.4g} arcmin, {off}{more}: a misread? {MISREAD_EFFECT}; "
+        "measure it again or remove the line", EncalWarning, stacklevel=3)
+
+
+#: What a misread does to the models, in the warning about it.
+MISREAD_EFFECT = ("It pulls every model towards it, and one that passes through the calibrated points (a lookup "
+                  "table with a node at each, a network) follows it")
+
+
+def _resolution_from_comments(path, lines):
+    for number, line in enumerate(lines, start=1):
+        if not line.lstrip().startswith("#"):
+            continue
+        stripped = line.strip().lstrip("#").strip().lower()
+        if stripped.startswith("resolution_bits"):
+            value = stripped.split(":", 1)[-1].split("=", 1)[-1].strip()
+            if value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_BITS:  # not '²': int() refuses it
+                return int(value)
+            _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
+                                f"{MAX_BITS}")
+    return None
+
+
+def _warn_if_radians(path, columns):
+    """Warn when angle columns look like radians over a full revolution (see :func:`_looks_like_radians`)."""
+    suspects = [name for name, values in columns.items() if _looks_like_radians(values)]
+    if suspects:
+        values = np.concatenate([columns[name] for name in suspects])
+        warnings.warn(
+            f"{path}: {' and '.join(suspects)} all lie between {values.min():.4g} and {values.max():.4g}, as "
+            "radians over a full revolution would; expected degrees (radians times 57.29578)",
+            EncalWarning, stacklevel=3)
+
+
+def _looks_like_radians(values):
+    """True if all ``values`` lie within one turn measured in radians (0..2 pi or -pi..pi) and span most of it.
+
+    A calibration in degrees spanning so little (under 13 degrees) would leave a coverage gap of over 340
+    degrees, so the test is safe; for radians over a whole revolution it always holds.
+    """
+    if values.size == 0:
+        return False
+    lowest, highest = float(values.min()), float(values.max())
+    margin = 0.1  # radians: an offset or an error does not take radians far outside one turn
+    return -np.pi - margin <= lowest and highest <= 2 * np.pi + margin and highest - lowest >= 1.5 * np.pi
+
+
+def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg"):
+    """Indices of the reference, encoder, direction and epoch columns, and whether ``names`` is a header.
+
+    Returns ``({'reference': i, 'encoder': j, 'reference_name': ..., 'encoder_name': ..., 'direction': k,
+    'epoch': l}, has_header)``; a column is chosen by its name or its number from 1.
+    """
+    names = [name.strip().lower() for name in names]
+    numbered = [_column_number(column) for column in (reference_column, encoder_column)]
+    if all(number is not None for number in numbered) and all(_is_number(cell) for cell in names if cell):
+        for column, number in zip((reference_column, encoder_column), numbered):
+            if not 1 <= number <= len(names):
+                _fail(path, line, f"there is no column {number}; expected a column number from 1 to {len(names)}")
+        return ({"reference": numbered[0] - 1, "encoder": numbered[1] - 1,
+                 "reference_name": f"column {numbered[0]}", "encoder_name": f"column {numbered[1]}"}, False)
+    columns = {}
+    for index, cell in enumerate(names):
+        columns.setdefault(cell, index)
+    wanted = [str(column).strip().lower() for column in (reference_column, encoder_column)]
+    for name in (*wanted, "direction", "epoch"):
+        where = [index + 1 for index, cell in enumerate(names) if cell == name]
+        if len(where) > 1:
+            _fail(path, line, f"the header names {name} {len(where)} times (columns "
+                              f"{', '.join(map(str, where))}); expected each column once, so that it is clear "
+                              "which to read")
+    chosen = {}
+    for role, column, name, number in zip(("reference", "encoder"), (reference_column, encoder_column), wanted,
+                                          numbered):
+        if name in columns:
+            chosen[role], chosen[f"{role}_name"] = columns[name], name
+        elif number is not None and 1 <= number <= len(names):
+            chosen[role], chosen[f"{role}_name"] = number - 1, names[number - 1] or f"column {number}"
+    missing = [name for role, name in zip(("reference", "encoder"), wanted) if role not in chosen]
+    if missing:
+        looks_numeric = all(_is_number(cell) for cell in names if cell)
+        found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
+        if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
+            _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
+                              f"reference_deg and encoder_deg, found {found} (name your columns with --ref-col "
+                              "and --enc-col, their units with --ref-unit and --enc-unit)")
+        _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
+                          f"or its number from 1, found {found}")
+    for optional in ("direction", "epoch"):
+        if optional in columns:
+            chosen[optional] = columns[optional]
+    return chosen, True
+
+
+def _column_number(column):
+    """A column given as a number from 1 (an int or a string of digits), or None."""
+    if isinstance(column, (int, np.integer)) and not isinstance(column, bool):
+        return int(column)
+    text = str(column).strip()
+    return int(text) if text.isascii() and text.isdigit() else None
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def is_multi_revolution(reference_deg):
+    """Whether reference angles, in file order, are a continuous log of several revolutions.
+
+    True when the reference moves one way (at least 95 % of the steps in one direction, wrapping at
+    360° or counting past it) over at least one and a half turns: its repeated angles are then
+    repeated readings of the same stops, not conflicting rows.
+
+    Examples
+    --------
+    >>> is_multi_revolution(np.tile(np.arange(0.0, 360.0, 0.5), 3))
+    True
+    >>> is_multi_revolution(np.arange(0.0, 360.0, 0.5))
+    False
+    """
+    raw = np.asarray(reference_deg, dtype=float).reshape(-1)
+    if raw.size < 16:
+        return False
+    turned = np.degrees(np.unwrap(np.radians(raw)))
+    steps = np.diff(turned)
+    one_way = max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95
+    return bool(one_way and abs(turned[-1] - turned[0]) >= 540.0)
+
+
+def is_repeated_stops(reference_deg, runs=None):
+    """Whether reference angles, in file order, are the same number of readings at every stop.
+
+    True when, within each run (``runs``: a label per point, e.g. of its direction and epoch; one run
+    by default), the reference angles are k >= 2 copies of one sequence of distinct stops, either each
+    stop k times in a row (``0, 0, 0, 2, 2, 2, ...``) or the whole sequence k times over
+    (``0, 2, ..., 358, 0, 2, ..., 358``, the stops in the same order in every pass), with at least one
+    run so repeated and the others without repeats. Angles are the same stop when equal to 1e-9 degree
+    (as :func:`read_calibration` compares them). Such a file is a deliberate repeated-readings
+    calibration, and its repeats are the noise of one reading; a stray repeated row, a different count
+    at some stops, or a pass back in the reverse order (a second direction of travel, whose hysteresis
+    is not noise) is not.
+
+    Parameters
+    ----------
+    reference_deg : array-like of shape (n,)
+        Reference angles in degrees, in file order.
+    runs : array-like of shape (n,), optional
+        Label of each point's run; the pattern is checked within each run.
+
+    Examples
+    --------
+    >>> is_repeated_stops(np.repeat(np.arange(0.0, 360.0, 2.0), 3))
+    True
+    >>> is_repeated_stops(np.tile(np.arange(0.0, 360.0, 2.0), 2))
+    True
+    >>> is_repeated_stops(np.r_[np.arange(0.0, 360.0, 2.0), 10.0])
+    False
+    """
+    repeated, irregular = _repeat_pattern(reference_deg, runs)
+    return bool(repeated.any() and not irregular.any())
+
+
+def _repeat_pattern(reference_deg, runs=None):
+    """``(repeated, irregular)``, masks over the points: those of runs that follow the pattern of
+    :func:`is_repeated_stops` with k >= 2, and those of runs with repeats that do not."""
+    keys = np.round(wrap360(np.asarray(reference_deg, dtype=float).reshape(-1)), 9)
+    runs = np.zeros(keys.size, dtype=int) if runs is None else np.asarray(runs).reshape(-1)
+    repeated, irregular = np.zeros(keys.size, dtype=bool), np.zeros(keys.size, dtype=bool)
+    for run in np.unique(runs):
+        members = runs == run
+        sequence = keys[members]
+        stops, counts = np.unique(sequence, return_counts=True)
+        if counts.max() == 1:
+            continue
+        k = int(counts[0])
+        regular = counts.min() == counts.max()
+        if regular:
+            in_a_row, passes = sequence.reshape(stops.size, k), sequence.reshape(k, stops.size)
+            regular = bool(np.all(in_a_row == in_a_row[:, :1]) or np.all(passes == passes[:1]))
+        (repeated if regular else irregular)[members] = True
+    return repeated, irregular
+
+
+def _runs(cal):
+    """A label per point of its run (direction and epoch), or None for a calibration of one run."""
+    if cal.direction is None and cal.epoch is None:
+        return None
+    runs = np.zeros(len(cal), dtype=int)
+    for labels in (cal.direction, cal.epoch):
+        if labels is not None:
+            runs = runs * (len(cal) + 1) + np.unique(labels, return_inverse=True)[1].reshape(-1)
+    return runs
+
+
+def _check_duplicates(path, cal, duplicates, repeated=None):
+    """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
+    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept."""
+    if duplicates == "keep":
+        return cal
+    keys = np.round(cal.reference_deg, 9)
+    groups = [keys]
+    if cal.direction is not None:
+        groups.append(cal.direction)
+    if cal.epoch is not None:
+        groups.append(cal.epoch)
+    order = np.lexsort(groups[::-1])
+    seen = {}
+    conflicts = []
+    for index in order:
+        key = tuple(g[index] for g in groups)
+        if key in seen:
+            first = seen[key][0]
+            if abs(wrap180(cal.encoder_deg[index] - cal.encoder_deg[first])) > 1e-9 and not (
+                    repeated is not None and repeated[index]):
+                conflicts.append((first, index))
+            seen[key].append(index)
+        else:
+            seen[key] = [index]
+    if not conflicts:
+        return cal
+    if duplicates == "refuse":
+        first, index = conflicts[0]
+        raise CalibrationError(
+            f"{path}: reference angle {cal.reference_deg[index]:g} deg appears more than once with "
+            f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, data rows "
+            f"{first + 1} and {index + 1}); expected one reading per reference angle, or the same number at "
+            "every angle (use --keep-duplicates to keep them as repeated readings of one stop, "
+            "--average-duplicates to average them)")
+    keep, encoder = [], []
+    for indices in seen.values():
+        keep.append(indices[0])
+        base = cal.encoder_deg[indices[0]]
+        offsets = wrap180(cal.encoder_deg[indices] - base)
+        encoder.append(base + offsets.mean())
+    keep = np.asarray(keep)
+    order = np.argsort(keep)
+    averaged = cal.subset(keep[order])
+    return Calibration(averaged.reference_deg, np.asarray(encoder)[order], direction=averaged.direction,
+                       epoch=averaged.epoch, name=cal.name, resolution_bits=cal.resolution_bits,
+                       source=cal.source, metadata={"averaged_duplicates": len(cal) - len(keep)},
+                       reading_sign=cal.reading_sign)
+
+
+def _check_direction_of_count(path, cal, reverse):
+    """Refuse an encoder whose angle decreases while the reference increases."""
+    order = np.argsort(cal.reference_deg, kind="stable")
+    steps_ref = np.diff(cal.reference_deg[order])
+    steps_enc = wrap180(np.diff(cal.encoder_deg[order]))
+    moving = steps_ref > 1e-9
+    if moving.sum() < 2:
+        return
+    if np.median(steps_enc[moving] / steps_ref[moving]) < 0:
+        if reverse:
+            raise CalibrationError(f"{path}: even with --reverse the encoder counts against the reference")
+        raise CalibrationError(
+            f"{path}: the encoder angle decreases as the reference angle increases (it counts against the "
+            "reference); expected both to increase together - use --reverse (reverse=True) to negate the "
+            "encoder angles")
+
+
+def check_folds(cal, where="calibration"):
+    """Refuse a calibration whose encoder goes back while the reference goes forward.
+
+    Within each run (points of one direction and epoch), sorted by reference angle, the encoder angle
+    must not fall more than :data:`MAX_FOLD_DEG` (0.5 degrees) below a reading taken at a smaller
+    reference angle. Where it does, one encoder angle is read at two shaft positions, so the error is
+    not a function of the encoder angle and no model of it can correct the encoder (a folded error of
+    tens of degrees, a slipping coupling or a glitch). Each encoder step is taken as the reference step
+    plus the wrapped difference, so steps across 0/360 and coverage gaps are measured correctly.
+
+    Parameters
+    ----------
+    cal : Calibration
+    where : str, default='calibration'
+        Name of the data, for the message.
+
+    Raises
+    ------
+    CalibrationError
+        Naming both points and how far the encoder went back.
+    """
+    runs = np.zeros(len(cal), dtype=int)
+    for labels in (cal.direction, cal.epoch):
+        if labels is not None:
+            runs = runs * (len(cal) + 1) + np.unique(labels, return_inverse=True)[1].reshape(-1)
+    for run in np.unique(runs):
+        members = np.flatnonzero(runs == run)
+        order = members[np.argsort(cal.reference_deg[members], kind="stable")]
+        ref, enc = cal.reference_deg[order], cal.encoder_deg[order]
+        if ref.size < 2:
+            continue
+        step_ref = np.diff(ref)
+        travel = np.concatenate([[0.0], np.cumsum(step_ref + wrap180(np.diff(enc) - step_ref))])
+        drop = np.maximum.accumulate(travel) - travel
+        last = int(np.argmax(drop))
+        if drop[last] > MAX_FOLD_DEG:
+            first = int(np.argmax(travel[: last + 1]))
+            raise CalibrationError(
+                f"{where}: the encoder reads {enc[first]:.4g} deg at reference {ref[first]:.4g} deg but "
+                f"{enc[last]:.4g} deg at reference {ref[last]:.4g} deg, {drop[last]:.3g} deg back although the "
+                f"reference went forward; expected the encoder angle to increase with the reference (within "
+                f"{MAX_FOLD_DEG:g} deg of noise), since otherwise the error is not a function of the encoder "
+                "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch)")
+
+
+def _check_coverage(path, cal, allow_gaps):
+    angles = np.unique(cal.encoder_deg)
+    if angles.size == 1:
+        gap = 360.0
+    else:
+        gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
+        gap = float(gaps.max())
+    if gap > MAX_GAP_DEG + 1e-9 and not allow_gaps:  # a 30-degree grid is not refused for a rounding error
+        start = angles[np.argmax(np.diff(np.concatenate([angles, angles[:1] + 360.0])))] if angles.size > 1 \
+            else angles[0]
+        raise CalibrationError(
+            f"{path}: the encoder angles leave a gap of {gap:.1f} deg after {start:.2f} deg; expected no gap "
+            f"over {MAX_GAP_DEG:g} deg, because no model knows the error where the encoder was never seen "
+            "(use --allow-gaps to accept it)")
+
+
+def write_calibration(path, cal, *, extra_columns=None, comments=()):
+    """Write a calibration as CSV (see DESIGN.md), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; its folder must exist.
+    cal : Calibration
+    extra_columns : dict of str to array-like, optional
+        More columns to write after the standard ones (readers ignore them).
+    comments : sequence of str
+        Lines written first, each prefixed with ``# ``.
+
+    Angles are written with ``repr`` precision, so reading the file back gives the same numbers.
+    """
+    from .._core.atomic import atomic_open
+
+    check_type(cal, Calibration, "cal", "write_calibration", "a Calibration")
+    check_type(extra_columns or {}, dict, "extra_columns", "write_calibration",
+               "a dict of column names to values, or None")
+    columns = {"reference_deg": cal.reference_deg, "encoder_deg": cal.encoder_deg}
+    if cal.direction is not None:
+        columns["direction"] = [f"{int(d):+d}" for d in cal.direction]
+    if cal.epoch is not None:
+        columns["epoch"] = cal.epoch
+    for key, values in (extra_columns or {}).items():
+        values = list(values)
+        if len(values) != len(cal):
+            raise CalibrationError(f"extra column {key!r} has {len(values)} values, expected {len(cal)}")
+        columns[key] = values
+    comments = list(comments)
+    if cal.resolution_bits is not None and not any("resolution_bits" in c for c in comments):
+        comments.append(f"resolution_bits: {cal.resolution_bits}")
+    with atomic_open(path, "w", newline="\n") as handle:
+        for comment in comments:
+            handle.write(f"# {comment}\n")
+        handle.write(_csv.join(columns) + "\n")
+        cells = [[_cell(v) for v in values] for values in columns.values()]
+        for row in zip(*cells):
+            handle.write(_csv.join(row) + "\n")
+
+
+def _cell(value):
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))
+    return str(value)

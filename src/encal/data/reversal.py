@@ -1,0 +1,275 @@
+"""Bidirectional calibrations: the reversal (hysteresis) error, and models per direction of travel.
+
+A calibration with a ``direction`` column (+1 forward, -1 reverse) visits the target angles turning both
+ways. :func:`reversal` evaluates it the way ISO 230-2:2014 (clause 3, terms and definitions) evaluates a
+rotary axis: at each target position ``i`` the mean deviation approached forward ``x̄↑_i`` and reverse
+``x̄↓_i``, the reversal value ``B_i = x̄↑_i − x̄↓_i``, and for the axis the reversal value ``B = max |B_i|``,
+the mean reversal value ``B̄ = mean(B_i)``, the systematic positional deviations ``E↑``, ``E↓`` and the
+bidirectional ``E``, and the range ``M`` of the mean bidirectional positional deviation. With at least two
+approaches per direction and target it adds the repeatability ``R`` and the accuracy ``A``.
+``docs/bidirectional.md`` lists the definitions and how encal applies them to an encoder.
+
+:func:`encal.fit` fits such a calibration with one model per direction (a
+:class:`~encal.models.directional.DirectionalModel`) or one model of the two directions' mean
+(:func:`encal.models.fitting.fit_bidirectional`); this module holds the analysis both use.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._core.angles import ARCMIN_PER_DEG, lsb_arcmin, wrap360
+from .calibration import MIN_POINTS, Calibration
+from .._core.errors import CalibrationError
+from .._core.parameters import check_type, invalid
+
+__all__ = [
+    "MODES",
+    "ReversalAnalysis",
+    "reversal",
+    "mean_calibration",
+    "direction_subset",
+    "require_directions",
+    "has_both_directions",
+]
+
+#: How :func:`encal.models.fitting.fit_bidirectional` treats the two directions.
+MODES = ("per-direction", "mean")
+
+#: Reference angles closer than this (degrees) are the same target position.
+TARGET_TOLERANCE_DEG = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class ReversalAnalysis:
+    """Positional deviations of a bidirectional calibration, evaluated as in ISO 230-2:2014.
+
+    The deviation at a target is the encoder's error ``x = θ_enc − θ_ref`` (arc-minutes): the reference
+    angle is the target position and the encoder's reading the position it indicates.
+
+    Attributes
+    ----------
+    target_deg : ndarray of shape (m,)
+        Target positions (reference angles, degrees) approached in both directions, ascending.
+    n_forward, n_reverse : ndarray of int of shape (m,)
+        Number of approaches in each direction.
+    mean_forward_arcmin, mean_reverse_arcmin : ndarray of shape (m,)
+        Mean unidirectional positional deviations ``x̄↑_i`` and ``x̄↓_i``.
+    std_forward_arcmin, std_reverse_arcmin : ndarray of shape (m,)
+        Estimators of the unidirectional repeatability ``s↑_i``, ``s↓_i`` (``ddof=1``); NaN with fewer than
+        two approaches.
+    n_unmatched : int
+        Points at target positions approached in one direction only (left out).
+    resolution_bits : int or None
+        Encoder resolution, for values in LSB.
+    """
+
+    target_deg: np.ndarray
+    n_forward: np.ndarray
+    n_reverse: np.ndarray
+    mean_forward_arcmin: np.ndarray
+    mean_reverse_arcmin: np.ndarray
+    std_forward_arcmin: np.ndarray
+    std_reverse_arcmin: np.ndarray
+    n_unmatched: int = 0
+    resolution_bits: int | None = None
+
+    @property
+    def reversal_arcmin(self):
+        """Reversal value at each target, ``B_i = x̄↑_i − x̄↓_i`` (arcmin)."""
+        return self.mean_forward_arcmin - self.mean_reverse_arcmin
+
+    @property
+    def mean_bidirectional_arcmin(self):
+        """Mean bidirectional positional deviation at each target, ``x̄_i = (x̄↑_i + x̄↓_i) / 2`` (arcmin)."""
+        return 0.5 * (self.mean_forward_arcmin + self.mean_reverse_arcmin)
+
+    @property
+    def reversal_value(self):
+        """Reversal value of the axis, ``B = max |B_i|`` (arcmin)."""
+        return float(np.max(np.abs(self.reversal_arcmin)))
+
+    @property
+    def mean_reversal_value(self):
+        """Mean reversal value of the axis, ``B̄ = mean(B_i)`` (arcmin, signed)."""
+        return float(np.mean(self.reversal_arcmin))
+
+    @property
+    def systematic_deviation_forward(self):
+        """Unidirectional systematic positional deviation ``E↑ = max x̄↑_i − min x̄↑_i`` (arcmin)."""
+        return float(np.ptp(self.mean_forward_arcmin))
+
+    @property
+    def systematic_deviation_reverse(self):
+        """Unidirectional systematic positional deviation ``E↓ = max x̄↓_i − min x̄↓_i`` (arcmin)."""
+        return float(np.ptp(self.mean_reverse_arcmin))
+
+    @property
+    def systematic_deviation(self):
+        """Bidirectional systematic positional deviation ``E = max(x̄↑, x̄↓) − min(x̄↑, x̄↓)`` (arcmin)."""
+        both = np.concatenate([self.mean_forward_arcmin, self.mean_reverse_arcmin])
+        return float(np.ptp(both))
+
+    @property
+    def mean_bidirectional_deviation(self):
+        """Range of the mean bidirectional positional deviation ``M = max x̄_i − min x̄_i`` (arcmin)."""
+        return float(np.ptp(self.mean_bidirectional_arcmin))
+
+    @property
+    def has_repeats(self):
+        """Whether every target was approached at least twice in each direction (needed for R and A)."""
+        return bool(np.all(self.n_forward >= 2) and np.all(self.n_reverse >= 2))
+
+    @property
+    def repeatability(self):
+        """Bidirectional repeatability of positioning ``R = max R_i`` (arcmin), or None without repeats.
+
+        ``R_i = max(2 s↑_i + 2 s↓_i + |B_i|, 4 s↑_i, 4 s↓_i)``.
+        """
+        if not self.has_repeats:
+            return None
+        up, down = self.std_forward_arcmin, self.std_reverse_arcmin
+        r_i = np.maximum.reduce([2 * up + 2 * down + np.abs(self.reversal_arcmin), 4 * up, 4 * down])
+        return float(np.max(r_i))
+
+    @property
+    def accuracy(self):
+        """Bidirectional accuracy of positioning ``A`` (arcmin), or None without repeats.
+
+        ``A = max(x̄↑ + 2 s↑, x̄↓ + 2 s↓) − min(x̄↑ − 2 s↑, x̄↓ − 2 s↓)`` over all targets.
+        """
+        if not self.has_repeats:
+            return None
+        up, down = self.std_forward_arcmin, self.std_reverse_arcmin
+        high = np.concatenate([self.mean_forward_arcmin + 2 * up, self.mean_reverse_arcmin + 2 * down])
+        low = np.concatenate([self.mean_forward_arcmin - 2 * up, self.mean_reverse_arcmin - 2 * down])
+        return float(high.max() - low.min())
+
+    def as_dict(self):
+        """The axis values as JSON-ready data (arc-minutes; LSB too when the resolution is known)."""
+        data = {
+            "n_targets": int(self.target_deg.size),
+            "n_unmatched": int(self.n_unmatched),
+            "reversal_value_arcmin": self.reversal_value,
+            "mean_reversal_value_arcmin": self.mean_reversal_value,
+            "systematic_deviation_forward_arcmin": self.systematic_deviation_forward,
+            "systematic_deviation_reverse_arcmin": self.systematic_deviation_reverse,
+            "systematic_deviation_arcmin": self.systematic_deviation,
+            "mean_bidirectional_deviation_arcmin": self.mean_bidirectional_deviation,
+            "repeatability_arcmin": self.repeatability,
+            "accuracy_arcmin": self.accuracy,
+        }
+        if self.resolution_bits is not None:
+            lsb = lsb_arcmin(self.resolution_bits)
+            data["reversal_value_lsb"] = self.reversal_value / lsb
+            data["mean_reversal_value_lsb"] = self.mean_reversal_value / lsb
+        return data
+
+
+def require_directions(cal, caller):
+    """Refuse a calibration without at least MIN_POINTS points in each direction of travel (one sentence)."""
+    check_type(cal, Calibration, "cal", caller, "a Calibration")
+    if cal.direction is None:
+        raise CalibrationError(f"{caller} expects a calibration with a direction column (+1/-1); "
+                               f"{cal.source or cal.name or 'the calibration'} has none")
+    counts = {sign: int(np.sum(cal.direction == sign)) for sign in (1, -1)}
+    if min(counts.values()) < MIN_POINTS:
+        raise CalibrationError(f"{caller} expects at least {MIN_POINTS} points in each direction; "
+                               f"{cal.source or cal.name or 'the calibration'} has {counts[1]} forward "
+                               f"and {counts[-1]} reverse")
+
+
+def has_both_directions(cal):
+    """Whether a calibration has readings taken turning forward (+1) and readings taken turning back (-1)."""
+    return cal.direction is not None and bool(np.any(cal.direction == 1)) and bool(np.any(cal.direction == -1))
+
+
+def direction_subset(cal, direction):
+    """The points of one direction of travel (+1 forward, -1 reverse), without the direction column."""
+    check_type(cal, Calibration, "cal", "direction_subset", "a Calibration")
+    if isinstance(direction, bool) or direction not in (1, -1):
+        raise invalid("direction", "direction_subset", "1 (forward) or -1 (reverse)", direction)
+    keep = cal.direction == direction
+    part = cal.subset(keep)
+    return Calibration(part.reference_deg, part.encoder_deg, epoch=part.epoch, name=cal.name,
+                       resolution_bits=cal.resolution_bits, source=cal.source, metadata=dict(cal.metadata),
+                       reading_sign=cal.reading_sign)
+
+
+def reversal(cal):
+    """Reversal (hysteresis) error of a bidirectional calibration, as ISO 230-2:2014 evaluates it.
+
+    Parameters
+    ----------
+    cal : Calibration
+        With a ``direction`` column; target positions are matched by reference angle (within 1e-6 degree).
+
+    Returns
+    -------
+    ReversalAnalysis
+
+    Raises
+    ------
+    CalibrationError
+        If the calibration has no direction column, fewer than 8 points in a direction, or no target
+        position approached in both directions.
+
+    Examples
+    --------
+    >>> import numpy as np, encal
+    >>> ref = np.tile(np.arange(0.0, 360.0, 10.0), 2)
+    >>> direction = np.repeat([1, -1], 36)
+    >>> cal = encal.Calibration(ref, ref + (0.5 + 0.1 * direction) / 60, direction=direction)
+    >>> round(reversal(cal).mean_reversal_value, 9), round(reversal(cal).systematic_deviation, 9)
+    (0.2, 0.2)
+    """
+    require_directions(cal, "reversal")
+    target = np.round(wrap360(cal.reference_deg) / TARGET_TOLERANCE_DEG) * TARGET_TOLERANCE_DEG
+    target = np.where(target >= 360.0, 0.0, target)
+    error = cal.errors_arcmin
+    stats = {}
+    for sign in (1, -1):
+        side = cal.direction == sign
+        keys, inverse, counts = np.unique(target[side], return_inverse=True, return_counts=True)
+        sums = np.bincount(inverse, weights=error[side])
+        means = sums / counts
+        squares = np.bincount(inverse, weights=np.square(error[side] - means[inverse]))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            stds = np.where(counts >= 2, np.sqrt(squares / np.maximum(counts - 1, 1)), np.nan)
+        stats[sign] = (keys, counts, means, stds)
+    common, up_index, down_index = np.intersect1d(stats[1][0], stats[-1][0], return_indices=True)
+    if common.size == 0:
+        raise CalibrationError(f"{cal.source or cal.name or 'the calibration'}: no reference angle was "
+                               "approached in both directions; expected the same target positions forward "
+                               "and reverse")
+    unmatched = int(stats[1][1].sum() - stats[1][1][up_index].sum()
+                    + stats[-1][1].sum() - stats[-1][1][down_index].sum())
+    up, down = stats[1], stats[-1]
+    return ReversalAnalysis(
+        target_deg=common,
+        n_forward=up[1][up_index], n_reverse=down[1][down_index],
+        mean_forward_arcmin=up[2][up_index], mean_reverse_arcmin=down[2][down_index],
+        std_forward_arcmin=up[3][up_index], std_reverse_arcmin=down[3][down_index],
+        n_unmatched=unmatched, resolution_bits=cal.resolution_bits,
+    )
+
+
+def mean_calibration(cal):
+    """The mean of both directions at every target position, as a one-direction calibration.
+
+    Parameters
+    ----------
+    cal : Calibration
+        With a ``direction`` column.
+
+    Returns
+    -------
+    Calibration
+        At each target approached in both directions: ``reference_deg`` the target and ``encoder_deg`` the
+        target plus the mean bidirectional positional deviation ``x̄_i``.
+    """
+    analysis = reversal(cal)
+    reference = analysis.target_deg
+    return Calibration(reference, reference + analysis.mean_bidirectional_arcmin / ARCMIN_PER_DEG,
+                       name=cal.name, resolution_bits=cal.resolution_bits, source=cal.source,
+                       metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign)

@@ -1,0 +1,61 @@
+"""The import paths of encal 0.1 keep working for one release, each with a DeprecationWarning."""
+
+import importlib
+
+import pytest
+
+# old module -> (a name it held, the module that defines it now)
+MOVED = {
+    "encal.angles": ("wrap360", "encal._core.angles"),
+    "encal.errors": ("InputError", "encal._core.errors"),
+    "encal.parameters": ("check_int", "encal._core.parameters"),
+    "encal.calibration": ("read_calibration", "encal.data.calibration"),
+    "encal.outliers": ("isolated_points", "encal.analysis.outliers"),
+    "encal.profile": ("harmonics", "encal.analysis.profile"),
+    "encal.bidirectional": ("reversal", "encal.data.reversal"),
+    "encal.fitting": ("fit", "encal.models.fitting"),
+    "encal.uncertainty": ("add_uncertainty", "encal.models.uncertainty"),
+    "encal.drift": ("compare_calibrations", "encal.reports.drift"),
+    "encal.plots": ("plot_profile", "encal.figures"),
+    "encal.encoder_report": ("write_encoder_report", "encal.reports.encoder"),
+    "encal.report": ("write_report", "encal.paper.report"),
+    "encal.demo": ("run_demo", "encal.paper.demo"),
+    "encal.models.choice": ("Selection", "encal.models.auto"),
+    "encal.deploy.choice": ("choose_deployment", "encal.deploy.deployment"),
+    "encal.studies": ("compare_models", "encal.paper.studies"),
+    "encal.studies.algorithms": ("compare_algorithms", "encal.paper.studies.algorithms"),
+    "encal.studies.comparison": ("compare_models", "encal.paper.studies.comparison"),
+    "encal.studies.pruning": ("svd_pruning", "encal.paper.studies.pruning"),
+    "encal.studies.reproducibility": ("reproducibility", "encal.paper.studies.reproducibility"),
+    "encal.studies.sweep": ("hidden_node_sweep", "encal.paper.studies.sweep"),
+    "encal.studies.tables": ("Table", "encal.paper.studies.tables"),
+}
+
+
+@pytest.mark.parametrize("old", sorted(MOVED))
+def test_an_old_path_warns_and_hands_over_the_same_object(old):
+    name, new = MOVED[old]
+    module = importlib.import_module(old)
+    with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated .* import {name} from "):
+        value = getattr(module, name)
+    assert value is getattr(importlib.import_module(new), name)
+    assert name in dir(module)
+
+
+def test_from_import_of_an_old_path_warns():
+    with pytest.warns(DeprecationWarning, match="import read_calibration from encal.data.calibration"):
+        from encal.calibration import read_calibration
+    assert read_calibration is importlib.import_module("encal").read_calibration
+
+
+def test_an_old_path_says_which_name_it_lacks():
+    module = importlib.import_module("encal.fitting")
+    with pytest.raises(AttributeError, match="module 'encal.fitting' has no attribute 'no_such_name'"):
+        module.no_such_name
+
+
+def test_the_errors_are_named_as_a_user_imports_them():
+    import encal
+    from encal._core.errors import InputError
+
+    assert InputError.__module__ == "encal" and encal.InputError is InputError
