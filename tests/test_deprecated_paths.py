@@ -36,16 +36,19 @@ MOVED = {
 def test_an_old_path_warns_and_hands_over_the_same_object(old):
     name, new = MOVED[old]
     module = importlib.import_module(old)
-    with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated .* import {name} from "):
+    with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated and will be removed in encal 0.3: import {name} "):
         value = getattr(module, name)
     assert value is getattr(importlib.import_module(new), name)
     assert name in dir(module)
 
 
-def test_from_import_of_an_old_path_warns():
-    with pytest.warns(DeprecationWarning, match="import read_calibration from encal.data.calibration"):
+def test_from_import_of_an_old_path_warns_and_names_the_public_place_when_there_is_one():
+    with pytest.warns(DeprecationWarning, match="import read_calibration from encal instead"):
         from encal.calibration import read_calibration
+    with pytest.warns(DeprecationWarning, match="import check_folds from encal.data.calibration instead"):
+        from encal.calibration import check_folds
     assert read_calibration is importlib.import_module("encal").read_calibration
+    assert check_folds is importlib.import_module("encal.data.calibration").check_folds
 
 
 def test_an_old_path_says_which_name_it_lacks():

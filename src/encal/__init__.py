@@ -10,6 +10,7 @@ does not import Matplotlib.
 
 import importlib
 
+from ._core.deprecation import install_moved_modules
 from ._version import __version__
 
 # public name -> module that defines it
@@ -33,6 +34,20 @@ _PUBLIC = {
 }
 
 __all__ = ["__version__", *_PUBLIC]
+
+# The paths of encal 0.1 (old module -> the module that defines its names now): they work until encal 0.3,
+# with a DeprecationWarning on first use of a name (encal._core.deprecation).
+_MOVED = {
+    "angles": "_core.angles", "errors": "_core.errors", "parameters": "_core.parameters",
+    "calibration": "data.calibration", "bidirectional": "data.reversal",
+    "profile": "analysis.profile", "outliers": "analysis.outliers", "plots": "figures",
+    "fitting": "models.fitting", "uncertainty": "models.uncertainty", "models.choice": "models.auto",
+    "deploy.choice": "deploy.deployment", "drift": "reports.drift", "encoder_report": "reports.encoder",
+    "report": "paper.report", "demo": "paper.demo", "studies": "paper.studies",
+    **{f"studies.{name}": f"paper.studies.{name}"
+       for name in ("algorithms", "comparison", "pruning", "reproducibility", "sweep", "tables")},
+}
+install_moved_modules({f"{__name__}.{old}": f"{__name__}.{new}" for old, new in _MOVED.items()}, _PUBLIC)
 
 
 def __getattr__(name):
