@@ -1,4 +1,8 @@
-"""The package's layering: no import cycle among encal's modules.
+"""The package's layering: each package imports only from the layers below it, and no module is in an import cycle.
+
+The layers are the table :data:`LAYERS` (the same as ``docs/architecture.md``): a module may import the
+packages of lower layers and the modules of its own package (in an order without cycles), never a package
+of its own layer or of a higher one.
 
 The import graph is built from the source with ``ast``, so it sees what running the code may not:
 imports inside functions, ``importlib.import_module("encal.x")`` calls, and tables of module names
@@ -9,6 +13,22 @@ import ast
 from pathlib import Path
 
 PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "src" / "encal"
+
+#: encal's layers from the bottom up, each a name and its packages (``docs/architecture.md``, "The layers").
+LAYERS = (
+    ("foundation", ("encal._core", "encal._version", "encal.runtime")),
+    ("numerics", ("encal.numerics",)),
+    ("training and figures", ("encal.training", "encal.figures")),
+    ("analysis of a profile", ("encal.analysis",)),
+    ("calibration data", ("encal.data",)),
+    ("models", ("encal.models",)),
+    ("simulation and self-calibration", ("encal.simulate", "encal.selfcal")),
+    ("deployment", ("encal.deploy",)),
+    ("reports", ("encal.reports",)),
+    ("the paper", ("encal.paper",)),
+    ("command line", ("encal.cli",)),
+    ("entry points", ("encal", "encal.__main__")),
+)
 
 
 def module_files(root):
@@ -100,6 +120,30 @@ def import_cycles(graph):
     return cycles
 
 
+def package_of(module):
+    """The top-level package (or module) of ``module``: ``encal.models`` for ``encal.models.fourier``."""
+    return ".".join(module.split(".")[:2])
+
+
+def layer_violations(graph, layers):
+    """``(module, imported module, why)`` for every import that does not go down the layers."""
+    layer_of = {package: index for index, (_, packages) in enumerate(layers) for package in packages}
+    violations = []
+    for module in sorted(graph):
+        for target in sorted(graph[module]):
+            own, other = package_of(module), package_of(target)
+            if own == other:
+                continue
+            if own not in layer_of or other not in layer_of:
+                violations.append((module, target, f"{own if own not in layer_of else other} is in no layer"))
+            elif layer_of[other] == layer_of[own]:
+                violations.append((module, target, f"same layer ({layers[layer_of[own]][0]})"))
+            elif layer_of[other] > layer_of[own]:
+                names = layers[layer_of[own]][0], layers[layer_of[other]][0]
+                violations.append((module, target, "up from {} to {}".format(*names)))
+    return violations
+
+
 def test_the_graph_sees_deferred_and_by_name_imports(tmp_path):
     package = tmp_path / "pkg"
     (package / "sub").mkdir(parents=True)
@@ -118,3 +162,38 @@ def test_the_graph_sees_deferred_and_by_name_imports(tmp_path):
 def test_no_import_cycle_among_encal_modules():
     cycles = import_cycles(import_graph(PACKAGE_ROOT))
     assert cycles == [], "import cycles: " + "; ".join(" <-> ".join(cycle) for cycle in cycles)
+
+
+def test_the_layer_check_sees_an_import_up_or_across(tmp_path):
+    package = tmp_path / "pkg"
+    for folder in ("low", "mid", "side", "top"):
+        (package / folder).mkdir(parents=True)
+        (package / folder / "__init__.py").write_text("")
+    (package / "__init__.py").write_text("")
+    (package / "low" / "a.py").write_text("def f():\n    from ..top import b\n")  # deferred, still up
+    (package / "mid" / "c.py").write_text("from ..low import a\nfrom ..side import d\n")
+    (package / "side" / "d.py").write_text("")
+    (package / "top" / "b.py").write_text("from ..mid import c\nfrom ..stray import e\n")
+    (package / "stray.py").write_text("")
+    layers = (("low", ("pkg.low",)), ("mid", ("pkg.mid", "pkg.side")), ("top", ("pkg.top",)))
+    assert layer_violations(import_graph(package), layers) == [
+        ("pkg.low.a", "pkg.top", "up from low to top"),
+        ("pkg.low.a", "pkg.top.b", "up from low to top"),
+        ("pkg.mid.c", "pkg.side", "same layer (mid)"),
+        ("pkg.mid.c", "pkg.side.d", "same layer (mid)"),
+        ("pkg.top.b", "pkg.stray", "pkg.stray is in no layer"),
+    ]
+
+
+def test_every_package_of_encal_is_in_one_layer():
+    packages = [package for _, members in LAYERS for package in members]
+    assert len(packages) == len(set(packages))
+    found = {package_of(module) for module in module_files(PACKAGE_ROOT)}
+    assert sorted(found - set(packages)) == [], "a package in no layer: place it in LAYERS and docs/architecture.md"
+    assert sorted(set(packages) - found) == [], "a package of LAYERS that is gone"
+
+
+def test_each_package_imports_only_from_the_layers_below_it():
+    violations = layer_violations(import_graph(PACKAGE_ROOT), LAYERS)
+    assert violations == [], "imports that do not go down the layers (docs/architecture.md):\n" + "\n".join(
+        f"{module} -> {target}: {why}" for module, target, why in violations)
