@@ -300,3 +300,36 @@ def test_spectral_mean_model_adds_the_half_reversal_once():
     again = add_uncertainty(model, cal, rng=0)
     assert again.uncertainty["noise_std_arcmin"] == pytest.approx(np.hypot(posterior_noise, half), rel=1e-12)
     assert encal.fit(cal, bidirectional="mean", uncertainty=True, rng=0).uncertainty == model.uncertainty
+
+
+# ---------------------------------------------------------------- one direction through fit (issue 29)
+
+
+@pytest.mark.parametrize("mode, splitter, splits", [("per-direction", "direction_subset", 2),
+                                                     ("mean", "mean_calibration", 1)])
+def test_fit_splits_a_calibration_once_and_estimates_each_part_on_its_own_points(monkeypatch, mode, splitter,
+                                                                                 splits):
+    import encal.data.reversal as reversal_module
+    import encal.models.fitting as fitting_module
+    import encal.models.uncertainty as uncertainty_module
+
+    calls = []
+    original = getattr(reversal_module, splitter)
+
+    def counted(*args, **kwargs):
+        calls.append(splitter)
+        return original(*args, **kwargs)
+
+    for module in (fitting_module, uncertainty_module):
+        monkeypatch.setattr(module, splitter, counted)
+    cal = bidirectional(np.arange(0.0, 360.0, 4.0), rng=5, noise=0.1)
+    model = encal.fit(cal, method="fourier", orders=ORDERS, bidirectional=mode, uncertainty=True, rng=0)
+    assert len(calls) == splits  # was twice as many: fit split it, then add_uncertainty split it again
+    # the same numbers as the fit followed by add_uncertainty of the same seed, which splits again
+    monkeypatch.undo()
+    again = add_uncertainty(fit_bidirectional(cal, mode, method="fourier", orders=ORDERS, rng=0), cal,
+                            options={"orders": ORDERS}, rng=0)
+    theta = np.linspace(0.0, 359.0, 37)
+    for direction in (None, 1, -1):
+        assert_array_equal(model.predict(theta, return_std=True, direction=direction),
+                           again.predict(theta, return_std=True, direction=direction))

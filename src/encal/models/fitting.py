@@ -27,7 +27,8 @@ from . import Model, kind_names, model_kind
 from .._core.parameters import check_bool, check_choice, check_seed, check_type
 from ..analysis.profile import (ZERO_MODES, ErrorStats, error_stats, remove_offset, zero_is_arbitrary,
                                 zero_offset_arcmin, zero_sentence)
-from .uncertainty import add_uncertainty, has_posterior, refit_spec, with_half_reversal
+from .uncertainty import (add_mean_uncertainty, add_part_uncertainties, add_uncertainty, has_posterior, refit_spec,
+                          with_half_reversal)
 from .._core.threads import single_blas_thread
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
@@ -117,13 +118,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
         rng = int(np.random.SeedSequence().generate_state(1)[0])
     if has_both_directions(cal):
         # Both directions of travel pooled into one profile would leave half the reversal in every residual.
-        model = fit_bidirectional(cal, bidirectional or "per-direction", method, rng=rng if randomised else None,
-                                  **options)
-        if isinstance(rng, (int, np.integer)):
-            model.training.setdefault("seed", int(rng))
-        if uncertainty:
-            add_uncertainty(model, cal, method=method, options=dict(options), rng=rng)
-        return model
+        return fit_bidirectional(cal, bidirectional or "per-direction", method, rng=rng, uncertainty=uncertainty,
+                                 **options)
     if bidirectional is not None:
         raise InputError("The 'bidirectional' parameter of fit applies to a calibration with both directions "
                          f"of travel in its direction column. Got {bidirectional!r} for "
@@ -176,8 +172,12 @@ def resolution_bits(cal):
     return resolution_of_readings(cal.encoder_deg)
 
 
-def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **options):
+def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, uncertainty=False, **options):
     """Fit an error model to a bidirectional calibration.
+
+    The calibration is split once: into its two directions (``'per-direction'``), each fitted and given its
+    uncertainty on its own points, then combined by the directional kind; or into the mean of both
+    (``'mean'``).
 
     Parameters
     ----------
@@ -192,7 +192,10 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
     method : str, default='auto'
         Any method of :func:`encal.fit`.
     rng : int or numpy.random.Generator, optional
-        For the randomised methods.
+        For the randomised methods, then for the bootstrap of the uncertainty.
+    uncertainty : bool, default=False
+        Also estimate each model's prediction uncertainty (:func:`~encal.models.uncertainty.add_uncertainty`;
+        a spectral model keeps its posterior); a model of the mean adds the half reversal value to its noise.
     **options
         Passed to :func:`encal.fit`.
 
@@ -225,8 +228,10 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
     check_type(cal, Calibration, "cal", "fit_bidirectional", "a Calibration")
     check_choice(mode, "mode", "fit_bidirectional", BIDIRECTIONAL_MODES)
     require_directions(cal, "fit_bidirectional")
+    uncertainty = check_bool(uncertainty, "uncertainty", "fit_bidirectional")
     analysis = _reversal_or_none(cal) if mode == "per-direction" else reversal(cal)
     generator = None if rng is None else np.random.default_rng(rng)
+    settings = {"method": method, "options": dict(options)}
     record = {
         "bidirectional": mode,
         "fit_options": dict(options),
@@ -234,17 +239,23 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, **o
         "reversal_value_arcmin": None if analysis is None else analysis.reversal_value,
     }
     if mode == "mean":
-        model = _fit_one_direction(mean_calibration(cal), method, generator, options)
+        mean = mean_calibration(cal)
+        model = _fit_one_direction(mean, method, generator, options)
         model.training.update(record)
-        if has_posterior(model):
+        if uncertainty:  # after the fit, from the seed again: the refits do not change the model
+            add_mean_uncertainty(model, mean, rng=np.random.default_rng(rng), **settings)
+        if has_posterior(model) or uncertainty:
             model.uncertainty = with_half_reversal(model.uncertainty, cal)
     else:
-        parts = [_fit_one_direction(direction_subset(cal, sign), method, generator, options) for sign in (1, -1)]
+        sides = {sign: direction_subset(cal, sign) for sign in (1, -1)}
+        parts = [_fit_one_direction(sides[sign], method, generator, options) for sign in (1, -1)]
         for part in parts:
             part.reading_sign = 1  # the directional model maps readings before its parts see them
         model = model_kind("directional").model_class(*parts)
         model.reading_sign = cal.reading_sign
         model.training = {"method": method, **record, "n_points": len(cal)}
+        if uncertainty:
+            add_part_uncertainties(model, sides, rng=np.random.default_rng(rng), **settings)
     model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
     if isinstance(rng, (int, np.integer)):
         model.training.setdefault("seed", int(rng))

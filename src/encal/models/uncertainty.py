@@ -460,21 +460,49 @@ def _add_bidirectional_uncertainty(model, cal, *, method=None, options=None, n_b
     generator = np.random.default_rng(rng)
     if model.kind == "directional":
         require_directions(cal, "add_uncertainty of a directional model")
-        for sign, part in ((1, model.forward), (-1, model.reverse)):
-            if has_posterior(part):
-                continue
-            side = direction_subset(cal, sign)
-            part_method, part_options = refit_spec(part, method or part.training.get("method"), options)
-            part.uncertainty = estimate_uncertainty(
-                part, side.encoder_deg, side.errors_arcmin, method=part_method, options=part_options,
-                rng=generator, **settings)
-        return model
+        sides = {sign: direction_subset(cal, sign) for sign in (1, -1)}
+        return add_part_uncertainties(model, sides, method=method, options=options, rng=generator, **settings)
+    add_mean_uncertainty(model, mean_calibration(cal), method=method, options=options, rng=generator, **settings)
+    model.uncertainty = with_half_reversal(model.uncertainty, cal)
+    return model
+
+
+def add_part_uncertainties(model, sides, *, method, options, rng, **settings):
+    """Each part of a directional model gets its uncertainty, estimated on its own direction's points.
+
+    Parameters
+    ----------
+    model : DirectionalModel
+        Its parts fitted to ``sides[1]`` (forward) and ``sides[-1]`` (reverse); a part with a posterior keeps it.
+    sides : dict of {1: Calibration, -1: Calibration}
+        The calibration's two directions, as the parts were fitted on them.
+    method, options, rng
+        As :func:`add_uncertainty` takes them (``rng`` a Generator, drawn from by both parts in turn).
+    **settings
+        ``n_boot``, ``n_folds``, ``grid_step_deg`` of :func:`estimate_uncertainty`.
+
+    Returns
+    -------
+    DirectionalModel
+        The same model.
+    """
+    for sign, part in ((1, model.forward), (-1, model.reverse)):
+        if has_posterior(part):
+            continue
+        part_method, part_options = refit_spec(part, method or part.training.get("method"), options)
+        part.uncertainty = estimate_uncertainty(part, sides[sign].encoder_deg, sides[sign].errors_arcmin,
+                                                method=part_method, options=part_options, rng=rng, **settings)
+    return model
+
+
+def add_mean_uncertainty(model, mean, *, method, options, rng, **settings):
+    """The uncertainty of a model of the mean of both directions, estimated on that mean (``mean``, a
+    Calibration); the half reversal value is the caller's to add (:func:`with_half_reversal`). A model with a
+    posterior keeps it. Returns the same model."""
     if not has_posterior(model):
-        mean = mean_calibration(cal)
         mean_method, mean_options = refit_spec(model, method or model.training.get("method"), options)
         model.uncertainty = estimate_uncertainty(model, mean.encoder_deg, mean.errors_arcmin, method=mean_method,
-                                                 options=mean_options, rng=generator, **settings)
-    model.uncertainty = with_half_reversal(model.uncertainty, cal)
+                                                 options=mean_options, rng=rng, **settings)
     return model
 
 
