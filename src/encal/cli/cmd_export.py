@@ -227,6 +227,17 @@ def _check_resolution(args, compensator):
 
 
 def run(args):
+    status = _export(args)
+    if getattr(args, "bits_mismatch", None):  # said once the export is written, so a refusal stays one line
+        import warnings
+
+        from ..errors import EncalWarning
+
+        warnings.warn(EncalWarning(args.bits_mismatch))
+    return status
+
+
+def _export(args):
     _check_combinations(args)
     output = Path(args.output)
     if output.exists() and output.resolve() == Path(args.model).resolve():
@@ -239,6 +250,11 @@ def run(args):
                 raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
                                  "a different folder or --name (the export would overwrite the model)")
     compensator = Compensator(args.model)
+    recorded = compensator.encoder.get("resolution_bits")
+    if args.bits is not None and recorded is not None and args.bits != recorded:
+        args.bits_mismatch = (f"--bits {args.bits} differs from the {recorded} bits {args.model} records for its "
+                              f"encoder: the export maps {args.bits}-bit codes to angles, right only if the encoder "
+                              f"on the device has {args.bits} bits")
     _check_resolution(args, compensator)
     if args.format in FIRMWARE:
         from ..deploy.firmware import EXPORTERS
