@@ -19,7 +19,7 @@ spaces), so a file written by encal reads back with the same fields.
 
 import re
 
-__all__ = ["split_lines", "is_skipped", "fields", "column_names", "quote", "join", "QuotingError"]
+__all__ = ["split_lines", "is_skipped", "fields", "column_names", "repeated_names", "quote", "join", "QuotingError"]
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _NEEDS_QUOTES = re.compile(r'[",\r\n]|^\s|\s$')
@@ -91,6 +91,35 @@ def fields(line):
 def column_names(line):
     """The header's column names: stripped and lower-case."""
     return [name.strip().lower() for name in fields(line)]
+
+
+def repeated_names(names):
+    """The problem with a header that names a column more than once, as a message part, or None.
+
+    Names are compared as :func:`column_names` gives them (stripped, lower-case); empty names and names
+    that are numbers (a first row of numbers is no header) are not compared. A reader that took the
+    first of two ``encoder_deg`` columns would read the wrong one half the time, silently.
+    """
+    where = {}
+    for index, name in enumerate(names, start=1):
+        name = name.strip().lower()
+        if name and not _is_number(name):
+            where.setdefault(name, []).append(index)
+    repeated = {name: columns for name, columns in where.items() if len(columns) > 1}
+    if not repeated:
+        return None
+    said = "; ".join(f"{name} {len(columns)} times (columns {', '.join(map(str, columns))})"
+                     for name, columns in repeated.items())
+    return (f"the header names {said}; expected each column named once, so that it is clear which to read "
+            "(rename or remove the repeated column)")
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def quote(value):

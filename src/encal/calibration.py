@@ -546,18 +546,18 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
         for column, number in zip((reference_column, encoder_column), numbered):
             if not 1 <= number <= len(names):
                 _fail(path, line, f"there is no column {number}; expected a column number from 1 to {len(names)}")
+        if numbered[0] == numbered[1]:
+            _fail(path, line, f"the reference and the encoder column are both column {numbered[0]}; expected two "
+                              "different columns")
         return ({"reference": numbered[0] - 1, "encoder": numbered[1] - 1,
                  "reference_name": f"column {numbered[0]}", "encoder_name": f"column {numbered[1]}"}, False)
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
     wanted = [str(column).strip().lower() for column in (reference_column, encoder_column)]
-    for name in (*wanted, "direction", "epoch"):
-        where = [index + 1 for index, cell in enumerate(names) if cell == name]
-        if len(where) > 1:
-            _fail(path, line, f"the header names {name} {len(where)} times (columns "
-                              f"{', '.join(map(str, where))}); expected each column once, so that it is clear "
-                              "which to read")
+    repeated = _csv.repeated_names(names)
+    if repeated is not None:
+        _fail(path, line, repeated)
     chosen = {}
     for role, column, name, number in zip(("reference", "encoder"), (reference_column, encoder_column), wanted,
                                           numbered):
@@ -575,6 +575,9 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
                               "and --enc-col, their units with --ref-unit and --enc-unit)")
         _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
                           f"or its number from 1, found {found}")
+    if chosen["reference"] == chosen["encoder"]:
+        _fail(path, line, f"the reference and the encoder column are both column {chosen['reference'] + 1} "
+                          f"({chosen['reference_name']}); expected two different columns")
     for optional in ("direction", "epoch"):
         if optional in columns:
             chosen[optional] = columns[optional]

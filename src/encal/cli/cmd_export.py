@@ -33,8 +33,7 @@ from .._atomic import atomic_write
 from ..deploy.targets import FORMS, TARGETS, describe, write_target
 
 FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
-from ..errors import InputError
-from ._common import print_json
+from ._common import check_paths, print_json
 
 
 def add_arguments(parser):
@@ -115,15 +114,9 @@ def _check_combinations(args):
 def run(args):
     _check_combinations(args)
     output = Path(args.output)
-    if output.exists() and output.resolve() == Path(args.model).resolve():
-        raise InputError(f"-o {output} is the model file being exported; expected a different output path "
-                         "(the export would overwrite the model)")
-    if args.format == "c":
-        model = Path(args.model).resolve()
-        for written in (output / f"{args.name}.h", output / f"{args.name}.c"):
-            if written.exists() and written.resolve() == model:
-                raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
-                                 "a different folder or --name (the export would overwrite the model)")
+    c_files = [f"{args.name}.h", f"{args.name}.c"] if args.format == "c" else []
+    check_paths(inputs=[(args.model, "model")], outputs=[] if c_files else [("-o", output)],
+                folders=[("-o", output, c_files)] if c_files else [])
     compensator = Compensator(args.model)
     if args.format in FIRMWARE:
         from ..deploy.firmware import EXPORTERS

@@ -12,7 +12,7 @@ Calibrations can be fitted, profiled and compared; an existing correction become
 model file that 'encal evaluate' scores on a calibration, beside encal's own models.
 """
 
-from ._common import int_in_range
+from ._common import check_paths, int_in_range
 
 CALIBRATIONS = ("moteus-compare", "moteus-cal", "klipper", "mechaduino")
 CORRECTIONS = ("moteus", "simplefoc", "tinymovr")
@@ -36,6 +36,8 @@ def run(args):
 
     if args.kind == "tinymovr" and args.bits is None:
         args.import_parser.error("tinymovr tables are in ticks: --bits is required")
+    check_paths(inputs=[(args.input, "capture" if args.kind == "moteus-cal" else "firmware")],
+                outputs=[("-o", args.output)])
     readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
                "mechaduino": firmware.read_mechaduino,
                "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),
