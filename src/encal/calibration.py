@@ -1,5 +1,6 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import os
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -338,12 +339,18 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     duplicates = check_choice(duplicates, "duplicates", where, DUPLICATES)
     if name is not None:
         check_type(name, str, "name", where, "a str or None")
-    path = Path(path)
+    if isinstance(path, bool) or not (isinstance(path, (str, bytes)) or hasattr(type(path), "__fspath__")):
+        raise invalid("path", where, "the path of a calibration CSV (a str or os.PathLike)", path,
+                      error=CalibrationError)
+    path = Path(os.fsdecode(path))
     if not path.exists():
         raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
-    raw = _read_bytes(path)
+    try:
+        raw = _read_bytes(path)
+    except OSError as exc:
+        raise CalibrationError(f"{path}: cannot be read ({exc.strerror or exc}); expected a calibration CSV") from None
     head = _head_of_plain(raw)
     if head is not None:  # a plain body: only the lines up to the header are needed as text
         lines, header_start, body_start = head
