@@ -43,8 +43,11 @@ def is_skipped(line):
     return not stripped or stripped.startswith("#")
 
 
-def fields(line):
+def fields(line, separator=","):
     """The fields of one line, unquoted (spaces around a quoted field are dropped, others kept).
+
+    ``separator`` is the comma of encal's dialect, or the semicolon or tab of a spreadsheet's export
+    (see :func:`separator_of`).
 
     Raises
     ------
@@ -52,14 +55,15 @@ def fields(line):
         If a quoted field is not closed, or text other than spaces follows its closing quote.
     """
     if '"' not in line:
-        return line.split(",")
+        return line.split(separator)
+    named = _SEPARATOR_NAMES[separator]
     result, start, end = [], 0, len(line)
     while True:
         first = start
-        while first < end and line[first] in " \t":
+        while first < end and line[first] in " \t" and line[first] != separator:
             first += 1
         if first == end or line[first] != '"':
-            comma = line.find(",", start)
+            comma = line.find(separator, start)
             if comma < 0:
                 result.append(line[start:])
                 return result
@@ -78,14 +82,37 @@ def fields(line):
                 continue
             break
         after = closing + 1
-        while after < end and line[after] in " \t":
+        while after < end and line[after] in " \t" and line[after] != separator:
             after += 1
-        if after < end and line[after] != ",":
-            raise QuotingError(f"text follows the closing quote at character {closing + 1}; expected a comma")
+        if after < end and line[after] != separator:
+            raise QuotingError(f"text follows the closing quote at character {closing + 1}; expected {named}")
         result.append("".join(parts))
         if after == end:
             return result
         start = after + 1
+
+
+#: How a message names each separator.
+_SEPARATOR_NAMES = {",": "a comma", ";": "a semicolon", "\t": "a tab"}
+_QUOTED = re.compile(r'"(?:[^"]|"")*"')
+
+
+def separator_of(header):
+    """The separator of a file whose header line is ``header``: ``','``, ``';'``, ``'\\t'``, or None for blanks.
+
+    Looked for outside double quotes: a comma (encal's dialect), else a semicolon (a spreadsheet's
+    export where the decimal mark is a comma), else a tab in a header that quotes its names (a
+    spreadsheet's tab-separated export); else a header that splits at blanks into two or more names
+    is separated by blanks (spaces or tabs, any number). A single name: a comma.
+    """
+    bare = _QUOTED.sub("", header)
+    if "," in bare:
+        return ","
+    if ";" in bare:
+        return ";"
+    if '"' in header:
+        return "\t" if "\t" in bare else ","
+    return None if len(header.split()) >= 2 else ","
 
 
 def column_names(line):
@@ -110,8 +137,7 @@ def repeated_names(names):
         return None
     said = "; ".join(f"{name} {len(columns)} times (columns {', '.join(map(str, columns))})"
                      for name, columns in repeated.items())
-    return (f"the header names {said}; expected each column named once, so that it is clear which to read "
-            "(rename or remove the repeated column)")
+    return f"the header names {said}; expected each column once, so that it is clear which to read"
 
 
 def _is_number(text):

@@ -216,10 +216,10 @@ def _plain_angles(values, unit):
         return bool(np.all(np.isfinite(values)) and np.all(np.abs(values * unit.degrees_per_unit) <= MAX_ABS_DEG))
 
 
-def _cells(path, number, line):
+def _cells(path, number, line, separator=","):
     """The fields of line ``number`` in encal's CSV dialect (:mod:`encal._csv`)."""
     try:
-        return _csv.fields(line)
+        return _csv.fields(line, separator)
     except _csv.QuotingError as exc:
         _fail(path, number, f"{exc}")
 
@@ -232,13 +232,18 @@ def _shown(text, limit=40):
 _UNIT_WORDS = {"deg": "degrees", "rad": "radians", "rev": "revolutions", "counts": "counts"}
 
 
-def _parse_float(path, line, column, name, cell, unit=None):
-    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``."""
+def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False):
+    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``.
+
+    With ``decimal_comma`` (a file not separated by commas), a comma in the cell is its decimal mark.
+    """
     words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
     try:
-        value = float(cell)
+        value = float(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
     except ValueError:
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}", column)
+        grouping = (" (a comma is read as the decimal mark in a file separated by semicolons, tabs or blanks; "
+                    "digit grouping is not read)" if decimal_comma and "," in cell else "")
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
     degrees = value if unit is None else value * unit.degrees_per_unit
@@ -250,17 +255,18 @@ def _parse_float(path, line, column, name, cell, unit=None):
     return value
 
 
-def _separator(path, line, header):
-    """',' for a comma-separated file, None for a whitespace-separated one (a header without commas that
-    splits at blanks into two or more names); semicolons are refused."""
-    if "," in header or '"' in header:
-        return ","
-    if len(header.split()) >= 2:
-        return None
-    if ";" in header:
-        _fail(path, line, "fields are separated by semicolons; expected commas or blanks (save the file as "
-                          "comma-separated CSV)")
-    return ","
+def _check_decimal_marks(path, first_comma, first_point):
+    """Refuse a file whose numbers use both a decimal comma and a decimal point: its commas may group digits
+    (``1,080`` for 1080), and reading them as decimal commas would give wrong numbers.
+
+    ``first_comma``, ``first_point``: ``(line, column, cell)`` of the first number read with each mark, or None.
+    """
+    if first_comma is None or first_point is None:
+        return
+    (line, column, cell), (point_line, _, point_cell) = first_comma, first_point
+    _fail(path, line, f"{cell.strip()!r} has a comma, read as a decimal comma, but line {point_line} writes "
+                      f"{point_cell.strip()!r} with a decimal point; expected one decimal mark in the whole file "
+                      "(is the comma grouping digits? Save the numbers without digit grouping)", column)
 
 
 def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
@@ -368,10 +374,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     except ValueError as exc:
         raise CalibrationError(f"{path}: {exc}") from None
     header_line, header = records[0]
-    separator = _separator(path, header_line, header)
+    separator = _csv.separator_of(header)
+    decimal_comma = separator != ","  # a spreadsheet's export where the comma is the decimal mark
 
     def cells_of(number, line):
-        return _cells(path, number, line) if separator == "," else line.split()
+        return _cells(path, number, line, separator) if separator is not None else line.split()
 
     names = cells_of(header_line, header)
     columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column)
@@ -380,7 +387,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
     table = None
-    if head is not None and dir_col is None and epoch_col is None:
+    if head is not None and dir_col is None and epoch_col is None and separator in (",", None):
         first = header_line + 1 if has_header else header_line
         table = plain_rows(raw[body_start if has_header else header_start:], separator, n_columns,
                            progress=progress)
@@ -397,13 +404,22 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
             lines = _csv.split_lines(_decode(path, raw))
             records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
         reference, encoder, direction, epoch = [], [], [], []
+        marks = {",": None, ".": None}  # the first number read with a decimal comma, with a decimal point
         data = records[1:] if has_header else records
         for count, (number, line) in enumerate(data, start=1):
             cells = cells_of(number, line)
             if len(cells) != n_columns:
-                _fail(path, number, _field_count_problem(line, len(cells), n_columns))
-            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
-            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
+                _fail(path, number, _field_count_problem(line, len(cells), n_columns, separator))
+            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0],
+                                          decimal_comma))
+            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1],
+                                        decimal_comma))
+            if decimal_comma and (marks[","] is None or marks["."] is None):
+                for column in (ref_col, enc_col):
+                    for mark in ",.":
+                        if marks[mark] is None and mark in cells[column]:
+                            marks[mark] = (number, column + 1, cells[column])
+                _check_decimal_marks(path, marks[","], marks["."])
             if dir_col is not None:
                 cell = cells[dir_col].strip().lower()
                 if cell not in _DIRECTIONS:
@@ -450,14 +466,17 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     return cal
 
 
-def _field_count_problem(line, n_fields, n_columns):
+def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     """Why a row of ``n_fields`` fields does not fit a header of ``n_columns`` columns (a message)."""
     fields = f"{n_fields} field" + ("s" if n_fields != 1 else "")
     if n_fields > n_columns:
         why = ("a decimal comma, or a value holding a comma that is not quoted? Name every extra column "
-               "in the header")
+               "in the header" if header_separator == "," else
+               "a value holding a separator that is not quoted? Name every extra column in the header")
     else:
-        separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
+        others = [(sep, label) for sep, label in ((";", "semicolons"), ("\t", "tabs"), (",", "commas"))
+                  if sep != header_separator and not (header_separator is None and sep == "\t")]
+        separator = next((label for sep, label in others if sep in line), None)
         why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
     return f"has {fields}, expected {n_columns} as in the header ({why})"
 
