@@ -142,6 +142,20 @@ def test_a_write_that_fails_half_way_leaves_whole_lines(model, tmp_path, monkeyp
     assert f"the answers to the first {answers} angles are written whole" in err
 
 
+@pytest.mark.parametrize("from_stdin", [False, True])
+def test_correct_appending_to_its_input_is_refused(from_stdin, model, tmp_path):
+    """`encal correct M a.txt >> a.txt` read its own answers back as angles, without end (21,141 lines in 3 s)."""
+    angles = tmp_path / "a.txt"
+    angles.write_text("10\n20\n", encoding="ascii")
+    source = str(Path(encal.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [source, os.environ.get("PYTHONPATH")]))}
+    argv = [sys.executable, "-m", "encal", "correct", str(model), *([] if from_stdin else [str(angles)])]
+    with open(angles, "ab") as output, open(angles, "rb") as stdin:
+        process = subprocess.run(argv, stdin=stdin, stdout=output, stderr=subprocess.PIPE, timeout=60, env=env)
+    assert process.returncode == 1 and "standard output is the same file as" in process.stderr.decode()
+    assert angles.read_text(encoding="ascii") == "10\n20\n"
+
+
 def test_lines_over_64_kib_are_refused_after_the_answers_before_them(model, tmp_path, capsys):
     """The stream let lines of up to 128 KiB through; `0...025` padded to 100 KB is 25 and was answered."""
     angles = tmp_path / "angles.txt"
