@@ -7,7 +7,9 @@
 - A line whose first non-blank character is ``#`` is a comment; blank lines are skipped.
 - Fields are separated by commas. A field may be quoted with double quotes (RFC 4180): it may then
   hold commas, and a doubled quote stands for one; spaces before the opening quote are ignored. A
-  quoted field does not span lines.
+  quoted field does not span lines. Calibrations also read a spreadsheet's export separated by
+  semicolons or tabs (:func:`separator_of`), whose fields :func:`fields` splits the same way.
+- A header names each column once (:func:`repeated_names`).
 - Column names are compared without surrounding spaces and without regard to letter case.
 - Every data row has exactly as many fields as the header: a row with more fields is a decimal
   comma (``98,03``) or a shifted row, one with fewer a truncated file. Extra columns are named in

@@ -275,10 +275,12 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     """Read a calibration CSV (see DESIGN.md).
 
     The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
-    :mod:`encal._csv`) or, when its header has no comma, separated by blanks (spaces or tabs), with one
-    header row naming at least the reference and the encoder column (``reference_deg`` and
-    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored), ``#``
-    comment lines, and LF or CRLF line ends. Angles may be any finite numbers within +-1e9 degrees
+    :mod:`encal._csv`), or as a spreadsheet exports it, separated by semicolons or tabs with a decimal
+    comma (:func:`encal._csv.separator_of`), or, when its header has none of these, separated by blanks
+    (spaces or tabs); in a file not separated by commas a comma in a number is its decimal mark. It
+    has one header row naming at least the reference and the encoder column (``reference_deg`` and
+    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored, each
+    named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite numbers within +-1e9 degrees
     (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
 
     Parameters
@@ -321,9 +323,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ------
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
-        header without the two columns, a semicolon-separated file, a row whose field count differs from
+        header without the two columns or naming a column twice, a row whose field count differs from
         the header's, a unit other than the four above, non-numeric, NaN, infinite or
-        absurdly large (beyond +-1e9 degrees) values, a resolution outside 1 to 32 bits, fewer than 8 points,
+        absurdly large (beyond +-1e9 degrees) values, decimal commas mixed with decimal points in a file not
+        separated by commas, a resolution outside 1 to 32 bits, fewer than 8 points,
         a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
         (unless ``reverse``), an encoder that goes back while the reference goes forward (see
         :func:`check_folds`), conflicting repeated reference angles.
