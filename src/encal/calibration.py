@@ -280,8 +280,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     (spaces or tabs); in a file not separated by commas a comma in a number is its decimal mark. It
     has one header row naming at least the reference and the encoder column (``reference_deg`` and
     ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored, each
-    named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite numbers within +-1e9 degrees
-    (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
+    named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite
+    numbers within +-1e9 degrees (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
 
     Parameters
     ----------

@@ -76,7 +76,7 @@ def run(args):
         # Python from failing again when it flushes stdout at exit.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     except OSError as exc:
-        if getattr(exc, "filename", None) is not None or not isinstance(sink, _WholeLines):
+        if not isinstance(sink, _WholeLines) or sink.failure is not exc:  # not a failed write of the answers
             raise
         # A full disk (ENOSPC), a quota, an I/O error: _WholeLines has cut the output back to whole lines.
         done = (f"the answers to the first {sink.lines_written} angles are written whole, and nothing after them"
@@ -269,6 +269,7 @@ class _WholeLines:
     def __init__(self, descriptor):
         self.descriptor = descriptor
         self.lines_written = 0
+        self.failure = None  # the OSError that stopped a write
 
     def write(self, data):
         view = memoryview(data)
@@ -284,7 +285,8 @@ class _WholeLines:
                     done += os.write(self.descriptor, view[done:])
             except BrokenPipeError:
                 raise
-            except OSError:
+            except OSError as exc:
+                self.failure = exc
                 # A full disk took part of a line (a write may be short before it fails): cut a file back to
                 # the end of the last whole line, so that no part of a number is read as an angle.
                 whole = data.rfind(b"\n", 0, done) + 1
