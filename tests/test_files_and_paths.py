@@ -57,6 +57,14 @@ def test_an_output_that_is_an_input_is_refused(how, calibration, tmp_path):
         check_paths(inputs=[(calibration, "calibration")], outputs=[("-o", output)])
 
 
+def test_an_input_given_twice_is_refused(calibration, tmp_path, capsys):
+    """`fit A.csv --repeat A.csv` took the noise from the differences of identical readings: 1.5e-7 arcmin, exit 0."""
+    assert main(["fit", str(calibration), "--repeat", str(tmp_path / "." / "cal.csv"), "-o", str(tmp_path / "m.json"),
+                 "--method", "spectral"]) == 1
+    assert "the same input given twice" in capsys.readouterr().err
+    assert not (tmp_path / "m.json").exists()
+
+
 def test_two_outputs_that_are_one_file_are_refused(tmp_path):
     """Neither exists yet: compared by their resolved paths."""
     with pytest.raises(InputError, match="--stepper-csv .*s.csv is the same file as the output -o"):

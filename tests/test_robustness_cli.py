@@ -734,6 +734,12 @@ ISSUE25_CASES = [
          ("encal.h", "same file")),
     Case("study-out-holds-the-input", ("study", "prune", "{study_input}", "--out", "{study_folder}", "--hidden", "3",
                                        "--epochs", "2"), 1, ("fig3_pruning.csv", "same file")),
+    # an input given twice: `fit A --repeat A` took the noise from readings that are no repeats (1.5e-7 arcmin)
+    Case("fit-repeat-is-the-calibration", ("fit", "{train}", "--repeat", "{train}", "-o", "{out}/m.json", "--method",
+                                           "spectral"), 1, ("train.csv", "given twice")),
+    Case("report-test-is-the-calibration", ("report", "{input_copy}", "{link_to_input}", "-o", "{out}/r.html"), 1,
+         ("link_to_input.csv", "given twice")),
+    Case("drift-one-file-twice", ("drift", "{train}", "{train}"), 1, ("given twice",)),
     # 2. every input and output path checked before any work
     Case("report-model-folder-missing", ("report", "{train}", "-o", "{out}/r.html", "--model", "{nodir}/m.json"), 1,
          ("--model", "does not exist")),

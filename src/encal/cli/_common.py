@@ -294,7 +294,8 @@ def check_paths(inputs=(), outputs=(), folders=()):
     ----------
     inputs : iterable of (str, str)
         ``(path, kind)`` of every file read, ``kind`` a key of :data:`INPUT_KINDS`; ``'-'`` (standard
-        input) and None are skipped. Each must exist, be no folder, and (a regular file) open for reading.
+        input) and None are skipped. Each must exist, be no folder, and (a regular file) open for reading;
+        no file may be given twice.
     outputs : iterable of (str, str)
         ``(option, path)`` of every file written, ``option`` as the user gave it (``'-o'``). Its folder
         must exist; it must not be a folder, nor the same file as an input or another output.
@@ -337,7 +338,13 @@ def check_paths(inputs=(), outputs=(), folders=()):
         written += [(f"{option} {folder} (its {name})", folder / name) for name in names]
     identities = {}  # identity -> how a message names that file
     for path, kind in inputs:
-        identities.setdefault(_identity(path), f"the {INPUT_KINDS[kind][1]} {path}")
+        identity = _identity(path)
+        if identity in identities:
+            # fit --repeat A.csv on A.csv took the noise from readings that were not repeats: 1.5e-7 arcmin
+            raise InputError(f"{path} is the same file as {identities[identity]}: the same input given twice; "
+                             "expected different files (a second pass, a held-out or a later calibration is "
+                             "another measurement)")
+        identities[identity] = f"the {INPUT_KINDS[kind][1]} {path}"
     for what, path in written:
         identity = _identity(path)
         if identity in identities:
