@@ -77,6 +77,15 @@ def test_a_file_a_folder_output_would_write_is_checked(calibration, tmp_path):
     check_paths(inputs=[(calibration, "calibration")], folders=[("--out", tmp_path, ["other.csv"])])
 
 
+def test_study_writes_the_files_it_checks(calibration, tmp_path, capsys):
+    """check_paths is told which files `study --out` writes (cmd_study._WRITES): the files it does write."""
+    from encal.cli.cmd_study import _WRITES
+
+    out = tmp_path / "study"
+    assert main(["study", "prune", str(calibration), "--out", str(out), "--hidden", "3", "--epochs", "2"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == sorted(_WRITES["prune"])
+
+
 def test_fit_over_its_repeat_keeps_the_repeat(calibration, tmp_path, capsys):
     """`encal fit A.csv --repeat R.csv -o R.csv` replaced R.csv with a model file and exited 0."""
     repeat = tmp_path / "repeat.csv"
