@@ -173,6 +173,18 @@ def test_correct_appending_to_its_input_is_refused(from_stdin, model, tmp_path):
     assert angles.read_text(encoding="ascii") == "10\n20\n"
 
 
+def test_correct_appending_to_its_model_is_refused(model, tmp_path):
+    """`encal correct M.json a.txt >> M.json` appended the answers to the model file."""
+    before = model.read_bytes()
+    source = str(Path(encal.__file__).resolve().parents[1])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [source, os.environ.get("PYTHONPATH")]))}
+    with open(model, "ab") as output:
+        process = subprocess.run([sys.executable, "-m", "encal", "correct", str(model)], input=b"10\n",
+                                 stdout=output, stderr=subprocess.PIPE, timeout=60, env=env)
+    assert process.returncode == 1 and "the same file as the model file" in process.stderr.decode()
+    assert model.read_bytes() == before
+
+
 def test_lines_over_64_kib_are_refused_after_the_answers_before_them(model, tmp_path, capsys):
     """The stream let lines of up to 128 KiB through; `0...025` padded to 100 KB is 25 and was answered."""
     angles = tmp_path / "angles.txt"

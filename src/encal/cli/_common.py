@@ -273,7 +273,7 @@ def _check_input(path, kind):
         raise InputError(f"{path}: cannot be read ({getattr(exc, 'strerror', None) or exc}); expected "
                          f"{expected}") from None
     if stat.S_ISDIR(status.st_mode):
-        raise InputError(f"{path}: is a folder; expected {expected} file")
+        raise InputError(f"{path}: is a folder; expected {expected}")
     if stat.S_ISREG(status.st_mode):  # a pipe or a device is not opened here: opening may block or act
         try:
             with open(path, "rb"):

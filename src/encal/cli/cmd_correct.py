@@ -61,7 +61,7 @@ def run(args):
         raise InputError("standard output is closed; expected somewhere to write the corrected angles")
     if args.input == "-" and sys.stdin is None:
         raise InputError("standard input is closed; expected encoder angles on it, or give a FILE")
-    _check_output_is_not_the_input(args.input)
+    _check_output_is_not_an_input(args.input, args.model)
     sink = _sink(sys.stdout)
     try:
         if args.input == "-":
@@ -86,20 +86,27 @@ def run(args):
     return 0
 
 
-def _check_output_is_not_the_input(input_path):
-    """Refuse standard output redirected into the input file (``encal correct M a.txt >> a.txt``): the
-    answers would be read back as angles, without end, until the disk is full."""
-    try:
-        written = os.fstat(sys.stdout.fileno())
-        read = os.fstat(sys.stdin.fileno()) if input_path == "-" else os.stat(input_path)
-    except (AttributeError, OSError, ValueError):  # a replaced stream (a test's capture), no descriptor
-        return
+def _check_output_is_not_an_input(input_path, model_path):
+    """Refuse standard output redirected into an input: the angles (``encal correct M a.txt >> a.txt``),
+    whose answers would be read back as angles without end until the disk is full, or the model file."""
     import stat
 
-    if stat.S_ISREG(written.st_mode) and (written.st_dev, written.st_ino) == (read.st_dev, read.st_ino):
-        source = "standard input" if input_path == "-" else input_path
-        raise InputError(f"standard output is the same file as {source}; expected the corrected angles to go "
-                         "to another file (they would be read back as angles, without end)")
+    try:
+        written = os.fstat(sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):  # a replaced stream (a test's capture), no descriptor
+        return
+    if not stat.S_ISREG(written.st_mode):
+        return
+    inputs = {"the model file " + str(model_path): model_path,
+              ("standard input" if input_path == "-" else str(input_path)): input_path}
+    for name, path in inputs.items():
+        try:
+            read = os.fstat(sys.stdin.fileno()) if path == "-" else os.stat(path)
+        except (AttributeError, OSError, ValueError):
+            continue
+        if (written.st_dev, written.st_ino) == (read.st_dev, read.st_ino):
+            raise InputError(f"standard output is the same file as {name}; expected the corrected angles to go "
+                             "to another file (writing them there would change the input as it is read)")
 
 
 #: Longest input line, in bytes without its line end: bounds the memory when no line end comes.
