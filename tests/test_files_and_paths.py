@@ -277,3 +277,10 @@ def test_the_reference_and_the_encoder_in_one_column(calibration):
         encal.read_calibration(calibration, reference_column=2, encoder_column=2)
     with pytest.raises(CalibrationError, match=r"both column 2 \(encoder_deg\)"):
         encal.read_calibration(calibration, reference_column="2", encoder_column="encoder_deg")
+
+
+@pytest.mark.parametrize("path", [None, 3])
+def test_saving_to_what_is_no_path_is_refused(path, model):
+    """`model.save(None)` raised TypeError; `3` would have been taken for a file descriptor by a lower layer."""
+    with pytest.raises(InputError, match="expected the path of a file"):
+        encal.load_model(model).save(path)

@@ -163,9 +163,8 @@ def save_model(model, path, *, reproducible=False):
     pathlib.Path
         The file written.
     """
-    path = Path(path)
-    atomic_write(path, dumps(model_to_dict(model, reproducible=reproducible)))
-    return path
+    atomic_write(path, dumps(model_to_dict(model, reproducible=reproducible)))  # refuses what is no path
+    return Path(path)
 
 
 def load_model(path):
