@@ -209,6 +209,14 @@ def test_spreadsheet_exports_read_the_same_numbers(separator, decimal, quote, bo
     np.testing.assert_array_equal(other.encoder_deg, reference.encoder_deg)
 
 
+def test_a_spreadsheet_export_without_header_keeps_its_first_row(tmp_path):
+    """`0,0;0,04...` is a row of numbers, not a header: read with --ref-col 1 --enc-col 2, all 180 rows."""
+    reference = encal.read_calibration(_write(tmp_path / "comma.csv", _calibration_text()))
+    body = "".join(_calibration_text(";", ",").splitlines(keepends=True)[1:])
+    other = encal.read_calibration(_write(tmp_path / "rows.csv", body), reference_column=1, encoder_column=2)
+    np.testing.assert_array_equal(other.encoder_deg, reference.encoder_deg)
+
+
 def _write(path, text):
     path.write_text(text, encoding="utf-8", newline="")
     return path

@@ -102,16 +102,17 @@ _QUOTED = re.compile(r'"(?:[^"]|"")*"')
 def separator_of(header):
     """The separator of a file whose header line is ``header``: ``','``, ``';'``, ``'\\t'``, or None for blanks.
 
-    Looked for outside double quotes: a comma (encal's dialect), else a semicolon (a spreadsheet's
-    export where the decimal mark is a comma), else a tab in a header that quotes its names (a
-    spreadsheet's tab-separated export); else a header that splits at blanks into two or more names
-    is separated by blanks (spaces or tabs, any number). A single name: a comma.
+    Looked for outside double quotes: a semicolon (a spreadsheet's export where the decimal mark is a
+    comma: a first row of numbers has commas too), else a comma (encal's dialect), else a tab in a
+    header that quotes its names (a spreadsheet's tab-separated export); else a header that splits at
+    blanks into two or more names is separated by blanks (spaces or tabs, any number). A single name:
+    a comma.
     """
     bare = _QUOTED.sub("", header)
-    if "," in bare:
-        return ","
     if ";" in bare:
         return ";"
+    if "," in bare:
+        return ","
     if '"' in header:
         return "\t" if "\t" in bare else ","
     return None if len(header.split()) >= 2 else ","

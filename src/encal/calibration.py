@@ -384,7 +384,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         return _cells(path, number, line, separator) if separator is not None else line.split()
 
     names = cells_of(header_line, header)
-    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column)
+    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column,
+                                          decimal_comma=decimal_comma)
     n_columns = len(names)
     ref_col, enc_col = columns["reference"], columns["encoder"]
     ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
@@ -563,15 +564,18 @@ def _looks_like_radians(values):
     return -np.pi - margin <= lowest and highest <= 2 * np.pi + margin and highest - lowest >= 1.5 * np.pi
 
 
-def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg"):
+def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg", *,
+                    decimal_comma=False):
     """Indices of the reference, encoder, direction and epoch columns, and whether ``names`` is a header.
 
     Returns ``({'reference': i, 'encoder': j, 'reference_name': ..., 'encoder_name': ..., 'direction': k,
     'epoch': l}, has_header)``; a column is chosen by its name or its number from 1.
     """
     names = [name.strip().lower() for name in names]
+    # a first row of numbers (with decimal commas, where the separator is no comma) is no header
+    is_number = (lambda text: _is_number(text.replace(",", "."))) if decimal_comma else _is_number
     numbered = [_column_number(column) for column in (reference_column, encoder_column)]
-    if all(number is not None for number in numbered) and all(_is_number(cell) for cell in names if cell):
+    if all(number is not None for number in numbered) and all(is_number(cell) for cell in names if cell):
         for column, number in zip((reference_column, encoder_column), numbered):
             if not 1 <= number <= len(names):
                 _fail(path, line, f"there is no column {number}; expected a column number from 1 to {len(names)}")
@@ -584,7 +588,7 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
     wanted = [str(column).strip().lower() for column in (reference_column, encoder_column)]
-    repeated = _csv.repeated_names(names)
+    repeated = _csv.repeated_names(["" if is_number(name) else name for name in names])
     if repeated is not None:
         _fail(path, line, repeated)
     chosen = {}
@@ -596,7 +600,7 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
             chosen[role], chosen[f"{role}_name"] = number - 1, names[number - 1] or f"column {number}"
     missing = [name for role, name in zip(("reference", "encoder"), wanted) if role not in chosen]
     if missing:
-        looks_numeric = all(_is_number(cell) for cell in names if cell)
+        looks_numeric = all(is_number(cell) for cell in names if cell)
         found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
         if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
             _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
