@@ -755,6 +755,8 @@ ISSUE25_CASES = [
     Case("selfcal-output-folder-missing", ("selfcal", "spin", "{train}", "-o", "{nodir}/c.csv"), 1,
          ("does not exist",)),
     Case("evaluate-model-dev-zero", ("evaluate", "/dev/zero", "{test}"), 1, ("/dev/zero", "NUL")),
+    Case("fit-output-is-a-device", ("fit", "{train}", "-o", "/dev/null", "--method", "lut"), 1,
+         ("/dev/null", "not a regular file")),
     # 3. a column named twice; the reference and the encoder in one column
     *(Case(f"{command}-repeated-column", (command, *before, "{repeated_column}", *after), 1,
            ("repeated_column.csv", "line 1", "encoder_deg 2 times", "columns 2, 3"))

@@ -328,6 +328,9 @@ def check_paths(inputs=(), outputs=(), folders=()):
                              "path of a file in an existing folder")
         if path.is_dir():
             raise InputError(f"cannot write {option} {path}: it is a folder; expected the path of a file")
+        if path.exists() and not path.is_file():  # as encal._atomic refuses it, but before the work
+            raise InputError(f"cannot write {option} {path}: it is not a regular file (a device, pipe or socket); "
+                             "expected the path of a file")
         written.append((f"{option} {path}", path))
     for option, folder, names in folders:
         if folder is None:
