@@ -1,5 +1,6 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import os
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -215,10 +216,10 @@ def _plain_angles(values, unit):
         return bool(np.all(np.isfinite(values)) and np.all(np.abs(values * unit.degrees_per_unit) <= MAX_ABS_DEG))
 
 
-def _cells(path, number, line):
+def _cells(path, number, line, separator=","):
     """The fields of line ``number`` in encal's CSV dialect (:mod:`encal._csv`)."""
     try:
-        return _csv.fields(line)
+        return _csv.fields(line, separator)
     except _csv.QuotingError as exc:
         _fail(path, number, f"{exc}")
 
@@ -231,13 +232,18 @@ def _shown(text, limit=40):
 _UNIT_WORDS = {"deg": "degrees", "rad": "radians", "rev": "revolutions", "counts": "counts"}
 
 
-def _parse_float(path, line, column, name, cell, unit=None):
-    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``."""
+def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False):
+    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``.
+
+    With ``decimal_comma`` (a file not separated by commas), a comma in the cell is its decimal mark.
+    """
     words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
     try:
-        value = float(cell)
+        value = float(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
     except ValueError:
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}", column)
+        grouping = (" (a comma is read as the decimal mark in a file separated by semicolons, tabs or blanks; "
+                    "digit grouping is not read)" if decimal_comma and "," in cell else "")
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
     degrees = value if unit is None else value * unit.degrees_per_unit
@@ -249,17 +255,18 @@ def _parse_float(path, line, column, name, cell, unit=None):
     return value
 
 
-def _separator(path, line, header):
-    """',' for a comma-separated file, None for a whitespace-separated one (a header without commas that
-    splits at blanks into two or more names); semicolons are refused."""
-    if "," in header or '"' in header:
-        return ","
-    if len(header.split()) >= 2:
-        return None
-    if ";" in header:
-        _fail(path, line, "fields are separated by semicolons; expected commas or blanks (save the file as "
-                          "comma-separated CSV)")
-    return ","
+def _check_decimal_marks(path, first_comma, first_point):
+    """Refuse a file whose numbers use both a decimal comma and a decimal point: its commas may group digits
+    (``1,080`` for 1080), and reading them as decimal commas would give wrong numbers.
+
+    ``first_comma``, ``first_point``: ``(line, column, cell)`` of the first number read with each mark, or None.
+    """
+    if first_comma is None or first_point is None:
+        return
+    (line, column, cell), (point_line, _, point_cell) = first_comma, first_point
+    _fail(path, line, f"{cell.strip()!r} has a comma, read as a decimal comma, but line {point_line} writes "
+                      f"{point_cell.strip()!r} with a decimal point; expected one decimal mark in the whole file "
+                      "(is the comma grouping digits? Save the numbers without digit grouping)", column)
 
 
 def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
@@ -268,11 +275,13 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     """Read a calibration CSV (see DESIGN.md).
 
     The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
-    :mod:`encal._csv`) or, when its header has no comma, separated by blanks (spaces or tabs), with one
-    header row naming at least the reference and the encoder column (``reference_deg`` and
-    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored), ``#``
-    comment lines, and LF or CRLF line ends. Angles may be any finite numbers within +-1e9 degrees
-    (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
+    :mod:`encal._csv`), or as a spreadsheet exports it, separated by semicolons or tabs with a decimal
+    comma (:func:`encal._csv.separator_of`), or, when its header has none of these, separated by blanks
+    (spaces or tabs); in a file not separated by commas a comma in a number is its decimal mark. It
+    has one header row naming at least the reference and the encoder column (``reference_deg`` and
+    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored, each
+    named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite
+    numbers within +-1e9 degrees (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
 
     Parameters
     ----------
@@ -314,9 +323,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ------
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
-        header without the two columns, a semicolon-separated file, a row whose field count differs from
+        header without the two columns or naming a column twice, a row whose field count differs from
         the header's, a unit other than the four above, non-numeric, NaN, infinite or
-        absurdly large (beyond +-1e9 degrees) values, a resolution outside 1 to 32 bits, fewer than 8 points,
+        absurdly large (beyond +-1e9 degrees) values, decimal commas mixed with decimal points in a file not
+        separated by commas, a resolution outside 1 to 32 bits, fewer than 8 points,
         a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
         (unless ``reverse``), an encoder that goes back while the reference goes forward (see
         :func:`check_folds`), conflicting repeated reference angles.
@@ -338,12 +348,18 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     duplicates = check_choice(duplicates, "duplicates", where, DUPLICATES)
     if name is not None:
         check_type(name, str, "name", where, "a str or None")
-    path = Path(path)
+    if isinstance(path, bool) or not (isinstance(path, (str, bytes)) or hasattr(type(path), "__fspath__")):
+        raise invalid("path", where, "the path of a calibration CSV (a str or os.PathLike)", path,
+                      error=CalibrationError)
+    path = Path(os.fsdecode(path))
     if not path.exists():
         raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
-    raw = _read_bytes(path)
+    try:
+        raw = _read_bytes(path)
+    except OSError as exc:
+        raise CalibrationError(f"{path}: cannot be read ({exc.strerror or exc}); expected a calibration CSV") from None
     head = _head_of_plain(raw)
     if head is not None:  # a plain body: only the lines up to the header are needed as text
         lines, header_start, body_start = head
@@ -361,19 +377,21 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     except ValueError as exc:
         raise CalibrationError(f"{path}: {exc}") from None
     header_line, header = records[0]
-    separator = _separator(path, header_line, header)
+    separator = _csv.separator_of(header)
+    decimal_comma = separator != ","  # a spreadsheet's export where the comma is the decimal mark
 
     def cells_of(number, line):
-        return _cells(path, number, line) if separator == "," else line.split()
+        return _cells(path, number, line, separator) if separator is not None else line.split()
 
     names = cells_of(header_line, header)
-    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column)
+    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column,
+                                          decimal_comma=decimal_comma)
     n_columns = len(names)
     ref_col, enc_col = columns["reference"], columns["encoder"]
     ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
     table = None
-    if head is not None and dir_col is None and epoch_col is None:
+    if head is not None and dir_col is None and epoch_col is None and separator in (",", None):
         first = header_line + 1 if has_header else header_line
         table = plain_rows(raw[body_start if has_header else header_start:], separator, n_columns,
                            progress=progress)
@@ -390,13 +408,22 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
             lines = _csv.split_lines(_decode(path, raw))
             records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
         reference, encoder, direction, epoch = [], [], [], []
+        marks = {",": None, ".": None}  # the first number read with a decimal comma, with a decimal point
         data = records[1:] if has_header else records
         for count, (number, line) in enumerate(data, start=1):
             cells = cells_of(number, line)
             if len(cells) != n_columns:
-                _fail(path, number, _field_count_problem(line, len(cells), n_columns))
-            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
-            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
+                _fail(path, number, _field_count_problem(line, len(cells), n_columns, separator))
+            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0],
+                                          decimal_comma))
+            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1],
+                                        decimal_comma))
+            if decimal_comma and (marks[","] is None or marks["."] is None):
+                for column in (ref_col, enc_col):
+                    for mark in ",.":
+                        if marks[mark] is None and mark in cells[column]:
+                            marks[mark] = (number, column + 1, cells[column])
+                _check_decimal_marks(path, marks[","], marks["."])
             if dir_col is not None:
                 cell = cells[dir_col].strip().lower()
                 if cell not in _DIRECTIONS:
@@ -443,14 +470,17 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     return cal
 
 
-def _field_count_problem(line, n_fields, n_columns):
+def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     """Why a row of ``n_fields`` fields does not fit a header of ``n_columns`` columns (a message)."""
     fields = f"{n_fields} field" + ("s" if n_fields != 1 else "")
     if n_fields > n_columns:
         why = ("a decimal comma, or a value holding a comma that is not quoted? Name every extra column "
-               "in the header")
+               "in the header" if header_separator == "," else
+               "a value holding a separator that is not quoted? Name every extra column in the header")
     else:
-        separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
+        others = [(sep, label) for sep, label in ((";", "semicolons"), ("\t", "tabs"), (",", "commas"))
+                  if sep != header_separator and not (header_separator is None and sep == "\t")]
+        separator = next((label for sep, label in others if sep in line), None)
         why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
     return f"has {fields}, expected {n_columns} as in the header ({why})"
 
@@ -534,30 +564,33 @@ def _looks_like_radians(values):
     return -np.pi - margin <= lowest and highest <= 2 * np.pi + margin and highest - lowest >= 1.5 * np.pi
 
 
-def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg"):
+def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg", *,
+                    decimal_comma=False):
     """Indices of the reference, encoder, direction and epoch columns, and whether ``names`` is a header.
 
     Returns ``({'reference': i, 'encoder': j, 'reference_name': ..., 'encoder_name': ..., 'direction': k,
     'epoch': l}, has_header)``; a column is chosen by its name or its number from 1.
     """
     names = [name.strip().lower() for name in names]
+    # a first row of numbers (with decimal commas, where the separator is no comma) is no header
+    is_number = (lambda text: _is_number(text.replace(",", "."))) if decimal_comma else _is_number
     numbered = [_column_number(column) for column in (reference_column, encoder_column)]
-    if all(number is not None for number in numbered) and all(_is_number(cell) for cell in names if cell):
+    if all(number is not None for number in numbered) and all(is_number(cell) for cell in names if cell):
         for column, number in zip((reference_column, encoder_column), numbered):
             if not 1 <= number <= len(names):
                 _fail(path, line, f"there is no column {number}; expected a column number from 1 to {len(names)}")
+        if numbered[0] == numbered[1]:
+            _fail(path, line, f"the reference and the encoder column are both column {numbered[0]}; expected two "
+                              "different columns")
         return ({"reference": numbered[0] - 1, "encoder": numbered[1] - 1,
                  "reference_name": f"column {numbered[0]}", "encoder_name": f"column {numbered[1]}"}, False)
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
     wanted = [str(column).strip().lower() for column in (reference_column, encoder_column)]
-    for name in (*wanted, "direction", "epoch"):
-        where = [index + 1 for index, cell in enumerate(names) if cell == name]
-        if len(where) > 1:
-            _fail(path, line, f"the header names {name} {len(where)} times (columns "
-                              f"{', '.join(map(str, where))}); expected each column once, so that it is clear "
-                              "which to read")
+    repeated = _csv.repeated_names(["" if is_number(name) else name for name in names])
+    if repeated is not None:
+        _fail(path, line, repeated)
     chosen = {}
     for role, column, name, number in zip(("reference", "encoder"), (reference_column, encoder_column), wanted,
                                           numbered):
@@ -567,7 +600,7 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
             chosen[role], chosen[f"{role}_name"] = number - 1, names[number - 1] or f"column {number}"
     missing = [name for role, name in zip(("reference", "encoder"), wanted) if role not in chosen]
     if missing:
-        looks_numeric = all(_is_number(cell) for cell in names if cell)
+        looks_numeric = all(is_number(cell) for cell in names if cell)
         found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
         if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
             _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
@@ -575,6 +608,9 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
                               "and --enc-col, their units with --ref-unit and --enc-unit)")
         _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
                           f"or its number from 1, found {found}")
+    if chosen["reference"] == chosen["encoder"]:
+        _fail(path, line, f"the reference and the encoder column are both column {chosen['reference'] + 1} "
+                          f"({chosen['reference_name']}); expected two different columns")
     for optional in ("direction", "epoch"):
         if optional in columns:
             chosen[optional] = columns[optional]

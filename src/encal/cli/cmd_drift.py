@@ -17,7 +17,7 @@ import argparse
 from pathlib import Path
 
 from ..errors import InputError
-from ._common import add_calibration_options, add_zero_options, print_json, read_calibration_from_args
+from ._common import add_calibration_options, add_zero_options, check_paths, print_json, read_calibration_from_args
 
 
 def _number(text):
@@ -49,6 +49,7 @@ def run(args):
     from ..drift import circular_mean_offset_arcmin, compare_calibrations, split_epochs
     from ..profile import zero_is_arbitrary, zero_sentence
 
+    check_paths(inputs=[*((path, "calibration") for path in args.calibrations), (args.model, "model")])
     cals, labels = [], []
     for path in args.calibrations:
         cal = read_calibration_from_args(path, args)

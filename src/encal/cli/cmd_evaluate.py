@@ -8,7 +8,8 @@ Example:
   encal evaluate enc1.json enc1_test.csv --json
 """
 
-from ._common import activity, add_calibration_options, add_zero_options, print_json, read_calibration_from_args
+from ._common import (activity, add_calibration_options, add_zero_options, check_paths, print_json,
+                      read_calibration_from_args)
 
 
 def add_arguments(parser):
@@ -23,6 +24,7 @@ def run(args):
     from ..deploy import load_model
     from ..fitting import evaluate
 
+    check_paths(inputs=[(args.model, "model"), (args.calibration, "calibration")])
     with activity("evaluate") as progress:
         progress.stage(f"reading {args.model}")
         model = load_model(args.model)

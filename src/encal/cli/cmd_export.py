@@ -40,7 +40,7 @@ from ..deploy.targets import FORMS, TARGETS, describe, write_target
 FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 SIMPLEFOC_VERSIONS = ("1.0.8", "1.0.9", "uint16")
 from ..errors import InputError
-from ._common import print_json
+from ._common import check_paths, print_json
 
 
 def add_arguments(parser):
@@ -240,15 +240,9 @@ def run(args):
 def _export(args):
     _check_combinations(args)
     output = Path(args.output)
-    if output.exists() and output.resolve() == Path(args.model).resolve():
-        raise InputError(f"-o {output} is the model file being exported; expected a different output path "
-                         "(the export would overwrite the model)")
-    if args.format == "c":
-        model = Path(args.model).resolve()
-        for written in (output / f"{args.name}.h", output / f"{args.name}.c"):
-            if written.exists() and written.resolve() == model:
-                raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
-                                 "a different folder or --name (the export would overwrite the model)")
+    c_files = [f"{args.name}.h", f"{args.name}.c"] if args.format == "c" else []
+    check_paths(inputs=[(args.model, "model"), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
+                folders=[("-o", output, c_files)] if c_files else [])
     compensator = Compensator(args.model)
     recorded = compensator.encoder.get("resolution_bits")
     if args.bits is not None and recorded is not None and args.bits != recorded:

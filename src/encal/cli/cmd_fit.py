@@ -12,8 +12,8 @@ reference's zero. When that zero is arbitrary (--zero; by default when the offse
 the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
-from ._common import (activity, add_calibration_options, add_zero_options, int_in_range, print_json, read_calibration_from_args,
-                      size_option)
+from ._common import (activity, add_calibration_options, add_zero_options, check_paths, int_in_range, print_json,
+                      read_calibration_from_args, size_option)
 
 
 def add_arguments(parser):
@@ -132,24 +132,6 @@ def _options(args):
         except ValueError:
             usage_error(f"--orders must be whole numbers separated by commas. Got {args.orders!r} instead.")
     return options
-
-
-def _check_output(output, calibration):
-    """Refuse an output path that cannot be written, before a fit that may take minutes."""
-    from pathlib import Path
-
-    from .._atomic import check_name_length
-    from ..errors import InputError
-
-    path = Path(output)
-    check_name_length(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"cannot write {path}: the folder {folder} does not exist")
-    if path.is_dir():
-        raise InputError(f"cannot write {path}: it is a folder; expected the path of a model file")
-    if path.exists() and Path(calibration).exists() and path.samefile(calibration):
-        raise InputError(f"-o {path} is the calibration being fitted; expected another file for the model")
 
 
 def _budget(text):
@@ -288,7 +270,8 @@ def run(args):
     if args.target is not None and args.budget is None:
         args.fit_parser.error("--target names the processor of --budget; expected it with --budget")
     options = _options(args)
-    _check_output(args.output, args.calibration)
+    check_paths(inputs=[(args.calibration, "calibration"), (args.repeat, "calibration")],
+                outputs=[("-o", args.output)])
     with activity("fit") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress)
         if args.repeat is not None:

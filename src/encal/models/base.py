@@ -31,7 +31,12 @@ CHUNK_NUMBERS = 1 << 21
 
 def as_angles(theta_enc_deg):
     """Encoder angles as a float array (any shape), checked finite."""
-    theta = np.asarray(theta_enc_deg, dtype=float)
+    if theta_enc_deg is None:
+        raise InputError("encoder angles must be finite numbers of degrees; got None")
+    try:
+        theta = np.asarray(theta_enc_deg, dtype=float)
+    except (TypeError, ValueError) as exc:  # 'abc', a dict, a complex number, a ragged list
+        raise InputError(f"encoder angles must be finite numbers of degrees; {exc}") from None
     if not np.all(np.isfinite(theta)):
         raise InputError("encoder angles must be finite numbers of degrees (found NaN or infinity)")
     return theta
