@@ -143,6 +143,9 @@ _READ_CHUNK = 1 << 20
 #: Lines the careful (line-by-line) reader reads between two calls of ``progress``.
 _PROGRESS_LINES = 50_000
 _LINE_END_BYTES = re.compile(rb"\r\n|\r|\n")
+#: Mean travel of the reference, in degrees, over which :func:`is_multi_revolution` takes each step of a
+#: dense log: far above a reference's quantisation and jitter, far below a turn.
+SWEEP_STEP_DEG = 1.0
 #: What :func:`read_calibration` may do with conflicting repeated reference angles.
 DUPLICATES = ("refuse", "average", "keep")
 
@@ -431,10 +434,12 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
     )
     rows = cal
-    if duplicates == "refuse" and is_multi_revolution(reference):
-        duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
-    # k readings at every stop of a run: repeated readings; a stray repeat in another run is still refused
-    repeated = _repeat_pattern(cal.reference_deg, _runs(cal))[0] if duplicates == "refuse" else None
+    repeated = None
+    if duplicates == "refuse":
+        # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
+        # readings; a stray repeat in another run is still refused
+        runs = _runs(cal)
+        repeated = _repeat_pattern(cal.reference_deg, runs)[0] | _multi_revolution_runs(reference, runs)
     cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
@@ -602,7 +607,10 @@ def is_multi_revolution(reference_deg):
 
     True when the reference moves one way (at least 95 % of the steps in one direction, wrapping at
     360° or counting past it) over at least one and a half turns: its repeated angles are then
-    repeated readings of the same stops, not conflicting rows.
+    repeated readings of the same stops, not conflicting rows. The steps are taken over about
+    :data:`SWEEP_STEP_DEG` of the travel each, and steps of zero are left out: a quantised reference
+    (a 17-bit encoder) read faster than it changes code repeats a code, or jitters back by one, from
+    one row to the next, and such a sweep is still one way.
 
     Examples
     --------
@@ -615,9 +623,26 @@ def is_multi_revolution(reference_deg):
     if raw.size < 16:
         return False
     turned = np.degrees(np.unwrap(np.radians(raw)))
-    steps = np.diff(turned)
-    one_way = max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95
-    return bool(one_way and abs(turned[-1] - turned[0]) >= 540.0)
+    travel = abs(turned[-1] - turned[0])
+    if travel < 540.0:
+        return False
+    stride = max(1, int(SWEEP_STEP_DEG / (travel / (raw.size - 1))))
+    steps = np.diff(turned[::stride])
+    steps = steps[steps != 0.0]
+    return bool(steps.size >= 8 and max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95)
+
+
+def _multi_revolution_runs(reference_deg, runs=None):
+    """A mask over the points: those of runs (``runs``: a label per point, one run by default) whose reference
+    angles, in file order, are a log of several revolutions (:func:`is_multi_revolution`)."""
+    reference = np.asarray(reference_deg, dtype=float).reshape(-1)
+    if runs is None:
+        return np.full(reference.size, is_multi_revolution(reference))
+    mask = np.zeros(reference.size, dtype=bool)
+    for run in np.unique(runs):
+        members = runs == run
+        mask[members] = is_multi_revolution(reference[members])
+    return mask
 
 
 def is_repeated_stops(reference_deg, runs=None):

@@ -1,0 +1,78 @@
+"""Issue 25: wrong numbers that look right with exit 0 -- the plausibility of the data and of a correction.
+
+Each test fails without its fix: a repeat pass that is the calibration itself, an encoder that does not turn once
+per reference turn, a correction that makes the errors larger, a continuous sweep whose reference is a quantised
+encoder, a long spin log (tests/test_selfcal_spin.py), the zero offset a correction leaves.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import encal
+from encal import read_calibration
+from encal.errors import EncalWarning
+
+
+def _profile_arcmin(theta_deg):
+    theta = np.radians(theta_deg)
+    return 2.0 * np.sin(theta + 0.3) + 0.6 * np.cos(2 * theta) + 0.2 * np.sin(16 * theta)
+
+
+def _write(path, reference, encoder, comments=()):
+    lines = [f"# {c}" for c in comments] + ["reference_deg,encoder_deg"]
+    lines += [f"{float(r)!r},{float(e)!r}" for r, e in zip(reference, encoder)]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def _quiet_read(path, **options):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EncalWarning)
+        return read_calibration(path, **options)
+
+
+# ---------------------------------------------------------------- item 4: a sweep over several turns
+
+def _sweep(n, revolutions, reference_bits, noise_arcmin, seed=3):
+    """A continuous sweep: the true angle, a reference quantised to whole codes, the encoder's readings."""
+    rng = np.random.default_rng(seed)
+    theta = np.linspace(0.0, 360.0 * revolutions, n, endpoint=False) + rng.uniform(0.0, 1.0)
+    lsb = 360.0 / 2**reference_bits
+    reference = np.round(theta / lsb) * lsb
+    encoder = theta + (_profile_arcmin(theta) + rng.normal(0.0, noise_arcmin, n)) / 60.0
+    return theta, reference, encoder
+
+
+def test_a_sweep_whose_reference_repeats_codes_is_read_as_one(tmp_path):
+    """A 12-bit reference read 2.4 times per code over 3 turns: consecutive rows repeat a code, so fewer than 95 %
+    of the steps moved; it was refused ("appears more than once with different readings") without
+    --keep-duplicates. Kept whole, the spectral model recovers the profile."""
+    theta, reference, encoder = _sweep(30_000, 3, 12, 0.05)
+    assert np.mean(np.diff(reference) > 0) < 0.95  # the old test of one-way travel failed
+    cal = _quiet_read(_write(tmp_path / "sweep.csv", reference, encoder))
+    assert len(cal) == 30_000
+    model = encal.fit(cal, method="spectral")
+    grid = np.arange(0.0, 360.0, 0.25)
+    miss = model.predict(grid + _profile_arcmin(grid) / 60.0) - _profile_arcmin(grid)
+    assert np.sqrt(np.mean(miss**2)) < 0.1  # of a profile of 1.5 arcmin RMS; the reference rounds by 1.5 arcmin RMS
+
+
+def test_a_stray_repeat_after_a_sweep_in_another_epoch_is_still_refused(tmp_path):
+    """The sweep test is made per run (direction and epoch): two passes that are two epochs are no sweep."""
+    grid = np.arange(0.0, 360.0, 2.0)
+    reference = np.r_[grid, grid, 10.0]
+    text = "reference_deg,encoder_deg,epoch\n" + "".join(
+        f"{float(r)!r},{float(r) + 0.01 * (i % 3)!r},{'a' if i < 180 else 'b'}\n" for i, r in enumerate(reference))
+    (tmp_path / "two.csv").write_text(text, encoding="utf-8")
+    with pytest.raises(encal.CalibrationError, match="reference angle 10 deg appears more than once"):
+        read_calibration(tmp_path / "two.csv")
+
+
+def test_a_noise_free_log_over_two_turns_raises_no_misread_warning(tmp_path):
+    """The readings at 95 deg and at 455 deg (wrapped to 95) differ by the rounding of doubles (1e-12 arcmin), which
+    was taken for the readings' spread: profile steps of 0.002 arcmin were called misreads."""
+    reference = np.arange(0.0, 720.0, 0.5)
+    path = _write(tmp_path / "two.csv", reference, reference + _profile_arcmin(reference) / 60.0)
+    assert len(_quiet_read(path)) == reference.size
