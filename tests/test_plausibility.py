@@ -151,3 +151,53 @@ def test_fit_refuses_the_calibration_as_its_own_repeat(tmp_path, capsys):
     capsys.readouterr()
     same = [encal.load_model(tmp_path / name).predict(grid + 1.0) for name in ("m.json", "alone.json")]
     np.testing.assert_allclose(same[0], same[1])
+
+
+# ---------------------------------------------------------------- item 2: one encoder turn per reference turn
+
+GRID = np.arange(0.0, 360.0, 2.0)
+TRUE_ENCODER = GRID + _profile_arcmin(GRID) / 60.0
+
+
+@pytest.mark.parametrize("encoder, options, option", [
+    (np.round(TRUE_ENCODER / 360.0 * 2**16) % 2**16, {"encoder_unit": "counts:14"}, "--enc-unit counts:16"),
+    (np.round(TRUE_ENCODER / 360.0 * 2**14) % 2**14, {}, "--enc-unit counts:14"),
+    (np.radians(TRUE_ENCODER), {}, "--enc-unit rad"),
+    (TRUE_ENCODER / 360.0, {}, "--enc-unit rev"),
+    (-np.round(TRUE_ENCODER / 360.0 * 2**12), {}, "--enc-unit counts:12 --reverse"),
+], ids=["16-bit-as-14", "counts-as-degrees", "radians-as-degrees", "turns-as-degrees", "reversed-counts"])
+def test_an_encoder_read_in_another_unit_is_refused_naming_the_unit(tmp_path, encoder, options, option):
+    """`fit u16.csv --enc-unit counts:14` gave "RMS 6237 -> 6264 arcmin" with exit status 0."""
+    path = _write(tmp_path / "cal.csv", GRID, encoder)
+    with pytest.raises(encal.CalibrationError) as info, warnings.catch_warnings():
+        warnings.simplefilter("ignore", EncalWarning)  # radians are warned about, as before
+        read_calibration(path, **options)
+    message = str(info.value)
+    assert "does not turn once per turn of the reference" in message and f"(use {option})" in message
+    assert "\n" not in message and str(path) in message
+
+
+def test_a_reference_in_radians_is_named(tmp_path):
+    path = _write(tmp_path / "cal.csv", np.radians(GRID), TRUE_ENCODER)
+    with pytest.warns(EncalWarning, match="--unit rad"), pytest.raises(encal.CalibrationError, match="--ref-unit rad"):
+        read_calibration(path)
+
+
+def test_both_columns_in_radians_are_warned_about_with_the_option(tmp_path):
+    path = _write(tmp_path / "cal.csv", np.radians(GRID), np.radians(TRUE_ENCODER))
+    with pytest.warns(EncalWarning, match="--unit rad"), pytest.raises(encal.CalibrationError, match="gap"):
+        read_calibration(path)
+    assert len(read_calibration(path, reference_unit="rad", encoder_unit="rad")) == GRID.size
+
+
+@pytest.mark.parametrize("amplitude_deg", [20.0, 50.0])
+def test_a_large_error_that_does_not_fold_is_still_accepted(tmp_path, amplitude_deg):
+    """A misplaced magnet: a first harmonic of up to 57 deg keeps the encoder going forward."""
+    path = _write(tmp_path / "cal.csv", GRID, GRID + 33.0 + amplitude_deg * np.sin(np.radians(GRID)))
+    assert len(_quiet_read(path)) == GRID.size
+
+
+def test_an_encoder_counting_against_the_reference_still_gets_reverse(tmp_path):
+    path = _write(tmp_path / "cal.csv", GRID, -TRUE_ENCODER)
+    with pytest.raises(encal.CalibrationError, match="counts against the reference.*--reverse"):
+        read_calibration(path)
