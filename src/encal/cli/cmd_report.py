@@ -58,6 +58,14 @@ def run(args):
         written = write_encoder_report(report, output, figures_dir=args.figures)
         if args.model is not None:
             report.model.save(args.model)
+    from ..encoder_report import correction_warnings
+
+    for sentence in correction_warnings(report):  # a valid report (status 0), but never a quiet one
+        import warnings
+
+        from ..errors import EncalWarning
+
+        warnings.warn(sentence, EncalWarning, stacklevel=2)
     for note in report.notes:
         print(note)
     figures = [path for key, path in written.items() if key.startswith("figure:")]
