@@ -779,7 +779,7 @@ def _turn_coherence(reference_deg, encoder_deg, runs):
     phasor = np.exp(1j * np.radians(encoder_deg - reference_deg))
     if runs is None:
         return float(abs(phasor.mean()))
-    labels, group = np.unique(runs, return_inverse=True)
+    group = np.unique(runs, return_inverse=True)[1].reshape(-1)
     sums = np.bincount(group, weights=phasor.real) + 1j * np.bincount(group, weights=phasor.imag)
     return float(np.sum(np.abs(sums)) / phasor.size)
 

@@ -129,7 +129,8 @@ class EpochDrift:
             "residual_rms_arcmin": float(self.residual_rms_arcmin),
             "increase_arcmin": float(self.increase_arcmin),
             "holds": bool(self.holds),
-            "uncorrected_rms_arcmin": None if self.uncorrected_rms_arcmin is None else float(self.uncorrected_rms_arcmin),
+            "uncorrected_rms_arcmin": (None if self.uncorrected_rms_arcmin is None
+                                       else float(self.uncorrected_rms_arcmin)),
             "correction_worse": bool(self.correction_worse),
             "correction_note": self.worse_sentence(),
         }
