@@ -283,3 +283,9 @@ def test_evaluate_explains_the_zero_offset_the_correction_leaves(tmp_path, capsy
     assert ("after the correction a zero offset of -4752.00 arcmin (-79.200 deg) remains: the model carries the zero "
             "offset of the calibration it was fitted on (+4752.00 arcmin)") in captured.out
     assert "not an error of the correction" in captured.out
+
+
+def test_fit_refuses_a_calibration_in_another_unit_built_from_arrays():
+    counts = np.round(TRUE_ENCODER / 360.0 * 2**14) % 2**14
+    with pytest.raises(encal.CalibrationError, match=r"^counts: the encoder does not turn once per turn"):
+        encal.fit(encal.Calibration(GRID, counts, name="counts"), method="fourier")

@@ -21,7 +21,8 @@ from .bidirectional import (
     require_directions,
     reversal,
 )
-from .calibration import Calibration, check_folds
+from .calibration import Calibration, check_folds, check_turns
+from .calibration import _runs as calibration_runs
 from .errors import CalibrationError, InputError
 from .models import Model, kind_names, model_kind
 from .parameters import check_bool, check_choice, check_seed, check_type
@@ -92,7 +93,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
         If the method or an option is invalid.
     CalibrationError
         If the encoder goes back while the reference goes forward, so that the error is not a function
-        of the encoder angle (see :func:`~encal.calibration.check_folds`).
+        of the encoder angle (see :func:`~encal.calibration.check_folds`), or does not turn once per turn
+        of the reference (angles in another unit, see :func:`~encal.calibration.check_turns`).
 
     Examples
     --------
@@ -133,7 +135,9 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     """:func:`fit` of a calibration with one profile (its readings all taken one way, or the way unknown)."""
     options = dict(options)
     fit_family = fitter(method)
-    check_folds(cal, where=cal.source or cal.name or "calibration")
+    where = cal.source or cal.name or "calibration"
+    check_turns(cal.reference_deg, cal.encoder_deg, runs=calibration_runs(cal), where=where)
+    check_folds(cal, where=where)
     # recorded for a refit; a progress callback is no option of the model (nor JSON)
     fit_options = {key: value for key, value in options.items() if key != "progress"}
     randomised = model_kind(method).randomised
