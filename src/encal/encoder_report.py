@@ -429,11 +429,7 @@ def _summary(report):
         lines.append(f"On {label}, which the model never saw: RMS {evaluation.before.rms:.3g} arcmin before, "
                      f"{evaluation.after.rms:.3g} after compensation (max |error| {evaluation.before.max_abs:.3g} -> "
                      f"{evaluation.after.max_abs:.3g}).")
-        if evaluation.correction_worse:
-            lines.append(f"Warning: on {label}, {evaluation.verdict()}.")
-    for epoch in report.drift.epochs if report.drift is not None else ():
-        if epoch.correction_worse:
-            lines.append(f"Warning: {epoch.worse_sentence()}.")
+    lines += [f"Warning: {sentence}." for sentence in correction_warnings(report)]
     if not report.held_out:
         lines.append(f"On its own calibration points the model leaves RMS {report.fitted.after.rms:.3g} arcmin; "
                      "give a test calibration (encal report CAL.csv TEST.csv) for a figure on unseen points.")
