@@ -73,6 +73,13 @@ def run(args):
                                   method=args.method or "fourier",
                                   offset="remove" if arbitrary else "keep", labels=labels,
                                   rng=args.seed)
+    for epoch in report.epochs:
+        if epoch.correction_worse:  # the verdict is data (status 0), but never a quiet one
+            import warnings
+
+            from ..errors import EncalWarning
+
+            warnings.warn(epoch.worse_sentence(), EncalWarning, stacklevel=2)
     largest = max(offsets, key=abs)
     note = zero_sentence(args.zero, largest, arbitrary).replace("zero offset", "largest zero offset", 1)
     if args.json:
@@ -113,3 +120,6 @@ def _print_table(report, model_path):
     else:
         failed = ", ".join(epoch.label for epoch in report.epochs if not epoch.holds)
         print(f"verdict: the model does not hold on {failed}")
+    for epoch in report.epochs:
+        if epoch.correction_worse:
+            print(f"verdict: {epoch.worse_sentence()}")
