@@ -169,9 +169,12 @@ class SpectralModel(FourierModel):
                         "codes lands on this grid)")
         sigma = t["noise"]["std_arcmin"]
         split = t["noise"].get("split")
-        floored = (f" (the spectrum's flat level; a new reading's noise is taken as "
-                   f"{split['mean_noise_std_arcmin']:.4g} arcmin)"
-                   if split and split.get("mean_noise_std_arcmin", sigma) > sigma else "")
+        # the held-out estimate uses a new reading's noise: said whenever it is not sigma (issue 28: an estimate
+        # of 0.070 printed below a stated noise of 0.078, the flat level, with nothing said)
+        new_reading = split.get("mean_noise_std_arcmin", sigma) if split else sigma
+        floored = (f" (the spectrum's flat level, noise and flat signal together; a new reading's noise is taken as "
+                   f"{new_reading:.4g} arcmin, the mean of the split between them)"
+                   if not math.isclose(new_reading, sigma, rel_tol=1e-3) else "")
         text.append(f"noise: sigma {sigma:.4g} arcmin{floored}; prior: {t['prior']}")
         scatter = t["noise"].get("repeat_std_arcmin")
         if scatter is not None and scatter < sigma:
