@@ -48,9 +48,12 @@ def test_header_without_encoder_column(write_csv):
     assert "reference_deg, reading" in message
 
 
-def test_semicolons_are_refused(write_csv):
-    message = _refused(write_csv(grid_csv().replace(",", ";")), "semicolons")
-    assert "expected commas or blanks" in message
+def test_semicolons_are_read_like_commas(write_csv):
+    """A spreadsheet's semicolon-separated export (issue 25): the same calibration as the comma-separated file."""
+    comma = read_calibration(write_csv(grid_csv(), name="comma.csv"))
+    semicolons = read_calibration(write_csv(grid_csv().replace(",", ";"), name="semicolons.csv"))
+    np.testing.assert_array_equal(semicolons.reference_deg, comma.reference_deg)
+    np.testing.assert_array_equal(semicolons.encoder_deg, comma.encoder_deg)
 
 
 @pytest.mark.parametrize("separator", ["\t", " ", "  \t "])

@@ -35,3 +35,25 @@ def test_correcting_many_angles_with_a_wide_network_needs_no_angles_by_neurons_a
     # The dense evaluation held several 200,000 x 80 arrays (128 MB each); a chunk's are 5.2 MB.
     # Bound: the result and a few copies of the angles (1.6 MB each) plus a few chunks' temporaries.
     assert peak <= 6 * angles.nbytes + 8 * CHUNK_ANGLES * 80 * 8
+
+
+def test_a_directional_model_corrects_chunk_by_chunk_with_the_values_of_its_predictions():
+    """Issue 30: a directional model's correct() held the whole array several times (382 MiB for 10^7 angles)."""
+    from encal._core.angles import wrap360
+    from encal.models.directional import DirectionalModel
+
+    forward = FourierModel([1, 2], [2.0, -0.5], [1.0, 0.25])
+    reverse = FourierModel([1, 3], [1.5, 0.4], [-1.0, 0.1])
+    model = DirectionalModel(forward, reverse)
+    theta = np.linspace(-720.0, 1080.0, 3 * CHUNK_ANGLES + 5)
+    direction = np.where(np.arange(theta.size) % 3 == 0, 1, -1)
+    for given in (None, direction, -1):
+        expected = wrap360(theta - model.predict(theta, direction=given) / 60.0)
+        corrected = model.correct(theta, direction=given)
+        assert np.abs((corrected - expected + 180.0) % 360.0 - 180.0).max() <= 1e-12
+    angles = np.random.default_rng(0).uniform(0.0, 360.0, 200_000)
+    tracemalloc.start()
+    model.correct(angles)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert peak <= 2 * angles.nbytes + 16 * CHUNK_ANGLES * 8  # the result, its reshape, a few chunks' temporaries

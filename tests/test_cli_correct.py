@@ -138,7 +138,8 @@ def test_missing_input_and_bad_model_exit_1(tmp_path, capsys):
     assert main(["correct", str(MODEL), str(tmp_path / "missing.txt")]) == 1
     assert "missing.txt" in capsys.readouterr().err
     (tmp_path / "m.json").write_text("{")
-    assert main(["correct", str(tmp_path / "m.json"), str(tmp_path / "missing.txt")]) == 1
+    (tmp_path / "angles.txt").write_text("10\n")
+    assert main(["correct", str(tmp_path / "m.json"), str(tmp_path / "angles.txt")]) == 1
     assert "m.json" in capsys.readouterr().err
 
 

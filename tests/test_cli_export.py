@@ -25,7 +25,9 @@ def test_table(tmp_path, capsys, dtype):
     path = tmp_path / "enc.tab"
     status, out, err = export(capsys, MODEL, "--format", "table", "--bits", 12, "--dtype", dtype,
                               "-o", path)
-    assert status == 0 and err == "" and str(path) in out and "arcmin" in out
+    assert status == 0 and str(path) in out and "arcmin" in out
+    assert err == f"encal export: warning: --bits 12 differs from the 16 bits {MODEL} records for its encoder: the " \
+                  "export maps 12-bit codes to angles, right only if the encoder on the device has 12 bits\n"
     table = load_table(path)
     assert table.bits == 12 and table.dtype == dtype
     expected = compile_table(MODEL, 12, dtype=dtype)
@@ -113,7 +115,7 @@ def test_c_refuses_to_overwrite_the_model_it_exports(tmp_path, capsys):
     before = model.read_bytes()
     assert main(["export", str(model), "--format", "c", "-o", str(tmp_path), "--name", "axis"]) == 1
     err = capsys.readouterr().err
-    assert f"would write {model}, the model file being exported" in err and err.count("\n") == 1
+    assert f"(its axis.h) is the same file as the model file {model}" in err and err.count("\n") == 1
     assert model.read_bytes() == before and not (tmp_path / "axis.c").exists()
 
 
@@ -130,3 +132,24 @@ def test_json_names_what_was_written(tmp_path, capsys):
     assert status == 0 and record["format"] == "c"
     assert sorted(Path(p).name for p in record["files"]) == ["encal.c", "encal.h"]
     assert record["bytes"] == sum(Path(p).stat().st_size for p in record["files"])
+
+
+def test_bits_other_than_the_models_are_said_and_the_host_c_says_what_it_costs(tmp_path, capsys):
+    """Issue 28: --bits 16 on a 14-bit model was accepted silently, and --format c --table printed no deviation."""
+    import numpy as np
+
+    import encal
+    from encal.cli import main
+
+    reference = np.arange(0.0, 360.0, 2.0)
+    cal = encal.Calibration(reference, reference + 2.0 * np.sin(np.radians(reference)) / 60.0, resolution_bits=14)
+    model = tmp_path / "m.json"
+    encal.fit(cal, method="fourier").save(model)
+    assert main(["export", str(model), "--format", "c", "--bits", "16", "-o", str(tmp_path / "a")]) == 0
+    captured = capsys.readouterr()
+    assert "warning: --bits 16 differs from the 14 bits" in captured.err
+    assert "--target cortex-m4f writes a float32 compact table (21 C operations" in captured.out
+    assert main(["export", str(model), "--format", "c", "--table", "-o", str(tmp_path / "b")]) == 0
+    captured = capsys.readouterr()
+    assert captured.err == "" and "14-bit int16 table:" in captured.out and "arcmin from the model at the codes" in \
+        captured.out

@@ -33,8 +33,13 @@ def run(capsys, *args):
 def test_export_firmware_formats(tmp_path, capsys, fmt, extra, marker):
     path = tmp_path / "out.txt"
     status, out, err = run(capsys, "export", MODEL, "--format", fmt, "-o", path, *extra)
-    assert status == 0 and err == "" and marker in path.read_text()
+    assert status == 0 and marker in path.read_text()
     assert "round trip through its own run-time rule" in out and "arcmin" in out
+    bits = extra[extra.index("--bits") + 1] if "--bits" in extra else "16"
+    # the model file is of a 16-bit encoder: another --bits is said, once the file is written
+    assert err == ("" if bits == "16" else f"encal export: warning: --bits {bits} differs from the 16 bits {MODEL} "
+                   f"records for its encoder: the export maps {bits}-bit codes to angles, right only if the encoder "
+                   f"on the device has {bits} bits\n")
 
 
 def test_firmware_formats_refuse_c_options(tmp_path, capsys):
@@ -182,3 +187,11 @@ def test_import_moteus_source_option(tmp_path, capsys):
     assert np.max(np.abs(reread.predict(theta) - reread.predict(theta).mean()
                          - (encal.load_model(MODEL).predict(theta) - encal.load_model(MODEL).predict(theta).mean())))\
         < 0.05
+
+
+def test_export_refuses_to_write_over_its_moteus_conf_dump(tmp_path, capsys):
+    (tmp_path / "dump.txt").write_text(_dump())
+    before = (tmp_path / "dump.txt").read_text()
+    status, _, err = run(capsys, "export", MODEL, "--format", "moteus", "-o", tmp_path / "dump.txt", "--conf",
+                         tmp_path / "dump.txt")
+    assert status == 1 and "dump.txt" in err and (tmp_path / "dump.txt").read_text() == before

@@ -448,9 +448,14 @@ def test_refuses_malformed_lookup_tables(tmp_path, change, field):
     assert field in refusal(write_document(tmp_path / "lut.json", document))
 
 
-def test_missing_file_is_an_os_error(tmp_path):
-    with pytest.raises(FileNotFoundError):
+def test_missing_file_is_a_model_file_error(tmp_path):
+    """A missing file, a folder, None: encal's error naming it (issue 25), not the system's OSError or TypeError."""
+    with pytest.raises(ModelFileError, match="nope.json: no such file; expected a model file"):
         load_model(tmp_path / "nope.json")
+    with pytest.raises(ModelFileError, match="is a folder; expected a model file"):
+        load_model(tmp_path)
+    with pytest.raises(ModelFileError, match="expected the path of a model file .* got None"):
+        load_model(None)
 
 
 # -- the stored files of every format version ------------------------------------------

@@ -328,11 +328,12 @@ def test_an_invalid_mplbackend_does_not_stop_a_command_that_draws(calibration, t
 
 
 @pytest.mark.parametrize("argv", [
-    ["drift", "{cal}", "{cal}"],
+    ["drift", "{cal}", "{out}/again.csv"],
     ["fit", "{cal}", "-o", "{out}/m.json", "--method", "ann", "--hidden", "3", "--epochs", "3"],
     ["profile", "{cal}"],
 ])
 def test_an_ascii_only_output_encoding_is_not_fatal(calibration, tmp_path, argv):
+    (tmp_path / "again.csv").write_bytes(calibration.read_bytes())  # one file given twice is refused (issue 25)
     argv = [part.format(cal=calibration, out=tmp_path) for part in argv]
     process = subprocess.run([*PYTHON, *argv], capture_output=True, timeout=300,
                              env={**os.environ, "PYTHONIOENCODING": "ascii"})

@@ -101,12 +101,10 @@ def read_document(path):
     Raises
     ------
     ModelFileError
-        If the file is not a valid, unaltered encal model file this reader understands.
-    OSError
-        If the file cannot be read.
+        If the file is not a valid, unaltered encal model file this reader understands, or cannot be read
+        (missing, a folder, no permission), or ``path`` is not a path.
     """
-    with open(path, "rb") as handle:
-        raw = handle.read()
+    raw = _read_bytes(path)
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -129,6 +127,38 @@ def read_document(path):
         raise ModelFileError(f"{path}: expected an encal model file, but its arrays or objects are nested "
                              "too deeply") from None
     return document
+
+
+#: Largest model file read, in bytes: an endless device (``/dev/zero``) must not fill the memory.
+MAX_FILE_BYTES = 1 << 30
+
+
+def _read_bytes(path):
+    """The bytes of the model file at ``path``; ModelFileError, naming it, when it cannot be read."""
+    if isinstance(path, bool) or not (isinstance(path, (str, bytes)) or hasattr(type(path), "__fspath__")):
+        # an int would be taken as an open file descriptor, and closed after reading
+        shown = repr(path) if len(repr(path)) <= 60 else repr(path)[:57] + "..."
+        raise ModelFileError(f"expected the path of a model file (a str or os.PathLike), got {shown}")
+    chunks, size = [], 0
+    try:
+        with open(path, "rb") as handle:
+            while chunk := handle.read(1 << 20):
+                if b"\x00" in chunk:  # JSON text holds no NUL byte: a binary file, a device
+                    offset = size + chunk.index(b"\x00")
+                    raise ModelFileError(f"{path}: expected UTF-8 JSON, found a NUL byte at offset {offset} "
+                                         "(is this a binary file?)")
+                size += len(chunk)
+                if size > MAX_FILE_BYTES:
+                    raise ModelFileError(f"{path}: is larger than {MAX_FILE_BYTES >> 20} MiB; expected a model "
+                                         "file (is this an endless stream or a device?)")
+                chunks.append(chunk)
+    except IsADirectoryError:
+        raise ModelFileError(f"{path}: is a folder; expected a model file") from None
+    except FileNotFoundError:
+        raise ModelFileError(f"{path}: no such file; expected a model file") from None
+    except OSError as exc:
+        raise ModelFileError(f"{path}: cannot be read ({exc.strerror or exc}); expected a model file") from None
+    return b"".join(chunks)
 
 
 def check_document(document, where, *, verify_checksum=True):

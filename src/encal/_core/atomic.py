@@ -148,7 +148,10 @@ def atomic_open(path, mode="w", encoding="utf-8", newline=None):
     -----
     A symbolic link is followed: the file it points to is replaced, and the link stays.
     """
-    given = Path(path)
+    if isinstance(path, bool) or not (isinstance(path, (str, bytes)) or hasattr(type(path), "__fspath__")):
+        shown = repr(path) if len(repr(path)) <= 60 else repr(path)[:57] + "..."
+        raise InputError(f"cannot write to {shown}: expected the path of a file (a str or os.PathLike)")
+    given = Path(os.fsdecode(path))
     check_name_length(given)
     path = _destination(given)
     folder = path.parent if str(path.parent) else Path(".")

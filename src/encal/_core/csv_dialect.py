@@ -7,7 +7,9 @@
 - A line whose first non-blank character is ``#`` is a comment; blank lines are skipped.
 - Fields are separated by commas. A field may be quoted with double quotes (RFC 4180): it may then
   hold commas, and a doubled quote stands for one; spaces before the opening quote are ignored. A
-  quoted field does not span lines.
+  quoted field does not span lines. Calibrations also read a spreadsheet's export separated by
+  semicolons or tabs (:func:`separator_of`), whose fields :func:`fields` splits the same way.
+- A header names each column once (:func:`repeated_names`).
 - Column names are compared without surrounding spaces and without regard to letter case.
 - Every data row has exactly as many fields as the header: a row with more fields is a decimal
   comma (``98,03``) or a shifted row, one with fewer a truncated file. Extra columns are named in
@@ -19,7 +21,7 @@ spaces), so a file written by encal reads back with the same fields.
 
 import re
 
-__all__ = ["split_lines", "is_skipped", "fields", "column_names", "quote", "join", "QuotingError"]
+__all__ = ["split_lines", "is_skipped", "fields", "column_names", "repeated_names", "quote", "join", "QuotingError"]
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _NEEDS_QUOTES = re.compile(r'[",\r\n]|^\s|\s$')
@@ -43,8 +45,11 @@ def is_skipped(line):
     return not stripped or stripped.startswith("#")
 
 
-def fields(line):
+def fields(line, separator=","):
     """The fields of one line, unquoted (spaces around a quoted field are dropped, others kept).
+
+    ``separator`` is the comma of encal's dialect, or the semicolon or tab of a spreadsheet's export
+    (see :func:`separator_of`).
 
     Raises
     ------
@@ -52,14 +57,15 @@ def fields(line):
         If a quoted field is not closed, or text other than spaces follows its closing quote.
     """
     if '"' not in line:
-        return line.split(",")
+        return line.split(separator)
+    named = _SEPARATOR_NAMES[separator]
     result, start, end = [], 0, len(line)
     while True:
         first = start
-        while first < end and line[first] in " \t":
+        while first < end and line[first] in " \t" and line[first] != separator:
             first += 1
         if first == end or line[first] != '"':
-            comma = line.find(",", start)
+            comma = line.find(separator, start)
             if comma < 0:
                 result.append(line[start:])
                 return result
@@ -78,19 +84,71 @@ def fields(line):
                 continue
             break
         after = closing + 1
-        while after < end and line[after] in " \t":
+        while after < end and line[after] in " \t" and line[after] != separator:
             after += 1
-        if after < end and line[after] != ",":
-            raise QuotingError(f"text follows the closing quote at character {closing + 1}; expected a comma")
+        if after < end and line[after] != separator:
+            raise QuotingError(f"text follows the closing quote at character {closing + 1}; expected {named}")
         result.append("".join(parts))
         if after == end:
             return result
         start = after + 1
 
 
+#: How a message names each separator.
+_SEPARATOR_NAMES = {",": "a comma", ";": "a semicolon", "\t": "a tab"}
+_QUOTED = re.compile(r'"(?:[^"]|"")*"')
+
+
+def separator_of(header):
+    """The separator of a file whose header line is ``header``: ``','``, ``';'``, ``'\\t'``, or None for blanks.
+
+    Looked for outside double quotes: a semicolon (a spreadsheet's export where the decimal mark is a
+    comma: a first row of numbers has commas too), else a comma (encal's dialect), else a tab in a
+    header that quotes its names (a spreadsheet's tab-separated export); else a header that splits at
+    blanks into two or more names is separated by blanks (spaces or tabs, any number). A single name:
+    a comma.
+    """
+    bare = _QUOTED.sub("", header)
+    if ";" in bare:
+        return ";"
+    if "," in bare:
+        return ","
+    if '"' in header:
+        return "\t" if "\t" in bare else ","
+    return None if len(header.split()) >= 2 else ","
+
+
 def column_names(line):
     """The header's column names: stripped and lower-case."""
     return [name.strip().lower() for name in fields(line)]
+
+
+def repeated_names(names):
+    """The problem with a header that names a column more than once, as a message part, or None.
+
+    Names are compared as :func:`column_names` gives them (stripped, lower-case); empty names and names
+    that are numbers (a first row of numbers is no header) are not compared. A reader that took the
+    first of two ``encoder_deg`` columns would read the wrong one half the time, silently.
+    """
+    where = {}
+    for index, name in enumerate(names, start=1):
+        name = name.strip().lower()
+        if name and not _is_number(name):
+            where.setdefault(name, []).append(index)
+    repeated = {name: columns for name, columns in where.items() if len(columns) > 1}
+    if not repeated:
+        return None
+    said = "; ".join(f"{name} {len(columns)} times (columns {', '.join(map(str, columns))})"
+                     for name, columns in repeated.items())
+    return f"the header names {said}; expected each column once, so that it is clear which to read"
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def quote(value):

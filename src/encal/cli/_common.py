@@ -9,7 +9,7 @@ import warnings
 from .._core.errors import EncalWarning
 
 __all__ = ["add_calibration_options", "add_zero_options", "read_calibration_from_args", "positive_int", "print_json",
-           "warnings_as_lines", "check_environment", "output_that_may_close", "activity"]
+           "warnings_as_lines", "check_environment", "output_that_may_close", "activity", "check_paths"]
 
 
 def add_calibration_options(parser):
@@ -74,6 +74,11 @@ def read_calibration_from_args(path, args, progress=None):
     :func:`activity`) shows the reading as a stage of its own."""
     from ..data.calibration import read_calibration
 
+    reference = getattr(args, "ref_col", "reference_deg")
+    encoder = getattr(args, "enc_col", "encoder_deg")
+    if str(reference).strip().lower() == str(encoder).strip().lower() and getattr(args, "_parser", None):
+        args._parser.error(f"--ref-col {reference} and --enc-col {encoder} name the same column; expected "
+                           "the reference and the encoder in two different columns")
     if progress is not None:
         progress.stage(f"reading {path}")
     return read_calibration(
@@ -232,3 +237,121 @@ def output_that_may_close(command):
         sys.stdout.flush()
     finally:
         sys.stdout = original
+
+
+#: What ``check_paths`` says an input of each kind is: (what is expected, what writing over it would destroy).
+INPUT_KINDS = {
+    "calibration": ("a calibration CSV", "input calibration"),
+    "model": ("a model file", "model file"),
+    "firmware": ("the firmware's file", "firmware's file"),
+    "capture": ("a capture or log", "input capture"),
+    "angles": ("a file of encoder angles", "input"),
+}
+
+
+def _identity(path):
+    """What identifies the file a write to ``path`` would replace: (device, inode) when it exists (links
+    followed, as :func:`encal._core.atomic.atomic_open` follows them), else its absolute path with links resolved."""
+    try:
+        status = os.stat(path)
+    except (OSError, ValueError):
+        return ("path", os.path.realpath(path))
+    return ("file", status.st_dev, status.st_ino)
+
+
+def _check_input(path, kind):
+    """Refuse an input that is missing, a folder or unreadable, in one sentence (before any work)."""
+    import stat
+
+    from .._core.errors import InputError
+
+    expected = INPUT_KINDS[kind][0]
+    try:
+        status = os.stat(path)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such file; expected {expected}") from None
+    except (OSError, ValueError) as exc:
+        raise InputError(f"{path}: cannot be read ({getattr(exc, 'strerror', None) or exc}); expected "
+                         f"{expected}") from None
+    if stat.S_ISDIR(status.st_mode):
+        raise InputError(f"{path}: is a folder; expected {expected}")
+    if stat.S_ISREG(status.st_mode):  # a pipe or a device is not opened here: opening may block or act
+        try:
+            with open(path, "rb"):
+                pass
+        except OSError as exc:
+            raise InputError(f"{path}: cannot be read ({exc.strerror or exc}); expected {expected}") from None
+
+
+def check_paths(inputs=(), outputs=(), folders=()):
+    """Refuse, before any work, paths that cannot be read or written, and any output that is an input.
+
+    Every command that reads or writes files calls this first, so that a refusal costs nothing and
+    destroys nothing: writing over an input (``encal fit A.csv --repeat R.csv -o R.csv``) would
+    replace it, and with exit status 0. Files are compared, not names: a symbolic or hard link to an
+    input, or the same file by another path, is the input.
+
+    Parameters
+    ----------
+    inputs : iterable of (str, str)
+        ``(path, kind)`` of every file read, ``kind`` a key of :data:`INPUT_KINDS`; ``'-'`` (standard
+        input) and None are skipped. Each must exist, be no folder, and (a regular file) open for reading;
+        no file may be given twice.
+    outputs : iterable of (str, str)
+        ``(option, path)`` of every file written, ``option`` as the user gave it (``'-o'``). Its folder
+        must exist; it must not be a folder, nor the same file as an input or another output.
+    folders : iterable of (str, str, iterable of str)
+        ``(option, folder, names)`` of a folder written into (created when missing): it must not be a
+        file, and none of ``folder/name`` the same file as an input or an output.
+
+    Raises
+    ------
+    InputError
+        The first problem found, in one sentence (exit status 1).
+    """
+    from pathlib import Path
+
+    from .._core.atomic import check_name_length
+    from .._core.errors import InputError
+
+    inputs = [(str(path), kind) for path, kind in inputs if path is not None and str(path) != "-"]
+    for path, kind in inputs:
+        _check_input(path, kind)
+    written = []  # (what the user named, path)
+    for option, path in outputs:
+        if path is None:
+            continue
+        path = Path(path)
+        check_name_length(path)
+        folder = path.parent if str(path.parent) else Path(".")
+        if not folder.is_dir():
+            raise InputError(f"cannot write {option} {path}: the folder {folder} does not exist; expected the "
+                             "path of a file in an existing folder")
+        if path.is_dir():
+            raise InputError(f"cannot write {option} {path}: it is a folder; expected the path of a file")
+        if path.exists() and not path.is_file():  # as encal._core.atomic refuses it, but before the work
+            raise InputError(f"cannot write {option} {path}: it is not a regular file (a device, pipe or socket); "
+                             "expected the path of a file")
+        written.append((f"{option} {path}", path))
+    for option, folder, names in folders:
+        if folder is None:
+            continue
+        folder = Path(folder)
+        if folder.exists() and not folder.is_dir():
+            raise InputError(f"cannot write into {option} {folder}: it is a file; expected a folder")
+        written += [(f"{option} {folder} (its {name})", folder / name) for name in names]
+    identities = {}  # identity -> how a message names that file
+    for path, kind in inputs:
+        identity = _identity(path)
+        if identity in identities:
+            # fit --repeat A.csv on A.csv took the noise from readings that were not repeats: 1.5e-7 arcmin
+            raise InputError(f"{path} is the same file as {identities[identity]}: the same input given twice; "
+                             "expected different files (a second pass, a held-out or a later calibration is "
+                             "another measurement)")
+        identities[identity] = f"the {INPUT_KINDS[kind][1]} {path}"
+    for what, path in written:
+        identity = _identity(path)
+        if identity in identities:
+            raise InputError(f"{what} is the same file as {identities[identity]}; expected another path for "
+                             "the output, since writing it would replace that file")
+        identities[identity] = f"the output {what}"

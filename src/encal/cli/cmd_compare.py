@@ -10,7 +10,7 @@ Examples:
   encal compare enc1_train.csv enc1_test.csv --json
 """
 
-from ._common import add_calibration_options, print_json, read_calibration_from_args, size_option
+from ._common import add_calibration_options, check_paths, print_json, read_calibration_from_args, size_option
 
 
 def add_arguments(parser):
@@ -48,6 +48,7 @@ def run(args):
     if args.seed < 0:
         raise InputError(f"--seed must be a whole number >= 0. Got {args.seed} instead.")
     models = _models(args.models)
+    check_paths(inputs=[(args.train, "calibration"), (args.test, "calibration")])
     train = read_calibration_from_args(args.train, args)
     test = read_calibration_from_args(args.test, args)
     comparison = compare_models(train, test, models=models, epochs=args.epochs, rng=args.seed)

@@ -20,6 +20,7 @@ line (the answers to the lines before it are already written); with
 
 import contextlib
 import os
+import re
 import sys
 
 from .._core import signals as _signals
@@ -52,25 +53,155 @@ def claim_extras(args, extras):
 
 
 def run(args):
+    from ._common import check_paths
+
+    check_paths(inputs=[(args.model, "model"), (args.input, "angles")])
     compensator = Compensator(args.model)
     if sys.stdout is None:  # started with standard output closed (`>&-`)
         raise InputError("standard output is closed; expected somewhere to write the corrected angles")
     if args.input == "-" and sys.stdin is None:
         raise InputError("standard input is closed; expected encoder angles on it, or give a FILE")
+    _check_output_is_not_an_input(args.input, args.model)
     sink = _sink(sys.stdout)
     try:
         if args.input == "-":
-            correct_stream(compensator, sys.stdin.buffer, sink, skip_bad=args.skip_bad,
+            correct_stream(compensator, _CheckedLines(sys.stdin.buffer, "stdin"), sink, skip_bad=args.skip_bad,
                            direction=args.direction, exact=args.exact)
         else:
             with open(args.input, "rb") as source, _file_activity(source, args.input) as counted:
-                correct_stream(compensator, counted, sink, skip_bad=args.skip_bad,
+                correct_stream(compensator, _CheckedLines(counted, args.input), sink, skip_bad=args.skip_bad,
                                name=args.input, direction=args.direction, exact=args.exact)
     except BrokenPipeError:
         # The reader went away (`encal correct ... | head`): stop quietly, and keep
         # Python from failing again when it flushes stdout at exit.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+    except OSError as exc:
+        if not isinstance(sink, _WholeLines) or sink.failure is not exc:  # not a failed write of the answers
+            raise
+        # A full disk (ENOSPC), a quota, an I/O error: _WholeLines has cut the output back to whole lines.
+        done = (f"the answers to the first {sink.lines_written} angles are written whole, and nothing after them"
+                if sink.lines_written else "no answer is written")
+        raise InputError(f"cannot write the corrected angles to standard output ({exc.strerror or exc}); expected "
+                         f"room for them: {done}") from None
     return 0
+
+
+def _check_output_is_not_an_input(input_path, model_path):
+    """Refuse standard output redirected into an input: the angles (``encal correct M a.txt >> a.txt``),
+    whose answers would be read back as angles without end until the disk is full, or the model file."""
+    import stat
+
+    try:
+        written = os.fstat(sys.stdout.fileno())
+    except (AttributeError, OSError, ValueError):  # a replaced stream (a test's capture), no descriptor
+        return
+    if not stat.S_ISREG(written.st_mode):
+        return
+    inputs = {"the model file " + str(model_path): model_path,
+              ("standard input" if input_path == "-" else str(input_path)): input_path}
+    for name, path in inputs.items():
+        try:
+            read = os.fstat(sys.stdin.fileno()) if path == "-" else os.stat(path)
+        except (AttributeError, OSError, ValueError):
+            continue
+        if (written.st_dev, written.st_ino) == (read.st_dev, read.st_ino):
+            raise InputError(f"standard output is the same file as {name}; expected the corrected angles to go "
+                             "to another file (writing them there would change the input as it is read)")
+
+
+#: Longest input line, in bytes without its line end: bounds the memory when no line end comes.
+MAX_LINE_BYTES = 1 << 16
+_LONE_CR = re.compile(rb"\r(?!\n)")
+
+
+class _CheckedLines:
+    """The input as :func:`~encal.deploy.stream.correct_stream` reads it, checked on the way.
+
+    - A line longer than :data:`MAX_LINE_BYTES` stops the command, once the answers to the lines before
+      it are written (the stream's own check let lines of up to twice that through).
+    - A CR alone ends a line (encal's CSV dialect): it is passed on as an LF, so a file with CR line
+      ends is read in whole lines too (the stream saw it as one line and refused it past 64 KiB).
+    - A CSV header that names a column twice (``encoder_deg,encoder_deg``) stops the command
+      before any answer: the stream would read the first one, silently.
+    """
+
+    def __init__(self, source, name):
+        self._read = getattr(source, "read1", source.read)
+        self._name = name
+        self._held = b""  # a CR that ended the last read: a line end, or the start of a CRLF
+        self._line_bytes = 0  # bytes of the line being read, so far
+        self._lines = 0  # line ends passed on
+        self._error = None  # raised at the next read: the answers to the lines before it come first
+        self._head = b""  # the unfinished line, until the first line that is not blank or a comment
+        self._looking = True  # for that first line (a header, perhaps)
+
+    def read1(self, size=-1):
+        if self._error is not None:
+            raise self._error
+        while True:
+            block = self._read(size)
+            data, self._held = self._held + block, b""
+            if block and data.endswith(b"\r"):
+                data, self._held = data[:-1], b"\r"
+            if data or not block:
+                break
+        if b"\r" in data:
+            data = _LONE_CR.sub(b"\n", data)
+        if self._looking:
+            self._check_header(data, end=not block)
+        return self._check_lengths(data)
+
+    read = read1
+
+    def _too_long(self, number):
+        return InputError(f"line {number} of {self._name} is longer than {MAX_LINE_BYTES} bytes (64 KiB); expected "
+                          "one encoder angle, or one CSV row, per line (is this a binary file?)")
+
+    def _check_lengths(self, data):
+        first = data.find(b"\n")
+        if first < 0:
+            self._line_bytes += len(data)
+            if self._line_bytes > MAX_LINE_BYTES:
+                raise self._too_long(self._lines + 1)
+            return data
+        ends_cr = first > 0 and data[first - 1] == 0x0D
+        if self._line_bytes + first - ends_cr > MAX_LINE_BYTES:
+            raise self._too_long(self._lines + 1)
+        last = data.rfind(b"\n")
+        if last - first > MAX_LINE_BYTES:  # a read longer than a line: look at every line (never with the stream's)
+            for offset, line in enumerate(data[first + 1:last].split(b"\n"), start=2):
+                if len(line.removesuffix(b"\r")) > MAX_LINE_BYTES:
+                    raise self._too_long(self._lines + offset)
+        self._lines += data.count(b"\n")
+        self._line_bytes = len(data) - last - 1
+        if self._line_bytes > MAX_LINE_BYTES:
+            self._error = self._too_long(self._lines + 1)
+            self._line_bytes = 0
+            return data[:last + 1]  # the lines before the long one are answered first
+        return data
+
+    def _check_header(self, data, end):
+        """Refuse a first line that is a CSV header naming a column twice (counting lines as the stream does)."""
+        from .._core import csv_dialect as _csv
+
+        text = self._head + data
+        lines = text.split(b"\n")
+        self._head = b"" if end else lines.pop()
+        for number, line in enumerate(lines, start=self._lines + 1):
+            line = line.decode("utf-8", "replace")
+            if number == 1:
+                line = line.removeprefix("\ufeff")
+            if _csv.is_skipped(line):
+                continue
+            self._looking, self._head = False, b""
+            try:
+                names = _csv.column_names(line)
+            except _csv.QuotingError:
+                return  # the stream names the problem
+            repeated = _csv.repeated_names(names) if "encoder_deg" in names else None
+            if repeated is not None:
+                raise InputError(f"line {number} of {self._name}: {repeated}")
+            return
 
 
 @contextlib.contextmanager
@@ -144,17 +275,46 @@ class _WholeLines:
 
     def __init__(self, descriptor):
         self.descriptor = descriptor
+        self.lines_written = 0
+        self.failure = None  # the OSError that stopped a write
 
     def write(self, data):
         view = memoryview(data)
         done = 0
         with _signals.held():
-            while done < len(view):
-                if _signals.pending():
-                    if done == 0 or data[done - 1] == 0x0A:  # at the start of a line: stop here
-                        break
-                    view = view[:data.index(b"\n", done) + 1]  # finish this line only
-                done += os.write(self.descriptor, view[done:])
+            start = self._offset()
+            try:
+                while done < len(view):
+                    if _signals.pending():
+                        if done == 0 or data[done - 1] == 0x0A:  # at the start of a line: stop here
+                            break
+                        view = view[:data.index(b"\n", done) + 1]  # finish this line only
+                    done += os.write(self.descriptor, view[done:])
+            except BrokenPipeError:
+                raise
+            except OSError as exc:
+                self.failure = exc
+                # A full disk took part of a line (a write may be short before it fails): cut a file back to
+                # the end of the last whole line, so that no part of a number is read as an angle.
+                whole = data.rfind(b"\n", 0, done) + 1
+                self.lines_written += data.count(b"\n", 0, whole)
+                if start is not None and whole < done:
+                    with contextlib.suppress(OSError):
+                        os.ftruncate(self.descriptor, start + whole)
+                        os.lseek(self.descriptor, start + whole, os.SEEK_SET)
+                raise
+            self.lines_written += data.count(b"\n", 0, done)
+
+    def _offset(self):
+        """Where the next write lands in a regular file, or None (a pipe, a terminal, a device)."""
+        import stat
+
+        try:
+            if not stat.S_ISREG(os.fstat(self.descriptor).st_mode):
+                return None
+            return os.lseek(self.descriptor, 0, os.SEEK_CUR)
+        except OSError:
+            return None
 
     def flush(self):
         pass

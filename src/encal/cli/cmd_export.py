@@ -40,7 +40,7 @@ from ..deploy.targets import FORMS, TARGETS, describe, write_target
 FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 SIMPLEFOC_VERSIONS = ("1.0.8", "1.0.9", "uint16")
 from .._core.errors import InputError
-from ._common import print_json
+from ._common import check_paths, print_json
 
 
 def add_arguments(parser):
@@ -227,18 +227,28 @@ def _check_resolution(args, compensator):
 
 
 def run(args):
+    status = _export(args)
+    if getattr(args, "bits_mismatch", None):  # said once the export is written, so a refusal stays one line
+        import warnings
+
+        from .._core.errors import EncalWarning
+
+        warnings.warn(EncalWarning(args.bits_mismatch))
+    return status
+
+
+def _export(args):
     _check_combinations(args)
     output = Path(args.output)
-    if output.exists() and output.resolve() == Path(args.model).resolve():
-        raise InputError(f"-o {output} is the model file being exported; expected a different output path "
-                         "(the export would overwrite the model)")
-    if args.format == "c":
-        model = Path(args.model).resolve()
-        for written in (output / f"{args.name}.h", output / f"{args.name}.c"):
-            if written.exists() and written.resolve() == model:
-                raise InputError(f"-o {output} would write {written}, the model file being exported; expected "
-                                 "a different folder or --name (the export would overwrite the model)")
+    c_files = [f"{args.name}.h", f"{args.name}.c"] if args.format == "c" else []
+    check_paths(inputs=[(args.model, "model"), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
+                folders=[("-o", output, c_files)] if c_files else [])
     compensator = Compensator(args.model)
+    recorded = compensator.encoder.get("resolution_bits")
+    if args.bits is not None and recorded is not None and args.bits != recorded:
+        args.bits_mismatch = (f"--bits {args.bits} differs from the {recorded} bits {args.model} records for its "
+                              f"encoder: the export maps {args.bits}-bit codes to angles, right only if the encoder "
+                              f"on the device has {args.bits} bits")
     _check_resolution(args, compensator)
     if args.format in FIRMWARE:
         from ..deploy.firmware import EXPORTERS

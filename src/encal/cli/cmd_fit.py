@@ -12,8 +12,8 @@ reference's zero. When that zero is arbitrary (--zero; by default when the offse
 the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
-from ._common import (activity, add_calibration_options, add_zero_options, int_in_range, print_json, read_calibration_from_args,
-                      size_option)
+from ._common import (activity, add_calibration_options, add_zero_options, check_paths, int_in_range, print_json,
+                      read_calibration_from_args, size_option)
 
 
 def add_arguments(parser):
@@ -134,24 +134,6 @@ def _options(args):
     return options
 
 
-def _check_output(output, calibration):
-    """Refuse an output path that cannot be written, before a fit that may take minutes."""
-    from pathlib import Path
-
-    from .._core.atomic import check_name_length
-    from .._core.errors import InputError
-
-    path = Path(output)
-    check_name_length(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"cannot write {path}: the folder {folder} does not exist")
-    if path.is_dir():
-        raise InputError(f"cannot write {path}: it is a folder; expected the path of a model file")
-    if path.exists() and Path(calibration).exists() and path.samefile(calibration):
-        raise InputError(f"-o {path} is the calibration being fitted; expected another file for the model")
-
-
 def _budget(text):
     import argparse
 
@@ -179,6 +161,34 @@ def _choose_deployment(model, args):
     met = within if report["met"] else f"not {within}: the budget allows no more"
     return (f"deployment within {args.budget['text']}: {chosen.describe()} ({met}); {report['gave_up']}; "
             f"'encal export --format c --target {chosen.target}' uses it")
+
+
+def _check_not_itself(repeat, calibration):
+    """Refuse ``--repeat`` naming the calibration being fitted: the same readings twice are no second pass."""
+    from pathlib import Path
+
+    from .._core.errors import InputError
+
+    if Path(repeat).exists() and Path(calibration).exists() and Path(repeat).samefile(calibration):
+        raise InputError(f"--repeat {repeat} is the calibration being fitted; expected a second pass over the same "
+                         "angles measured on its own, since the same readings twice carry no information about the "
+                         "noise (give a known noise with --noise)")
+
+
+def _identical_readings(cal, second):
+    """Whether two calibrations hold the same (reference, encoder) readings, to 1e-9 degree, in any order."""
+    import numpy as np
+
+    if len(cal) != len(second) or (cal.direction is None) != (second.direction is None):
+        return False
+    rows = []
+    for c in (cal, second):
+        columns = [np.round(c.reference_deg, 9), np.round(c.encoder_deg, 9)]
+        if c.direction is not None:
+            columns.append(c.direction)
+        table = np.column_stack(columns)
+        rows.append(table[np.lexsort(table.T[::-1])])
+    return bool(np.array_equal(rows[0], rows[1]))
 
 
 def _with_repeat(cal, second):
@@ -288,11 +298,24 @@ def run(args):
     if args.target is not None and args.budget is None:
         args.fit_parser.error("--target names the processor of --budget; expected it with --budget")
     options = _options(args)
-    _check_output(args.output, args.calibration)
+    check_paths(inputs=[(args.calibration, "calibration"), (args.repeat, "calibration")],
+                outputs=[("-o", args.output)])
     with activity("fit") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress)
         if args.repeat is not None:
-            cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args, progress))
+            _check_not_itself(args.repeat, args.calibration)
+            second = read_calibration_from_args(args.repeat, args, progress)
+            if _identical_readings(cal, second):
+                import warnings
+
+                from .._core.errors import EncalWarning
+
+                warnings.warn(f"--repeat {second.source}: its readings are those of {cal.source} at every reference "
+                              "angle, identical; identical repeats carry no information about the noise, so it is "
+                              "ignored (a copy of the file? give a second pass measured on its own, or a known noise "
+                              "with --noise)", EncalWarning, stacklevel=2)
+            else:
+                cal = _with_repeat(cal, second)
         if args.seed is not None:
             options["rng"] = args.seed
         if args.method in ("spectral", "auto") and not _cv_options(options) and not has_both_directions(cal):

@@ -13,7 +13,7 @@ Calibrations can be fitted, profiled and compared; an existing correction become
 model file that 'encal evaluate' scores on a calibration, beside encal's own models.
 """
 
-from ._common import int_in_range
+from ._common import check_paths, int_in_range
 
 CALIBRATIONS = ("moteus-compare", "moteus-cal", "klipper", "mechaduino")
 CORRECTIONS = ("moteus", "simplefoc", "tinymovr")
@@ -44,6 +44,8 @@ def run(args):
         args.import_parser.error("tinymovr tables are in ticks: --bits is required")
     if args.firmware_version is not None and args.kind != "simplefoc":
         args.import_parser.error(f"--firmware-version is for simplefoc tables, not {args.kind}")
+    check_paths(inputs=[(args.input, "capture" if args.kind == "moteus-cal" else "firmware")],
+                outputs=[("-o", args.output)])
     readers = {"moteus-compare": firmware.read_compare_encoders, "klipper": firmware.read_klipper,
                "mechaduino": firmware.read_mechaduino,
                "moteus-cal": lambda path: firmware.read_cal_capture(path, pole_pairs=args.pole_pairs),

@@ -13,7 +13,8 @@ import numpy as np
 
 from .._core.angles import lsb_arcmin, resolution_of_readings
 from ..analysis.profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
-from ._common import activity, add_calibration_options, add_zero_options, nonnegative_int, read_calibration_from_args
+from ._common import (activity, add_calibration_options, add_zero_options, check_paths, nonnegative_int,
+                      read_calibration_from_args)
 
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
@@ -25,6 +26,7 @@ def add_arguments(parser):
 
 
 def run(args):
+    check_paths(inputs=[(args.calibration, "calibration")])
     with activity("profile") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress)
         progress.stage("statistics")

@@ -14,7 +14,7 @@ Examples:
 
 from pathlib import Path
 
-from ._common import activity, add_calibration_options, add_zero_options, read_calibration_from_args
+from ._common import activity, add_calibration_options, add_zero_options, check_paths, read_calibration_from_args
 
 
 def add_arguments(parser):
@@ -43,15 +43,15 @@ def add_arguments(parser):
 
 
 def run(args):
-    from ..reports.encoder import encoder_report, verdict, write_encoder_report
-    from .._core.errors import InputError
+    from .._core.atomic import atomic_file_set
+    from ..reports.encoder import ENCODER_FIGURES, encoder_report, verdict, write_encoder_report
 
     output = Path(args.output)
-    if not (output.parent if str(output.parent) else Path(".")).is_dir():
-        raise InputError(f"cannot write {output}: the folder {output.parent} does not exist")
-    for source in (args.calibration, *args.tests):
-        if output.exists() and Path(source).exists() and output.samefile(source):
-            raise InputError(f"-o {output} is an input calibration; expected another file for the report")
+    figures_dir = Path(args.figures) if args.figures is not None else output.with_name(f"{output.stem}_figures")
+    check_paths(inputs=[(path, "calibration") for path in (args.calibration, *args.tests)],
+                outputs=[("-o", output), ("--model", args.model)],
+                folders=[("--figures" if args.figures is not None else "the figures' folder", figures_dir,
+                          [f"{name}.png" for name in ENCODER_FIGURES])])
     with activity("report") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress)
         tests = [read_calibration_from_args(path, args, progress) for path in args.tests]
@@ -60,10 +60,19 @@ def run(args):
         report = encoder_report(cal, tests, method=args.method, zero=args.zero, rng=args.seed,
                                 uncertainty=args.uncertainty, compare=args.compare)
         progress.stage(f"writing {output} and its figures")
-        written = write_encoder_report(report, output, figures_dir=args.figures)
-        if args.model is not None:
-            report.model.save(args.model)
+        with atomic_file_set():  # the page, its figures and the model file, or none of them
+            written = write_encoder_report(report, output, figures_dir=args.figures)
+            if args.model is not None:
+                report.model.save(args.model)
     print(verdict(report))
+    from ..reports.encoder import correction_warnings
+
+    for sentence in correction_warnings(report):  # a valid report (status 0), but never a quiet one
+        import warnings
+
+        from .._core.errors import EncalWarning
+
+        warnings.warn(sentence, EncalWarning, stacklevel=2)
     for note in report.notes + ([report.comparison_note] if report.comparison_note else []):
         print(note)
     figures = [path for key, path in written.items() if key.startswith("figure:")]

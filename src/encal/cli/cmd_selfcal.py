@@ -19,7 +19,7 @@ See docs/self-calibration.md.
 from pathlib import Path
 
 from .._core.errors import InputError
-from ._common import add_calibration_options, int_in_range, size_option
+from ._common import add_calibration_options, check_paths, int_in_range, size_option
 
 
 def add_arguments(parser):
@@ -64,7 +64,9 @@ def add_arguments(parser):
 def run(args):
     inputs = {"spin": getattr(args, "logs", None), "sweep": [getattr(args, "capture", None)],
               "steps": getattr(args, "calibrations", None)}[args.method]
-    _check_output(args.output, inputs)
+    kind = "calibration" if args.method == "steps" else "capture"
+    check_paths(inputs=[(path, kind) for path in inputs],
+                outputs=[("-o", args.output), ("--stepper-csv", getattr(args, "stepper_csv", None))])
     if args.method == "spin":
         from ..selfcal.spin import spin
         from ..selfcal.spin_log import read_spin_log
@@ -122,8 +124,6 @@ def _steps(args):
     if len(args.calibrations) == 1 and (args.turn is not None or args.step_shift is not None
                                         or args.stepper_csv is not None):
         raise InputError("--turn, --step-shift and --stepper-csv need a second calibration (after turning the magnet)")
-    if args.stepper_csv is not None:
-        _check_output(args.stepper_csv, args.calibrations)
     calibrations = [read_calibration_from_args(path, args) for path in args.calibrations]
     result = steps(*calibrations, turn_deg=args.turn, step_shift=args.step_shift, max_order=args.max_order,
                    name=Path(args.calibrations[0]).stem)
@@ -155,15 +155,3 @@ def _orders(text):
     if any(order < 1 for order in orders):
         raise InputError(f"--ripple-orders must be orders >= 1. Got {text!r} instead.")
     return orders
-
-
-def _check_output(output, inputs):
-    path = Path(output)
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise InputError(f"cannot write {path}: the folder {folder} does not exist")
-    if path.is_dir():
-        raise InputError(f"cannot write {path}: it is a folder; expected the path of a calibration CSV")
-    for source in inputs:
-        if path.exists() and Path(source).exists() and path.samefile(source):
-            raise InputError(f"-o {path} is the input {source}; expected another file for the calibration")

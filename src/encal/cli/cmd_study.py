@@ -12,7 +12,7 @@ Examples:
   encal study prune enc1_train.csv --test enc1_test.csv
 """
 
-from ._common import add_calibration_options, nonnegative_int, read_calibration_from_args, size_option
+from ._common import add_calibration_options, check_paths, nonnegative_int, read_calibration_from_args, size_option
 
 
 def add_arguments(parser):
@@ -108,19 +108,21 @@ def _prune(args, train, test):
 
 
 _STUDIES = {"sweep": _sweep, "algorithms": _algorithms, "prune": _prune}
+#: The files each study writes into --out.
+_WRITES = {"sweep": ("fig2a_sweep.csv", "fig2a_sweep.png", "fig2b_training.png"),
+           "algorithms": ("table2_algorithms.csv", "table2_algorithms.png", "table2_training.png"),
+           "prune": ("fig3_pruning.csv", "fig3_singular_values.png")}
 
 
 def run(args):
     from pathlib import Path
 
-    from .._core.errors import InputError
-
+    out = Path(args.out) if args.out else None
+    check_paths(inputs=[(args.train, "calibration"), (args.test, "calibration")],
+                folders=[("--out", out, _WRITES[args.study])])
     train = read_calibration_from_args(args.train, args)
     test = read_calibration_from_args(args.test, args) if args.test else None
-    out = Path(args.out) if args.out else None
     if out is not None:
-        if out.exists() and not out.is_dir():
-            raise InputError(f"--out {out} is a file; expected a folder")
         out.mkdir(parents=True, exist_ok=True)
     table, figures = _STUDIES[args.study](args, train, test)
     print(table.to_text())

@@ -1,5 +1,6 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import os
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -12,8 +13,8 @@ from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_inpu
 from .._core.errors import CalibrationError, EncalWarning
 from .._core.parameters import check_bool, check_choice, check_int, check_type, invalid
 
-__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution",
-           "is_repeated_stops"]
+__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "check_turns",
+           "is_multi_revolution", "is_repeated_stops"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -143,6 +144,9 @@ _READ_CHUNK = 1 << 20
 #: Lines the careful (line-by-line) reader reads between two calls of ``progress``.
 _PROGRESS_LINES = 50_000
 _LINE_END_BYTES = re.compile(rb"\r\n|\r|\n")
+#: Mean travel of the reference, in degrees, over which :func:`is_multi_revolution` takes each step of a
+#: dense log: far above a reference's quantisation and jitter, far below a turn.
+SWEEP_STEP_DEG = 1.0
 #: What :func:`read_calibration` may do with conflicting repeated reference angles.
 DUPLICATES = ("refuse", "average", "keep")
 
@@ -215,10 +219,10 @@ def _plain_angles(values, unit):
         return bool(np.all(np.isfinite(values)) and np.all(np.abs(values * unit.degrees_per_unit) <= MAX_ABS_DEG))
 
 
-def _cells(path, number, line):
+def _cells(path, number, line, separator=","):
     """The fields of line ``number`` in encal's CSV dialect (:mod:`encal._core.csv_dialect`)."""
     try:
-        return _csv.fields(line)
+        return _csv.fields(line, separator)
     except _csv.QuotingError as exc:
         _fail(path, number, f"{exc}")
 
@@ -231,13 +235,18 @@ def _shown(text, limit=40):
 _UNIT_WORDS = {"deg": "degrees", "rad": "radians", "rev": "revolutions", "counts": "counts"}
 
 
-def _parse_float(path, line, column, name, cell, unit=None):
-    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``."""
+def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False):
+    """The number in a cell, checked finite and within +-1e9 degrees once converted from ``unit``.
+
+    With ``decimal_comma`` (a file not separated by commas), a comma in the cell is its decimal mark.
+    """
     words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
     try:
-        value = float(cell)
+        value = float(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
     except ValueError:
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}", column)
+        grouping = (" (a comma is read as the decimal mark in a file separated by semicolons, tabs or blanks; "
+                    "digit grouping is not read)" if decimal_comma and "," in cell else "")
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
     degrees = value if unit is None else value * unit.degrees_per_unit
@@ -249,17 +258,18 @@ def _parse_float(path, line, column, name, cell, unit=None):
     return value
 
 
-def _separator(path, line, header):
-    """',' for a comma-separated file, None for a whitespace-separated one (a header without commas that
-    splits at blanks into two or more names); semicolons are refused."""
-    if "," in header or '"' in header:
-        return ","
-    if len(header.split()) >= 2:
-        return None
-    if ";" in header:
-        _fail(path, line, "fields are separated by semicolons; expected commas or blanks (save the file as "
-                          "comma-separated CSV)")
-    return ","
+def _check_decimal_marks(path, first_comma, first_point):
+    """Refuse a file whose numbers use both a decimal comma and a decimal point: its commas may group digits
+    (``1,080`` for 1080), and reading them as decimal commas would give wrong numbers.
+
+    ``first_comma``, ``first_point``: ``(line, column, cell)`` of the first number read with each mark, or None.
+    """
+    if first_comma is None or first_point is None:
+        return
+    (line, column, cell), (point_line, _, point_cell) = first_comma, first_point
+    _fail(path, line, f"{cell.strip()!r} has a comma, read as a decimal comma, but line {point_line} writes "
+                      f"{point_cell.strip()!r} with a decimal point; expected one decimal mark in the whole file "
+                      "(is the comma grouping digits? Save the numbers without digit grouping)", column)
 
 
 def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
@@ -268,11 +278,13 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     """Read a calibration CSV (see DESIGN.md).
 
     The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
-    :mod:`encal._core.csv_dialect`) or, when its header has no comma, separated by blanks (spaces or tabs), with one
-    header row naming at least the reference and the encoder column (``reference_deg`` and
-    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored), ``#``
-    comment lines, and LF or CRLF line ends. Angles may be any finite numbers within +-1e9 degrees
-    (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
+    :mod:`encal._core.csv_dialect`), or as a spreadsheet exports it, separated by semicolons or tabs with a decimal
+    comma (:func:`encal._core.csv_dialect.separator_of`), or, when its header has none of these, separated by blanks
+    (spaces or tabs); in a file not separated by commas a comma in a number is its decimal mark. It
+    has one header row naming at least the reference and the encoder column (``reference_deg`` and
+    ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored, each
+    named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite
+    numbers within +-1e9 degrees (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
 
     Parameters
     ----------
@@ -314,9 +326,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ------
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
-        header without the two columns, a semicolon-separated file, a row whose field count differs from
+        header without the two columns or naming a column twice, a row whose field count differs from
         the header's, a unit other than the four above, non-numeric, NaN, infinite or
-        absurdly large (beyond +-1e9 degrees) values, a resolution outside 1 to 32 bits, fewer than 8 points,
+        absurdly large (beyond +-1e9 degrees) values, decimal commas mixed with decimal points in a file not
+        separated by commas, a resolution outside 1 to 32 bits, fewer than 8 points,
         a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
         (unless ``reverse``), an encoder that goes back while the reference goes forward (see
         :func:`check_folds`), conflicting repeated reference angles.
@@ -338,12 +351,18 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     duplicates = check_choice(duplicates, "duplicates", where, DUPLICATES)
     if name is not None:
         check_type(name, str, "name", where, "a str or None")
-    path = Path(path)
+    if isinstance(path, bool) or not (isinstance(path, (str, bytes)) or hasattr(type(path), "__fspath__")):
+        raise invalid("path", where, "the path of a calibration CSV (a str or os.PathLike)", path,
+                      error=CalibrationError)
+    path = Path(os.fsdecode(path))
     if not path.exists():
         raise CalibrationError(f"{path}: no such file; expected a calibration CSV")
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
-    raw = _read_bytes(path)
+    try:
+        raw = _read_bytes(path)
+    except OSError as exc:
+        raise CalibrationError(f"{path}: cannot be read ({exc.strerror or exc}); expected a calibration CSV") from None
     head = _head_of_plain(raw)
     if head is not None:  # a plain body: only the lines up to the header are needed as text
         lines, header_start, body_start = head
@@ -361,19 +380,21 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     except ValueError as exc:
         raise CalibrationError(f"{path}: {exc}") from None
     header_line, header = records[0]
-    separator = _separator(path, header_line, header)
+    separator = _csv.separator_of(header)
+    decimal_comma = separator != ","  # a spreadsheet's export where the comma is the decimal mark
 
     def cells_of(number, line):
-        return _cells(path, number, line) if separator == "," else line.split()
+        return _cells(path, number, line, separator) if separator is not None else line.split()
 
     names = cells_of(header_line, header)
-    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column)
+    columns, has_header = _header_columns(path, header_line, names, reference_column, encoder_column,
+                                          decimal_comma=decimal_comma)
     n_columns = len(names)
     ref_col, enc_col = columns["reference"], columns["encoder"]
     ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
     table = None
-    if head is not None and dir_col is None and epoch_col is None:
+    if head is not None and dir_col is None and epoch_col is None and separator in (",", None):
         first = header_line + 1 if has_header else header_line
         table = plain_rows(raw[body_start if has_header else header_start:], separator, n_columns,
                            progress=progress)
@@ -390,13 +411,22 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
             lines = _csv.split_lines(_decode(path, raw))
             records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
         reference, encoder, direction, epoch = [], [], [], []
+        marks = {",": None, ".": None}  # the first number read with a decimal comma, with a decimal point
         data = records[1:] if has_header else records
         for count, (number, line) in enumerate(data, start=1):
             cells = cells_of(number, line)
             if len(cells) != n_columns:
-                _fail(path, number, _field_count_problem(line, len(cells), n_columns))
-            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0]))
-            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1]))
+                _fail(path, number, _field_count_problem(line, len(cells), n_columns, separator))
+            reference.append(_parse_float(path, number, ref_col + 1, ref_name, cells[ref_col], units[0],
+                                          decimal_comma))
+            encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1],
+                                        decimal_comma))
+            if decimal_comma and (marks[","] is None or marks["."] is None):
+                for column in (ref_col, enc_col):
+                    for mark in ",.":
+                        if marks[mark] is None and mark in cells[column]:
+                            marks[mark] = (number, column + 1, cells[column])
+                _check_decimal_marks(path, marks[","], marks["."])
             if dir_col is not None:
                 cell = cells[dir_col].strip().lower()
                 if cell not in _DIRECTIONS:
@@ -414,6 +444,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         raise CalibrationError(f"{path}: has {len(reference)} calibration points, expected at least "
                                f"{MIN_POINTS} to model an error profile")
     in_degrees = {ref_name: np.asarray(reference), enc_name: np.asarray(encoder)}
+    as_read = in_degrees[ref_name], in_degrees[enc_name]
     _warn_if_radians(path, {key: values for (key, values), unit in zip(in_degrees.items(), units)
                             if unit.name == "deg"})
     reference, encoder = units[0].to_degrees(reference), units[1].to_degrees(encoder)
@@ -431,10 +462,13 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
     )
     rows = cal
-    if duplicates == "refuse" and is_multi_revolution(reference):
-        duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
-    # k readings at every stop of a run: repeated readings; a stray repeat in another run is still refused
-    repeated = _repeat_pattern(cal.reference_deg, _runs(cal))[0] if duplicates == "refuse" else None
+    check_turns(*as_read, units, reverse=reverse, runs=_runs(cal), where=str(path))
+    repeated = None
+    if duplicates == "refuse":
+        # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
+        # readings; a stray repeat in another run is still refused
+        runs = _runs(cal)
+        repeated = _repeat_pattern(cal.reference_deg, runs)[0] | _multi_revolution_runs(reference, runs)
     cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
@@ -443,14 +477,17 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     return cal
 
 
-def _field_count_problem(line, n_fields, n_columns):
+def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     """Why a row of ``n_fields`` fields does not fit a header of ``n_columns`` columns (a message)."""
     fields = f"{n_fields} field" + ("s" if n_fields != 1 else "")
     if n_fields > n_columns:
         why = ("a decimal comma, or a value holding a comma that is not quoted? Name every extra column "
-               "in the header")
+               "in the header" if header_separator == "," else
+               "a value holding a separator that is not quoted? Name every extra column in the header")
     else:
-        separator = next((label for sep, label in ((";", "semicolons"), ("\t", "tabs")) if sep in line), None)
+        others = [(sep, label) for sep, label in ((";", "semicolons"), ("\t", "tabs"), (",", "commas"))
+                  if sep != header_separator and not (header_separator is None and sep == "\t")]
+        separator = next((label for sep, label in others if sep in line), None)
         why = f"its fields are separated by {separator}" if separator else "is the file truncated?"
     return f"has {fields}, expected {n_columns} as in the header ({why})"
 
@@ -517,7 +554,8 @@ def _warn_if_radians(path, columns):
         values = np.concatenate([columns[name] for name in suspects])
         warnings.warn(
             f"{path}: {' and '.join(suspects)} all lie between {values.min():.4g} and {values.max():.4g}, as "
-            "radians over a full revolution would; expected degrees (radians times 57.29578)",
+            "radians over a full revolution would; expected degrees (radians times 57.29578; if they are radians, "
+            "say so with --unit rad, or --ref-unit rad or --enc-unit rad for one column)",
             EncalWarning, stacklevel=3)
 
 
@@ -534,30 +572,33 @@ def _looks_like_radians(values):
     return -np.pi - margin <= lowest and highest <= 2 * np.pi + margin and highest - lowest >= 1.5 * np.pi
 
 
-def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg"):
+def _header_columns(path, line, names, reference_column="reference_deg", encoder_column="encoder_deg", *,
+                    decimal_comma=False):
     """Indices of the reference, encoder, direction and epoch columns, and whether ``names`` is a header.
 
     Returns ``({'reference': i, 'encoder': j, 'reference_name': ..., 'encoder_name': ..., 'direction': k,
     'epoch': l}, has_header)``; a column is chosen by its name or its number from 1.
     """
     names = [name.strip().lower() for name in names]
+    # a first row of numbers (with decimal commas, where the separator is no comma) is no header
+    is_number = (lambda text: _is_number(text.replace(",", "."))) if decimal_comma else _is_number
     numbered = [_column_number(column) for column in (reference_column, encoder_column)]
-    if all(number is not None for number in numbered) and all(_is_number(cell) for cell in names if cell):
+    if all(number is not None for number in numbered) and all(is_number(cell) for cell in names if cell):
         for column, number in zip((reference_column, encoder_column), numbered):
             if not 1 <= number <= len(names):
                 _fail(path, line, f"there is no column {number}; expected a column number from 1 to {len(names)}")
+        if numbered[0] == numbered[1]:
+            _fail(path, line, f"the reference and the encoder column are both column {numbered[0]}; expected two "
+                              "different columns")
         return ({"reference": numbered[0] - 1, "encoder": numbered[1] - 1,
                  "reference_name": f"column {numbered[0]}", "encoder_name": f"column {numbered[1]}"}, False)
     columns = {}
     for index, cell in enumerate(names):
         columns.setdefault(cell, index)
     wanted = [str(column).strip().lower() for column in (reference_column, encoder_column)]
-    for name in (*wanted, "direction", "epoch"):
-        where = [index + 1 for index, cell in enumerate(names) if cell == name]
-        if len(where) > 1:
-            _fail(path, line, f"the header names {name} {len(where)} times (columns "
-                              f"{', '.join(map(str, where))}); expected each column once, so that it is clear "
-                              "which to read")
+    repeated = _csv.repeated_names(["" if is_number(name) else name for name in names])
+    if repeated is not None:
+        _fail(path, line, repeated)
     chosen = {}
     for role, column, name, number in zip(("reference", "encoder"), (reference_column, encoder_column), wanted,
                                           numbered):
@@ -567,7 +608,7 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
             chosen[role], chosen[f"{role}_name"] = number - 1, names[number - 1] or f"column {number}"
     missing = [name for role, name in zip(("reference", "encoder"), wanted) if role not in chosen]
     if missing:
-        looks_numeric = all(_is_number(cell) for cell in names if cell)
+        looks_numeric = all(is_number(cell) for cell in names if cell)
         found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
         if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
             _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
@@ -575,6 +616,9 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
                               "and --enc-col, their units with --ref-unit and --enc-unit)")
         _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
                           f"or its number from 1, found {found}")
+    if chosen["reference"] == chosen["encoder"]:
+        _fail(path, line, f"the reference and the encoder column are both column {chosen['reference'] + 1} "
+                          f"({chosen['reference_name']}); expected two different columns")
     for optional in ("direction", "epoch"):
         if optional in columns:
             chosen[optional] = columns[optional]
@@ -602,7 +646,10 @@ def is_multi_revolution(reference_deg):
 
     True when the reference moves one way (at least 95 % of the steps in one direction, wrapping at
     360° or counting past it) over at least one and a half turns: its repeated angles are then
-    repeated readings of the same stops, not conflicting rows.
+    repeated readings of the same stops, not conflicting rows. The steps are taken over about
+    :data:`SWEEP_STEP_DEG` of the travel each, and steps of zero are left out: a quantised reference
+    (a 17-bit encoder) read faster than it changes code repeats a code, or jitters back by one, from
+    one row to the next, and such a sweep is still one way.
 
     Examples
     --------
@@ -615,9 +662,26 @@ def is_multi_revolution(reference_deg):
     if raw.size < 16:
         return False
     turned = np.degrees(np.unwrap(np.radians(raw)))
-    steps = np.diff(turned)
-    one_way = max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95
-    return bool(one_way and abs(turned[-1] - turned[0]) >= 540.0)
+    travel = abs(turned[-1] - turned[0])
+    if travel < 540.0:
+        return False
+    stride = max(1, int(SWEEP_STEP_DEG / (travel / (raw.size - 1))))
+    steps = np.diff(turned[::stride])
+    steps = steps[steps != 0.0]
+    return bool(steps.size >= 8 and max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95)
+
+
+def _multi_revolution_runs(reference_deg, runs=None):
+    """A mask over the points: those of runs (``runs``: a label per point, one run by default) whose reference
+    angles, in file order, are a log of several revolutions (:func:`is_multi_revolution`)."""
+    reference = np.asarray(reference_deg, dtype=float).reshape(-1)
+    if runs is None:
+        return np.full(reference.size, is_multi_revolution(reference))
+    mask = np.zeros(reference.size, dtype=bool)
+    for run in np.unique(runs):
+        members = runs == run
+        mask[members] = is_multi_revolution(reference[members])
+    return mask
 
 
 def is_repeated_stops(reference_deg, runs=None):
@@ -734,6 +798,115 @@ def _check_duplicates(path, cal, duplicates, repeated=None):
                        reading_sign=cal.reading_sign)
 
 
+#: Smallest coherence ``|mean exp(i (θ_enc − θ_ref))|`` (per run) of a calibration whose encoder turns once per
+#: reference turn. An error profile that does not fold the encoder back has a slope above -1, so its first
+#: harmonic is under 57 deg (coherence at least J0(1 rad) = 0.77) and a misplaced magnet's 20 deg leaves 0.97; an
+#: encoder read in another unit, or with other bits, winds round the circle against the reference and has ~0.
+MIN_TURN_COHERENCE = 0.3
+#: Coherence a reading in another unit must reach to be named as the likely one.
+LIKELY_UNIT_COHERENCE = 0.9
+#: Points used to try the other units (evenly spaced in the file).
+_TURN_SAMPLE = 20_000
+_UNIT_NAMES = {"deg": "degrees", "rad": "radians", "rev": "revolutions"}
+
+
+def _turn_coherence(reference_deg, encoder_deg, runs):
+    """``|mean exp(i (encoder - reference))|`` per run (a zero offset of its own each), weighted by size."""
+    phasor = np.exp(1j * np.radians(encoder_deg - reference_deg))
+    if runs is None:
+        return float(abs(phasor.mean()))
+    group = np.unique(runs, return_inverse=True)[1].reshape(-1)
+    sums = np.bincount(group, weights=phasor.real) + 1j * np.bincount(group, weights=phasor.imag)
+    return float(np.sum(np.abs(sums)) / phasor.size)
+
+
+def _unit_text(unit):
+    return _UNIT_NAMES.get(unit.name) or f"counts of a {unit.bits}-bit encoder"
+
+
+def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs=None, where="calibration"):
+    """Refuse a calibration whose encoder does not turn once per turn of the reference.
+
+    Read in the wrong unit (16-bit counts as ``counts:14``, counts or radians as degrees) the encoder runs a
+    multiple of the reference's speed, and its "error" winds round the circle: a profile of thousands of arc-minutes
+    that a model fits as well as it can, with exit status 0. The test is the coherence of ``encoder - reference``
+    within each run (:data:`MIN_TURN_COHERENCE`); when it fails, the other units of either column (deg, rad, rev,
+    counts:1..32) are tried and the one that makes the encoder follow the reference is named with its option.
+    An encoder that counts against the reference is left to the check that names ``--reverse``.
+
+    Parameters
+    ----------
+    reference, encoder : array-like of shape (n,)
+        The columns as read, in their units.
+    units : (str or AngleUnit, str or AngleUnit), default=('deg', 'deg')
+        Units of the reference and the encoder column.
+    reverse : bool, default=False
+        The encoder counts against the reference (its readings are negated).
+    runs : array-like of shape (n,), optional
+        A label per point of its run (direction, epoch): each run has a zero offset of its own.
+    where : str
+        Name of the data, for the message.
+
+    Raises
+    ------
+    CalibrationError
+        Naming the units read, the coherence and, when one fits, the option of the right unit.
+    """
+    reference = np.asarray(reference, dtype=float).reshape(-1)
+    encoder = np.asarray(encoder, dtype=float).reshape(-1)
+    units = tuple(angle_unit(unit) for unit in units)
+    sign = -1.0 if reverse else 1.0
+
+    def coherence(ref_unit, enc_unit, factor=sign, pick=slice(None)):
+        return _turn_coherence(reference[pick] * ref_unit.degrees_per_unit,
+                               factor * encoder[pick] * enc_unit.degrees_per_unit,
+                               None if runs is None else np.asarray(runs)[pick])
+
+    found = coherence(*units)
+    if found >= MIN_TURN_COHERENCE or coherence(*units, factor=-sign) >= MIN_TURN_COHERENCE:
+        return
+    pick = slice(None, None, max(1, reference.size // _TURN_SAMPLE))
+    others = [angle_unit(name) for name in ("deg", "rad", "rev")] + [angle_unit(f"counts:{b}")
+                                                                      for b in range(1, MAX_BITS + 1)]
+    candidates = [(units[0], unit) for unit in others if unit != units[1]]
+    candidates += [(unit, units[1]) for unit in others if unit != units[0]]
+    candidates += [(unit, unit) for unit in others if unit not in units]
+    candidates += [(others[0], unit) for unit in others if others[0] != units[0] and unit != units[1]]
+    # a reading that squeezes the reference into a few degrees makes any encoder "follow" it: only readings whose
+    # reference goes round the circle are tried
+    candidates = [(ref_unit, enc_unit) for ref_unit, enc_unit in candidates
+                  if abs(np.mean(np.exp(1j * np.radians(reference[pick] * ref_unit.degrees_per_unit)))) < 0.5]
+    # the most coherent reading wins (a grid of whole degrees read in revolutions can come close by aliasing);
+    # of equals, the first: the encoder's unit, then the reference's, then both
+    tried = [(coherence(ref_unit, enc_unit, factor, pick), -number, (ref_unit, enc_unit, flip))
+             for number, (ref_unit, enc_unit) in enumerate(candidates)
+             for factor, flip in ((sign, ""), (-sign, " --reverse" if not reverse else ""))]
+    best = max(tried, key=lambda item: (round(item[0], 3), item[1]), default=(0.0, 0, None))
+    hint = best[2] if best[0] >= LIKELY_UNIT_COHERENCE else None
+    read = (f"read as {_unit_text(units[1])} against a reference in {_unit_text(units[0])}")
+    if hint is None:
+        advice = ("no other unit of either column makes it follow the reference (is the encoder geared to it, or "
+                  "are these other columns? name them with --ref-col and --enc-col)")
+    else:
+        ref_unit, enc_unit, flip = hint
+        ratio = units[1].degrees_per_unit / enc_unit.degrees_per_unit * ref_unit.degrees_per_unit \
+            / units[0].degrees_per_unit
+        if ref_unit == units[0]:
+            option, change = f"--enc-unit {enc_unit}", f"the encoder read as {_unit_text(enc_unit)}"
+        elif enc_unit == units[1]:
+            option, change = f"--ref-unit {ref_unit}", f"the reference read as {_unit_text(ref_unit)}"
+        elif ref_unit == enc_unit:
+            option, change = f"--unit {enc_unit}", f"both columns read as {_unit_text(enc_unit)}"
+        else:
+            option = f"--ref-unit {ref_unit} --enc-unit {enc_unit}"
+            change = f"the reference read as {_unit_text(ref_unit)} and the encoder as {_unit_text(enc_unit)}"
+        advice = (f"its angle runs {ratio:.4g} times as fast as the reference's; with {change}, the encoder "
+                  f"follows the reference (use {option}{flip})")
+    raise CalibrationError(
+        f"{where}: the encoder does not turn once per turn of the reference: {read}, encoder minus reference winds "
+        f"round the circle (coherence {found:.2f}, expected over {MIN_TURN_COHERENCE:g}); {advice}")
+
+
 def _check_direction_of_count(path, cal, reverse):
     """Refuse an encoder whose angle decreases while the reference increases."""
     order = np.argsort(cal.reference_deg, kind="stable")
@@ -793,7 +966,8 @@ def check_folds(cal, where="calibration"):
                 f"{enc[last]:.4g} deg at reference {ref[last]:.4g} deg, {drop[last]:.3g} deg back although the "
                 f"reference went forward; expected the encoder angle to increase with the reference (within "
                 f"{MAX_FOLD_DEG:g} deg of noise), since otherwise the error is not a function of the encoder "
-                "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch)")
+                "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch; or a column "
+                "in another unit: --ref-unit, --enc-unit)")
 
 
 def _check_coverage(path, cal, allow_gaps):

@@ -85,6 +85,12 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
     InputError
         If ``prefix`` is not a valid C identifier, or an option is invalid.
     """
+    return host_export(model, prefix=prefix, bits=bits, table=table, constants=constants)[0]
+
+
+def host_export(model, *, prefix="encal", bits=None, table=None, constants="auto"):
+    """:func:`export_c`'s files and the sentence of its banner that says how the C computes and how far from
+    the model (the constants' change, or the dense table's deviation at and between the codes)."""
     _check_identifier(prefix, "export_c")
     check_choice(table, "table", "export_c", (None, "int16", "float32"))
     check_choice(constants, "constants", "export_c", ("auto", "float", "double"))
@@ -117,7 +123,7 @@ def export_c(model, *, prefix="encal", bits=None, table=None, constants="auto"):
     banner = _banner(comp, prefix, how)
     directed = table is None and _form(comp) == "directional"
     return {f"{prefix}.h": _header(prefix, bits, banner, directed),
-            f"{prefix}.c": _source(prefix, bits, banner, body, directed, comp.reading_sign)}
+            f"{prefix}.c": _source(prefix, bits, banner, body, directed, comp.reading_sign)}, how
 
 
 def _in_model_input_order(table):

@@ -36,7 +36,7 @@ import numpy as np
 from .._core.atomic import write_file_set
 from .._core.errors import InputError
 from .._core.parameters import check_choice, check_int, check_number, invalid
-from .cexport import _banner, _check_identifier, export_c
+from .cexport import _banner, _check_identifier, host_export
 from .deployment import COSTS, choose_deployment
 from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTERPOLATIONS, MAX_NODES,
                       MIN_NODES, MIN_TABLE_BITS, NODE_DTYPES, check_exportable, check_nodes, choose_compact,
@@ -108,12 +108,12 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         if nodes is not None or tolerance_arcmin is not None or form != "table":
             raise InputError("--nodes, --tolerance and --form apply to the cortex-m4f and fixed targets, "
                              "not host (its C evaluates the formula in double, or --table)")
-        files = export_c(comp, prefix=prefix, bits=bits, **host_options)
+        files, how = host_export(comp, prefix=prefix, bits=bits, **host_options)
         known = bits is not None or comp.encoder.get("resolution_bits") is not None
         note = None if known else ("the encoder resolution is unknown (pass bits=, --bits): the formula is "
                                    f"exported without {prefix}_correct_counts")
         return files, {"target": "host", "form": "table" if host_options.get("table") else "formula",
-                       "note": note}
+                       "how": how.split(";\n")[0], "note": note}
     if host_options:
         raise InputError(f"{', '.join(sorted(host_options))} apply to the host target only")
     bits = _bits(comp, bits, target, form)
@@ -172,6 +172,13 @@ def describe(summary):
     """One line about an export (what it is, bytes, operations, deployed error)."""
     if summary["target"] == "host":
         text = f"host C ({summary['form']}, double precision)"
+        if summary.get("how"):
+            text += f": {summary['how']}"
+        if summary["form"] == "formula":
+            text += ("; the formula costs sines and cosines in double at every reading: for a microcontroller, "
+                     "--target cortex-m4f writes a float32 compact table "
+                     f"({OPERATIONS[('cortex-m4f', 'table', 'correct_deg')]} C operations to correct a reading in "
+                     "degrees) and --target fixed one in integers")
         return text + (f"; note: {summary['note']}" if summary.get("note") else "")
     bits = summary.get("bits")
     where = f"all {2**evaluation_bits(bits)} codes" if bits else "65536 angles"

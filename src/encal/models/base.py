@@ -20,7 +20,7 @@ from .._core.parameters import invalid
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
-__all__ = ["Model", "as_angles", "direction_mask", "in_chunks"]
+__all__ = ["Model", "as_angles", "direction_mask", "in_chunks", "chunk_angles"]
 
 #: Angles per evaluation of a model's formula: its temporaries (angles x orders, x neurons, ...) stay
 #: within a few MB, in cache, whatever the number of angles.
@@ -31,7 +31,12 @@ CHUNK_NUMBERS = 1 << 21
 
 def as_angles(theta_enc_deg):
     """Encoder angles as a float array (any shape), checked finite."""
-    theta = np.asarray(theta_enc_deg, dtype=float)
+    if theta_enc_deg is None:
+        raise InputError("encoder angles must be finite numbers of degrees; got None")
+    try:
+        theta = np.asarray(theta_enc_deg, dtype=float)
+    except (TypeError, ValueError) as exc:  # 'abc', a dict, a complex number, a ragged list
+        raise InputError(f"encoder angles must be finite numbers of degrees; {exc}") from None
     if not np.all(np.isfinite(theta)):
         raise InputError("encoder angles must be finite numbers of degrees (found NaN or infinity)")
     return theta
@@ -58,6 +63,11 @@ def direction_mask(direction, shape):
                       shown=f"the shape {values.shape}") from None
 
 
+def chunk_angles(width=1):
+    """Angles per chunk for a model of ``width`` temporary numbers per angle (see :func:`in_chunks`)."""
+    return max(1, min(CHUNK_ANGLES, CHUNK_NUMBERS // max(1, int(width))))
+
+
 def in_chunks(function, theta, width=1):
     """``function(theta)`` for a flat float array, evaluated a chunk of angles at a time.
 
@@ -66,7 +76,7 @@ def in_chunks(function, theta, width=1):
     ``function`` maps a flat array to values of the same size; peak memory is then the result plus
     one chunk's temporaries, whatever ``theta.size`` and the model's width.
     """
-    step = max(1, min(CHUNK_ANGLES, CHUNK_NUMBERS // max(1, int(width))))
+    step = chunk_angles(width)
     if theta.size <= step:
         return function(theta)
     out = np.empty(theta.size)

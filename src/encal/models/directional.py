@@ -10,7 +10,7 @@ import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
 from .._core.errors import InputError, ModelFileError
-from .base import Model, as_angles, direction_mask
+from .base import Model, as_angles, chunk_angles, direction_mask
 from .kind import model_kind
 from .stored_uncertainty import check_uncertainty
 
@@ -99,10 +99,25 @@ class DirectionalModel(Model):
         return mean, np.where(forward_side, f_std, r_std)[()]
 
     def correct(self, theta_enc_deg, direction=None):
-        """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees."""
+        """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees.
+
+        Evaluated a chunk of angles at a time (:func:`~encal.models.base.in_chunks`'s chunks), so peak memory
+        is the result and one chunk's temporaries, as for every other kind.
+        """
         theta = as_angles(theta_enc_deg)
-        return wrap360(model_input(theta, self.reading_sign) - self.predict(theta, direction=direction)
-                       / ARCMIN_PER_DEG)
+        flat = theta.reshape(-1)
+        forward_side = None if direction is None else direction_mask(direction, theta.shape).reshape(-1)
+        step = chunk_angles(self.evaluation_width)
+        out = np.empty(flat.size)
+        for start in range(0, flat.size, step):
+            inside = model_input(flat[start:start + step], self.reading_sign)  # the parts' angles
+            forward, reverse = self.forward._predict(inside), self.reverse._predict(inside)
+            if forward_side is None:
+                error = 0.5 * (forward + reverse)
+            else:
+                error = np.where(forward_side[start:start + step], forward, reverse)
+            out[start:start + step] = wrap360(inside - error / ARCMIN_PER_DEG)
+        return out.reshape(theta.shape)[()]
 
     def free_parameters(self):
         return self.forward.free_parameters() + self.reverse.free_parameters()

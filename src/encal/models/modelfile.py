@@ -163,9 +163,8 @@ def save_model(model, path, *, reproducible=False):
     pathlib.Path
         The file written.
     """
-    path = Path(path)
-    atomic_write(path, dumps(model_to_dict(model, reproducible=reproducible)))
-    return path
+    atomic_write(path, dumps(model_to_dict(model, reproducible=reproducible)))  # refuses what is no path
+    return Path(path)
 
 
 def load_model(path):
@@ -183,10 +182,9 @@ def load_model(path):
     ------
     ModelFileError
         If the file is not JSON, not an encal model file, of a newer format
-        version, altered after it was written (checksum), or malformed; the
-        message names the file.
-    OSError
-        If the file cannot be read.
+        version, altered after it was written (checksum), or malformed, or
+        cannot be read (missing, a folder, no permission), or ``path`` is not
+        a path (None); the message names the file.
     """
     return read_model(path)[0]
 

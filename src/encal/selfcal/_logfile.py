@@ -58,6 +58,9 @@ def read_columns(path, required, optional=(), what="log", labels=()):
         raise InputError(f"{path}: the file is empty; expected a header naming {expected} and rows of numbers")
     header_line, header = records[0]
     names = _fields(path, header_line, header, lower=True)
+    repeated = _csv.repeated_names(names)
+    if repeated is not None:
+        _fail(path, header_line, repeated)
     missing = [name for name, _ in required if name not in names]
     if missing:
         _fail(path, header_line, f"the header lacks {' and '.join(missing)}; expected a {what} with columns "
