@@ -28,8 +28,8 @@ from . import Model, kind_names, model_kind
 from .._core.parameters import check_bool, check_choice, check_seed, check_type
 from ..analysis.profile import (ARBITRARY_ZERO_ARCMIN, ZERO_MODES, ErrorStats, correction_is_worse, error_stats,
                                 remove_offset, worse_sentence, zero_is_arbitrary, zero_offset_arcmin, zero_sentence)
-from .uncertainty import (add_mean_uncertainty, add_part_uncertainties, add_uncertainty, has_posterior, refit_spec,
-                          with_half_reversal)
+from .uncertainty import (add_mean_uncertainty, add_part_uncertainties, estimate_uncertainty, has_posterior,
+                          refit_spec, with_half_reversal)
 from .._core.threads import single_blas_thread
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
@@ -155,7 +155,8 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
         model.training.setdefault("seed", int(rng))
     if uncertainty and model.uncertainty is None:  # a spectral model has its posterior already
         refit_method, refit_options = refit_spec(model, method, fit_options)
-        add_uncertainty(model, cal, method=refit_method, options=refit_options, rng=rng)
+        model.uncertainty = estimate_uncertainty(model, cal.encoder_deg, cal.errors_arcmin, method=refit_method,
+                                                 options=refit_options, rng=rng)
     model.reading_sign = cal.reading_sign
     return model
 
