@@ -1,6 +1,7 @@
 """The import paths of encal 0.1 keep working for one release, each with a DeprecationWarning."""
 
 import importlib
+import pickle
 
 import pytest
 
@@ -62,3 +63,5 @@ def test_the_errors_are_named_as_a_user_imports_them():
     from encal._core.errors import InputError
 
     assert InputError.__module__ == "encal" and encal.InputError is InputError
+    error = pickle.loads(pickle.dumps(InputError("one sentence")))  # as a worker process sends it back
+    assert type(error) is InputError and str(error) == "one sentence"
