@@ -107,6 +107,25 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     """
     check_type(cal, Calibration, "cal", "fit", "a Calibration")
     fitter(method)  # an unknown method is refused before anything else
+    arc = calibrated_arc(cal)
+    if arc is not None and method == "auto":
+        method = "arc"  # over an arc the error is no periodic function: the interval's family
+    model = _fit(cal, method, rng=rng, uncertainty=uncertainty, bidirectional=bidirectional, **options)
+    if arc is not None:
+        model.range_deg = list(arc)  # never a number where the encoder was not calibrated (encal.arcs)
+    return model
+
+
+def calibrated_arc(cal):
+    """The arc ``(start, end)`` (degrees of the encoder angle) a calibration covers when it leaves one gap over
+    30 degrees, else None (a full turn or scattered gaps)."""
+    from .arcs import arc_of
+    from .calibration import MAX_GAP_DEG
+
+    return arc_of(cal.encoder_deg, MAX_GAP_DEG)
+
+
+def _fit(cal, method, *, rng=None, uncertainty=False, bidirectional=None, **options):
     rng = check_seed(rng, "rng", "fit")
     uncertainty = check_bool(uncertainty, "uncertainty", "fit")
     if bidirectional is not None:
