@@ -18,7 +18,7 @@ from .angles import ARCMIN_PER_DEG, model_input, wrap360
 from .errors import InputError, ModelFileError
 
 __all__ = ["arc_of", "inside", "clamp_to_range", "check_range", "describe_range", "OUTSIDE_RULES",
-           "apply_outside_rule", "OutsideRule"]
+           "apply_outside_rule", "OutsideRule", "refuse_arc", "periodic_for_export"]
 
 #: What to do with a reading outside a model's calibrated range.
 OUTSIDE_RULES = ("error", "clamp", "pass")
@@ -152,3 +152,33 @@ class OutsideRule:
 
     def __getattr__(self, name):
         return getattr(self.compensator, name)
+
+
+def refuse_arc(compensator, what):
+    """InputError when the model of ``compensator`` holds only over an arc: ``what`` (a periodic table or
+    formula of the whole turn) cannot say "outside"; :func:`periodic_for_export` makes one that honours a rule."""
+    model = getattr(compensator, "model", compensator)
+    if getattr(model, "range_deg", None) is not None:
+        source = getattr(compensator, "source", None) or "the model"
+        raise InputError(f"{source} is calibrated over {describe_range(model.range_deg)} only, and {what} covers "
+                         "the whole turn with no way to say 'outside'; expected a rule for the rest of the turn "
+                         "(pass --outside clamp to hold the nearer end's correction, or --outside pass for none)")
+
+
+def periodic_for_export(model, rule):
+    """A full-turn model equal to ``model`` on its arc and following ``rule`` ('clamp' or 'pass') outside it,
+    for the periodic exports (dense table, C, firmware tables).
+
+    Only the ``arc`` kind can be extended exactly (its pieces outside the arc are replaced); a model of
+    another kind fitted over an arc is refused in one sentence.
+    """
+    if getattr(model, "range_deg", None) is None:
+        return model
+    if rule not in ("clamp", "pass"):
+        raise InputError(f"expected --outside clamp or pass for an export of a model calibrated over an arc, "
+                         f"got {rule!r}: a periodic table cannot refuse a reading")
+    if getattr(model, "kind", None) != "arc":
+        raise InputError(f"the {model.kind} model is calibrated over {describe_range(model.range_deg)}, and only "
+                         "an arc model (the default of encal fit on an arc) can be extended to the whole turn by "
+                         "--outside; expected one (refit with --method arc)")
+    return model.full_turn(rule)

@@ -45,6 +45,17 @@ class ArcModel(LookupTableModel):
         where = "no range" if self.range_deg is None else f"{self.range_deg[0]:.4g}..{self.range_deg[1]:.4g} deg"
         return f"<ArcModel over {where}, {self.breaks_deg.size - 3} pieces, for {name}>"
 
+    def full_turn(self, rule):
+        """This model over the whole turn for a periodic export: the same pieces on the arc and, outside it,
+        the nearer end's value (``rule='clamp'``) or zero (``'pass'``: no correction); ``range_deg`` None."""
+        coefficients = np.array(self.coefficients, copy=True)
+        if rule == "pass":
+            coefficients[:, -2:] = 0.0  # the two pieces past the arc's end (see fit_arc)
+        model = ArcModel(self.breaks_deg, coefficients, "cubic", encoder=self.encoder,
+                         training={**self.training, "outside_rule": rule})
+        model.reading_sign = self.reading_sign
+        return model
+
     def expected_rms_between_points(self):
         """Expected RMS error (arcmin) after correction of a new reading inside the arc, from the posterior:
         ``sqrt(mean(sigma_model^2) + sigma_noise^2)`` over the arc; None without an uncertainty."""
