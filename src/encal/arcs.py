@@ -18,7 +18,8 @@ from .angles import ARCMIN_PER_DEG, model_input, wrap360
 from .errors import InputError, ModelFileError
 
 __all__ = ["arc_of", "inside", "clamp_to_range", "check_range", "describe_range", "OUTSIDE_RULES",
-           "apply_outside_rule", "OutsideRule", "refuse_arc", "periodic_for_export"]
+           "apply_outside_rule", "OutsideRule", "refuse_arc", "periodic_for_export",
+           "within_model_range"]
 
 #: What to do with a reading outside a model's calibrated range.
 OUTSIDE_RULES = ("error", "clamp", "pass")
@@ -182,3 +183,23 @@ def periodic_for_export(model, rule):
                          "an arc model (the default of encal fit on an arc) can be extended to the whole turn by "
                          "--outside; expected one (refit with --method arc)")
     return model.full_turn(rule)
+
+
+def within_model_range(model, cal):
+    """Mask of the points of ``cal`` inside the range of ``model`` (all for a full-turn model), for statistics
+    over the arc; warns once naming how many are left out, and refuses a calibration with none inside."""
+    import warnings
+
+    from .errors import CalibrationError, EncalWarning
+
+    range_deg = getattr(model, "range_deg", None)
+    keep = inside(cal.encoder_deg, range_deg)
+    where = cal.source or cal.name or "the calibration"
+    if not keep.any():
+        raise CalibrationError(f"{where}: none of its {keep.size} encoder angles lies in the model's calibrated "
+                               f"range {describe_range(range_deg)}; expected readings inside it")
+    if not keep.all():
+        warnings.warn(EncalWarning(f"{where}: {int((~keep).sum())} of {keep.size} readings lie outside the model's "
+                                   f"calibrated range {describe_range(range_deg)} and are left out of the "
+                                   "statistics"))
+    return keep

@@ -395,8 +395,14 @@ def evaluate(model, cal, *, zero="fixed"):
     # The model maps readings to its input itself (a model of a reversed encoder negates them).
     # A directional model predicts each reading with its own direction's profile.
     predicted = model.predict(cal.readings_deg, direction=cal.direction)
+    encoder_deg = cal.encoder_deg
+    if getattr(model, "range_deg", None) is not None:  # a model over an arc: the statistics over the arc
+        from .arcs import within_model_range
+
+        keep = within_model_range(model, cal)
+        observed, predicted, encoder_deg = observed[keep], predicted[keep], encoder_deg[keep]
     residual = wrap180((observed - predicted) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
     arbitrary = zero_is_arbitrary(zero, zero_offset_arcmin(observed), zero_offset_arcmin(residual))
     mode = "arbitrary" if arbitrary else "fixed"
-    return Evaluation(error_stats(observed, zero=mode), error_stats(residual, zero=mode), cal.encoder_deg.copy(),
+    return Evaluation(error_stats(observed, zero=mode), error_stats(residual, zero=mode), encoder_deg.copy(),
                       residual, observed.copy(), zero)
