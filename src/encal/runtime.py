@@ -48,9 +48,10 @@ READING_SIGNS = (1, -1)
 #: The forms a model's parameters are stored in, each checked and evaluated here (docs/model-file.md).
 FORMS = ("ann", "directional", "fourier", "hybrid", "lut", "stack")
 #: The model kinds the format names, and the form each is stored in (a spectral model: its posterior-mean
-#: Fourier series). A model of another kind names its form in a ``form`` field (version 3), next to its
+#: Fourier series; an arc model, version 4: its piecewise cubic over the turn, with ``range_deg``). A model of
+#: another kind names its form in a ``form`` field (version 3), next to its
 #: ``kind``: in the file, in a stack's member and in a directional model's part.
-KIND_FORMS = {"ann": "ann", "directional": "directional", "fourier": "fourier", "hybrid": "hybrid",
+KIND_FORMS = {"ann": "ann", "arc": "lut", "directional": "directional", "fourier": "fourier", "hybrid": "hybrid",
               "lut": "lut", "spectral": "fourier", "stack": "stack"}
 #: Model kinds whose parameters the format names.
 KINDS = tuple(sorted(KIND_FORMS))
@@ -59,7 +60,8 @@ PART_FORMS = ("ann", "fourier", "hybrid", "lut", "stack")
 PART_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in PART_FORMS)
 #: The forms, and the kinds the format names, that can be a member of a ``stack`` model.
 MEMBER_FORMS = ("ann", "fourier", "hybrid", "lut")
-MEMBER_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in MEMBER_FORMS)
+MEMBER_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in MEMBER_FORMS and kind != "arc")  # no arc in a
+# stack: its members are weighed over the whole turn
 #: Largest distance of a stack's weights' sum from 1.
 WEIGHT_SUM_TOLERANCE = 1e-9
 UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}

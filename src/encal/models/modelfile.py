@@ -86,7 +86,7 @@ def model_to_dict(model, *, reproducible=False):
         range_deg = check_range(list(range_deg), where)
     version = runtime.version_for(sign, runtime.names_a_form({"kind": model.kind, **named,
                                                               "parameters": parameters}),
-                                  has_range=range_deg is not None)
+                                  has_range=range_deg is not None or model.kind == "arc")
     document = {
         "format": FORMAT,
         "version": version,
