@@ -90,7 +90,7 @@ def confounded_pairs(ratio, motor_orders, output_orders, output_turns):
             if abs(abs(j * ratio) - k) < resolution - 1e-12]
 
 
-def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, name=""):
+def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pinion_teeth=None, name=""):
     """Recover the motor encoder's and the output encoder's error profiles from one log of both.
 
     Parameters
@@ -102,6 +102,11 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, nam
         Motor turns per output turn (negative when the output turns the other way).
     motor_orders, output_orders : int, default=30
         Highest harmonic order fitted on each shaft.
+    pinion_teeth : int, optional
+        Teeth of the gear on the motor shaft: the gear's tooth-mesh error repeats that many times a motor turn,
+        the same function of time as the motor encoder's error at those orders (and their multiples). Those
+        orders are fitted (they absorb the mesh error) and left out of the motor's profile
+        (``removed_orders``).
     name : str
         Name for the results.
 
@@ -149,7 +154,12 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, nam
                *(-np.cos(np.outer(phase_mot, k_mot)).T / ratio), *(-np.sin(np.outer(phase_mot, k_mot)).T / ratio)]
     design = np.column_stack(columns)
     groups = np.concatenate([[0, 0], np.full(2 * k_out.size, 1), np.full(2 * k_mot.size, 2)])
-    mean, covariance, noise_var = _evidence_fit(design, residual, groups)
+    # The prior of each shaft's order k has a variance falling as 1/k^2 (encoders' spectra decay): columns are
+    # scaled by 1/k so that one precision per shaft weighs them, and the coefficients scaled back. A motor order
+    # j and the output order j N it meets are then split toward the lower order of its own shaft.
+    weight = np.concatenate([[1.0, 1.0], 1.0 / k_out, 1.0 / k_out, 1.0 / k_mot, 1.0 / k_mot])
+    mean, covariance, noise_var = _evidence_fit(design * weight, residual, groups)
+    mean, covariance = mean * weight, covariance * np.outer(weight, weight)
     n_out, n_mot = 2 * k_out.size, 2 * k_mot.size
     out_vec, out_cov = mean[2:2 + n_out], covariance[2:2 + n_out, 2:2 + n_out]
     mot_vec, mot_cov = mean[2 + n_out:], covariance[2 + n_out:, 2 + n_out:]
@@ -157,8 +167,16 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, nam
     pairs = confounded_pairs(ratio, k_mot, k_out, turns)
     note = ("motor orders " + ", ".join(str(j) for j in sorted({j for j, _ in pairs})[:10])
             + " meet output orders at j x ratio; their split is the prior's" if pairs else "")
+    removed = ()
+    if pinion_teeth is not None:
+        if isinstance(pinion_teeth, bool) or int(pinion_teeth) != pinion_teeth or pinion_teeth < 1:
+            raise InputError(f"the pinion's teeth must be a whole number >= 1; got {pinion_teeth!r}")
+        mesh = (k_mot % int(pinion_teeth)) == 0
+        removed = tuple(int(k) for k in k_mot[mesh])
+        keep = np.concatenate([~mesh, ~mesh])
+        k_mot, mot_vec, mot_cov = k_mot[~mesh], mot_vec[keep], mot_cov[np.ix_(keep, keep)]
     motor_result = SelfCalibration(
-        "dual", HarmonicSeries.from_vector(k_mot, mot_vec, mot_cov), (), _confounded_text("motor", pairs, note),
+        "dual", HarmonicSeries.from_vector(k_mot, mot_vec, mot_cov), removed, _confounded_text("motor", pairs, note),
         {"gear_ratio": ratio}, name=f"{name}-motor" if name else "motor")
     output_result = SelfCalibration(
         "dual", HarmonicSeries.from_vector(k_out, out_vec, out_cov), (), _confounded_text("output", pairs, note),
