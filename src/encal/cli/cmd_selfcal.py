@@ -103,12 +103,25 @@ def _sweep(args):
     from ..selfcal.sweep import sweep, sweep_capture
     from ..selfcal.sweep_log import read_sweep_log
 
+    from ..arcs import arc_of
+
     options = {"max_order": args.max_order, "slots": args.slots, "skip": args.skip}
     if _starts_with_cal(args.capture):
-        return sweep_capture(read_moteus_capture(args.capture), args.pole_pairs, **options)
-    log = read_sweep_log(args.capture)
-    return sweep(log.phase_deg_e, log.encoder_deg, log.travel, args.pole_pairs, name=Path(args.capture).stem,
-                 where=str(args.capture), **options)
+        capture = read_moteus_capture(args.capture)
+        if arc_of(capture.encoder_deg, 30.0) is None:
+            return sweep_capture(capture, args.pole_pairs, **options)
+        # a sweep back and forth over an arc (issue 31)
+        phase, reading, travel = capture.phase_deg_e, capture.encoder_deg, capture.travel
+    else:
+        log = read_sweep_log(args.capture)
+        phase, reading, travel = log.phase_deg_e, log.encoder_deg, log.travel
+        if arc_of(reading, 30.0) is None:
+            return sweep(phase, reading, travel, args.pole_pairs, name=Path(args.capture).stem,
+                         where=str(args.capture), **options)
+    from ..selfcal.arc_sweep import arc_sweep
+
+    return arc_sweep(phase, reading, travel, args.pole_pairs, skip=args.skip, name=Path(args.capture).stem,
+                     where=str(args.capture), points=args.points)
 
 
 def _starts_with_cal(path):
