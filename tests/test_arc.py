@@ -245,3 +245,26 @@ def test_profile_evaluate_report_work_on_an_arc(arc_model_file, tmp_path, capsys
     assert result["rms_arcmin"] < 0.13 and result["before"]["rms_arcmin"] > 1.0
     assert main(["report", str(csv), str(test), "-o", str(tmp_path / "r.html")]) == 0
     assert "harmonics of the shaft angle are defined over the full turn only" in (tmp_path / "r.html").read_text()
+
+
+def test_a_bidirectional_arc_and_a_spectral_fit_answer_nan_outside(tmp_path):
+    rng = np.random.default_rng(0)
+    reference = np.linspace(20.0, 140.0, 300)
+    error = 3.0 * np.sin(np.radians(reference))
+    travel = np.concatenate([np.ones(300), -np.ones(300)]).astype(int)
+    both = np.concatenate([reference, reference[::-1]])
+    measured = np.concatenate([error + 0.5, error[::-1] - 0.5]) + rng.normal(0, 0.05, 600)
+    model = encal.fit(encal.Calibration(both, both + measured / 60.0, direction=travel))
+    assert model.kind == "directional"
+    loaded = load_model(model.save(tmp_path / "d.json"))
+    for candidate in (model, loaded):
+        predicted = candidate.predict([50.0, 200.0], direction=1)
+        assert np.isfinite(predicted[0]) and np.isnan(predicted[1])
+        corrected = candidate.correct([50.0, 200.0], direction=-1)
+        assert np.isfinite(corrected[0]) and np.isnan(corrected[1])
+        assert np.isnan(candidate.correct(200.0))
+    assert math.isnan(runtime.load(tmp_path / "d.json").predict_arcmin(200.0, 1))
+    theta, values = arc_data(10.0, 120.0, n=300)
+    spectral = encal.fit(encal.Calibration(np.mod(theta - values / 60.0, 360.0), theta), method="spectral")
+    mean, std = spectral.predict([60.0, 250.0], return_std=True)
+    assert np.isfinite(mean[0]) and np.isfinite(std[0]) and np.isnan(mean[1]) and np.isnan(std[1])

@@ -38,7 +38,7 @@ class ArcModel(LookupTableModel):
     """
 
     kind = "arc"
-    form = "lut"
+    form = None  # the format names the kind: stored in the lut form (runtime.KIND_FORMS)
 
     def __repr__(self):
         name = self.encoder.get("name") or "unnamed encoder"
