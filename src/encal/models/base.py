@@ -232,8 +232,9 @@ class Model(ABC):
                 ("parameters", f"{self.free_parameters()} fitted values")]
         if training.get("zero_offset_arcmin") is not None:
             rows.append(("zero offset", f"{training['zero_offset_arcmin']:+.3f} arcmin (arbitrary zero, in the model)"))
-        rows += [("predicts", f"{predicted.min():+.3f} .. {predicted.max():+.3f} arcmin over 0..360 deg, "
-                              f"peak-to-peak {np.ptp(predicted):.3f}"),
+        over = "0..360 deg" if self.range_deg is None else f"{self.range_deg[0]:.6g}..{self.range_deg[1]:.6g} deg"
+        rows += [("predicts", f"{np.nanmin(predicted):+.3f} .. {np.nanmax(predicted):+.3f} arcmin over {over}, "
+                              f"peak-to-peak {np.nanmax(predicted) - np.nanmin(predicted):.3f}"),
                  ("uncertainty", "yes" if self.uncertainty is not None else "no")]
         width = max(len(label) for label, _ in rows)
         return "\n".join(f"{label:<{width}}  {value}" for label, value in rows)
