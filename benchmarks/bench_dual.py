@@ -3,6 +3,7 @@
 Usage::
 
     python benchmarks/bench_dual.py            # ratios 6, 7.5 and -9, 5 seeds each, a few seconds
+    python benchmarks/bench_dual.py --mesh 0   # no gear transmission error: the method alone
 
 Each joint (encal.selfcal.dual.simulate_dual): a motor encoder (error RMS 12 arcmin of the motor shaft, orders
 1..15, reading noise 1 arcmin) and an output encoder (RMS 4 arcmin, noise 0.15) behind a gear with a tooth-mesh
@@ -46,12 +47,17 @@ def compare(series, truth, selected):
 
 
 def main():
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--mesh", type=float, default=0.6, help="gear tooth-mesh error, arcmin (default 0.6)")
+    args = parser.parse_args()
     print(f"{'ratio':>6} {'seed':>4} {'pairs':>5}  {'motor err/RMS':>13} {'cover':>5} {'(all)':>6}  "
           f"{'output err/RMS':>14} {'cover':>5} {'(all)':>6}")
     rows = []
     for ratio in (6.0, 7.5, -9.0):
         for seed in range(5):
-            motor, output, truth = simulate_dual(ratio, seed=seed)
+            motor, output, truth = simulate_dual(ratio, seed=seed, gear_mesh_arcmin=args.mesh)
             result = dual(motor, output, ratio, pinion_teeth=12)
             row = [ratio, seed, len(result.confounded)]
             for shaft, side in (("motor", 0), ("output", 1)):
