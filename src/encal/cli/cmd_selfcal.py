@@ -217,7 +217,7 @@ def _dual(args):
                           "output_turns": result.output_turns, "residual_rms_arcmin": result.noise_arcmin,
                           "confounded": [{"motor_order": j, "output_order": k} for j, k in result.confounded],
                           "motor_removed_orders": list(result.motor.removed_orders),
-                          **{f"{shaft}_rms_arcmin": float(np.sqrt(np.mean(getattr(result, shaft).error_arcmin(grid) ** 2)))
+                          **{f"{shaft}_rms_arcmin": _rms(getattr(result, shaft).error_arcmin(grid))
                              for shaft in ("motor", "output")},
                           "files": [str(args.motor_cal), str(args.output_cal)]}))
         return 0
@@ -225,3 +225,7 @@ def _dual(args):
     print(f"wrote {args.motor_cal} and {args.output_cal}: {args.points} readings each; fit each with "
           "'encal fit CAL.csv -o MODEL.json'")
     return 0
+
+
+def _rms(values):
+    return float(np.sqrt(np.mean(np.square(values))))

@@ -83,10 +83,11 @@ class ArcSweepCalibration:
 
     def summary(self):
         d = self.details
-        lines = [f"{self.name or 'encoder'}: self-calibration by an open-loop sweep over {describe_range(self.range_deg)}; "
-                 f"recovered error RMS {np.sqrt(np.mean(self.error_arcmin ** 2)):.4g} arcmin, peak-to-peak "
-                 f"{np.ptp(self.error_arcmin):.4g} arcmin, uncertainty RMS {np.sqrt(np.mean(self.sigma_arcmin ** 2)):.3g} "
-                 "arcmin (1 sigma)",
+        error_rms = np.sqrt(np.mean(self.error_arcmin ** 2))
+        sigma_rms = np.sqrt(np.mean(self.sigma_arcmin ** 2))
+        lines = [f"{self.name or 'encoder'}: self-calibration by an open-loop sweep over "
+                 f"{describe_range(self.range_deg)}; recovered error RMS {error_rms:.4g} arcmin, peak-to-peak "
+                 f"{np.ptp(self.error_arcmin):.4g} arcmin, uncertainty RMS {sigma_rms:.3g} arcmin (1 sigma)",
                  f"lag {d['lag_arcmin']:.4g} arcmin ({d['lag_deg_e']:.4g} electrical deg), separated by the two "
                  "directions",
                  d["lag_statement"],
@@ -131,7 +132,8 @@ def arc_sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, skip=DEFAULT_SKIP
     for sign, label in ((1, "up"), (-1, "down")):
         members = np.flatnonzero(travel == sign)
         if members.size < 64:
-            raise InputError(f"{where}: the sweep {label} has {members.size} samples; expected at least 64 over the arc")
+            raise InputError(f"{where}: the sweep {label} has {members.size} samples; expected at least 64 over "
+                             "the arc")
         counts_against = check_sweep_travel(where, label, reference[members], encoder[members], pole_pairs)
     arc = arc_of(reading, MAX_GAP_DEG)
     if arc is None:
