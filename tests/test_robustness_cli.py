@@ -1090,7 +1090,7 @@ CASES += PLAUSIBILITY_CASES
 
 # issue 31 (inplace): calibrations over an arc, a reading outside the range, two encoders of one joint
 ISSUE31_CASES = [
-    Case("fit-arc-accepted", ("fit", "{arc}", "-o", "{scratch}/arc.json"), 0, prints=("arc model",)),
+    Case("fit-arc-accepted", ("fit", "{arc}", "-o", "{scratch}/arc.json"), 0, prints=("arc model", "holds there only")),
     Case("profile-arc-no-harmonics", ("profile", "{arc}"), 0, prints=("defined over the full turn only",)),
     Case("correct-outside-the-arc", ("correct", "{arc_model}"), 1, ("200 deg", "outside the calibrated range",
                                                                    "--outside"), stdin="200\n"),
