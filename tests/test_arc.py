@@ -268,3 +268,28 @@ def test_a_bidirectional_arc_and_a_spectral_fit_answer_nan_outside(tmp_path):
     spectral = encal.fit(encal.Calibration(np.mod(theta - values / 60.0, 360.0), theta), method="spectral")
     mean, std = spectral.predict([60.0, 250.0], return_std=True)
     assert np.isfinite(mean[0]) and np.isfinite(std[0]) and np.isnan(mean[1]) and np.isnan(std[1])
+
+
+@pytest.mark.parametrize("target", ["host", "cortex-m4f", "fixed"])
+def test_the_c_header_states_the_range_and_tests_it(arc_model_file, tmp_path, target):
+    import shutil
+    import subprocess
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the header's range test is compiled with it")
+    out = tmp_path / "c"
+    assert main(["export", str(arc_model_file), "--format", "c", "--target", target, "--bits", "14",
+                 "--outside", "clamp", "-o", str(out)]) == 0
+    model = load_model(arc_model_file)
+    angles = [5.0, model.range_deg[0] + 0.01, 60.0, model.range_deg[1] - 0.01, 200.0, 359.0]
+    if target == "fixed":
+        calls = " ".join(f'printf("%d\\n", encal_in_range_code({int(a / 360 * 16384)}u));' for a in angles)
+    else:
+        calls = " ".join(f'printf("%d\\n", encal_in_range({a!r}));' for a in angles)
+    source = f'#include <stdio.h>\n#include "encal.h"\nint main(void) {{ {calls} return 0; }}\n'
+    (tmp_path / "main.c").write_text(source)
+    binary = tmp_path / "main"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-I", str(out), str(tmp_path / "main.c"), "-o",
+                    str(binary)], check=True)
+    flags = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split()
+    assert flags == ["0", "1", "1", "1", "0", "0"]

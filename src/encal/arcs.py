@@ -12,6 +12,8 @@ model file, and a reading outside it is never corrected silently:
   ``--outside clamp`` or ``--outside pass``, which they honour exactly (docs/in-place.md).
 """
 
+import math
+
 import numpy as np
 
 from .angles import ARCMIN_PER_DEG, model_input, wrap360
@@ -203,3 +205,56 @@ def within_model_range(model, cal):
                                    f"calibrated range {describe_range(range_deg)} and are left out of the "
                                    "statistics"))
     return keep
+
+
+def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, reading_sign=1):
+    """The C files of an export of an arc model, its header stating the range and a test of it.
+
+    The export itself covers the whole turn and follows ``rule`` outside the arc; the header adds
+    ``PREFIX_RANGE_START_DEG``, ``PREFIX_RANGE_END_DEG`` and ``PREFIX_in_range(angle)`` (1 inside, 0 outside;
+    ``float`` for cortex-m4f, ``double`` for host), and for ``fixed`` (integers only) the range in codes and
+    ``PREFIX_in_range_code(code)``, so that firmware can tell a reading the calibration did not cover.
+    """
+    name = f"{prefix}.h"
+    upper = prefix.upper()
+    start, end = float(range_deg[0]), float(range_deg[1])
+    if reading_sign == -1:  # the range is of the negated reading: in the encoder's own sense it runs -end .. -start
+        start, end = float(np.mod(-end, 360.0)), float(np.mod(-start, 360.0))
+    span = span_of(range_deg)
+    meaning = "the nearer end's correction" if rule == "clamp" else "no correction"
+    test = f"{prefix}_in_range{'_code' if target == 'fixed' else ''}()"
+    lines = [f"/* Calibrated over an arc only (encal, issue 31): encoder readings from {start!r} to {end!r} deg,",
+             "   going forward (through 0 when the start is the larger). Outside it the functions below follow",
+             f"   the rule --outside {rule} ({meaning}), which is no calibration: test {test} first. */",
+             f"#define {upper}_RANGE_START_DEG {start!r}",
+             f"#define {upper}_RANGE_END_DEG {end!r}"]
+    if target == "fixed":
+        if bits is None:
+            raise InputError("the fixed-point export of an arc model needs the encoder resolution to state its "
+                             "range in codes; pass --bits B")
+        codes = 1 << int(bits)
+        first = int(math.floor(start / 360.0 * codes)) % codes
+        last = int(math.floor(end / 360.0 * codes)) % codes
+        lines += [f"#define {upper}_RANGE_START_CODE {first}u",
+                  f"#define {upper}_RANGE_END_CODE {last}u",
+                  f"/* 1 when the code (0 .. 2^{bits} - 1) lies in the calibrated range, else 0. */",
+                  f"static inline int {prefix}_in_range_code(uint32_t code) {{",
+                  f"    return ((code - {upper}_RANGE_START_CODE) & {codes - 1}u) <= "
+                  f"(({upper}_RANGE_END_CODE - {upper}_RANGE_START_CODE) & {codes - 1}u);",
+                  "}"]
+    else:
+        real, suffix = ("float", "f") if target == "cortex-m4f" else ("double", "")
+        lines += ["/* 1 when the reading (degrees in [0, 360)) lies in the calibrated range, else 0. */",
+                  f"static inline int {prefix}_in_range({real} angle_deg) {{",
+                  f"    {real} offset = angle_deg - ({real}){start!r}{suffix};",
+                  f"    if (offset < 0.0{suffix}) offset += 360.0{suffix};",
+                  f"    return offset <= ({real}){span!r}{suffix} + 1e-6{suffix}"
+                  f" || offset >= 360.0{suffix} - 1e-6{suffix};",
+                  "}"]
+    block = "\n".join(lines) + "\n"
+    header = files[name]
+    marker = "#ifdef __cplusplus\n}"
+    at = header.rfind(marker)
+    if at < 0:
+        raise InputError(f"the header {name} has no closing extern block to add the range before")
+    return {**files, name: header[:at] + block + "\n" + header[at:]}

@@ -232,6 +232,7 @@ def _outside(args, compensator):
         refuse_arc(compensator, f"--format {args.format}")
     model = Compensator(periodic_for_export(compensator.model, args.outside))
     model.source = compensator.source
+    args.arc_range = list(compensator.model.range_deg)
     return model
 
 
@@ -309,8 +310,20 @@ def _export(args):
                    and args.interpolation is None)
         if chooses and args.tolerance is not None and args.cost is None:
             compact["cost"] = "operations"
-    paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
-                                  **{k: v for k, v in compact.items() if v is not None}, **options)
+    if getattr(args, "arc_range", None) is None:
+        paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
+                                      **{k: v for k, v in compact.items() if v is not None}, **options)
+    else:  # issue 31: the header states the calibrated range and tests it
+        from .._atomic import write_file_set
+        from ..arcs import with_range_in_header
+        from ..deploy.targets import export_target
+
+        files, summary = export_target(compensator, args.target, prefix=args.name, bits=args.bits,
+                                       **{k: v for k, v in compact.items() if v is not None}, **options)
+        files = with_range_in_header(files, args.name, args.target, args.arc_range, args.outside,
+                                     bits=args.bits if args.bits is not None else compensator.encoder.get(
+                                         "resolution_bits"), reading_sign=compensator.reading_sign)
+        paths = write_file_set(output, files)
     if args.json:
         print_json({"format": "c", "target": args.target, "files": [str(p) for p in paths], "prefix": args.name,
                     "bytes": sum(Path(p).stat().st_size for p in paths), "description": describe(summary)})
