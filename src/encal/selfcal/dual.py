@@ -149,18 +149,33 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     phase_out = np.deg2rad(np.mod(output, 360.0))
     phase_mot = np.deg2rad(np.mod(motor, 360.0))
     slope = (motor_u - motor_u.mean()) / (360.0 * abs(ratio))  # output turns: a ratio a little off
-    columns = [np.ones_like(residual), slope,
-               *np.cos(np.outer(phase_out, k_out)).T, *np.sin(np.outer(phase_out, k_out)).T,
-               *(-np.cos(np.outer(phase_mot, k_mot)).T / ratio), *(-np.sin(np.outer(phase_mot, k_mot)).T / ratio)]
-    design = np.column_stack(columns)
+    mesh = np.zeros(k_mot.size, dtype=bool)
+    if pinion_teeth is not None:
+        if isinstance(pinion_teeth, bool) or int(pinion_teeth) != pinion_teeth or pinion_teeth < 1:
+            raise InputError(f"the pinion's teeth must be a whole number >= 1; got {pinion_teeth!r}")
+        mesh = (k_mot % int(pinion_teeth)) == 0
     groups = np.concatenate([[0, 0], np.full(2 * k_out.size, 1), np.full(2 * k_mot.size, 2)])
     # The prior of each shaft's order k has a variance falling as 1/k^2 (encoders' spectra decay): columns are
     # scaled by 1/k so that one precision per shaft weighs them, and the coefficients scaled back. A motor order
     # j and the output order j N it meets are then split toward the lower order of its own shaft.
     weight = np.concatenate([[1.0, 1.0], 1.0 / k_out, 1.0 / k_out, 1.0 / k_mot, 1.0 / k_mot])
-    mean, covariance, noise_var = _evidence_fit(design * weight, residual, groups)
-    mean, covariance = mean * weight, covariance * np.outer(weight, weight)
     n_out, n_mot = 2 * k_out.size, 2 * k_mot.size
+    mesh_phase = phase_mot
+    for _ in range(2 if mesh.any() else 1):
+        # The gear's mesh error is a function of the motor's true angle: its orders are fitted in the reading
+        # corrected by the motor encoder's estimated error (second pass), else its product with the encoder's
+        # error leaves sidebands at the neighbouring motor orders.
+        angle_mot = np.where(mesh[None, :], np.outer(mesh_phase, k_mot), np.outer(phase_mot, k_mot))
+        columns = [np.ones_like(residual), slope,
+                   *np.cos(np.outer(phase_out, k_out)).T, *np.sin(np.outer(phase_out, k_out)).T,
+                   *(-np.cos(angle_mot).T / ratio), *(-np.sin(angle_mot).T / ratio)]
+        design = np.column_stack(columns)
+        mean, covariance, noise_var = _evidence_fit(design * weight, residual, groups)
+        mean, covariance = mean * weight, covariance * np.outer(weight, weight)
+        encoder_part = np.concatenate([~mesh, ~mesh])
+        motor_error = (np.hstack([np.cos(np.outer(phase_mot, k_mot)), np.sin(np.outer(phase_mot, k_mot))])
+                       [:, encoder_part] @ mean[2 + n_out:][encoder_part])
+        mesh_phase = phase_mot - np.deg2rad(motor_error / ARCMIN_PER_DEG)
     out_vec, out_cov = mean[2:2 + n_out], covariance[2:2 + n_out, 2:2 + n_out]
     mot_vec, mot_cov = mean[2 + n_out:], covariance[2 + n_out:, 2 + n_out:]
     ratio_estimated = _ratio_from_slope(ratio, mean[1])
@@ -168,10 +183,7 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     note = ("motor orders " + ", ".join(str(j) for j in sorted({j for j, _ in pairs})[:10])
             + " meet output orders at j x ratio; their split is the prior's" if pairs else "")
     removed = ()
-    if pinion_teeth is not None:
-        if isinstance(pinion_teeth, bool) or int(pinion_teeth) != pinion_teeth or pinion_teeth < 1:
-            raise InputError(f"the pinion's teeth must be a whole number >= 1; got {pinion_teeth!r}")
-        mesh = (k_mot % int(pinion_teeth)) == 0
+    if mesh.any():
         removed = tuple(int(k) for k in k_mot[mesh])
         keep = np.concatenate([~mesh, ~mesh])
         k_mot, mot_vec, mot_cov = k_mot[~mesh], mot_vec[keep], mot_cov[np.ix_(keep, keep)]
