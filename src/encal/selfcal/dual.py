@@ -105,8 +105,9 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     pinion_teeth : int, optional
         Teeth of the gear on the motor shaft: the gear's tooth-mesh error repeats that many times a motor turn,
         the same function of time as the motor encoder's error at those orders (and their multiples). Those
-        orders are fitted (they absorb the mesh error) and left out of the motor's profile
-        (``removed_orders``).
+        orders are fitted in the motor angle corrected by a first pass's estimate of the encoder's error (the
+        mesh error is a function of the true angle), absorbing the mesh error, and left out of the motor's
+        profile (``removed_orders``).
     name : str
         Name for the results.
 
