@@ -30,6 +30,7 @@ MOVED = {
     "encal.studies.reproducibility": ("reproducibility", "encal.paper.studies.reproducibility"),
     "encal.studies.sweep": ("hidden_node_sweep", "encal.paper.studies.sweep"),
     "encal.studies.tables": ("Table", "encal.paper.studies.tables"),
+    "encal.arcs": ("arc_of", "encal._core.arcs"),
 }
 
 

@@ -43,7 +43,7 @@ _MOVED = {
     "profile": "analysis.profile", "outliers": "analysis.outliers", "plots": "figures",
     "fitting": "models.fitting", "uncertainty": "models.uncertainty", "models.choice": "models.auto",
     "deploy.choice": "deploy.deployment", "drift": "reports.drift", "encoder_report": "reports.encoder",
-    "report": "paper.report", "demo": "paper.demo", "studies": "paper.studies",
+    "report": "paper.report", "demo": "paper.demo", "studies": "paper.studies", "arcs": "_core.arcs",
     **{f"studies.{name}": f"paper.studies.{name}"
        for name in ("algorithms", "comparison", "pruning", "reproducibility", "sweep", "tables")},
 }
