@@ -751,51 +751,83 @@ def _runs(cal):
 
 def _check_duplicates(path, cal, duplicates, repeated=None):
     """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
-    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept."""
-    if duplicates == "keep":
+    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept.
+
+    Points are repeats when their reference angles agree to :data:`STOP_DECIMALS` decimals and they belong to
+    one run. Repeats are refused only where the reference angles are stops (:func:`_reference_has_stops`): in a
+    log whose reference takes continuous values, two equal angles are a coincidence of the written decimals
+    (ten decimals of 10^6 random angles give about three), not a second reading of one stop. One sort, no
+    Python loop over the points.
+    """
+    if duplicates == "keep" or len(cal) < 2:
         return cal
-    keys = np.round(cal.reference_deg, 9)
-    groups = [keys]
-    if cal.direction is not None:
-        groups.append(cal.direction)
-    if cal.epoch is not None:
-        groups.append(cal.epoch)
-    order = np.lexsort(groups[::-1])
-    seen = {}
-    conflicts = []
-    for index in order:
-        key = tuple(g[index] for g in groups)
-        if key in seen:
-            first = seen[key][0]
-            if abs(wrap180(cal.encoder_deg[index] - cal.encoder_deg[first])) > 1e-9 and not (
-                    repeated is not None and repeated[index]):
-                conflicts.append((first, index))
-            seen[key].append(index)
-        else:
-            seen[key] = [index]
-    if not conflicts:
+    keys = np.round(cal.reference_deg, STOP_DECIMALS)
+    runs = _runs(cal)
+    order = np.argsort(keys, kind="stable") if runs is None else np.lexsort((runs, keys))
+    sorted_keys = keys[order]
+    starts_group = np.ones(order.size, dtype=bool)
+    starts_group[1:] = sorted_keys[1:] != sorted_keys[:-1]
+    new_stop = starts_group.copy()
+    if runs is not None:
+        sorted_runs = runs[order]
+        starts_group[1:] |= sorted_runs[1:] != sorted_runs[:-1]
+        del sorted_runs
+    if starts_group.all():
+        return cal
+    if duplicates == "refuse" and not _reference_has_stops(sorted_keys[new_stop]):
+        return cal
+    del sorted_keys, new_stop
+    group = np.cumsum(starts_group) - 1
+    first = order[np.flatnonzero(starts_group)]  # the first point of each group, in file order
+    encoder = cal.encoder_deg
+    offsets = wrap180(encoder[order] - encoder[first][group])
+    conflicting = np.abs(offsets) > 1e-9
+    if repeated is not None:
+        conflicting &= ~repeated[order]
+    if not conflicting.any():
         return cal
     if duplicates == "refuse":
-        first, index = conflicts[0]
+        at = int(np.argmax(conflicting))
+        first, index = int(first[group[at]]), int(order[at])
         raise CalibrationError(
             f"{path}: reference angle {cal.reference_deg[index]:g} deg appears more than once with "
             f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, data rows "
             f"{first + 1} and {index + 1}); expected one reading per reference angle, or the same number at "
             "every angle (use --keep-duplicates to keep them as repeated readings of one stop, "
             "--average-duplicates to average them)")
-    keep, encoder = [], []
-    for indices in seen.values():
-        keep.append(indices[0])
-        base = cal.encoder_deg[indices[0]]
-        offsets = wrap180(cal.encoder_deg[indices] - base)
-        encoder.append(base + offsets.mean())
-    keep = np.asarray(keep)
-    order = np.argsort(keep)
-    averaged = cal.subset(keep[order])
-    return Calibration(averaged.reference_deg, np.asarray(encoder)[order], direction=averaged.direction,
-                       epoch=averaged.epoch, name=cal.name, resolution_bits=cal.resolution_bits,
-                       source=cal.source, metadata={"averaged_duplicates": len(cal) - len(keep)},
-                       reading_sign=cal.reading_sign)
+    mean_offset = np.bincount(group, weights=offsets) / np.bincount(group)
+    in_file_order = np.argsort(first)
+    keep = first[in_file_order]
+    averaged = cal.subset(keep)
+    return Calibration(averaged.reference_deg, (encoder[first] + mean_offset)[in_file_order],
+                       direction=averaged.direction, epoch=averaged.epoch, name=cal.name,
+                       resolution_bits=cal.resolution_bits, source=cal.source,
+                       metadata={"averaged_duplicates": len(cal) - keep.size}, reading_sign=cal.reading_sign)
+
+
+#: Reference angles that agree to this many decimals of a degree are one stop (far below any reference's
+#: resolution, far above the rounding of a double).
+STOP_DECIMALS = 9
+#: A reference is continuous, not stops, when more than this fraction of the gaps between its distinct angles
+#: is under :data:`_SMALL_GAP` of their median gap: random angles have about 3.4 % so, a grid none.
+_CONTINUOUS_FRACTION = 0.01
+_SMALL_GAP = 1.0 / 20.0
+#: Fewest distinct angles for the decision (below, the angles are taken for stops).
+_MIN_GAPS = 32
+
+
+def _reference_has_stops(distinct):
+    """Whether sorted distinct reference angles are stops (a grid, regular or not) rather than continuous values.
+
+    The data's own grid decides: on stops, the gaps between neighbouring angles are steps of the table, and
+    none is a small fraction of the typical one; on a continuous reference (a sweep sampled in time, random
+    angles) the gaps are spread like an exponential's, and about 3.4 % of them are under a twentieth of the
+    median gap.
+    """
+    gaps = np.diff(distinct)
+    if gaps.size < _MIN_GAPS:
+        return True
+    return bool(np.mean(gaps < np.median(gaps) * _SMALL_GAP) <= _CONTINUOUS_FRACTION)
 
 
 #: Smallest coherence ``|mean exp(i (θ_enc − θ_ref))|`` (per run) of a calibration whose encoder turns once per
