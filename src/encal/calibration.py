@@ -462,16 +462,21 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
     )
     rows = cal
-    check_turns(*as_read, units, reverse=reverse, runs=_runs(cal), where=str(path))
+    runs = _runs(cal)
+    check_turns(*as_read, units, reverse=reverse, runs=runs, where=str(path))
+    del as_read, in_degrees
+    # one sort by reference angle serves every check of a calibration of one run
+    order = np.argsort(cal.reference_deg, kind="stable") if runs is None else None
     repeated = None
     if duplicates == "refuse":
         # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
         # readings; a stray repeat in another run is still refused
-        runs = _runs(cal)
-        repeated = _repeat_pattern(cal.reference_deg, runs)[0] | _multi_revolution_runs(reference, runs)
-    cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
-    _check_direction_of_count(path, cal, reverse)
-    check_folds(cal, where=str(path))
+        repeated = _repeat_pattern(cal.reference_deg, runs, order=order)[0] | _multi_revolution_runs(reference, runs)
+    cal = _check_duplicates(path, cal, duplicates, repeated=repeated, order=order)
+    if cal is not rows:
+        order = None
+    _check_direction_of_count(path, cal, reverse, order=order)
+    _check_folds(cal, str(path), order=order)
     _check_coverage(path, cal, allow_gaps)
     _warn_if_isolated(path, rows, line_numbers)
     return cal
@@ -717,16 +722,23 @@ def is_repeated_stops(reference_deg, runs=None):
     return bool(repeated.any() and not irregular.any())
 
 
-def _repeat_pattern(reference_deg, runs=None):
+def _repeat_pattern(reference_deg, runs=None, order=None):
     """``(repeated, irregular)``, masks over the points: those of runs that follow the pattern of
-    :func:`is_repeated_stops` with k >= 2, and those of runs with repeats that do not."""
+    :func:`is_repeated_stops` with k >= 2, and those of runs with repeats that do not. ``order``: the stable
+    argsort of ``reference_deg`` (wrapped to [0, 360)) of a single run, if known."""
     keys = np.round(wrap360(np.asarray(reference_deg, dtype=float).reshape(-1)), 9)
     runs = np.zeros(keys.size, dtype=int) if runs is None else np.asarray(runs).reshape(-1)
     repeated, irregular = np.zeros(keys.size, dtype=bool), np.zeros(keys.size, dtype=bool)
     for run in np.unique(runs):
-        members = runs == run
+        members = runs == run if order is None else slice(None)
         sequence = keys[members]
-        stops, counts = np.unique(sequence, return_counts=True)
+        if order is None:
+            stops, counts = np.unique(sequence, return_counts=True)
+        else:  # rounding keeps the order: the keys sorted without a second sort
+            ordered = sequence[order]
+            starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+            stops, counts = ordered[starts], np.diff(np.r_[starts, ordered.size])
+            del ordered
         if counts.max() == 1:
             continue
         k = int(counts[0])
@@ -749,9 +761,10 @@ def _runs(cal):
     return runs
 
 
-def _check_duplicates(path, cal, duplicates, repeated=None):
+def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
     """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
-    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept.
+    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept; ``order``: the stable argsort of the
+    reference angles of a calibration of one run, if known.
 
     Points are repeats when their reference angles agree to :data:`STOP_DECIMALS` decimals and they belong to
     one run. Repeats are refused only where the reference angles are stops (:func:`_reference_has_stops`): in a
@@ -763,7 +776,10 @@ def _check_duplicates(path, cal, duplicates, repeated=None):
         return cal
     keys = np.round(cal.reference_deg, STOP_DECIMALS)
     runs = _runs(cal)
-    order = np.argsort(keys, kind="stable") if runs is None else np.lexsort((runs, keys))
+    if runs is not None:
+        order = np.lexsort((runs, keys))
+    elif order is None:
+        order = np.argsort(keys, kind="stable")
     sorted_keys = keys[order]
     starts_group = np.ones(order.size, dtype=bool)
     starts_group[1:] = sorted_keys[1:] != sorted_keys[:-1]
@@ -939,9 +955,11 @@ def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs
         f"round the circle (coherence {found:.2f}, expected over {MIN_TURN_COHERENCE:g}); {advice}")
 
 
-def _check_direction_of_count(path, cal, reverse):
-    """Refuse an encoder whose angle decreases while the reference increases."""
-    order = np.argsort(cal.reference_deg, kind="stable")
+def _check_direction_of_count(path, cal, reverse, order=None):
+    """Refuse an encoder whose angle decreases while the reference increases (``order``: the stable argsort of
+    the reference angles, if known)."""
+    if order is None:
+        order = np.argsort(cal.reference_deg, kind="stable")
     steps_ref = np.diff(cal.reference_deg[order])
     steps_enc = wrap180(np.diff(cal.encoder_deg[order]))
     moving = steps_ref > 1e-9
@@ -977,14 +995,20 @@ def check_folds(cal, where="calibration"):
     CalibrationError
         Naming both points and how far the encoder went back.
     """
-    runs = np.zeros(len(cal), dtype=int)
-    for labels in (cal.direction, cal.epoch):
-        if labels is not None:
-            runs = runs * (len(cal) + 1) + np.unique(labels, return_inverse=True)[1].reshape(-1)
+    _check_folds(cal, where)
+
+
+def _check_folds(cal, where, order=None):
+    """:func:`check_folds`; ``order``: the stable argsort of the reference angles of a calibration of one run."""
+    runs = _runs(cal)
+    if runs is None:
+        runs = np.zeros(len(cal), dtype=int)
     for run in np.unique(runs):
-        members = np.flatnonzero(runs == run)
-        order = members[np.argsort(cal.reference_deg[members], kind="stable")]
-        ref, enc = cal.reference_deg[order], cal.encoder_deg[order]
+        run_order = order
+        if run_order is None:
+            members = np.flatnonzero(runs == run)
+            run_order = members[np.argsort(cal.reference_deg[members], kind="stable")]
+        ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
         if ref.size < 2:
             continue
         step_ref = np.diff(ref)
@@ -1003,7 +1027,7 @@ def check_folds(cal, where="calibration"):
 
 
 def _check_coverage(path, cal, allow_gaps):
-    angles = np.unique(cal.encoder_deg)
+    angles = np.sort(cal.encoder_deg)  # repeats leave gaps of 0, which do not change the largest
     if angles.size == 1:
         gap = 360.0
     else:
