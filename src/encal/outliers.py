@@ -161,18 +161,29 @@ def _first_of_identical(theta, error):
     input order."""
     theta = np.round(theta, IDENTICAL_DECIMALS) % 360.0
     error = np.round(error, IDENTICAL_DECIMALS)
-    if np.unique(theta).size == theta.size:  # the common case, found without sorting
+    by_angle = np.argsort(theta, kind="stable")
+    sorted_theta = theta[by_angle]
+    equal = sorted_theta[1:] == sorted_theta[:-1]
+    del sorted_theta
+    if not equal.any():  # the common case: one sort, no pairs
         return np.arange(theta.size)
-    order = np.lexsort((error, theta))
-    same = (theta[order][1:] == theta[order][:-1]) & (error[order][1:] == error[order][:-1])
+    tied = np.zeros(theta.size, dtype=bool)
+    tied[1:] |= equal
+    tied[:-1] |= equal
+    candidates = by_angle[tied]  # only the points that share their angle are sorted by (angle, error)
+    candidates = candidates[np.lexsort((error[candidates], theta[candidates]))]
+    same = (theta[candidates][1:] == theta[candidates][:-1]) & (error[candidates][1:] == error[candidates][:-1])
     if not same.any():
         return np.arange(theta.size)
-    first = np.ones(theta.size, dtype=bool)
+    first = np.ones(candidates.size, dtype=bool)
     first[1:] = ~same
     group = np.cumsum(first) - 1
-    keep = np.full(group[-1] + 1, theta.size)
-    np.minimum.at(keep, group, order)  # the earliest point of each set in input order
-    return np.sort(keep)
+    earliest = np.full(group[-1] + 1, theta.size)
+    np.minimum.at(earliest, group, candidates)  # the earliest point of each set in input order
+    keep = np.ones(theta.size, dtype=bool)
+    keep[candidates] = False
+    keep[earliest] = True
+    return np.flatnonzero(keep)
 
 
 def _group_medians(values, groups, n_groups):
