@@ -92,7 +92,8 @@ def read_columns(path, required, optional=(), what="log", labels=(), columns=Non
     if missing:
         _fail(path, header_line, f"the header lacks {' and '.join(missing)}; expected a {what} with columns "
                                  f"{expected}")
-    numeric = [(name, unit) for name, unit in (*required, *optional) if name in index]
+    numeric = [(name, f"{units[name]} (as given)" if name in units and units[name].name != "deg" else unit)
+               for name, unit in (*required, *optional) if name in index]
     text_columns = [name for name in labels if name in index]
     values = None
     if head is not None:
