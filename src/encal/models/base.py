@@ -17,6 +17,7 @@ import numpy as np
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
 from ..errors import InputError
 from ..parameters import invalid
+from ._table import TABLE_MIN_ANGLES, correct_through_table
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
@@ -189,9 +190,18 @@ class Model(ABC):
         against its reference. ``direction`` as for :meth:`predict`.
         """
         theta = as_angles(theta_enc_deg)
+        if direction is None and theta.size >= TABLE_MIN_ANGLES:
+            table = self._correction_table()
+            if table is not None:  # many angles: through a table of the model (see encal.models._table)
+                return correct_through_table(theta.reshape(-1), self.reading_sign, table).reshape(theta.shape)
         if direction is None:  # chunk by chunk: peak memory is the result and one chunk's temporaries
             return in_chunks(self._correct, theta.reshape(-1), self.evaluation_width).reshape(theta.shape)[()]
         return self._correct(theta, direction)
+
+    def _correction_table(self):
+        """A table of ``predict / 60`` for :func:`encal.models._table.correct_through_table`, within
+        :data:`~encal.models._table.TABLE_TOLERANCE_ARCMIN` of the model, or None (evaluated as it is)."""
+        return None
 
     def _correct(self, theta, direction=None):
         # model_input wraps first: multi-turn readings keep their precision

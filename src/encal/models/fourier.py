@@ -87,6 +87,15 @@ class FourierModel(Model):
             self._harmonics = HarmonicSeries(self.orders, self.cos, self.sin)
         return self._harmonics
 
+    _table = False  # the correction table (encal.models._table), built on first use; None: none fits
+
+    def _correction_table(self):
+        if self._table is False:
+            from ._table import series_table
+
+            self._table = series_table(self.orders, self.cos, self.sin) if self.orders.size else None
+        return self._table
+
     def free_parameters(self):
         return sum(1 if k == 0 else 2 for k in self.orders.tolist())
 
