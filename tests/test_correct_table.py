@@ -71,3 +71,20 @@ def test_shape_kept_and_memory_flat():
     tracemalloc.stop()
     assert corrected.shape == theta.shape
     assert peak <= theta.nbytes + (2 << 20)  # the result and one chunk's temporaries
+
+
+@pytest.mark.parametrize("interpolation", ["cubic", "linear"])
+def test_lookup_table_model_within_the_bound(interpolation):
+    from encal.models.lut import fit_lut
+
+    rng = np.random.default_rng(4)
+    stops = np.arange(0.0, 360.0, 2.0)
+    error = 3.0 * np.sin(np.radians(stops)) + 0.6 * np.sin(np.radians(16 * stops) + 1.0) + rng.normal(0, 0.1, stops.size)
+    model = fit_lut(stops, error, interpolation=interpolation)
+    theta = rng.uniform(-360.0, 720.0, TABLE_MIN_ANGLES * 2)
+    fast = model.correct(theta)
+    if interpolation == "linear":  # no table: as cheap evaluated as it is
+        assert model._correction_table() is None and np.array_equal(fast, _exact(model, theta))
+    else:
+        assert model._correction_table() is not None
+        assert np.abs(wrap180(fast - _exact(model, theta))).max() * 60.0 <= TABLE_TOLERANCE_ARCMIN

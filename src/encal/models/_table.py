@@ -6,7 +6,8 @@ series exactly at its nodes by one inverse real FFT, with as many nodes as make 
 most :data:`TABLE_TOLERANCE_ARCMIN`: between two nodes ``h`` radians apart, linear interpolation of ``f`` is off
 by at most ``h**2 / 8 * max|f''|``, and ``max|f''| <= sum_k k**2 * sqrt(a_k**2 + b_k**2)`` (arc-minutes per
 radian squared) for a series of cosine and sine coefficients ``a_k``, ``b_k``. A series that would need more
-than :data:`MAX_TABLE_POINTS` nodes is evaluated term by term, as is an array of fewer than
+than :data:`MAX_TABLE_POINTS` nodes is evaluated term by term (a cubic lookup table likewise, by
+:func:`piecewise_table`, from its pieces' second derivatives), as is an array of fewer than
 :data:`TABLE_MIN_ANGLES` angles (the table's cost is not repaid). The table's memory is fixed (at most
 32 MiB), not proportional to the number of angles, and the angles are corrected a chunk at a time.
 """
@@ -94,3 +95,60 @@ def correct_through_table(theta, reading_sign, table):
         np.subtract(wrapped, value, out=wrapped)
         out[start:start + _CHUNK] = wrap360(wrapped)
     return out
+
+
+def piecewise_table(breaks_deg, coefficients, evaluate, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN):
+    """A table of a continuous piecewise polynomial (a lookup-table model) within ``tolerance_arcmin``, or None.
+
+    Within a piece, linear interpolation between nodes ``h`` degrees apart is off by at most ``h**2 / 8`` times
+    the largest ``|f''|``; across a break where the slope jumps by ``d``, by at most ``h * |d| / 4`` more. The
+    nodes are the fewest (a power of two) for which the sum is within the tolerance; a table whose pieces do
+    not join (a jump in the value) or that would need more than :data:`MAX_TABLE_POINTS` nodes is None.
+
+    Parameters
+    ----------
+    breaks_deg : ndarray of shape (p + 1,)
+        Increasing breaks spanning one turn.
+    coefficients : ndarray of shape (degree + 1, p)
+        Each piece's polynomial in ``s = theta - break``, highest power first (arc-minutes).
+    evaluate : callable
+        The model's error (arc-minutes) at angles in [0, 360) (evaluated a chunk at a time).
+    """
+    from .base import in_chunks
+
+    breaks = np.asarray(breaks_deg, dtype=float)
+    c = np.asarray(coefficients, dtype=float)
+    width = np.diff(breaks)
+    degree = c.shape[0] - 1
+    if degree < 2:  # a linear table is as cheap as a table of it, whose kinks would need ~10^6 nodes
+        return None
+    powers = np.arange(degree, -1, -1)[:, None]
+    end_value = np.sum(c * width ** powers, axis=0)
+    slope = c[:-1] * powers[:-1]  # the derivative's coefficients
+    end_slope = np.sum(slope * width ** (powers[:-1] - 1), axis=0)
+    start_value, start_slope = c[-1], (c[-2] if degree >= 1 else np.zeros(width.size))
+    scale = max(1.0, float(np.max(np.abs(c[-1]))))
+    if np.max(np.abs(np.roll(start_value, -1) - end_value)) > 1e-9 * scale:
+        return None
+    slope_jump = float(np.max(np.abs(np.roll(start_slope, -1) - end_slope)))
+    curvature = 0.0
+    if degree >= 2:
+        second = slope[:-1] * (powers[:-2] - 1)
+        at_start = second[-1]
+        at_end = np.sum(second * width ** (powers[:-2] - 2), axis=0)
+        if degree > 3:
+            return None  # |f''| of higher degrees is not bounded by its ends
+        curvature = float(np.max(np.maximum(np.abs(at_start), np.abs(at_end))))  # f'' linear in a cubic piece
+    if curvature == 0.0 and slope_jump == 0.0:
+        step = 360.0 / MIN_TABLE_POINTS
+    elif curvature == 0.0:
+        step = 4.0 * tolerance_arcmin / slope_jump
+    else:
+        step = (-slope_jump / 4.0 + np.sqrt((slope_jump / 4.0) ** 2 + curvature / 2.0 * tolerance_arcmin)) \
+            / (curvature / 4.0)
+    points = max(MIN_TABLE_POINTS, int(np.ceil(360.0 / step)))
+    points = 1 << int(np.ceil(np.log2(points)))
+    if points > MAX_TABLE_POINTS:
+        return None
+    values = in_chunks(evaluate, np.arange(points) * (360.0 / points)) / 60.0
+    return np.concatenate([values, values[:2]])

@@ -112,6 +112,15 @@ class LookupTableModel(Model):
             total += rows[:, m] * power
         return total
 
+    _table = False  # the correction table (encal.models._table), built on first use; None: none fits
+
+    def _correction_table(self):
+        if self._table is False:
+            from ._table import piecewise_table
+
+            self._table = piecewise_table(self.breaks_deg, self.coefficients, self._predict)
+        return self._table
+
     def free_parameters(self):
         return self.breaks_deg.size - 1
 
