@@ -88,3 +88,27 @@ def test_lookup_table_model_within_the_bound(interpolation):
     else:
         assert model._correction_table() is not None
         assert np.abs(wrap180(fast - _exact(model, theta))).max() * 60.0 <= TABLE_TOLERANCE_ARCMIN
+
+
+@pytest.mark.parametrize("name", ["ann", "hybrid", "stack", "lut", "fourier", "spectral"])
+def test_every_stored_kind_within_the_bound(name):
+    from pathlib import Path
+
+    from encal.deploy import load_model
+
+    model = load_model(Path(__file__).parent / "data" / f"model_v1_{name}.json")
+    theta = np.random.default_rng(5).uniform(0.0, 360.0, TABLE_MIN_ANGLES * 2)
+    fast = model.correct(theta)
+    if name != "lut" or model.interpolation == "cubic":
+        assert model._correction_table() is not None
+    assert np.abs(wrap180(fast - _exact(model, theta))).max() * 60.0 <= TABLE_TOLERANCE_ARCMIN
+
+
+def test_raw_network_has_no_table():
+    from pathlib import Path
+
+    from encal.deploy import load_model
+
+    model = load_model(Path(__file__).parent / "data" / "model_v1_ann.json")
+    model.encoding = "raw"  # the raw encoding jumps at 0/360 degrees: no bound on f''
+    assert model._table_bound() is None and model._correction_table() is None

@@ -16,8 +16,8 @@ import numpy as np
 
 from ..angles import model_input, wrap360
 
-__all__ = ["series_table", "correct_through_table", "TABLE_TOLERANCE_ARCMIN", "TABLE_MIN_ANGLES",
-           "MAX_TABLE_POINTS"]
+__all__ = ["series_table", "sampled_table", "correct_through_table", "points_for_bound", "series_bound",
+           "piecewise_bound", "TABLE_TOLERANCE_ARCMIN", "TABLE_MIN_ANGLES", "MAX_TABLE_POINTS"]
 
 #: Largest error of the table's interpolation, in arc-minutes (0.006 arc-seconds): far below the posterior
 #: uncertainty of any calibrated profile (hundredths of an arc-minute and up) and below the 1e-3 arcmin to
@@ -33,16 +33,44 @@ MIN_TABLE_POINTS = 1 << 10
 _CHUNK = 1 << 14
 
 
-def table_points(orders, cos, sin, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN):
-    """Nodes (a power of two) of a table of the series within ``tolerance_arcmin``, or None beyond
-    :data:`MAX_TABLE_POINTS`."""
-    orders = np.asarray(orders, dtype=float)
-    curvature = float(np.sum(orders**2 * np.hypot(cos, sin)))  # bounds |f''|, arcmin / rad^2
-    needed = 2.0 * np.pi * np.sqrt(curvature / (8.0 * tolerance_arcmin))
-    highest = int(orders.max()) if orders.size else 0
-    points = max(MIN_TABLE_POINTS, 4 * (highest + 1), int(np.ceil(needed)))
+def points_for_bound(curvature, slope_jump=0.0, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN, highest_order=0):
+    """Fewest nodes (a power of two) of a table whose linear interpolation is within ``tolerance_arcmin`` of a
+    function with ``|f''| <= curvature`` (arc-minutes per degree squared) whose slope jumps by at most
+    ``slope_jump`` (arc-minutes per degree) at a few kinks: ``h**2 / 8 * curvature + h / 4 * slope_jump``
+    for nodes ``h`` degrees apart. None beyond :data:`MAX_TABLE_POINTS`."""
+    if not (np.isfinite(curvature) and np.isfinite(slope_jump)):
+        return None
+    if curvature <= 0.0 and slope_jump <= 0.0:
+        step = 360.0 / MIN_TABLE_POINTS
+    elif curvature <= 0.0:
+        step = 4.0 * tolerance_arcmin / slope_jump
+    else:
+        step = (-slope_jump / 4.0 + np.sqrt((slope_jump / 4.0) ** 2 + curvature / 2.0 * tolerance_arcmin)) \
+            / (curvature / 4.0)
+    points = max(MIN_TABLE_POINTS, 4 * (int(highest_order) + 1), int(np.ceil(360.0 / step)))
     points = 1 << int(np.ceil(np.log2(points)))
     return points if points <= MAX_TABLE_POINTS else None
+
+
+def series_bound(orders, cos, sin):
+    """``max|f''|`` of a Fourier series, arc-minutes per degree squared: ``sum_k k**2 |c_k|`` per radian squared."""
+    orders = np.asarray(orders, dtype=float)
+    return float(np.sum(orders**2 * np.hypot(cos, sin))) * (np.pi / 180.0) ** 2
+
+
+def table_points(orders, cos, sin, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN):
+    """Nodes of a table of the series within ``tolerance_arcmin`` (:func:`points_for_bound`), or None."""
+    highest = int(np.max(orders)) if np.size(orders) else 0
+    return points_for_bound(series_bound(orders, cos, sin), 0.0, tolerance_arcmin, highest)
+
+
+def sampled_table(evaluate, points, width=1):
+    """``evaluate`` (arc-minutes, at angles in [0, 360)) at ``points`` uniform nodes, in degrees, for
+    :func:`correct_through_table` (the first two nodes repeated at the end)."""
+    from .base import in_chunks
+
+    values = in_chunks(evaluate, np.arange(points) * (360.0 / points), width) / 60.0
+    return np.concatenate([values, values[:2]])
 
 
 def series_table(orders, cos, sin, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN):
@@ -97,58 +125,24 @@ def correct_through_table(theta, reading_sign, table):
     return out
 
 
-def piecewise_table(breaks_deg, coefficients, evaluate, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN):
-    """A table of a continuous piecewise polynomial (a lookup-table model) within ``tolerance_arcmin``, or None.
+def piecewise_bound(breaks_deg, coefficients):
+    """``(max|f''|, largest slope jump)`` of a continuous piecewise cubic (a cubic lookup-table model), in
+    arc-minutes per degree squared and per degree, or None for a table whose pieces do not join, or of another
+    degree (a linear table is as cheap evaluated as a table of it, whose kinks would need ~10^6 nodes).
 
-    Within a piece, linear interpolation between nodes ``h`` degrees apart is off by at most ``h**2 / 8`` times
-    the largest ``|f''|``; across a break where the slope jumps by ``d``, by at most ``h * |d| / 4`` more. The
-    nodes are the fewest (a power of two) for which the sum is within the tolerance; a table whose pieces do
-    not join (a jump in the value) or that would need more than :data:`MAX_TABLE_POINTS` nodes is None.
-
-    Parameters
-    ----------
-    breaks_deg : ndarray of shape (p + 1,)
-        Increasing breaks spanning one turn.
-    coefficients : ndarray of shape (degree + 1, p)
-        Each piece's polynomial in ``s = theta - break``, highest power first (arc-minutes).
-    evaluate : callable
-        The model's error (arc-minutes) at angles in [0, 360) (evaluated a chunk at a time).
+    ``coefficients`` of shape (4, p): each piece's polynomial in ``s = theta - break``, highest power first;
+    ``f''`` is linear within a piece, so its largest magnitude is at a piece's ends.
     """
-    from .base import in_chunks
-
     breaks = np.asarray(breaks_deg, dtype=float)
     c = np.asarray(coefficients, dtype=float)
+    if c.ndim != 2 or c.shape[0] != 4:
+        return None
     width = np.diff(breaks)
-    degree = c.shape[0] - 1
-    if degree < 2:  # a linear table is as cheap as a table of it, whose kinks would need ~10^6 nodes
+    end_value = ((c[0] * width + c[1]) * width + c[2]) * width + c[3]
+    end_slope = (3.0 * c[0] * width + 2.0 * c[1]) * width + c[2]
+    scale = max(1.0, float(np.max(np.abs(c[3]))))
+    if np.max(np.abs(np.roll(c[3], -1) - end_value)) > 1e-9 * scale:
         return None
-    powers = np.arange(degree, -1, -1)[:, None]
-    end_value = np.sum(c * width ** powers, axis=0)
-    slope = c[:-1] * powers[:-1]  # the derivative's coefficients
-    end_slope = np.sum(slope * width ** (powers[:-1] - 1), axis=0)
-    start_value, start_slope = c[-1], (c[-2] if degree >= 1 else np.zeros(width.size))
-    scale = max(1.0, float(np.max(np.abs(c[-1]))))
-    if np.max(np.abs(np.roll(start_value, -1) - end_value)) > 1e-9 * scale:
-        return None
-    slope_jump = float(np.max(np.abs(np.roll(start_slope, -1) - end_slope)))
-    curvature = 0.0
-    if degree >= 2:
-        second = slope[:-1] * (powers[:-2] - 1)
-        at_start = second[-1]
-        at_end = np.sum(second * width ** (powers[:-2] - 2), axis=0)
-        if degree > 3:
-            return None  # |f''| of higher degrees is not bounded by its ends
-        curvature = float(np.max(np.maximum(np.abs(at_start), np.abs(at_end))))  # f'' linear in a cubic piece
-    if curvature == 0.0 and slope_jump == 0.0:
-        step = 360.0 / MIN_TABLE_POINTS
-    elif curvature == 0.0:
-        step = 4.0 * tolerance_arcmin / slope_jump
-    else:
-        step = (-slope_jump / 4.0 + np.sqrt((slope_jump / 4.0) ** 2 + curvature / 2.0 * tolerance_arcmin)) \
-            / (curvature / 4.0)
-    points = max(MIN_TABLE_POINTS, int(np.ceil(360.0 / step)))
-    points = 1 << int(np.ceil(np.log2(points)))
-    if points > MAX_TABLE_POINTS:
-        return None
-    values = in_chunks(evaluate, np.arange(points) * (360.0 / points)) / 60.0
-    return np.concatenate([values, values[:2]])
+    slope_jump = float(np.max(np.abs(np.roll(c[2], -1) - end_slope)))
+    curvature = float(np.max(np.maximum(np.abs(2.0 * c[1]), np.abs(6.0 * c[0] * width + 2.0 * c[1]))))
+    return curvature, slope_jump

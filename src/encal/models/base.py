@@ -198,10 +198,24 @@ class Model(ABC):
             return in_chunks(self._correct, theta.reshape(-1), self.evaluation_width).reshape(theta.shape)[()]
         return self._correct(theta, direction)
 
+    _table = False  # the correction table, built on first use; None: none fits
+
+    def _table_bound(self):
+        """``(max|f''|, largest slope jump)`` of the model's error, in arc-minutes per degree squared and per
+        degree, from its parameters; None when the model has no such bound (a table would not be exact)."""
+        return None
+
     def _correction_table(self):
         """A table of ``predict / 60`` for :func:`encal.models._table.correct_through_table`, within
-        :data:`~encal.models._table.TABLE_TOLERANCE_ARCMIN` of the model, or None (evaluated as it is)."""
-        return None
+        :data:`~encal.models._table.TABLE_TOLERANCE_ARCMIN` of the model (:meth:`_table_bound`), or None
+        (evaluated as it is)."""
+        if self._table is False:
+            from ._table import points_for_bound, sampled_table
+
+            bound = self._table_bound()
+            points = None if bound is None else points_for_bound(*bound)
+            self._table = None if points is None else sampled_table(self._predict, points, self.evaluation_width)
+        return self._table
 
     def _correct(self, theta, direction=None):
         # model_input wraps first: multi-turn readings keep their precision

@@ -87,9 +87,12 @@ class FourierModel(Model):
             self._harmonics = HarmonicSeries(self.orders, self.cos, self.sin)
         return self._harmonics
 
-    _table = False  # the correction table (encal.models._table), built on first use; None: none fits
+    def _table_bound(self):
+        from ._table import series_bound
 
-    def _correction_table(self):
+        return series_bound(self.orders, self.cos, self.sin), 0.0
+
+    def _correction_table(self):  # the nodes by one inverse FFT
         if self._table is False:
             from ._table import series_table
 

@@ -112,14 +112,10 @@ class LookupTableModel(Model):
             total += rows[:, m] * power
         return total
 
-    _table = False  # the correction table (encal.models._table), built on first use; None: none fits
+    def _table_bound(self):
+        from ._table import piecewise_bound
 
-    def _correction_table(self):
-        if self._table is False:
-            from ._table import piecewise_table
-
-            self._table = piecewise_table(self.breaks_deg, self.coefficients, self._predict)
-        return self._table
+        return piecewise_bound(self.breaks_deg, self.coefficients)
 
     def free_parameters(self):
         return self.breaks_deg.size - 1
