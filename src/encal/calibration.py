@@ -466,7 +466,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     check_turns(*as_read, units, reverse=reverse, runs=runs, where=str(path))
     del as_read, in_degrees
     # one sort by reference angle serves every check of a calibration of one run
-    order = np.argsort(cal.reference_deg, kind="stable") if runs is None else None
+    order = reference_order = np.argsort(cal.reference_deg, kind="stable") if runs is None else None
     repeated = None
     if duplicates == "refuse":
         # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
@@ -478,7 +478,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     _check_direction_of_count(path, cal, reverse, order=order)
     _check_folds(cal, str(path), order=order)
     _check_coverage(path, cal, allow_gaps)
-    _warn_if_isolated(path, rows, line_numbers)
+    _warn_if_isolated(path, rows, line_numbers, order=None if runs is not None else reference_order)
     return cal
 
 
@@ -497,9 +497,10 @@ def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     return f"has {fields}, expected {n_columns} as in the header ({why})"
 
 
-def _warn_if_isolated(path, cal, line_numbers):
+def _warn_if_isolated(path, cal, line_numbers, order=None):
     """Warn about readings far off their neighbours on both sides, or off the other readings at their reference
-    angle when most angles were read several times (:mod:`encal.outliers`), per direction and epoch."""
+    angle when most angles were read several times (:mod:`encal.outliers`), per direction and epoch. ``order``:
+    the stable argsort of the reference angles of a calibration of one run, if known."""
     from .outliers import ISOLATION_FACTOR, isolated_points
 
     quantum = None if cal.resolution_bits is None else 360.0 * ARCMIN_PER_DEG / 2**cal.resolution_bits
@@ -512,7 +513,7 @@ def _warn_if_isolated(path, cal, line_numbers):
     for run in each:
         members = np.flatnonzero(runs == run) if each.size > 1 else slice(None)  # one run: no copies
         isolated = isolated_points(cal.encoder_deg[members], errors[members], reference_deg=cal.reference_deg[members],
-                                   quantum_arcmin=quantum)
+                                   quantum_arcmin=quantum, reference_order=order if each.size == 1 else None)
         members = np.arange(len(cal))[members]
         found += [(members[i], d, isolated.typical_step_arcmin, isolated.repeated)
                   for i, d in zip(isolated.index, isolated.deviation_arcmin)]

@@ -68,7 +68,7 @@ class IsolatedPoints:
 
 
 def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_arcmin=None,
-                    factor=ISOLATION_FACTOR):
+                    factor=ISOLATION_FACTOR, reference_order=None):
     """Find the calibration points whose error is far off their neighbours' on both sides.
 
     Parameters
@@ -87,6 +87,9 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         the smallest non-zero step.
     factor : float, default=ISOLATION_FACTOR
         How many typical steps make a point isolated.
+    reference_order : ndarray of int, optional
+        The stable argsort of ``reference_deg`` (in [0, 360)), if the caller has it: the stops are then
+        labelled and grouped without sorting again.
 
     Returns
     -------
@@ -126,10 +129,16 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     stops = None if reference_deg is None else np.round(np.mod(reference, 360.0), 9)
     # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
     if stops is not None and 1.5 * np.unique(stops).size <= stops.size:
-        stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
+        if reference_order is not None:  # rounding keeps the order: the stops labelled in one pass
+            sorted_stops = stops[reference_order]
+            stop = np.empty(stops.size, dtype=np.intp)
+            stop[reference_order] = np.cumsum(np.r_[False, sorted_stops[1:] != sorted_stops[:-1]])
+            del sorted_stops
+        else:
+            stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
         counts = np.bincount(stop)
         if np.median(counts) >= 2:
-            return _isolated_repeats(error, stop, counts, quantum_arcmin, factor)
+            return _isolated_repeats(error, stop, counts, quantum_arcmin, factor, by_stop=reference_order)
     order = np.argsort(np.mod(theta, 360.0), kind="stable")
     e = error[order]
     steps = np.abs(e - np.roll(e, 1))
@@ -186,8 +195,12 @@ def _first_of_identical(theta, error):
     return np.flatnonzero(keep)
 
 
-def _group_medians(values, groups, n_groups):
-    """The median of ``values`` in each group (labels 0 .. n_groups - 1, every group non-empty)."""
+def _group_medians(values, groups, n_groups, by_group=None):
+    """The median of ``values`` in each group (labels 0 .. n_groups - 1, every group non-empty); ``by_group``:
+    indices that sort ``groups``, if known."""
+    counts = np.bincount(groups, minlength=n_groups)
+    if by_group is not None and counts.min() == counts.max():  # k readings at every stop: a (stops, k) table
+        return np.median(values[by_group].reshape(n_groups, -1), axis=1)
     order = np.argsort(values)
     order = order[np.argsort(groups[order], kind="stable")]
     counts = np.bincount(groups, minlength=n_groups)
@@ -196,9 +209,10 @@ def _group_medians(values, groups, n_groups):
     return (ordered[starts + (counts - 1) // 2] + ordered[starts + counts // 2]) / 2.0
 
 
-def _isolated_repeats(error, stop, counts, quantum, factor):
-    """Readings far off their stop (see the module docstring); ``stop`` labels the stops in order of angle."""
-    medians = _group_medians(error, stop, counts.size)
+def _isolated_repeats(error, stop, counts, quantum, factor, by_stop=None):
+    """Readings far off their stop (see the module docstring); ``stop`` labels the stops in order of angle,
+    ``by_stop`` (optional) sorts them."""
+    medians = _group_medians(error, stop, counts.size, by_stop)
     centre = medians[stop]
     alone = np.flatnonzero(counts[stop] == 1)  # judged against the neighbouring stops
     if alone.size:
@@ -212,7 +226,8 @@ def _isolated_repeats(error, stop, counts, quantum, factor):
         quantum = float(nonzero.min()) if nonzero.size else 0.0
     # The noise from the differences between successive readings of a stop (sqrt(2) sigma for Gaussian
     # noise): the deviations from a stop's median are biased low (one of three readings is the median).
-    by_stop = np.argsort(stop, kind="stable")
+    if by_stop is None:
+        by_stop = np.argsort(stop, kind="stable")
     same = stop[by_stop][1:] == stop[by_stop][:-1]
     steps = np.abs(np.diff(error[by_stop]))[same]
     del by_stop, same
