@@ -730,7 +730,7 @@ def _repeat_pattern(reference_deg, runs=None, order=None):
     keys = np.round(wrap360(np.asarray(reference_deg, dtype=float).reshape(-1)), 9)
     runs = np.zeros(keys.size, dtype=int) if runs is None else np.asarray(runs).reshape(-1)
     repeated, irregular = np.zeros(keys.size, dtype=bool), np.zeros(keys.size, dtype=bool)
-    for run in np.unique(runs):
+    for run in np.unique(runs) if order is None else (0,):
         members = runs == run if order is None else slice(None)
         sequence = keys[members]
         if order is None:
@@ -1002,12 +1002,10 @@ def check_folds(cal, where="calibration"):
 def _check_folds(cal, where, order=None):
     """:func:`check_folds`; ``order``: the stable argsort of the reference angles of a calibration of one run."""
     runs = _runs(cal)
-    if runs is None:
-        runs = np.zeros(len(cal), dtype=int)
-    for run in np.unique(runs):
+    for run in (0,) if runs is None else np.unique(runs):
         run_order = order
         if run_order is None:
-            members = np.flatnonzero(runs == run)
+            members = np.arange(len(cal)) if runs is None else np.flatnonzero(runs == run)
             run_order = members[np.argsort(cal.reference_deg[members], kind="stable")]
         ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
         if ref.size < 2:

@@ -128,12 +128,18 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         return none
     stops = None if reference_deg is None else np.round(np.mod(reference, 360.0), 9)
     # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
-    if stops is not None and 1.5 * np.unique(stops).size <= stops.size:
-        if reference_order is not None:  # rounding keeps the order: the stops labelled in one pass
-            sorted_stops = stops[reference_order]
+    new_stop = None
+    if stops is not None and reference_order is not None:  # rounding keeps the order: no other sort
+        sorted_stops = stops[reference_order]
+        new_stop = np.r_[False, sorted_stops[1:] != sorted_stops[:-1]]
+        distinct = int(np.count_nonzero(new_stop)) + 1
+        del sorted_stops
+    elif stops is not None:
+        distinct = np.unique(stops).size
+    if stops is not None and 1.5 * distinct <= stops.size:
+        if new_stop is not None:
             stop = np.empty(stops.size, dtype=np.intp)
-            stop[reference_order] = np.cumsum(np.r_[False, sorted_stops[1:] != sorted_stops[:-1]])
-            del sorted_stops
+            stop[reference_order] = np.cumsum(new_stop)
         else:
             stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
         counts = np.bincount(stop)
