@@ -117,7 +117,8 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
                              "expected one reference angle per reading")
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
-    first = _first_of_identical(np.mod(theta, 360.0), error)
+    by_angle = np.argsort(np.mod(theta, 360.0), kind="stable")  # one sort of the angles serves both steps
+    first = _first_of_identical(np.mod(theta, 360.0), error, by_angle)
     if first.size < theta.size:
         found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor,
                                 reference_deg=None if reference_deg is None else reference[first])
@@ -145,7 +146,7 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         counts = np.bincount(stop)
         if np.median(counts) >= 2:
             return _isolated_repeats(error, stop, counts, quantum_arcmin, factor, by_stop=reference_order)
-    order = np.argsort(np.mod(theta, 360.0), kind="stable")
+    order = by_angle
     e = error[order]
     steps = np.abs(e - np.roll(e, 1))
     quantum = quantum_arcmin
@@ -170,13 +171,18 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
 IDENTICAL_DECIMALS = 9
 
 
-def _first_of_identical(theta, error):
+def _first_of_identical(theta, error, by_angle=None):
     """Indices of the first of each set of identical (angle, error) points (to :data:`IDENTICAL_DECIMALS`
     decimals: the readings of a noise-free log over several turns differ by the rounding of doubles only), in
-    input order."""
+    input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known."""
     theta = np.round(theta, IDENTICAL_DECIMALS) % 360.0
     error = np.round(error, IDENTICAL_DECIMALS)
-    by_angle = np.argsort(theta, kind="stable")
+    if by_angle is None:
+        by_angle = np.argsort(theta, kind="stable")
+    else:  # rounding keeps the order but for angles that round up to 360 and wrap to 0: they go first
+        wrapped = np.flatnonzero(theta[by_angle][1:] < theta[by_angle][:-1])
+        if wrapped.size:
+            by_angle = np.roll(by_angle, -(int(wrapped[0]) + 1))
     sorted_theta = theta[by_angle]
     equal = sorted_theta[1:] == sorted_theta[:-1]
     del sorted_theta
