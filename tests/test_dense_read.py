@@ -49,3 +49,12 @@ def test_identical_points_across_the_wrap_with_a_shared_sort():
     expected = np.r_[0, np.arange(2, 12)]
     np.testing.assert_array_equal(_first_of_identical(theta, error), expected)
     np.testing.assert_array_equal(_first_of_identical(theta, error, np.argsort(theta, kind="stable")), expected)
+
+
+@pytest.mark.parametrize("values", [np.random.default_rng(2).uniform(0, 360, 5000),
+                                    np.round(np.random.default_rng(3).uniform(0, 360, 5000), 0),
+                                    np.repeat([3.0, 1.0, 2.0], 7), np.zeros(5), np.array([1.0])])
+def test_stable_argsort_is_numpys_stable_order(values):
+    from encal._sorting import stable_argsort
+
+    np.testing.assert_array_equal(stable_argsort(values), np.argsort(values, kind="stable"))

@@ -9,6 +9,7 @@ import numpy as np
 
 from . import _csv
 from ._csv_numbers import plain_rows
+from ._sorting import stable_argsort
 from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
@@ -466,7 +467,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     check_turns(*as_read, units, reverse=reverse, runs=runs, where=str(path))
     del as_read, in_degrees
     # one sort by reference angle serves every check of a calibration of one run
-    order = reference_order = np.argsort(cal.reference_deg, kind="stable") if runs is None else None
+    order = reference_order = stable_argsort(cal.reference_deg) if runs is None else None
     repeated = None
     if duplicates == "refuse":
         # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._sorting import stable_argsort
 from .parameters import check_number
 from .profile import profile_arrays
 
@@ -117,7 +118,7 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
                              "expected one reference angle per reading")
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
-    by_angle = np.argsort(np.mod(theta, 360.0), kind="stable")  # one sort of the angles serves both steps
+    by_angle = stable_argsort(np.mod(theta, 360.0))  # one sort of the angles serves both steps
     first = _first_of_identical(np.mod(theta, 360.0), error, by_angle)
     if first.size < theta.size:
         found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor,
