@@ -15,12 +15,16 @@ def stable_argsort(values):
     """Indices that sort ``values`` (1-D, no NaN), equal values in index order: ``np.argsort(values,
     kind='stable')``, faster for large arrays of distinct values."""
     values = np.asarray(values).reshape(-1)
+    if np.count_nonzero(values[1:] < values[:-1]) <= values.size // 64:
+        return np.argsort(values, kind="stable")  # a few sorted runs (a sweep's turns): timsort merges them
     order = np.argsort(values)
     ordered = values[order]
     tied = ordered[1:] == ordered[:-1]
     del ordered
     if not tied.any():
         return order
+    if np.count_nonzero(tied) > values.size // 16:  # many repeats: the stable sort is as quick as the mending
+        return np.argsort(values, kind="stable")
     in_run = np.zeros(order.size, dtype=bool)
     in_run[1:] |= tied
     in_run[:-1] |= tied
