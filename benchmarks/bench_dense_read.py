@@ -2,7 +2,9 @@
 
 Usage::
 
-    PYTHONPATH=src python benchmarks/bench_dense_read.py [--rows 1000000] [--repeats 5]
+    PYTHONPATH=src python benchmarks/bench_dense_read.py [--rows 1000000] [--repeats 5] [--files sweep,random]
+
+(``PYTHONPATH`` names the encal measured, in this process and in the ``encal fit`` processes.)
 
 Two files of ``--rows`` rows are written to a temporary folder: a dense sweep (5 revolutions over the same
 stops, orders 1, 2, 16, 32, 48 and 0.1 arcmin of noise, as ``benchmarks/dense_sweep.py``) and uniformly random
@@ -96,6 +98,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", type=int, default=1_000_000)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--files", default="sweep,random", help="which files: sweep, random or both")
     args = parser.parse_args()
     import warnings
 
@@ -104,7 +107,8 @@ def main():
     print(f"rows {args.rows}, {args.repeats} pairs each, load average {os.getloadavg()[0]:.1f} "
           f"on {os.cpu_count()} cores")
     with tempfile.TemporaryDirectory() as folder:
-        files = write_files(folder, args.rows)
+        files = {name: path for name, path in write_files(folder, args.rows).items()
+                 if name in args.files.split(",")}
         print("\n| in one process | read_calibration | np.loadtxt | ratio (min-max) |\n|---|---|---|---|")
         for name, path in files.items():
             with warnings.catch_warnings():
