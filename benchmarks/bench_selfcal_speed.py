@@ -53,15 +53,17 @@ np.save(sys.argv[2], coefficients)
 
 
 def run_process(command, env):
+    """Wall seconds and peak resident MiB of one process. The peak is GNU time's (``/usr/bin/time -f %M``): a
+    child forked from this process counts this process's pages until it execs, so its own ``ru_maxrss`` would
+    be this benchmark's size."""
     start = time.perf_counter()
-    process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(process.pid, 0)
+    process = subprocess.run(["/usr/bin/time", "-f", "peak_kib %M", *map(str, command)], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     wall = time.perf_counter() - start
-    stderr = process.stderr.read().decode()
-    process.stderr.close()
-    if status != 0:
-        raise SystemExit(f"{' '.join(map(str, command))} failed: {stderr.strip()[-400:]}")
-    return wall, usage.ru_maxrss / 1024.0
+    if process.returncode != 0:
+        raise SystemExit(f"{' '.join(map(str, command))} failed: {process.stderr.strip()[-400:]}")
+    peak = next(line for line in reversed(process.stderr.splitlines()) if line.startswith("peak_kib "))
+    return wall, int(peak.split()[1]) / 1024.0
 
 
 def main():
