@@ -112,3 +112,11 @@ def test_raw_network_has_no_table():
     model = load_model(Path(__file__).parent / "data" / "model_v1_ann.json")
     model.encoding = "raw"  # the raw encoding jumps at 0/360 degrees: no bound on f''
     assert model._table_bound() is None and model._correction_table() is None
+
+
+def test_a_model_over_an_arc_is_not_tabled():
+    # outside its arc a model answers NaN (encal.arcs): the table would answer numbers there
+    model = _model([1, 2], [3.0, 1.0], kind=FourierModel)
+    model.range_deg = [10.0, 100.0]
+    corrected = model.correct(np.linspace(0.0, 359.0, TABLE_MIN_ANGLES))
+    assert np.isnan(corrected[0]) and np.isfinite(corrected[TABLE_MIN_ANGLES // 10])

@@ -1033,13 +1033,18 @@ def _check_coverage(path, cal, allow_gaps):
     else:
         gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
         gap = float(gaps.max())
+    from .arcs import arc_of
+
+    if gap > MAX_GAP_DEG + 1e-9 and arc_of(angles, MAX_GAP_DEG) is not None \
+            and not _looks_like_radians(cal.encoder_deg):  # a turn in radians is no arc of 6 degrees
+        return  # one contiguous arc (a joint of limited travel): fitted over the arc, see encal.arcs
     if gap > MAX_GAP_DEG + 1e-9 and not allow_gaps:  # a 30-degree grid is not refused for a rounding error
         start = angles[np.argmax(np.diff(np.concatenate([angles, angles[:1] + 360.0])))] if angles.size > 1 \
             else angles[0]
         raise CalibrationError(
             f"{path}: the encoder angles leave a gap of {gap:.1f} deg after {start:.2f} deg; expected no gap "
             f"over {MAX_GAP_DEG:g} deg, because no model knows the error where the encoder was never seen "
-            "(use --allow-gaps to accept it)")
+            "(one contiguous arc is accepted; use --allow-gaps to accept scattered gaps)")
 
 
 def write_calibration(path, cal, *, extra_columns=None, comments=()):

@@ -42,6 +42,10 @@ def add_arguments(parser):
     parser.add_argument("--direction", type=int, choices=[1, -1], metavar="{+1,-1}",
                         help="direction of travel of the readings, for a bidirectional model fitted per "
                              "direction (default: the mean of both directions; other models ignore it)")
+    parser.add_argument("--outside", choices=("error", "clamp", "pass"), default="error",
+                        help="a reading outside the range of a model calibrated over an arc: refuse it (default), "
+                             "use the correction of the nearer end of the arc (clamp), or leave it uncorrected "
+                             "(pass); a full-turn model has no outside")
 
 
 def claim_extras(args, extras):
@@ -57,6 +61,11 @@ def run(args):
 
     check_paths(inputs=[(args.model, "model"), (args.input, "angles")])
     compensator = Compensator(args.model)
+    if compensator.model.range_deg is not None:  # an arc: a reading outside it follows the stated rule
+        from ..arcs import OutsideRule
+
+        compensator = OutsideRule(compensator, args.outside,
+                                  where="reading" if args.input == "-" else f"reading of {args.input}")
     if sys.stdout is None:  # started with standard output closed (`>&-`)
         raise InputError("standard output is closed; expected somewhere to write the corrected angles")
     if args.input == "-" and sys.stdin is None:

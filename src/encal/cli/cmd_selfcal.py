@@ -9,6 +9,9 @@
   encal selfcal steps A.csv [B.csv] -o CAL.csv
       full-step calibrations of a stepper (reference_deg = the full steps); with B, taken after turning
       the magnet on the rotor, the stepper's own error is separated (the shift method)
+  encal selfcal dual LOG.csv --ratio N --motor-cal M.csv --output-cal O.csv
+      a log of both encoders of a geared joint (motor_deg, output_deg): each calibrates the other through
+      the gear (issue 31; docs/in-place.md)
 
 The output is a calibration CSV (reference_deg, encoder_deg on a grid of readings, with the columns
 error_arcmin and sigma_arcmin) for 'encal fit', 'encal profile' and 'encal report'. The summary printed
@@ -17,6 +20,8 @@ See docs/self-calibration.md.
 """
 
 from pathlib import Path
+
+import numpy as np
 
 from ..errors import InputError
 from ._common import add_calibration_options, check_paths, int_in_range, size_option
@@ -53,6 +58,7 @@ def add_arguments(parser):
     _add_log_options(spin, ("--time-col", "time_s", "the time column (seconds)"), unit_options=("--enc-unit",))
     _add_log_options(sweep, ("--ref-col", "electrical_deg", "the commanded electrical angle column"),
                      unit_options=("--ref-unit", "--enc-unit"))
+    _add_dual(methods)
     for sub, default in ((spin, 32), (sweep, 32), (steps, 16)):
         sub.add_argument("-o", "--output", required=True, metavar="CAL.csv", help="calibration CSV to write")
         sub.add_argument("--max-order", type=int_in_range(1, 180), default=default, metavar="K",
@@ -87,6 +93,8 @@ def _unit(args, name):
 
 
 def run(args):
+    if args.method == "dual":
+        return _dual(args)
     inputs = {"spin": getattr(args, "logs", None), "sweep": [getattr(args, "capture", None)],
               "steps": getattr(args, "calibrations", None)}[args.method]
     kind = "calibration" if args.method == "steps" else "capture"
@@ -122,6 +130,8 @@ def _sweep(args):
     from ..selfcal.sweep import sweep, sweep_capture
     from ..selfcal.sweep_log import read_sweep_log
 
+    from ..arcs import arc_of
+
     options = {"max_order": args.max_order, "slots": args.slots, "skip": args.skip}
     if _starts_with_cal(args.capture):
         given = [option for option, value in (("--ref-col", args.ref_col != "electrical_deg"),
@@ -132,11 +142,22 @@ def _sweep(args):
             args._parser.error(f"{' and '.join(given)} name{'s' if len(given) == 1 else ''} a column or unit of a "
                                f"sweep CSV; {args.capture} is a moteus capture (CAL start ... CAL done), whose "
                                "columns are fixed")
-        return sweep_capture(read_moteus_capture(args.capture), args.pole_pairs, **options)
-    log = read_sweep_log(args.capture, phase_column=args.ref_col, encoder_column=args.enc_col,
-                         phase_unit=_unit(args, "ref_unit"), encoder_unit=_unit(args, "enc_unit"))
-    return sweep(log.phase_deg_e, log.encoder_deg, log.travel, args.pole_pairs, name=Path(args.capture).stem,
-                 where=str(args.capture), **options)
+        capture = read_moteus_capture(args.capture)
+        if arc_of(capture.encoder_deg, 30.0) is None:
+            return sweep_capture(capture, args.pole_pairs, **options)
+        # a sweep back and forth over an arc (issue 31)
+        phase, reading, travel = capture.phase_deg_e, capture.encoder_deg, capture.travel
+    else:
+        log = read_sweep_log(args.capture, phase_column=args.ref_col, encoder_column=args.enc_col,
+                             phase_unit=_unit(args, "ref_unit"), encoder_unit=_unit(args, "enc_unit"))
+        phase, reading, travel = log.phase_deg_e, log.encoder_deg, log.travel
+        if arc_of(reading, 30.0) is None:
+            return sweep(phase, reading, travel, args.pole_pairs, name=Path(args.capture).stem,
+                         where=str(args.capture), **options)
+    from ..selfcal.arc_sweep import arc_sweep
+
+    return arc_sweep(phase, reading, travel, args.pole_pairs, skip=args.skip, name=Path(args.capture).stem,
+                     where=str(args.capture), points=args.points)
 
 
 def _starts_with_cal(path):
@@ -191,3 +212,56 @@ def _orders(text):
     if any(order < 1 for order in orders):
         raise InputError(f"--ripple-orders must be orders >= 1. Got {text!r} instead.")
     return orders
+
+
+def _add_dual(methods):
+    dual = methods.add_parser("dual", help="two encoders of a geared joint (motor and output) calibrate each other")
+    dual.add_argument("log", metavar="LOG.csv", help="log of both encoders: motor_deg, output_deg (time order)")
+    dual.add_argument("--ratio", type=float, required=True, metavar="N",
+                      help="gear ratio: motor turns per output turn (negative when the output turns the other way)")
+    dual.add_argument("--motor-cal", required=True, metavar="M.csv", help="calibration CSV of the motor encoder")
+    dual.add_argument("--output-cal", required=True, metavar="O.csv", help="calibration CSV of the output encoder")
+    dual.add_argument("--pinion-teeth", type=int_in_range(1, 100000), metavar="Z",
+                      help="teeth of the gear on the motor shaft: the mesh orders (multiples of Z) are left out of "
+                           "the motor's profile, as they hold the gear's tooth-mesh error too")
+    dual.add_argument("--max-order", type=int_in_range(1, 180), default=30, metavar="K",
+                      help="highest harmonic order recovered on each shaft (default 30)")
+    dual.add_argument("--points", type=int_in_range(8, 100000), default=360, metavar="N",
+                      help="readings in each calibration written (a uniform grid; default 360)")
+    dual.add_argument("--json", action="store_true", help="print one JSON object")
+
+
+def _dual(args):
+    import json
+
+    from .._atomic import atomic_file_set
+    from ..selfcal.dual import dual, read_dual_log
+
+    check_paths(inputs=[(args.log, "capture")], outputs=[("--motor-cal", args.motor_cal),
+                                                         ("--output-cal", args.output_cal)])
+    if Path(args.motor_cal).resolve() == Path(args.output_cal).resolve():
+        raise InputError(f"--motor-cal and --output-cal are both {args.motor_cal}; expected two files")
+    motor, output, name = read_dual_log(args.log)
+    result = dual(motor, output, args.ratio, motor_orders=args.max_order, output_orders=args.max_order,
+                  pinion_teeth=args.pinion_teeth, name=name)
+    with atomic_file_set():
+        result.motor.write(args.motor_cal, points=args.points)
+        result.output.write(args.output_cal, points=args.points)
+    if args.json:
+        grid = result.motor.grid(args.points)
+        print(json.dumps({"ratio": result.ratio, "ratio_estimated": result.ratio_estimated,
+                          "output_turns": result.output_turns, "residual_rms_arcmin": result.noise_arcmin,
+                          "confounded": [{"motor_order": j, "output_order": k} for j, k in result.confounded],
+                          "motor_removed_orders": list(result.motor.removed_orders),
+                          **{f"{shaft}_rms_arcmin": _rms(getattr(result, shaft).error_arcmin(grid))
+                             for shaft in ("motor", "output")},
+                          "files": [str(args.motor_cal), str(args.output_cal)]}))
+        return 0
+    print(result.summary())
+    print(f"wrote {args.motor_cal} and {args.output_cal}: {args.points} readings each; fit each with "
+          "'encal fit CAL.csv -o MODEL.json'")
+    return 0
+
+
+def _rms(values):
+    return float(np.sqrt(np.mean(np.square(values))))

@@ -15,6 +15,7 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
+from ..arcs import inside
 from ..errors import InputError
 from ..parameters import invalid
 from ._table import TABLE_MIN_ANGLES, correct_through_table
@@ -115,6 +116,9 @@ class Model(ABC):
     form = None
     uncertainty = None
     reading_sign = 1
+    #: ``[start, end]`` in degrees of the model's input angle when the model was calibrated over an arc (see
+    #: :mod:`encal.arcs`): outside it ``predict`` and ``correct`` answer NaN. None for a full turn.
+    range_deg = None
 
     def __init__(self, *, encoder=None, training=None):
         self.encoder = dict(encoder or {})
@@ -174,10 +178,16 @@ class Model(ABC):
             direction_mask(direction, theta.shape)
         # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
         mean = np.asarray(in_chunks(self._predict, theta.reshape(-1), self.evaluation_width),
-                          dtype=float).reshape(theta.shape)[()]
+                          dtype=float).reshape(theta.shape)
+        outside = None if self.range_deg is None else ~inside(theta, self.range_deg)
+        if outside is not None:
+            mean[outside] = np.nan  # never a number where the encoder was not calibrated
         if not return_std:
-            return mean
-        return mean, predictive_std(self.uncertainty, theta)
+            return mean[()]
+        std = np.array(predictive_std(self.uncertainty, theta), dtype=float).reshape(theta.shape)
+        if outside is not None:
+            std[outside] = np.nan
+        return mean[()], std[()]
 
     #: Temporary numbers per angle of ``_predict`` (a network's hidden nodes, a series' terms): angles are
     #: evaluated in chunks small enough that memory stays bounded however wide the model (see in_chunks).
@@ -190,7 +200,7 @@ class Model(ABC):
         against its reference. ``direction`` as for :meth:`predict`.
         """
         theta = as_angles(theta_enc_deg)
-        if direction is None and theta.size >= TABLE_MIN_ANGLES:
+        if direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
             table = self._correction_table()
             if table is not None:  # many angles: through a table of the model (see encal.models._table)
                 return correct_through_table(theta.reshape(-1), self.reading_sign, table).reshape(theta.shape)
@@ -225,7 +235,10 @@ class Model(ABC):
             predicted = in_chunks(self._predict, wrapped, self.evaluation_width)
         else:
             predicted = self.predict(theta, direction=direction)
-        return wrap360(wrapped - predicted / ARCMIN_PER_DEG)
+        corrected = wrap360(wrapped - predicted / ARCMIN_PER_DEG)
+        if self.range_deg is not None:
+            corrected = np.where(inside(wrapped, self.range_deg), corrected, np.nan)
+        return corrected
 
     def save(self, path, **options):
         """Write the model file (see :func:`encal.deploy.save_model`)."""
@@ -243,8 +256,9 @@ class Model(ABC):
                 ("parameters", f"{self.free_parameters()} fitted values")]
         if training.get("zero_offset_arcmin") is not None:
             rows.append(("zero offset", f"{training['zero_offset_arcmin']:+.3f} arcmin (arbitrary zero, in the model)"))
-        rows += [("predicts", f"{predicted.min():+.3f} .. {predicted.max():+.3f} arcmin over 0..360 deg, "
-                              f"peak-to-peak {np.ptp(predicted):.3f}"),
+        over = "0..360 deg" if self.range_deg is None else f"{self.range_deg[0]:.6g}..{self.range_deg[1]:.6g} deg"
+        rows += [("predicts", f"{np.nanmin(predicted):+.3f} .. {np.nanmax(predicted):+.3f} arcmin over {over}, "
+                              f"peak-to-peak {np.nanmax(predicted) - np.nanmin(predicted):.3f}"),
                  ("uncertainty", "yes" if self.uncertainty is not None else "no")]
         width = max(len(label) for label, _ in rows)
         return "\n".join(f"{label:<{width}}  {value}" for label, value in rows)

@@ -130,7 +130,8 @@ class SpectralModel(FourierModel):
         grid = np.arange(table.size) * float(self.uncertainty["grid_step_deg"])
         profile_std = np.interp(wrap360(theta), grid, table, period=360.0)
         noise = float(self.uncertainty["noise_std_arcmin"]) if include_noise else 0.0
-        return mean, np.sqrt(profile_std**2 + noise**2).reshape(theta.shape)[()]
+        std = np.sqrt(profile_std**2 + noise**2).reshape(theta.shape)
+        return mean, np.where(np.isnan(mean), np.nan, std)[()]  # NaN outside a calibrated arc (issue 31)
 
     def expected_rms_between_points(self):
         """The posterior's expected RMS error of a correction at angles not calibrated, arc-minutes.
@@ -169,9 +170,12 @@ class SpectralModel(FourierModel):
                         "codes lands on this grid)")
         sigma = t["noise"]["std_arcmin"]
         split = t["noise"].get("split")
-        floored = (f" (the spectrum's flat level; a new reading's noise is taken as "
-                   f"{split['mean_noise_std_arcmin']:.4g} arcmin)"
-                   if split and split.get("mean_noise_std_arcmin", sigma) > sigma else "")
+        # the held-out estimate uses a new reading's noise: said whenever it is not sigma (issue 28: an estimate
+        # of 0.070 printed below a stated noise of 0.078, the flat level, with nothing said)
+        new_reading = split.get("mean_noise_std_arcmin", sigma) if split else sigma
+        floored = (f" (the spectrum's flat level, noise and flat signal together; a new reading's noise is taken as "
+                   f"{new_reading:.4g} arcmin, the mean of the split between them)"
+                   if not math.isclose(new_reading, sigma, rel_tol=1e-3) else "")
         text.append(f"noise: sigma {sigma:.4g} arcmin{floored}; prior: {t['prior']}")
         scatter = t["noise"].get("repeat_std_arcmin")
         if scatter is not None and scatter < sigma:
