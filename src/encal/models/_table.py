@@ -64,12 +64,10 @@ def table_points(orders, cos, sin, tolerance_arcmin=TABLE_TOLERANCE_ARCMIN):
     return points_for_bound(series_bound(orders, cos, sin), 0.0, tolerance_arcmin, highest)
 
 
-def sampled_table(evaluate, points, width=1):
-    """``evaluate`` (arc-minutes, at angles in [0, 360)) at ``points`` uniform nodes, in degrees, for
-    :func:`correct_through_table` (the first two nodes repeated at the end)."""
-    from .base import in_chunks
-
-    values = in_chunks(evaluate, np.arange(points) * (360.0 / points), width) / 60.0
+def sampled_table(evaluate, points):
+    """``evaluate`` (arc-minutes, at angles in [0, 360); it bounds its own memory) at ``points`` uniform nodes,
+    in degrees, for :func:`correct_through_table` (the first two nodes repeated at the end)."""
+    values = evaluate(np.arange(points) * (360.0 / points)) / 60.0
     return np.concatenate([values, values[:2]])
 
 

@@ -224,7 +224,8 @@ class Model(ABC):
 
             bound = self._table_bound()
             points = None if bound is None else points_for_bound(*bound)
-            self._table = None if points is None else sampled_table(self._predict, points, self.evaluation_width)
+            self._table = None if points is None else sampled_table(
+                lambda nodes: in_chunks(self._predict, nodes, self.evaluation_width), points)
         return self._table
 
     def _correct(self, theta, direction=None):
