@@ -308,7 +308,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         is plainly a log of several revolutions (:func:`is_multi_revolution`) keeps its repeats as
         repeated readings unless ``'average'`` is asked for, and so does a run (points of one direction
         and epoch) with the same number of readings at every stop, in a row or in passes
-        (:func:`is_repeated_stops`); a stray repeat elsewhere is still refused.
+        (:func:`is_repeated_stops`); a stray repeat elsewhere is still refused. Repeats are refused only where
+        the reference angles are stops (the data's own grid decides, see :func:`_reference_has_stops`): two
+        equal angles among continuous ones (random, or sampled in time) are a coincidence of the decimals.
     reference_column, encoder_column : str or int, default='reference_deg', 'encoder_deg'
         The columns of the reference and the encoder angle: a header name (any letter case) or a
         column number from 1. With numbers for both, a file whose first row is numbers has no header.
