@@ -55,6 +55,9 @@ def add_arguments(parser):
     steps.add_argument("--stepper-csv", metavar="FILE",
                        help="also write the stepper's error at each full step (two calibrations)")
     add_calibration_options(steps)
+    _add_log_options(spin, ("--time-col", "time_s", "the time column (seconds)"), unit_options=("--enc-unit",))
+    _add_log_options(sweep, ("--ref-col", "electrical_deg", "the commanded electrical angle column"),
+                     unit_options=("--ref-unit", "--enc-unit"))
     _add_dual(methods)
     for sub, default in ((spin, 32), (sweep, 32), (steps, 16)):
         sub.add_argument("-o", "--output", required=True, metavar="CAL.csv", help="calibration CSV to write")
@@ -65,6 +68,28 @@ def add_arguments(parser):
         sub.add_argument("--bits", type=int_in_range(1, 32), metavar="B",
                          help="encoder resolution in bits, recorded in the calibration (sweep: default 16, the "
                               "capture's counts)")
+
+
+def _add_log_options(parser, first_column, unit_options):
+    """Column and unit options of a log (spin, sweep CSV), next to those of the calibration options."""
+    from ._common import angle_unit_argument
+
+    option, default, what = first_column
+    parser.add_argument(option, metavar="NAME", default=default,
+                        help=f"{what}: its header name or number from 1 (default {default})")
+    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg",
+                        help="the encoder column: its header name or number from 1 (default encoder_deg)")
+    for unit_option in unit_options:
+        column = "the commanded electrical angle" if unit_option == "--ref-unit" else "the encoder column"
+        parser.add_argument(unit_option, metavar="UNIT", type=angle_unit_argument, default=None,
+                            help=f"unit of {column}: deg (default), rad, rev or counts:B")
+    parser.add_argument("--unit", metavar="UNIT", type=angle_unit_argument, default=None,
+                        help="unit of " + ("both angle columns, unless --ref-unit or --enc-unit says otherwise"
+                                           if len(unit_options) > 1 else "the encoder column (as --enc-unit)"))
+
+
+def _unit(args, name):
+    return getattr(args, name, None) or getattr(args, "unit", None) or "deg"
 
 
 def run(args):
@@ -79,7 +104,9 @@ def run(args):
         from ..selfcal.spin import spin
         from ..selfcal.spin_log import read_spin_log
 
-        logs = [log for path in args.logs for log in read_spin_log(path)]
+        logs = [log for path in args.logs for log in read_spin_log(path, time_column=args.time_col,
+                                                                   encoder_column=args.enc_col,
+                                                                   encoder_unit=_unit(args, "enc_unit"))]
         result = spin(logs, pole_pairs=args.pole_pairs, slots=args.slots, max_order=args.max_order,
                       ripple_orders=_orders(args.ripple_orders), name=Path(args.logs[0]).stem)
     elif args.method == "steps":
@@ -107,13 +134,22 @@ def _sweep(args):
 
     options = {"max_order": args.max_order, "slots": args.slots, "skip": args.skip}
     if _starts_with_cal(args.capture):
+        given = [option for option, value in (("--ref-col", args.ref_col != "electrical_deg"),
+                                               ("--enc-col", args.enc_col != "encoder_deg"),
+                                               ("--ref-unit", args.ref_unit), ("--enc-unit", args.enc_unit),
+                                               ("--unit", args.unit)) if value]
+        if given and getattr(args, "_parser", None) is not None:
+            args._parser.error(f"{' and '.join(given)} name{'s' if len(given) == 1 else ''} a column or unit of a "
+                               f"sweep CSV; {args.capture} is a moteus capture (CAL start ... CAL done), whose "
+                               "columns are fixed")
         capture = read_moteus_capture(args.capture)
         if arc_of(capture.encoder_deg, 30.0) is None:
             return sweep_capture(capture, args.pole_pairs, **options)
         # a sweep back and forth over an arc (issue 31)
         phase, reading, travel = capture.phase_deg_e, capture.encoder_deg, capture.travel
     else:
-        log = read_sweep_log(args.capture)
+        log = read_sweep_log(args.capture, phase_column=args.ref_col, encoder_column=args.enc_col,
+                             phase_unit=_unit(args, "ref_unit"), encoder_unit=_unit(args, "enc_unit"))
         phase, reading, travel = log.phase_deg_e, log.encoder_deg, log.travel
         if arc_of(reading, 30.0) is None:
             return sweep(phase, reading, travel, args.pole_pairs, name=Path(args.capture).stem,

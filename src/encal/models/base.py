@@ -18,6 +18,7 @@ from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
 from .._core.arcs import inside
 from .._core.errors import InputError
 from .._core.parameters import invalid
+from ._table import TABLE_MIN_ANGLES, correct_through_table
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
@@ -199,9 +200,33 @@ class Model(ABC):
         against its reference. ``direction`` as for :meth:`predict`.
         """
         theta = as_angles(theta_enc_deg)
+        if direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
+            table = self._correction_table()
+            if table is not None:  # many angles: through a table of the model (see encal.models._table)
+                return correct_through_table(theta.reshape(-1), self.reading_sign, table).reshape(theta.shape)
         if direction is None:  # chunk by chunk: peak memory is the result and one chunk's temporaries
             return in_chunks(self._correct, theta.reshape(-1), self.evaluation_width).reshape(theta.shape)[()]
         return self._correct(theta, direction)
+
+    _table = False  # the correction table, built on first use; None: none fits
+
+    def _table_bound(self):
+        """``(max|f''|, largest slope jump)`` of the model's error, in arc-minutes per degree squared and per
+        degree, from its parameters; None when the model has no such bound (a table would not be exact)."""
+        return None
+
+    def _correction_table(self):
+        """A table of ``predict / 60`` for :func:`encal.models._table.correct_through_table`, within
+        :data:`~encal.models._table.TABLE_TOLERANCE_ARCMIN` of the model (:meth:`_table_bound`), or None
+        (evaluated as it is)."""
+        if self._table is False:
+            from ._table import points_for_bound, sampled_table
+
+            bound = self._table_bound()
+            points = None if bound is None else points_for_bound(*bound)
+            self._table = None if points is None else sampled_table(
+                lambda nodes: in_chunks(self._predict, nodes, self.evaluation_width), points)
+        return self._table
 
     def _correct(self, theta, direction=None):
         # model_input wraps first: multi-turn readings keep their precision
