@@ -489,12 +489,3 @@ def grade_of(error_arcmin, grades):
             return name
     return GRADE_NONE
 
-
-def file_sha256(path):
-    """SHA-256 of a file's bytes (hex)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as stream:
-        for block in iter(lambda: stream.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
