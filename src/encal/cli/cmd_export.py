@@ -41,10 +41,13 @@ FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 SIMPLEFOC_VERSIONS = ("1.0.8", "1.0.9", "uint16")
 from ..errors import InputError
 from ._common import check_paths, print_json
+from ._serial import add_serial_options, model_input, model_or_serial
 
 
 def add_arguments(parser):
-    parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")
+    parser.add_argument("model", metavar="MODEL.json", nargs="?",
+                        help="model file written by 'encal fit' (or --serial)")
+    add_serial_options(parser)  # issue 32: the unit's latest model in the calibration store
     parser.add_argument("--format", required=True, choices=("c", "table", *FIRMWARE),
                         help="what to write")
     parser.add_argument("-o", "--output", required=True, metavar="PATH",
@@ -241,9 +244,9 @@ def _export(args):
     _check_combinations(args)
     output = Path(args.output)
     c_files = [f"{args.name}.h", f"{args.name}.c"] if args.format == "c" else []
-    check_paths(inputs=[(args.model, "model"), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
+    check_paths(inputs=[model_input(args), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
                 folders=[("-o", output, c_files)] if c_files else [])
-    compensator = Compensator(args.model)
+    compensator = Compensator(model_or_serial(args, args.export_parser))
     recorded = compensator.encoder.get("resolution_bits")
     if args.bits is not None and recorded is not None and args.bits != recorded:
         args.bits_mismatch = (f"--bits {args.bits} differs from the {recorded} bits {args.model} records for its "

@@ -18,7 +18,7 @@ PostgreSQL URL (pip install 'encal[postgres]'). docs/production.md describes the
 
 import sys
 
-from ._common import activity, check_paths, warnings_as_lines
+from ._common import activity, add_calibration_options, check_paths, warnings_as_lines
 
 
 def add_arguments(parser):
@@ -41,6 +41,7 @@ def add_arguments(parser):
                           "first group, or the whole match); default the whole stem")
     fit.add_argument("--jobs", type=_jobs, metavar="N",
                      help="worker processes (default: the machine's cores; 0 fits in this process)")
+    add_calibration_options(fit)
     fit.set_defaults(fleet_parser=fit)
     report = commands.add_parser("report", help="one HTML page on the fleet in the store",
                                  description="The fleet's mean profile and spread per harmonic order, the units "
@@ -109,6 +110,13 @@ def _fit(args):
             re.compile(args.serial_pattern)
         except re.error as exc:
             args.fleet_parser.error(f"--serial-pattern {args.serial_pattern}: not a regular expression ({exc})")
+    if args.ref_col.strip().lower() == args.enc_col.strip().lower():
+        args.fleet_parser.error(f"--ref-col {args.ref_col} and --enc-col {args.enc_col} name the same column; "
+                                "expected the reference and the encoder in two different columns")
+    read_options = {"allow_gaps": args.allow_gaps, "reverse": args.reverse, "duplicates": args.duplicates,
+                    "reference_column": args.ref_col, "encoder_column": args.enc_col,
+                    "reference_unit": args.ref_unit or args.unit or "deg",
+                    "encoder_unit": args.enc_unit or args.unit or "deg"}
     paths = find_calibrations(args.sources)
     location = _store_location(args, paths)
     _check_store(location)
@@ -124,8 +132,8 @@ def _fit(args):
     with open_store(location) as store, warnings_as_lines("fleet fit"), activity("fleet fit") as progress:
         progress.stage(f"fitting {len(paths)} files", total=len(paths))
         result = fit_batch(paths, store, method=args.method, grades=grades, station=args.station,
-                           serial_pattern=args.serial_pattern, jobs=args.jobs, progress=progress.advance,
-                           on_refused=refused, on_warning=warned)
+                           serial_pattern=args.serial_pattern, jobs=args.jobs, read_options=read_options,
+                           progress=progress.advance, on_refused=refused, on_warning=warned)
         total = store.count()
     graded = ""
     if grades:

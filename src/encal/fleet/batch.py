@@ -112,18 +112,19 @@ def fit_unit(task):
     Parameters
     ----------
     task : tuple
-        ``(serial, [(path, sha256), ...], method, grades)``; ``grades`` as :func:`encal.store.parse_grades`.
+        ``(serial, [(path, sha256), ...], method, grades, read_options)``; ``grades`` as
+        :func:`encal.store.parse_grades`, ``read_options`` keywords of :func:`encal.calibration.read_calibration`.
 
     Returns
     -------
     list of (str, str, dict or str)
         Per file, ``(path, 'ok', fields of Store.add)`` or ``(path, 'refused', sentence)``.
     """
-    serial, files, method, grades = task
-    return [_fit_file(serial, path, sha256, method, grades) for path, sha256 in files]
+    serial, files, method, grades, read_options = task
+    return [_fit_file(serial, path, sha256, method, grades, read_options) for path, sha256 in files]
 
 
-def _fit_file(serial, path, sha256, method, grades):
+def _fit_file(serial, path, sha256, method, grades, read_options):
     from ..calibration import read_calibration
     from ..fitting import evaluate, fit
     from ..models.modelfile import dumps, model_to_dict
@@ -132,7 +133,7 @@ def _fit_file(serial, path, sha256, method, grades):
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            cal = read_calibration(path)
+            cal = read_calibration(path, **read_options)
             model = fit(cal, method=method)
             fitted = evaluate(model, cal, zero="auto")
             model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
@@ -162,7 +163,7 @@ def _fit_file(serial, path, sha256, method, grades):
 
 
 def fit_batch(paths, store, *, method="spectral", grades=(), station=None, serial_pattern=None, jobs=None,
-              progress=None, on_refused=None, on_warning=None):
+              read_options=None, progress=None, on_refused=None, on_warning=None):
     """Fit every calibration file into ``store``, in parallel; skip those already stored.
 
     Parameters
@@ -179,6 +180,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         Recorded in every record.
     serial_pattern : str, optional
         A regular expression that finds the serial number in a file's stem (see :func:`serial_of`).
+    read_options : dict, optional
+        Keywords of :func:`encal.calibration.read_calibration` (columns, units, duplicates, ...).
     jobs : int, optional
         Worker processes; default the machine's cores; 0 fits in this process.
     progress : callable, optional
@@ -211,7 +214,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             result.skipped.append(Path(path))
             continue
         units.setdefault(serial, []).append((str(path), sha256))
-    tasks = [(serial, files, method, list(grades)) for serial, files in units.items()]
+    tasks = [(serial, files, method, list(grades), dict(read_options or {})) for serial, files in units.items()]
     if jobs is None:
         jobs = os.cpu_count() or 1
     jobs = min(jobs, len(tasks))
