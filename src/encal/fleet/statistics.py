@@ -7,9 +7,12 @@ measured, which is meaningful on a station whose reference holds every unit the 
 amplitudes ``|c_k|`` do not depend on how a unit was mounted.
 
 A unit *stands out* when its robust score exceeds :data:`STANDS_OUT`: the modified z-score of
-Iglewicz and Hoaglin, ``(x - median) / (1.4826 MAD)``, of the RMS distance of its profile from the
-fleet's median profile (overall), or of its amplitude at one order (per order). Median and MAD are
-not dragged by the outliers they are to find, as a mean and standard deviation are.
+Iglewicz and Hoaglin, ``(x - median) / (1.4826 MAD)``, of ``d^(2/3)``, ``d`` the RMS distance of its
+profile from the fleet's median profile (overall), or of its amplitude at one order (per order).
+Median and MAD are not dragged by the outliers they are to find, as a mean and standard deviation
+are. A distance is skewed (a chi-like variable), and its own modified z flagged 1.3% of 25 Gaussian
+units; its 2/3 power (Wilson and Hilferty's transform of a chi-square) is near-normal and flags 0.3
+to 0.6% (200 simulated fleets of 25 units with 1, 3 and 10 dimensions of spread).
 """
 
 import math
@@ -94,7 +97,7 @@ class FleetStatistics:
     distance_arcmin : ndarray of shape (n,)
         RMS distance of each unit's profile from the median profile.
     overall_scores : ndarray of shape (n,)
-        Robust score of that distance.
+        Robust score of that distance's 2/3 power.
     """
 
     records: list
@@ -178,7 +181,7 @@ def fleet_statistics(records, *, orders=ORDERS, points=GRID_POINTS):
         amplitude_mad=np.median(np.abs(amplitudes - amplitude_median), axis=0),
         amplitude_mean=amplitudes.mean(axis=0), amplitude_std=amplitudes.std(axis=0, ddof=1),
         mean_amplitude=np.abs(coefficients.mean(axis=0)), order_scores=robust_scores(amplitudes, axis=0),
-        distance_arcmin=distance, overall_scores=robust_scores(distance))
+        distance_arcmin=distance, overall_scores=robust_scores(distance ** (2.0 / 3.0)))
 
 
 def drift_table(records, points=GRID_POINTS):
