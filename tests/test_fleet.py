@@ -171,3 +171,45 @@ def test_serial_usage_errors(argv, capsys, tmp_path, monkeypatch):
     with pytest.raises(SystemExit) as stopped:
         main(argv)
     assert stopped.value.code == 2
+
+
+@pytest.mark.slow
+def test_an_interrupted_batch_resumes_and_stores_every_unit_once(tmp_path):
+    """SIGTERM in the middle of a batch: what was finished is stored; a second run fits the rest, each unit once."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    folder = tmp_path / "lot"
+    folder.mkdir()
+    for member in simulate_fleet(40, seed=9):
+        write_calibration(folder / f"SN{member.name[3:]:>04}.csv", member.train.calibration)
+    store = folder / "encal-store.sqlite"
+    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    command = [sys.executable, "-m", "encal", "fleet", "fit", str(folder), "--jobs", "1"]
+    process = subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    stored = 0
+    while time.monotonic() < deadline and process.poll() is None:
+        time.sleep(0.2)
+        if store.exists():
+            with open_store(store) as opened:
+                stored = opened.count()
+            if stored:
+                break
+    process.send_signal(signal.SIGTERM)
+    process.communicate(timeout=60)
+    if process.returncode == 0:
+        pytest.skip("the batch finished before it could be interrupted (a very fast machine)")
+    assert process.returncode == 143
+    with open_store(store) as opened:
+        first = opened.count()
+    assert 0 < first < 40
+    again = subprocess.run(command, env=environment, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert f"{40 - first} of 40 files fitted" in again.stdout and f"{first} already stored, skipped" in again.stdout
+    with open_store(store) as opened:
+        assert opened.count() == 40 and {r.epoch for r in opened.records()} == {1}
