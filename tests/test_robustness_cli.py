@@ -1010,6 +1010,29 @@ ISSUE25_CASES = [
 ]
 CASES += ISSUE25_CASES
 
+# ---------------------------------------------------------------- issue 32: the production line (fleet, --serial)
+ISSUE32_CASES = [
+    Case("fleet-fit-bad-file-skipped", ("fleet", "fit", "{text_cell}", "{train}", "--store", "{scratch}/fleet.sqlite",
+                                        "--jobs", "0"), 1, ("refused", "text_cell.csv", "line")),
+    Case("fleet-fit-missing", ("fleet", "fit", "{missing}", "--store", "{out}/fleet.sqlite"), 1,
+         ("no such file or folder",)),
+    Case("fleet-fit-bad-grades", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite", "--grades", "A=fast"),
+         1, ("--grades", "NAME=LIMIT")),
+    Case("fleet-fit-store-is-a-model", ("fleet", "fit", "{train}", "--store", "{model}"), 1,
+         ("cannot be used as a store",)),
+    Case("fleet-fit-bad-jobs", ("fleet", "fit", "{train}", "--jobs", "-1"), 2),
+    Case("fleet-no-subcommand", ("fleet",), 2),
+    Case("fleet-report-missing-store", ("fleet", "report", "--store", "{missing}", "-o", "{out}/f.html"), 1,
+         ("no such file",)),
+    Case("fleet-report-no-output", ("fleet", "report", "--store", "{missing}"), 2),
+    Case("correct-serial-without-store", ("correct", "--serial", "SN1"), 2),
+    Case("export-serial-missing-store", ("export", "--serial", "SN1", "--store", "{missing}", "--format", "table",
+                                         "-o", "{out}/t.bin"), 1, ("no such file",)),
+    Case("export-model-and-serial", ("export", "{model}", "--serial", "SN1", "--store", "{missing}", "--format",
+                                     "table", "-o", "{out}/t.bin"), 2),
+]
+CASES += ISSUE32_CASES
+
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
 _DRIVER = r'''

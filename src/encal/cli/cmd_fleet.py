@@ -123,13 +123,13 @@ def _fit(args):
 
     def refused(path, sentence):
         clear_line()
-        print(f"encal fleet fit: refused {path}: {sentence}", file=sys.stderr)
+        print(f"encal fleet: error: refused {path}: {sentence}", file=sys.stderr)
 
     def warned(path, message):
         clear_line()
-        print(f"encal fleet fit: warning: {path}: {message}", file=sys.stderr)
+        print(f"encal fleet: warning: {path}: {message}", file=sys.stderr)
 
-    with open_store(location) as store, warnings_as_lines("fleet fit"), activity("fleet fit") as progress:
+    with open_store(location) as store, warnings_as_lines("fleet"), activity("fleet fit") as progress:
         progress.stage(f"fitting {len(paths)} files", total=len(paths))
         result = fit_batch(paths, store, method=args.method, grades=grades, station=args.station,
                            serial_pattern=args.serial_pattern, jobs=args.jobs, read_options=read_options,
@@ -144,12 +144,8 @@ def _fit(args):
                                          [name for name, _ in grades] + ["out"])
     print(f"encal fleet fit: {len(result.fitted)} of {len(paths)} files fitted into {store.location} "
           f"({total} records in all){graded}; {len(result.skipped)} already stored, skipped; "
-          f"{len(result.refused)} refused")
-    if result.refused:
-        print(f"encal fleet fit: {len(result.refused)} of {len(paths)} files refused (each said above); the others "
-              "are stored", file=sys.stderr)
-        return 1
-    return 0
+          f"{len(result.refused)} refused" + (" (each said on stderr)" if result.refused else ""))
+    return 1 if result.refused else 0  # each refusal is one line on stderr, said as it came
 
 
 def _report(args):
