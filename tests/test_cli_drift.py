@@ -118,3 +118,26 @@ def test_a_bad_tolerance_is_a_usage_error(capsys, files):
         main(["drift", str(files["first"]), str(files["repeat"]), "--tolerance", "small"])
     assert info.value.code == 2
     assert "expected a number of arc-minutes" in capsys.readouterr().err
+
+
+def test_drift_judges_the_model_encal_fit_makes_by_default(tmp_path, capsys):
+    """Issue 28: without --model, drift fitted the paper's Fourier series, not the model encal fit makes."""
+    import numpy as np
+
+    import encal
+    from encal.cli import main
+
+    reference = np.arange(0.0, 360.0, 2.0)
+    rng = np.random.default_rng(3)
+    paths = []
+    for k in range(2):
+        error = 2.0 * np.sin(np.radians(reference)) + 0.5 * np.cos(np.radians(7 * reference)) + rng.normal(0, 0.05, 180)
+        path = tmp_path / f"cal{k}.csv"
+        encal.write_calibration(path, encal.Calibration(reference, reference + error / 60.0))
+        paths.append(str(path))
+    assert main(["drift", *paths, "--json", "--seed", "0"]) == 0
+    import json
+
+    result = json.loads(capsys.readouterr().out)
+    assert result["method"] == "auto" and result["model_kind"] == encal.fit(encal.read_calibration(paths[0]),
+                                                                                rng=0).kind

@@ -103,4 +103,4 @@ def test_before_and_after_share_the_axes_of_one_panel_per_encoder(result):
         labels = [line.get_label() for line in ax.get_lines()]
         assert any(label.startswith("before (RMS") for label in labels)
         assert any(label.startswith("after (RMS") for label in labels)
-        assert f"(RMS {encoder.saved.stats.rms:.3g})" in " ".join(labels)
+        assert f"(RMS {encoder.saved.stats.rms:.3g} arcmin)" in " ".join(labels)

@@ -170,6 +170,7 @@ def _make_files(folder):
     _make_moteus_files(folder, paths, document)
     _make_issue25_files(folder, paths, document)
     _make_files_and_paths_files(folder, paths, good)
+    _make_plausibility_files(folder, paths)
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -999,7 +1000,9 @@ ISSUE25_CASES = [
     Case("correct-cr-only-over-64-KiB-accepted", ("correct", "{constant_model}"), 0, stdin="10\r" * 30000,
          answers=30000),
     # 5. a spreadsheet's exports: semicolons, tabs, decimal commas, quoted names, BOM and CRLF
-    *(Case(f"{command}-{key.replace('_', '-')}-accepted", (command, *before, f"{{{key}}}", *after), 0, prints=prints)
+    *(Case(f"{command}-{key.replace('_', '-')}-accepted", (command, *before, f"{{{key}}}", *after), 0, prints=prints,
+           # "decimal_comma" has no error at all: the catalogue's model, applied to it, is said to make it worse
+           warns=("can do more harm than none",) if (command, key) == ("evaluate", "decimal_comma") else ())
       for key in ("eu_semicolon", "eu_tab_quoted", "eu_tab", "semicolon", "decimal_comma")
       for command, before, after, prints in (("profile", (), (), ("180 points",)),
                                              ("fit", (), ("-o", f"{{scratch}}/{key}.json", "--method", "lut"),
@@ -1032,6 +1035,75 @@ ISSUE32_CASES = [
                                      "table", "-o", "{out}/t.bin"), 2),
 ]
 CASES += ISSUE32_CASES
+
+# ---------------------------------------------------------------- issue 25: plausibility
+
+def _make_plausibility_files(folder, paths):
+    """The inputs of the plausibility cases (issue 25): wrong units, another encoder, sweeps, a long spin."""
+    from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_spin
+    from encal.selfcal.spin import SpinLog
+    from encal.selfcal.spin_log import write_spin_log
+
+    encoder = GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0
+    theta = np.radians(GRID_TRAIN)
+    rng = np.random.default_rng(25)
+    sweep = np.linspace(0.0, 3 * 360.0, 30_000, endpoint=False) + 0.3  # 3 turns, a 12-bit reference repeats codes
+    turns = np.arange(0.0, 720.0, 0.5)  # two turns, noise-free
+    texts = {
+        "u16": _csv_text(GRID_TRAIN, np.round(encoder / 360.0 * 2**16) % 2**16),
+        "counts14": _csv_text(GRID_TRAIN, np.round(encoder / 360.0 * 2**14) % 2**14),
+        "enc_radians": _csv_text(GRID_TRAIN, np.radians(encoder)),
+        "other_encoder": _csv_text(GRID_TRAIN, GRID_TRAIN + (3 * np.sin(2 * theta + 1) + 8 * np.cos(theta + 2)) / 60),
+        "moved": _csv_text(GRID_TRAIN - 79.2, encoder),  # the reference's zero moved by 79.2 deg
+        "quantised_sweep": _csv_text(np.round(sweep / (360.0 / 2**12)) * (360.0 / 2**12),
+                                     sweep + (_profile_arcmin(sweep) + rng.normal(0.0, 0.05, sweep.size)) / 60.0),
+        "two_turns": _csv_text(turns, turns + _profile_arcmin(turns) / 60.0),
+    }
+    for key, text in texts.items():
+        paths[key] = folder / f"{key}.csv"
+        paths[key].write_text(text, encoding="utf-8", newline="")
+    paths["moved_model"] = encal.fit(encal.read_calibration(paths["moved"]), method="fourier").save(
+        folder / "moved_model.json", reproducible=True)
+    motor, magnet = make_motor(7, 12, 5), draw_magnetic_encoder(11)
+    runs = [simulate_spin(motor, magnet, speed, revolutions=48, sample_rate_hz=600.0, rng=seed)
+            for speed, seed in ((4.0, 1), (8.0, 2))]
+    paths["long_spin"] = folder / "long_spin.csv"
+    write_spin_log(paths["long_spin"], [SpinLog(run.time_s, run.encoder_deg) for run in runs])
+
+
+_WORSE = ("the correction makes the errors larger", "arcmin without it")
+
+PLAUSIBILITY_CASES = [
+    # a repeat that is the calibration itself carries no noise; an identical copy is ignored with a warning
+    Case("fit-repeat-is-itself", ("fit", "{train}", "--repeat", "{train}", "-o", "{out}/m.json", "--method",
+                                  "spectral"), 1, ("is the same file as", "a second pass")),
+    Case("fit-repeat-identical-copy", ("fit", "{train}", "--repeat", "{input_copy}", "-o", "{scratch}/copy.json",
+                                       "--method", "spectral"), 0, warns=("identical", "ignored")),
+    # an encoder that does not turn once per reference turn: the unit that fits is named
+    Case("profile-counts-of-other-bits", ("profile", "{u16}", "--enc-unit", "counts:14"), 1,
+         ("u16.csv", "does not turn once per turn", "--enc-unit counts:16")),
+    Case("fit-counts-as-degrees", ("fit", "{counts14}", "-o", "{out}/m.json", "--method", "fourier"), 1,
+         ("counts14.csv", "--enc-unit counts:14")),
+    Case("profile-encoder-in-radians", ("profile", "{enc_radians}"), 1, ("--enc-unit rad",),
+         warns=("radians", "--unit rad")),
+    # a correction worse than none: said on stderr and in the verdict; the status stays 0 (a valid measurement)
+    Case("evaluate-model-of-another-encoder", ("evaluate", "{model}", "{other_encoder}"), 0, warns=_WORSE,
+         prints=("verdict: the correction makes the errors larger",)),
+    Case("drift-another-encoder", ("drift", "{train}", "{other_encoder}"), 0, warns=_WORSE,
+         prints=("verdict: the correction makes the errors larger on other_encoder.csv",)),
+    Case("report-another-encoder", ("report", "{train}", "{other_encoder}", "-o", "{scratch}/other.html", "--method",
+                                    "fourier", "--no-uncertainty", "--no-comparison"), 0, warns=_WORSE),
+    # the zero offset a correction leaves is explained
+    Case("evaluate-zero-moved-explained", ("evaluate", "{moved_model}", "{train}"), 0,
+         prints=("zero offset after the correction -4752.00 arcmin", "not an error of the correction")),
+    # a sweep over several turns is read as one, and a noise-free one raises no misread warning
+    Case("profile-quantised-sweep-accepted", ("profile", "{quantised_sweep}"), 0, prints=("30000 points",)),
+    Case("profile-noise-free-two-turns", ("profile", "{two_turns}"), 0, prints=("1440 points",)),
+    # a spin log of 48 revolutions per speed
+    Case("selfcal-spin-48-revolutions", ("selfcal", "spin", "{long_spin}", "--pole-pairs", "7", "-o",
+                                         "{scratch}/spin.csv"), 0),
+]
+CASES += PLAUSIBILITY_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

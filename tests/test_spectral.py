@@ -669,3 +669,17 @@ def test_cli_networks_option_cross_validates_them_and_applies_to_auto_only(tmp_p
         main(["fit", str(path), "-o", str(tmp_path / "s.json"), "--method", "spectral", "--networks"])
     assert info.value.code == 2
     assert "--networks applies to --method auto, not spectral" in capsys.readouterr().err
+
+
+def test_the_noise_line_says_which_noise_a_new_reading_gets_when_the_split_is_below_the_flat_level():
+    """Issue 28: a held-out estimate printed below the stated noise (the flat level), with nothing said."""
+    rng = np.random.default_rng(0)
+    theta = np.arange(0.0, 360.0, 2.0)
+    rough = sum(0.05 * np.cos(np.radians(k * theta) + rng.uniform(0.0, 2 * np.pi)) for k in range(1, 91))
+    model = fit_spectral(theta, rough + 2.0 * np.sin(np.radians(theta)) + rng.normal(0.0, 0.05, theta.size))
+    sigma = model.training["noise"]["std_arcmin"]
+    new_reading = model.training["noise"]["split"]["mean_noise_std_arcmin"]
+    assert new_reading < sigma
+    line = next(line for line in model.report().splitlines() if line.startswith("noise:"))
+    assert f"a new reading's noise is taken as {new_reading:.4g} arcmin" in line
+    assert model.expected_rms_between_points() >= new_reading

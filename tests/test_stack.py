@@ -294,8 +294,9 @@ def test_cli_exports_a_stack_file_as_c_and_as_a_table(tmp_path, capsys, lut_ann)
     assert "kind stack" in (tmp_path / "fw" / "encal.c").read_text()
     assert main(["export", str(path), "--format", "c", "--table", "-o", str(tmp_path / "tab")]) == 0
     assert "error_table[65536]" in (tmp_path / "tab" / "encal.c").read_text()
-    assert main(["export", str(path), "--format", "table", "--bits", "12", "-o", str(tmp_path / "t.tab")]) == 0
     assert capsys.readouterr().err == ""
+    assert main(["export", str(path), "--format", "table", "--bits", "12", "-o", str(tmp_path / "t.tab")]) == 0
+    assert capsys.readouterr().err.startswith("encal export: warning: --bits 12 differs from the 16 bits")
 
 
 # -- fitting ----------------------------------------------------------------------------------

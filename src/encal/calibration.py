@@ -13,8 +13,8 @@ from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap
 from .errors import CalibrationError, EncalWarning
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
 
-__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "is_multi_revolution",
-           "is_repeated_stops"]
+__all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "check_turns",
+           "is_multi_revolution", "is_repeated_stops"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,6 +144,9 @@ _READ_CHUNK = 1 << 20
 #: Lines the careful (line-by-line) reader reads between two calls of ``progress``.
 _PROGRESS_LINES = 50_000
 _LINE_END_BYTES = re.compile(rb"\r\n|\r|\n")
+#: Mean travel of the reference, in degrees, over which :func:`is_multi_revolution` takes each step of a
+#: dense log: far above a reference's quantisation and jitter, far below a turn.
+SWEEP_STEP_DEG = 1.0
 #: What :func:`read_calibration` may do with conflicting repeated reference angles.
 DUPLICATES = ("refuse", "average", "keep")
 
@@ -441,6 +444,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         raise CalibrationError(f"{path}: has {len(reference)} calibration points, expected at least "
                                f"{MIN_POINTS} to model an error profile")
     in_degrees = {ref_name: np.asarray(reference), enc_name: np.asarray(encoder)}
+    as_read = in_degrees[ref_name], in_degrees[enc_name]
     _warn_if_radians(path, {key: values for (key, values), unit in zip(in_degrees.items(), units)
                             if unit.name == "deg"})
     reference, encoder = units[0].to_degrees(reference), units[1].to_degrees(encoder)
@@ -458,10 +462,13 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
     )
     rows = cal
-    if duplicates == "refuse" and is_multi_revolution(reference):
-        duplicates = "keep"  # a continuous log over several turns: its repeats are repeated readings
-    # k readings at every stop of a run: repeated readings; a stray repeat in another run is still refused
-    repeated = _repeat_pattern(cal.reference_deg, _runs(cal))[0] if duplicates == "refuse" else None
+    check_turns(*as_read, units, reverse=reverse, runs=_runs(cal), where=str(path))
+    repeated = None
+    if duplicates == "refuse":
+        # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
+        # readings; a stray repeat in another run is still refused
+        runs = _runs(cal)
+        repeated = _repeat_pattern(cal.reference_deg, runs)[0] | _multi_revolution_runs(reference, runs)
     cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
     _check_direction_of_count(path, cal, reverse)
     check_folds(cal, where=str(path))
@@ -547,7 +554,8 @@ def _warn_if_radians(path, columns):
         values = np.concatenate([columns[name] for name in suspects])
         warnings.warn(
             f"{path}: {' and '.join(suspects)} all lie between {values.min():.4g} and {values.max():.4g}, as "
-            "radians over a full revolution would; expected degrees (radians times 57.29578)",
+            "radians over a full revolution would; expected degrees (radians times 57.29578; if they are radians, "
+            "say so with --unit rad, or --ref-unit rad or --enc-unit rad for one column)",
             EncalWarning, stacklevel=3)
 
 
@@ -638,7 +646,10 @@ def is_multi_revolution(reference_deg):
 
     True when the reference moves one way (at least 95 % of the steps in one direction, wrapping at
     360° or counting past it) over at least one and a half turns: its repeated angles are then
-    repeated readings of the same stops, not conflicting rows.
+    repeated readings of the same stops, not conflicting rows. The steps are taken over about
+    :data:`SWEEP_STEP_DEG` of the travel each, and steps of zero are left out: a quantised reference
+    (a 17-bit encoder) read faster than it changes code repeats a code, or jitters back by one, from
+    one row to the next, and such a sweep is still one way.
 
     Examples
     --------
@@ -651,9 +662,26 @@ def is_multi_revolution(reference_deg):
     if raw.size < 16:
         return False
     turned = np.degrees(np.unwrap(np.radians(raw)))
-    steps = np.diff(turned)
-    one_way = max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95
-    return bool(one_way and abs(turned[-1] - turned[0]) >= 540.0)
+    travel = abs(turned[-1] - turned[0])
+    if travel < 540.0:
+        return False
+    stride = max(1, int(SWEEP_STEP_DEG / (travel / (raw.size - 1))))
+    steps = np.diff(turned[::stride])
+    steps = steps[steps != 0.0]
+    return bool(steps.size >= 8 and max(np.mean(steps > 0), np.mean(steps < 0)) >= 0.95)
+
+
+def _multi_revolution_runs(reference_deg, runs=None):
+    """A mask over the points: those of runs (``runs``: a label per point, one run by default) whose reference
+    angles, in file order, are a log of several revolutions (:func:`is_multi_revolution`)."""
+    reference = np.asarray(reference_deg, dtype=float).reshape(-1)
+    if runs is None:
+        return np.full(reference.size, is_multi_revolution(reference))
+    mask = np.zeros(reference.size, dtype=bool)
+    for run in np.unique(runs):
+        members = runs == run
+        mask[members] = is_multi_revolution(reference[members])
+    return mask
 
 
 def is_repeated_stops(reference_deg, runs=None):
@@ -770,6 +798,115 @@ def _check_duplicates(path, cal, duplicates, repeated=None):
                        reading_sign=cal.reading_sign)
 
 
+#: Smallest coherence ``|mean exp(i (θ_enc − θ_ref))|`` (per run) of a calibration whose encoder turns once per
+#: reference turn. An error profile that does not fold the encoder back has a slope above -1, so its first
+#: harmonic is under 57 deg (coherence at least J0(1 rad) = 0.77) and a misplaced magnet's 20 deg leaves 0.97; an
+#: encoder read in another unit, or with other bits, winds round the circle against the reference and has ~0.
+MIN_TURN_COHERENCE = 0.3
+#: Coherence a reading in another unit must reach to be named as the likely one.
+LIKELY_UNIT_COHERENCE = 0.9
+#: Points used to try the other units (evenly spaced in the file).
+_TURN_SAMPLE = 20_000
+_UNIT_NAMES = {"deg": "degrees", "rad": "radians", "rev": "revolutions"}
+
+
+def _turn_coherence(reference_deg, encoder_deg, runs):
+    """``|mean exp(i (encoder - reference))|`` per run (a zero offset of its own each), weighted by size."""
+    phasor = np.exp(1j * np.radians(encoder_deg - reference_deg))
+    if runs is None:
+        return float(abs(phasor.mean()))
+    group = np.unique(runs, return_inverse=True)[1].reshape(-1)
+    sums = np.bincount(group, weights=phasor.real) + 1j * np.bincount(group, weights=phasor.imag)
+    return float(np.sum(np.abs(sums)) / phasor.size)
+
+
+def _unit_text(unit):
+    return _UNIT_NAMES.get(unit.name) or f"counts of a {unit.bits}-bit encoder"
+
+
+def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs=None, where="calibration"):
+    """Refuse a calibration whose encoder does not turn once per turn of the reference.
+
+    Read in the wrong unit (16-bit counts as ``counts:14``, counts or radians as degrees) the encoder runs a
+    multiple of the reference's speed, and its "error" winds round the circle: a profile of thousands of arc-minutes
+    that a model fits as well as it can, with exit status 0. The test is the coherence of ``encoder - reference``
+    within each run (:data:`MIN_TURN_COHERENCE`); when it fails, the other units of either column (deg, rad, rev,
+    counts:1..32) are tried and the one that makes the encoder follow the reference is named with its option.
+    An encoder that counts against the reference is left to the check that names ``--reverse``.
+
+    Parameters
+    ----------
+    reference, encoder : array-like of shape (n,)
+        The columns as read, in their units.
+    units : (str or AngleUnit, str or AngleUnit), default=('deg', 'deg')
+        Units of the reference and the encoder column.
+    reverse : bool, default=False
+        The encoder counts against the reference (its readings are negated).
+    runs : array-like of shape (n,), optional
+        A label per point of its run (direction, epoch): each run has a zero offset of its own.
+    where : str
+        Name of the data, for the message.
+
+    Raises
+    ------
+    CalibrationError
+        Naming the units read, the coherence and, when one fits, the option of the right unit.
+    """
+    reference = np.asarray(reference, dtype=float).reshape(-1)
+    encoder = np.asarray(encoder, dtype=float).reshape(-1)
+    units = tuple(angle_unit(unit) for unit in units)
+    sign = -1.0 if reverse else 1.0
+
+    def coherence(ref_unit, enc_unit, factor=sign, pick=slice(None)):
+        return _turn_coherence(reference[pick] * ref_unit.degrees_per_unit,
+                               factor * encoder[pick] * enc_unit.degrees_per_unit,
+                               None if runs is None else np.asarray(runs)[pick])
+
+    found = coherence(*units)
+    if found >= MIN_TURN_COHERENCE or coherence(*units, factor=-sign) >= MIN_TURN_COHERENCE:
+        return
+    pick = slice(None, None, max(1, reference.size // _TURN_SAMPLE))
+    others = [angle_unit(name) for name in ("deg", "rad", "rev")] + [angle_unit(f"counts:{b}")
+                                                                      for b in range(1, MAX_BITS + 1)]
+    candidates = [(units[0], unit) for unit in others if unit != units[1]]
+    candidates += [(unit, units[1]) for unit in others if unit != units[0]]
+    candidates += [(unit, unit) for unit in others if unit not in units]
+    candidates += [(others[0], unit) for unit in others if others[0] != units[0] and unit != units[1]]
+    # a reading that squeezes the reference into a few degrees makes any encoder "follow" it: only readings whose
+    # reference goes round the circle are tried
+    candidates = [(ref_unit, enc_unit) for ref_unit, enc_unit in candidates
+                  if abs(np.mean(np.exp(1j * np.radians(reference[pick] * ref_unit.degrees_per_unit)))) < 0.5]
+    # the most coherent reading wins (a grid of whole degrees read in revolutions can come close by aliasing);
+    # of equals, the first: the encoder's unit, then the reference's, then both
+    tried = [(coherence(ref_unit, enc_unit, factor, pick), -number, (ref_unit, enc_unit, flip))
+             for number, (ref_unit, enc_unit) in enumerate(candidates)
+             for factor, flip in ((sign, ""), (-sign, " --reverse" if not reverse else ""))]
+    best = max(tried, key=lambda item: (round(item[0], 3), item[1]), default=(0.0, 0, None))
+    hint = best[2] if best[0] >= LIKELY_UNIT_COHERENCE else None
+    read = (f"read as {_unit_text(units[1])} against a reference in {_unit_text(units[0])}")
+    if hint is None:
+        advice = ("no other unit of either column makes it follow the reference (is the encoder geared to it, or "
+                  "are these other columns? name them with --ref-col and --enc-col)")
+    else:
+        ref_unit, enc_unit, flip = hint
+        ratio = units[1].degrees_per_unit / enc_unit.degrees_per_unit * ref_unit.degrees_per_unit \
+            / units[0].degrees_per_unit
+        if ref_unit == units[0]:
+            option, change = f"--enc-unit {enc_unit}", f"the encoder read as {_unit_text(enc_unit)}"
+        elif enc_unit == units[1]:
+            option, change = f"--ref-unit {ref_unit}", f"the reference read as {_unit_text(ref_unit)}"
+        elif ref_unit == enc_unit:
+            option, change = f"--unit {enc_unit}", f"both columns read as {_unit_text(enc_unit)}"
+        else:
+            option = f"--ref-unit {ref_unit} --enc-unit {enc_unit}"
+            change = f"the reference read as {_unit_text(ref_unit)} and the encoder as {_unit_text(enc_unit)}"
+        advice = (f"its angle runs {ratio:.4g} times as fast as the reference's; with {change}, the encoder "
+                  f"follows the reference (use {option}{flip})")
+    raise CalibrationError(
+        f"{where}: the encoder does not turn once per turn of the reference: {read}, encoder minus reference winds "
+        f"round the circle (coherence {found:.2f}, expected over {MIN_TURN_COHERENCE:g}); {advice}")
+
+
 def _check_direction_of_count(path, cal, reverse):
     """Refuse an encoder whose angle decreases while the reference increases."""
     order = np.argsort(cal.reference_deg, kind="stable")
@@ -829,7 +966,8 @@ def check_folds(cal, where="calibration"):
                 f"{enc[last]:.4g} deg at reference {ref[last]:.4g} deg, {drop[last]:.3g} deg back although the "
                 f"reference went forward; expected the encoder angle to increase with the reference (within "
                 f"{MAX_FOLD_DEG:g} deg of noise), since otherwise the error is not a function of the encoder "
-                "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch)")
+                "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch; or a column "
+                "in another unit: --ref-unit, --enc-unit)")
 
 
 def _check_coverage(path, cal, allow_gaps):

@@ -31,7 +31,7 @@ from .calibration import MAX_BITS, Calibration
 from .errors import InputError
 from .models.base import Model
 from .parameters import check_choice, check_int, check_number, check_type, invalid
-from .profile import error_stats, zero_offset_arcmin
+from .profile import correction_is_worse, error_stats, worse_sentence, zero_offset_arcmin
 
 __all__ = [
     "OFFSET_MODES",
@@ -78,6 +78,8 @@ class EpochDrift:
         RMS residual of the model on this calibration (about the mean with ``offset='remove'``), arcmin.
     increase_arcmin : float
         ``residual_rms_arcmin`` minus the model's residual on the first calibration.
+    uncorrected_rms_arcmin : float or None
+        RMS error of this calibration without the correction (about the mean with ``offset='remove'``), arcmin.
     holds : bool
         Whether ``increase_arcmin <= tolerance``.
     """
@@ -91,6 +93,19 @@ class EpochDrift:
     residual_rms_arcmin: float
     increase_arcmin: float
     holds: bool
+    uncorrected_rms_arcmin: float | None = None
+
+    @property
+    def correction_worse(self):
+        """Whether the model's correction leaves a larger RMS error here than no correction."""
+        return self.uncorrected_rms_arcmin is not None and correction_is_worse(self.uncorrected_rms_arcmin,
+                                                                               self.residual_rms_arcmin)
+
+    def worse_sentence(self):
+        """The sentence saying that the correction makes this calibration's errors larger, or None."""
+        if self.uncorrected_rms_arcmin is None:
+            return None
+        return worse_sentence(self.uncorrected_rms_arcmin, self.residual_rms_arcmin, f" on {self.label}")
 
     @property
     def difference(self):
@@ -114,6 +129,10 @@ class EpochDrift:
             "residual_rms_arcmin": float(self.residual_rms_arcmin),
             "increase_arcmin": float(self.increase_arcmin),
             "holds": bool(self.holds),
+            "uncorrected_rms_arcmin": (None if self.uncorrected_rms_arcmin is None
+                                       else float(self.uncorrected_rms_arcmin)),
+            "correction_worse": bool(self.correction_worse),
+            "correction_note": self.worse_sentence(),
         }
 
 
@@ -288,6 +307,14 @@ def match_profile(angle_deg, value, at_deg, tolerance_deg=MATCH_TOLERANCE_DEG):
     return result, matched
 
 
+def _uncorrected_rms(cal, offset):
+    """RMS error of a calibration without correction (about its mean with ``offset='remove'``), arcmin."""
+    error = cal.errors_arcmin
+    if offset == "remove":
+        error = error - error.mean()
+    return float(np.sqrt(np.mean(np.square(error))))
+
+
 def _residual_rms(model, cal, offset):
     residual = wrap180((cal.errors_arcmin - model.predict(cal.readings_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
     if offset == "remove":
@@ -452,6 +479,7 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
             residual_rms_arcmin=residual,
             increase_arcmin=increase,
             holds=bool(increase <= tolerance),
+            uncorrected_rms_arcmin=_uncorrected_rms(cal, offset),
         ))
     return DriftReport(
         baseline_label=names[0], epochs=tuple(epochs), offset=offset, model_kind=model.kind, method=method,

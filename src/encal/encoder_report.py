@@ -30,8 +30,8 @@ from .angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings
 from .calibration import Calibration
 from .errors import InputError
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
-from .profile import (ZERO_MODES, error_stats, harmonics, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
-                      zero_sentence)
+from .profile import (ARBITRARY_ZERO_ARCMIN, ZERO_MODES, error_stats, harmonics, remove_offset, zero_is_arbitrary,
+                      zero_offset_arcmin, zero_sentence)
 from ._threads import single_blas_thread
 
 __all__ = ["EncoderReport", "encoder_report", "render_encoder_figures", "build_encoder_html",
@@ -198,7 +198,12 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     offset = zero_offset_arcmin(cal.errors_arcmin)
     arbitrary = zero_is_arbitrary(zero, offset, *(zero_offset_arcmin(t.errors_arcmin) for t in tests))
     mode = "arbitrary" if arbitrary else "fixed"
-    notes = [zero_sentence(zero, offset, arbitrary)]
+    largest = max([offset, *(zero_offset_arcmin(t.errors_arcmin) for t in tests)], key=abs)
+    if arbitrary and abs(offset) <= ARBITRARY_ZERO_ARCMIN < abs(largest):  # arbitrary for a test's offset
+        notes = [zero_sentence(zero, largest, arbitrary).replace("zero offset", "largest zero offset (of a test "
+                                                                  "calibration)", 1)]
+    else:
+        notes = [zero_sentence(zero, offset, arbitrary)]
     bits = cal.resolution_bits if cal.resolution_bits is not None else resolution_of_readings(cal.encoder_deg)
     if cal.resolution_bits is None and bits is not None:
         notes.append(f"Every reading lies on a grid of 360/2^{bits} deg: a {bits}-bit encoder "
@@ -498,6 +503,16 @@ def _stats_table(columns, caption):
     return _html.table(["arcmin", *columns], [[label, *cells] for label, cells in rows_by_label.items()], caption)
 
 
+def correction_warnings(report):
+    """The sentences saying where the model's correction makes the errors larger than none (held-out calibrations,
+    later epochs), each naming the calibration; empty when it nowhere does."""
+    found = [f"on {label}, {evaluation.verdict()}" for label, evaluation in report.held_out
+             if evaluation.correction_worse]
+    found += [epoch.worse_sentence() for epoch in (report.drift.epochs if report.drift is not None else ())
+              if epoch.correction_worse and epoch.label not in {label for label, _ in report.held_out}]
+    return found
+
+
 def _summary(report):
     stats, cal = report.stats, report.calibration
     lines = []
@@ -512,6 +527,7 @@ def _summary(report):
         lines.append(f"On {label}, which the model never saw: RMS {evaluation.before.rms:.3g} arcmin before, "
                      f"{evaluation.after.rms:.3g} after compensation (max |error| {evaluation.before.max_abs:.3g} -> "
                      f"{evaluation.after.max_abs:.3g}).")
+    lines += [f"Warning: {sentence}." for sentence in correction_warnings(report)]
     if not report.held_out:
         lines.append(f"On its own calibration points the model leaves RMS {report.fitted.after.rms:.3g} arcmin; "
                      "give a test calibration (encal report CAL.csv TEST.csv) for a figure on unseen points.")

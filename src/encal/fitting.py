@@ -21,12 +21,13 @@ from .bidirectional import (
     require_directions,
     reversal,
 )
-from .calibration import Calibration, check_folds
+from .calibration import Calibration, check_folds, check_turns
+from .calibration import _runs as calibration_runs
 from .errors import CalibrationError, InputError
 from .models import Model, kind_names, model_kind
 from .parameters import check_bool, check_choice, check_seed, check_type
-from .profile import (ZERO_MODES, ErrorStats, error_stats, remove_offset, zero_is_arbitrary, zero_offset_arcmin,
-                      zero_sentence)
+from .profile import (ARBITRARY_ZERO_ARCMIN, ZERO_MODES, ErrorStats, correction_is_worse, error_stats, remove_offset,
+                      worse_sentence, zero_is_arbitrary, zero_offset_arcmin, zero_sentence)
 from .uncertainty import add_uncertainty, has_posterior, refit_spec, with_half_reversal
 from ._threads import single_blas_thread
 
@@ -94,7 +95,8 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
         If the method or an option is invalid.
     CalibrationError
         If the encoder goes back while the reference goes forward, so that the error is not a function
-        of the encoder angle (see :func:`~encal.calibration.check_folds`).
+        of the encoder angle (see :func:`~encal.calibration.check_folds`), or does not turn once per turn
+        of the reference (angles in another unit, see :func:`~encal.calibration.check_turns`).
 
     Examples
     --------
@@ -135,7 +137,9 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     """:func:`fit` of a calibration with one profile (its readings all taken one way, or the way unknown)."""
     options = dict(options)
     fit_family = fitter(method)
-    check_folds(cal, where=cal.source or cal.name or "calibration")
+    where = cal.source or cal.name or "calibration"
+    check_turns(cal.reference_deg, cal.encoder_deg, runs=calibration_runs(cal), where=where)
+    check_folds(cal, where=where)
     # recorded for a refit; a progress callback is no option of the model (nor JSON)
     fit_options = {key: value for key, value in options.items() if key != "progress"}
     randomised = model_kind(method).randomised
@@ -311,12 +315,46 @@ class Evaluation:
         With an arbitrary zero both carry ``zero_offset_arcmin``, and ``zero`` says 'arbitrary'.
         """
         return {**self.after.as_dict(), "before": self.before.as_dict(),
-                "zero": "arbitrary" if self.arbitrary_zero else "fixed"}
+                "zero": "arbitrary" if self.arbitrary_zero else "fixed",
+                "correction_worse": self.correction_worse, "verdict": self.verdict()}
+
+    @property
+    def correction_worse(self):
+        """Whether the correction leaves a larger RMS error than none (see :func:`encal.profile.worse_sentence`)."""
+        return correction_is_worse(self.before.rms, self.after.rms)
+
+    def verdict(self):
+        """One sentence: whether the correction makes the errors smaller or larger, with both RMS figures."""
+        worse = worse_sentence(self.before.rms, self.after.rms)
+        if worse is not None:
+            return worse
+        return (f"the correction makes the errors {'smaller' if self.after.rms < self.before.rms else 'no larger'}: "
+                f"RMS {self.before.rms:.4g} arcmin without it, {self.after.rms:.4g} arcmin with it")
+
+    def offset_sentence(self):
+        """With an arbitrary zero, the zero offset the correction leaves and why, in a sentence; None otherwise.
+
+        A model corrects to the zero of the calibration it was fitted on: on a repeat whose reference started
+        elsewhere (a motor's power-on position), the readings it corrects keep the change of zero between the two,
+        which is not an error of the model and is stated apart.
+        """
+        if not self.arbitrary_zero or abs(self.after.offset) <= ARBITRARY_ZERO_ARCMIN:
+            return None
+        learnt = float(wrap180((self.before.offset - self.after.offset) / ARCMIN_PER_DEG)) * ARCMIN_PER_DEG
+        return (f"after the correction a zero offset of {self.after.offset:+.2f} arcmin "
+                f"({self.after.offset / ARCMIN_PER_DEG:+.3f} deg) remains: the model carries the zero offset of the "
+                f"calibration it was fitted on ({learnt:+.2f} arcmin) and this one's is {self.before.offset:+.2f} "
+                "arcmin; their difference is a change of the reference's zero (the arbitrary zero), stated apart, "
+                "not an error of the correction")
 
     def zero_sentence(self):
         """How the zero offset was treated, in one sentence."""
         offset = self.before.offset if self.arbitrary_zero else zero_offset_arcmin(
             self.error_arcmin if self.error_arcmin is not None else self.residual_arcmin)
+        if self.arbitrary_zero and abs(offset) <= ARBITRARY_ZERO_ARCMIN < abs(self.after.offset):
+            # arbitrary because of the offset the correction leaves (a model fitted at another zero)
+            return zero_sentence(self.zero, self.after.offset, True).replace(
+                "zero offset", "zero offset after the correction", 1)
         return zero_sentence(self.zero, offset, self.arbitrary_zero)
 
     def __str__(self):

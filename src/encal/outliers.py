@@ -147,8 +147,18 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     return IsolatedPoints(order[far][in_input_order], deviation[far][in_input_order], typical)
 
 
+#: Points whose angles agree to this many decimals of a degree, and errors to this many of an arc-minute, are
+#: identical: far below any reading, far above the rounding of a double (a reading of 455 deg wrapped to 95 deg
+#: differs from one of 95 deg by about 1e-14 deg, and its error by about 1e-12 arcmin).
+IDENTICAL_DECIMALS = 9
+
+
 def _first_of_identical(theta, error):
-    """Indices of the first of each set of identical (angle, error) points, in input order."""
+    """Indices of the first of each set of identical (angle, error) points (to :data:`IDENTICAL_DECIMALS`
+    decimals: the readings of a noise-free log over several turns differ by the rounding of doubles only), in
+    input order."""
+    theta = np.round(theta, IDENTICAL_DECIMALS) % 360.0
+    error = np.round(error, IDENTICAL_DECIMALS)
     if np.unique(theta).size == theta.size:  # the common case, found without sorting
         return np.arange(theta.size)
     order = np.lexsort((error, theta))

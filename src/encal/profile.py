@@ -30,6 +30,9 @@ __all__ = [
     "zero_offset_arcmin",
     "zero_is_arbitrary",
     "zero_sentence",
+    "WORSE_MARGIN",
+    "correction_is_worse",
+    "worse_sentence",
     "remove_offset",
     "Harmonics",
     "harmonics",
@@ -130,6 +133,35 @@ def zero_sentence(zero, offset_arcmin, arbitrary):
         return (f"{value}, within {ARBITRARY_ZERO_ARCMIN / ARCMIN_PER_DEG:g} deg: the reference's zero is taken "
                 "as fixed and the offset counts as error (--zero arbitrary states it apart)")
     return f"{value}, counted as error as asked (fixed zero)"
+
+
+#: A correction makes a calibration's errors larger when their RMS after it exceeds the RMS before it by more than
+#: this share: an RMS over a few hundred points varies by a few per cent from one set of readings to the next, so a
+#: correction within the noise is not called worse.
+WORSE_MARGIN = 0.01
+
+
+def correction_is_worse(before_rms_arcmin, after_rms_arcmin):
+    """Whether a correction leaves a larger RMS error than none (by more than :data:`WORSE_MARGIN`)."""
+    return bool(after_rms_arcmin > before_rms_arcmin * (1.0 + WORSE_MARGIN) + 1e-9)
+
+
+def worse_sentence(before_rms_arcmin, after_rms_arcmin, where=""):
+    """The sentence saying that a correction makes the errors larger, with both figures; None when it does not.
+
+    Parameters
+    ----------
+    before_rms_arcmin, after_rms_arcmin : float
+        RMS error without and with the correction, arc-minutes.
+    where : str, default=''
+        Where, for the sentence (e.g. ``' on enc2.csv'``).
+    """
+    if not correction_is_worse(before_rms_arcmin, after_rms_arcmin):
+        return None
+    return (f"the correction makes the errors larger{where}: RMS {before_rms_arcmin:.4g} arcmin without it, "
+            f"{after_rms_arcmin:.4g} arcmin with it ({after_rms_arcmin / max(before_rms_arcmin, 1e-300):.2f} times); "
+            "expected a model of this encoder as it is mounted now (a model of another encoder, or of this one "
+            "before it was remounted, can do more harm than none: fit it again)")
 
 
 @dataclass(frozen=True)

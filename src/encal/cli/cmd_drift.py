@@ -3,7 +3,7 @@
 The first file is the baseline; each later one is compared at the same shaft positions. When the reference's
 zero is arbitrary (--zero; by default when a calibration's zero offset, the circular mean of its error, exceeds
 1 degree) each calibration's offset is removed and the changes of offset are stated apart. A model of the
-first calibration (by default the paper's ten-harmonic Fourier series) still holds on a later one when its
+first calibration (by default the one `encal fit` makes of it: --method auto) still holds on a later one when its
 residual RMS there exceeds its residual on the first by at most the tolerance: by default max(1 LSB, 10 %).
 The verdict is data: the exit status is 0 whether the model holds or not, 1 on bad input.
 
@@ -32,8 +32,9 @@ def add_arguments(parser):
                         help="the first calibration, then later ones (or one file with an epoch column)")
     parser.add_argument("--tolerance", metavar="ARCMIN", type=_number, default=None,
                         help="allowed increase of the residual RMS (default: max(1 LSB, 10%%))")
-    parser.add_argument("--method", default=None, choices=("auto", "fourier", "lut", "ann", "hybrid"),
-                        help="model fitted on the first calibration (default: fourier; not with --model)")
+    parser.add_argument("--method", default=None, choices=("auto", "spectral", "fourier", "lut", "ann", "hybrid"),
+                        help="model fitted on the first calibration (default: auto, the model encal fit makes; "
+                             "fourier is the paper's ten harmonics; not with --model)")
     parser.add_argument("--model", metavar="MODEL.json", default=None,
                         help="judge this model file instead of fitting one on the first calibration")
     parser.add_argument("--keep-offset", dest="zero", action="store_const", const="fixed", default="auto",
@@ -70,9 +71,16 @@ def run(args):
     offsets = [circular_mean_offset_arcmin(cal) for cal in cals]
     arbitrary = zero_is_arbitrary(args.zero, *offsets)
     report = compare_calibrations(cals, tolerance_arcmin=args.tolerance, model=model,
-                                  method=args.method or "fourier",
+                                  method=args.method or "auto",
                                   offset="remove" if arbitrary else "keep", labels=labels,
                                   rng=args.seed)
+    for epoch in report.epochs:
+        if epoch.correction_worse:  # the verdict is data (status 0), but never a quiet one
+            import warnings
+
+            from ..errors import EncalWarning
+
+            warnings.warn(epoch.worse_sentence(), EncalWarning, stacklevel=2)
     largest = max(offsets, key=abs)
     note = zero_sentence(args.zero, largest, arbitrary).replace("zero offset", "largest zero offset", 1)
     if args.json:
@@ -113,3 +121,6 @@ def _print_table(report, model_path):
     else:
         failed = ", ".join(epoch.label for epoch in report.epochs if not epoch.holds)
         print(f"verdict: the model does not hold on {failed}")
+    for epoch in report.epochs:
+        if epoch.correction_worse:
+            print(f"verdict: {epoch.worse_sentence()}")

@@ -31,11 +31,21 @@ def run(args):
         cal = read_calibration_from_args(args.calibration, args, progress)
         progress.stage("evaluating")
         result = evaluate(model, cal, zero=args.zero)
+    if result.correction_worse:
+        # a valid measurement, so exit status 0 (as drift's "does not hold"), but never a quiet one
+        import warnings
+
+        from ..errors import EncalWarning
+
+        warnings.warn(f"{args.model} on {args.calibration}: {result.verdict()}", EncalWarning, stacklevel=2)
     if args.json:
         print_json({"name": cal.name, "model_kind": model.kind, **result.as_dict(),
-                    "zero_note": result.zero_sentence()})
+                    "zero_note": result.zero_sentence(), "offset_note": result.offset_sentence()})
         return 0
     print(f"{cal.name}: {model.kind} model from {args.model} ({len(cal)} points)")
     print(result.zero_sentence())
+    if result.offset_sentence():
+        print(result.offset_sentence())
     print(result)
+    print(f"verdict: {result.verdict()}")
     return 0

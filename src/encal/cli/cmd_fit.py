@@ -163,6 +163,34 @@ def _choose_deployment(model, args):
             f"'encal export --format c --target {chosen.target}' uses it")
 
 
+def _check_not_itself(repeat, calibration):
+    """Refuse ``--repeat`` naming the calibration being fitted: the same readings twice are no second pass."""
+    from pathlib import Path
+
+    from ..errors import InputError
+
+    if Path(repeat).exists() and Path(calibration).exists() and Path(repeat).samefile(calibration):
+        raise InputError(f"--repeat {repeat} is the calibration being fitted; expected a second pass over the same "
+                         "angles measured on its own, since the same readings twice carry no information about the "
+                         "noise (give a known noise with --noise)")
+
+
+def _identical_readings(cal, second):
+    """Whether two calibrations hold the same (reference, encoder) readings, to 1e-9 degree, in any order."""
+    import numpy as np
+
+    if len(cal) != len(second) or (cal.direction is None) != (second.direction is None):
+        return False
+    rows = []
+    for c in (cal, second):
+        columns = [np.round(c.reference_deg, 9), np.round(c.encoder_deg, 9)]
+        if c.direction is not None:
+            columns.append(c.direction)
+        table = np.column_stack(columns)
+        rows.append(table[np.lexsort(table.T[::-1])])
+    return bool(np.array_equal(rows[0], rows[1]))
+
+
 def _with_repeat(cal, second):
     """Both passes as one calibration, each pass an epoch of its own.
 
@@ -275,7 +303,19 @@ def run(args):
     with activity("fit") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress)
         if args.repeat is not None:
-            cal = _with_repeat(cal, read_calibration_from_args(args.repeat, args, progress))
+            _check_not_itself(args.repeat, args.calibration)
+            second = read_calibration_from_args(args.repeat, args, progress)
+            if _identical_readings(cal, second):
+                import warnings
+
+                from ..errors import EncalWarning
+
+                warnings.warn(f"--repeat {second.source}: its readings are those of {cal.source} at every reference "
+                              "angle, identical; identical repeats carry no information about the noise, so it is "
+                              "ignored (a copy of the file? give a second pass measured on its own, or a known noise "
+                              "with --noise)", EncalWarning, stacklevel=2)
+            else:
+                cal = _with_repeat(cal, second)
         if args.seed is not None:
             options["rng"] = args.seed
         if args.method in ("spectral", "auto") and not _cv_options(options) and not has_both_directions(cal):

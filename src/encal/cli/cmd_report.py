@@ -65,6 +65,14 @@ def run(args):
             if args.model is not None:
                 report.model.save(args.model)
     print(verdict(report))
+    from ..encoder_report import correction_warnings
+
+    for sentence in correction_warnings(report):  # a valid report (status 0), but never a quiet one
+        import warnings
+
+        from ..errors import EncalWarning
+
+        warnings.warn(sentence, EncalWarning, stacklevel=2)
     for note in report.notes + ([report.comparison_note] if report.comparison_note else []):
         print(note)
     figures = [path for key, path in written.items() if key.startswith("figure:")]

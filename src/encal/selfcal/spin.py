@@ -204,10 +204,18 @@ def _run_coefficients(run, orders, knot_revolutions):
             normal[g] += x.T @ x
             right[g] += x.T @ (phase[start:stop] - origin)
     total_normal, total_right = normal.sum(axis=0), right.sum(axis=0)
-    fourier = slice(n_smooth, None)
-    full = np.linalg.solve(total_normal, total_right)[fourier]
-    replicates = np.stack([np.linalg.solve(total_normal - normal[g], total_right - right[g])[fourier]
-                           for g in range(groups)]) * ARCMIN_PER_DEG
+    full = np.linalg.solve(total_normal, total_right)[n_smooth:]
+    # A spline piece whose whole support lies in the group left out has no data in its replicate: the first and
+    # last pieces span one knot interval, and a group spans more than one once a run is over 10 knot intervals
+    # long (40 revolutions at the default spacing), which made the replicate's matrix singular. Its coefficient
+    # is then undetermined and has no bearing on the Fourier part: the replicate leaves it out.
+    has_data = np.diagonal(normal, axis1=1, axis2=2) > 0  # exact: sums of squares, zero only without data
+    replicates = []
+    for g in range(groups):
+        kept = np.flatnonzero(np.delete(has_data, g, axis=0).any(axis=0))
+        matrix = (total_normal - normal[g])[np.ix_(kept, kept)]
+        replicates.append(np.linalg.solve(matrix, (total_right - right[g])[kept])[kept >= n_smooth])
+    replicates = np.stack(replicates) * ARCMIN_PER_DEG
     deviation = replicates - replicates.mean(axis=0)
     covariance = (groups - 1) / groups * deviation.T @ deviation
     speed = travel / 360.0 / (time[-1] - time[0])
