@@ -10,9 +10,9 @@ kind is then the fleet's mean profile plus what its own readings show, and a few
 partial sweep, suffice where the unit alone needs a full turn.
 
 :func:`fit_with_prior` is the posterior of a new unit under the fleet prior (Gaussian linear
-regression, closed form), the noise ``σ`` chosen by its marginal likelihood (type-II maximum
-likelihood, as the spectral model chooses its own), the zero offset under a flat prior (a motor's
-zero is arbitrary). It returns a :class:`~encal.models.spectral.SpectralModel`: the same model file,
+regression, closed form), the noise ``σ`` and a scale of the fleet's spread for this unit chosen by
+their marginal likelihood (type-II maximum likelihood, as the spectral model chooses its own), the
+zero offset under a flat prior (a motor's zero is arbitrary). It returns a :class:`~encal.models.spectral.SpectralModel`: the same model file,
 the same posterior standard deviation, read and evaluated as every spectral model is.
 
 ``benchmarks/bench_fleet_prior.py`` measures it leave-one-out on the 60 real Mechaduino boards and on
@@ -38,6 +38,20 @@ _FLAT_VARIANCE = 1e12
 _MIN_VARIANCE = 1e-8
 #: How far the noise search goes either side of the fleet's median noise (a factor).
 _NOISE_RANGE = 100.0
+#: How far a unit's scale of the fleet's spread goes either side of 1 (a factor).
+_SCALE_RANGE = 30.0
+
+
+def _golden(function, low, high, steps=25):
+    """The maximum of ``function`` on [low, high] by golden-section search."""
+    ratio = (math.sqrt(5.0) - 1.0) / 2.0
+    for _ in range(steps):
+        a, b = high - ratio * (high - low), low + ratio * (high - low)
+        if function(a) > function(b):
+            high = b
+        else:
+            low = a
+    return 0.5 * (low + high)
 
 
 @dataclass(frozen=True)
@@ -189,28 +203,31 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     design = _design(theta, orders)
     prior_mean = np.r_[0.0, prior.mean_cos, prior.mean_sin]
     prior_variance = np.r_[_FLAT_VARIANCE, variance, variance]
+    # type-II maximum likelihood over the noise σ (unless known) and the unit's scale s of the fleet's spread
+    # (a unit may be louder or quieter than the fleet: its prior variances are s times the fleet's)
+    def evidence(log_sigma, log_scale):
+        scaled = np.r_[_FLAT_VARIANCE, prior_variance[1:] * math.exp(log_scale)]
+        return _posterior(design, error, prior_mean, scaled, math.exp(2 * log_sigma))[2]
+
     if noise_arcmin is not None:
-        noise_var = float(noise_arcmin) ** 2
+        sigmas = np.array([math.log(float(noise_arcmin))])
         source = "supplied"
     else:
-        # type-II maximum likelihood over the noise: a grid in log σ, then golden-section refinement
-        def evidence(log_sigma):
-            return _posterior(design, error, prior_mean, prior_variance, math.exp(2 * log_sigma))[2]
-
         centre = math.log(prior.noise_std_arcmin)
-        grid = centre + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 41)
-        values = [evidence(g) for g in grid]
-        best = int(np.argmax(values))
-        low, high = grid[max(best - 1, 0)], grid[min(best + 1, grid.size - 1)]
-        ratio = (math.sqrt(5.0) - 1.0) / 2.0
-        for _ in range(30):
-            a, b = high - ratio * (high - low), low + ratio * (high - low)
-            if evidence(a) > evidence(b):
-                high = b
-            else:
-                low = a
-        noise_var = math.exp(low + high)
+        sigmas = centre + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 21)
         source = "marginal likelihood under the fleet prior"
+    scales = np.linspace(-math.log(_SCALE_RANGE), math.log(_SCALE_RANGE), 13)
+    values = np.array([[evidence(g, c) for c in scales] for g in sigmas])
+    best_sigma, best_scale = np.unravel_index(int(np.argmax(values)), values.shape)
+    log_sigma, log_scale = float(sigmas[best_sigma]), float(scales[best_scale])
+    for _ in range(2):  # alternate golden-section refinements about the best grid point
+        if sigmas.size > 1:
+            log_sigma = _golden(lambda g: evidence(g, log_scale), log_sigma - (sigmas[1] - sigmas[0]),
+                                log_sigma + (sigmas[1] - sigmas[0]))
+        log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
+                            log_scale + (scales[1] - scales[0]))
+    noise_var = math.exp(2 * log_sigma)
+    prior_variance = np.r_[_FLAT_VARIANCE, prior_variance[1:] * math.exp(log_scale)]
     mean, cholesky, log_evidence = _posterior(design, error, prior_mean, prior_variance, noise_var)
     all_orders = np.r_[0, orders]
     cos = np.r_[mean[0], mean[1:orders.size + 1]]
@@ -220,7 +237,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         "prior": (f"the fleet's: the mean and the spread of each order 1..{int(orders.max())} across "
                   f"{prior.units} units (empirical Bayes), the zero offset flat"),
         "noise": {"source": source, "std_arcmin": math.sqrt(noise_var)},
-        "fleet_prior": {"units": int(prior.units), "orders": int(orders.max())},
+        "fleet_prior": {"units": int(prior.units), "orders": int(orders.max()), "spread_scale": math.exp(log_scale)},
         "log_evidence_nats": float(log_evidence),
         "stops": int(np.unique(np.round(theta, 9)).size),
     }
