@@ -30,12 +30,13 @@ def add_arguments(parser):
     _store_option(fit, default_text="encal-store.sqlite in the folder of the first calibration")
     fit.add_argument("--station", metavar="NAME", help="the station's name, recorded in every record")
     fit.add_argument("--grades", metavar="A=0.02,B=0.05",
-                     help="grade each unit by its held-out RMS error (the posterior's estimate of the error "
-                          "after correction; the RMS after correction when there is none): the first grade "
+                     help="grade each unit by its held-out RMS error (the fit's estimate of the error after "
+                          "correction at angles not calibrated): the first grade "
                           "whose limit it meets, in degrees, or with a unit (A=1.2arcmin, A=30arcsec); a unit "
                           "that meets none is graded 'out'")
-    fit.add_argument("--method", default="spectral", choices=("spectral", "auto", "fourier", "lut"),
-                     help="the model family (default spectral, the empirical-Bayes Fourier model)")
+    fit.add_argument("--method", default="spectral", choices=("spectral", "auto"),
+                     help="the model (default spectral, the empirical-Bayes Fourier model; auto as 'encal fit' "
+                          "chooses): both state the held-out estimate the grades go by")
     fit.add_argument("--serial-pattern", metavar="REGEX",
                      help="find the serial number in the file name's stem with this regular expression (its "
                           "first group, or the whole match); default the whole stem")

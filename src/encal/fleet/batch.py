@@ -21,9 +21,9 @@ from ..errors import EncalError, InputError
 
 __all__ = ["BatchResult", "find_calibrations", "serial_of", "fit_batch", "fit_unit", "METHODS"]
 
-#: The methods ``encal fleet fit`` offers: the spectral model (default: fast, and its posterior gives the
-#: held-out estimate) or another family.
-METHODS = ("spectral", "auto", "fourier", "lut")
+#: The methods ``encal fleet fit`` offers, those whose fit states a held-out estimate to grade by: the spectral
+#: model (default; its posterior's) or auto (its choice's).
+METHODS = ("spectral", "auto")
 #: Fitted records are written in one transaction per group: at most this many ...
 FLUSH_RECORDS = 64
 #: ... or every this many seconds, so that an interruption loses little and a resumed batch refits it.
@@ -146,26 +146,40 @@ def _fit_file(serial, path, sha256, method, grades, read_options):
             model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
             model.training["serial"] = serial
             text = dumps(model_to_dict(model))
-        expected = getattr(model, "expected_rms_between_points", None)
-        held_out = expected() if callable(expected) else None
+        held_out = _held_out(model)
         raw = Path(path).read_bytes()
         try:
             calibration_text = raw.decode("utf-8")
         except UnicodeDecodeError:
             calibration_text = raw.decode("latin-1")
-        figure = held_out if held_out is not None else fitted.after.rms
         return (str(path), "ok", {
             "serial": serial, "model_json": text, "calibration_csv": calibration_text,
             "source_name": Path(path).name, "source_sha256": sha256, "model_kind": model.kind,
             "n_points": len(cal), "rms_before_arcmin": float(fitted.before.rms),
             "rms_after_arcmin": float(fitted.after.rms), "held_out_arcmin": held_out,
-            "grade": grade_of(figure, grades), "warnings": [str(w.message) for w in caught],
+            "grade": grade_of(held_out, grades), "warnings": [str(w.message) for w in caught],
         })
     except EncalError as exc:
         return (str(path), "refused", str(exc))
     except (OSError, ValueError, ArithmeticError, MemoryError) as exc:  # a file that breaks a fit never stops the batch
         return (str(path), "refused", f"{path}: could not be fitted ({type(exc).__name__}: {exc}); expected a "
                                       "calibration CSV that 'encal fit' accepts")
+
+
+def _held_out(model):
+    """The fit's estimate of its RMS error at readings it did not see (arcmin), or None.
+
+    A spectral model's posterior gives it; a model auto chose by cross-validation, the chosen row's CV figure.
+    The training RMS is never used in its place: a lookup table's is 0.
+    """
+    expected = getattr(model, "expected_rms_between_points", None)
+    if callable(expected) and expected() is not None:
+        return float(expected())
+    selection = model.training.get("selection") or {}
+    for row in selection.get("table") or ():
+        if row.get("label") == selection.get("chosen") and row.get("cv_rms_arcmin") is not None:
+            return float(row["cv_rms_arcmin"])
+    return None
 
 
 def fit_batch(paths, store, *, method="spectral", grades=(), station=None, serial_pattern=None, jobs=None,

@@ -23,8 +23,7 @@ def _grades_table(latest, grades):
     from ..store import GRADE_NONE, grade_of
 
     if grades is not None:
-        for_unit = [grade_of(r.held_out_arcmin if r.held_out_arcmin is not None else r.rms_after_arcmin, grades)
-                    for r in latest]
+        for_unit = [grade_of(r.held_out_arcmin, grades) for r in latest]
         limits = {name: limit for name, limit in grades}
         names = [name for name, _ in grades] + [GRADE_NONE]
     else:
