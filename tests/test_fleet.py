@@ -213,3 +213,18 @@ def test_an_interrupted_batch_resumes_and_stores_every_unit_once(tmp_path):
     assert f"{40 - first} of 40 files fitted" in again.stdout and f"{first} already stored, skipped" in again.stdout
     with open_store(store) as opened:
         assert opened.count() == 40 and {r.epoch for r in opened.records()} == {1}
+
+
+def test_two_batches_on_the_same_files_at_once_store_each_once(lot, tmp_path):
+    """Both read the store before either wrote: the check inside the write transaction leaves the second out."""
+    from encal.fleet.batch import find_calibrations, fit_batch
+
+    store_path = tmp_path / "s.sqlite"
+    paths = find_calibrations([lot])
+    with open_store(store_path) as first, open_store(store_path) as second:
+        stale = first.stored_sources()
+        one = fit_batch(paths, first, jobs=0)
+        second.stored_sources = lambda: stale  # as if it had read the store before the first batch wrote
+        two = fit_batch(paths, second, jobs=0)
+        assert len(one.fitted) == 4 and not two.fitted and len(two.skipped) == 4
+        assert first.count() == 4

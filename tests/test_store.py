@@ -143,3 +143,13 @@ def test_grades_in_degrees_by_default_or_with_a_unit():
     for bad in ("A", "A=x", "A=-1", "A=1,A=2", "out=1"):
         with pytest.raises(InputError, match="--grades"):
             parse_grades(bad)
+
+
+def test_a_calibration_stored_meanwhile_is_left_out_inside_the_transaction(location):
+    """Two batches on the same file at once: add_many(skip_stored=True) stores it once."""
+    with open_store(location) as store:
+        first = store.add_many([{"serial": "SN-1", "model_json": "{}", "source_sha256": "ab"}], skip_stored=True)
+        again = store.add_many([{"serial": "SN-1", "model_json": "{}", "source_sha256": "ab"},
+                                {"serial": "SN-1", "model_json": "{}", "source_sha256": "cd"}], skip_stored=True)
+        assert first[0].epoch == 1 and again[0] is None and again[1].epoch == 2
+        assert store.count() == 2

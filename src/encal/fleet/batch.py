@@ -238,12 +238,18 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     jobs = min(jobs, len(tasks))
 
     waiting = []  # fitted, not yet written
+    waiting_paths = []
     last_flush = [time.monotonic()]
 
     def flush():
         if waiting:
-            result.fitted.extend(store.add_many(waiting))
+            for path, record in zip(waiting_paths, store.add_many(waiting, skip_stored=True)):
+                if record is None:  # another batch stored the same file meanwhile
+                    result.skipped.append(path)
+                else:
+                    result.fitted.append(record)
             waiting.clear()
+            waiting_paths.clear()
         last_flush[0] = time.monotonic()
 
     def write(outcome):
@@ -254,6 +260,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
                     if on_warning:
                         on_warning(Path(path), message)
                 waiting.append({**fields, "station": station})
+                waiting_paths.append(Path(path))
             else:
                 result.refused.append((Path(path), value))
                 if on_refused:

@@ -186,8 +186,11 @@ class Store:
     def _connect(self):
         raise NotImplementedError
 
-    def _insert(self, rows):
-        """Insert records (dicts of the columns) in one transaction, numbering their epochs; return [(id, epoch)]."""
+    def _insert(self, rows, skip_stored=False):
+        """Insert records (dicts of the columns) in one transaction, numbering their epochs; return [(id, epoch)].
+
+        ``skip_stored``: a record whose serial and ``source_sha256`` are stored already is not inserted (None).
+        """
         raise NotImplementedError
 
     def _query(self, sql, parameters=()):
@@ -229,21 +232,30 @@ class Store:
         (row_id, epoch), = self._insert([values])
         return Record(**{**values, "epoch": epoch, "id": row_id})
 
-    def add_many(self, records):
+    def add_many(self, records, *, skip_stored=False):
         """Write several new records in one transaction (all or none); each is ``dict`` of :meth:`add`'s arguments.
 
         One transaction costs one commit (a disk flush), so a batch that writes its records in groups
         writes them several times faster than one by one.
 
+        Parameters
+        ----------
+        records : sequence of dict
+        skip_stored : bool, default=False
+            Leave out a record whose serial number and calibration (``source_sha256``) are stored already,
+            checked inside the transaction: two batches on the same files at once store each file once.
+
         Returns
         -------
-        list of Record
+        list of Record or None
+            One per record; None for one left out.
         """
         values = [self._values(**fields) for fields in records]
         if not values:
             return []
-        placed = self._insert(values)
-        return [Record(**{**v, "epoch": epoch, "id": row_id}) for v, (row_id, epoch) in zip(values, placed)]
+        placed = self._insert(values, skip_stored)
+        return [None if where is None else Record(**{**v, "epoch": where[1], "id": where[0]})
+                for v, where in zip(values, placed)]
 
     def _values(self, serial, model_json, *, calibration_csv=None, source_name=None, source_sha256=None,
                 model_kind=None, n_points=None, rms_before_arcmin=None, rms_after_arcmin=None, held_out_arcmin=None,
@@ -384,12 +396,18 @@ class _SQLiteStore(Store):
     def _transaction(self):
         return self._Transaction(self._connection)
 
-    def _insert(self, rows):
+    def _insert(self, rows, skip_stored=False):
         names = ", ".join(_NAMES)
         marks = ", ".join("?" for _ in _NAMES)
         placed = []
         with self._transaction() as cursor:
             for values in rows:
+                if skip_stored and values["source_sha256"] is not None:
+                    cursor.execute("SELECT 1 FROM encal_records WHERE serial = ? AND source_sha256 = ?",
+                                   (values["serial"], values["source_sha256"]))
+                    if cursor.fetchone() is not None:
+                        placed.append(None)
+                        continue
                 cursor.execute("SELECT COALESCE(MAX(epoch), 0) + 1 FROM encal_records WHERE serial = ?",
                                (values["serial"],))
                 epoch = int(cursor.fetchone()[0])
@@ -442,7 +460,7 @@ class _PostgresStore(Store):
                 cursor.execute("CREATE TRIGGER encal_records_never_changed BEFORE UPDATE OR DELETE ON encal_records "
                                "FOR EACH ROW EXECUTE FUNCTION encal_records_refuse()")
 
-    def _insert(self, rows):
+    def _insert(self, rows, skip_stored=False):
         names = ", ".join(_NAMES)
         marks = ", ".join("%s" for _ in _NAMES)
         placed = []
@@ -452,6 +470,12 @@ class _PostgresStore(Store):
             for serial in sorted({values["serial"] for values in rows}):
                 cursor.execute("SELECT pg_advisory_xact_lock(hashtextextended(%s, 0))", (serial,))
             for values in rows:
+                if skip_stored and values["source_sha256"] is not None:
+                    cursor.execute("SELECT 1 FROM encal_records WHERE serial = %s AND source_sha256 = %s",
+                                   (values["serial"], values["source_sha256"]))
+                    if cursor.fetchone() is not None:
+                        placed.append(None)
+                        continue
                 cursor.execute("SELECT COALESCE(MAX(epoch), 0) + 1 FROM encal_records WHERE serial = %s",
                                (values["serial"],))
                 epoch = int(cursor.fetchone()[0])
