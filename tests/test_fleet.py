@@ -228,3 +228,34 @@ def test_two_batches_on_the_same_files_at_once_store_each_once(lot, tmp_path):
         two = fit_batch(paths, second, jobs=0)
         assert len(one.fitted) == 4 and not two.fitted and len(two.skipped) == 4
         assert first.count() == 4
+
+
+def test_fleet_fit_under_the_fleet_prior_recovers_a_unit_from_a_quarter_turn(tmp_path, capsys):
+    """--prior-from: a new unit of a known fleet, calibrated over 0-90 degrees, corrected over the whole turn."""
+    from encal.calibration import Calibration
+
+    rng = np.random.default_rng(4)
+    fleet = tmp_path / "fleet.sqlite"
+    _fleet_store(fleet, rng, odd_amplitude=0.0)
+    cos, sin = np.zeros(6), np.zeros(6)
+    cos[1], sin[2] = 2.05, 0.97
+    truth = FourierModel(np.arange(6), cos, sin)
+    reference = np.arange(0.0, 90.0, 2.0)
+    encoder = reference + (truth.predict(reference) + 0.01 * rng.standard_normal(reference.size)) / 60.0
+    (tmp_path / "new").mkdir()
+    write_calibration(tmp_path / "new" / "SN900.csv", Calibration(reference, encoder))
+    store = tmp_path / "new.sqlite"
+    argv = ["fleet", "fit", str(tmp_path / "new"), "--store", str(store), "--jobs", "0", "--allow-gaps"]
+    assert main(argv + ["--prior-from", str(fleet)]) == 0
+    grid = np.arange(0.0, 360.0, 1.0)
+    with open_store(store) as opened:
+        model = opened.latest("SN900").model()
+    assert np.sqrt(np.mean((model.predict(grid) - truth.predict(grid)) ** 2)) < 0.1
+    assert "fleet" in model.training["prior"]
+    # the unit alone cannot see the other three quarters
+    assert main(argv + ["--store", str(tmp_path / "alone.sqlite")]) == 0
+    with open_store(tmp_path / "alone.sqlite") as opened:
+        alone = opened.latest("SN900").model()
+    assert np.sqrt(np.mean((alone.predict(grid) - truth.predict(grid)) ** 2)) > 0.5
+    with pytest.raises(SystemExit):
+        main(argv + ["--prior-from", str(fleet), "--method", "auto"])

@@ -37,6 +37,10 @@ def add_arguments(parser):
     fit.add_argument("--method", default="spectral", choices=("spectral", "auto"),
                      help="the model (default spectral, the empirical-Bayes Fourier model; auto as 'encal fit' "
                           "chooses): both state the held-out estimate the grades go by")
+    fit.add_argument("--prior-from", metavar="DB",
+                     help="fit each unit under the fleet prior learned from the latest record of every unit in this "
+                          "store (it may be --store): for partial calibrations, a quarter turn or every 4th stop "
+                          "(spectral; docs/production.md, 'A fleet prior')")
     fit.add_argument("--serial-pattern", metavar="REGEX",
                      help="find the serial number in the file name's stem with this regular expression (its "
                           "first group, or the whole match); default the whole stem")
@@ -88,7 +92,7 @@ def _check_store(location, *, must_exist=False):
     if is_url(location):
         return
     if must_exist and not Path(location).exists():
-        raise InputError(f"--store {location}: no such file; expected a store written by 'encal fleet fit'")
+        raise InputError(f"{location}: no such store; expected a store written by 'encal fleet fit'")
     check_paths(outputs=[("--store", location)])
 
 
@@ -118,9 +122,19 @@ def _fit(args):
                     "reference_column": args.ref_col, "encoder_column": args.enc_col,
                     "reference_unit": args.ref_unit or args.unit or "deg",
                     "encoder_unit": args.enc_unit or args.unit or "deg"}
+    if args.prior_from is not None and args.method != "spectral":
+        args.fleet_parser.error(f"--prior-from fits under the fleet's spectral prior; expected --method spectral, "
+                                f"not {args.method}")
     paths = find_calibrations(args.sources)
     location = _store_location(args, paths)
     _check_store(location)
+    prior = None
+    if args.prior_from is not None:
+        from ..fleet.prior import fleet_prior
+
+        _check_store(args.prior_from, must_exist=True)
+        with open_store(args.prior_from) as source:
+            prior = fleet_prior([record.model() for record in source.latest_records()])
 
     def refused(path, sentence):
         clear_line()
@@ -133,7 +147,7 @@ def _fit(args):
     with open_store(location) as store, warnings_as_lines("fleet"), activity("fleet fit") as progress:
         progress.stage(f"fitting {len(paths)} files", total=len(paths))
         result = fit_batch(paths, store, method=args.method, grades=grades, station=args.station,
-                           serial_pattern=args.serial_pattern, jobs=args.jobs, read_options=read_options,
+                           serial_pattern=args.serial_pattern, jobs=args.jobs, read_options=read_options, prior=prior,
                            progress=progress.advance, on_refused=refused, on_warning=warned)
         total = store.count()
     graded = ""

@@ -118,19 +118,20 @@ def fit_unit(task):
     Parameters
     ----------
     task : tuple
-        ``(serial, [(path, sha256), ...], method, grades, read_options)``; ``grades`` as
-        :func:`encal.store.parse_grades`, ``read_options`` keywords of :func:`encal.calibration.read_calibration`.
+        ``(serial, [(path, sha256), ...], method, grades, read_options, prior)``; ``grades`` as
+        :func:`encal.store.parse_grades`, ``read_options`` keywords of :func:`encal.calibration.read_calibration`,
+        ``prior`` a :class:`~encal.fleet.prior.FleetPrior` or None.
 
     Returns
     -------
     list of (str, str, dict or str)
         Per file, ``(path, 'ok', fields of Store.add)`` or ``(path, 'refused', sentence)``.
     """
-    serial, files, method, grades, read_options = task
-    return [_fit_file(serial, path, sha256, method, grades, read_options) for path, sha256 in files]
+    serial, files, method, grades, read_options, prior = task
+    return [_fit_file(serial, path, sha256, method, grades, read_options, prior) for path, sha256 in files]
 
 
-def _fit_file(serial, path, sha256, method, grades, read_options):
+def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
     from ..calibration import read_calibration
     from ..fitting import evaluate, fit
     from ..models.modelfile import dumps, model_to_dict
@@ -140,7 +141,7 @@ def _fit_file(serial, path, sha256, method, grades, read_options):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             cal = read_calibration(path, **read_options)
-            model = fit(cal, method=method)
+            model = fit(cal, method=method) if prior is None else _fit_under_prior(cal, prior)
             fitted = evaluate(model, cal, zero="auto")
             model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
             model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
@@ -166,6 +167,22 @@ def _fit_file(serial, path, sha256, method, grades, read_options):
                                       "calibration CSV that 'encal fit' accepts")
 
 
+def _fit_under_prior(cal, prior):
+    """A spectral model of ``cal`` under the fleet prior (:func:`encal.fleet.prior.fit_with_prior`)."""
+    from ..bidirectional import has_both_directions
+    from ..fitting import resolution_bits
+    from .prior import fit_with_prior
+
+    if has_both_directions(cal):
+        raise InputError(f"{cal.source}: has readings in both directions of travel; the fleet prior fits one "
+                         "profile (fit it without --prior-from, which gives one model per direction)")
+    model = fit_with_prior(cal.encoder_deg, cal.errors_arcmin, prior)
+    model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
+    model.training = {"method": "spectral", **model.training, "n_points": len(cal)}
+    model.reading_sign = cal.reading_sign
+    return model
+
+
 def _held_out(model):
     """The fit's estimate of its RMS error at readings it did not see (arcmin), or None.
 
@@ -183,7 +200,7 @@ def _held_out(model):
 
 
 def fit_batch(paths, store, *, method="spectral", grades=(), station=None, serial_pattern=None, jobs=None,
-              read_options=None, progress=None, on_refused=None, on_warning=None):
+              read_options=None, prior=None, progress=None, on_refused=None, on_warning=None):
     """Fit every calibration file into ``store``, in parallel; skip those already stored.
 
     Parameters
@@ -202,6 +219,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         A regular expression that finds the serial number in a file's stem (see :func:`serial_of`).
     read_options : dict, optional
         Keywords of :func:`encal.calibration.read_calibration` (columns, units, duplicates, ...).
+    prior : encal.fleet.prior.FleetPrior, optional
+        Fit every unit under this fleet prior instead of ``method`` (partial calibrations).
     jobs : int, optional
         Worker processes; default the machine's cores; 0 fits in this process.
     progress : callable, optional
@@ -232,7 +251,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             result.skipped.append(Path(path))
             continue
         units.setdefault(serial, []).append((str(path), sha256))
-    tasks = [(serial, files, method, list(grades), dict(read_options or {})) for serial, files in units.items()]
+    tasks = [(serial, files, method, list(grades), dict(read_options or {}), prior)
+             for serial, files in units.items()]
     if jobs is None:
         jobs = os.cpu_count() or 1
     jobs = min(jobs, len(tasks))
