@@ -82,7 +82,7 @@ def _store_location(args, paths):
     return str(default_store_path(Path(paths[0]).parent))
 
 
-def _check_store(location, *, must_exist=False):
+def _check_store(location, *, must_exist=False, option="--store"):
     """Refuse a store that is a folder, in a missing folder, or (to read) missing, before any work."""
     from pathlib import Path
 
@@ -92,8 +92,8 @@ def _check_store(location, *, must_exist=False):
     if is_url(location):
         return
     if must_exist and not Path(location).exists():
-        raise InputError(f"{location}: no such store; expected a store written by 'encal fleet fit'")
-    check_paths(outputs=[("--store", location)])
+        raise InputError(f"{option} {location}: no such file; expected a store written by 'encal fleet fit'")
+    check_paths(outputs=[(option, location)])
 
 
 def run(args):
@@ -132,7 +132,7 @@ def _fit(args):
     if args.prior_from is not None:
         from ..fleet.prior import fleet_prior
 
-        _check_store(args.prior_from, must_exist=True)
+        _check_store(args.prior_from, must_exist=True, option="--prior-from")
         with open_store(args.prior_from) as source:
             prior = fleet_prior([record.model() for record in source.latest_records()])
 
