@@ -224,7 +224,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     jobs : int, optional
         Worker processes; default the machine's cores; 0 fits in this process.
     progress : callable, optional
-        Called with no argument after each unit.
+        Called with the number of files done, after each unit (and once for the files skipped).
     on_refused : callable, optional
         Called with ``(path, sentence)`` for each refused file, as it comes.
     on_warning : callable, optional
@@ -234,6 +234,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     -------
     BatchResult
     """
+    paths = list(paths)
     result = BatchResult()
     stored = store.stored_sources()
     units = {}
@@ -253,6 +254,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         units.setdefault(serial, []).append((str(path), sha256))
     tasks = [(serial, files, method, list(grades), dict(read_options or {}), prior)
              for serial, files in units.items()]
+    if progress and len(paths) - sum(len(files) for files in units.values()):
+        progress(len(paths) - sum(len(files) for files in units.values()))  # skipped or refused already
     if jobs is None:
         jobs = os.cpu_count() or 1
     jobs = min(jobs, len(tasks))
@@ -288,7 +291,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         if len(waiting) >= FLUSH_RECORDS or time.monotonic() - last_flush[0] >= FLUSH_S:
             flush()
         if progress:
-            progress()
+            progress(len(outcome))
 
     try:
         if jobs <= 0:
