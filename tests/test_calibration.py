@@ -95,13 +95,17 @@ def test_binary_file(write_csv):
 
 def test_gap_refused_and_allowed(write_csv):
     text = grid_csv(step=2.0)
-    lines = [line for line in text.splitlines() if not line.split(",")[0].startswith(("1", "2"))
-             or line.startswith("reference")]
+    # two gaps (100-150 and 200-300 deg): scattered data, refused (issue 31 accepts one contiguous arc)
+    lines = [line for line in text.splitlines() if line.startswith("reference")
+             or not (100 <= float(line.split(",")[0]) < 150 or 200 <= float(line.split(",")[0]) < 300)]
     path = write_csv("\n".join(lines))
     message = _refused(path, "gap of")
     assert "--allow-gaps" in message
     cal = read_calibration(path, allow_gaps=True)
     assert len(cal) == len(lines) - 1
+    # one gap: a calibration over one arc is read without options
+    arc = [line for line in text.splitlines() if line.startswith("reference") or float(line.split(",")[0]) < 200]
+    assert len(read_calibration(write_csv("\n".join(arc)))) == len(arc) - 1
 
 
 def test_reversed_encoder_refused_and_accepted(write_csv):

@@ -54,7 +54,7 @@ def test_good_values_come_back_in_the_form_the_caller_uses():
     (lambda cal: encal.fit(cal, method="fourier", n_orders=0),
      "The 'n_orders' parameter of fit_fourier must be an int >= 1. Got 0 instead."),
     (lambda cal: encal.fit(cal, method="spline"),
-     "The 'method' parameter of fit must be one of fourier, spectral, lut, hybrid, ann, stack, auto. "
+     "The 'method' parameter of fit must be one of fourier, spectral, lut, hybrid, ann, stack, arc, auto. "
      "Got 'spline' instead."),
 ])
 def test_public_entry_points_use_the_template(call, message):

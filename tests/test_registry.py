@@ -137,7 +137,7 @@ def test_a_kind_stored_in_no_form_is_refused_by_save_in_one_sentence(constant_ki
     with pytest.raises(encal.ModelFileError) as info:
         ConstantModel(0.7).save(tmp_path / "constant.json")
     assert str(info.value) == (
-        "the constant model of an unnamed encoder: format version 3 holds the model kinds ann, directional, "
+        "the constant model of an unnamed encoder: format version 4 holds the model kinds ann, arc, directional, "
         "fourier, hybrid, lut, spectral, stack, and other kinds stored in one of the forms ann, directional, "
         "fourier, hybrid, lut, stack (the class's 'form'); 'constant' gives no form")
     assert not (tmp_path / "constant.json").exists()
@@ -151,7 +151,7 @@ def test_the_files_of_the_kinds_the_format_names_carry_no_form(tmp_path):
 
 @pytest.mark.parametrize("change, message", [
     (lambda d: d.update(version=2, reading_sign=1),
-     "expected kind to be one of ann, directional, fourier, hybrid, lut, spectral, stack, got \"constant\" (or, "
+     "expected kind to be one of ann, arc, directional, fourier, hybrid, lut, spectral, stack, got \"constant\" (or, "
      "from format version 3, another kind's name with a form among ann, directional, fourier, hybrid, lut, stack)"),
     (lambda d: d.update(form="spline"),
      "expected form, the form the kind 'constant' is stored in, to be one of ann, directional, fourier, hybrid, "

@@ -34,6 +34,7 @@ from encal import runtime
 # --------------------------------------------------------------------------- the files
 
 GRID_TRAIN = np.arange(0.0, 360.0, 2.0)
+_SCATTERED = (GRID_TRAIN < 100) | ((GRID_TRAIN >= 150) & (GRID_TRAIN < 300))  # issue 31: two gaps
 GRID_TEST = np.arange(1.0, 360.0, 2.0)
 
 
@@ -102,8 +103,11 @@ def _make_files(folder):
         "shifted": _good_csv(offset_deg=79.2),
         "radians": _csv_text(np.radians(GRID_TRAIN), np.radians(encoder)),
         "reversed": _csv_text(GRID_TRAIN, -encoder),
-        "gap": _csv_text(GRID_TRAIN[GRID_TRAIN < 300], encoder[GRID_TRAIN < 300]),
+        # two gaps (100-150, 300-360): one contiguous arc is accepted since issue 31
+        "gap": _csv_text(GRID_TRAIN[_SCATTERED], encoder[_SCATTERED]),
         "fold": _csv_text(GRID_TRAIN, GRID_TRAIN + 45.0 * np.sin(np.radians(2 * GRID_TRAIN))),  # folds back
+        "arc": _csv_text(GRID_TRAIN[(GRID_TRAIN >= 10) & (GRID_TRAIN <= 130)],  # issue 31: one arc
+                         encoder[(GRID_TRAIN >= 10) & (GRID_TRAIN <= 130)]),
         "fifteen_points": _csv_text(GRID_TRAIN[::12], encoder[::12]),
         "angles": "10\n20\nabc\n30\n",
         "angles_ok": "# encoder angles\n10\n20.5\n\n-3\n725\n",
@@ -131,6 +135,7 @@ def _make_files(folder):
     cal = encal.read_calibration(paths["train"])
     model = encal.fit(cal, method="fourier")
     paths["model"] = model.save(folder / "model.json", reproducible=True)
+    paths["arc_model"] = encal.fit(encal.read_calibration(paths["arc"])).save(folder / "arc_model.json")  # issue 31
     ann_model = encal.fit(cal, method="ann", hidden=3, epochs=5, rng=0)
     paths["ann_model"] = ann_model.save(folder / "ann_model.json", reproducible=True)
     text = paths["model"].read_text(encoding="utf-8")
@@ -404,7 +409,7 @@ CASES = [
     Case("evaluate-model-binary", ("evaluate", "{binary_model}", "{test}"), 1, ("binary_model.json", "UTF-8")),
     Case("evaluate-model-other-format", ("evaluate", "{other_format}", "{test}"), 1, ("other_format.json",
                                                                                      "encal.model")),
-    Case("evaluate-model-newer", ("evaluate", "{newer}", "{test}"), 1, ("newer.json", "version 3", "upgrade")),
+    Case("evaluate-model-newer", ("evaluate", "{newer}", "{test}"), 1, ("newer.json", "version 4", "upgrade")),
     Case("evaluate-model-truncated", ("evaluate", "{truncated_model}", "{test}"), 1, ("truncated_model.json",
                                                                                      "JSON")),
     Case("evaluate-model-altered", ("evaluate", "{altered}", "{test}"), 1, ("altered.json", "checksum")),
@@ -1107,6 +1112,27 @@ PLAUSIBILITY_CASES = [
                                          "{scratch}/spin.csv"), 0),
 ]
 CASES += PLAUSIBILITY_CASES
+
+
+# issue 31 (inplace): calibrations over an arc, a reading outside the range, two encoders of one joint
+ISSUE31_CASES = [
+    Case("fit-arc-accepted", ("fit", "{arc}", "-o", "{scratch}/arc.json"), 0, prints=("arc model", "holds there only")),
+    Case("profile-arc-no-harmonics", ("profile", "{arc}"), 0, prints=("defined over the full turn only",)),
+    Case("correct-outside-the-arc", ("correct", "{arc_model}"), 1, ("200 deg", "outside the calibrated range",
+                                                                   "--outside"), stdin="200\n"),
+    Case("correct-outside-pass", ("correct", "{arc_model}", "--outside", "pass"), 0, answers=1, stdin="200\n"),
+    Case("export-arc-without-rule", ("export", "{arc_model}", "--format", "table", "--bits", "12", "-o",
+                                     "{out}/t.bin"), 1, ("calibrated over", "--outside clamp")),
+    Case("export-moteus-arc-without-rule", ("export", "{arc_model}", "--format", "moteus", "--bits", "14", "-o",
+                                            "{out}/m.txt"), 1, ("calibrated over", "--outside")),
+    Case("export-outside-full-turn", ("export", "{model}", "--format", "table", "--outside", "clamp", "-o",
+                                      "{out}/t.bin"), 2),
+    Case("selfcal-dual-not-a-log", ("selfcal", "dual", "{train}", "--ratio", "6", "--motor-cal", "{out}/m.csv",
+                                    "--output-cal", "{out}/o.csv"), 1, ("motor_deg", "output_deg")),
+    Case("selfcal-dual-no-ratio", ("selfcal", "dual", "{train}", "--motor-cal", "{out}/m.csv",
+                                   "--output-cal", "{out}/o.csv"), 2),
+]
+CASES += ISSUE31_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -452,7 +452,7 @@ def bad_parameters():
         ("directional member", lambda p: p["members"].append(directional),
          r"members must be of kind fourier, spectral, lut, hybrid, ann. Got 'directional'", r"members\[2\]\.kind to be one of"),
         ("stack member", lambda p: p["members"].__setitem__(0, {"kind": "stack", "parameters": {}}),
-         r"Got 'stack' instead", r"members\[0\]\.kind to be one of ann, fourier, hybrid, lut, spectral, got \"stack\""),
+         r"Got 'stack' instead", r"members\[0\]\.kind to be one of ann, arc, fourier, hybrid, lut, spectral, got \"stack\""),
         ("no weights", lambda p: p.pop("weights"), r"a list 'weights'", r"weights to be a list of 2"),
         ("no members", lambda p: p.update(members=[]), r"non-empty list 'members'", r"members to be a non-empty"),
         ("bad member", lambda p: p["members"][1]["parameters"].pop("sin"), r"fourier model parameters",

@@ -184,9 +184,14 @@ def resolution_of_readings(angles_deg, *, min_bits=8, max_bits=24, tolerance_cou
     if angles.size == 0 or not np.all(np.isfinite(angles)):
         return None
     angles = np.mod(angles, 360.0)
+
+    def whole(values, bits):
+        counts = values * (2**bits / 360.0)
+        return bool(np.all(np.abs(counts - np.round(counts)) < tolerance_counts))
+
+    head = angles[:1024]  # a resolution the first readings refuse is refused without a pass over the rest
     for bits in range(min_bits, max_bits + 1):
-        counts = angles * (2**bits / 360.0)
-        if np.all(np.abs(counts - np.round(counts)) < tolerance_counts):
+        if whole(head, bits) and whole(angles, bits):
             return bits
     return None
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from . import _csv
 from ._csv_numbers import plain_rows
+from ._sorting import stable_argsort
 from .angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .errors import CalibrationError, EncalWarning
 from .parameters import check_bool, check_choice, check_int, check_type, invalid
@@ -307,7 +308,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         is plainly a log of several revolutions (:func:`is_multi_revolution`) keeps its repeats as
         repeated readings unless ``'average'`` is asked for, and so does a run (points of one direction
         and epoch) with the same number of readings at every stop, in a row or in passes
-        (:func:`is_repeated_stops`); a stray repeat elsewhere is still refused.
+        (:func:`is_repeated_stops`); a stray repeat elsewhere is still refused. Repeats are refused only where
+        the reference angles are stops (the data's own grid decides, see :func:`_reference_has_stops`): two
+        equal angles among continuous ones (random, or sampled in time) are a coincidence of the decimals.
     reference_column, encoder_column : str or int, default='reference_deg', 'encoder_deg'
         The columns of the reference and the encoder angle: a header name (any letter case) or a
         column number from 1. With numbers for both, a file whose first row is numbers has no header.
@@ -462,18 +465,23 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
     )
     rows = cal
-    check_turns(*as_read, units, reverse=reverse, runs=_runs(cal), where=str(path))
+    runs = _runs(cal)
+    check_turns(*as_read, units, reverse=reverse, runs=runs, where=str(path))
+    del as_read, in_degrees
+    # one sort by reference angle serves every check of a calibration of one run
+    order = reference_order = stable_argsort(cal.reference_deg) if runs is None else None
     repeated = None
     if duplicates == "refuse":
         # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
         # readings; a stray repeat in another run is still refused
-        runs = _runs(cal)
-        repeated = _repeat_pattern(cal.reference_deg, runs)[0] | _multi_revolution_runs(reference, runs)
-    cal = _check_duplicates(path, cal, duplicates, repeated=repeated)
-    _check_direction_of_count(path, cal, reverse)
-    check_folds(cal, where=str(path))
+        repeated = _repeat_pattern(cal.reference_deg, runs, order=order)[0] | _multi_revolution_runs(reference, runs)
+    cal = _check_duplicates(path, cal, duplicates, repeated=repeated, order=order)
+    if cal is not rows:
+        order = None
+    _check_direction_of_count(path, cal, reverse, order=order)
+    _check_folds(cal, str(path), order=order)
     _check_coverage(path, cal, allow_gaps)
-    _warn_if_isolated(path, rows, line_numbers)
+    _warn_if_isolated(path, rows, line_numbers, order=None if runs is not None else reference_order)
     return cal
 
 
@@ -492,9 +500,10 @@ def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     return f"has {fields}, expected {n_columns} as in the header ({why})"
 
 
-def _warn_if_isolated(path, cal, line_numbers):
+def _warn_if_isolated(path, cal, line_numbers, order=None):
     """Warn about readings far off their neighbours on both sides, or off the other readings at their reference
-    angle when most angles were read several times (:mod:`encal.outliers`), per direction and epoch."""
+    angle when most angles were read several times (:mod:`encal.outliers`), per direction and epoch. ``order``:
+    the stable argsort of the reference angles of a calibration of one run, if known."""
     from .outliers import ISOLATION_FACTOR, isolated_points
 
     quantum = None if cal.resolution_bits is None else 360.0 * ARCMIN_PER_DEG / 2**cal.resolution_bits
@@ -507,7 +516,7 @@ def _warn_if_isolated(path, cal, line_numbers):
     for run in each:
         members = np.flatnonzero(runs == run) if each.size > 1 else slice(None)  # one run: no copies
         isolated = isolated_points(cal.encoder_deg[members], errors[members], reference_deg=cal.reference_deg[members],
-                                   quantum_arcmin=quantum)
+                                   quantum_arcmin=quantum, reference_order=order if each.size == 1 else None)
         members = np.arange(len(cal))[members]
         found += [(members[i], d, isolated.typical_step_arcmin, isolated.repeated)
                   for i, d in zip(isolated.index, isolated.deviation_arcmin)]
@@ -717,16 +726,23 @@ def is_repeated_stops(reference_deg, runs=None):
     return bool(repeated.any() and not irregular.any())
 
 
-def _repeat_pattern(reference_deg, runs=None):
+def _repeat_pattern(reference_deg, runs=None, order=None):
     """``(repeated, irregular)``, masks over the points: those of runs that follow the pattern of
-    :func:`is_repeated_stops` with k >= 2, and those of runs with repeats that do not."""
+    :func:`is_repeated_stops` with k >= 2, and those of runs with repeats that do not. ``order``: the stable
+    argsort of ``reference_deg`` (wrapped to [0, 360)) of a single run, if known."""
     keys = np.round(wrap360(np.asarray(reference_deg, dtype=float).reshape(-1)), 9)
     runs = np.zeros(keys.size, dtype=int) if runs is None else np.asarray(runs).reshape(-1)
     repeated, irregular = np.zeros(keys.size, dtype=bool), np.zeros(keys.size, dtype=bool)
-    for run in np.unique(runs):
-        members = runs == run
+    for run in np.unique(runs) if order is None else (0,):
+        members = runs == run if order is None else slice(None)
         sequence = keys[members]
-        stops, counts = np.unique(sequence, return_counts=True)
+        if order is None:
+            stops, counts = np.unique(sequence, return_counts=True)
+        else:  # rounding keeps the order: the keys sorted without a second sort
+            ordered = sequence[order]
+            starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
+            stops, counts = ordered[starts], np.diff(np.r_[starts, ordered.size])
+            del ordered
         if counts.max() == 1:
             continue
         k = int(counts[0])
@@ -749,53 +765,89 @@ def _runs(cal):
     return runs
 
 
-def _check_duplicates(path, cal, duplicates, repeated=None):
+def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
     """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
-    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept."""
-    if duplicates == "keep":
+    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept; ``order``: the stable argsort of the
+    reference angles of a calibration of one run, if known.
+
+    Points are repeats when their reference angles agree to :data:`STOP_DECIMALS` decimals and they belong to
+    one run. Repeats are refused only where the reference angles are stops (:func:`_reference_has_stops`): in a
+    log whose reference takes continuous values, two equal angles are a coincidence of the written decimals
+    (ten decimals of 10^6 random angles give about three), not a second reading of one stop. One sort, no
+    Python loop over the points.
+    """
+    if duplicates == "keep" or len(cal) < 2:
         return cal
-    keys = np.round(cal.reference_deg, 9)
-    groups = [keys]
-    if cal.direction is not None:
-        groups.append(cal.direction)
-    if cal.epoch is not None:
-        groups.append(cal.epoch)
-    order = np.lexsort(groups[::-1])
-    seen = {}
-    conflicts = []
-    for index in order:
-        key = tuple(g[index] for g in groups)
-        if key in seen:
-            first = seen[key][0]
-            if abs(wrap180(cal.encoder_deg[index] - cal.encoder_deg[first])) > 1e-9 and not (
-                    repeated is not None and repeated[index]):
-                conflicts.append((first, index))
-            seen[key].append(index)
-        else:
-            seen[key] = [index]
-    if not conflicts:
+    keys = np.round(cal.reference_deg, STOP_DECIMALS)
+    runs = _runs(cal)
+    if runs is not None:
+        order = np.lexsort((runs, keys))
+    elif order is None:
+        order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    starts_group = np.ones(order.size, dtype=bool)
+    starts_group[1:] = sorted_keys[1:] != sorted_keys[:-1]
+    new_stop = starts_group.copy()
+    if runs is not None:
+        sorted_runs = runs[order]
+        starts_group[1:] |= sorted_runs[1:] != sorted_runs[:-1]
+        del sorted_runs
+    if starts_group.all():
+        return cal
+    if duplicates == "refuse" and not _reference_has_stops(sorted_keys[new_stop]):
+        return cal
+    del sorted_keys, new_stop
+    group = np.cumsum(starts_group) - 1
+    first = order[np.flatnonzero(starts_group)]  # the first point of each group, in file order
+    encoder = cal.encoder_deg
+    offsets = wrap180(encoder[order] - encoder[first][group])
+    conflicting = np.abs(offsets) > 1e-9
+    if repeated is not None:
+        conflicting &= ~repeated[order]
+    if not conflicting.any():
         return cal
     if duplicates == "refuse":
-        first, index = conflicts[0]
+        at = int(np.argmax(conflicting))
+        first, index = int(first[group[at]]), int(order[at])
         raise CalibrationError(
             f"{path}: reference angle {cal.reference_deg[index]:g} deg appears more than once with "
             f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, data rows "
             f"{first + 1} and {index + 1}); expected one reading per reference angle, or the same number at "
             "every angle (use --keep-duplicates to keep them as repeated readings of one stop, "
             "--average-duplicates to average them)")
-    keep, encoder = [], []
-    for indices in seen.values():
-        keep.append(indices[0])
-        base = cal.encoder_deg[indices[0]]
-        offsets = wrap180(cal.encoder_deg[indices] - base)
-        encoder.append(base + offsets.mean())
-    keep = np.asarray(keep)
-    order = np.argsort(keep)
-    averaged = cal.subset(keep[order])
-    return Calibration(averaged.reference_deg, np.asarray(encoder)[order], direction=averaged.direction,
-                       epoch=averaged.epoch, name=cal.name, resolution_bits=cal.resolution_bits,
-                       source=cal.source, metadata={"averaged_duplicates": len(cal) - len(keep)},
-                       reading_sign=cal.reading_sign)
+    mean_offset = np.bincount(group, weights=offsets) / np.bincount(group)
+    in_file_order = np.argsort(first)
+    keep = first[in_file_order]
+    averaged = cal.subset(keep)
+    return Calibration(averaged.reference_deg, (encoder[first] + mean_offset)[in_file_order],
+                       direction=averaged.direction, epoch=averaged.epoch, name=cal.name,
+                       resolution_bits=cal.resolution_bits, source=cal.source,
+                       metadata={"averaged_duplicates": len(cal) - keep.size}, reading_sign=cal.reading_sign)
+
+
+#: Reference angles that agree to this many decimals of a degree are one stop (far below any reference's
+#: resolution, far above the rounding of a double).
+STOP_DECIMALS = 9
+#: A reference is continuous, not stops, when more than this fraction of the gaps between its distinct angles
+#: is under :data:`_SMALL_GAP` of their median gap: random angles have about 3.4 % so, a grid none.
+_CONTINUOUS_FRACTION = 0.01
+_SMALL_GAP = 1.0 / 20.0
+#: Fewest distinct angles for the decision (below, the angles are taken for stops).
+_MIN_GAPS = 32
+
+
+def _reference_has_stops(distinct):
+    """Whether sorted distinct reference angles are stops (a grid, regular or not) rather than continuous values.
+
+    The data's own grid decides: on stops, the gaps between neighbouring angles are steps of the table, and
+    none is a small fraction of the typical one; on a continuous reference (a sweep sampled in time, random
+    angles) the gaps are spread like an exponential's, and about 3.4 % of them are under a twentieth of the
+    median gap.
+    """
+    gaps = np.diff(distinct)
+    if gaps.size < _MIN_GAPS:
+        return True
+    return bool(np.mean(gaps < np.median(gaps) * _SMALL_GAP) <= _CONTINUOUS_FRACTION)
 
 
 #: Smallest coherence ``|mean exp(i (θ_enc − θ_ref))|`` (per run) of a calibration whose encoder turns once per
@@ -907,9 +959,11 @@ def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs
         f"round the circle (coherence {found:.2f}, expected over {MIN_TURN_COHERENCE:g}); {advice}")
 
 
-def _check_direction_of_count(path, cal, reverse):
-    """Refuse an encoder whose angle decreases while the reference increases."""
-    order = np.argsort(cal.reference_deg, kind="stable")
+def _check_direction_of_count(path, cal, reverse, order=None):
+    """Refuse an encoder whose angle decreases while the reference increases (``order``: the stable argsort of
+    the reference angles, if known)."""
+    if order is None:
+        order = np.argsort(cal.reference_deg, kind="stable")
     steps_ref = np.diff(cal.reference_deg[order])
     steps_enc = wrap180(np.diff(cal.encoder_deg[order]))
     moving = steps_ref > 1e-9
@@ -945,14 +999,18 @@ def check_folds(cal, where="calibration"):
     CalibrationError
         Naming both points and how far the encoder went back.
     """
-    runs = np.zeros(len(cal), dtype=int)
-    for labels in (cal.direction, cal.epoch):
-        if labels is not None:
-            runs = runs * (len(cal) + 1) + np.unique(labels, return_inverse=True)[1].reshape(-1)
-    for run in np.unique(runs):
-        members = np.flatnonzero(runs == run)
-        order = members[np.argsort(cal.reference_deg[members], kind="stable")]
-        ref, enc = cal.reference_deg[order], cal.encoder_deg[order]
+    _check_folds(cal, where)
+
+
+def _check_folds(cal, where, order=None):
+    """:func:`check_folds`; ``order``: the stable argsort of the reference angles of a calibration of one run."""
+    runs = _runs(cal)
+    for run in (0,) if runs is None else np.unique(runs):
+        run_order = order
+        if run_order is None:
+            members = np.arange(len(cal)) if runs is None else np.flatnonzero(runs == run)
+            run_order = members[np.argsort(cal.reference_deg[members], kind="stable")]
+        ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
         if ref.size < 2:
             continue
         step_ref = np.diff(ref)
@@ -971,19 +1029,24 @@ def check_folds(cal, where="calibration"):
 
 
 def _check_coverage(path, cal, allow_gaps):
-    angles = np.unique(cal.encoder_deg)
+    angles = np.sort(cal.encoder_deg)  # repeats leave gaps of 0, which do not change the largest
     if angles.size == 1:
         gap = 360.0
     else:
         gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
         gap = float(gaps.max())
+    from .arcs import arc_of
+
+    if gap > MAX_GAP_DEG + 1e-9 and arc_of(angles, MAX_GAP_DEG) is not None \
+            and not _looks_like_radians(cal.encoder_deg):  # a turn in radians is no arc of 6 degrees
+        return  # one contiguous arc (a joint of limited travel): fitted over the arc, see encal.arcs
     if gap > MAX_GAP_DEG + 1e-9 and not allow_gaps:  # a 30-degree grid is not refused for a rounding error
         start = angles[np.argmax(np.diff(np.concatenate([angles, angles[:1] + 360.0])))] if angles.size > 1 \
             else angles[0]
         raise CalibrationError(
             f"{path}: the encoder angles leave a gap of {gap:.1f} deg after {start:.2f} deg; expected no gap "
             f"over {MAX_GAP_DEG:g} deg, because no model knows the error where the encoder was never seen "
-            "(use --allow-gaps to accept it)")
+            "(one contiguous arc is accepted; use --allow-gaps to accept scattered gaps)")
 
 
 def write_calibration(path, cal, *, extra_columns=None, comments=()):

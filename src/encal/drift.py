@@ -317,6 +317,10 @@ def _uncorrected_rms(cal, offset):
 
 def _residual_rms(model, cal, offset):
     residual = wrap180((cal.errors_arcmin - model.predict(cal.readings_deg)) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
+    if getattr(model, "range_deg", None) is not None:  # a model over an arc: the residual over the arc (issue 31)
+        from .arcs import within_model_range
+
+        residual = residual[within_model_range(model, cal)]
     if offset == "remove":
         residual = residual - residual.mean()
     return float(np.sqrt(np.mean(np.square(residual))))

@@ -214,7 +214,7 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     shape = remove_offset(errors, offset) if arbitrary else errors
     report = EncoderReport(
         calibration=cal, tests=tests, zero=zero, arbitrary_zero=arbitrary, offset_arcmin=offset,
-        stats=error_stats(errors, zero=mode), harmonics=harmonics(cal.encoder_deg, shape), model=model,
+        stats=error_stats(errors, zero=mode), harmonics=None if model.range_deg is not None else harmonics(cal.encoder_deg, shape), model=model,
         fitted=evaluate(model, cal, zero=mode),
         held_out=[(t.name or f"test {i + 1}", evaluate(model, t, zero=mode)) for i, t in enumerate(tests)],
         resolution_bits=bits, method=method, seed=seed, notes=notes)
@@ -446,7 +446,7 @@ def _drift_figure(report):
 
 _MAKERS = {
     "profile": (_profile_figure, lambda r: True),
-    "harmonics": (_harmonics_figure, lambda r: True),
+    "harmonics": (_harmonics_figure, lambda r: r.harmonics is not None),
     "selection": (_selection_figure, lambda r: r.comparison is not None),
     "before_after": (_before_after_figure, lambda r: True),
     "reversal": (_reversal_figure, lambda r: r.reversal is not None),
@@ -559,7 +559,7 @@ def verdict(report):
         from scipy.stats import norm
 
         _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
-        half_width = float(norm.ppf(0.975) * np.mean(std))
+        half_width = float(norm.ppf(0.975) * np.nanmean(std))  # over the arc of an arc model (NaN outside)
         band = f"; the model's 95 % band for a new reading is ± {half_width:.3g} arcmin on average"
     return head + left + band + "."
 
@@ -570,6 +570,9 @@ def _pooled_rms(values, counts):
 
 
 def _harmonics_table(report):
+    if report.harmonics is None:  # a calibration over an arc (issue 31)
+        return ("<p>The calibration covers one arc of the turn: harmonics of the shaft angle are defined over the "
+                "full turn only, so none are computed.</p>")
     rows = [[str(e["order"]), f"{e['amplitude_arcmin']:.4g}", f"{e['phase_deg']:.1f}"]
             for e in report.harmonics.as_list(10)]
     return _html.table(["order", "amplitude (arcmin)", "phase (deg)"], rows,

@@ -109,6 +109,25 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     """
     check_type(cal, Calibration, "cal", "fit", "a Calibration")
     fitter(method)  # an unknown method is refused before anything else
+    arc = calibrated_arc(cal)
+    if arc is not None and method == "auto":
+        method = "arc"  # over an arc the error is no periodic function: the interval's family
+    model = _fit(cal, method, rng=rng, uncertainty=uncertainty, bidirectional=bidirectional, **options)
+    if arc is not None:
+        model.range_deg = list(arc)  # never a number where the encoder was not calibrated (encal.arcs)
+    return model
+
+
+def calibrated_arc(cal):
+    """The arc ``(start, end)`` (degrees of the encoder angle) a calibration covers when it leaves one gap over
+    30 degrees, else None (a full turn or scattered gaps)."""
+    from .arcs import arc_of
+    from .calibration import MAX_GAP_DEG
+
+    return arc_of(cal.encoder_deg, MAX_GAP_DEG)
+
+
+def _fit(cal, method, *, rng=None, uncertainty=False, bidirectional=None, **options):
     rng = check_seed(rng, "rng", "fit")
     uncertainty = check_bool(uncertainty, "uncertainty", "fit")
     if bidirectional is not None:
@@ -414,8 +433,14 @@ def evaluate(model, cal, *, zero="fixed"):
     # The model maps readings to its input itself (a model of a reversed encoder negates them).
     # A directional model predicts each reading with its own direction's profile.
     predicted = model.predict(cal.readings_deg, direction=cal.direction)
+    encoder_deg = cal.encoder_deg
+    if getattr(model, "range_deg", None) is not None:  # a model over an arc: the statistics over the arc
+        from .arcs import within_model_range
+
+        keep = within_model_range(model, cal)
+        observed, predicted, encoder_deg = observed[keep], predicted[keep], encoder_deg[keep]
     residual = wrap180((observed - predicted) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
     arbitrary = zero_is_arbitrary(zero, zero_offset_arcmin(observed), zero_offset_arcmin(residual))
     mode = "arbitrary" if arbitrary else "fixed"
-    return Evaluation(error_stats(observed, zero=mode), error_stats(residual, zero=mode), cal.encoder_deg.copy(),
+    return Evaluation(error_stats(observed, zero=mode), error_stats(residual, zero=mode), encoder_deg.copy(),
                       residual, observed.copy(), zero)

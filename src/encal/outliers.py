@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._sorting import stable_argsort
 from .parameters import check_number
 from .profile import profile_arrays
 
@@ -68,7 +69,7 @@ class IsolatedPoints:
 
 
 def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_arcmin=None,
-                    factor=ISOLATION_FACTOR):
+                    factor=ISOLATION_FACTOR, reference_order=None):
     """Find the calibration points whose error is far off their neighbours' on both sides.
 
     Parameters
@@ -87,6 +88,9 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         the smallest non-zero step.
     factor : float, default=ISOLATION_FACTOR
         How many typical steps make a point isolated.
+    reference_order : ndarray of int, optional
+        The stable argsort of ``reference_deg`` (in [0, 360)), if the caller has it: the stops are then
+        labelled and grouped without sorting again.
 
     Returns
     -------
@@ -114,7 +118,8 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
                              "expected one reference angle per reading")
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
-    first = _first_of_identical(np.mod(theta, 360.0), error)
+    by_angle = stable_argsort(np.mod(theta, 360.0))  # one sort of the angles serves both steps
+    first = _first_of_identical(np.mod(theta, 360.0), error, by_angle)
     if first.size < theta.size:
         found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor,
                                 reference_deg=None if reference_deg is None else reference[first])
@@ -123,12 +128,26 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     none = IsolatedPoints(np.zeros(0, dtype=int), np.zeros(0), 0.0)
     if theta.size < MIN_POINTS:
         return none
-    if reference_deg is not None:
-        stop = np.unique(np.round(np.mod(reference, 360.0), 9), return_inverse=True)[1].reshape(-1)
+    stops = None if reference_deg is None else np.round(np.mod(reference, 360.0), 9)
+    # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
+    new_stop = None
+    if stops is not None and reference_order is not None:  # rounding keeps the order: no other sort
+        sorted_stops = stops[reference_order]
+        new_stop = np.r_[False, sorted_stops[1:] != sorted_stops[:-1]]
+        distinct = int(np.count_nonzero(new_stop)) + 1
+        del sorted_stops
+    elif stops is not None:
+        distinct = np.unique(stops).size
+    if stops is not None and 1.5 * distinct <= stops.size:
+        if new_stop is not None:
+            stop = np.empty(stops.size, dtype=np.intp)
+            stop[reference_order] = np.cumsum(new_stop)
+        else:
+            stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
         counts = np.bincount(stop)
         if np.median(counts) >= 2:
-            return _isolated_repeats(error, stop, counts, quantum_arcmin, factor)
-    order = np.argsort(np.mod(theta, 360.0), kind="stable")
+            return _isolated_repeats(error, stop, counts, quantum_arcmin, factor, by_stop=reference_order)
+    order = by_angle
     e = error[order]
     steps = np.abs(e - np.roll(e, 1))
     quantum = quantum_arcmin
@@ -153,28 +172,48 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
 IDENTICAL_DECIMALS = 9
 
 
-def _first_of_identical(theta, error):
+def _first_of_identical(theta, error, by_angle=None):
     """Indices of the first of each set of identical (angle, error) points (to :data:`IDENTICAL_DECIMALS`
     decimals: the readings of a noise-free log over several turns differ by the rounding of doubles only), in
-    input order."""
+    input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known."""
     theta = np.round(theta, IDENTICAL_DECIMALS) % 360.0
     error = np.round(error, IDENTICAL_DECIMALS)
-    if np.unique(theta).size == theta.size:  # the common case, found without sorting
+    if by_angle is None:
+        by_angle = np.argsort(theta, kind="stable")
+    else:  # rounding keeps the order but for angles that round up to 360 and wrap to 0: they go first
+        wrapped = np.flatnonzero(theta[by_angle][1:] < theta[by_angle][:-1])
+        if wrapped.size:
+            by_angle = np.roll(by_angle, -(int(wrapped[0]) + 1))
+    sorted_theta = theta[by_angle]
+    equal = sorted_theta[1:] == sorted_theta[:-1]
+    del sorted_theta
+    if not equal.any():  # the common case: one sort, no pairs
         return np.arange(theta.size)
-    order = np.lexsort((error, theta))
-    same = (theta[order][1:] == theta[order][:-1]) & (error[order][1:] == error[order][:-1])
+    tied = np.zeros(theta.size, dtype=bool)
+    tied[1:] |= equal
+    tied[:-1] |= equal
+    candidates = by_angle[tied]  # only the points that share their angle are sorted by (angle, error)
+    candidates = candidates[np.lexsort((error[candidates], theta[candidates]))]
+    same = (theta[candidates][1:] == theta[candidates][:-1]) & (error[candidates][1:] == error[candidates][:-1])
     if not same.any():
         return np.arange(theta.size)
-    first = np.ones(theta.size, dtype=bool)
+    first = np.ones(candidates.size, dtype=bool)
     first[1:] = ~same
     group = np.cumsum(first) - 1
-    keep = np.full(group[-1] + 1, theta.size)
-    np.minimum.at(keep, group, order)  # the earliest point of each set in input order
-    return np.sort(keep)
+    earliest = np.full(group[-1] + 1, theta.size)
+    np.minimum.at(earliest, group, candidates)  # the earliest point of each set in input order
+    keep = np.ones(theta.size, dtype=bool)
+    keep[candidates] = False
+    keep[earliest] = True
+    return np.flatnonzero(keep)
 
 
-def _group_medians(values, groups, n_groups):
-    """The median of ``values`` in each group (labels 0 .. n_groups - 1, every group non-empty)."""
+def _group_medians(values, groups, n_groups, by_group=None):
+    """The median of ``values`` in each group (labels 0 .. n_groups - 1, every group non-empty); ``by_group``:
+    indices that sort ``groups``, if known."""
+    counts = np.bincount(groups, minlength=n_groups)
+    if by_group is not None and counts.min() == counts.max():  # k readings at every stop: a (stops, k) table
+        return np.median(values[by_group].reshape(n_groups, -1), axis=1)
     order = np.argsort(values)
     order = order[np.argsort(groups[order], kind="stable")]
     counts = np.bincount(groups, minlength=n_groups)
@@ -183,9 +222,10 @@ def _group_medians(values, groups, n_groups):
     return (ordered[starts + (counts - 1) // 2] + ordered[starts + counts // 2]) / 2.0
 
 
-def _isolated_repeats(error, stop, counts, quantum, factor):
-    """Readings far off their stop (see the module docstring); ``stop`` labels the stops in order of angle."""
-    medians = _group_medians(error, stop, counts.size)
+def _isolated_repeats(error, stop, counts, quantum, factor, by_stop=None):
+    """Readings far off their stop (see the module docstring); ``stop`` labels the stops in order of angle,
+    ``by_stop`` (optional) sorts them."""
+    medians = _group_medians(error, stop, counts.size, by_stop)
     centre = medians[stop]
     alone = np.flatnonzero(counts[stop] == 1)  # judged against the neighbouring stops
     if alone.size:
@@ -199,7 +239,8 @@ def _isolated_repeats(error, stop, counts, quantum, factor):
         quantum = float(nonzero.min()) if nonzero.size else 0.0
     # The noise from the differences between successive readings of a stop (sqrt(2) sigma for Gaussian
     # noise): the deviations from a stop's median are biased low (one of three readings is the median).
-    by_stop = np.argsort(stop, kind="stable")
+    if by_stop is None:
+        by_stop = np.argsort(stop, kind="stable")
     same = stop[by_stop][1:] == stop[by_stop][:-1]
     steps = np.abs(np.diff(error[by_stop]))[same]
     del by_stop, same

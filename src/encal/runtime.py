@@ -18,7 +18,8 @@ error is ``encoder - reference``; the corrected angle is
 ``(theta_in - predict_arcmin(theta_enc) / 60) mod 360``, in [0, 360), where
 ``theta_in = model_input_deg(theta_enc, reading_sign)`` is the reading itself,
 or its negative for an encoder that counts against its reference (a model
-file with ``"reading_sign": -1``, format version 2).
+file with ``"reading_sign": -1``, format version 2). A model calibrated over an
+arc (``"range_deg": [start, end]``, format version 4) answers NaN outside it.
 
 The file format is specified in encal's ``docs/model-file.md``. encal itself
 uses the checks below when it loads a file, so this reader and encal accept
@@ -31,7 +32,7 @@ import json
 import math
 
 __all__ = ["load", "read_document", "RuntimeModel", "ModelFileError", "model_input_deg", "reading_sign_of",
-           "version_for",
+           "version_for", "range_of", "in_range",
            "canonical_json", "content_sha256", "check_document", "check_parameters",
            "check_uncertainty", "normalisation_of", "form_of", "names_a_form", "FORMAT", "VERSION", "KINDS",
            "FORMS", "KIND_FORMS"]
@@ -39,16 +40,18 @@ __all__ = ["load", "read_document", "RuntimeModel", "ModelFileError", "model_inp
 FORMAT = "encal.model"
 #: The newest format version this reader understands. Version 2 is version 1 plus ``reading_sign``; version 3
 #: is version 2 plus ``form``, for a kind the format does not name. A writer uses the oldest version that holds
-#: the model, so a file of version 1 means what it always meant.
-VERSION = 3
+#: the model, so a file of version 1 means what it always meant. Version 4 is version 3 plus ``range_deg``, for a
+#: model calibrated over an arc: outside it the model answers NaN (an older reader refuses the file instead).
+VERSION = 4
 #: ``reading_sign`` values: 1, the encoder counts with its reference; -1, against it.
 READING_SIGNS = (1, -1)
 #: The forms a model's parameters are stored in, each checked and evaluated here (docs/model-file.md).
 FORMS = ("ann", "directional", "fourier", "hybrid", "lut", "stack")
 #: The model kinds the format names, and the form each is stored in (a spectral model: its posterior-mean
-#: Fourier series). A model of another kind names its form in a ``form`` field (version 3), next to its
+#: Fourier series; an arc model, version 4: its piecewise cubic over the turn, with ``range_deg``). A model of
+#: another kind names its form in a ``form`` field (version 3), next to its
 #: ``kind``: in the file, in a stack's member and in a directional model's part.
-KIND_FORMS = {"ann": "ann", "directional": "directional", "fourier": "fourier", "hybrid": "hybrid",
+KIND_FORMS = {"ann": "ann", "arc": "lut", "directional": "directional", "fourier": "fourier", "hybrid": "hybrid",
               "lut": "lut", "spectral": "fourier", "stack": "stack"}
 #: Model kinds whose parameters the format names.
 KINDS = tuple(sorted(KIND_FORMS))
@@ -57,13 +60,14 @@ PART_FORMS = ("ann", "fourier", "hybrid", "lut", "stack")
 PART_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in PART_FORMS)
 #: The forms, and the kinds the format names, that can be a member of a ``stack`` model.
 MEMBER_FORMS = ("ann", "fourier", "hybrid", "lut")
-MEMBER_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in MEMBER_FORMS)
+MEMBER_KINDS = tuple(kind for kind in KINDS if KIND_FORMS[kind] in MEMBER_FORMS and kind != "arc")  # no arc in a
+# stack: its members are weighed over the whole turn
 #: Largest distance of a stack's weights' sum from 1.
 WEIGHT_SUM_TOLERANCE = 1e-9
 UNITS = {"input": "deg", "output": "arcmin", "error": "encoder - reference"}
 FIELDS = ("format", "version", "kind", "encoder", "units", "normalisation", "parameters",
           "training", "sha256")
-OPTIONAL_FIELDS = ("uncertainty", "reading_sign")
+OPTIONAL_FIELDS = ("uncertainty", "reading_sign", "range_deg")
 TRAINING_FIELDS = ("method", "algorithm", "epochs", "seed", "data_sha256", "n_points", "date",
                    "encal_version", "options")
 _SCALING_FIELDS = ("input_offset", "input_gain", "target_offset", "target_gain")
@@ -196,6 +200,7 @@ def check_document(document, where, *, verify_checksum=True):
     if verify_checksum:
         _check_checksum(document, where)
     _check_reading_sign(document, version, where)
+    _check_range(document, version, where)
     missing = [name for name in FIELDS if name not in document and name != "sha256"]
     if missing:
         raise ModelFileError(f"{where}: expected the fields {', '.join(FIELDS)}, "
@@ -225,14 +230,48 @@ def _check_reading_sign(document, version, where):
                              f"got {'nothing' if 'reading_sign' not in document else _describe(sign)}")
 
 
+def _check_range(document, version, where):
+    if "range_deg" not in document:
+        return
+    if version < 4:
+        raise ModelFileError(f"{where}: format version {version} has no 'range_deg' field, got one; "
+                             "expected version 4 for a file that records it")
+    value = document["range_deg"]
+    if value is None:
+        return
+    if (not isinstance(value, list) or len(value) != 2 or not all(_is_number(v) for v in value)
+            or not all(0.0 <= v < 360.0 for v in value) or value[0] == value[1]):
+        raise ModelFileError(f"{where}: expected 'range_deg' to be null or [start, end], two different numbers "
+                             f"of degrees in [0, 360), got {_describe(value)}")
+
+
+def range_of(document):
+    """The calibrated range ``[start, end]`` (degrees, forward from start to end) of a checked model file, or None
+    for a full turn (version 4; absent in older files)."""
+    value = document.get("range_deg")
+    return None if value is None else [float(value[0]), float(value[1])]
+
+
+def in_range(theta_deg, range_deg):
+    """Whether the model-input angle ``theta_deg`` lies in ``range_deg`` (always for None)."""
+    if range_deg is None:
+        return True
+    span = (range_deg[1] - range_deg[0]) % 360.0
+    offset = (theta_deg - range_deg[0]) % 360.0
+    return offset <= span + 1e-9 or offset >= 360.0 - 1e-9
+
+
 def reading_sign_of(document):
     """The ``reading_sign`` of a checked model file: 1 (absent, version 1) or -1."""
     return document.get("reading_sign", 1)
 
 
-def version_for(reading_sign, form_named=False):
+def version_for(reading_sign, form_named=False, has_range=False):
     """The format version a writer uses: the oldest that holds ``reading_sign`` and, when ``form_named``, a
-    ``form`` field (a kind the format does not name, in the file or in one of its members or parts)."""
+    ``form`` field (a kind the format does not name, in the file or in one of its members or parts), and when
+    ``has_range``, a ``range_deg`` (version 4)."""
+    if has_range:
+        return 4
     if form_named:
         return 3
     return 1 if reading_sign == 1 else 2
@@ -706,6 +745,7 @@ class RuntimeModel:
         self.sha256 = document["sha256"]
         self.directional = self.form == "directional"
         self.reading_sign = reading_sign_of(document)
+        self.range_deg = range_of(document)
         self._predict = _EVALUATORS[self.form](document["parameters"])
 
     def predict_arcmin(self, theta_deg, direction=None):
@@ -713,9 +753,12 @@ class RuntimeModel:
 
         ``direction`` (+1 turning forward, -1 turning back) selects a part of a
         ``directional`` model; ``None`` (unknown) gives the mean of both parts.
-        Other kinds have one profile and ignore it.
+        Other kinds have one profile and ignore it. NaN for a reading outside the model's ``range_deg``
+        (a model calibrated over an arc, format version 4): it is never given a number there.
         """
         theta = model_input_deg(_finite(theta_deg), self.reading_sign)
+        if not in_range(theta, self.range_deg):
+            return math.nan  # calibrated over an arc that does not hold this reading
         if self.directional:
             return float(self._predict(theta, _direction(direction)))
         return float(self._predict(theta))

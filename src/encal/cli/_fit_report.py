@@ -104,7 +104,7 @@ def held_out_lines(estimate):
 
 def _one(model, cal, method, options):
     selection = model.training.get("selection")
-    if model.kind == "spectral":
+    if model.kind in ("spectral", "arc"):  # the posterior of either says it
         expected = model.expected_rms_between_points()
         if expected is None:
             return None

@@ -45,6 +45,10 @@ def add_arguments(parser):
                         help="direction of travel of the readings, for a bidirectional model fitted per "
                              "direction (default: the mean of both directions; other models ignore it)")
     add_serial_options(parser)  # issue 32: the unit's latest model in the calibration store (FILE the one argument)
+    parser.add_argument("--outside", choices=("error", "clamp", "pass"), default="error",
+                        help="a reading outside the range of a model calibrated over an arc: refuse it (default), "
+                             "use the correction of the nearer end of the arc (clamp), or leave it uncorrected "
+                             "(pass); a full-turn model has no outside")
 
 
 def claim_extras(args, extras):
@@ -62,6 +66,11 @@ def run(args):
         args.model, args.input = None, args.model  # with --serial, the one argument is FILE
     check_paths(inputs=[model_input(args), (args.input, "angles")])
     compensator = Compensator(model_or_serial(args, args._parser))
+    if compensator.model.range_deg is not None:  # an arc: a reading outside it follows the stated rule
+        from ..arcs import OutsideRule
+
+        compensator = OutsideRule(compensator, args.outside,
+                                  where="reading" if args.input == "-" else f"reading of {args.input}")
     if sys.stdout is None:  # started with standard output closed (`>&-`)
         raise InputError("standard output is closed; expected somewhere to write the corrected angles")
     if args.input == "-" and sys.stdin is None:

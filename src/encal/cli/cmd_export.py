@@ -107,6 +107,9 @@ def add_arguments(parser):
                         help="C: look up a dense per-code table instead of evaluating the formula")
     parser.add_argument("--json", action="store_true",
                         help="print one JSON object naming what was written (files, bytes, table deviation)")
+    parser.add_argument("--outside", choices=("clamp", "pass"),
+                        help="a model calibrated over an arc (every format): the correction of the rest of the "
+                             "turn, the nearer end's (clamp) or none (pass); refused without it")
     parser.add_argument("--constants", choices=("auto", "float", "double"),
                         help="C: storage of the formula's constants (default: float when it "
                              "changes the model by at most 1e-4 arcmin, else double)")
@@ -221,6 +224,21 @@ _NEEDS_RESOLUTION = {
 }
 
 
+def _outside(args, compensator):
+    """The model for the export of a model calibrated over an arc: --outside's rule (issue 31, encal.arcs)."""
+    from ..arcs import periodic_for_export, refuse_arc
+
+    if compensator.model.range_deg is None:
+        args.export_parser.error(f"--outside applies to a model calibrated over an arc; {args.model} covers the "
+                                 "full turn")
+    if args.outside is None:
+        refuse_arc(compensator, f"--format {args.format}")
+    model = Compensator(periodic_for_export(compensator.model, args.outside))
+    model.source = compensator.source
+    args.arc_range = list(compensator.model.range_deg)
+    return model
+
+
 def _check_resolution(args, compensator):
     """A usage error (naming --bits) for an export that needs the resolution that neither --bits nor the model gives."""
     export = "c --table" if args.format == "c" and args.table else args.format
@@ -247,6 +265,8 @@ def _export(args):
     check_paths(inputs=[model_input(args), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
                 folders=[("-o", output, c_files)] if c_files else [])
     compensator = Compensator(model_or_serial(args, args.export_parser))
+    if compensator.model.range_deg is not None or args.outside is not None:
+        compensator = _outside(args, compensator)
     recorded = compensator.encoder.get("resolution_bits")
     if args.bits is not None and recorded is not None and args.bits != recorded:
         args.bits_mismatch = (f"--bits {args.bits} differs from the {recorded} bits {args.model} records for its "
@@ -293,8 +313,20 @@ def _export(args):
                    and args.interpolation is None)
         if chooses and args.tolerance is not None and args.cost is None:
             compact["cost"] = "operations"
-    paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
-                                  **{k: v for k, v in compact.items() if v is not None}, **options)
+    if getattr(args, "arc_range", None) is None:
+        paths, summary = write_target(compensator, output, args.target, prefix=args.name, bits=args.bits,
+                                      **{k: v for k, v in compact.items() if v is not None}, **options)
+    else:  # issue 31: the header states the calibrated range and tests it
+        from .._atomic import write_file_set
+        from ..arcs import with_range_in_header
+        from ..deploy.targets import export_target
+
+        files, summary = export_target(compensator, args.target, prefix=args.name, bits=args.bits,
+                                       **{k: v for k, v in compact.items() if v is not None}, **options)
+        files = with_range_in_header(files, args.name, args.target, args.arc_range, args.outside,
+                                     bits=args.bits if args.bits is not None else compensator.encoder.get(
+                                         "resolution_bits"), reading_sign=compensator.reading_sign)
+        paths = write_file_set(output, files)
     if args.json:
         print_json({"format": "c", "target": args.target, "files": [str(p) for p in paths], "prefix": args.name,
                     "bytes": sum(Path(p).stat().st_size for p in paths), "description": describe(summary)})

@@ -374,6 +374,11 @@ def run(args):
     print(f"{cal.name}: {model.kind} model, {len(cal)} points; training-set RMS{shape} "
           f"{fitted.before.rms:.4g} -> {fitted.after.rms:.4g} arcmin (MAE {fitted.before.mae:.4g} -> "
           f"{fitted.after.mae:.4g}); wrote {args.output}")
+    if model.range_deg is not None:  # issue 31
+        from ..arcs import describe_range
+
+        print(f"the calibration covers {describe_range(model.range_deg)}: the model holds there only (NaN outside "
+              "in Python and the runtime; encal correct and encal export take --outside clamp|pass)")
     if deployment:
         print(deployment)
     return 0

@@ -34,9 +34,15 @@ def run(args):
         offset = zero_offset_arcmin(cal.errors_arcmin)
         arbitrary = stats.offset is not None
         shape = remove_offset(cal.errors_arcmin, offset) if arbitrary else cal.errors_arcmin
-        progress.stage("harmonics")
-        analysis = harmonics(cal.encoder_deg, shape)
-        top = analysis.as_list(args.top or None)
+        from ..fitting import calibrated_arc
+
+        arc = calibrated_arc(cal)
+        if arc is None:
+            progress.stage("harmonics")
+            analysis = harmonics(cal.encoder_deg, shape)
+            top = analysis.as_list(args.top or None)
+        else:  # harmonics are of the whole turn: over an arc they are not defined (issue 31)
+            analysis, top = None, None
         note = zero_sentence(args.zero, offset, arbitrary)
         bits, inferred = cal.resolution_bits, False
         if bits is None:
@@ -47,7 +53,8 @@ def run(args):
         print(json.dumps({"name": cal.name, "resolution_bits": bits, "resolution_inferred": inferred,
                           **stats.as_dict(),
                           "zero": "arbitrary" if arbitrary else "fixed", "zero_offset_arcmin": offset,
-                          "zero_note": note, "harmonics": top}))
+                          "zero_note": note, "harmonics": top,
+                          **({} if arc is None else {"range_deg": list(arc), "harmonics_note": _arc_note(arc)})}))
     else:
         print(_report(cal, stats, analysis, top, note, bits, inferred))
     return 0
@@ -65,6 +72,10 @@ def _report(cal, stats, analysis, top, note, bits, inferred):
         else:
             in_lsb = lsb and not label.startswith("zero offset")  # the offset is not the encoder's error
             lines.append(f"{label:<22}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if in_lsb else ""))
+    if analysis is None:
+        from ..fitting import calibrated_arc
+
+        return "\n".join(lines + ["", _arc_note(calibrated_arc(cal))])
     of_what = "the shape (zero offset removed)" if stats.offset is not None else "the error"
     lines += ["", f"largest harmonics of {of_what} vs encoder angle "
                   f"({len(top)} of orders 0..{analysis.max_order})"]
@@ -76,3 +87,10 @@ def _report(cal, stats, analysis, top, note, bits, inferred):
     return "\n".join(lines)
 
 
+
+
+def _arc_note(arc):
+    from ..arcs import describe_range
+
+    return (f"the calibration covers one arc, {describe_range(list(arc))}: harmonics of the shaft angle are "
+            "defined over the full turn only, so none are computed (the statistics above are over the arc)")

@@ -197,6 +197,9 @@ def compile_table(model, bits=None, *, dtype="int16"):
     """
     check_choice(dtype, "dtype", "compile_table", tuple(TABLE_DTYPES))
     comp = model if isinstance(model, Compensator) else Compensator(model)
+    from ..arcs import refuse_arc
+
+    refuse_arc(comp, "a dense table")  # periodic: it cannot say "outside" (see encal.arcs)
     bits = _check_bits(comp.encoder.get("resolution_bits") if bits is None else bits)
     n = 2**bits
     step = 360.0 / n

@@ -104,6 +104,9 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
         check_number(tolerance_arcmin, "tolerance_arcmin", caller, low=0.0, low_open=True,
                      note="arc-minutes, or None")
     comp = model if isinstance(model, Compensator) else Compensator(model)
+    from ..arcs import refuse_arc
+
+    refuse_arc(comp, "the C export")  # periodic: it cannot say "outside" (see encal.arcs)
     if target == "host":
         if nodes is not None or tolerance_arcmin is not None or form != "table":
             raise InputError("--nodes, --tolerance and --form apply to the cortex-m4f and fixed targets, "

@@ -41,6 +41,10 @@ DEFAULT_HIDDEN = {"raw": 80, "periodic": 30}
 DEFAULT_STOPPING = {"trainlm": {"plateau_patience": 20, "plateau_tol": 0.01}}
 
 
+#: Largest |s'| and |s''| of each activation: tanh 1 and 4 / (3 sqrt 3); the logistic 1/4 and sqrt(3) / 18.
+_SLOPE_BOUNDS = {"tansig": (1.0, 4.0 / (3.0 * np.sqrt(3.0))), "logsig": (0.25, np.sqrt(3.0) / 18.0)}
+
+
 class ANNModel(Model):
     """A 1:N:1 network predicting the error (arc-minutes) from the encoder angle (degrees).
 
@@ -124,6 +128,18 @@ class ANNModel(Model):
         z = sum(inputs[:, [i]] * self.W1[:, i] for i in range(inputs.shape[1])) + self.b1
         y = (ACTIVATIONS[self.activation][0](z) * self.W2).sum(axis=1) + self.b2
         return self.target_scaling.reverse(y)
+
+    def _table_bound(self):
+        """``|f''|`` of a periodic network, arc-minutes per degree squared: each neuron's input ``z`` moves with
+        ``theta`` (radians) at most ``R = |W1 · gain|`` in slope and in curvature (``(cos, sin)`` and its
+        derivatives are unit vectors), so ``|f''| <= sum |W2| (max|s''| R**2 + max|s'| R) / |target gain|``.
+        A raw network jumps at 0/360 degrees: no bound."""
+        if self.encoding != "periodic" or self.activation not in _SLOPE_BOUNDS:
+            return None
+        first, second = _SLOPE_BOUNDS[self.activation]
+        reach = np.hypot(*(self.W1 * np.broadcast_to(self.input_scaling.gain, (self.W1.shape[1],))).T)
+        curvature = np.sum(np.abs(self.W2) * (second * reach**2 + first * reach)) / abs(self.target_scaling.gain)
+        return float(curvature) * (np.pi / 180.0) ** 2, 0.0
 
     def free_parameters(self):
         return self.hidden * (self.W1.shape[1] + 2) + 1

@@ -15,8 +15,10 @@ from abc import ABC, abstractmethod
 import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, wrap360
+from ..arcs import inside
 from ..errors import InputError
 from ..parameters import invalid
+from ._table import TABLE_MIN_ANGLES, correct_through_table
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
 
@@ -114,6 +116,9 @@ class Model(ABC):
     form = None
     uncertainty = None
     reading_sign = 1
+    #: ``[start, end]`` in degrees of the model's input angle when the model was calibrated over an arc (see
+    #: :mod:`encal.arcs`): outside it ``predict`` and ``correct`` answer NaN. None for a full turn.
+    range_deg = None
 
     def __init__(self, *, encoder=None, training=None):
         self.encoder = dict(encoder or {})
@@ -173,10 +178,16 @@ class Model(ABC):
             direction_mask(direction, theta.shape)
         # Subclasses see a flat array of angles in [0, 360); the caller's shape is restored here.
         mean = np.asarray(in_chunks(self._predict, theta.reshape(-1), self.evaluation_width),
-                          dtype=float).reshape(theta.shape)[()]
+                          dtype=float).reshape(theta.shape)
+        outside = None if self.range_deg is None else ~inside(theta, self.range_deg)
+        if outside is not None:
+            mean[outside] = np.nan  # never a number where the encoder was not calibrated
         if not return_std:
-            return mean
-        return mean, predictive_std(self.uncertainty, theta)
+            return mean[()]
+        std = np.array(predictive_std(self.uncertainty, theta), dtype=float).reshape(theta.shape)
+        if outside is not None:
+            std[outside] = np.nan
+        return mean[()], std[()]
 
     #: Temporary numbers per angle of ``_predict`` (a network's hidden nodes, a series' terms): angles are
     #: evaluated in chunks small enough that memory stays bounded however wide the model (see in_chunks).
@@ -189,9 +200,33 @@ class Model(ABC):
         against its reference. ``direction`` as for :meth:`predict`.
         """
         theta = as_angles(theta_enc_deg)
+        if direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
+            table = self._correction_table()
+            if table is not None:  # many angles: through a table of the model (see encal.models._table)
+                return correct_through_table(theta.reshape(-1), self.reading_sign, table).reshape(theta.shape)
         if direction is None:  # chunk by chunk: peak memory is the result and one chunk's temporaries
             return in_chunks(self._correct, theta.reshape(-1), self.evaluation_width).reshape(theta.shape)[()]
         return self._correct(theta, direction)
+
+    _table = False  # the correction table, built on first use; None: none fits
+
+    def _table_bound(self):
+        """``(max|f''|, largest slope jump)`` of the model's error, in arc-minutes per degree squared and per
+        degree, from its parameters; None when the model has no such bound (a table would not be exact)."""
+        return None
+
+    def _correction_table(self):
+        """A table of ``predict / 60`` for :func:`encal.models._table.correct_through_table`, within
+        :data:`~encal.models._table.TABLE_TOLERANCE_ARCMIN` of the model (:meth:`_table_bound`), or None
+        (evaluated as it is)."""
+        if self._table is False:
+            from ._table import points_for_bound, sampled_table
+
+            bound = self._table_bound()
+            points = None if bound is None else points_for_bound(*bound)
+            self._table = None if points is None else sampled_table(
+                lambda nodes: in_chunks(self._predict, nodes, self.evaluation_width), points)
+        return self._table
 
     def _correct(self, theta, direction=None):
         # model_input wraps first: multi-turn readings keep their precision
@@ -201,7 +236,10 @@ class Model(ABC):
             predicted = in_chunks(self._predict, wrapped, self.evaluation_width)
         else:
             predicted = self.predict(theta, direction=direction)
-        return wrap360(wrapped - predicted / ARCMIN_PER_DEG)
+        corrected = wrap360(wrapped - predicted / ARCMIN_PER_DEG)
+        if self.range_deg is not None:
+            corrected = np.where(inside(wrapped, self.range_deg), corrected, np.nan)
+        return corrected
 
     def save(self, path, **options):
         """Write the model file (see :func:`encal.deploy.save_model`)."""
@@ -219,8 +257,9 @@ class Model(ABC):
                 ("parameters", f"{self.free_parameters()} fitted values")]
         if training.get("zero_offset_arcmin") is not None:
             rows.append(("zero offset", f"{training['zero_offset_arcmin']:+.3f} arcmin (arbitrary zero, in the model)"))
-        rows += [("predicts", f"{predicted.min():+.3f} .. {predicted.max():+.3f} arcmin over 0..360 deg, "
-                              f"peak-to-peak {np.ptp(predicted):.3f}"),
+        over = "0..360 deg" if self.range_deg is None else f"{self.range_deg[0]:.6g}..{self.range_deg[1]:.6g} deg"
+        rows += [("predicts", f"{np.nanmin(predicted):+.3f} .. {np.nanmax(predicted):+.3f} arcmin over {over}, "
+                              f"peak-to-peak {np.nanmax(predicted) - np.nanmin(predicted):.3f}"),
                  ("uncertainty", "yes" if self.uncertainty is not None else "no")]
         width = max(len(label) for label, _ in rows)
         return "\n".join(f"{label:<{width}}  {value}" for label, value in rows)

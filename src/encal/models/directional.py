@@ -98,6 +98,17 @@ class DirectionalModel(Model):
             return mean
         return mean, np.where(forward_side, f_std, r_std)[()]
 
+    @property
+    def range_deg(self):
+        """The calibrated range (see :class:`~encal.models.base.Model`), shared by both parts."""
+        return getattr(self, "_range_deg", None)
+
+    @range_deg.setter
+    def range_deg(self, value):
+        self._range_deg = value
+        for part in (self.forward, self.reverse):  # each part answers NaN outside it (issue 31)
+            part.range_deg = value
+
     def correct(self, theta_enc_deg, direction=None):
         """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees.
 
@@ -117,6 +128,10 @@ class DirectionalModel(Model):
             else:
                 error = np.where(forward_side[start:start + step], forward, reverse)
             out[start:start + step] = wrap360(inside - error / ARCMIN_PER_DEG)
+        if self.range_deg is not None:  # never a number outside the calibrated arc (issue 31)
+            from ..arcs import inside as in_range
+
+            out[~in_range(model_input(flat, self.reading_sign), self.range_deg)] = np.nan
         return out.reshape(theta.shape)[()]
 
     def free_parameters(self):

@@ -87,6 +87,18 @@ class FourierModel(Model):
             self._harmonics = HarmonicSeries(self.orders, self.cos, self.sin)
         return self._harmonics
 
+    def _table_bound(self):
+        from ._table import series_bound
+
+        return series_bound(self.orders, self.cos, self.sin), 0.0
+
+    def _correction_table(self):  # the nodes by one inverse FFT
+        if self._table is False:
+            from ._table import series_table
+
+            self._table = series_table(self.orders, self.cos, self.sin) if self.orders.size else None
+        return self._table
+
     def free_parameters(self):
         return sum(1 if k == 0 else 2 for k in self.orders.tolist())
 

@@ -55,6 +55,10 @@ class HybridModel(Model):
     def evaluation_width(self):
         return max(self.fourier.evaluation_width, self.ann.evaluation_width)
 
+    def _table_bound(self):
+        parts = [self.fourier._table_bound(), self.ann._table_bound()]
+        return None if None in parts else tuple(map(sum, zip(*parts)))
+
     def free_parameters(self):
         return self.fourier.free_parameters() + self.ann.free_parameters()
 

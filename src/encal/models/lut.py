@@ -112,6 +112,11 @@ class LookupTableModel(Model):
             total += rows[:, m] * power
         return total
 
+    def _table_bound(self):
+        from ._table import piecewise_bound
+
+        return piecewise_bound(self.breaks_deg, self.coefficients)
+
     def free_parameters(self):
         return self.breaks_deg.size - 1
 

@@ -19,6 +19,7 @@ from .. import runtime
 from .._atomic import atomic_write
 from .._environment import source_date_epoch
 from .._version import __version__
+from ..arcs import check_range
 from ..errors import InputError, ModelFileError
 from .kind import kind_names, model_kind
 
@@ -80,8 +81,12 @@ def model_to_dict(model, *, reproducible=False):
     sign = model.reading_sign
     if isinstance(sign, bool) or sign not in runtime.READING_SIGNS:
         raise ModelFileError(f"{where}: expected reading_sign 1 or -1, got {sign!r}")
+    range_deg = getattr(model, "range_deg", None)
+    if range_deg is not None:
+        range_deg = check_range(list(range_deg), where)
     version = runtime.version_for(sign, runtime.names_a_form({"kind": model.kind, **named,
-                                                              "parameters": parameters}))
+                                                              "parameters": parameters}),
+                                  has_range=range_deg is not None or model.kind == "arc")
     document = {
         "format": FORMAT,
         "version": version,
@@ -90,6 +95,7 @@ def model_to_dict(model, *, reproducible=False):
         "encoder": {"name": encoder.pop("name", None) or "",
                     "resolution_bits": encoder.pop("resolution_bits", None), **encoder},
         **({} if version == 1 else {"reading_sign": int(sign)}),
+        **({} if range_deg is None else {"range_deg": range_deg}),
         "units": dict(runtime.UNITS),
         "normalisation": runtime.normalisation_of(form, parameters),
         "parameters": parameters,
@@ -143,6 +149,7 @@ def model_from_dict(document, *, source="model file", verify_checksum=True):
     if document.get("uncertainty") is not None:
         model.uncertainty = document["uncertainty"]
     model.reading_sign = runtime.reading_sign_of(document)
+    model.range_deg = runtime.range_of(document)
     return model
 
 

@@ -32,6 +32,7 @@ KINDS = (
               stack_member=True, directional_part=True),
     ModelKind("stack", "StackModel", "fit_stack", module="encal.models.stack", randomised=True, simplicity=90,
               directional_part=True),
+    ModelKind("arc", "ArcModel", "fit_arc", module="encal.models.arc", directional_part=True),
     ModelKind("directional", "DirectionalModel", None, module="encal.models.directional"),
     ModelKind("auto", None, "fit_auto", module="encal.models.choice", randomised=True),
 )

@@ -130,7 +130,8 @@ class SpectralModel(FourierModel):
         grid = np.arange(table.size) * float(self.uncertainty["grid_step_deg"])
         profile_std = np.interp(wrap360(theta), grid, table, period=360.0)
         noise = float(self.uncertainty["noise_std_arcmin"]) if include_noise else 0.0
-        return mean, np.sqrt(profile_std**2 + noise**2).reshape(theta.shape)[()]
+        std = np.sqrt(profile_std**2 + noise**2).reshape(theta.shape)
+        return mean, np.where(np.isnan(mean), np.nan, std)[()]  # NaN outside a calibrated arc (issue 31)
 
     def expected_rms_between_points(self):
         """The posterior's expected RMS error of a correction at angles not calibrated, arc-minutes.

@@ -81,6 +81,12 @@ class StackModel(Model):
         # Left to right, member by member: the order the runtime reader and the C export add in.
         return sum(weight * member._predict(theta_deg) for weight, member in zip(self.weights, self.members))
 
+    def _table_bound(self):
+        parts = [member._table_bound() for member in self.members]
+        if None in parts:
+            return None
+        return tuple(sum(abs(float(weight)) * part[i] for weight, part in zip(self.weights, parts)) for i in range(2))
+
     def free_parameters(self):
         return sum(member.free_parameters() for member in self.members)
 

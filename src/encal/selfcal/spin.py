@@ -13,7 +13,6 @@ torque ripple are left out. See docs/self-calibration.md.
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import BSpline
 
 from ..angles import ARCMIN_PER_DEG
 from ..errors import InputError
@@ -199,7 +198,7 @@ def _run_coefficients(run, orders, knot_revolutions):
     for g in range(groups):
         for start in range(bounds[g], bounds[g + 1], CHUNK):
             stop = min(start + CHUNK, bounds[g + 1])
-            smooth = BSpline.design_matrix(time[start:stop], knots, 3).toarray()
+            smooth = cubic_bspline_design(time[start:stop], knots)
             x = np.hstack([smooth, design_matrix(phase[start:stop], orders)])
             normal[g] += x.T @ x
             right[g] += x.T @ (phase[start:stop] - origin)
@@ -221,6 +220,38 @@ def _run_coefficients(run, orders, knot_revolutions):
     speed = travel / 360.0 / (time[-1] - time[0])
     return {"vector": full * ARCMIN_PER_DEG, "covariance": covariance, "speed_rev_s": float(speed),
             "revolutions": float(revolutions)}
+
+
+def cubic_bspline_design(x, knots):
+    """The cubic B-spline basis on clamped ``knots`` at ``x``, as a dense matrix of shape (x.size, knots.size - 4).
+
+    The Cox-de Boor recursion over the four functions that are non-zero in each knot interval, in NumPy: the
+    same matrix as ``scipy.interpolate.BSpline.design_matrix(x, knots, 3).toarray()`` to rounding, without
+    importing scipy.interpolate (half the time of ``encal selfcal spin`` on 2e5 samples). ``x`` lies within
+    ``[knots[3], knots[-4]]``, the last point belonging to the last interval.
+    """
+    x = np.asarray(x, dtype=float).reshape(-1)
+    knots = np.asarray(knots, dtype=float)
+    n_basis = knots.size - 4
+    interval = np.clip(np.searchsorted(knots, x, side="right") - 1, 3, n_basis - 1)
+    left = np.empty((4, x.size))
+    right = np.empty((4, x.size))
+    values = np.zeros((4, x.size))
+    values[0] = 1.0
+    for j in range(1, 4):
+        left[j] = x - knots[interval + 1 - j]
+        right[j] = knots[interval + j] - x
+        saved = np.zeros(x.size)
+        for r in range(j):
+            term = values[r] / (right[r + 1] + left[j - r])
+            values[r] = saved + right[r + 1] * term
+            saved = left[j - r] * term
+        values[j] = saved
+    design = np.zeros((x.size, n_basis))
+    rows = np.arange(x.size)
+    for r in range(4):
+        design[rows, interval - 3 + r] = values[r]
+    return design
 
 
 def _separate(estimates, orders, speeds):

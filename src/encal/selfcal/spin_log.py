@@ -8,7 +8,7 @@ from .spin import SpinLog
 __all__ = ["read_spin_log", "write_spin_log"]
 
 
-def read_spin_log(path):
+def read_spin_log(path, *, time_column="time_s", encoder_column="encoder_deg", encoder_unit="deg"):
     """Read a spin log: one or more runs of (time, encoder reading).
 
     The file is comma-separated UTF-8 text with ``#`` comment lines and a header naming ``time_s``
@@ -18,6 +18,10 @@ def read_spin_log(path):
     Parameters
     ----------
     path : str or os.PathLike
+    time_column, encoder_column : str or int, default='time_s', 'encoder_deg'
+        The time (seconds) and the encoder column: a header name (any case) or a column number from 1.
+    encoder_unit : str, default='deg'
+        Unit of the encoder column: deg, rad, rev or counts:B.
 
     Returns
     -------
@@ -31,7 +35,8 @@ def read_spin_log(path):
         is not a finite number; naming the file, line and column.
     """
     columns = read_columns(path, (("time_s", "seconds"), ("encoder_deg", "degrees")), what="spin log",
-                           labels=("run",))
+                           labels=("run",), columns={"time_s": time_column, "encoder_deg": encoder_column},
+                           units={"encoder_deg": encoder_unit})
     labels = columns.get("run")
     if labels is None:
         return [SpinLog(columns["time_s"], columns["encoder_deg"], Path(path).name)]

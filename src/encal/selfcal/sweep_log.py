@@ -21,8 +21,13 @@ class SweepLog:
     source: str = ""
 
 
-def read_sweep_log(path):
+def read_sweep_log(path, *, phase_column="electrical_deg", encoder_column="encoder_deg", phase_unit="deg",
+                   encoder_unit="deg"):
     """Read a sweep log: columns ``electrical_deg`` and ``encoder_deg``, optionally ``direction`` (+1 / -1).
+
+    ``phase_column`` and ``encoder_column`` name the commanded electrical angle and the encoder column where
+    they are called otherwise (a header name, any case, or a column number from 1); ``phase_unit`` and
+    ``encoder_unit`` give their units (deg, rad, rev or counts:B; the phase in electrical turns for rev).
 
     The rows are in the order of the sweep. Without ``direction``, each sample's direction is the sign of
     the commanded angle's step to it (the first sample takes the second's).
@@ -34,7 +39,9 @@ def read_sweep_log(path):
     """
     columns = read_columns(path, (("electrical_deg", "electrical degrees"), ("encoder_deg", "degrees")),
                            optional=(("direction", "+1 or -1"),),
-                           what="sweep log (or a moteus capture beginning with 'CAL start')")
+                           what="sweep log (or a moteus capture beginning with 'CAL start')",
+                           columns={"electrical_deg": phase_column, "encoder_deg": encoder_column},
+                           units={"electrical_deg": phase_unit, "encoder_deg": encoder_unit})
     phase, reading = columns["electrical_deg"], columns["encoder_deg"]
     if "direction" in columns:
         travel = columns["direction"]

@@ -67,7 +67,11 @@ class FirmwareExport:
 
 
 def compensator(model):
-    return model if isinstance(model, Compensator) else Compensator(model)
+    from ...arcs import refuse_arc
+
+    comp = model if isinstance(model, Compensator) else Compensator(model)
+    refuse_arc(comp, "a firmware table")  # periodic: it cannot say "outside" (see encal.arcs)
+    return comp
 
 
 def correction_on_codes(comp, bits):

@@ -1,0 +1,139 @@
+"""Dense files: ``read_calibration`` against ``np.loadtxt``, ``encal fit`` against a plain NumPy script.
+
+Usage::
+
+    PYTHONPATH=src python benchmarks/bench_dense_read.py [--rows 1000000] [--repeats 5] [--files sweep,random]
+
+(``PYTHONPATH`` names the encal measured, in this process and in the ``encal fit`` processes.)
+
+Two files of ``--rows`` rows are written to a temporary folder: a dense sweep (5 revolutions over the same
+stops, orders 1, 2, 16, 32, 48 and 0.1 arcmin of noise, as ``benchmarks/dense_sweep.py``) and uniformly random
+reference angles written with ``%.10f`` (where two angles agree to 9 decimals about three times in 10^6: they
+must not be refused as one stop read twice). Every comparison is paired and interleaved (A B A B ...) so that
+the ratio holds on a loaded machine; the table gives medians and the median of the pair ratios.
+
+* ``read_calibration`` and ``np.loadtxt(delimiter=',', skiprows=1)`` of the same file, in this process.
+* ``python -m encal fit FILE -o MODEL`` and a NumPy script that reads the same file with ``np.loadtxt`` and
+  fits Fourier orders 1 to 16 by projection, each a whole process (wall time, and peak resident memory from
+  GNU ``/usr/bin/time``), both with one BLAS thread.
+"""
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+NUMPY_FIT = """
+import sys
+import numpy as np
+table = np.loadtxt(sys.argv[1], delimiter=",", skiprows=1)
+reference, encoder = np.radians(table[:, 0]), np.radians(table[:, 1])
+error = np.angle(np.exp(1j * (encoder - reference))) * 10800 / np.pi
+z = np.exp(1j * encoder)
+zk = np.ones_like(z)
+coefficients = []
+for order in range(1, 17):
+    zk *= z
+    coefficients.append(2.0 * np.mean(error * zk.conj()))
+np.save(sys.argv[2], np.asarray(coefficients))
+"""
+
+
+def write_files(folder, rows, seed=0):
+    rng = np.random.default_rng(seed)
+    harmonics = ((1, 3.0, 0.3), (2, 1.5, 1.1), (16, 0.6, 2.0), (32, 0.3, 0.5), (48, 0.2, 2.5))
+
+    def readings(reference):
+        error = sum(a * np.cos(np.radians(k * reference) + p) for k, a, p in harmonics)
+        return np.mod(reference + (error + rng.normal(0.0, 0.1, reference.size)) / 60.0, 360.0)
+
+    stops = rows // 5
+    sweep = np.tile(np.arange(stops) * 360.0 / stops, 5)
+    random = rng.uniform(0.0, 360.0, rows)
+    files = {}
+    for name, reference in (("sweep", sweep), ("random", random)):
+        path = Path(folder) / f"{name}.csv"
+        np.savetxt(path, np.c_[reference, readings(reference)], fmt="%.10f", delimiter=",",
+                   header="reference_deg,encoder_deg", comments="")
+        files[name] = path
+    return files
+
+
+def paired(first, second, repeats):
+    """Times of ``first()`` and ``second()`` run alternately, after one warm-up of each."""
+    first(), second()
+    a, b = [], []
+    for _ in range(repeats):
+        for call, times in ((first, a), (second, b)):
+            start = time.perf_counter()
+            call()
+            times.append(time.perf_counter() - start)
+    return np.array(a), np.array(b)
+
+
+def run_process(command, env):
+    """Wall seconds and peak resident MiB of one process. The peak is GNU time's (``/usr/bin/time -f %M``): a
+    child forked from this process counts this process's pages until it execs, so its own ``ru_maxrss`` would
+    be this benchmark's size."""
+    start = time.perf_counter()
+    process = subprocess.run(["/usr/bin/time", "-f", "peak_kib %M", *map(str, command)], env=env,
+                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - start
+    if process.returncode != 0:
+        raise SystemExit(f"{' '.join(map(str, command))} failed: {process.stderr.strip()[-400:]}")
+    peak = next(line for line in reversed(process.stderr.splitlines()) if line.startswith("peak_kib "))
+    return wall, int(peak.split()[1]) / 1024.0
+
+
+def row(label, a, b, unit="s"):
+    return f"| {label} | {np.median(a):.3g} {unit} | {np.median(b):.3g} {unit} | {np.median(a / b):.2f} " \
+           f"({np.min(a / b):.2f}-{np.max(a / b):.2f}) |"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", type=int, default=1_000_000)
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--files", default="sweep,random", help="which files: sweep, random or both")
+    args = parser.parse_args()
+    import warnings
+
+    from encal import read_calibration
+
+    print(f"rows {args.rows}, {args.repeats} pairs each, load average {os.getloadavg()[0]:.1f} "
+          f"on {os.cpu_count()} cores")
+    with tempfile.TemporaryDirectory() as folder:
+        files = {name: path for name, path in write_files(folder, args.rows).items()
+                 if name in args.files.split(",")}
+        print("\n| in one process | read_calibration | np.loadtxt | ratio (min-max) |\n|---|---|---|---|")
+        for name, path in files.items():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                a, b = paired(lambda: read_calibration(path),
+                              lambda: np.loadtxt(path, delimiter=",", skiprows=1), args.repeats)
+            print(row(f"{name} file", a, b))
+        script = Path(folder) / "numpy_fit.py"
+        script.write_text(NUMPY_FIT)
+        env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1")
+        print("\n| whole process | encal fit | NumPy script | ratio (min-max) |\n|---|---|---|---|")
+        for name, path in files.items():
+            encal = [sys.executable, "-m", "encal", "fit", str(path), "-o", str(Path(folder) / "model.json")]
+            plain = [sys.executable, str(script), str(path), str(Path(folder) / "coefficients.npy")]
+            run_process(encal, env), run_process(plain, env)
+            results = {"encal": [], "plain": []}
+            for _ in range(max(1, args.repeats - 2)):
+                results["encal"].append(run_process(encal, env))
+                results["plain"].append(run_process(plain, env))
+            encal_runs, plain_runs = np.array(results["encal"]), np.array(results["plain"])
+            print(row(f"{name}: wall", encal_runs[:, 0], plain_runs[:, 0]))
+            print(row(f"{name}: peak memory", encal_runs[:, 1], plain_runs[:, 1], unit="MiB"))
+    print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
+
+
+if __name__ == "__main__":
+    main()

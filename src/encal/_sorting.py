@@ -1,0 +1,34 @@
+"""A stable argsort at the speed of NumPy's default one.
+
+``np.argsort(kind='stable')`` of 10^6 doubles in random order takes about four times as long as the default
+(introsort, vectorised where the CPU allows): the checks of a dense calibration sort its angles so, and want
+equal angles in file order. :func:`stable_argsort` sorts with the default kind and then puts the indices of
+each run of equal values in increasing order, which is exactly the stable order.
+"""
+
+import numpy as np
+
+__all__ = ["stable_argsort"]
+
+
+def stable_argsort(values):
+    """Indices that sort ``values`` (1-D, no NaN), equal values in index order: ``np.argsort(values,
+    kind='stable')``, faster for large arrays of distinct values."""
+    values = np.asarray(values).reshape(-1)
+    if np.count_nonzero(values[1:] < values[:-1]) <= values.size // 64:
+        return np.argsort(values, kind="stable")  # a few sorted runs (a sweep's turns): timsort merges them
+    order = np.argsort(values)
+    ordered = values[order]
+    tied = ordered[1:] == ordered[:-1]
+    del ordered
+    if not tied.any():
+        return order
+    if np.count_nonzero(tied) > values.size // 16:  # many repeats: the stable sort is as quick as the mending
+        return np.argsort(values, kind="stable")
+    in_run = np.zeros(order.size, dtype=bool)
+    in_run[1:] |= tied
+    in_run[:-1] |= tied
+    positions = np.flatnonzero(in_run)
+    run = np.cumsum(np.r_[True, ~tied])[positions]  # the run of equal values each tied position belongs to
+    order[positions] = order[positions][np.lexsort((order[positions], run))]
+    return order

@@ -1,0 +1,76 @@
+"""Two encoders on one joint calibrate each other (issue 31): truth from the simulator, the CLI, refusals."""
+
+import json
+
+import numpy as np
+import pytest
+
+from encal.cli import main
+from encal.errors import InputError
+from encal.selfcal.dual import confounded_pairs, dual, simulate_dual
+
+
+def relative_error(series, truth, side, confounded):
+    grid = np.arange(4096) * 360.0 / 4096
+    spectrum = np.fft.rfft(truth(grid)) / 4096 * 2.0
+    true_cos, true_sin = spectrum.real[series.orders], -spectrum.imag[series.orders]
+    keep = np.array([k not in {pair[side] for pair in confounded} for k in series.orders])
+    error = np.sum((series.cos_arcmin - true_cos)[keep] ** 2 + (series.sin_arcmin - true_sin)[keep] ** 2)
+    return float(np.sqrt(error / np.sum(true_cos[keep] ** 2 + true_sin[keep] ** 2)))
+
+
+@pytest.mark.parametrize("ratio", [6.0, 7.5, -9.0])
+def test_both_profiles_recovered_within_10_percent_on_the_separable_orders(ratio):
+    motor, output, truth = simulate_dual(ratio, seed=1, output_turns=2.0)
+    result = dual(motor, output, ratio, pinion_teeth=12)
+    assert relative_error(result.motor.series, truth["motor_at_reading"], 0, result.confounded) < 0.10
+    assert relative_error(result.output.series, truth["output_at_reading"], 1, result.confounded) < 0.10
+    assert result.ratio_estimated == pytest.approx(ratio, rel=1e-5)
+    assert result.motor.removed_orders == (12, 24)
+
+
+def test_the_confounded_orders_are_named():
+    assert confounded_pairs(6.0, range(1, 31), range(1, 31), 3.0) == [(1, 6), (2, 12), (3, 18), (4, 24), (5, 30)]
+    assert confounded_pairs(7.5, range(1, 31), range(1, 31), 3.0) == [(2, 15), (4, 30)]
+    motor, output, _ = simulate_dual(6.0, seed=2, output_turns=1.5)
+    result = dual(motor, output, 6.0)
+    assert result.confounded == [(1, 6), (2, 12), (3, 18), (4, 24), (5, 30)]
+    assert "motor 1 / output 6" in result.summary()
+
+
+def test_the_uncertainty_of_a_confounded_order_is_large():
+    motor, output, _ = simulate_dual(6.0, seed=3, output_turns=2.0)
+    result = dual(motor, output, 6.0)
+    sigma = np.sqrt(np.diag(result.motor.series.covariance))
+    orders = result.motor.series.orders
+    assert sigma[list(orders).index(1)] > 10 * sigma[list(orders).index(7)]
+
+
+def test_refusals_are_one_sentence():
+    motor, output, _ = simulate_dual(6.0, seed=4, output_turns=2.0)
+    with pytest.raises(InputError, match="expected --ratio 6"):
+        dual(motor, output, -6.0)
+    with pytest.raises(InputError, match="expected at least one full turn"):
+        dual(motor[:2000], output[:2000], 6.0)
+    with pytest.raises(InputError, match="not 0"):
+        dual(motor, output, 0.0)
+
+
+def test_cli_dual_writes_both_calibrations(tmp_path, capsys):
+    motor, output, _ = simulate_dual(6.0, seed=5, output_turns=1.5, samples_per_motor_turn=360)
+    log = tmp_path / "joint.csv"
+    log.write_text("motor_deg,output_deg\n" + "".join(f"{m:.9f},{o:.9f}\n" for m, o in zip(motor, output)))
+    args = ["selfcal", "dual", str(log), "--ratio", "6", "--motor-cal", str(tmp_path / "m.csv"),
+            "--output-cal", str(tmp_path / "o.csv"), "--pinion-teeth", "12", "--json"]
+    assert main(args) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["confounded"][0] == {"motor_order": 1, "output_order": 6}
+    assert summary["motor_removed_orders"] == [12, 24]
+    assert main(["fit", str(tmp_path / "o.csv"), "-o", str(tmp_path / "o.json")]) == 0
+    bad = tmp_path / "bad.csv"
+    bad.write_text("motor_deg,angle\n1,2\n")
+    capsys.readouterr()
+    assert main(["selfcal", "dual", str(bad), "--ratio", "6", "--motor-cal", str(tmp_path / "m2.csv"),
+                 "--output-cal", str(tmp_path / "o2.csv")]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "output_deg" in err
