@@ -109,9 +109,10 @@ def fleet_prior(models, *, orders=DEFAULT_ORDERS, points=360):
     """
     from .statistics import harmonics
 
-    models = list(models)
+    models = [model for model in models if model.range_deg is None]  # an arc's model is NaN off the arc
     if len(models) < MIN_UNITS:
-        raise InputError(f"a fleet prior needs {MIN_UNITS} or more units; got {len(models)}")
+        raise InputError(f"a fleet prior needs {MIN_UNITS} or more units calibrated over the whole turn; got "
+                         f"{len(models)}")
     grid = np.arange(points) * (360.0 / points)
     profiles = np.array([np.asarray(m.predict(grid), dtype=float) for m in models])
     coefficients = harmonics(profiles - profiles.mean(axis=1, keepdims=True), orders)

@@ -145,7 +145,8 @@ def latest_per_serial(records):
 
 
 def fleet_statistics(records, *, orders=ORDERS, points=GRID_POINTS):
-    """The statistics of the fleet in ``records`` (the latest epoch of each serial number is used).
+    """The statistics of the fleet in ``records`` (the latest epoch of each serial number calibrated over the
+    whole turn is used).
 
     Parameters
     ----------
@@ -163,10 +164,11 @@ def fleet_statistics(records, *, orders=ORDERS, points=GRID_POINTS):
     InputError
         With fewer than 3 units (a median and a MAD need a few).
     """
-    latest = latest_per_serial(records)
+    # a unit calibrated over an arc has no profile over the whole turn to compare (its model is NaN outside)
+    latest = [record for record in latest_per_serial(records) if record.model().range_deg is None]
     if len(latest) < 3:
-        raise InputError(f"the store holds {len(latest)} unit(s); expected 3 or more units for fleet statistics "
-                         "(a median and its spread)")
+        raise InputError(f"the store holds {len(latest)} unit(s) calibrated over the whole turn; expected 3 or more "
+                         "for fleet statistics (a median and its spread)")
     grid, profiles = unit_profiles(latest, points)
     coefficients = harmonics(profiles, orders)
     amplitudes = np.abs(coefficients)
