@@ -176,6 +176,10 @@ def _make_files(folder):
     _make_issue25_files(folder, paths, document)
     _make_files_and_paths_files(folder, paths, good)
     _make_plausibility_files(folder, paths)
+    arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
+    paths["arc_only"] = folder / "arc_only.csv"
+    paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
+                                           arc), encoding="utf-8")
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -1112,6 +1116,16 @@ PLAUSIBILITY_CASES = [
                                          "{scratch}/spin.csv"), 0),
 ]
 CASES += PLAUSIBILITY_CASES
+
+# The fresh outside attack after issue 25 (a report, 545 cases): a periodic model fitted on an arc was wrong
+# inside its own range with exit 0 (spectral: 5e8 arcmin at a midpoint; fourier: 28 of 37 arcmin left).
+ATTACK_CASES = [
+    *(Case(f"fit-{method}-on-an-arc", ("fit", "{arc_only}", "-o", "{out}/m.json", "--method", method, "--allow-gaps"),
+           1, ("covers only an arc", f"--method {method} fits a periodic model", "--method lut"))
+      for method in ("spectral", "fourier", "hybrid", "ann")),
+    Case("fit-lut-on-an-arc-accepted", ("fit", "{arc_only}", "-o", "{scratch}/arc_lut.json", "--method", "lut"), 0),
+]
+CASES += ATTACK_CASES
 
 
 # issue 31 (inplace): calibrations over an arc, a reading outside the range, two encoders of one joint

@@ -37,7 +37,7 @@ def as_angles(theta_enc_deg):
         raise InputError("encoder angles must be finite numbers of degrees; got None")
     try:
         theta = np.asarray(theta_enc_deg, dtype=float)
-    except (TypeError, ValueError) as exc:  # 'abc', a dict, a complex number, a ragged list
+    except (TypeError, ValueError, OverflowError) as exc:  # 'abc', a dict, a complex number, a ragged list, 10**400
         raise InputError(f"encoder angles must be finite numbers of degrees; {exc}") from None
     if not np.all(np.isfinite(theta)):
         raise InputError("encoder angles must be finite numbers of degrees (found NaN or infinity)")
