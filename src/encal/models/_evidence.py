@@ -605,7 +605,7 @@ def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
 SPLIT_POINTS = 9
 
 
-def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
+def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="uniform"):
     """The posterior averaged over how the flat level divides between signal and noise.
 
     On a uniform grid a flat part of the profile and white noise add the same level to every
@@ -623,6 +623,11 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     floor_var : float, default=0.0
         Smallest noise variance.
     points : int, default=SPLIT_POINTS
+    rule : {'uniform', 'noise', 'half', 'gcv'}, default='uniform'
+        ``'uniform'``: the evidence-weighted mixture over fractions uniform on [0, 1]; ``'half'``: on
+        [0, 1/2]; ``'noise'``: the fraction 0 alone (all of the flat level noise); ``'gcv'``: the one
+        fraction of the grid [0, 1) (0 included) whose posterior mean, a linear smoother of the data,
+        has the lowest generalised cross-validation score ``n RSS / (n - tr H)²`` (Wahba 1985).
 
     Returns
     -------
@@ -634,8 +639,18 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     positive = design.orders > 0
     g = float(np.median(g_all[positive])) if np.any(positive) else float(max(design.n, 1))
     level = hyper.flat + hyper.noise_var / g
+    if rule == "uniform":
+        fractions = (np.arange(points) + 0.5) / points
+    elif rule == "half":
+        fractions = 0.5 * (np.arange(points) + 0.5) / points
+    elif rule.startswith("u"):  # 'u70': uniform on [0, 0.70]
+        fractions = float(rule[1:]) / 100.0 * (np.arange(points) + 0.5) / points
+    elif rule == "noise":
+        fractions = np.zeros(1)
+    else:
+        fractions = np.arange(points) / points
     posteriors, noises = [], []
-    for fraction in (np.arange(points) + 0.5) / points:
+    for fraction in fractions:
         noise = max((1.0 - fraction) * level * g, floor_var, 1e-300)
         trial = Hyper(hyper.amplitude, hyper.exponent, noise, dict(hyper.lines), True, max(level - noise / g, 0.0))
         try:
@@ -646,6 +661,10 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     if not posteriors:
         return evidence(design, hyper.variances(design), hyper.noise_var), hyper.noise_var
     log_evidence = np.array([p.log_evidence for p in posteriors])
+    if rule == "gcv":
+        scores = [_gcv(design, p, noise) for p, noise in zip(posteriors, noises)]
+        chosen = int(np.argmin(scores))
+        posteriors, noises, log_evidence = [posteriors[chosen]], [noises[chosen]], log_evidence[chosen:chosen + 1]
     weights = np.exp(log_evidence - log_evidence.max())
     weights /= weights.sum()
     means = np.array([p.mean for p in posteriors])
@@ -656,3 +675,20 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     best = posteriors[int(np.argmax(log_evidence))]
     mixture = Posterior(total, mean, covariance, best.grad_log_variance, best.grad_log_noise, spread)
     return mixture, float(weights @ np.array(noises))
+
+
+def _gcv(design, post, noise_var):
+    """Generalised cross-validation score ``n RSS / (n - tr H)²`` of the posterior mean as a linear smoother.
+
+    ``H = Φ Σ Φᵀ / σ²`` (``Σ`` the posterior covariance): ``tr H = tr(G Σ) / σ²``; the residual sum of
+    squares ``yᵀy - 2 bᵀμ + μᵀ G μ``.
+    """
+    mean, g = post.mean, design.gram
+    if design.diagonal:
+        trace = float(np.sum(g * post.covariance)) / noise_var
+        rss = design.yy - 2.0 * design.projection @ mean + float(np.sum(g * mean**2))
+    else:
+        trace = float(np.sum(g * post.covariance)) / noise_var
+        rss = design.yy - 2.0 * design.projection @ mean + mean @ g @ mean
+    left = max(design.n - trace, 1e-12 * design.n)
+    return design.n * max(rss, 0.0) / left**2

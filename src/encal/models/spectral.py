@@ -25,7 +25,7 @@ import numpy as np
 
 from ..angles import ARCMIN_PER_DEG, model_input, resolution_of_readings, wrap360
 from ..errors import InputError
-from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays, uniform_grid
+from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles, identifiable_order, profile_arrays, uniform_grid
 from . import _evidence
 from ._trigsums import SeriesEvaluator, trig_moments
 from .fourier import MAX_ORDER, FourierModel
@@ -40,6 +40,9 @@ DEFAULT_MAX_ORDER_IRREGULAR = 200
 BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot split between profile and noise, "
                "is split under a uniform prior (the posterior averaged over the splits), the noise never below "
                "the quantisation's LSB/sqrt(12) when the readings show the resolution")
+#: How the blind fit splits the flat level (see ``_evidence.split_average``): the benchmark's knob.
+BLIND_SPLITS = ("uniform", "noise", "half", "gcv", "u60", "u70", "u80")
+BLIND_SPLIT = "uniform"
 #: Added to the blind prior when the stops are off a regular grid (safeguard 5).
 BLIND_BEYOND_NYQUIST = ("; the stops being off a regular grid, the series then runs past the Nyquist order with "
                         "the split's mean noise held fixed")
@@ -49,6 +52,11 @@ STORED_ORDERS_LIMIT = 4096
 MIN_REPEAT_DOF = 10
 #: Highest order up to which a line needs the plain 3 nats (see ``threshold_nats`` of fit_spectral).
 _THRESHOLD_ORDER = 90
+#: Highest order scanned for lines above the cap of the Fourier-feature path (see ``_orders_above_cap``).
+SCAN_LIMIT = 4096
+#: Most orders above the cap carried as columns, and most added per round of the scan.
+MAX_EXTRA_ORDERS = 160
+EXTRA_PER_ROUND = 48
 #: Largest posterior-std grid (points per revolution).
 _STD_GRID_LIMIT = 3600
 #: Largest peak-to-peak stray of the readings from the grid's nodes, in codes, for which a quantised encoder's rounding on a
@@ -257,7 +265,7 @@ def repeat_noise(reference_deg, error_arcmin):
 
 # -- the design: columns, Gram matrix, projections -----------------------------------------------
 
-def _columns(highest, regular_points, phase_rad):
+def _columns(highest, regular_points, phase_rad, extra=()):
     """Orders, shifts and line eligibility of the columns ``cos(ν θ - ψ)``.
 
     On a regular grid of an even number ``N`` of stops, the Nyquist order ``N / 2`` has one
@@ -272,6 +280,10 @@ def _columns(highest, regular_points, phase_rad):
             shifts.append(k * phase_rad)
             lineable.append(True)
             continue
+        orders += [k, k]
+        shifts += [0.0, 0.5 * math.pi]
+        lineable += [True, True]
+    for k in extra:
         orders += [k, k]
         shifts += [0.0, 0.5 * math.pi]
         lineable += [True, True]
@@ -340,7 +352,7 @@ def _stops(theta, error):
 # -- the fit --------------------------------------------------------------------------------------
 
 def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=None,
-                 threshold_nats=None, path="auto", progress=None):
+                 threshold_nats=None, path="auto", progress=None, _extra_orders=()):
     """Fit the empirical-Bayes spectral model.
 
     Parameters
@@ -374,6 +386,8 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     progress : callable, optional
         Called with no argument after each of the fit's 3 stages (the design, the hyperparameters,
         the posterior), for a progress bar (:class:`encal._progress.Progress` ``.advance``).
+    _extra_orders : sequence of int
+        Internal: orders above the cap carried as columns (see :func:`_orders_above_cap`).
 
     Returns
     -------
@@ -399,6 +413,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     if threshold_nats is not None and not (isinstance(threshold_nats, (int, float)) and threshold_nats >= 0):
         raise InputError(f"The 'threshold_nats' parameter of fit_spectral must be a number >= 0. "
                          f"Got {threshold_nats!r} instead.")
+    threshold_given = threshold_nats
     stop_angles, reference = _stops(theta, error)
     m = stop_angles.size
     if m < 3:
@@ -446,7 +461,9 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
 
     offset = float(np.mean(error))
     centred = error - offset
-    orders, shifts, lineable = _columns(highest, regular_points, phase)
+    capped = max_order is None and uniform is None and not beyond and highest < nyquist
+    extra = sorted(int(k) for k in _extra_orders if k > highest)
+    orders, shifts, lineable = _columns(highest, regular_points, phase, extra)
     bits = resolution_of_readings(theta)
     rounding_orders = _quantisation_orders(bits, grid, theta)
     lineable &= ~np.isin(orders, rounding_orders)
@@ -467,10 +484,12 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
         # σ̂ stays the flat level (all of it noise), the figure to hold against LSB/√12; a new
         # reading's predictive noise is the mixture's mean noise.
-        post, mean_noise_var = _evidence.split_average(design, hyper, quantisation_var)
+        post, mean_noise_var = _evidence.split_average(design, hyper, quantisation_var, rule=BLIND_SPLIT)
         split = {"points": _evidence.SPLIT_POINTS, "mean_noise_std_arcmin": math.sqrt(mean_noise_var),
                  "floor_arcmin": math.sqrt(quantisation_var)}
 
+    cap = highest
+    highest = int(orders.max())
     cos = np.zeros(highest + 1)
     sin = np.zeros(highest + 1)
     np.add.at(cos, orders, post.mean * np.cos(shifts))
@@ -519,8 +538,43 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
     predictive_sigma = sigma if split is None else split["mean_noise_std_arcmin"]
     model.uncertainty = _posterior_std(design, post, highest, predictive_sigma, unseen)
+    if capped and len(extra) < MAX_EXTRA_ORDERS:
+        # The cap is the cost's, not the data's: orders above it that the residual's periodogram shows
+        # clearly (a stepper's detent at 200 and its sidebands) are carried as columns, and the fit repeated.
+        found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra)
+        if found:
+            training["time_s"] = time.perf_counter() - start
+            return fit_spectral(theta, error, noise_arcmin=noise_arcmin, threshold_nats=threshold_given, path=path,
+                                progress=None, _extra_orders=extra + found)
+    if extra:
+        model.training["orders_above_cap"] = {"cap": int(cap), "orders": extra}
     _advance(progress)
     return model
+
+
+def _orders_above_cap(theta_deg, residual_arcmin, cap, nyquist, known):
+    """Orders above ``cap`` where the residual of a capped fit has a line the data identify, sorted.
+
+    The scan runs to the highest order the readings identify stably (``identifiable_order``: the
+    largest gap between them shorter than half a period), at most :data:`SCAN_LIMIT` and the Nyquist
+    order of the stops. On readings spread over the circle an order's periodogram of white noise,
+    ``|Σ r_i e^{-i k θ_i}|² / n``, is exponential with mean ``σ²`` (estimated robustly, the median over
+    the scan divided by ln 2); an order counts when it exceeds ``σ²`` by the factor ``ln N + 3`` (about
+    0.05 false orders per scan of ``N`` orders). At most :data:`EXTRA_PER_ROUND` orders per round, the
+    strongest first.
+    """
+    top = min(identifiable_order(theta_deg), SCAN_LIMIT, nyquist)
+    if top <= cap + 1:
+        return []
+    moments = trig_moments(np.radians(theta_deg), residual_arcmin, top)[cap + 1:]
+    power = np.abs(moments) ** 2 / residual_arcmin.size
+    level = float(np.median(power)) / math.log(2.0)
+    if not level > 0:
+        return []
+    cut = level * (math.log(power.size) + _evidence.LINE_THRESHOLD_NATS)
+    orders = np.arange(cap + 1, top + 1)
+    strong = [int(k) for k in orders[np.argsort(power)[::-1]] if k not in known][:EXTRA_PER_ROUND]
+    return sorted(k for k in strong if power[k - cap - 1] > cut)
 
 
 def _known_noise(noise_arcmin, reference_deg, error_arcmin):
