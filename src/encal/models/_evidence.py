@@ -67,6 +67,10 @@ class Design:
         When the series runs past the Nyquist order of the stops: that order. A line above it needs
         ``beyond_nyquist_nats`` more evidence and is not started from the periodogram.
     beyond_nyquist_nats : float
+    rounding : ndarray of shape (P,), optional
+        Variance per column that a quantised encoder's rounding puts there beyond its white share (on a
+        uniform grid): part of every column's prior variance, so that the evidence explains it, but not of
+        the profile (:func:`signal_part` takes it out of the posterior).
     """
 
     orders: np.ndarray
@@ -78,6 +82,7 @@ class Design:
     lineable: np.ndarray
     nyquist: int = None
     beyond_nyquist_nats: float = 0.0
+    rounding: np.ndarray = None
 
     def extra_nats(self, orders):
         """Nats a line at each of ``orders`` needs beyond the threshold: ``beyond_nyquist_nats`` above
@@ -123,6 +128,8 @@ class Hyper:
         s[positive] += self.flat
         for order, variance in self.lines.items():
             s[(orders == order) & design.lineable] += variance
+        if design.rounding is not None:
+            s = s + design.rounding
         return s
 
 
@@ -201,6 +208,25 @@ def evidence(design, variances, noise_var, covariance=True):
     grad_s = 0.5 * (z**2 + inverse_diagonal - 1.0)
     grad_noise = 0.5 * (max(residual2, 0.0) / sigma2 + s.size - float(np.sum(inverse_diagonal)) - n)
     return Posterior(float(log_p), mean, covariance, grad_s, float(grad_noise))
+
+
+def signal_part(design, variances, noise_var, post):
+    """The posterior of the profile alone when the prior variances include the rounding's (``design.rounding``).
+
+    With prior variances ``S = S_p + R`` (profile, rounding; diagonal) the profile's posterior mean is
+    ``S_p S⁻¹`` times the whole's, and its covariance ``S_p - D (S - Σ) D`` with ``D = S_p S⁻¹`` and ``Σ``
+    the whole's posterior covariance. Without rounding the posterior is returned as it is.
+    """
+    if design.rounding is None or post.covariance is None:
+        return post
+    profile = np.maximum(variances - design.rounding, 0.0)
+    share = np.where(variances > 0, profile / np.maximum(variances, 1e-300), 0.0)
+    if design.diagonal:
+        covariance = np.maximum(profile - share**2 * (variances - post.covariance), 0.0)
+    else:  # Σ_p - D (S - Σ) D with D = S_p S⁻¹, exact for any design
+        covariance = -share[:, None] * (np.diag(variances) - post.covariance) * share[None, :]
+        covariance[np.diag_indices_from(covariance)] += profile
+    return Posterior(post.log_evidence, share * post.mean, covariance, post.grad_log_variance, post.grad_log_noise)
 
 
 def _cholesky(matrix):
@@ -654,12 +680,15 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="unifo
         noise = max((1.0 - fraction) * level * g, floor_var, 1e-300)
         trial = Hyper(hyper.amplitude, hyper.exponent, noise, dict(hyper.lines), True, max(level - noise / g, 0.0))
         try:
-            posteriors.append(evidence(design, trial.variances(design), noise))
+            variances = trial.variances(design)
+            posteriors.append(signal_part(design, variances, noise, evidence(design, variances, noise)))
         except np.linalg.LinAlgError:  # σ² at the floor of noise-free data: that split is left out
             continue
         noises.append(noise)
     if not posteriors:
-        return evidence(design, hyper.variances(design), hyper.noise_var), hyper.noise_var
+        variances = hyper.variances(design)
+        return signal_part(design, variances, hyper.noise_var,
+                           evidence(design, variances, hyper.noise_var)), hyper.noise_var
     log_evidence = np.array([p.log_evidence for p in posteriors])
     if rule == "gcv":
         scores = [_gcv(design, p, noise) for p, noise in zip(posteriors, noises)]

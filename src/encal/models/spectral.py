@@ -27,7 +27,7 @@ from ..angles import ARCMIN_PER_DEG, model_input, resolution_of_readings, wrap36
 from ..errors import InputError
 from ..profile import ANGLE_TOLERANCE_DEG, distinct_angles, identifiable_order, profile_arrays, uniform_grid
 from . import _evidence
-from ._trigsums import SeriesEvaluator, trig_moments
+from ._trigsums import SeriesEvaluator, trig_moments, trig_series
 from .fourier import MAX_ORDER, FourierModel
 
 __all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
@@ -65,6 +65,10 @@ COHERENT_SWING_CODES = 4.0
 #: Harmonics of the rounding pattern whose orders (each with this many on either side) carry no line.
 _ROUNDING_HARMONICS = 3
 _ROUNDING_WIDTH = 2
+#: Model the rounding's sidebands (``_rounding_variance``) on a uniform grid of a quantised encoder.
+ROUNDING_SPECTRUM = True
+_ROUNDING_HARMONICS_SPECTRUM = 3
+_SMOOTH_ORDER = 32
 #: Below this alias coherence of the reference stops (see ``_alias_coherence``) the orders above the
 #: Nyquist order are not copies of those below, and the series runs on (safeguard 5).
 ALIAS_COHERENCE = 0.99
@@ -471,11 +475,14 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
+    if ROUNDING_SPECTRUM and bits and grid is not None:
+        design.rounding = _rounding_variance(bits, theta, error, reference, orders)
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
                                                 start=first_prior)
+    post = _evidence.signal_part(design, hyper.variances(design), hyper.noise_var, post)
     _advance(progress)
     split = None
     if first_pass is not None:
@@ -655,6 +662,49 @@ def _quantisation_orders(bits, grid, theta):
         order = min(order, stops - order)
         excluded.update(range(max(order - _ROUNDING_WIDTH, 1), order + _ROUNDING_WIDTH + 1))
     return np.array(sorted(k for k in excluded if k <= stops // 2), dtype=int)
+
+
+def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
+    """Variance per column that a quantised encoder's rounding, spread by the profile, puts on each order.
+
+    A reading ``x`` of a ``bits``-bit encoder is rounded to a whole code: an error
+    ``q saw(x/q) = Σ_h (-1)^{h+1} q/(πh) sin(2πh x/q)``. At the stops the unrounded reading is the reference
+    plus the profile, so each harmonic ``h`` is a phase-modulated carrier ``exp(2πi h x/q)``: where the profile
+    swings over a few codes its power lands on a band of orders around ``h 2^bits`` (folded), the
+    sidebands of the modulation, and there it looks like a line, while at a new reading the rounding has
+    another phase. With ``x`` estimated from the reference and the profile's low orders (up to
+    :data:`_SMOOTH_ORDER`, projected), the expected power of the rounding at each order (averaged over the
+    unknown sub-code offset; harmonics ``h = 1..``:data:`_ROUNDING_HARMONICS_SPECTRUM`) beyond the share
+    ``q²/12 / K`` it would have if it were white (that share is in the noise) is returned per column: it joins
+    the prior variance so that the evidence explains it, and the posterior of the profile leaves it out.
+
+    Returns
+    -------
+    ndarray of shape (P,)
+        Arc-minutes squared, per column of ``orders`` (0 for order 0).
+    """
+    highest = int(orders.max())
+    n = error_arcmin.size
+    reference = np.radians(reference_deg)
+    # the profile's strong low orders, projected (the stops spread over the circle): what moves the readings
+    top = max(1, min(_SMOOTH_ORDER, highest // 2))
+    coefficients = 2.0 * np.conj(trig_moments(reference, error_arcmin - np.mean(error_arcmin), top)) / n
+    coefficients[0] = np.mean(error_arcmin)
+    smooth = trig_series(coefficients, reference)
+    codes = (reference_deg + smooth / ARCMIN_PER_DEG) * (2**bits / 360.0)
+    theta = np.radians(theta_deg)
+    quantum = ARCMIN_PER_DEG * 360.0 / 2**bits
+    expected = np.zeros(highest + 1)
+    for h in range(1, _ROUNDING_HARMONICS_SPECTRUM + 1):
+        carrier = 2.0 * math.pi * h * codes
+        cos_sum = trig_moments(theta, np.cos(carrier), highest)
+        sin_sum = trig_moments(theta, np.sin(carrier), highest)
+        spread = np.abs(cos_sum + 1j * sin_sum) ** 2 + np.abs(cos_sum - 1j * sin_sum) ** 2
+        expected += 0.5 * (quantum / (math.pi * h)) ** 2 * spread / n**2
+    white_share = quantum**2 / 12.0 / max(highest, 1)
+    excess = np.maximum(expected - white_share, 0.0)
+    excess[0] = 0.0
+    return excess[orders]
 
 
 def _prior_text(source):
