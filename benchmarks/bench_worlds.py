@@ -48,6 +48,8 @@ from bench_spectral import interp_model  # noqa: E402
 OWN_SUITES = ("fleet", "fleet+", "rough", "12bit", "jitter", "epoch")
 SUITES = OWN_SUITES + PHYSICS_SUITES
 PLAIN = ("interp", "fourier cv", "fourier top10")
+#: Highest order of the CV Fourier baseline on runs of more than 20,000 readings (see ``evaluate``).
+DENSE_CV_ORDER = 1024
 #: The informed estimator costs O(n³): computed on runs of at most this many readings.
 INFORMED_LIMIT = 400
 
@@ -77,7 +79,10 @@ def evaluate(case):
         return model
 
     run("interp", lambda: interp_model(theta, y))
-    run("fourier cv", lambda: fit_fourier(theta, y, select="cv"))
+    # On a dense sweep the CV over every identifiable order (past 4000 at 10^5 readings) takes minutes:
+    # the baseline is capped at order DENSE_CV_ORDER there, above every order the dense suite's profile has.
+    dense_cap = DENSE_CV_ORDER if theta.size > 20_000 else None
+    run("fourier cv", lambda: fit_fourier(theta, y, select="cv", max_order=dense_cap))
     run("fourier top10", lambda: fit_fourier(theta, y, select="top", n_orders=10))
     blind = run("blind", lambda: fit_spectral(theta, y))
     run("noise", lambda: fit_spectral(theta, y, noise_arcmin=case["sigma"]))
@@ -96,7 +101,8 @@ def _cell(value, digits=3):
 
 
 def run_suites(names, out):
-    rows, summary = [], []
+    """Evaluate every suite, print the tables to ``out``; return the per-suite figures for the docs."""
+    rows, summary, figures = [], [], []
     for suite in names:
         entries = []
         for encoder, case in suite_cases(suite):
@@ -116,21 +122,60 @@ def run_suites(names, out):
         informed = [r["blind"] / r["informed"] for _, _, r, _ in entries if "informed" in r]
         coverage = np.array([r["coverage"] for _, _, r, _ in entries])
         worst_time = max(s["blind"] for *_, s in entries)
+        figures.append({"suite": suite, "encoders": len(entries), "median": float(np.median(blind)),
+                        "worst": float(blind.max()), "over_2": int(np.sum(blind > 1.02)),
+                        "noise_median": float(np.median(noise)), "coverage": float(coverage.mean()),
+                        "coverage_min": float(coverage.min()), "coverage_max": float(coverage.max())})
         summary.append(f"| {suite} | {len(entries)} | {np.median(blind):.3f} | {blind.max():.3f} | "
                        f"{int(np.sum(blind > 1.02))} | {int(np.sum(blind > 1.05))} | {np.median(noise):.3f} | "
                        f"{noise.max():.3f} | {_cell(np.median(informed) if informed else None)} | "
                        f"{coverage.mean():.3f} | {coverage.min():.3f}..{coverage.max():.3f} | {worst_time:.2f} |")
+    table = ("| suite | encoders | blind / best plain, median | worst | encoders > 1.02 | > 1.05 | "
+             "noise supplied / best plain, median | worst | blind / informed, median | ±2σ coverage, mean | "
+             "range | slowest blind fit (CPU s) |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n"
+             + "\n".join(summary) + "\n")
     print("## Per suite: blind default and noise supplied against the best plain baseline\n", file=out)
-    print("| suite | encoders | blind / best plain, median | worst | encoders > 1.02 | > 1.05 | "
-          "noise supplied / best plain, median | worst | blind / informed, median | ±2σ coverage, mean | "
-          "range | slowest blind fit (CPU s) |", file=out)
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|", file=out)
-    print("\n".join(summary), file=out)
+    print(table, file=out)
     print("\n## Every encoder: test RMS / best plain baseline\n", file=out)
     print("| suite | encoder | readings | floor (arcmin) | interp | fourier cv | fourier top10 | blind | "
           "noise supplied | informed | lines | highest order | ±2σ coverage | blind CPU (s) |", file=out)
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|", file=out)
     print("\n".join(rows), file=out)
+    return table, figures
+
+
+def readme_lines(figures, table_path):
+    """The README's figures, one line per suite, each with the suite it holds on."""
+    own = [f for f in figures if f["suite"] in OWN_SUITES]
+    physics = [f for f in figures if f["suite"] not in OWN_SUITES]
+    lines = [f"Measured by `python benchmarks/bench_worlds.py --write {table_path} --docs` (every encoder in "
+             f"[{table_path}]({table_path})); test RMS of the default (blind) over the best plain baseline's "
+             "(the best of np.interp, a CV-chosen Fourier series and a top-10 series), median (worst), "
+             "and the ±2σ band's coverage of new readings (mean, range):", ""]
+    for title, group in (("the project's own simulated world (encal.simulate)", own),
+                         ("a second world written from the physics, not tuned to", physics)):
+        if not group:
+            continue
+        lines.append(f"- on {title}:")
+        for f in group:
+            lines.append(f"  - `{f['suite']}` ({f['encoders']} encoders): {f['median']:.3f} ({f['worst']:.3f}); "
+                         f"{f['over_2']} above 1.02; with the noise supplied {f['noise_median']:.3f}; "
+                         f"coverage {100 * f['coverage']:.1f} % ({100 * f['coverage_min']:.0f}–"
+                         f"{100 * f['coverage_max']:.0f} %)")
+    return "\n".join(lines) + "\n"
+
+
+def replace_block(path, name, text):
+    """Replace what stands between ``<!-- name:begin -->`` and ``<!-- name:end -->`` in ``path``."""
+    from encal._atomic import atomic_write
+
+    content = path.read_text(encoding="utf-8")
+    begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+    if begin not in content or end not in content:
+        raise SystemExit(f"{path} has no {begin} ... {end} block to write the tables into")
+    head, rest = content.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    atomic_write(path, f"{head}{begin}\n{text}{end}{tail}")
 
 
 def main():
@@ -139,19 +184,26 @@ def main():
     parser.add_argument("--write", type=Path, help="also write the tables to this Markdown file")
     parser.add_argument("--blind", choices=spectral.BLIND_SPLITS, default=None,
                         help=f"the blind split of the flat level (default {spectral.BLIND_SPLIT!r})")
+    parser.add_argument("--docs", action="store_true",
+                        help="with --write: also rewrite the generated blocks of README.md and RESULTS.md")
     args = parser.parse_args()
+    if args.docs and not args.write:
+        parser.error("--docs needs --write PATH (the file the README's figures cite)")
     if args.blind:
         spectral.BLIND_SPLIT = args.blind
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).parent).stdout.strip()
-    header = (f"# Both simulated worlds: the blind default against the best plain baseline\n\n"
-              f"Written by `python benchmarks/bench_worlds.py{' --blind ' + args.blind if args.blind else ''}"
-              f"{' --suites ' + ' '.join(args.suites) if args.suites != list(SUITES) else ''} --write ...` "
-              f"(commit {commit}; blind split {spectral.BLIND_SPLIT!r}; python {platform.python_version()}, "
-              f"numpy {np.__version__}). Ratios are test RMS over the best plain baseline's (the best of "
-              "np.interp, the CV-chosen Fourier series and the top-10 series); below 1 the default wins. "
-              "Suites fleet..epoch are the project's own world (encal.simulate); the others the physics "
-              "world of benchmarks/_physics_world.py, which the default was not tuned to.\n")
+    command = "python benchmarks/bench_worlds.py" + (f" --blind {args.blind}" if args.blind else "") \
+        + (f" --suites {' '.join(args.suites)}" if args.suites != list(SUITES) else "") \
+        + (f" --write {args.write.as_posix()}" if args.write else "") + (" --docs" if args.docs else "")
+    body = (f"Written by `{command}` ({time.strftime('%Y-%m-%d', time.gmtime())}, commit {commit}; blind split "
+            f"{spectral.BLIND_SPLIT!r}; python {platform.python_version()}, numpy {np.__version__}; one process, "
+            "one BLAS thread). Ratios are test RMS over the best plain baseline's (the best of np.interp, the "
+            "CV-chosen Fourier series and the top-10 series); below 1 the default wins. Suites fleet..epoch are "
+            "the project's own world (encal.simulate); the others the physics world of "
+            "benchmarks/_physics_world.py, written from the physics references, which the default was not "
+            "tuned to.\n")
+    header = "# Both simulated worlds: the blind default against the best plain baseline\n\n" + body
 
     class Tee:
         def __init__(self):
@@ -163,12 +215,18 @@ def main():
 
     out = Tee()
     print(header)
-    run_suites(args.suites, out)
+    table, figures = run_suites(args.suites, out)
     if args.write:
         from encal._atomic import atomic_write
 
         args.write.parent.mkdir(parents=True, exist_ok=True)
         atomic_write(args.write, "".join(out.parts))
+    if args.docs:
+        root = Path(__file__).resolve().parents[1]
+        table_path = args.write.resolve().relative_to(root).as_posix()
+        replace_block(root / "README.md", "bench_worlds", readme_lines(figures, table_path))
+        replace_block(root / "RESULTS.md", "bench_worlds",
+                      f"{body}\n{table}\nEvery encoder: [{table_path}]({table_path}).\n")
 
 
 if __name__ == "__main__":
