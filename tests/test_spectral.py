@@ -720,6 +720,7 @@ def test_orders_above_the_cap_of_dense_irregular_data_follow_the_data(monkeypatc
     model = fit_spectral(theta, error)
     assert model.training["max_order"] > 250
     assert {249, 250, 251} <= set(model.training["orders_above_cap"]["orders"])
+    assert "above the cap of 200 (off a uniform grid), carried because the residual's periodogram" in model.report()
     assert rms(model.predict(test) - profile(test)) < 0.2  # measured 0.128
     monkeypatch.setattr(spectral, "MAX_EXTRA_ORDERS", 0)
     capped = fit_spectral(theta, error)

@@ -174,6 +174,10 @@ class SpectralModel(FourierModel):
             text.append(f"orders {beyond['from_order']}-{t['max_order']}: past the Nyquist order, a line needs "
                         f"{beyond['line_nats']:.3g} nats (the stops are off a regular grid, alias coherence "
                         f"{t['alias_coherence']:.2f}: these orders are only partly copies of those below)")
+        if t.get("orders_above_cap"):
+            above = t["orders_above_cap"]
+            text.append(f"orders {_ranges(above['orders'])}: above the cap of {above['cap']} (off a uniform grid), "
+                        "carried because the residual's periodogram showed them")
         if t.get("rounding_orders"):
             text.append(f"orders {_ranges(t['rounding_orders'])}: no line (where the rounding of the readings to whole "
                         "codes lands on this grid)")
@@ -550,7 +554,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         # clearly (a stepper's detent at 200 and its sidebands) are carried as columns, and the fit repeated.
         found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra)
         if found:
-            training["time_s"] = time.perf_counter() - start
+            _advance(progress)
             return fit_spectral(theta, error, noise_arcmin=noise_arcmin, threshold_nats=threshold_given, path=path,
                                 progress=None, _extra_orders=extra + found)
     if extra:
