@@ -20,7 +20,7 @@ Cases (``physics_cases(name)``):
 - ``resolver-36``: the same resolvers trained on 36 points (0:10:350°), tested at 1:2:359°;
 - ``resolver-rough``: the resolvers with a flat roughness, orders 1-90, 1.5 times the noise power per order;
 - ``magnetic``: 12 magnetic encoders (14 bits) on a motor: eccentricity and tilt of the magnet, few orders;
-- ``12bit``: 12 magnetic encoders read at 12 bits (the rounding dominates the noise);
+- ``12bit-physics``: 12 magnetic encoders read at 12 bits (the rounding dominates the noise);
 - ``stepper-dense``: 8 dense sweeps (2·10^4-2·10^5 samples) of a 14-bit magnetic encoder behind a
   200-step stepper whose detent and microstep error (orders 50, 100, 200 and sidebands) the
   reference carries; tested on a fresh sweep.

@@ -495,8 +495,8 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     progress : callable, optional
         Called with no argument after each round (for a progress bar).
     start : Hyper, optional
-        Background and lines to start from (those of a fit of fewer orders to the same data), instead
-        of the periodogram; the noise is ``noise_var`` all the same.
+        Background, lines and noise to start from (those of a fit of fewer orders to the same data),
+        instead of the periodogram; a ``noise_var`` given is kept fixed all the same.
 
     Returns
     -------
@@ -505,8 +505,10 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     if design.yy <= 0.0 or not np.any(design.projection):
         hyper = Hyper(1e-30 * design.scale, 2.0, noise_var or 1e-30, {}, noise_var is not None)
         return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
-    if start is not None and noise_var is not None:
-        initial = Hyper(start.amplitude, start.exponent, noise_var, dict(start.lines), True)
+    if start is not None:
+        # blind, the search starts at the start's noise too (a fit of fewer orders to the same data)
+        initial = Hyper(start.amplitude, start.exponent, start.noise_var if noise_var is None else noise_var,
+                        dict(start.lines), noise_var is not None)
         hyper = _search(design, noise_var, threshold, progress, from_trend=False, initial=initial)
     else:
         hyper = _search(design, noise_var, threshold, progress, from_trend=False)

@@ -56,7 +56,9 @@ _THRESHOLD_ORDER = 90
 SCAN_LIMIT = 4096
 #: Most orders above the cap carried as columns, and most added per round of the scan.
 MAX_EXTRA_ORDERS = 160
-EXTRA_PER_ROUND = 48
+EXTRA_PER_ROUND = 80
+#: Scans of the residual (each followed by a refit when it finds orders).
+SCAN_ROUNDS = 2
 #: Largest posterior-std grid (points per revolution).
 _STD_GRID_LIMIT = 3600
 #: Largest peak-to-peak stray of the readings from the grid's nodes, in codes, for which a quantised encoder's rounding on a
@@ -360,7 +362,8 @@ def _stops(theta, error):
 # -- the fit --------------------------------------------------------------------------------------
 
 def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=None,
-                 threshold_nats=None, path="auto", progress=None, _extra_orders=()):
+                 threshold_nats=None, path="auto", progress=None, _extra_orders=(), _start=None,
+                 _scan_round=0):
     """Fit the empirical-Bayes spectral model.
 
     Parameters
@@ -396,6 +399,10 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         the posterior), for a progress bar (:class:`encal._progress.Progress` ``.advance``).
     _extra_orders : sequence of int
         Internal: orders above the cap carried as columns (see :func:`_orders_above_cap`).
+    _start : encal.models._evidence.Hyper, optional
+        Internal: where the hyperparameter search starts (the fit before those orders were added).
+    _scan_round : int
+        Internal: how many scans above the cap came before this fit (at most :data:`SCAN_ROUNDS`).
 
     Returns
     -------
@@ -485,7 +492,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
-                                                start=first_prior)
+                                                start=first_prior if _start is None else _start)
     post = _evidence.signal_part(design, hyper.variances(design), hyper.noise_var, post)
     _advance(progress)
     split = None
@@ -549,14 +556,15 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
     predictive_sigma = sigma if split is None else split["mean_noise_std_arcmin"]
     model.uncertainty = _posterior_std(design, post, highest, predictive_sigma, unseen)
-    if capped and len(extra) < MAX_EXTRA_ORDERS:
+    if capped and len(extra) < MAX_EXTRA_ORDERS and _scan_round < SCAN_ROUNDS:
         # The cap is the cost's, not the data's: orders above it that the residual's periodogram shows
         # clearly (a stepper's detent at 200 and its sidebands) are carried as columns, and the fit repeated.
         found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra)
         if found:
             _advance(progress)
             return fit_spectral(theta, error, noise_arcmin=noise_arcmin, threshold_nats=threshold_given, path=path,
-                                progress=None, _extra_orders=extra + found)
+                                progress=None, _extra_orders=extra + found, _start=hyper,
+                                _scan_round=_scan_round + 1)
     if extra:
         model.training["orders_above_cap"] = {"cap": int(cap), "orders": extra}
     _advance(progress)
