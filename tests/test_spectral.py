@@ -91,6 +91,17 @@ def test_fft_and_fourier_feature_paths_agree():
     np.testing.assert_allclose(a.mean, b.mean, rtol=0, atol=1e-9)
     np.testing.assert_allclose(a.grad_log_variance, b.grad_log_variance, rtol=0, atol=1e-9)
     assert a.grad_log_noise == pytest.approx(b.grad_log_noise, abs=1e-9)
+    # With a rounding variance per column (issue 27) the profile's part agrees too: exact on both paths.
+    fft.rounding = general.rounding = np.where(np.isin(orders, [28, 60]), 0.02, 0.0)
+    a, b = (_evidence.signal_part(d, hyper.variances(d), hyper.noise_var,
+                                  _evidence.evidence(d, hyper.variances(d), hyper.noise_var)) for d in (fft, general))
+    np.testing.assert_allclose(a.mean, b.mean, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.covariance, np.diag(b.covariance), rtol=0, atol=1e-9)
+    whole = _evidence.evidence(fft, hyper.variances(fft), hyper.noise_var)
+    rounded = np.isin(orders, [28, 60])
+    assert np.all(np.abs(a.mean[rounded]) < np.abs(whole.mean[rounded]))  # the rounding's share left out
+    np.testing.assert_array_equal(a.mean[~rounded], whole.mean[~rounded])
+    fft.rounding = general.rounding = None
     # The whole fit, hyperparameter search and line admission included: the two paths' rounding
     # differs by 1e-13, the optimiser stops within its tolerance, so the fits agree to about 1e-8.
     by_fft = fit_spectral(GRID, error, path="fft")
@@ -726,3 +737,19 @@ def test_orders_above_the_cap_of_dense_irregular_data_follow_the_data(monkeypatc
     capped = fit_spectral(theta, error)
     assert capped.training["max_order"] == 200
     assert rms(capped.predict(test) - profile(test)) > 0.5  # measured 0.576: order 250 missing
+
+
+def test_the_blind_split_rules_the_benchmark_compares():
+    # Issue 27: bench_worlds.py --blind RULE measures other priors on the split of the flat level; the
+    # default stays the uniform prior on [0, 1] (docs/model-selection.md says why).
+    rng = np.random.default_rng(5)
+    error = line_profile(GRID) + rng.normal(0.0, 0.1, GRID.size)
+    orders, shifts, lineable = _columns(90, 180, 0.0)
+    design = _fft_design(error - error.mean(), _uniform_nodes(GRID), orders, shifts, lineable)
+    hyper, _ = _evidence.fit_hyperparameters(design)
+    noise = {rule: _evidence.split_average(design, hyper, rule=rule)[1] for rule in spectral.BLIND_SPLITS}
+    assert noise["noise"] == pytest.approx(hyper.noise_var)  # all of the flat level noise
+    assert noise["uniform"] == pytest.approx(0.5 * hyper.noise_var, rel=0.05)  # half of it, on average
+    assert noise["uniform"] < noise["u80"] < noise["u70"] < noise["u60"] < noise["half"] < noise["noise"]
+    assert any(noise["gcv"] == pytest.approx((1.0 - k / 9) * hyper.noise_var) for k in range(9))
+    assert spectral.BLIND_SPLIT == "uniform"
