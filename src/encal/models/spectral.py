@@ -363,8 +363,7 @@ def _stops(theta, error):
 # -- the fit --------------------------------------------------------------------------------------
 
 def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=None,
-                 threshold_nats=None, path="auto", progress=None, _extra_orders=(), _start=None,
-                 _scan_round=0):
+                 threshold_nats=None, path="auto", progress=None):
     """Fit the empirical-Bayes spectral model.
 
     Parameters
@@ -398,12 +397,6 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     progress : callable, optional
         Called with no argument after each of the fit's 3 stages (the design, the hyperparameters,
         the posterior), for a progress bar (:class:`encal._progress.Progress` ``.advance``).
-    _extra_orders : sequence of int
-        Internal: orders above the cap carried as columns (see :func:`_orders_above_cap`).
-    _start : encal.models._evidence.Hyper, optional
-        Internal: where the hyperparameter search starts (the fit before those orders were added).
-    _scan_round : int
-        Internal: how many scans above the cap came before this fit (at most :data:`SCAN_ROUNDS`).
 
     Returns
     -------
@@ -415,6 +408,23 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     ------
     InputError
         If an option is invalid or the calibration has fewer than 3 stops.
+    """
+    return _fit_spectral(theta_enc_deg, error_arcmin, noise_arcmin=noise_arcmin, max_order=max_order,
+                         threshold_nats=threshold_nats, path=path, progress=progress)
+
+
+def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, threshold_nats, path, progress,
+                  _extra_orders=(), _start=None, _scan_round=0):
+    """:func:`fit_spectral`, and its refit with the orders above the cap that the residual showed.
+
+    Parameters
+    ----------
+    _extra_orders : sequence of int
+        Internal: orders above the cap carried as columns (see :func:`_orders_above_cap`).
+    _start : encal.models._evidence.Hyper, optional
+        Internal: where the hyperparameter search starts (the fit before those orders were added).
+    _scan_round : int
+        Internal: how many scans above the cap came before this fit (at most :data:`SCAN_ROUNDS`).
     """
     start = time.perf_counter()
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_spectral")
@@ -563,9 +573,10 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra)
         if found:
             _advance(progress)
-            return fit_spectral(theta, error, noise_arcmin=noise_arcmin, threshold_nats=threshold_given, path=path,
-                                progress=None, _extra_orders=extra + found, _start=hyper,
-                                _scan_round=_scan_round + 1)
+            return _fit_spectral(theta, error, noise_arcmin=noise_arcmin, max_order=None,
+                                 threshold_nats=threshold_given,
+                                 path=path, progress=None, _extra_orders=extra + found, _start=hyper,
+                                 _scan_round=_scan_round + 1)
     if extra:
         model.training["orders_above_cap"] = {"cap": int(cap), "orders": extra}
     _advance(progress)
