@@ -11,6 +11,8 @@ Networks train for a few epochs only (the suite must stay fast), so their bounds
 closed-form families must be exact where the profile is in their span.
 """
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -241,3 +243,18 @@ def test_correction_of_a_huge_multi_turn_angle():
     assert expected != 0.0
     assert model.correct(turns) == pytest.approx(expected, abs=1e-9)
     assert Compensator(model).correct(turns) == pytest.approx(expected, abs=1e-9)
+
+
+def test_the_outside_attacks_api_cases_are_encal_errors():
+    """Found by the fresh outside attack of issue 25: a plain OverflowError, an AttributeError and a silent 21600."""
+    import pytest
+
+    import encal
+
+    model = encal.load_model(Path(__file__).parent / "data" / "model_v1_fourier.json")
+    with pytest.raises(encal.InputError, match="finite numbers of degrees"):
+        model.correct(10**400)
+    with pytest.raises(encal.InputError, match="must be a SimulatedRun"):
+        encal.measurement_floor(-1)
+    with pytest.raises(encal.InputError, match="'bits' parameter of lsb_arcmin must be an int from 1"):
+        encal.lsb_arcmin(0)

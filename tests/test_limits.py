@@ -75,7 +75,7 @@ def test_the_largest_size_is_accepted_by_the_parser():
 def test_library_entry_points_share_the_bounds():
     with pytest.raises(InputError, match="'hidden' parameter of fit_ann must be an int from 1 to 1000"):
         encal.fit(encal.Calibration(np.arange(0, 360, 10.0), np.arange(0, 360, 10.0)), "ann", hidden=1001)
-    from encal.paper.studies._pool import Workers
+    from encal._core.pool import Workers
 
     with pytest.raises(InputError, match="'workers' parameter of Workers"):
         Workers(10**4)

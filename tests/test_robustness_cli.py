@@ -176,6 +176,10 @@ def _make_files(folder):
     _make_issue25_files(folder, paths, document)
     _make_files_and_paths_files(folder, paths, good)
     _make_plausibility_files(folder, paths)
+    arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
+    paths["arc_only"] = folder / "arc_only.csv"
+    paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
+                                           arc), encoding="utf-8")
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -1018,6 +1022,32 @@ ISSUE25_CASES = [
 ]
 CASES += ISSUE25_CASES
 
+# ---------------------------------------------------------------- issue 32: the production line (fleet, --serial)
+ISSUE32_CASES = [
+    Case("fleet-fit-bad-file-skipped", ("fleet", "fit", "{text_cell}", "{train}", "--store", "{scratch}/fleet.sqlite",
+                                        "--jobs", "0"), 1, ("refused", "text_cell.csv", "line")),
+    Case("fleet-fit-missing", ("fleet", "fit", "{missing}", "--store", "{out}/fleet.sqlite"), 1,
+         ("no such file or folder",)),
+    Case("fleet-fit-bad-grades", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite", "--grades", "A=fast"),
+         1, ("--grades", "NAME=LIMIT")),
+    Case("fleet-fit-store-is-a-model", ("fleet", "fit", "{train}", "--store", "{model}"), 1,
+         ("cannot be used as a store",)),
+    Case("fleet-fit-bad-jobs", ("fleet", "fit", "{train}", "--jobs", "-1"), 2),
+    Case("fleet-no-subcommand", ("fleet",), 2),
+    Case("fleet-fit-prior-missing", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite", "--prior-from",
+                                     "{missing}"), 1, ("--prior-from", "no such file")),
+    Case("fleet-fit-prior-with-auto", ("fleet", "fit", "{train}", "--prior-from", "{missing}", "--method", "auto"), 2),
+    Case("fleet-report-missing-store", ("fleet", "report", "--store", "{missing}", "-o", "{out}/f.html"), 1,
+         ("no such file",)),
+    Case("fleet-report-no-output", ("fleet", "report", "--store", "{missing}"), 2),
+    Case("correct-serial-without-store", ("correct", "--serial", "SN1"), 2),
+    Case("export-serial-missing-store", ("export", "--serial", "SN1", "--store", "{missing}", "--format", "table",
+                                         "-o", "{out}/t.bin"), 1, ("no such file",)),
+    Case("export-model-and-serial", ("export", "{model}", "--serial", "SN1", "--store", "{missing}", "--format",
+                                     "table", "-o", "{out}/t.bin"), 2),
+]
+CASES += ISSUE32_CASES
+
 # ---------------------------------------------------------------- issue 25: plausibility
 
 def _make_plausibility_files(folder, paths):
@@ -1086,6 +1116,16 @@ PLAUSIBILITY_CASES = [
                                          "{scratch}/spin.csv"), 0),
 ]
 CASES += PLAUSIBILITY_CASES
+
+# The fresh outside attack after issue 25 (a report, 545 cases): a periodic model fitted on an arc was wrong
+# inside its own range with exit 0 (spectral: 5e8 arcmin at a midpoint; fourier: 28 of 37 arcmin left).
+ATTACK_CASES = [
+    *(Case(f"fit-{method}-on-an-arc", ("fit", "{arc_only}", "-o", "{out}/m.json", "--method", method, "--allow-gaps"),
+           1, ("covers only an arc", f"--method {method} fits a periodic model", "--method lut"))
+      for method in ("spectral", "fourier", "hybrid", "ann")),
+    Case("fit-lut-on-an-arc-accepted", ("fit", "{arc_only}", "-o", "{scratch}/arc_lut.json", "--method", "lut"), 0),
+]
+CASES += ATTACK_CASES
 
 
 # issue 31 (inplace): calibrations over an arc, a reading outside the range, two encoders of one joint

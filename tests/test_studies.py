@@ -24,7 +24,7 @@ from encal.paper.studies import (
     svd_pruning,
 )
 from encal.paper.studies._fits import hidden_layer, task_seed
-from encal.paper.studies._pool import Workers, run_tasks
+from encal._core.pool import Workers, run_tasks
 from encal.paper.studies.reproducibility import matched_difference
 from encal.paper.studies.tables import Column, Table, profile_table
 from encal._core.progress import Progress

@@ -22,8 +22,11 @@ file with ``"reading_sign": -1``, format version 2). A model calibrated over an
 arc (``"range_deg": [start, end]``, format version 4) answers NaN outside it.
 
 The file format is specified in encal's ``docs/model-file.md``. encal itself
-uses the checks below when it loads a file, so this reader and encal accept
-exactly the same files.
+uses the checks below when it loads a file, so every file encal loads, this
+reader evaluates the same way. One difference is by design: a file of a kind
+that this installation of encal has no class for (a kind added elsewhere, saved
+in one of the forms) is evaluated here by its form, and refused by
+``encal.load_model``, which builds the kind's own class.
 """
 
 import bisect

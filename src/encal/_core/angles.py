@@ -146,7 +146,9 @@ def lsb_arcmin(bits):
     >>> round(lsb_arcmin(16), 4)
     0.3296
     """
-    return 21600.0 / 2.0 ** int(bits)
+    from .parameters import check_int
+
+    return 21600.0 / 2.0 ** check_int(bits, "bits", "lsb_arcmin", low=1, high=64, note="the encoder resolution")
 
 
 def arcmin_to_lsb(angle_arcmin, bits):

@@ -48,6 +48,7 @@ COMMANDS = {
     "drift": "drift of repeated calibrations and whether the first one's model still holds",
     "import": "read a firmware's calibration output or correction table (moteus, Klipper, Mechaduino, ...)",
     "selfcal": 'calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps',
+    "fleet": "a production line: fit every unit's calibration into a store by serial number, report on the fleet",
 }
 
 

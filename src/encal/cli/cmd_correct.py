@@ -27,10 +27,12 @@ from .._core import signals as _signals
 from ..deploy import Compensator
 from ..deploy.stream import correct_stream
 from .._core.errors import InputError
+from ._serial import add_serial_options, model_input, model_or_serial
 
 
 def add_arguments(parser):
-    parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")
+    parser.add_argument("model", metavar="MODEL.json", nargs="?",
+                        help="model file written by 'encal fit' (or --serial)")
     parser.add_argument("input", metavar="FILE", nargs="?", default="-",
                         help="encoder angles in degrees, one per line, or a CSV with an "
                              "encoder_deg column; '-' (default) reads standard input")
@@ -42,6 +44,7 @@ def add_arguments(parser):
     parser.add_argument("--direction", type=int, choices=[1, -1], metavar="{+1,-1}",
                         help="direction of travel of the readings, for a bidirectional model fitted per "
                              "direction (default: the mean of both directions; other models ignore it)")
+    add_serial_options(parser)  # issue 32: the unit's latest model in the calibration store (FILE the one argument)
     parser.add_argument("--outside", choices=("error", "clamp", "pass"), default="error",
                         help="a reading outside the range of a model calibrated over an arc: refuse it (default), "
                              "use the correction of the nearer end of the arc (clamp), or leave it uncorrected "
@@ -59,8 +62,10 @@ def claim_extras(args, extras):
 def run(args):
     from ._common import check_paths
 
-    check_paths(inputs=[(args.model, "model"), (args.input, "angles")])
-    compensator = Compensator(args.model)
+    if args.serial is not None and args.model is not None and args.input == "-":
+        args.model, args.input = None, args.model  # with --serial, the one argument is FILE
+    check_paths(inputs=[model_input(args), (args.input, "angles")])
+    compensator = Compensator(model_or_serial(args, args._parser))
     if compensator.model.range_deg is not None:  # an arc: a reading outside it follows the stated rule
         from .._core.arcs import OutsideRule
 

@@ -41,10 +41,13 @@ FIRMWARE = ("moteus", "simplefoc", "klipper", "mechaduino", "tinymovr")
 SIMPLEFOC_VERSIONS = ("1.0.8", "1.0.9", "uint16")
 from .._core.errors import InputError
 from ._common import check_paths, print_json
+from ._serial import add_serial_options, model_input, model_or_serial
 
 
 def add_arguments(parser):
-    parser.add_argument("model", metavar="MODEL.json", help="model file written by 'encal fit'")
+    parser.add_argument("model", metavar="MODEL.json", nargs="?",
+                        help="model file written by 'encal fit' (or --serial)")
+    add_serial_options(parser)  # issue 32: the unit's latest model in the calibration store
     parser.add_argument("--format", required=True, choices=("c", "table", *FIRMWARE),
                         help="what to write")
     parser.add_argument("-o", "--output", required=True, metavar="PATH",
@@ -259,9 +262,9 @@ def _export(args):
     _check_combinations(args)
     output = Path(args.output)
     c_files = [f"{args.name}.h", f"{args.name}.c"] if args.format == "c" else []
-    check_paths(inputs=[(args.model, "model"), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
+    check_paths(inputs=[model_input(args), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
                 folders=[("-o", output, c_files)] if c_files else [])
-    compensator = Compensator(args.model)
+    compensator = Compensator(model_or_serial(args, args.export_parser))
     if compensator.model.range_deg is not None or args.outside is not None:
         compensator = _outside(args, compensator)
     recorded = compensator.encoder.get("resolution_bits")

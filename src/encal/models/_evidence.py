@@ -67,6 +67,10 @@ class Design:
         When the series runs past the Nyquist order of the stops: that order. A line above it needs
         ``beyond_nyquist_nats`` more evidence and is not started from the periodogram.
     beyond_nyquist_nats : float
+    rounding : ndarray of shape (P,), optional
+        Variance per column that a quantised encoder's rounding puts there beyond its white share (on a
+        uniform grid): part of every column's prior variance, so that the evidence explains it, but not of
+        the profile (:func:`signal_part` takes it out of the posterior).
     """
 
     orders: np.ndarray
@@ -78,6 +82,7 @@ class Design:
     lineable: np.ndarray
     nyquist: int = None
     beyond_nyquist_nats: float = 0.0
+    rounding: np.ndarray = None
 
     def extra_nats(self, orders):
         """Nats a line at each of ``orders`` needs beyond the threshold: ``beyond_nyquist_nats`` above
@@ -123,6 +128,8 @@ class Hyper:
         s[positive] += self.flat
         for order, variance in self.lines.items():
             s[(orders == order) & design.lineable] += variance
+        if design.rounding is not None:
+            s = s + design.rounding
         return s
 
 
@@ -201,6 +208,25 @@ def evidence(design, variances, noise_var, covariance=True):
     grad_s = 0.5 * (z**2 + inverse_diagonal - 1.0)
     grad_noise = 0.5 * (max(residual2, 0.0) / sigma2 + s.size - float(np.sum(inverse_diagonal)) - n)
     return Posterior(float(log_p), mean, covariance, grad_s, float(grad_noise))
+
+
+def signal_part(design, variances, noise_var, post):
+    """The posterior of the profile alone when the prior variances include the rounding's (``design.rounding``).
+
+    With prior variances ``S = S_p + R`` (profile, rounding; diagonal) the profile's posterior mean is
+    ``S_p S⁻¹`` times the whole's, and its covariance ``S_p - D (S - Σ) D`` with ``D = S_p S⁻¹`` and ``Σ``
+    the whole's posterior covariance. Without rounding the posterior is returned as it is.
+    """
+    if design.rounding is None or post.covariance is None:
+        return post
+    profile = np.maximum(variances - design.rounding, 0.0)
+    share = np.where(variances > 0, profile / np.maximum(variances, 1e-300), 0.0)
+    if design.diagonal:
+        covariance = np.maximum(profile - share**2 * (variances - post.covariance), 0.0)
+    else:  # Σ_p - D (S - Σ) D with D = S_p S⁻¹, exact for any design
+        covariance = -share[:, None] * (np.diag(variances) - post.covariance) * share[None, :]
+        covariance[np.diag_indices_from(covariance)] += profile
+    return Posterior(post.log_evidence, share * post.mean, covariance, post.grad_log_variance, post.grad_log_noise)
 
 
 def _cholesky(matrix):
@@ -469,8 +495,8 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     progress : callable, optional
         Called with no argument after each round (for a progress bar).
     start : Hyper, optional
-        Background and lines to start from (those of a fit of fewer orders to the same data), instead
-        of the periodogram; the noise is ``noise_var`` all the same.
+        Background, lines and noise to start from (those of a fit of fewer orders to the same data),
+        instead of the periodogram; a ``noise_var`` given is kept fixed all the same.
 
     Returns
     -------
@@ -479,8 +505,10 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     if design.yy <= 0.0 or not np.any(design.projection):
         hyper = Hyper(1e-30 * design.scale, 2.0, noise_var or 1e-30, {}, noise_var is not None)
         return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
-    if start is not None and noise_var is not None:
-        initial = Hyper(start.amplitude, start.exponent, noise_var, dict(start.lines), True)
+    if start is not None:
+        # blind, the search starts at the start's noise too (a fit of fewer orders to the same data)
+        initial = Hyper(start.amplitude, start.exponent, start.noise_var if noise_var is None else noise_var,
+                        dict(start.lines), noise_var is not None)
         hyper = _search(design, noise_var, threshold, progress, from_trend=False, initial=initial)
     else:
         hyper = _search(design, noise_var, threshold, progress, from_trend=False)
@@ -605,7 +633,7 @@ def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
 SPLIT_POINTS = 9
 
 
-def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
+def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="uniform"):
     """The posterior averaged over how the flat level divides between signal and noise.
 
     On a uniform grid a flat part of the profile and white noise add the same level to every
@@ -623,6 +651,11 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     floor_var : float, default=0.0
         Smallest noise variance.
     points : int, default=SPLIT_POINTS
+    rule : {'uniform', 'noise', 'half', 'gcv'}, default='uniform'
+        ``'uniform'``: the evidence-weighted mixture over fractions uniform on [0, 1]; ``'half'``: on
+        [0, 1/2]; ``'noise'``: the fraction 0 alone (all of the flat level noise); ``'gcv'``: the one
+        fraction of the grid [0, 1) (0 included) whose posterior mean, a linear smoother of the data,
+        has the lowest generalised cross-validation score ``n RSS / (n - tr H)²`` (Wahba 1985).
 
     Returns
     -------
@@ -634,18 +667,35 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     positive = design.orders > 0
     g = float(np.median(g_all[positive])) if np.any(positive) else float(max(design.n, 1))
     level = hyper.flat + hyper.noise_var / g
+    if rule == "uniform":
+        fractions = (np.arange(points) + 0.5) / points
+    elif rule == "half":
+        fractions = 0.5 * (np.arange(points) + 0.5) / points
+    elif rule.startswith("u"):  # 'u70': uniform on [0, 0.70]
+        fractions = float(rule[1:]) / 100.0 * (np.arange(points) + 0.5) / points
+    elif rule == "noise":
+        fractions = np.zeros(1)
+    else:
+        fractions = np.arange(points) / points
     posteriors, noises = [], []
-    for fraction in (np.arange(points) + 0.5) / points:
+    for fraction in fractions:
         noise = max((1.0 - fraction) * level * g, floor_var, 1e-300)
         trial = Hyper(hyper.amplitude, hyper.exponent, noise, dict(hyper.lines), True, max(level - noise / g, 0.0))
         try:
-            posteriors.append(evidence(design, trial.variances(design), noise))
+            variances = trial.variances(design)
+            posteriors.append(signal_part(design, variances, noise, evidence(design, variances, noise)))
         except np.linalg.LinAlgError:  # σ² at the floor of noise-free data: that split is left out
             continue
         noises.append(noise)
     if not posteriors:
-        return evidence(design, hyper.variances(design), hyper.noise_var), hyper.noise_var
+        variances = hyper.variances(design)
+        return signal_part(design, variances, hyper.noise_var,
+                           evidence(design, variances, hyper.noise_var)), hyper.noise_var
     log_evidence = np.array([p.log_evidence for p in posteriors])
+    if rule == "gcv":
+        scores = [_gcv(design, p, noise) for p, noise in zip(posteriors, noises)]
+        chosen = int(np.argmin(scores))
+        posteriors, noises, log_evidence = [posteriors[chosen]], [noises[chosen]], log_evidence[chosen:chosen + 1]
     weights = np.exp(log_evidence - log_evidence.max())
     weights /= weights.sum()
     means = np.array([p.mean for p in posteriors])
@@ -656,3 +706,20 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS):
     best = posteriors[int(np.argmax(log_evidence))]
     mixture = Posterior(total, mean, covariance, best.grad_log_variance, best.grad_log_noise, spread)
     return mixture, float(weights @ np.array(noises))
+
+
+def _gcv(design, post, noise_var):
+    """Generalised cross-validation score ``n RSS / (n - tr H)²`` of the posterior mean as a linear smoother.
+
+    ``H = Φ Σ Φᵀ / σ²`` (``Σ`` the posterior covariance): ``tr H = tr(G Σ) / σ²``; the residual sum of
+    squares ``yᵀy - 2 bᵀμ + μᵀ G μ``.
+    """
+    mean, g = post.mean, design.gram
+    if design.diagonal:
+        trace = float(np.sum(g * post.covariance)) / noise_var
+        rss = design.yy - 2.0 * design.projection @ mean + float(np.sum(g * mean**2))
+    else:
+        trace = float(np.sum(g * post.covariance)) / noise_var
+        rss = design.yy - 2.0 * design.projection @ mean + mean @ g @ mean
+    left = max(design.n - trace, 1e-12 * design.n)
+    return design.n * max(rss, 0.0) / left**2

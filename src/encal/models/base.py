@@ -37,7 +37,7 @@ def as_angles(theta_enc_deg):
         raise InputError("encoder angles must be finite numbers of degrees; got None")
     try:
         theta = np.asarray(theta_enc_deg, dtype=float)
-    except (TypeError, ValueError) as exc:  # 'abc', a dict, a complex number, a ragged list
+    except (TypeError, ValueError, OverflowError) as exc:  # 'abc', a dict, a complex number, a ragged list, 10**400
         raise InputError(f"encoder angles must be finite numbers of degrees; {exc}") from None
     if not np.all(np.isfinite(theta)):
         raise InputError("encoder angles must be finite numbers of degrees (found NaN or infinity)")
@@ -193,14 +193,21 @@ class Model(ABC):
     #: evaluated in chunks small enough that memory stays bounded however wide the model (see in_chunks).
     evaluation_width = 1
 
-    def correct(self, theta_enc_deg, direction=None):
+    def correct(self, theta_enc_deg, direction=None, *, table=False):
         """Corrected angles ``(theta_in - predict(theta_enc, direction=direction) / 60) mod 360``, in degrees.
 
         ``theta_in = model_input(theta_enc, reading_sign)``: the reading itself unless the encoder counts
         against its reference. ``direction`` as for :meth:`predict`.
+
+        ``table=True`` corrects a large array (:data:`~encal.models._table.TABLE_MIN_ANGLES` angles or more)
+        through a table of the model built once, interpolated within
+        :data:`~encal.models._table.TABLE_TOLERANCE_ARCMIN` of the formula, several times faster (BENCHMARKS.md,
+        "Hot paths"). It is asked for, never the default: by default an angle's correction is the formula's
+        to rounding, the same whatever the size of the array it comes in (``encal correct`` streams in chunks
+        of any size, and the runtime and every export are judged against this).
         """
         theta = as_angles(theta_enc_deg)
-        if direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
+        if table and direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
             table = self._correction_table()
             if table is not None:  # many angles: through a table of the model (see encal.models._table)
                 return correct_through_table(theta.reshape(-1), self.reading_sign, table).reshape(theta.shape)

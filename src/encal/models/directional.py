@@ -109,7 +109,7 @@ class DirectionalModel(Model):
         for part in (self.forward, self.reverse):  # each part answers NaN outside it (issue 31)
             part.range_deg = value
 
-    def correct(self, theta_enc_deg, direction=None):
+    def correct(self, theta_enc_deg, direction=None, *, table=False):
         """Corrected angles ``(theta_enc - predict(theta_enc, direction=direction) / 60) mod 360``, degrees.
 
         Evaluated a chunk of angles at a time (:func:`~encal.models.base.in_chunks`'s chunks), so peak memory

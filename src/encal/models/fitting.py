@@ -113,10 +113,24 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     arc = calibrated_arc(cal)
     if arc is not None and method == "auto":
         method = "arc"  # over an arc the error is no periodic function: the interval's family
+    if arc is not None and method not in ON_AN_ARC:
+        from .._core.arcs import describe_range
+
+        raise InputError(
+            f"{cal.source or cal.name or 'the calibration'} covers only an arc ({describe_range(list(arc))} of the "
+            f"encoder angle), and --method {method} fits a periodic model, which points over part of a turn do not "
+            "pin down between them: it can swing far from the error inside the arc itself; expected the default "
+            "(the arc family: leave out --method) or "
+            f"{', '.join('--method ' + m for m in ON_AN_ARC if m != 'arc')}")
     model = _fit(cal, method, rng=rng, uncertainty=uncertainty, bidirectional=bidirectional, **options)
     if arc is not None:
         model.range_deg = list(arc)  # never a number where the encoder was not calibrated (encal._core.arcs)
     return model
+
+
+#: The methods fitted on a calibration over an arc: the interval's own family, and the lookup table, which
+#: interpolates between neighbouring points and says nothing past the arc's ends (its range is recorded).
+ON_AN_ARC = ("arc", "lut")
 
 
 def calibrated_arc(cal):

@@ -25,9 +25,9 @@ import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, model_input, resolution_of_readings, wrap360
 from .._core.errors import InputError
-from ..analysis.profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays, uniform_grid
+from ..analysis.profile import ANGLE_TOLERANCE_DEG, distinct_angles, identifiable_order, profile_arrays, uniform_grid
 from . import _evidence
-from ..numerics.trigsums import SeriesEvaluator, trig_moments
+from ..numerics.trigsums import SeriesEvaluator, trig_moments, trig_series
 from .fourier import MAX_ORDER, FourierModel
 
 __all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
@@ -40,6 +40,10 @@ DEFAULT_MAX_ORDER_IRREGULAR = 200
 BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot split between profile and noise, "
                "is split under a uniform prior (the posterior averaged over the splits), the noise never below "
                "the quantisation's LSB/sqrt(12) when the readings show the resolution")
+#: How the blind fit splits the flat level (see ``_evidence.split_average``): 'uniform' is the default; the others
+#: are the variants benchmarks/bench_worlds.py --blind measures (docs/model-selection.md).
+BLIND_SPLITS = ("uniform", "noise", "half", "gcv", "u60", "u70", "u80")
+BLIND_SPLIT = "uniform"
 #: Added to the blind prior when the stops are off a regular grid (safeguard 5).
 BLIND_BEYOND_NYQUIST = ("; the stops being off a regular grid, the series then runs past the Nyquist order with "
                         "the split's mean noise held fixed")
@@ -51,6 +55,13 @@ IDENTICAL_ARCMIN = 1e-9
 MIN_REPEAT_DOF = 10
 #: Highest order up to which a line needs the plain 3 nats (see ``threshold_nats`` of fit_spectral).
 _THRESHOLD_ORDER = 90
+#: Highest order scanned for lines above the cap of the Fourier-feature path (see ``_orders_above_cap``).
+SCAN_LIMIT = 4096
+#: Most orders above the cap carried as columns, and most added per round of the scan.
+MAX_EXTRA_ORDERS = 160
+EXTRA_PER_ROUND = 80
+#: Scans of the residual (each followed by a refit when it finds orders).
+SCAN_ROUNDS = 2
 #: Largest posterior-std grid (points per revolution).
 _STD_GRID_LIMIT = 3600
 #: Largest peak-to-peak stray of the readings from the grid's nodes, in codes, for which a quantised encoder's rounding on a
@@ -59,6 +70,10 @@ COHERENT_SWING_CODES = 4.0
 #: Harmonics of the rounding pattern whose orders (each with this many on either side) carry no line.
 _ROUNDING_HARMONICS = 3
 _ROUNDING_WIDTH = 2
+#: Model the rounding's sidebands (``_rounding_variance``) on a uniform grid of a quantised encoder.
+ROUNDING_SPECTRUM = True
+_ROUNDING_HARMONICS_SPECTRUM = 3
+_SMOOTH_ORDER = 32
 #: Below this alias coherence of the reference stops (see ``_alias_coherence``) the orders above the
 #: Nyquist order are not copies of those below, and the series runs on (safeguard 5).
 ALIAS_COHERENCE = 0.99
@@ -165,6 +180,10 @@ class SpectralModel(FourierModel):
             text.append(f"orders {beyond['from_order']}-{t['max_order']}: past the Nyquist order, a line needs "
                         f"{beyond['line_nats']:.3g} nats (the stops are off a regular grid, alias coherence "
                         f"{t['alias_coherence']:.2f}: these orders are only partly copies of those below)")
+        if t.get("orders_above_cap"):
+            above = t["orders_above_cap"]
+            text.append(f"orders {_ranges(above['orders'])}: above the cap of {above['cap']} (off a uniform grid), "
+                        "carried because the residual's periodogram showed them")
         if t.get("rounding_orders"):
             text.append(f"orders {_ranges(t['rounding_orders'])}: no line (where the rounding of the readings to whole "
                         "codes lands on this grid)")
@@ -275,7 +294,7 @@ def repeat_noise(reference_deg, error_arcmin):
 
 # -- the design: columns, Gram matrix, projections -----------------------------------------------
 
-def _columns(highest, regular_points, phase_rad):
+def _columns(highest, regular_points, phase_rad, extra=()):
     """Orders, shifts and line eligibility of the columns ``cos(ν θ - ψ)``.
 
     On a regular grid of an even number ``N`` of stops, the Nyquist order ``N / 2`` has one
@@ -290,6 +309,10 @@ def _columns(highest, regular_points, phase_rad):
             shifts.append(k * phase_rad)
             lineable.append(True)
             continue
+        orders += [k, k]
+        shifts += [0.0, 0.5 * math.pi]
+        lineable += [True, True]
+    for k in extra:
         orders += [k, k]
         shifts += [0.0, 0.5 * math.pi]
         lineable += [True, True]
@@ -404,6 +427,23 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     InputError
         If an option is invalid or the calibration has fewer than 3 stops.
     """
+    return _fit_spectral(theta_enc_deg, error_arcmin, noise_arcmin=noise_arcmin, max_order=max_order,
+                         threshold_nats=threshold_nats, path=path, progress=progress)
+
+
+def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, threshold_nats, path, progress,
+                  _extra_orders=(), _start=None, _scan_round=0):
+    """:func:`fit_spectral`, and its refit with the orders above the cap that the residual showed.
+
+    Parameters
+    ----------
+    _extra_orders : sequence of int
+        Internal: orders above the cap carried as columns (see :func:`_orders_above_cap`).
+    _start : encal.models._evidence.Hyper, optional
+        Internal: where the hyperparameter search starts (the fit before those orders were added).
+    _scan_round : int
+        Internal: how many scans above the cap came before this fit (at most :data:`SCAN_ROUNDS`).
+    """
     start = time.perf_counter()
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_spectral")
     if path not in ("auto", "fft", "features"):
@@ -415,6 +455,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
         raise InputError(f"The 'threshold_nats' parameter of fit_spectral must be a number >= 0. "
                          f"Got {threshold_nats!r} instead.")
     theta, error, identical = _without_identical_repeats(theta, error)
+    threshold_given = threshold_nats
     stop_angles, reference = _stops(theta, error)
     m = stop_angles.size
     if m < 3:
@@ -464,18 +505,23 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
 
     offset = float(np.mean(error))
     centred = error - offset
-    orders, shifts, lineable = _columns(highest, regular_points, phase)
+    capped = max_order is None and uniform is None and not beyond and highest < nyquist
+    extra = sorted(int(k) for k in _extra_orders if k > highest)
+    orders, shifts, lineable = _columns(highest, regular_points, phase, extra)
     rounding_orders = _quantisation_orders(bits, grid, theta)
     lineable &= ~np.isin(orders, rounding_orders)
     if uniform is not None:
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
+    if ROUNDING_SPECTRUM and bits and grid is not None:
+        design.rounding = _rounding_variance(bits, theta, error, reference, orders)
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
-                                                start=first_prior)
+                                                start=first_prior if _start is None else _start)
+    post = _evidence.signal_part(design, hyper.variances(design), hyper.noise_var, post)
     _advance(progress)
     split = None
     if first_pass is not None:
@@ -483,10 +529,12 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     elif noise_source == "blind":
         # σ̂ stays the flat level (all of it noise), the figure to hold against LSB/√12; a new
         # reading's predictive noise is the mixture's mean noise.
-        post, mean_noise_var = _evidence.split_average(design, hyper, quantisation_var)
+        post, mean_noise_var = _evidence.split_average(design, hyper, quantisation_var, rule=BLIND_SPLIT)
         split = {"points": _evidence.SPLIT_POINTS, "mean_noise_std_arcmin": math.sqrt(mean_noise_var),
                  "floor_arcmin": math.sqrt(quantisation_var)}
 
+    cap = highest
+    highest = int(orders.max())
     cos = np.zeros(highest + 1)
     sin = np.zeros(highest + 1)
     np.add.at(cos, orders, post.mean * np.cos(shifts))
@@ -537,6 +585,19 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
     model = SpectralModel(kept, cos[kept], sin[kept], training=training)
     predictive_sigma = sigma if split is None else split["mean_noise_std_arcmin"]
     model.uncertainty = _posterior_std(design, post, highest, predictive_sigma, unseen)
+    if capped and len(extra) < MAX_EXTRA_ORDERS and _scan_round < SCAN_ROUNDS:
+        # The cap is the cost's, not the data's: orders above it that the residual's periodogram shows
+        # clearly (a stepper's detent at 200 and its sidebands) are carried as columns, and the fit repeated.
+        found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra,
+                                  resolution_of_readings(wrap360(theta - error / ARCMIN_PER_DEG)))
+        if found:
+            _advance(progress)
+            return _fit_spectral(theta, error, noise_arcmin=noise_arcmin, max_order=None,
+                                 threshold_nats=threshold_given,
+                                 path=path, progress=None, _extra_orders=extra + found, _start=hyper,
+                                 _scan_round=_scan_round + 1)
+    if extra:
+        model.training["orders_above_cap"] = {"cap": int(cap), "orders": extra}
     _advance(progress)
     return model
 
@@ -564,6 +625,37 @@ def _check_noise(noise_arcmin, error_arcmin):
         raise InputError(f"The 'noise_arcmin' parameter of fit_spectral must be a number of arc-minutes from "
                          f"{low:.3g} (the resolution of these errors in double precision) to "
                          f"{MAX_NOISE_ARCMIN:g} (a turn). Got {noise_arcmin!r} instead.")
+
+
+def _orders_above_cap(theta_deg, residual_arcmin, cap, nyquist, known, reference_bits=None):
+    """Orders above ``cap`` where the residual of a capped fit has a line the data identify, sorted.
+
+    The scan runs to the highest order the readings identify stably (``identifiable_order``: the
+    largest gap between them shorter than half a period), at most :data:`SCAN_LIMIT` and the Nyquist
+    order of the stops. On readings spread over the circle an order's periodogram of white noise,
+    ``|Σ r_i e^{-i k θ_i}|² / n``, is exponential with mean ``σ²`` (estimated robustly, the median over
+    the scan divided by ln 2); an order counts when it exceeds ``σ²`` by the factor ``ln N + 3`` (about
+    0.05 false orders per scan of ``N`` orders). At most :data:`EXTRA_PER_ROUND` orders per round, the
+    strongest first.
+    """
+    top = min(identifiable_order(theta_deg), SCAN_LIMIT, nyquist)
+    if reference_bits:
+        # A reference read in whole codes of B bits rounds by a sawtooth of 2^B cycles a turn, which the
+        # readings' spacing aliases onto every order (a 12-bit reference read 10,000 times a turn put lines at
+        # multiples of 16 and near 1808): above the cap its orders cannot be told from the encoder's, and the
+        # scan is not made (fitted, they left 0.69 arcmin RMS off the truth, against 0.051 without them).
+        return []
+    if top <= cap + 1:
+        return []
+    moments = trig_moments(np.radians(theta_deg), residual_arcmin, top)[cap + 1:]
+    power = np.abs(moments) ** 2 / residual_arcmin.size
+    level = float(np.median(power)) / math.log(2.0)
+    if not level > 0:
+        return []
+    cut = level * (math.log(power.size) + _evidence.LINE_THRESHOLD_NATS)
+    orders = np.arange(cap + 1, top + 1)
+    strong = [int(k) for k in orders[np.argsort(power)[::-1]] if k not in known][:EXTRA_PER_ROUND]
+    return sorted(k for k in strong if power[k - cap - 1] > cut)
 
 
 def _known_noise(noise_arcmin, reference_deg, error_arcmin, quantisation_var=0.0):
@@ -670,11 +762,56 @@ def _quantisation_orders(bits, grid, theta):
     return np.array(sorted(k for k in excluded if k <= stops // 2), dtype=int)
 
 
+def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
+    """Variance per column that a quantised encoder's rounding, spread by the profile, puts on each order.
+
+    A reading ``x`` of a ``bits``-bit encoder is rounded to a whole code: an error
+    ``q saw(x/q) = Σ_h (-1)^{h+1} q/(πh) sin(2πh x/q)``. At the stops the unrounded reading is the reference
+    plus the profile, so each harmonic ``h`` is a phase-modulated carrier ``exp(2πi h x/q)``: where the profile
+    swings over a few codes its power lands on a band of orders around ``h 2^bits`` (folded), the
+    sidebands of the modulation, and there it looks like a line, while at a new reading the rounding has
+    another phase. With ``x`` estimated from the reference and the profile's low orders (up to
+    :data:`_SMOOTH_ORDER`, projected), the expected power of the rounding at each order (averaged over the
+    unknown sub-code offset; harmonics ``h = 1..``:data:`_ROUNDING_HARMONICS_SPECTRUM`) beyond the share
+    ``q²/12 / K`` it would have if it were white (that share is in the noise) is returned per column: it joins
+    the prior variance so that the evidence explains it, and the posterior of the profile leaves it out.
+
+    Returns
+    -------
+    ndarray of shape (P,)
+        Arc-minutes squared, per column of ``orders`` (0 for order 0).
+    """
+    highest = int(orders.max())
+    n = error_arcmin.size
+    reference = np.radians(reference_deg)
+    # the profile's strong low orders, projected (the stops spread over the circle): what moves the readings
+    top = max(1, min(_SMOOTH_ORDER, highest // 2))
+    coefficients = 2.0 * np.conj(trig_moments(reference, error_arcmin - np.mean(error_arcmin), top)) / n
+    coefficients[0] = np.mean(error_arcmin)
+    smooth = trig_series(coefficients, reference)
+    codes = (reference_deg + smooth / ARCMIN_PER_DEG) * (2**bits / 360.0)
+    theta = np.radians(theta_deg)
+    quantum = ARCMIN_PER_DEG * 360.0 / 2**bits
+    expected = np.zeros(highest + 1)
+    for h in range(1, _ROUNDING_HARMONICS_SPECTRUM + 1):
+        carrier = 2.0 * math.pi * h * codes
+        cos_sum = trig_moments(theta, np.cos(carrier), highest)
+        sin_sum = trig_moments(theta, np.sin(carrier), highest)
+        spread = np.abs(cos_sum + 1j * sin_sum) ** 2 + np.abs(cos_sum - 1j * sin_sum) ** 2
+        expected += 0.5 * (quantum / (math.pi * h)) ** 2 * spread / n**2
+    white_share = quantum**2 / 12.0 / max(highest, 1)
+    excess = np.maximum(expected - white_share, 0.0)
+    excess[0] = 0.0
+    return excess[orders]
+
+
 def _prior_text(source):
     if source == "supplied":
         return "noise supplied by the user; background, lines by maximum likelihood"
     if source == "repeated readings":
         return "noise from repeated readings at the same reference angle; background, lines by maximum likelihood"
+    if BLIND_SPLIT != "uniform":  # a benchmark's variant (bench_worlds.py --blind)
+        return BLIND_PRIOR.replace("under a uniform prior", f"by the rule {BLIND_SPLIT!r} (a benchmark's variant)")
     return BLIND_PRIOR
 
 

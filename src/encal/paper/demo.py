@@ -14,7 +14,7 @@ then writes the tables (text on stdout, CSV), the figures (PNG), one HTML report
 and one model file per encoder, and checks that every model file, loaded
 back, corrects its encoder's test run to the accuracy the report states.
 
-Fits run on up to two worker processes (see :mod:`encal.paper.studies._pool`); every
+Fits run on up to two worker processes (see :mod:`encal._core.pool`); every
 fit is seeded by what it is, not by when it runs, so the numbers are the same
 for any number of workers.
 """
@@ -29,7 +29,7 @@ import numpy as np
 from .._core.atomic import atomic_file_set, atomic_write, staged_path
 from .._core.errors import EncalError, InputError
 from ..analysis.profile import error_stats, harmonics
-from .studies._pool import Workers, run_tasks
+from .._core.pool import Workers, run_tasks
 from .studies.algorithms import EXTRA_ALGORITHMS, PAPER_ALGORITHMS, compare_algorithms
 from .studies.comparison import compare_models
 from .studies.pruning import svd_pruning

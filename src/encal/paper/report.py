@@ -142,7 +142,7 @@ def render_figures(result, *, workers=0, progress=False):
     ----------
     result : DemoResult
     workers : int, Workers or None, default=0
-        Worker processes to draw on (see :func:`encal.paper.studies._pool.run_tasks`); 0 draws in this process.
+        Worker processes to draw on (see :func:`encal._core.pool.run_tasks`); 0 draws in this process.
     progress : bool, default=False
         Progress bar on stderr.
 
@@ -151,7 +151,7 @@ def render_figures(result, *, workers=0, progress=False):
     dict of str to bytes
         Figure name (a key of :data:`FIGURES`) -> PNG.
     """
-    from .studies._pool import run_tasks
+    from .._core.pool import run_tasks
 
     names = [name for name in FIGURES if not (name == "fig2b_training" and result.sweep.curve_hidden is None)]
     pngs = run_tasks(_render, [(name, result) for name in names], workers=workers, label="figures",

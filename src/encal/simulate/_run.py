@@ -146,5 +146,8 @@ def measurement_floor(run):
     float
         Arc-minutes.
     """
+    if not isinstance(run, SimulatedRun):
+        raise InputError(f"The 'run' parameter of measurement_floor must be a SimulatedRun (from encal.simulate_fleet "
+                         f"or demo_fleet: it needs the noise-free error). Got {type(run).__name__} instead.")
     difference = wrap180((run.errors_arcmin - run.noise_free_error_arcmin) / ARCMIN_PER_DEG)
     return float(np.sqrt(np.mean(np.square(difference * ARCMIN_PER_DEG))))

@@ -17,7 +17,7 @@ from ..._core.limits import check_size
 from ..._core.parameters import check_bool, invalid
 from ._checks import check_algorithms, check_calibration, check_encoding, check_epochs, check_seed
 from ._fits import task_seed, train_once
-from ._pool import run_tasks
+from ..._core.pool import run_tasks
 from ..._core.threads import single_blas_thread
 
 __all__ = ["PAPER_ALGORITHMS", "EXTRA_ALGORITHMS", "AlgorithmRow", "AlgorithmStudy", "compare_algorithms"]

@@ -16,7 +16,7 @@ from ..._core.limits import check_size
 from ..._core.parameters import check_bool, check_choice
 from ._checks import check_algorithms, check_calibration, check_counts, check_encoding, check_epochs, check_seed
 from ._fits import task_seed, train_once
-from ._pool import run_tasks
+from ..._core.pool import run_tasks
 from ..._core.threads import single_blas_thread
 
 __all__ = ["PAPER_HIDDEN", "SweepResult", "hidden_node_sweep"]
@@ -146,7 +146,7 @@ def hidden_node_sweep(cal, test=None, *, hidden=PAPER_HIDDEN, algorithms=("train
         the number of workers or the order fits finish in.
     workers : int, Workers or None, default=None
         Worker processes: None for the CPU count (at most 2), 0 to fit in this process
-        (see :mod:`encal.paper.studies._pool`).
+        (see :mod:`encal._core.pool`).
     progress : bool, default=False
         Progress bar on stderr.
 

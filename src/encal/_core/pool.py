@@ -28,8 +28,8 @@ import os
 import threading
 import time
 
-from ..._core.progress import Progress
-from ..._core.limits import check_size
+from .progress import Progress
+from .limits import check_size
 
 __all__ = ["MAX_WORKERS", "default_workers", "Workers", "run_tasks"]
 

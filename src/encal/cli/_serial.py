@@ -1,0 +1,55 @@
+"""``--serial S --store DB``: the model a command uses taken from the calibration store (issue 32).
+
+``encal export`` and ``encal correct`` take a model file, or, with ``--serial``, the latest model of that
+unit in the store. These helpers keep each command's edit to a few lines.
+"""
+
+__all__ = ["add_serial_options", "model_or_serial", "model_input"]
+
+
+def add_serial_options(parser):
+    """``--serial`` and ``--store``."""
+    parser.add_argument("--serial", metavar="S",
+                        help="use the latest model of the unit with this serial number in --store instead of "
+                             "MODEL.json (written by 'encal fleet fit')")
+    parser.add_argument("--store", metavar="DB",
+                        help="the calibration store of --serial: an SQLite file or a postgresql:// URL")
+
+
+def model_input(args):
+    """The ``(path, 'model')`` entry of ``check_paths`` inputs: the model file, or nothing with --serial."""
+    return (None if args.serial is not None else args.model, "model")
+
+
+def model_or_serial(args, parser):
+    """Check that MODEL.json or --serial is given (a usage error otherwise); with --serial, return the model.
+
+    Returns
+    -------
+    str or encal.models.base.Model
+        ``args.model`` (a path), or the unit's latest model from the store; ``args.model`` then names it
+        for messages ('SN0042 epoch 3 in store.sqlite').
+    """
+    if args.serial is None:
+        if args.store is not None:
+            parser.error("--store names the store of --serial; expected it with --serial")
+        if args.model is None:
+            parser.error("expected MODEL.json, or --serial S --store DB")
+        return args.model
+    if args.model is not None:
+        parser.error(f"MODEL.json {args.model} and --serial {args.serial} both name the model; expected one of them")
+    if args.store is None:
+        parser.error("--serial needs --store DB: the calibration store to find the unit's model in")
+    from pathlib import Path
+
+    from .._core.errors import InputError
+    from ..store import open_store
+    from ..store._store import is_url
+
+    if not is_url(args.store) and not Path(args.store).is_file():
+        raise InputError(f"--store {args.store}: no such file; expected a store written by 'encal fleet fit'")
+    with open_store(args.store) as store:
+        record = store.latest_model(args.serial)
+        model = record.model()
+        args.model = f"{record.serial} epoch {record.epoch} in {store.location}"
+    return model

@@ -1,0 +1,328 @@
+"""Fit many calibrations into the calibration store: a process pool, resumable, bad files refused apart.
+
+A *task* is one unit: its serial number and its calibration files (a serial with several files gets
+one epoch per file, in file-name order). Workers fit and return plain records; the calling process
+alone writes them to the store, in groups of up to :data:`FLUSH_RECORDS` records or :data:`FLUSH_S`
+seconds, one transaction each (one commit per record took 12 ms); an interrupted batch writes the
+units it finished before it stops, and a new run skips them (a file is known by its serial number
+and the SHA-256 of its bytes).
+"""
+
+import glob
+import hashlib
+import os
+import re
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .._core.errors import EncalError, InputError
+
+__all__ = ["BatchResult", "find_calibrations", "serial_of", "fit_batch", "fit_unit", "METHODS"]
+
+#: The methods ``encal fleet fit`` offers, those whose fit states a held-out estimate to grade by: the spectral
+#: model (default; its posterior's) or auto (its choice's).
+METHODS = ("spectral", "auto")
+#: Fitted records are written in one transaction per group: at most this many ...
+FLUSH_RECORDS = 64
+#: ... or every this many seconds, so that an interruption loses little and a resumed batch refits it.
+FLUSH_S = 2.0
+
+
+def find_calibrations(sources):
+    """The calibration files named by ``sources``: folders (their ``*.csv``), glob patterns or files.
+
+    Returns
+    -------
+    list of Path
+        Sorted, each once.
+
+    Raises
+    ------
+    InputError
+        When a source matches no file.
+    """
+    found = set()
+    for source in sources:
+        text = str(source)
+        path = Path(text)
+        if path.is_dir():
+            matches = [p for p in path.glob("*.csv") if p.is_file()]
+            what = f"{text} is a folder with no *.csv file"
+        elif glob.has_magic(text):
+            matches = [Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file()]
+            what = f"the pattern {text} matches no file"
+        elif path.is_file():
+            matches = [path]
+            what = ""
+        else:
+            matches = []
+            what = f"{text}: no such file or folder"
+        if not matches:
+            raise InputError(f"{what}; expected a folder of calibration CSVs, a glob pattern such as 'lot7/*.csv' "
+                             "(quoted), or files")
+        found.update(matches)
+    return sorted(found)
+
+
+def serial_of(path, pattern=None):
+    """The serial number of a calibration file: its name's stem, or the first group of ``pattern`` in it.
+
+    Raises
+    ------
+    InputError
+        When ``pattern`` does not match the stem.
+    """
+    stem = Path(path).stem
+    if pattern is None:
+        return stem
+    match = re.search(pattern, stem)
+    if match is None:
+        raise InputError(f"{path}: --serial-pattern {pattern} does not match its name {stem!r}; expected a pattern "
+                         "that finds the serial number in every file name (its first group, or the whole match)")
+    return match.group(1) if match.groups() else match.group(0)
+
+
+@dataclass
+class BatchResult:
+    """What a batch did.
+
+    Attributes
+    ----------
+    fitted : list of Record
+        Records written, in the order written.
+    skipped : list of Path
+        Files already in the store (same serial, same bytes), not fitted again.
+    refused : list of (Path, str)
+        Files refused, with the sentence that says why.
+    """
+
+    fitted: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    refused: list = field(default_factory=list)
+
+
+def file_sha256(path):
+    """SHA-256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as stream:
+        for block in iter(lambda: stream.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def fit_unit(task):
+    """Fit one unit's calibration files; a worker's job.
+
+    Parameters
+    ----------
+    task : tuple
+        ``(serial, [(path, sha256), ...], method, grades, read_options, prior)``; ``grades`` as
+        :func:`encal.store.parse_grades`, ``read_options`` keywords of :func:`encal.data.calibration.read_calibration`,
+        ``prior`` a :class:`~encal.fleet.prior.FleetPrior` or None.
+
+    Returns
+    -------
+    list of (str, str, dict or str)
+        Per file, ``(path, 'ok', fields of Store.add)`` or ``(path, 'refused', sentence)``.
+    """
+    serial, files, method, grades, read_options, prior = task
+    return [_fit_file(serial, path, sha256, method, grades, read_options, prior) for path, sha256 in files]
+
+
+def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
+    from ..data.calibration import read_calibration
+    from ..models.fitting import evaluate, fit
+    from ..models.modelfile import dumps, model_to_dict
+    from ..store import grade_of
+
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            cal = read_calibration(path, **read_options)
+            model = fit(cal, method=method) if prior is None else _fit_under_prior(cal, prior)
+            fitted = evaluate(model, cal, zero="auto")
+            model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
+            model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
+            model.training["serial"] = serial
+            text = dumps(model_to_dict(model))
+        held_out = _held_out(model)
+        raw = Path(path).read_bytes()
+        try:
+            calibration_text = raw.decode("utf-8")
+        except UnicodeDecodeError:
+            calibration_text = raw.decode("latin-1")
+        return (str(path), "ok", {
+            "serial": serial, "model_json": text, "calibration_csv": calibration_text,
+            "source_name": Path(path).name, "source_sha256": sha256, "model_kind": model.kind,
+            "n_points": len(cal), "rms_before_arcmin": float(fitted.before.rms),
+            "rms_after_arcmin": float(fitted.after.rms), "held_out_arcmin": held_out,
+            "grade": grade_of(held_out, grades), "warnings": [str(w.message) for w in caught],
+        })
+    except EncalError as exc:
+        return (str(path), "refused", str(exc))
+    except (OSError, ValueError, ArithmeticError, MemoryError) as exc:  # a file that breaks a fit never stops the batch
+        return (str(path), "refused", f"{path}: could not be fitted ({type(exc).__name__}: {exc}); expected a "
+                                      "calibration CSV that 'encal fit' accepts")
+
+
+def _fit_under_prior(cal, prior):
+    """A spectral model of ``cal`` under the fleet prior (:func:`encal.fleet.prior.fit_with_prior`)."""
+    from ..data.reversal import has_both_directions
+    from ..models.fitting import resolution_bits
+    from .prior import fit_with_prior
+
+    if has_both_directions(cal):
+        raise InputError(f"{cal.source}: has readings in both directions of travel; the fleet prior fits one "
+                         "profile (fit it without --prior-from, which gives one model per direction)")
+    model = fit_with_prior(cal.encoder_deg, cal.errors_arcmin, prior)
+    model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
+    model.training = {"method": "spectral", **model.training, "n_points": len(cal)}
+    model.reading_sign = cal.reading_sign
+    return model
+
+
+def _held_out(model):
+    """The fit's estimate of its RMS error at readings it did not see (arcmin), or None.
+
+    A spectral model's posterior gives it; a model auto chose by cross-validation, the chosen row's CV figure.
+    The training RMS is never used in its place: a lookup table's is 0.
+    """
+    expected = getattr(model, "expected_rms_between_points", None)
+    if callable(expected) and expected() is not None:
+        return float(expected())
+    selection = model.training.get("selection") or {}
+    for row in selection.get("table") or ():
+        if row.get("label") == selection.get("chosen") and row.get("cv_rms_arcmin") is not None:
+            return float(row["cv_rms_arcmin"])
+    return None
+
+
+def fit_batch(paths, store, *, method="spectral", grades=(), station=None, serial_pattern=None, jobs=None,
+              read_options=None, prior=None, progress=None, on_refused=None, on_warning=None):
+    """Fit every calibration file into ``store``, in parallel; skip those already stored.
+
+    Parameters
+    ----------
+    paths : sequence of path-like
+        Calibration CSVs.
+    store : encal.store.Store
+        Where the records go (written by this process only).
+    method : str, default='spectral'
+        One of :data:`METHODS`.
+    grades : list of (str, float)
+        Thresholds (arc-minutes of held-out RMS), :func:`encal.store.parse_grades`.
+    station : str, optional
+        Recorded in every record.
+    serial_pattern : str, optional
+        A regular expression that finds the serial number in a file's stem (see :func:`serial_of`).
+    read_options : dict, optional
+        Keywords of :func:`encal.data.calibration.read_calibration` (columns, units, duplicates, ...).
+    prior : encal.fleet.prior.FleetPrior, optional
+        Fit every unit under this fleet prior instead of ``method`` (partial calibrations).
+    jobs : int, optional
+        Worker processes; default the machine's cores; 0 fits in this process.
+    progress : callable, optional
+        Called with the number of files done, after each unit (and once for the files skipped).
+    on_refused : callable, optional
+        Called with ``(path, sentence)`` for each refused file, as it comes.
+    on_warning : callable, optional
+        Called with ``(path, message)`` for each warning of a fit.
+
+    Returns
+    -------
+    BatchResult
+    """
+    paths = list(paths)
+    result = BatchResult()
+    stored = store.stored_sources()
+    units = {}
+    for path in paths:
+        try:
+            serial = serial_of(path, serial_pattern)
+            sha256 = file_sha256(path)
+        except (InputError, OSError) as exc:
+            sentence = str(exc) if isinstance(exc, InputError) else f"{path}: cannot be read ({exc.strerror or exc})"
+            result.refused.append((Path(path), sentence))
+            if on_refused:
+                on_refused(Path(path), sentence)
+            continue
+        if (serial, sha256) in stored:
+            result.skipped.append(Path(path))
+            continue
+        units.setdefault(serial, []).append((str(path), sha256))
+    tasks = [(serial, files, method, list(grades), dict(read_options or {}), prior)
+             for serial, files in units.items()]
+    if progress and len(paths) - sum(len(files) for files in units.values()):
+        progress(len(paths) - sum(len(files) for files in units.values()))  # skipped or refused already
+    if jobs is None:
+        jobs = os.cpu_count() or 1
+    jobs = min(jobs, len(tasks))
+
+    waiting = []  # fitted, not yet written
+    waiting_paths = []
+    last_flush = [time.monotonic()]
+
+    def flush():
+        if waiting:
+            for path, record in zip(waiting_paths, store.add_many(waiting, skip_stored=True)):
+                if record is None:  # another batch stored the same file meanwhile
+                    result.skipped.append(path)
+                else:
+                    result.fitted.append(record)
+            waiting.clear()
+            waiting_paths.clear()
+        last_flush[0] = time.monotonic()
+
+    def write(outcome):
+        for path, status, value in outcome:
+            if status == "ok":
+                fields = dict(value)
+                for message in fields.pop("warnings"):
+                    if on_warning:
+                        on_warning(Path(path), message)
+                waiting.append({**fields, "station": station})
+                waiting_paths.append(Path(path))
+            else:
+                result.refused.append((Path(path), value))
+                if on_refused:
+                    on_refused(Path(path), value)
+        if len(waiting) >= FLUSH_RECORDS or time.monotonic() - last_flush[0] >= FLUSH_S:
+            flush()
+        if progress:
+            progress(len(outcome))
+
+    try:
+        if jobs <= 0:
+            for task in tasks:
+                write(fit_unit(task))
+        else:
+            _run_pool(tasks, jobs, write)
+    finally:
+        flush()  # an interrupted batch keeps every unit it finished
+    return result
+
+
+def _run_pool(tasks, jobs, write):
+    import concurrent.futures
+
+    from .._core.pool import Workers
+
+    with Workers(jobs) as workers:
+        executor = workers.executor()
+        pending = set()
+        try:
+            # a bounded window of submitted units: memory stays flat on a lot of 10^5 files
+            for task in tasks:
+                pending.add(executor.submit(fit_unit, task))
+                if len(pending) >= 4 * jobs:
+                    done, pending = concurrent.futures.wait(pending, return_when="FIRST_COMPLETED")
+                    for future in done:
+                        write(future.result())
+            for future in concurrent.futures.as_completed(pending):
+                write(future.result())
+        except BaseException:
+            for future in pending:
+                future.cancel()
+            raise

@@ -1,0 +1,194 @@
+"""The HTML page of ``encal fleet report``: one self-contained file with the fleet's figures and tables."""
+
+import datetime
+
+import numpy as np
+
+from .._core import html as _html
+from .._core.atomic import atomic_write
+from .._version import __version__
+from .statistics import STANDS_OUT, drift_table, fleet_statistics
+
+__all__ = ["write_fleet_report", "fleet_report_html", "MAX_UNIT_ROWS"]
+
+#: Units listed one per row in the page's table of units; a larger fleet lists those that stand out.
+MAX_UNIT_ROWS = 500
+
+
+def _number(value, digits=4):
+    return "-" if value is None else f"{value:.{digits}g}"
+
+
+def _grades_table(latest, grades):
+    from ..store import GRADE_NONE, grade_of
+
+    if grades is not None:
+        for_unit = [grade_of(r.held_out_arcmin, grades) for r in latest]
+        limits = {name: limit for name, limit in grades}
+        names = [name for name, _ in grades] + [GRADE_NONE]
+    else:
+        for_unit = [r.grade for r in latest]
+        limits = {}
+        names = sorted({g for g in for_unit if g is not None})
+    counts = {name: for_unit.count(name) for name in names}
+    if not names:
+        return for_unit, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
+                                         "to this report (--grades A=0.02,B=0.05).", "note")
+    rows = [[name, "-" if name not in limits else f"<= {limits[name] / 60:.4g} deg ({limits[name]:.4g} arcmin)",
+             str(counts[name]), f"{100 * counts[name] / len(latest):.1f}%"] for name in names]
+    table = _html.table(["grade", "held-out RMS", "units", "share"], rows,
+                        caption="Grades (the latest epoch of each unit)")
+    return for_unit, table
+
+
+def _figures(stats, drift):
+    from ..figures import detached_figures, figure_png, new_figure
+
+    figures = []
+    with detached_figures():
+        fig = new_figure((7.2, 3.8))
+        ax = fig.add_subplot()
+        low, high = np.percentile(stats.profiles, [10, 90], axis=0)
+        ax.fill_between(stats.grid_deg, low, high, color="#1f77b4", alpha=0.2, label="10-90% of units")
+        ax.plot(stats.grid_deg, stats.mean_profile, color="#1f77b4", label="mean profile")
+        ax.plot(stats.grid_deg, stats.mean_profile + stats.spread_profile, color="#1f77b4", ls=":", lw=0.8,
+                label="mean +- 1 std")
+        ax.plot(stats.grid_deg, stats.mean_profile - stats.spread_profile, color="#1f77b4", ls=":", lw=0.8)
+        for index, *_ in stats.standing_out()[:5]:
+            ax.plot(stats.grid_deg, stats.profiles[index], lw=0.8, label=f"{stats.records[index].serial} (stands out)")
+        ax.set_xlabel("encoder angle (deg)")
+        ax.set_ylabel("error (arcmin), offset removed")
+        ax.set_xlim(0, 360)
+        ax.legend(fontsize="small", loc="upper right")
+        figures.append(("fleet-profile", figure_png(fig),
+                        f"The fleet's mean error profile and its spread across {len(stats.records)} units (the "
+                        "latest epoch of each; zero offsets removed), with the units that stand out most."))
+        fig = new_figure((7.2, 3.8))
+        ax = fig.add_subplot()
+        amplitudes = np.abs(stats.coefficients)
+        q10, q90 = np.percentile(amplitudes, [10, 90], axis=0)
+        ax.fill_between(stats.orders, q10, q90, step="mid", color="#ff7f0e", alpha=0.25, label="10-90% of units")
+        ax.plot(stats.orders, stats.amplitude_median, "o-", color="#ff7f0e", ms=3, label="median amplitude")
+        ax.plot(stats.orders, stats.mean_amplitude, "s", color="#222222", ms=3, mfc="none",
+                label="amplitude of the mean profile")
+        ax.set_yscale("log")
+        ax.set_xlabel("harmonic order (per turn)")
+        ax.set_ylabel("amplitude (arcmin)")
+        ax.legend(fontsize="small")
+        figures.append(("fleet-orders", figure_png(fig),
+                        "Amplitude of each harmonic order across the fleet: the median unit, the 10-90% band, and "
+                        "the order's amplitude in the mean profile (lower when the units' phases differ)."))
+        fig = new_figure((7.2, 3.2))
+        ax = fig.add_subplot()
+        scores = np.clip(stats.overall_scores, -10, 50)
+        ax.hist(scores, bins=min(60, max(10, len(scores) // 5)), color="#888888")
+        ax.axvline(STANDS_OUT, color="#d62728", ls="--", label=f"stands out (> {STANDS_OUT:g})")
+        ax.set_xlabel("overall robust score (modified z of the distance from the median profile)")
+        ax.set_ylabel("units")
+        ax.legend(fontsize="small")
+        figures.append(("fleet-scores", figure_png(fig),
+                        "Each unit's overall robust score: (d - median d) / (1.4826 MAD d), d the RMS distance of "
+                        "its profile from the fleet's median profile (scores clipped to [-10, 50] for the plot)."))
+        if drift:
+            fig = new_figure((7.2, 3.2))
+            ax = fig.add_subplot()
+            for row in drift[:20]:
+                ax.plot(row["epochs"], row["drift_arcmin"], "o-", ms=3, label=row["serial"])
+            ax.set_xlabel("epoch")
+            ax.set_ylabel("RMS change from epoch 1 (arcmin)")
+            if len(drift) <= 10:
+                ax.legend(fontsize="small")
+            figures.append(("fleet-drift", figure_png(fig),
+                            "Drift: how far each re-calibrated unit's profile moved from its first epoch (RMS, "
+                            "zero offset removed; at most 20 units drawn)."))
+    return [_html.figure(name, png, caption) for name, png, caption in figures]
+
+
+def fleet_report_html(records, *, grades=None, store_name="the store"):
+    """The fleet report page, and a one-line summary.
+
+    Parameters
+    ----------
+    records : list of encal.store.Record
+        Every record of the store.
+    grades : list of (str, float), optional
+        Thresholds to grade by (arc-minutes); default the grades stored.
+    store_name : str
+        How the page names the store.
+
+    Returns
+    -------
+    (str, str)
+        The HTML document and a summary sentence.
+    """
+    stats = fleet_statistics(records)
+    drift = drift_table(records)
+    latest = stats.records
+    unit_grades, grades_part = _grades_table(latest, grades)
+    standing = stats.standing_out()
+    after = np.array([r.rms_after_arcmin for r in latest if r.rms_after_arcmin is not None])
+    held = np.array([r.held_out_arcmin for r in latest if r.held_out_arcmin is not None])
+    parts = [f"<h1>Fleet report</h1>",
+             _html.paragraph(f"{len(latest)} units, {len(records)} records in {store_name}; written "
+                             f"{datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')} by encal "
+                             f"{__version__}.", "meta")]
+    verdict = (f"{len(standing)} of {len(latest)} units stand out (overall robust score > {STANDS_OUT:g}). "
+               f"Median RMS after correction {_number(np.median(after) if after.size else None)} arcmin"
+               + (f", median held-out estimate {_number(np.median(held))} arcmin" if held.size else "") + ".")
+    parts.append(_html.paragraph(verdict, "verdict"))
+    parts.append("<h2>Grades</h2>")
+    parts.append(grades_part)
+    parts.append("<h2>The fleet's profile and its spread per order</h2>")
+    figures = _figures(stats, drift)
+    parts += figures[:2]
+    rows = [[str(int(k)), _number(m, 3), _number(1.4826 * d, 3), _number(mean, 3), _number(a, 3), str(int(n))]
+            for k, m, d, mean, a, n in zip(stats.orders, stats.amplitude_median, stats.amplitude_mad,
+                                           stats.amplitude_mean, stats.mean_amplitude, stats.orders_standing_out())]
+    parts.append(_html.table(["order", "median |c_k|", "1.4826 MAD", "mean |c_k|", "|mean c_k|", "units > 3.5"],
+                             rows[:20], caption="Amplitude per harmonic order across the fleet (arcmin; orders "
+                                                "1 to 20)"))
+    parts.append("<h2>Units that stand out</h2>")
+    parts.append(figures[2])
+    if standing:
+        parts.append(_html.table(
+            ["serial", "epoch", "overall score", "distance (arcmin)", "worst order", "its score"],
+            [[latest[i].serial, str(latest[i].epoch), _number(score, 3), _number(stats.distance_arcmin[i], 3),
+              str(order), _number(order_score, 3)] for i, score, order, order_score in standing[:100]],
+            caption=f"Units whose overall robust score exceeds {STANDS_OUT:g} (at most 100 shown)",
+            numeric=[False, True, True, True, True, True]))
+    else:
+        parts.append(_html.paragraph(f"No unit's overall robust score exceeds {STANDS_OUT:g}.", "note"))
+    parts.append("<h2>Drift across epochs</h2>")
+    if drift:
+        parts.append(figures[3])
+        parts.append(_html.table(
+            ["serial", "epochs", "drift at the last epoch (arcmin)", "order that moved most", "its change (arcmin)"],
+            [[row["serial"], str(len(row["epochs"])), _number(row["drift_arcmin"][-1], 3), str(row["largest_order"]),
+              _number(row["largest_change_arcmin"], 3)] for row in drift[:200]],
+            caption="Units calibrated more than once (at most 200 shown)",
+            numeric=[False, True, True, True, True]))
+    else:
+        parts.append(_html.paragraph("No unit was calibrated more than once.", "note"))
+    parts.append("<h2>Units</h2>")
+    shown = range(len(latest)) if len(latest) <= MAX_UNIT_ROWS else [i for i, *_ in standing]
+    if len(latest) > MAX_UNIT_ROWS:
+        parts.append(_html.paragraph(f"{len(latest)} units: those that stand out are listed; 'encal fleet' keeps "
+                                     "every record in the store.", "note"))
+    parts.append(_html.table(
+        ["serial", "epoch", "station", "points", "RMS before", "RMS after", "held-out", "grade", "score"],
+        [[latest[i].serial, str(latest[i].epoch), latest[i].station or "-", str(latest[i].n_points or "-"),
+          _number(latest[i].rms_before_arcmin), _number(latest[i].rms_after_arcmin),
+          _number(latest[i].held_out_arcmin), unit_grades[i] or "-", _number(stats.overall_scores[i], 3)]
+         for i in shown], caption="The latest record of each unit (arcmin)",
+        numeric=[False, True, False, True, True, True, True, False, True]))
+    summary = (f"{len(latest)} units, {len(standing)} stand out, {len(drift)} calibrated more than once")
+    return _html.page("encal fleet report", parts), summary
+
+
+def write_fleet_report(records, path, *, grades=None, store_name="the store", progress=None):
+    """Write the fleet report page to ``path`` atomically; return its summary sentence."""
+    if progress is not None:
+        progress.stage("fleet statistics and figures")
+    document, summary = fleet_report_html(records, grades=grades, store_name=store_name)
+    atomic_write(path, document)
+    return summary

@@ -1,0 +1,546 @@
+"""The calibration store: one table of records, SQLite or PostgreSQL behind one interface."""
+
+import dataclasses
+import datetime
+import hashlib
+import math
+import re
+from pathlib import Path
+
+from .._version import __version__
+from .._core.errors import InputError
+
+__all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
+           "grade_of", "GRADE_NONE"]
+
+#: The store's file name when the user names none: next to the calibrations.
+DEFAULT_STORE_NAME = "encal-store.sqlite"
+#: The grade of a unit that meets no threshold.
+GRADE_NONE = "out"
+#: Version of the tables' layout, recorded in the store.
+SCHEMA_VERSION = 1
+#: Longest serial number, in characters.
+MAX_SERIAL_CHARS = 200
+#: Seconds a writer waits for another's transaction (SQLite's lock) before it gives up.
+LOCK_TIMEOUT_S = 120.0
+
+_SERIAL = re.compile(r"[^\x00-\x1f\x7f]+")
+
+#: The record's columns after ``id``, in order: (name, SQLite type, PostgreSQL type).
+_COLUMNS = (
+    ("serial", "TEXT NOT NULL", "TEXT NOT NULL"),
+    ("epoch", "INTEGER NOT NULL", "INTEGER NOT NULL"),
+    ("created_utc", "TEXT NOT NULL", "TEXT NOT NULL"),
+    ("station", "TEXT", "TEXT"),
+    ("encal_version", "TEXT NOT NULL", "TEXT NOT NULL"),
+    ("source_name", "TEXT", "TEXT"),
+    ("source_sha256", "TEXT", "TEXT"),
+    ("calibration_csv", "TEXT", "TEXT"),
+    ("model_json", "TEXT NOT NULL", "TEXT NOT NULL"),
+    ("model_kind", "TEXT", "TEXT"),
+    ("n_points", "INTEGER", "INTEGER"),
+    ("rms_before_arcmin", "REAL", "DOUBLE PRECISION"),
+    ("rms_after_arcmin", "REAL", "DOUBLE PRECISION"),
+    ("held_out_arcmin", "REAL", "DOUBLE PRECISION"),
+    ("grade", "TEXT", "TEXT"),
+)
+_NAMES = tuple(name for name, _, _ in _COLUMNS)
+_REFUSAL = "encal store: records are never overwritten or deleted; a new calibration is a new epoch"
+
+
+@dataclasses.dataclass(frozen=True)
+class Record:
+    """One calibration of one unit, as stored.
+
+    Attributes
+    ----------
+    serial : str
+        The unit's serial number.
+    epoch : int
+        1 for the unit's first calibration, 2 for the next, ...
+    created_utc : str
+        When the record was written, ISO 8601 in UTC.
+    station : str or None
+        The station that calibrated the unit.
+    encal_version : str
+        encal's version that fitted the model.
+    source_name : str or None
+        The calibration file's name.
+    source_sha256 : str or None
+        SHA-256 of the calibration file's bytes (a file already stored is skipped by ``encal fleet fit``).
+    calibration_csv : str or None
+        The calibration file's text.
+    model_json : str
+        The model file's text (JSON).
+    model_kind : str or None
+        The model's kind.
+    n_points : int or None
+        Readings in the calibration.
+    rms_before_arcmin, rms_after_arcmin : float or None
+        RMS of the error before and after the correction, on the calibration (arc-minutes).
+    held_out_arcmin : float or None
+        The fit's estimate of its RMS error at readings it did not see (arc-minutes).
+    grade : str or None
+        The grade by the thresholds in force when it was written.
+    id : int or None
+        The row's number in the store (in the order written).
+    """
+
+    serial: str
+    epoch: int
+    created_utc: str
+    station: str | None
+    encal_version: str
+    source_name: str | None
+    source_sha256: str | None
+    calibration_csv: str | None
+    model_json: str
+    model_kind: str | None
+    n_points: int | None
+    rms_before_arcmin: float | None
+    rms_after_arcmin: float | None
+    held_out_arcmin: float | None
+    grade: str | None
+    id: int | None = None
+
+    def model(self):
+        """The stored model, rebuilt (:class:`encal.models.base.Model`); its checksum is verified."""
+        import json
+
+        from .._core.errors import ModelFileError
+        from ..models.modelfile import model_from_dict
+
+        where = f"the model of {self.serial} epoch {self.epoch} in the store"
+        try:
+            document = json.loads(self.model_json)
+        except ValueError as exc:
+            raise ModelFileError(f"{where}: is not JSON ({exc}); expected a model file") from None
+        return model_from_dict(document, source=where)
+
+
+def default_store_path(data_dir):
+    """The default store of calibrations in ``data_dir``: ``data_dir/encal-store.sqlite``."""
+    return Path(data_dir) / DEFAULT_STORE_NAME
+
+
+def is_url(location):
+    """Whether ``location`` names a PostgreSQL server rather than an SQLite file."""
+    return str(location).startswith(("postgresql://", "postgres://"))
+
+
+def open_store(location):
+    """Open (and create when new) the store at ``location``.
+
+    Parameters
+    ----------
+    location : str or os.PathLike
+        The path of an SQLite file (created when missing; its folder must exist), or a PostgreSQL URL
+        ``postgresql://user:password@host:port/database`` (needs ``psycopg``: ``pip install encal[postgres]``).
+
+    Returns
+    -------
+    Store
+
+    Raises
+    ------
+    InputError
+        If the file is not an SQLite database, its folder is missing, the server cannot be reached, or the
+        driver is not installed, in one sentence.
+    """
+    if is_url(location):
+        return _PostgresStore(str(location))
+    return _SQLiteStore(Path(location))
+
+
+def check_serial(serial):
+    """``serial`` stripped, or InputError when it is empty, too long or holds control characters."""
+    if not isinstance(serial, str):
+        raise InputError(f"a serial number must be text; got {type(serial).__name__}")
+    text = serial.strip()
+    if not text or len(text) > MAX_SERIAL_CHARS or not _SERIAL.fullmatch(text):
+        raise InputError(f"serial number {serial!r}: expected 1 to {MAX_SERIAL_CHARS} printable characters "
+                         "(no line ends or control characters)")
+    return text
+
+
+def _figure(value, name):
+    if value is None:
+        return None
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise InputError(f"the record's {name} must be a finite number >= 0 (arc-minutes); got {value!r}")
+    return value
+
+
+class Store:
+    """The records of a store, behind the same methods for SQLite and PostgreSQL.
+
+    Use as a context manager, or call :meth:`close`. A store is used by one thread; processes (and
+    stations) may each open their own at once.
+    """
+
+    location = None
+    _placeholder = "?"
+
+    # --- what a back end provides ---------------------------------------------------------------
+    def _connect(self):
+        raise NotImplementedError
+
+    def _insert(self, rows, skip_stored=False):
+        """Insert records (dicts of the columns) in one transaction, numbering their epochs; return [(id, epoch)].
+
+        ``skip_stored``: a record whose serial and ``source_sha256`` are stored already is not inserted (None).
+        """
+        raise NotImplementedError
+
+    def _query(self, sql, parameters=()):
+        raise NotImplementedError
+
+    # --- the interface --------------------------------------------------------------------------
+    def add(self, serial, model_json, *, calibration_csv=None, source_name=None, source_sha256=None,
+            model_kind=None, n_points=None, rms_before_arcmin=None, rms_after_arcmin=None, held_out_arcmin=None,
+            grade=None, station=None, created_utc=None):
+        """Write a new record: the unit's next epoch, in one transaction.
+
+        Parameters
+        ----------
+        serial : str
+            The unit's serial number.
+        model_json : str
+            The model file's text.
+        calibration_csv : str, optional
+            The calibration's text.
+        source_name, source_sha256 : str, optional
+            The calibration file's name and the SHA-256 of its bytes (default: of ``calibration_csv``).
+        model_kind : str, optional
+        n_points : int, optional
+        rms_before_arcmin, rms_after_arcmin, held_out_arcmin : float, optional
+            Figures in arc-minutes.
+        grade, station : str, optional
+        created_utc : str, optional
+            ISO 8601 time; default now.
+
+        Returns
+        -------
+        Record
+            As stored, with its epoch and id.
+        """
+        values = self._values(serial, model_json, calibration_csv=calibration_csv, source_name=source_name,
+                              source_sha256=source_sha256, model_kind=model_kind, n_points=n_points,
+                              rms_before_arcmin=rms_before_arcmin, rms_after_arcmin=rms_after_arcmin,
+                              held_out_arcmin=held_out_arcmin, grade=grade, station=station, created_utc=created_utc)
+        (row_id, epoch), = self._insert([values])
+        return Record(**{**values, "epoch": epoch, "id": row_id})
+
+    def add_many(self, records, *, skip_stored=False):
+        """Write several new records in one transaction (all or none); each is ``dict`` of :meth:`add`'s arguments.
+
+        One transaction costs one commit (a disk flush), so a batch that writes its records in groups
+        writes them several times faster than one by one.
+
+        Parameters
+        ----------
+        records : sequence of dict
+        skip_stored : bool, default=False
+            Leave out a record whose serial number and calibration (``source_sha256``) are stored already,
+            checked inside the transaction: two batches on the same files at once store each file once.
+
+        Returns
+        -------
+        list of Record or None
+            One per record; None for one left out.
+        """
+        values = [self._values(**fields) for fields in records]
+        if not values:
+            return []
+        placed = self._insert(values, skip_stored)
+        return [None if where is None else Record(**{**v, "epoch": where[1], "id": where[0]})
+                for v, where in zip(values, placed)]
+
+    def _values(self, serial, model_json, *, calibration_csv=None, source_name=None, source_sha256=None,
+                model_kind=None, n_points=None, rms_before_arcmin=None, rms_after_arcmin=None, held_out_arcmin=None,
+                grade=None, station=None, created_utc=None):
+        serial = check_serial(serial)
+        if not isinstance(model_json, str) or not model_json.strip():
+            raise InputError(f"the record of {serial} needs the model file's text (JSON); got {model_json!r}")
+        if source_sha256 is None and calibration_csv is not None:
+            source_sha256 = hashlib.sha256(calibration_csv.encode("utf-8")).hexdigest()
+        values = {
+            "serial": serial, "epoch": None,
+            "created_utc": created_utc or datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "station": station, "encal_version": __version__, "source_name": source_name,
+            "source_sha256": source_sha256, "calibration_csv": calibration_csv, "model_json": model_json,
+            "model_kind": model_kind, "n_points": None if n_points is None else int(n_points),
+            "rms_before_arcmin": _figure(rms_before_arcmin, "RMS before"),
+            "rms_after_arcmin": _figure(rms_after_arcmin, "RMS after"),
+            "held_out_arcmin": _figure(held_out_arcmin, "held-out estimate"), "grade": grade,
+        }
+        return values
+
+    def history(self, serial):
+        """Every record of ``serial``, by epoch (an empty list for an unknown serial)."""
+        return self._records(f"WHERE serial = {self._placeholder} ORDER BY epoch", (check_serial(serial),))
+
+    def latest(self, serial):
+        """The latest record of ``serial``, or None."""
+        found = self._records(f"WHERE serial = {self._placeholder} ORDER BY epoch DESC LIMIT 1",
+                              (check_serial(serial),))
+        return found[0] if found else None
+
+    def latest_model(self, serial):
+        """The latest record of ``serial``, or InputError naming the store when it has none."""
+        record = self.latest(serial)
+        if record is None:
+            count = len(self.serials())
+            raise InputError(f"--serial {serial}: no record in the store {self.location} ({count} serial numbers "
+                             "there); expected the serial number of a unit fitted with 'encal fleet fit' "
+                             "(--store names another store)")
+        return record
+
+    def records(self):
+        """Every record, in the order written."""
+        return self._records("ORDER BY id")
+
+    def latest_records(self):
+        """The latest record of every serial number, by serial number."""
+        return self._records("WHERE NOT EXISTS (SELECT 1 FROM encal_records later WHERE later.serial = "
+                             "encal_records.serial AND later.epoch > encal_records.epoch) ORDER BY serial")
+
+    def serials(self):
+        """The serial numbers in the store, sorted."""
+        return [row[0] for row in self._query("SELECT DISTINCT serial FROM encal_records ORDER BY serial")]
+
+    def stored_sources(self):
+        """The set of ``(serial, source_sha256)`` already stored (what a resumed batch skips)."""
+        return {(row[0], row[1]) for row in
+                self._query("SELECT serial, source_sha256 FROM encal_records WHERE source_sha256 IS NOT NULL")}
+
+    def count(self):
+        """The number of records."""
+        return int(self._query("SELECT COUNT(*) FROM encal_records")[0][0])
+
+    def _records(self, clause, parameters=()):
+        names = ", ".join(("id",) + _NAMES)
+        rows = self._query(f"SELECT {names} FROM encal_records {clause}", parameters)
+        return [Record(**dict(zip(_NAMES, row[1:])), id=row[0]) for row in rows]
+
+    def close(self):
+        """Close the connection."""
+        connection, self._connection = getattr(self, "_connection", None), None
+        if connection is not None:
+            connection.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc_info):
+        self.close()
+
+    def __repr__(self):
+        return f"{type(self).__name__}({self.location!r})"
+
+
+class _SQLiteStore(Store):
+    """A store in an SQLite file (WAL mode: readers never wait for the writer)."""
+
+    def __init__(self, path):
+        import sqlite3
+
+        self.location = str(path)
+        folder = path.parent if str(path.parent) else Path(".")
+        if path.is_dir():
+            raise InputError(f"--store {path}: is a folder; expected the path of an SQLite file (created when new) "
+                             "or a postgresql:// URL")
+        if not folder.is_dir():
+            raise InputError(f"--store {path}: the folder {folder} does not exist; expected the path of a file in an "
+                             "existing folder")
+        self._sqlite = sqlite3
+        try:
+            # isolation_level=None: the transactions are the explicit BEGIN IMMEDIATE ... COMMIT below
+            self._connection = sqlite3.connect(path, timeout=LOCK_TIMEOUT_S, isolation_level=None)
+            self._connection.execute("PRAGMA journal_mode=WAL")
+            self._create()
+        except sqlite3.DatabaseError as exc:
+            self.close()
+            raise InputError(f"--store {path}: cannot be used as a store ({exc}); expected an SQLite file written "
+                             "by encal, or the path of a new one") from None
+
+    def _create(self):
+        columns = ", ".join(f"{name} {sqlite}" for name, sqlite, _ in _COLUMNS)
+        with self._transaction() as cursor:
+            cursor.execute(f"CREATE TABLE IF NOT EXISTS encal_records (id INTEGER PRIMARY KEY AUTOINCREMENT, "
+                           f"{columns}, UNIQUE (serial, epoch))")
+            cursor.execute("CREATE TABLE IF NOT EXISTS encal_store (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+            cursor.execute("INSERT OR IGNORE INTO encal_store VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
+            for event in ("UPDATE", "DELETE"):
+                cursor.execute(f"CREATE TRIGGER IF NOT EXISTS encal_records_no_{event.lower()} BEFORE {event} ON "
+                               f"encal_records BEGIN SELECT RAISE(ABORT, '{_REFUSAL}'); END")
+        version = self._query("SELECT value FROM encal_store WHERE key = 'schema_version'")[0][0]
+        if int(version) > SCHEMA_VERSION:
+            raise InputError(f"--store {self.location}: written by a newer encal (layout {version}, this encal reads "
+                             f"{SCHEMA_VERSION}); expected a store this encal reads (upgrade encal)")
+
+    class _Transaction:
+        def __init__(self, connection):
+            self.connection = connection
+
+        def __enter__(self):
+            # IMMEDIATE takes the write lock now, so that the epoch read and the insert see the same table
+            self.connection.execute("BEGIN IMMEDIATE")
+            return self.connection.cursor()
+
+        def __exit__(self, kind, value, traceback):
+            self.connection.execute("COMMIT" if kind is None else "ROLLBACK")
+            return False
+
+    def _transaction(self):
+        return self._Transaction(self._connection)
+
+    def _insert(self, rows, skip_stored=False):
+        names = ", ".join(_NAMES)
+        marks = ", ".join("?" for _ in _NAMES)
+        placed = []
+        with self._transaction() as cursor:
+            for values in rows:
+                if skip_stored and values["source_sha256"] is not None:
+                    cursor.execute("SELECT 1 FROM encal_records WHERE serial = ? AND source_sha256 = ?",
+                                   (values["serial"], values["source_sha256"]))
+                    if cursor.fetchone() is not None:
+                        placed.append(None)
+                        continue
+                cursor.execute("SELECT COALESCE(MAX(epoch), 0) + 1 FROM encal_records WHERE serial = ?",
+                               (values["serial"],))
+                epoch = int(cursor.fetchone()[0])
+                cursor.execute(f"INSERT INTO encal_records ({names}) VALUES ({marks})",
+                               [epoch if name == "epoch" else values[name] for name in _NAMES])
+                placed.append((int(cursor.lastrowid), epoch))
+        return placed
+
+    def _query(self, sql, parameters=()):
+        return self._connection.execute(sql, parameters).fetchall()
+
+
+class _PostgresStore(Store):
+    """A store in a PostgreSQL database, for several stations writing at once."""
+
+    _placeholder = "%s"
+
+    def __init__(self, url):
+        self.location = _without_password(url)
+        try:
+            import psycopg
+        except ImportError:
+            raise InputError(f"--store {self.location}: a PostgreSQL store needs the psycopg driver, which is not "
+                             "installed; expected it installed (pip install 'encal[postgres]') or an SQLite file "
+                             "path") from None
+        self._psycopg = psycopg
+        try:
+            self._connection = psycopg.connect(url, connect_timeout=10)
+            self._create()
+        except psycopg.Error as exc:
+            self.close()
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InputError(f"--store {self.location}: cannot be used as a store ({first}); expected a reachable "
+                             "PostgreSQL server and a database the user may create tables in") from None
+
+    def _create(self):
+        columns = ", ".join(f"{name} {postgres}" for name, _, postgres in _COLUMNS)
+        with self._connection.transaction(), self._connection.cursor() as cursor:
+            # one creator at a time: concurrent CREATE TABLE IF NOT EXISTS can collide in the catalogue
+            cursor.execute("SELECT pg_advisory_xact_lock(4242003200)")
+            cursor.execute("SELECT to_regclass('encal_records')")
+            if cursor.fetchone()[0] is None:
+                cursor.execute(f"CREATE TABLE encal_records (id BIGSERIAL PRIMARY KEY, {columns}, "
+                               "UNIQUE (serial, epoch))")
+                cursor.execute("CREATE TABLE IF NOT EXISTS encal_store (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+                cursor.execute("INSERT INTO encal_store VALUES ('schema_version', %s) ON CONFLICT DO NOTHING",
+                               (str(SCHEMA_VERSION),))
+                cursor.execute("CREATE OR REPLACE FUNCTION encal_records_refuse() RETURNS trigger LANGUAGE plpgsql "
+                               f"AS $$ BEGIN RAISE EXCEPTION '{_REFUSAL}'; END $$")
+                cursor.execute("CREATE TRIGGER encal_records_never_changed BEFORE UPDATE OR DELETE ON encal_records "
+                               "FOR EACH ROW EXECUTE FUNCTION encal_records_refuse()")
+
+    def _insert(self, rows, skip_stored=False):
+        names = ", ".join(_NAMES)
+        marks = ", ".join("%s" for _ in _NAMES)
+        placed = []
+        with self._connection.transaction(), self._connection.cursor() as cursor:
+            # writers of one serial number take turns (a lock held to the commit); others run on. The locks are
+            # taken in the order of the serials, so that two writers of the same serials never wait on each other.
+            for serial in sorted({values["serial"] for values in rows}):
+                cursor.execute("SELECT pg_advisory_xact_lock(hashtextextended(%s, 0))", (serial,))
+            for values in rows:
+                if skip_stored and values["source_sha256"] is not None:
+                    cursor.execute("SELECT 1 FROM encal_records WHERE serial = %s AND source_sha256 = %s",
+                                   (values["serial"], values["source_sha256"]))
+                    if cursor.fetchone() is not None:
+                        placed.append(None)
+                        continue
+                cursor.execute("SELECT COALESCE(MAX(epoch), 0) + 1 FROM encal_records WHERE serial = %s",
+                               (values["serial"],))
+                epoch = int(cursor.fetchone()[0])
+                cursor.execute(f"INSERT INTO encal_records ({names}) VALUES ({marks}) RETURNING id",
+                               [epoch if name == "epoch" else values[name] for name in _NAMES])
+                placed.append((int(cursor.fetchone()[0]), epoch))
+        return placed
+
+    def _query(self, sql, parameters=()):
+        with self._connection.transaction(), self._connection.cursor() as cursor:
+            cursor.execute(sql, parameters)
+            return cursor.fetchall()
+
+
+def _without_password(url):
+    """The URL as messages show it: the password replaced by ***."""
+    return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", url)
+
+
+# --- grades ---------------------------------------------------------------------------------------
+
+_GRADE = re.compile(r"\s*([A-Za-z0-9_+-]{1,20})\s*=\s*([0-9.eE+-]+)\s*(deg|arcmin|arcsec|°)?\s*")
+_UNIT_ARCMIN = {None: 60.0, "deg": 60.0, "°": 60.0, "arcmin": 1.0, "arcsec": 1.0 / 60.0}
+
+
+def parse_grades(text):
+    """The thresholds of ``--grades``: ``'A=0.02,B=0.05'`` in degrees, or with a unit (``A=1.2arcmin``).
+
+    Returns
+    -------
+    list of (str, float)
+        (grade, largest held-out RMS in arc-minutes), by increasing threshold.
+
+    Raises
+    ------
+    InputError
+        Naming the part that is not ``NAME=NUMBER[deg|arcmin|arcsec]``.
+    """
+    grades = []
+    for part in str(text).split(","):
+        match = _GRADE.fullmatch(part)
+        value = None
+        if match:
+            try:
+                value = float(match.group(2)) * _UNIT_ARCMIN[match.group(3)]
+            except ValueError:
+                value = None
+        if value is None or not math.isfinite(value) or value <= 0:
+            raise InputError(f"--grades {text}: {part.strip()!r} is not NAME=LIMIT; expected grades such as "
+                             "A=0.02,B=0.05 (degrees of held-out RMS error) or A=1.2arcmin")
+        grades.append((match.group(1), value))
+    names = [name for name, _ in grades]
+    if len(set(names)) != len(names) or GRADE_NONE in names:
+        raise InputError(f"--grades {text}: expected each grade named once, and none named '{GRADE_NONE}' (the "
+                         "grade of a unit that meets no threshold)")
+    return sorted(grades, key=lambda grade: grade[1])
+
+
+def grade_of(error_arcmin, grades):
+    """The first grade whose threshold ``error_arcmin`` meets (``<=``), :data:`GRADE_NONE` if none, None without
+    thresholds or figure."""
+    if not grades or error_arcmin is None:
+        return None
+    for name, limit in grades:
+        if error_arcmin <= limit:
+            return name
+    return GRADE_NONE
+
