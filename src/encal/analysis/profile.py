@@ -160,8 +160,9 @@ def worse_sentence(before_rms_arcmin, after_rms_arcmin, where=""):
         return None
     return (f"the correction makes the errors larger{where}: RMS {before_rms_arcmin:.4g} arcmin without it, "
             f"{after_rms_arcmin:.4g} arcmin with it ({after_rms_arcmin / max(before_rms_arcmin, 1e-300):.2f} times); "
-            "expected a model of this encoder as it is mounted now (a model of another encoder, or of this one "
-            "before it was remounted, can do more harm than none: fit it again)")
+            "expected a model that fits this encoder as it is mounted now (a model of another encoder, of this "
+            "one before it was remounted, or one whose fit went wrong, can do more harm than none: fit it again "
+            "and check its held-out estimate)")
 
 
 @dataclass(frozen=True)
