@@ -1,5 +1,6 @@
 """The calibration store: one table of records, SQLite or PostgreSQL behind one interface."""
 
+import abc
 import dataclasses
 import datetime
 import hashlib
@@ -172,7 +173,7 @@ def _figure(value, name):
     return value
 
 
-class Store:
+class Store(abc.ABC):
     """The records of a store, behind the same methods for SQLite and PostgreSQL.
 
     Use as a context manager, or call :meth:`close`. A store is used by one thread; processes (and
@@ -182,19 +183,17 @@ class Store:
     location = None
     _placeholder = "?"
 
-    # --- what a back end provides ---------------------------------------------------------------
-    def _connect(self):
-        raise NotImplementedError
-
+    # --- what a back end provides (SQLite and PostgreSQL below) -----------------------------------
+    @abc.abstractmethod
     def _insert(self, rows, skip_stored=False):
         """Insert records (dicts of the columns) in one transaction, numbering their epochs; return [(id, epoch)].
 
         ``skip_stored``: a record whose serial and ``source_sha256`` are stored already is not inserted (None).
         """
-        raise NotImplementedError
 
+    @abc.abstractmethod
     def _query(self, sql, parameters=()):
-        raise NotImplementedError
+        """The rows of one read-only query, with this back end's placeholders."""
 
     # --- the interface --------------------------------------------------------------------------
     def add(self, serial, model_json, *, calibration_csv=None, source_name=None, source_sha256=None,
