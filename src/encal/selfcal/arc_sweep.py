@@ -25,7 +25,7 @@ from .._core.arcs import arc_of, describe_range, span_of
 from .._core.errors import InputError
 from .._core.parameters import check_int
 from .._core.limits import check_size
-from .sweep import DEFAULT_SKIP, check_sweep_travel
+from .sweep import DEFAULT_SKIP, check_sweep_travel, sweep_samples
 
 __all__ = ["ArcSweepCalibration", "arc_sweep"]
 
@@ -121,13 +121,8 @@ def arc_sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, skip=DEFAULT_SKIP
 
     pole_pairs = check_size("pole_pairs", pole_pairs, "sweep")
     skip = check_int(skip, "skip", "sweep", low=0, note="samples")
-    phase = np.asarray(phase_deg_e, dtype=float).reshape(-1)[skip:]
-    reading = np.asarray(encoder_deg, dtype=float).reshape(-1)[skip:]
-    travel = np.asarray(travel).reshape(-1)[skip:]
-    if not phase.size == reading.size == travel.size:
-        raise InputError(f"{where}: phase, encoder and direction differ in length; expected one of each per sample")
-    reference = np.unwrap(phase, period=360.0) / pole_pairs
-    encoder = np.unwrap(reading, period=360.0)
+    reference, encoder, travel = sweep_samples(phase_deg_e, encoder_deg, travel, pole_pairs, skip, where)
+    reading = np.mod(encoder, 360.0)  # the readings within the turn
     counts_against = False
     for sign, label in ((1, "up"), (-1, "down")):
         members = np.flatnonzero(travel == sign)

@@ -85,13 +85,8 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
     max_order = check_int(max_order, "max_order", "sweep", low=1)
     slots = None if slots is None else check_size("slots", slots, "sweep")
     skip = check_int(skip, "skip", "sweep", low=0, note="samples")
-    phase = np.asarray(phase_deg_e, dtype=float).reshape(-1)[skip:]
-    reading = np.asarray(encoder_deg, dtype=float).reshape(-1)[skip:]
-    travel = np.asarray(travel).reshape(-1)[skip:]
-    if not phase.size == reading.size == travel.size:
-        raise InputError(f"{where}: phase, encoder and direction differ in length; expected one of each per sample")
-    reference = np.unwrap(phase, period=360.0) / pole_pairs
-    encoder = np.unwrap(reading, period=360.0)
+    reference, encoder, travel = sweep_samples(phase_deg_e, encoder_deg, travel, pole_pairs, skip, where)
+    reading = np.mod(encoder, 360.0)  # the readings within the turn
     orders = np.arange(1, max_order + 1)
     fits, counts_against = {}, False
     for sign, label in ((1, "up"), (-1, "down")):
@@ -141,6 +136,23 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
                      "low orders) is not removed and would stay in the result")
                   + f"; orders above {max_order} are not estimated")
     return SelfCalibration("sweep", series, removed, confounded, details, name)
+
+
+def sweep_samples(phase_deg_e, encoder_deg, travel, pole_pairs, skip, where):
+    """A sweep's samples after the first ``skip``: the reference (the commanded electrical phase unwrapped, over
+    the pole pairs) and the encoder unwrapped, degrees, and the direction of each sample.
+
+    Raises
+    ------
+    InputError
+        When the three differ in length.
+    """
+    phase = np.asarray(phase_deg_e, dtype=float).reshape(-1)[skip:]
+    reading = np.asarray(encoder_deg, dtype=float).reshape(-1)[skip:]
+    travel = np.asarray(travel).reshape(-1)[skip:]
+    if not phase.size == reading.size == travel.size:
+        raise InputError(f"{where}: phase, encoder and direction differ in length; expected one of each per sample")
+    return np.unwrap(phase, period=360.0) / pole_pairs, np.unwrap(reading, period=360.0), travel
 
 
 def check_sweep_travel(where, label, reference_deg, encoder_deg, pole_pairs):
