@@ -179,7 +179,7 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     EncoderReport
     """
     from ..data.reversal import reversal
-    from .drift import compare_calibrations, split_epochs
+    from .drift import _unique_labels, compare_calibrations, split_epochs
     from ..models.fitting import evaluate, fit
 
     where = "encoder_report"
@@ -236,7 +236,7 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     if len(runs) >= 2:
         labels = [_run_label(run, index) for index, run in enumerate(runs)]
         report.drift = compare_calibrations(runs, offset="remove" if arbitrary else "keep",
-                                            labels=_unique(labels))
+                                            labels=_unique_labels(labels))
     return report
 
 
@@ -356,15 +356,6 @@ def _run_label(cal, index):
     if cal.epoch is not None and np.unique(cal.epoch).size == 1:
         return f"{cal.name} epoch {cal.epoch[0]}" if cal.name else f"epoch {cal.epoch[0]}"
     return cal.name or f"calibration {index + 1}"
-
-
-def _unique(labels):
-    seen = {}
-    result = []
-    for label in labels:
-        seen[label] = seen.get(label, 0) + 1
-        result.append(label if seen[label] == 1 else f"{label} ({seen[label]})")
-    return result
 
 
 # --------------------------------------------------------------------------- figures
