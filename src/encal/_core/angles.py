@@ -119,7 +119,14 @@ def wrap180(angle_deg):
     >>> float(wrap180(-180.0))
     180.0
     """
-    wrapped = -np.mod(-np.asarray(angle_deg, dtype=float) + 180.0, 360.0) + 180.0
+    shifted = -np.asarray(angle_deg, dtype=float) + 180.0
+    if shifted.size > 64 and -360.0 <= shifted.min() and shifted.max() < 720.0:
+        # np.mod's value without its fmod (a fifth of the time), bit for bit: it adds 360 to a negative
+        # remainder (rounding once, perhaps to 360.0 exactly, which it keeps) and subtracts 360 from a value
+        # in [360, 720) exactly
+        shifted += 360.0 * ((shifted < 0.0).view(np.int8) - (shifted >= 360.0).view(np.int8))
+        return -shifted + 180.0
+    wrapped = -np.mod(shifted, 360.0) + 180.0
     return wrapped[()]
 
 

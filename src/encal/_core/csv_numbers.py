@@ -7,17 +7,22 @@ line), :func:`plain_rows` reads it with :func:`numpy.loadtxt` a few megabytes at
 text into doubles with the same routine as Python's ``float`` (``PyOS_string_to_double``), so the
 numbers are the same, bit for bit.
 
+A body already found plain in a regular file is best read by :func:`plain_file_rows`: ``np.loadtxt``
+given a path reads the file in blocks, 1.3-1.4x faster than from bytes in memory (a file-like object
+that is not a path is read line by line, one Python object per line).
+
 Whenever the body is anything else, or NumPy refuses a piece of it (a field it cannot read, a row with
 another number of fields), :func:`plain_rows` returns None and the caller reads the file line by line,
 which names the file, line and column of the first problem. Nothing here raises for bad data.
 """
 
 import io
+import os
 import warnings
 
 import numpy as np
 
-__all__ = ["plain_rows", "CHUNK_BYTES"]
+__all__ = ["plain_rows", "plain_file_rows", "plain_body", "line_count", "CHUNK_BYTES"]
 
 #: Bytes of the body given to NumPy at a time (whole lines): the progress is reported after each piece.
 CHUNK_BYTES = 1 << 22
@@ -49,10 +54,7 @@ def plain_rows(body, separator, n_columns, progress=None):
     total = len(body)
     if total == 0:
         return np.zeros((0, n_columns))
-    if body.translate(None, _PLAIN_BYTES):  # bytes left once the plain ones are deleted (at C speed)
-        return None
-    n_cr = body.count(b"\r")
-    if n_cr and n_cr != body.count(b"\r\n"):  # a CR alone ends a line for the careful reader, not for NumPy
+    if not plain_body(body):
         return None
     tables, start = [], 0
     while start < total:
@@ -65,6 +67,58 @@ def plain_rows(body, separator, n_columns, progress=None):
         if progress is not None:
             progress(start, total)
     return tables[0] if len(tables) == 1 else np.concatenate(tables)
+
+
+def plain_body(body):
+    """True if ``body`` (bytes) holds only the bytes of plain numbers, separators and LF or CRLF line ends."""
+    if body.translate(None, _PLAIN_BYTES):  # bytes left once the plain ones are deleted (at C speed)
+        return False
+    if b"\r" not in body:  # a search, at memchr speed: a third of the time of a count
+        return True
+    return body.count(b"\r") == body.count(b"\r\n")  # a CR alone ends a line for the careful reader, not NumPy
+
+
+def line_count(body):
+    """Lines of ``body`` (bytes): its LF, and one more for a last line without one (half the time of
+    ``bytes.count``)."""
+    ends = int(np.count_nonzero(np.frombuffer(body, dtype=np.uint8) == ord("\n")))
+    return ends + (len(body) > 0 and not body.endswith(b"\n"))
+
+
+def plain_file_rows(path, skip_lines, n_rows, separator, n_columns):
+    """The numbers of a plain body read by NumPy from the file itself, or None.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        A regular file, ASCII, whose lines after the first ``skip_lines`` are a body that
+        :func:`plain_body` accepts (the caller has checked its bytes).
+    skip_lines : int
+        Lines before the body (comments, blank lines, the header).
+    n_rows : int
+        Lines of the body: the rows expected.
+    separator : {',', None}
+        Comma, or None for blanks (spaces or tabs).
+    n_columns : int
+        Fields every row must have.
+
+    Returns
+    -------
+    ndarray of float of shape (n_rows, n_columns), or None
+        None if NumPy refuses a row or cannot read the file, or if it reads another number of rows (a
+        blank line skipped, a file changed since its bytes were checked): the caller then reads the bytes
+        it has.
+    """
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # "input contained no data": not plain
+            table = np.loadtxt(os.fspath(path), delimiter=separator, skiprows=skip_lines, dtype=float,
+                               comments=None, quotechar=None, ndmin=2, encoding="latin1")
+    except (ValueError, Warning, OSError, UnicodeError):
+        return None
+    if table.shape != (n_rows, n_columns):
+        return None
+    return table
 
 
 def _read_piece(piece, separator, n_columns):

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._core.angles import wrap360
 from .._core.sorting import stable_argsort
 from .._core.parameters import check_number
 from .profile import profile_arrays
@@ -118,8 +119,8 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
                              "expected one reference angle per reading")
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
-    by_angle = stable_argsort(np.mod(theta, 360.0))  # one sort of the angles serves both steps
-    first = _first_of_identical(np.mod(theta, 360.0), error, by_angle)
+    by_angle = stable_argsort(theta)  # one sort of the angles (in [0, 360) already) serves both steps
+    first = _first_of_identical(theta, error, by_angle)
     if first.size < theta.size:
         found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor,
                                 reference_deg=None if reference_deg is None else reference[first])
@@ -128,7 +129,7 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     none = IsolatedPoints(np.zeros(0, dtype=int), np.zeros(0), 0.0)
     if theta.size < MIN_POINTS:
         return none
-    stops = None if reference_deg is None else np.round(np.mod(reference, 360.0), 9)
+    stops = None if reference_deg is None else np.round(wrap360(reference), 9)
     # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
     new_stop = None
     if stops is not None and reference_order is not None:  # rounding keeps the order: no other sort
@@ -139,6 +140,11 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     elif stops is not None:
         distinct = np.unique(stops).size
     if stops is not None and 1.5 * distinct <= stops.size:
+        if new_stop is not None:
+            starts = np.flatnonzero(new_stop)
+            k = stops.size // distinct
+            if k >= 3 and k * distinct == stops.size and np.array_equal(starts, np.arange(k, stops.size, k)):
+                return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
         if new_stop is not None:
             stop = np.empty(stops.size, dtype=np.intp)
             stop[reference_order] = np.cumsum(new_stop)
@@ -176,15 +182,18 @@ def _first_of_identical(theta, error, by_angle=None):
     """Indices of the first of each set of identical (angle, error) points (to :data:`IDENTICAL_DECIMALS`
     decimals: the readings of a noise-free log over several turns differ by the rounding of doubles only), in
     input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known."""
-    theta = np.round(theta, IDENTICAL_DECIMALS) % 360.0
+    theta = np.round(theta, IDENTICAL_DECIMALS)
+    theta[theta == 360.0] = 0.0  # an angle just under 360 rounds up to it: the same as 0 (theta in [0, 360))
     error = np.round(error, IDENTICAL_DECIMALS)
     if by_angle is None:
         by_angle = np.argsort(theta, kind="stable")
+        sorted_theta = theta[by_angle]
     else:  # rounding keeps the order but for angles that round up to 360 and wrap to 0: they go first
-        wrapped = np.flatnonzero(theta[by_angle][1:] < theta[by_angle][:-1])
+        sorted_theta = theta[by_angle]
+        wrapped = np.flatnonzero(sorted_theta[1:] < sorted_theta[:-1])
         if wrapped.size:
             by_angle = np.roll(by_angle, -(int(wrapped[0]) + 1))
-    sorted_theta = theta[by_angle]
+            sorted_theta = theta[by_angle]
     equal = sorted_theta[1:] == sorted_theta[:-1]
     del sorted_theta
     if not equal.any():  # the common case: one sort, no pairs
@@ -220,6 +229,27 @@ def _group_medians(values, groups, n_groups, by_group=None):
     starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
     ordered = values[order]
     return (ordered[starts + (counts - 1) // 2] + ordered[starts + counts // 2]) / 2.0
+
+
+def _isolated_table(error, by_stop, k, quantum, factor):
+    """:func:`_isolated_repeats` when every stop holds the same number ``k >= 3`` of readings, ``by_stop`` sorting
+    them: the readings as a (stops, k) table, in which a stop's median, its deviations and the steps between its
+    successive readings need no gather by label (the same numbers, a third of the time at 10^6 readings)."""
+    table = error[by_stop].reshape(-1, k)
+    if k % 2:  # the middle one: what np.median takes, in half its time
+        medians = np.partition(table, k // 2, axis=1)[:, k // 2]
+    else:
+        medians = np.median(table, axis=1)
+    deviation = (table - medians[:, None]).reshape(-1)
+    if quantum is None:
+        nonzero = np.abs(deviation[deviation != 0])
+        quantum = float(nonzero.min()) if nonzero.size else 0.0
+    typical = max(1.4826 * float(np.median(np.abs(np.diff(table, axis=1)))) / np.sqrt(2.0), quantum)
+    if typical == 0.0:  # identical readings at every stop
+        return IsolatedPoints(np.zeros(0, dtype=int), np.zeros(0), 0.0, True)
+    far = np.flatnonzero(np.abs(deviation) > factor * typical)
+    in_input_order = np.argsort(by_stop[far])
+    return IsolatedPoints(by_stop[far][in_input_order], deviation[far][in_input_order], typical, True)
 
 
 def _isolated_repeats(error, stop, counts, quantum, factor, by_stop=None):

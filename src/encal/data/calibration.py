@@ -2,13 +2,14 @@
 
 import os
 import re
+import stat
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._core import csv_dialect as _csv
-from .._core.csv_numbers import plain_rows
+from .._core.csv_numbers import line_count, plain_body, plain_file_rows, plain_rows
 from .._core.sorting import stable_argsort
 from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .._core.errors import CalibrationError, EncalWarning
@@ -158,11 +159,19 @@ def _fail(path, line, message, column=None):
 
 
 def _read_bytes(path):
-    """The file's bytes, read in chunks: a binary or endless input is refused at its first NUL byte or at
-    :data:`MAX_FILE_BYTES`, not after it has filled the memory."""
+    """The file's bytes, and its ``os.stat_result`` if it is a regular file (else None).
+
+    Read in chunks: a binary or endless input is refused at its first NUL byte or at :data:`MAX_FILE_BYTES`, not
+    after it has filled the memory. A regular file's bytes up to its size are read at once (half the time of
+    chunks joined), then whatever it grew by in chunks.
+    """
     chunks, size = [], 0
     with open(path, "rb") as handle:
-        while chunk := handle.read(_READ_CHUNK):
+        status = os.fstat(handle.fileno())
+        regular = stat.S_ISREG(status.st_mode)
+        first = handle.read(status.st_size) if regular and 0 < status.st_size <= MAX_FILE_BYTES else b""
+        while chunk := first or handle.read(_READ_CHUNK):
+            first = b""
             if b"\x00" in chunk:
                 before = b"".join(chunks) + chunk[:chunk.index(b"\x00")]
                 _decode(path, before)  # UTF-16 and other encodings are named as such
@@ -173,7 +182,7 @@ def _read_bytes(path):
                 raise CalibrationError(f"{path}: is larger than {MAX_FILE_BYTES >> 20} MiB; expected a calibration "
                                        "CSV (is this an endless stream or a device?)")
             chunks.append(chunk)
-    return b"".join(chunks)
+    return (chunks[0] if len(chunks) == 1 else b"".join(chunks)), (status if regular else None)
 
 
 def _decode(path, raw):
@@ -212,6 +221,35 @@ def _head_of_plain(raw):
     if raw.find(b"#", start) >= 0 or raw.find(b'"', start) >= 0:
         return None
     return lines, line_start, start
+
+
+#: Largest plain file read by one ``np.loadtxt`` of its path (about 2·10^6 rows of two angles, 0.3 s): larger ones
+#: are read from memory in pieces, for the progress line.
+_ONE_PIECE_BYTES = 1 << 26
+
+
+def _plain_table(path, raw, status, skip_lines, body_start, separator, n_columns, progress=None):
+    """The numbers of a file whose lines from ``body_start`` (after ``skip_lines`` lines) are plain numbers
+    (:mod:`encal._core.csv_numbers`), or None. A regular file of up to :data:`_ONE_PIECE_BYTES` that has not
+    changed since ``raw`` was read is read again by NumPy from its path, the fastest way; else ``raw``."""
+    body = raw[body_start:]
+    if status is not None and len(raw) <= _ONE_PIECE_BYTES:
+        if not plain_body(body):
+            return None
+        rows = line_count(body)
+        if progress is not None:
+            progress(0, len(body))
+        table = plain_file_rows(path, skip_lines, rows, separator, n_columns)
+        try:
+            now = os.stat(path)
+        except OSError:
+            now = None
+        if table is not None and now is not None and (now.st_size, now.st_mtime_ns, now.st_ino) == \
+                (status.st_size, status.st_mtime_ns, status.st_ino):
+            if progress is not None:
+                progress(len(body), len(body))
+            return table
+    return plain_rows(body, separator, n_columns, progress=progress)
 
 
 def _plain_angles(values, unit):
@@ -363,7 +401,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     if path.is_dir():
         raise CalibrationError(f"{path}: is a folder; expected a calibration CSV file")
     try:
-        raw = _read_bytes(path)
+        raw, status = _read_bytes(path)
     except OSError as exc:
         raise CalibrationError(f"{path}: cannot be read ({exc.strerror or exc}); expected a calibration CSV") from None
     head = _head_of_plain(raw)
@@ -399,8 +437,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     table = None
     if head is not None and dir_col is None and epoch_col is None and separator in (",", None):
         first = header_line + 1 if has_header else header_line
-        table = plain_rows(raw[body_start if has_header else header_start:], separator, n_columns,
-                           progress=progress)
+        table = _plain_table(path, raw, status, len(lines) - (not has_header),
+                             body_start if has_header else header_start, separator, n_columns, progress)
         if table is not None:
             reference, encoder = table[:, ref_col].copy(), table[:, enc_col].copy()
             if not (_plain_angles(reference, units[0]) and _plain_angles(encoder, units[1])):
@@ -472,9 +510,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     order = reference_order = stable_argsort(cal.reference_deg) if runs is None else None
     repeated = None
     if duplicates == "refuse":
-        # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
-        # readings; a stray repeat in another run is still refused
-        repeated = _repeat_pattern(cal.reference_deg, runs, order=order)[0] | _multi_revolution_runs(reference, runs)
+        def repeated():
+            # k readings at every stop of a run, or a run that is a continuous log over several turns: repeated
+            # readings; a stray repeat in another run is still refused. Asked for only when there are repeats.
+            pattern = _repeat_pattern(cal.reference_deg, runs, order=order)[0]
+            return pattern if pattern.all() else pattern | _multi_revolution_runs(reference, runs)
     cal = _check_duplicates(path, cal, duplicates, repeated=repeated, order=order)
     if cal is not rows:
         order = None
@@ -767,8 +807,9 @@ def _runs(cal):
 
 def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
     """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
-    ``repeated`` (a mask, see :func:`_repeat_pattern`) are always kept; ``order``: the stable argsort of the
-    reference angles of a calibration of one run, if known.
+    ``repeated`` (a mask, see :func:`_repeat_pattern`, or a function that returns it, called only when there are
+    repeats) are always kept; ``order``: the stable argsort of the reference angles of a calibration of one run,
+    if known.
 
     Points are repeats when their reference angles agree to :data:`STOP_DECIMALS` decimals and they belong to
     one run. Repeats are refused only where the reference angles are stops (:func:`_reference_has_stops`): in a
@@ -797,6 +838,10 @@ def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
     if duplicates == "refuse" and not _reference_has_stops(sorted_keys[new_stop]):
         return cal
     del sorted_keys, new_stop
+    if callable(repeated):
+        repeated = repeated()
+    if repeated is not None and repeated.all():  # every repeat a repeated reading: nothing to refuse
+        return cal
     group = np.cumsum(starts_group) - 1
     first = order[np.flatnonzero(starts_group)]  # the first point of each group, in file order
     encoder = cal.encoder_deg
