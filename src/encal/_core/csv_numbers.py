@@ -69,20 +69,23 @@ def plain_rows(body, separator, n_columns, progress=None):
     return tables[0] if len(tables) == 1 else np.concatenate(tables)
 
 
-def plain_body(body):
-    """True if ``body`` (bytes) holds only the bytes of plain numbers, separators and LF or CRLF line ends."""
-    if body.translate(None, _PLAIN_BYTES):  # bytes left once the plain ones are deleted (at C speed)
+def plain_body(data, start=0):
+    """True if ``data[start:]`` (bytes) holds only the bytes of plain numbers, separators and LF or CRLF line ends
+    (told without copying it)."""
+    # bytes left once the plain ones are deleted (at C speed), none but the head's
+    if len(data.translate(None, _PLAIN_BYTES)) != len(data[:start].translate(None, _PLAIN_BYTES)):
         return False
-    if b"\r" not in body:  # a search, at memchr speed: a third of the time of a count
+    if data.find(b"\r", start) < 0:  # a search, at memchr speed: a third of the time of a count
         return True
-    return body.count(b"\r") == body.count(b"\r\n")  # a CR alone ends a line for the careful reader, not NumPy
+    return data.count(b"\r", start) == data.count(b"\r\n", start)  # a CR alone ends a line for the careful
+    # reader, not for NumPy
 
 
-def line_count(body):
-    """Lines of ``body`` (bytes): its LF, and one more for a last line without one (half the time of
-    ``bytes.count``)."""
-    ends = int(np.count_nonzero(np.frombuffer(body, dtype=np.uint8) == ord("\n")))
-    return ends + (len(body) > 0 and not body.endswith(b"\n"))
+def line_count(data, start=0):
+    """Lines of ``data[start:]`` (bytes): its LF, and one more for a last line without one (half the time of
+    ``bytes.count``, no copy)."""
+    ends = int(np.count_nonzero(np.frombuffer(data, dtype=np.uint8, offset=start) == ord("\n")))
+    return ends + (len(data) > start and not data.endswith(b"\n"))
 
 
 def plain_file_rows(path, skip_lines, n_rows, separator, n_columns):

@@ -117,10 +117,19 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         if reference.shape != theta.shape:
             raise ValueError(f"reference_deg has {reference.size} values but theta_enc_deg has {theta.size}; "
                              "expected one reference angle per reading")
+    k = 0
+    if reference_deg is not None and reference_order is not None and theta.size >= MIN_POINTS:
+        # k >= 3 readings at every stop and no two at one encoder angle (so none identical): the stops' table,
+        # without a sort of the encoder angles
+        k = _readings_per_stop(reference, reference_order)
+        if k >= 3 and _has_identical(theta, error) is False:
+            return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
     by_angle = stable_argsort(theta)  # one sort of the angles (in [0, 360) already) serves both steps
     first = _first_of_identical(theta, error, by_angle)
+    if k >= 3 and first.size == theta.size:
+        return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
     if first.size < theta.size:
         found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor,
                                 reference_deg=None if reference_deg is None else reference[first])
@@ -140,11 +149,6 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     elif stops is not None:
         distinct = np.unique(stops).size
     if stops is not None and 1.5 * distinct <= stops.size:
-        if new_stop is not None:
-            starts = np.flatnonzero(new_stop)
-            k = stops.size // distinct
-            if k >= 3 and k * distinct == stops.size and np.array_equal(starts, np.arange(k, stops.size, k)):
-                return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
         if new_stop is not None:
             stop = np.empty(stops.size, dtype=np.intp)
             stop[reference_order] = np.cumsum(new_stop)
@@ -178,12 +182,44 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
 IDENTICAL_DECIMALS = 9
 
 
+def _rounded_angles(theta):
+    """Angles in [0, 360) rounded to :data:`IDENTICAL_DECIMALS` decimals, one just under 360 rounded to 0."""
+    theta = np.round(theta, IDENTICAL_DECIMALS)
+    theta[theta == 360.0] = 0.0
+    return theta
+
+
+def _has_identical(theta, error):
+    """Whether some points are identical (as :func:`_first_of_identical` finds them; angles in [0, 360)), told by
+    one sort of the rounded angles (a quarter of the time of an argsort) and a look at the few points that share
+    an angle; None when more than 64 angles are shared (the caller's argsort is then as quick)."""
+    rounded = _rounded_angles(theta)
+    ordered = np.sort(rounded)
+    equal = ordered[1:] == ordered[:-1]
+    if not equal.any():
+        return False
+    shared = np.unique(ordered[1:][equal])
+    if shared.size > 64:
+        return None
+    candidates = np.flatnonzero(np.isin(rounded, shared))
+    return bool(_first_of_identical(theta[candidates], error[candidates]).size < candidates.size)
+
+
+def _readings_per_stop(reference, reference_order):
+    """k if the reference angles (in [0, 360), ``reference_order`` their stable argsort) are k readings at every
+    stop (equal to 9 decimals, as :func:`isolated_points` compares them), else 0."""
+    ordered = np.round(reference[reference_order], 9)
+    starts = np.flatnonzero(ordered[1:] != ordered[:-1]) + 1
+    k = ordered.size // (starts.size + 1)
+    return k if np.array_equal(starts, np.arange(k, ordered.size, k)) and k * (starts.size + 1) == ordered.size \
+        else 0
+
+
 def _first_of_identical(theta, error, by_angle=None):
     """Indices of the first of each set of identical (angle, error) points (to :data:`IDENTICAL_DECIMALS`
     decimals: the readings of a noise-free log over several turns differ by the rounding of doubles only), in
     input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known."""
-    theta = np.round(theta, IDENTICAL_DECIMALS)
-    theta[theta == 360.0] = 0.0  # an angle just under 360 rounds up to it: the same as 0 (theta in [0, 360))
+    theta = _rounded_angles(theta)  # an angle just under 360 rounds up to it: the same as 0
     error = np.round(error, IDENTICAL_DECIMALS)
     if by_angle is None:
         by_angle = np.argsort(theta, kind="stable")

@@ -97,12 +97,7 @@ class Calibration:
         offset is near 180 degrees it keeps the profile continuous instead of splitting it into values near
         +10800 and -10800 arcmin.
         """
-        difference = np.radians(self.encoder_deg - self.reference_deg)
-        centre = np.degrees(np.arctan2(np.sin(difference).mean(), np.cos(difference).mean()))
-        if abs(centre) < 90.0:
-            centre = 0.0  # the common case: plain (-180, 180] wrapping
-        delta = wrap180(self.encoder_deg - self.reference_deg - centre)
-        return (centre + delta) * ARCMIN_PER_DEG
+        return _errors_arcmin(self)
 
     @property
     def readings_deg(self):
@@ -123,6 +118,25 @@ class Calibration:
             metadata=dict(self.metadata),
             reading_sign=self.reading_sign,
         )
+
+
+def _mean_phasor(reference_deg, encoder_deg):
+    """``mean(exp(i (encoder - reference)))`` (angles in degrees) as a complex number: the errors' circular mean
+    is its angle, the coherence of :func:`check_turns` its modulus (the cosines and sines of the differences
+    computed once for both)."""
+    difference = np.radians(encoder_deg - reference_deg)
+    return complex(np.cos(difference).mean(), np.sin(difference).mean())
+
+
+def _errors_arcmin(cal, mean_phasor=None):
+    """:attr:`Calibration.errors_arcmin`; ``mean_phasor``: :func:`_mean_phasor` of ``cal``, if known."""
+    if mean_phasor is None:
+        mean_phasor = _mean_phasor(cal.reference_deg, cal.encoder_deg)
+    centre = np.degrees(np.arctan2(mean_phasor.imag, mean_phasor.real))
+    if abs(centre) < 90.0:
+        centre = 0.0  # the common case: plain (-180, 180] wrapping
+    delta = wrap180(cal.encoder_deg - cal.reference_deg - centre)
+    return (centre + delta) * ARCMIN_PER_DEG
 
 
 # --------------------------------------------------------------------------- CSV
@@ -199,16 +213,18 @@ def _decode(path, raw):
 
 def _head_of_plain(raw):
     """The lines of an ASCII file up to its first that is not blank or a comment, and where that line and the
-    rest begin: ``(lines, header_start, body_start)`` in bytes; None if the file is not ASCII or the rest holds
-    a ``#`` or a double quote (comments and quoted fields are for the careful reader).
+    rest begin: ``(lines, header_start, body_start)`` in bytes; None if those lines are not ASCII or the rest holds
+    a ``#`` or a double quote (comments and quoted fields are for the careful reader). Whether the rest is ASCII
+    is left to the test of a plain body (:func:`encal._core.csv_numbers.plain_body`).
 
     Line ends are those of :func:`encal._core.csv_dialect.split_lines` (LF, CRLF or CR).
     """
-    if not raw.isascii():
-        return None
     lines, start = [], 0
     for match in _LINE_END_BYTES.finditer(raw):
-        line = raw[start:match.start()].decode("ascii")
+        line = raw[start:match.start()]
+        if not line.isascii():
+            return None
+        line = line.decode("ascii")
         lines.append(line)
         line_start, start = start, match.end()
         if not _csv.is_skipped(line):
@@ -216,6 +232,8 @@ def _head_of_plain(raw):
     else:
         line_start = start
         if start < len(raw):
+            if not raw[start:].isascii():
+                return None
             lines.append(raw[start:].decode("ascii"))
             start = len(raw)
     if raw.find(b"#", start) >= 0 or raw.find(b'"', start) >= 0:
@@ -232,13 +250,12 @@ def _plain_table(path, raw, status, skip_lines, body_start, separator, n_columns
     """The numbers of a file whose lines from ``body_start`` (after ``skip_lines`` lines) are plain numbers
     (:mod:`encal._core.csv_numbers`), or None. A regular file of up to :data:`_ONE_PIECE_BYTES` that has not
     changed since ``raw`` was read is read again by NumPy from its path, the fastest way; else ``raw``."""
-    body = raw[body_start:]
     if status is not None and len(raw) <= _ONE_PIECE_BYTES:
-        if not plain_body(body):
+        if not plain_body(raw, body_start):
             return None
-        rows = line_count(body)
+        rows = line_count(raw, body_start)
         if progress is not None:
-            progress(0, len(body))
+            progress(0, len(raw) - body_start)
         table = plain_file_rows(path, skip_lines, rows, separator, n_columns)
         try:
             now = os.stat(path)
@@ -247,15 +264,19 @@ def _plain_table(path, raw, status, skip_lines, body_start, separator, n_columns
         if table is not None and now is not None and (now.st_size, now.st_mtime_ns, now.st_ino) == \
                 (status.st_size, status.st_mtime_ns, status.st_ino):
             if progress is not None:
-                progress(len(body), len(body))
+                progress(len(raw) - body_start, len(raw) - body_start)
             return table
-    return plain_rows(body, separator, n_columns, progress=progress)
+    return plain_rows(raw[body_start:], separator, n_columns, progress=progress)
 
 
 def _plain_angles(values, unit):
     """True if every value is finite and within +-1e9 degrees in ``unit`` (what :func:`_parse_float` checks)."""
+    if values.size == 0:
+        return True
+    lowest, highest = values.min(), values.max()  # NaN if any is; |v * f| is largest at an end (f > 0)
     with np.errstate(over="ignore", invalid="ignore"):
-        return bool(np.all(np.isfinite(values)) and np.all(np.abs(values * unit.degrees_per_unit) <= MAX_ABS_DEG))
+        return bool(np.isfinite(lowest) and np.isfinite(highest) and
+                    max(abs(lowest * unit.degrees_per_unit), abs(highest * unit.degrees_per_unit)) <= MAX_ABS_DEG)
 
 
 def _cells(path, number, line, separator=","):
@@ -504,7 +525,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     )
     rows = cal
     runs = _runs(cal)
-    check_turns(*as_read, units, reverse=reverse, runs=runs, where=str(path))
+    # of one run, the coherence is the modulus of the errors' mean phasor: computed once for both
+    phasor = _mean_phasor(cal.reference_deg, cal.encoder_deg) if runs is None else None
+    _check_turns(*as_read, units, reverse=reverse, runs=runs, where=str(path),
+                 found=None if phasor is None else abs(phasor))
     del as_read, in_degrees
     # one sort by reference angle serves every check of a calibration of one run
     order = reference_order = stable_argsort(cal.reference_deg) if runs is None else None
@@ -518,10 +542,13 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     cal = _check_duplicates(path, cal, duplicates, repeated=repeated, order=order)
     if cal is not rows:
         order = None
-    _check_direction_of_count(path, cal, reverse, order=order)
-    _check_folds(cal, str(path), order=order)
+    by_reference = None if order is None else (cal.reference_deg[order], cal.encoder_deg[order])
+    _check_direction_of_count(path, cal, reverse, order=order, by_reference=by_reference)
+    _check_folds(cal, str(path), order=order, by_reference=by_reference)
+    del by_reference
     _check_coverage(path, cal, allow_gaps)
-    _warn_if_isolated(path, rows, line_numbers, order=None if runs is not None else reference_order)
+    _warn_if_isolated(path, rows, line_numbers, order=None if runs is not None else reference_order,
+                      errors=None if phasor is None else _errors_arcmin(rows, phasor))
     return cal
 
 
@@ -540,25 +567,23 @@ def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     return f"has {fields}, expected {n_columns} as in the header ({why})"
 
 
-def _warn_if_isolated(path, cal, line_numbers, order=None):
+def _warn_if_isolated(path, cal, line_numbers, order=None, errors=None):
     """Warn about readings far off their neighbours on both sides, or off the other readings at their reference
     angle when most angles were read several times (:mod:`encal.analysis.outliers`), per direction and epoch.
-    ``order``: the stable argsort of the reference angles of a calibration of one run, if known."""
+    ``order``: the stable argsort of the reference angles of a calibration of one run, if known; ``errors``:
+    ``cal.errors_arcmin``, if known."""
     from ..analysis.outliers import ISOLATION_FACTOR, isolated_points
 
     quantum = None if cal.resolution_bits is None else 360.0 * ARCMIN_PER_DEG / 2**cal.resolution_bits
     runs = _runs(cal)
-    if runs is None:
-        runs = np.zeros(len(cal), dtype=int)
-    errors = cal.errors_arcmin
+    errors = cal.errors_arcmin if errors is None else errors
     found = []
-    each = np.unique(runs)
+    each = np.zeros(1, dtype=int) if runs is None else np.unique(runs)
     for run in each:
         members = np.flatnonzero(runs == run) if each.size > 1 else slice(None)  # one run: no copies
         isolated = isolated_points(cal.encoder_deg[members], errors[members], reference_deg=cal.reference_deg[members],
                                    quantum_arcmin=quantum, reference_order=order if each.size == 1 else None)
-        members = np.arange(len(cal))[members]
-        found += [(members[i], d, isolated.typical_step_arcmin, isolated.repeated)
+        found += [(i if each.size == 1 else members[i], d, isolated.typical_step_arcmin, isolated.repeated)
                   for i, d in zip(isolated.index, isolated.deviation_arcmin)]
     if not found:
         return
@@ -949,6 +974,13 @@ def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs
     CalibrationError
         Naming the units read, the coherence and, when one fits, the option of the right unit.
     """
+    _check_turns(reference, encoder, units, reverse=reverse, runs=runs, where=where)
+
+
+def _check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs=None, where="calibration",
+                 found=None):
+    """:func:`check_turns`; ``found``: the coherence of the columns in their units, if known (for one run, the
+    modulus of :func:`_mean_phasor` of the calibration they make)."""
     reference = np.asarray(reference, dtype=float).reshape(-1)
     encoder = np.asarray(encoder, dtype=float).reshape(-1)
     units = tuple(angle_unit(unit) for unit in units)
@@ -959,7 +991,8 @@ def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs
                                factor * encoder[pick] * enc_unit.degrees_per_unit,
                                None if runs is None else np.asarray(runs)[pick])
 
-    found = coherence(*units)
+    if found is None:
+        found = coherence(*units)
     if found >= MIN_TURN_COHERENCE or coherence(*units, factor=-sign) >= MIN_TURN_COHERENCE:
         return
     pick = slice(None, None, max(1, reference.size // _TURN_SAMPLE))
@@ -1004,23 +1037,36 @@ def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs
         f"round the circle (coherence {found:.2f}, expected over {MIN_TURN_COHERENCE:g}); {advice}")
 
 
-def _check_direction_of_count(path, cal, reverse, order=None):
-    """Refuse an encoder whose angle decreases while the reference increases (``order``: the stable argsort of
-    the reference angles, if known)."""
-    if order is None:
-        order = np.argsort(cal.reference_deg, kind="stable")
-    steps_ref = np.diff(cal.reference_deg[order])
-    steps_enc = wrap180(np.diff(cal.encoder_deg[order]))
+def _check_direction_of_count(path, cal, reverse, order=None, by_reference=None):
+    """Refuse an encoder whose angle decreases while the reference increases: the median of the encoder's steps
+    over the reference's is negative. ``order``: the stable argsort of the reference angles, if known;
+    ``by_reference``: the reference and the encoder angles in that order, if known."""
+    if by_reference is None:
+        if order is None:
+            order = np.argsort(cal.reference_deg, kind="stable")
+        by_reference = cal.reference_deg[order], cal.encoder_deg[order]
+    steps_ref = np.diff(by_reference[0])
     moving = steps_ref > 1e-9
-    if moving.sum() < 2:
+    if np.count_nonzero(moving) < 2:
         return
-    if np.median(steps_enc[moving] / steps_ref[moving]) < 0:
+    ratio = wrap180(np.diff(by_reference[1])[moving]) / steps_ref[moving]
+    if _median_is_negative(ratio):
         if reverse:
             raise CalibrationError(f"{path}: even with --reverse the encoder counts against the reference")
         raise CalibrationError(
             f"{path}: the encoder angle decreases as the reference angle increases (it counts against the "
             "reference); expected both to increase together - use --reverse (reverse=True) to negate the "
             "encoder angles")
+
+
+def _median_is_negative(values):
+    """``np.median(values) < 0`` for a 1-D array without NaN, by counting (no partition) unless the two middle
+    values straddle 0."""
+    n = values.size
+    negative = int(np.count_nonzero(values < 0))
+    if n % 2 or negative != n // 2:  # the middle value, or both middle values, on one side of 0
+        return negative > n // 2
+    return bool(np.mean([values[values < 0].max(), values[values >= 0].min()]) < 0)
 
 
 def check_folds(cal, where="calibration"):
@@ -1047,15 +1093,19 @@ def check_folds(cal, where="calibration"):
     _check_folds(cal, where)
 
 
-def _check_folds(cal, where, order=None):
-    """:func:`check_folds`; ``order``: the stable argsort of the reference angles of a calibration of one run."""
+def _check_folds(cal, where, order=None, by_reference=None):
+    """:func:`check_folds`; ``order``: the stable argsort of the reference angles of a calibration of one run,
+    ``by_reference``: its reference and encoder angles in that order, if known."""
     runs = _runs(cal)
     for run in (0,) if runs is None else np.unique(runs):
         run_order = order
         if run_order is None:
             members = np.arange(len(cal)) if runs is None else np.flatnonzero(runs == run)
             run_order = members[np.argsort(cal.reference_deg[members], kind="stable")]
-        ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
+        if by_reference is not None and runs is None:
+            ref, enc = by_reference
+        else:
+            ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
         if ref.size < 2:
             continue
         step_ref = np.diff(ref)
