@@ -11,24 +11,26 @@ import numpy as np
 __all__ = ["stable_argsort"]
 
 
-def stable_argsort(values):
+def stable_argsort(values, return_sorted=False):
     """Indices that sort ``values`` (1-D, no NaN), equal values in index order: ``np.argsort(values,
-    kind='stable')``, faster for large arrays of distinct values."""
+    kind='stable')``, faster for large arrays of distinct values; with ``return_sorted``, also ``values`` in that
+    order (which the mending of ties computes anyway)."""
     values = np.asarray(values).reshape(-1)
     if np.count_nonzero(values[1:] < values[:-1]) <= values.size // 64:
-        return np.argsort(values, kind="stable")  # a few sorted runs (a sweep's turns): timsort merges them
+        order = np.argsort(values, kind="stable")  # a few sorted runs (a sweep's turns): timsort merges them
+        return (order, values[order]) if return_sorted else order
     order = np.argsort(values)
     ordered = values[order]
     tied = ordered[1:] == ordered[:-1]
-    del ordered
     if not tied.any():
-        return order
+        return (order, ordered) if return_sorted else order
     if np.count_nonzero(tied) > values.size // 16:  # many repeats: the stable sort is as quick as the mending
-        return np.argsort(values, kind="stable")
+        order = np.argsort(values, kind="stable")
+        return (order, values[order]) if return_sorted else order
     in_run = np.zeros(order.size, dtype=bool)
     in_run[1:] |= tied
     in_run[:-1] |= tied
     positions = np.flatnonzero(in_run)
     run = np.cumsum(np.r_[True, ~tied])[positions]  # the run of equal values each tied position belongs to
     order[positions] = order[positions][np.lexsort((order[positions], run))]
-    return order
+    return (order, ordered) if return_sorted else order  # equal values: the same sorted values

@@ -117,19 +117,18 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         if reference.shape != theta.shape:
             raise ValueError(f"reference_deg has {reference.size} values but theta_enc_deg has {theta.size}; "
                              "expected one reference angle per reading")
-    k = 0
-    if reference_deg is not None and reference_order is not None and theta.size >= MIN_POINTS:
-        # k >= 3 readings at every stop and no two at one encoder angle (so none identical): the stops' table,
-        # without a sort of the encoder angles
-        k = _readings_per_stop(reference, reference_order)
-        if k >= 3 and _has_identical(theta, error) is False:
+    k, starts = 0, None
+    if reference_deg is not None and reference_order is not None:
+        k, starts = _readings_per_stop(reference, reference_order)
+        if k >= 3 and theta.size >= MIN_POINTS and _has_identical(theta, error) is False:
+            # k >= 3 readings at every stop and no point identical: the stops' table, without a sort of the
+            # encoder angles
             return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
     # Identical repeated points (accepted as they are) count once: their zero steps would shrink the
     # typical step, and a point next to its own repeat has no neighbour on that side.
-    by_angle = stable_argsort(theta)  # one sort of the angles (in [0, 360) already) serves both steps
-    first = _first_of_identical(theta, error, by_angle)
-    if k >= 3 and first.size == theta.size:
-        return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
+    by_angle, sorted_theta = stable_argsort(theta, return_sorted=True)  # one sort (angles in [0, 360) already)
+    first = _first_of_identical(theta, error, by_angle, sorted_theta)
+    del sorted_theta
     if first.size < theta.size:
         found = isolated_points(theta[first], error[first], quantum_arcmin=quantum_arcmin, factor=factor,
                                 reference_deg=None if reference_deg is None else reference[first])
@@ -138,42 +137,48 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
     none = IsolatedPoints(np.zeros(0, dtype=int), np.zeros(0), 0.0)
     if theta.size < MIN_POINTS:
         return none
-    stops = None if reference_deg is None else np.round(wrap360(reference), 9)
-    # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
-    new_stop = None
-    if stops is not None and reference_order is not None:  # rounding keeps the order: no other sort
-        sorted_stops = stops[reference_order]
-        new_stop = np.r_[False, sorted_stops[1:] != sorted_stops[:-1]]
-        distinct = int(np.count_nonzero(new_stop)) + 1
-        del sorted_stops
-    elif stops is not None:
-        distinct = np.unique(stops).size
-    if stops is not None and 1.5 * distinct <= stops.size:
-        if new_stop is not None:
-            stop = np.empty(stops.size, dtype=np.intp)
-            stop[reference_order] = np.cumsum(new_stop)
-        else:
-            stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
-        counts = np.bincount(stop)
-        if np.median(counts) >= 2:
-            return _isolated_repeats(error, stop, counts, quantum_arcmin, factor, by_stop=reference_order)
+    if k >= 3:
+        return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
+    if reference_deg is not None:
+        # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
+        if starts is None:
+            stops = np.round(wrap360(reference), 9)
+            distinct = np.unique(stops).size
+        else:  # rounding keeps the order: no other sort
+            distinct = starts.size + 1
+        if 1.5 * distinct <= theta.size:
+            if starts is None:
+                stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
+            else:
+                new_stop = np.zeros(theta.size, dtype=np.intp)
+                new_stop[starts] = 1
+                stop = np.empty(theta.size, dtype=np.intp)
+                stop[reference_order] = np.cumsum(new_stop)
+            counts = np.bincount(stop)
+            if np.median(counts) >= 2:
+                return _isolated_repeats(error, stop, counts, quantum_arcmin, factor, by_stop=reference_order)
     order = by_angle
     e = error[order]
-    steps = np.abs(e - np.roll(e, 1))
+    around = np.concatenate((e[-2:], e, e[:2]))  # the neighbours round the circle as views, no copies by np.roll
+    before, before2, after, after2 = around[1:-3], around[:-4], around[3:-1], around[4:]
+    steps = np.abs(e - before)
     quantum = quantum_arcmin
     if quantum is None:
-        nonzero = steps[steps > 0]
-        quantum = float(nonzero.min()) if nonzero.size else 0.0
+        quantum = float(np.min(steps, where=steps > 0, initial=np.inf))
+        quantum = 0.0 if quantum == np.inf else quantum
     typical = max(1.4826 * float(np.median(steps)), quantum)
     if typical == 0.0:  # a constant profile
         return none
-    from_left = e - (np.roll(e, 1) + np.roll(e, 2)) / 2.0
-    from_right = e - (np.roll(e, -1) + np.roll(e, -2)) / 2.0
-    same_side = np.sign(from_left) == np.sign(from_right)
-    deviation = np.where(same_side, np.sign(from_left) * np.minimum(np.abs(from_left), np.abs(from_right)), 0.0)
-    far = np.flatnonzero(np.abs(deviation) > factor * typical)
+    from_left = e - (before + before2) / 2.0
+    from_right = e - (after + after2) / 2.0
+    del around, before, before2, after, after2, steps
+    # far off both neighbours' means on the same side: |deviation| over the bound (deviation below)
+    bound = factor * typical
+    far = np.flatnonzero((np.minimum(from_left, from_right) > bound) | (np.maximum(from_left, from_right) < -bound))
+    from_left, from_right = from_left[far], from_right[far]
+    deviation = np.sign(from_left) * np.minimum(np.abs(from_left), np.abs(from_right))
     in_input_order = np.argsort(order[far], kind="stable")
-    return IsolatedPoints(order[far][in_input_order], deviation[far][in_input_order], typical)
+    return IsolatedPoints(order[far][in_input_order], deviation[in_input_order], typical)
 
 
 #: Points whose angles agree to this many decimals of a degree, and errors to this many of an arc-minute, are
@@ -206,26 +211,28 @@ def _has_identical(theta, error):
 
 
 def _readings_per_stop(reference, reference_order):
-    """k if the reference angles (in [0, 360), ``reference_order`` their stable argsort) are k readings at every
-    stop (equal to 9 decimals, as :func:`isolated_points` compares them), else 0."""
-    ordered = np.round(reference[reference_order], 9)
+    """``(k, starts)``: k > 0 if the reference angles (``reference_order`` their stable argsort) are k readings at
+    every stop (equal to 9 decimals once wrapped to [0, 360), as :func:`isolated_points` compares them), else 0;
+    ``starts``, where each stop but the first begins in that order."""
+    ordered = np.round(wrap360(reference[reference_order]), 9)  # rounding keeps the order
     starts = np.flatnonzero(ordered[1:] != ordered[:-1]) + 1
     k = ordered.size // (starts.size + 1)
-    return k if np.array_equal(starts, np.arange(k, ordered.size, k)) and k * (starts.size + 1) == ordered.size \
-        else 0
+    regular = k * (starts.size + 1) == ordered.size and np.array_equal(starts, np.arange(k, ordered.size, k))
+    return (k if regular else 0), starts
 
 
-def _first_of_identical(theta, error, by_angle=None):
+def _first_of_identical(theta, error, by_angle=None, sorted_theta=None):
     """Indices of the first of each set of identical (angle, error) points (to :data:`IDENTICAL_DECIMALS`
     decimals: the readings of a noise-free log over several turns differ by the rounding of doubles only), in
-    input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known."""
+    input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known; ``sorted_theta``:
+    ``theta[by_angle]``, if known."""
     theta = _rounded_angles(theta)  # an angle just under 360 rounds up to it: the same as 0
     error = np.round(error, IDENTICAL_DECIMALS)
     if by_angle is None:
         by_angle = np.argsort(theta, kind="stable")
         sorted_theta = theta[by_angle]
     else:  # rounding keeps the order but for angles that round up to 360 and wrap to 0: they go first
-        sorted_theta = theta[by_angle]
+        sorted_theta = theta[by_angle] if sorted_theta is None else _rounded_angles(sorted_theta)
         wrapped = np.flatnonzero(sorted_theta[1:] < sorted_theta[:-1])
         if wrapped.size:
             by_angle = np.roll(by_angle, -(int(wrapped[0]) + 1))
