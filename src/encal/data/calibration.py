@@ -849,7 +849,7 @@ def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
     if runs is not None:
         order = np.lexsort((runs, keys))
     elif order is None:
-        order = np.argsort(keys, kind="stable")
+        order = stable_argsort(keys)
     sorted_keys = keys[order]
     starts_group = np.ones(order.size, dtype=bool)
     starts_group[1:] = sorted_keys[1:] != sorted_keys[:-1]
@@ -934,9 +934,9 @@ _UNIT_NAMES = {"deg": "degrees", "rad": "radians", "rev": "revolutions"}
 
 def _turn_coherence(reference_deg, encoder_deg, runs):
     """``|mean exp(i (encoder - reference))|`` per run (a zero offset of its own each), weighted by size."""
-    phasor = np.exp(1j * np.radians(encoder_deg - reference_deg))
     if runs is None:
-        return float(abs(phasor.mean()))
+        return abs(_mean_phasor(reference_deg, encoder_deg))
+    phasor = np.exp(1j * np.radians(encoder_deg - reference_deg))
     group = np.unique(runs, return_inverse=True)[1].reshape(-1)
     sums = np.bincount(group, weights=phasor.real) + 1j * np.bincount(group, weights=phasor.imag)
     return float(np.sum(np.abs(sums)) / phasor.size)
@@ -1043,7 +1043,7 @@ def _check_direction_of_count(path, cal, reverse, order=None, by_reference=None)
     ``by_reference``: the reference and the encoder angles in that order, if known."""
     if by_reference is None:
         if order is None:
-            order = np.argsort(cal.reference_deg, kind="stable")
+            order = stable_argsort(cal.reference_deg)
         by_reference = cal.reference_deg[order], cal.encoder_deg[order]
     steps_ref = np.diff(by_reference[0])
     moving = steps_ref > 1e-9
@@ -1101,7 +1101,7 @@ def _check_folds(cal, where, order=None, by_reference=None):
         run_order = order
         if run_order is None:
             members = np.arange(len(cal)) if runs is None else np.flatnonzero(runs == run)
-            run_order = members[np.argsort(cal.reference_deg[members], kind="stable")]
+            run_order = members[stable_argsort(cal.reference_deg[members])]
         if by_reference is not None and runs is None:
             ref, enc = by_reference
         else:

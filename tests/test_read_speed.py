@@ -1,0 +1,187 @@
+"""Dense files at NumPy speed (issue 30 item 2, task read-speed): a plain file parsed by NumPy from its path,
+the checks sharing their sorts and passes. Every shortcut is checked against the computation it replaces."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+import encal._core.csv_numbers as csv_numbers
+import encal.analysis.outliers as outliers
+import encal.data.calibration as calibration
+from encal._core.angles import wrap180
+from encal._core.errors import EncalWarning
+from encal._core.sorting import stable_argsort
+from encal.data.calibration import read_calibration
+
+
+def _sweep_text(stops=2000, passes=3, misread_row=None, seed=0):
+    rng = np.random.default_rng(seed)
+    reference = np.tile(np.arange(stops) * 360.0 / stops, passes)
+    encoder = np.mod(reference + (3.0 * np.sin(np.radians(reference)) + rng.normal(0.0, 0.1, reference.size)) / 60.0,
+                     360.0)
+    if misread_row is not None:
+        encoder[misread_row] += 0.5  # 30 arcmin: a misread among readings 0.1 arcmin apart
+    return "reference_deg,encoder_deg\n" + "".join(f"{r:.10f},{e:.10f}\n" for r, e in zip(reference, encoder))
+
+
+def _old_wrap180(angle):
+    return (-np.mod(-np.asarray(angle, dtype=float) + 180.0, 360.0) + 180.0)[()]
+
+
+def test_wrap180_without_fmod_is_the_same_bit_for_bit():
+    rng = np.random.default_rng(0)
+    edges = np.array([180.0, -180.0, 540.0, -540.0, 0.0, -0.0, 360.0, -360.0, 1e-17, -1e-17, 5e-324, -5e-324,
+                      180.0 + 2e-14, 180.0 - 2e-14, -180.0 + 2e-14, -180.0 - 2e-14, 720.0, -720.0])
+    edges = np.r_[edges, np.nextafter(edges, np.inf), np.nextafter(edges, -np.inf)]
+    for values in (np.r_[rng.uniform(-540.0, 540.0, 10_000), edges], np.r_[rng.uniform(-1e-12, 1e-12, 100), edges],
+                   rng.uniform(-180.0, 180.0, 100), rng.uniform(-1e4, 1e4, 100)):
+        np.testing.assert_array_equal(wrap180(values).view(np.int64), _old_wrap180(values).view(np.int64))
+
+
+def test_a_plain_regular_file_is_parsed_by_numpy_from_its_path(tmp_path, monkeypatch):
+    path = tmp_path / "sweep.csv"
+    path.write_text("# resolution_bits: 20\n\n" + _sweep_text())
+    read_from = []
+    real_loadtxt = np.loadtxt
+    monkeypatch.setattr(csv_numbers.np, "loadtxt", lambda source, *a, **k: read_from.append(source)
+                        or real_loadtxt(source, *a, **k))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        cal = read_calibration(path)
+    assert read_from == [str(path)]  # one call, with the path (not bytes in memory, read line by line)
+    assert len(cal) == 6000 and cal.resolution_bits == 20
+    table = real_loadtxt(path, delimiter=",", skiprows=3)
+    np.testing.assert_array_equal(cal.reference_deg, table[:, 0])
+    np.testing.assert_array_equal(cal.encoder_deg, table[:, 1])
+
+
+def test_a_file_changed_between_the_two_reads_is_read_as_first_read(tmp_path, monkeypatch):
+    path = tmp_path / "sweep.csv"
+    text = _sweep_text()
+    path.write_text(text)
+    real = csv_numbers.plain_file_rows
+
+    def changing(*args, **kwargs):  # another program rewrites the file, as long, between the two reads
+        path.write_text(text.replace("0.0000000000,", "9.0000000000,", 1))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(calibration, "plain_file_rows", changing)
+    cal = read_calibration(path)
+    assert cal.reference_deg[0] == 0.0  # the bytes checked, not the ones written since
+
+
+def test_a_blank_line_in_a_plain_body_keeps_the_line_numbers(tmp_path):
+    lines = _sweep_text(misread_row=4100).splitlines()
+    lines.insert(3000, "")
+    path = tmp_path / "blank.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.warns(EncalWarning, match="line 4103 "):  # the header, the blank line, then row 4100 (from 0)
+        read_calibration(path)
+
+
+def test_a_misread_in_a_dense_sweep_is_found_without_sorting_the_encoder_angles(tmp_path, monkeypatch):
+    path = tmp_path / "sweep.csv"
+    path.write_text(_sweep_text(misread_row=2500))
+    sorted_angles = []
+    real = outliers.stable_argsort
+    monkeypatch.setattr(outliers, "stable_argsort", lambda values, **k: sorted_angles.append(1) or real(values, **k))
+    with pytest.warns(EncalWarning, match=r"line 2502 .* off the median of the readings at its reference angle"):
+        read_calibration(path)
+    assert sorted_angles == []
+
+
+@pytest.mark.parametrize("k", [3, 4, 5, 8])
+@pytest.mark.parametrize("quantum", [None, 0.01])
+def test_the_stops_table_finds_what_the_labelled_groups_find(k, quantum):
+    rng = np.random.default_rng(k)
+    stops = 500
+    reference = np.tile(np.arange(stops) * 360.0 / stops, k)
+    rng.shuffle(reference)
+    error = np.sin(np.radians(reference)) + rng.normal(0.0, 0.05, reference.size)
+    error[rng.choice(reference.size, 7, replace=False)] += rng.choice([-3.0, 3.0], 7)
+    by_stop = stable_argsort(reference)
+    stop = np.empty(reference.size, dtype=np.intp)
+    stop[by_stop] = np.repeat(np.arange(stops), k)
+    counts = np.bincount(stop)
+    expected = outliers._isolated_repeats(error, stop, counts, quantum, 10.0, by_stop=by_stop)
+    found = outliers._isolated_table(error, by_stop, k, quantum, 10.0)
+    assert found.index.size >= 5
+    np.testing.assert_array_equal(found.index, expected.index)
+    np.testing.assert_array_equal(found.deviation_arcmin, expected.deviation_arcmin)
+    assert found.typical_step_arcmin == expected.typical_step_arcmin and found.repeated
+
+
+def _old_neighbour_test(theta, error, factor=10.0):
+    """The neighbour test as it was written with np.roll (outliers.py before read-speed)."""
+    order = np.argsort(theta, kind="stable")
+    e = error[order]
+    steps = np.abs(e - np.roll(e, 1))
+    nonzero = steps[steps > 0]
+    typical = max(1.4826 * float(np.median(steps)), float(nonzero.min()))
+    from_left = e - (np.roll(e, 1) + np.roll(e, 2)) / 2.0
+    from_right = e - (np.roll(e, -1) + np.roll(e, -2)) / 2.0
+    same_side = np.sign(from_left) == np.sign(from_right)
+    deviation = np.where(same_side, np.sign(from_left) * np.minimum(np.abs(from_left), np.abs(from_right)), 0.0)
+    far = np.flatnonzero(np.abs(deviation) > factor * typical)
+    in_input_order = np.argsort(order[far], kind="stable")
+    return order[far][in_input_order], deviation[far][in_input_order], typical
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_neighbour_test_on_views_is_the_rolled_one(seed):
+    rng = np.random.default_rng(seed)
+    theta = rng.uniform(0.0, 360.0, 5000)
+    error = np.sin(np.radians(theta)) + rng.normal(0.0, 0.01, theta.size)
+    error[rng.choice(theta.size, 9, replace=False)] += rng.choice([-2.0, 2.0], 9)
+    error[:2] += 5.0  # at the ends of the input, not of the circle
+    found = outliers.isolated_points(theta, error)
+    index, deviation, typical = _old_neighbour_test(theta, error)
+    assert index.size >= 9
+    np.testing.assert_array_equal(found.index, index)
+    np.testing.assert_array_equal(found.deviation_arcmin, deviation)
+    assert found.typical_step_arcmin == typical
+
+
+def test_the_sign_of_the_median_by_counting():
+    rng = np.random.default_rng(0)
+    for size in (2, 3, 4, 5, 10, 11):
+        for _ in range(300):
+            values = rng.choice([-2.0, -1.0, -1e-300, 0.0, 1e-300, 1.0, 2.0], size) * rng.uniform(0.5, 1.5, size)
+            assert calibration._median_is_negative(values) == (np.median(values) < 0), values
+
+
+def test_identical_points_told_by_one_sort_of_values():
+    rng = np.random.default_rng(0)
+    theta = rng.uniform(0.0, 360.0, 3000)
+    error = rng.normal(0.0, 1.0, theta.size)
+    assert outliers._has_identical(theta, error) is False
+    theta[10], error[10] = theta[20], error[20] + 0.5  # one encoder angle twice: not identical
+    assert outliers._has_identical(theta, error) is False
+    theta[30], error[30] = theta[40], error[40]
+    assert outliers._has_identical(theta, error) is True
+    np.testing.assert_array_equal(outliers._first_of_identical(theta, error), np.delete(np.arange(theta.size), 40))
+    theta[:200] = np.repeat(theta[200:300], 2)  # 100 shared angles: left to the argsort
+    assert outliers._has_identical(theta, error) is None
+
+
+def test_stable_argsort_gives_the_sorted_values():
+    rng = np.random.default_rng(0)
+    for values in (rng.uniform(0.0, 1.0, 2000), np.round(rng.uniform(0.0, 50.0, 2000)), np.arange(2000.0) % 7,
+                   np.tile(np.arange(500.0), 4)):
+        order, ordered = stable_argsort(values, return_sorted=True)
+        np.testing.assert_array_equal(order, np.argsort(values, kind="stable"))
+        np.testing.assert_array_equal(ordered, values[order])
+
+
+@pytest.mark.parametrize("body, start, plain, lines", [
+    (b"a,b\n1,2\n3,4\n", 4, True, 2),
+    (b"a,b\n1,2\n3,4", 4, True, 2),
+    (b"a,b\r\n1,2\r\n3,4\r\n", 5, True, 2),
+    (b"a,b\n1,2\r3,4\n", 4, False, 1),  # a CR alone ends a line for the careful reader
+    (b"a,b\n1,2\nx,4\n", 4, False, 2),
+    (b"a,b\n", 4, True, 0),
+])
+def test_plainness_and_lines_after_the_head_without_a_copy(body, start, plain, lines):
+    assert csv_numbers.plain_body(body, start) is plain
+    assert csv_numbers.line_count(body, start) == lines
