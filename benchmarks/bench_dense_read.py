@@ -3,6 +3,7 @@
 Usage::
 
     PYTHONPATH=src python benchmarks/bench_dense_read.py [--rows 1000000] [--repeats 5] [--files sweep,random]
+    PYTHONPATH=src python benchmarks/bench_dense_read.py --phases
 
 (``PYTHONPATH`` names the encal measured, in this process and in the ``encal fit`` processes.)
 
@@ -12,10 +13,11 @@ reference angles written with ``%.10f`` (where two angles agree to 9 decimals ab
 must not be refused as one stop read twice). Every comparison is paired and interleaved (A B A B ...) so that
 the ratio holds on a loaded machine; the table gives medians and the median of the pair ratios.
 
-* ``read_calibration`` and ``np.loadtxt(delimiter=',', skiprows=1)`` of the same file, in this process.
+* ``read_calibration`` and ``np.loadtxt(delimiter=',', skiprows=1)`` of the same file, in this process (CPU
+  time, ``time.process_time``: on a shared machine the wall time also counts the other programs).
 * ``python -m encal fit FILE -o MODEL`` and a NumPy script that reads the same file with ``np.loadtxt`` and
-  fits Fourier orders 1 to 16 by projection, each a whole process (wall time, and peak resident memory from
-  GNU ``/usr/bin/time``), both with one BLAS thread.
+  fits Fourier orders 1 to 16 by projection, each a whole process (CPU time, user + system, wall time, and peak
+  resident memory, all from GNU ``/usr/bin/time``), both with one BLAS thread.
 """
 
 import argparse
@@ -65,29 +67,28 @@ def write_files(folder, rows, seed=0):
 
 
 def paired(first, second, repeats):
-    """Times of ``first()`` and ``second()`` run alternately, after one warm-up of each."""
+    """CPU seconds of ``first()`` and ``second()`` run alternately, after one warm-up of each."""
     first(), second()
     a, b = [], []
     for _ in range(repeats):
         for call, times in ((first, a), (second, b)):
-            start = time.perf_counter()
+            start = time.process_time()
             call()
-            times.append(time.perf_counter() - start)
+            times.append(time.process_time() - start)
     return np.array(a), np.array(b)
 
 
 def run_process(command, env):
-    """Wall seconds and peak resident MiB of one process. The peak is GNU time's (``/usr/bin/time -f %M``): a
-    child forked from this process counts this process's pages until it execs, so its own ``ru_maxrss`` would
-    be this benchmark's size."""
-    start = time.perf_counter()
-    process = subprocess.run(["/usr/bin/time", "-f", "peak_kib %M", *map(str, command)], env=env,
+    """CPU seconds (user + system), wall seconds and peak resident MiB of one process, from GNU time
+    (``/usr/bin/time``): a child forked from this process counts this process's pages until it execs, so its own
+    ``ru_maxrss`` would be this benchmark's size."""
+    process = subprocess.run(["/usr/bin/time", "-f", "usage %U %S %e %M", *map(str, command)], env=env,
                              stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-    wall = time.perf_counter() - start
     if process.returncode != 0:
         raise SystemExit(f"{' '.join(map(str, command))} failed: {process.stderr.strip()[-400:]}")
-    peak = next(line for line in reversed(process.stderr.splitlines()) if line.startswith("peak_kib "))
-    return wall, int(peak.split()[1]) / 1024.0
+    usage = next(line for line in reversed(process.stderr.splitlines()) if line.startswith("usage "))
+    user, system, wall, peak = map(float, usage.split()[1:])
+    return user + system, wall, peak / 1024.0
 
 
 def row(label, a, b, unit="s"):
@@ -95,11 +96,54 @@ def row(label, a, b, unit="s"):
            f"({np.min(a / b):.2f}-{np.max(a / b):.2f}) |"
 
 
+PHASES = """
+import sys, time, tracemalloc
+from encal.cli import main, cmd_fit
+from encal.models import auto
+measure_memory = sys.argv[2] == "memory"
+figures = {}
+def timed(module, name, label):
+    function = getattr(module, name)
+    def wrapper(*args, **kwargs):
+        start, base = time.process_time(), tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        try:
+            return function(*args, **kwargs)
+        finally:
+            figures[label] = (time.process_time() - start, base, tracemalloc.get_traced_memory()[1])
+    setattr(module, name, wrapper)
+timed(cmd_fit, "read_calibration_from_args", "reading")
+timed(auto, "fit_spectral", "fit_spectral")
+if measure_memory:
+    tracemalloc.start()
+main(["fit", sys.argv[1], "-o", sys.argv[3]])
+total = time.process_time()
+for label, (cpu, base, peak) in figures.items():
+    if measure_memory:
+        print(f"{label}: {base / 2**20:.1f} MiB live at its start, its peak {peak / 2**20:.1f} MiB (traced)",
+              file=sys.stderr)
+    else:
+        print(f"{label}: {cpu:.2f} s CPU of the process's {total:.2f} s ({cpu / total:.0%})", file=sys.stderr)
+"""
+
+
+def phases(files, folder, env):
+    """CPU time of the reading and of ``fit_spectral`` within one ``encal fit`` process each, and the memory
+    traced (``tracemalloc``, in a second run: it slows NumPy's allocations) at their start and peak."""
+    for name, path in files.items():
+        for what in ("cpu", "memory"):
+            process = subprocess.run([sys.executable, "-c", PHASES, str(path), what, str(Path(folder) / "m.json")],
+                                     env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            print("\n".join(f"{name}: {line}" for line in process.stderr.strip().splitlines()))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", type=int, default=1_000_000)
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--files", default="sweep,random", help="which files: sweep, random or both")
+    parser.add_argument("--phases", action="store_true",
+                        help="only the share of the reading and of the spectral fit in one encal fit of each file")
     args = parser.parse_args()
     import warnings
 
@@ -110,7 +154,10 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         files = {name: path for name, path in write_files(folder, args.rows).items()
                  if name in args.files.split(",")}
-        print("\n| in one process | read_calibration | np.loadtxt | ratio (min-max) |\n|---|---|---|---|")
+        if args.phases:
+            phases(files, folder, dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1"))
+            return
+        print("\n| in one process, CPU | read_calibration | np.loadtxt | ratio (min-max) |\n|---|---|---|---|")
         for name, path in files.items():
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -130,8 +177,9 @@ def main():
                 results["encal"].append(run_process(encal, env))
                 results["plain"].append(run_process(plain, env))
             encal_runs, plain_runs = np.array(results["encal"]), np.array(results["plain"])
-            print(row(f"{name}: wall", encal_runs[:, 0], plain_runs[:, 0]))
-            print(row(f"{name}: peak memory", encal_runs[:, 1], plain_runs[:, 1], unit="MiB"))
+            print(row(f"{name}: CPU", encal_runs[:, 0], plain_runs[:, 0]))
+            print(row(f"{name}: wall", encal_runs[:, 1], plain_runs[:, 1]))
+            print(row(f"{name}: peak memory", encal_runs[:, 2], plain_runs[:, 2], unit="MiB"))
     print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
 
 

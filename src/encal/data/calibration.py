@@ -531,7 +531,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                  found=None if phasor is None else abs(phasor))
     del as_read, in_degrees
     # one sort by reference angle serves every check of a calibration of one run
-    order = reference_order = stable_argsort(cal.reference_deg) if runs is None else None
+    order = reference_order = sorted_reference = None
+    if runs is None:
+        order, sorted_reference = stable_argsort(cal.reference_deg, return_sorted=True)
+        reference_order = order
     repeated = None
     if duplicates == "refuse":
         def repeated():
@@ -539,10 +542,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
             # readings; a stray repeat in another run is still refused. Asked for only when there are repeats.
             pattern = _repeat_pattern(cal.reference_deg, runs, order=order)[0]
             return pattern if pattern.all() else pattern | _multi_revolution_runs(reference, runs)
-    cal = _check_duplicates(path, cal, duplicates, repeated=repeated, order=order)
+    cal = _check_duplicates(path, cal, duplicates, repeated=repeated, order=order, sorted_reference=sorted_reference)
     if cal is not rows:
         order = None
-    by_reference = None if order is None else (cal.reference_deg[order], cal.encoder_deg[order])
+    by_reference = None if order is None else (sorted_reference, cal.encoder_deg[order])
+    del sorted_reference
     _check_direction_of_count(path, cal, reverse, order=order, by_reference=by_reference)
     _check_folds(cal, str(path), order=order, by_reference=by_reference)
     del by_reference
@@ -830,11 +834,11 @@ def _runs(cal):
     return runs
 
 
-def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
+def _check_duplicates(path, cal, duplicates, repeated=None, order=None, sorted_reference=None):
     """``cal`` with its conflicting repeats refused, averaged or kept (``duplicates``); those of the points
     ``repeated`` (a mask, see :func:`_repeat_pattern`, or a function that returns it, called only when there are
     repeats) are always kept; ``order``: the stable argsort of the reference angles of a calibration of one run,
-    if known.
+    if known, and ``sorted_reference`` the angles in that order.
 
     Points are repeats when their reference angles agree to :data:`STOP_DECIMALS` decimals and they belong to
     one run. Repeats are refused only where the reference angles are stops (:func:`_reference_has_stops`): in a
@@ -844,13 +848,17 @@ def _check_duplicates(path, cal, duplicates, repeated=None, order=None):
     """
     if duplicates == "keep" or len(cal) < 2:
         return cal
-    keys = np.round(cal.reference_deg, STOP_DECIMALS)
     runs = _runs(cal)
-    if runs is not None:
-        order = np.lexsort((runs, keys))
-    elif order is None:
-        order = stable_argsort(keys)
-    sorted_keys = keys[order]
+    if runs is None and order is not None and sorted_reference is not None:
+        sorted_keys = np.round(sorted_reference, STOP_DECIMALS)  # rounding keeps the order
+    else:
+        keys = np.round(cal.reference_deg, STOP_DECIMALS)
+        if runs is not None:
+            order = np.lexsort((runs, keys))
+        elif order is None:
+            order = stable_argsort(keys)
+        sorted_keys = keys[order]
+        del keys
     starts_group = np.ones(order.size, dtype=bool)
     starts_group[1:] = sorted_keys[1:] != sorted_keys[:-1]
     new_stop = starts_group.copy()
