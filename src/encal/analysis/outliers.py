@@ -117,9 +117,9 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         if reference.shape != theta.shape:
             raise ValueError(f"reference_deg has {reference.size} values but theta_enc_deg has {theta.size}; "
                              "expected one reference angle per reading")
-    k, starts = 0, None
+    k, distinct, starts = 0, None, None
     if reference_deg is not None and reference_order is not None:
-        k, starts = _readings_per_stop(reference, reference_order)
+        k, distinct, starts = _readings_per_stop(reference, reference_order)
         if k >= 3 and theta.size >= MIN_POINTS and _has_identical(theta, error) is False:
             # k >= 3 readings at every stop and no point identical: the stops' table, without a sort of the
             # encoder angles
@@ -141,12 +141,10 @@ def isolated_points(theta_enc_deg, error_arcmin, *, reference_deg=None, quantum_
         return _isolated_table(error, reference_order, k, quantum_arcmin, factor)
     if reference_deg is not None:
         # a median of two or more readings a stop needs n >= 1.5 stops: the common case is told without a sort
-        if starts is None:
+        if distinct is None:
             stops = np.round(wrap360(reference), 9)
             distinct = np.unique(stops).size
-        else:  # rounding keeps the order: no other sort
-            distinct = starts.size + 1
-        if 1.5 * distinct <= theta.size:
+        if 1.5 * distinct <= theta.size:  # (then starts is known if reference_order is: no other sort)
             if starts is None:
                 stop = np.unique(stops, return_inverse=True)[1].reshape(-1)
             else:
@@ -211,14 +209,19 @@ def _has_identical(theta, error):
 
 
 def _readings_per_stop(reference, reference_order):
-    """``(k, starts)``: k > 0 if the reference angles (``reference_order`` their stable argsort) are k readings at
-    every stop (equal to 9 decimals once wrapped to [0, 360), as :func:`isolated_points` compares them), else 0;
-    ``starts``, where each stop but the first begins in that order."""
+    """``(k, distinct, starts)``: k > 0 if the reference angles (``reference_order`` their stable argsort) are k
+    readings at every stop (equal to 9 decimals once wrapped to [0, 360), as :func:`isolated_points` compares them),
+    else 0; the number of distinct stops; ``starts``, where each stop but the first begins in that order (None when
+    there are more than two stops for three readings: no test of repeated readings then)."""
     ordered = np.round(wrap360(reference[reference_order]), 9)  # rounding keeps the order
-    starts = np.flatnonzero(ordered[1:] != ordered[:-1]) + 1
-    k = ordered.size // (starts.size + 1)
-    regular = k * (starts.size + 1) == ordered.size and np.array_equal(starts, np.arange(k, ordered.size, k))
-    return (k if regular else 0), starts
+    new_stop = ordered[1:] != ordered[:-1]
+    distinct = int(np.count_nonzero(new_stop)) + 1
+    if 1.5 * distinct > ordered.size:  # too few repeats for the test of repeated readings: no labels needed
+        return 0, distinct, None
+    starts = np.flatnonzero(new_stop) + 1
+    k = ordered.size // distinct
+    regular = k * distinct == ordered.size and np.array_equal(starts, np.arange(k, ordered.size, k))
+    return (k if regular else 0), distinct, starts
 
 
 def _first_of_identical(theta, error, by_angle=None, sorted_theta=None):
@@ -227,7 +230,6 @@ def _first_of_identical(theta, error, by_angle=None, sorted_theta=None):
     input order. ``by_angle``: the stable argsort of ``theta`` (in [0, 360)), if known; ``sorted_theta``:
     ``theta[by_angle]``, if known."""
     theta = _rounded_angles(theta)  # an angle just under 360 rounds up to it: the same as 0
-    error = np.round(error, IDENTICAL_DECIMALS)
     if by_angle is None:
         by_angle = np.argsort(theta, kind="stable")
         sorted_theta = theta[by_angle]
@@ -245,8 +247,10 @@ def _first_of_identical(theta, error, by_angle=None, sorted_theta=None):
     tied[1:] |= equal
     tied[:-1] |= equal
     candidates = by_angle[tied]  # only the points that share their angle are sorted by (angle, error)
-    candidates = candidates[np.lexsort((error[candidates], theta[candidates]))]
-    same = (theta[candidates][1:] == theta[candidates][:-1]) & (error[candidates][1:] == error[candidates][:-1])
+    candidate_error = np.round(error[candidates], IDENTICAL_DECIMALS)
+    by_pair = np.lexsort((candidate_error, theta[candidates]))
+    candidates, candidate_error = candidates[by_pair], candidate_error[by_pair]
+    same = (theta[candidates][1:] == theta[candidates][:-1]) & (candidate_error[1:] == candidate_error[:-1])
     if not same.any():
         return np.arange(theta.size)
     first = np.ones(candidates.size, dtype=bool)
