@@ -24,13 +24,17 @@ def stable_argsort(values, return_sorted=False):
     tied = ordered[1:] == ordered[:-1]
     if not tied.any():
         return (order, ordered) if return_sorted else order
-    if np.count_nonzero(tied) > values.size // 16:  # many repeats: the stable sort is as quick as the mending
-        order = np.argsort(values, kind="stable")
-        return (order, values[order]) if return_sorted else order
     in_run = np.zeros(order.size, dtype=bool)
     in_run[1:] |= tied
     in_run[:-1] |= tied
     positions = np.flatnonzero(in_run)
     run = np.cumsum(np.r_[True, ~tied])[positions]  # the run of equal values each tied position belongs to
-    order[positions] = order[positions][np.lexsort((order[positions], run))]
+    if order.size < 1 << 31:
+        # one sort of (run, index) packed in an int64: the runs keep their places (they increase along the
+        # positions), the indices come in increasing order within each; a tenth of a lexsort's time
+        packed = run * order.size + order[positions]
+        packed.sort()
+        order[positions] = packed % order.size
+    else:
+        order[positions] = order[positions][np.lexsort((order[positions], run))]
     return (order, ordered) if return_sorted else order  # equal values: the same sorted values
