@@ -395,12 +395,15 @@ def distinct_angles(theta_deg):
     theta = np.asarray(theta_deg, dtype=float).reshape(-1)
     order, sorted_theta = stable_argsort(theta, return_sorted=True)  # np.argsort's stable order, 3x faster on 10^6
     starts_group = np.r_[True, np.diff(sorted_theta) > ANGLE_TOLERANCE_DEG]
-    group_sorted = np.cumsum(starts_group) - 1
+    group_sorted = np.cumsum(starts_group)
+    group_sorted -= 1  # (in place: a fit of 10^6 angles peaks here, 8 bytes an angle a copy)
     if group_sorted[-1] > 0 and sorted_theta[0] + 360.0 - sorted_theta[-1] <= ANGLE_TOLERANCE_DEG:
         group_sorted[group_sorted == group_sorted[-1]] = 0  # the last group wraps onto the first
+    distinct = sorted_theta[starts_group][: group_sorted.max() + 1]
+    del sorted_theta, starts_group
     group = np.empty_like(group_sorted)
     group[order] = group_sorted
-    return sorted_theta[starts_group][: group_sorted.max() + 1], group
+    return distinct, group
 
 
 @dataclass(frozen=True)
@@ -437,7 +440,7 @@ class _Grid:
 
 
 def _grid(theta_deg, tolerance_deg=ANGLE_TOLERANCE_DEG):
-    distinct, _ = distinct_angles(theta_deg)
+    distinct = distinct_angles(theta_deg)[0]  # (the groups, as large as the angles, let go at once)
     m = distinct.size
     phase, deviation, regular = _fit_grid(distinct, m)
     uniform = regular and deviation * 360.0 / m <= tolerance_deg
@@ -450,13 +453,21 @@ def _fit_grid(distinct_deg, points):
     deviation from their nodes (in spacings), and whether they lie on it (one per node,
     each within a quarter spacing)."""
     theta = np.radians(distinct_deg)
-    # Best-fitting phase: every node has points·θ ≡ points·φ (mod 2π).
-    phase = float(np.angle(np.sum(np.exp(1j * points * theta)))) / points
-    position = (theta - phase) * points / (2.0 * np.pi)  # in grid spacings
+    # Best-fitting phase: every node has points·θ ≡ points·φ (mod 2π). (The exponential in place: 16 bytes an
+    # angle less at the peak of a fit of 10^6 distinct angles.)
+    phasors = 1j * points * theta
+    phase = float(np.angle(np.sum(np.exp(phasors, out=phasors)))) / points
+    del phasors
+    position = theta  # in grid spacings: (theta - phase) * points / (2 pi), in place
+    position -= phase
+    position *= points
+    position /= 2.0 * np.pi
     node = np.round(position)
-    deviation = float(np.max(np.abs(position - node)))
+    position -= node
+    deviation = float(np.max(np.abs(position, out=position)))
+    del position, theta
     # one angle a node: asked only of angles near their nodes (a sort of every node otherwise)
-    on_grid = deviation < _REGULAR_DEVIATION and np.unique(np.mod(node, points)).size == theta.size
+    on_grid = deviation < _REGULAR_DEVIATION and np.unique(np.mod(node, points)).size == node.size
     return phase, deviation, bool(on_grid)
 
 
@@ -493,8 +504,7 @@ def uniform_grid(theta_deg, points=None):
     >>> uniform_grid([0.0, 3.6, 5.0], points=100) is None  # 5.0° is 0.39 spacings off
     True
     """
-    theta = wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
-    distinct, _ = distinct_angles(theta)
+    distinct = distinct_angles(_in_turn(theta_deg))[0]  # (the groups let go at once)
     if points is None:
         points = distinct.size
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < distinct.size:
@@ -504,6 +514,15 @@ def uniform_grid(theta_deg, points=None):
     if not on_grid:
         return None
     return wrap360(np.degrees(phase) + 360.0 * np.arange(points) / points)
+
+
+def _in_turn(theta_deg):
+    """The angles as a 1-D float array in [0, 360): the array itself when it is one already (and holds no -0.0),
+    else wrapped (a copy). For the functions that only read it: a fit of 10^6 angles peaks in them."""
+    theta = np.asarray(theta_deg, dtype=float).reshape(-1)
+    if theta.size and theta.min() >= 0.0 and theta.max() < 360.0 and not np.signbit(theta).any():
+        return theta
+    return wrap360(theta)
 
 
 def _angles(theta_deg):
@@ -560,7 +579,7 @@ def identifiable_order(theta_deg):
     >>> identifiable_order(np.r_[0:300:2.0])          # 150 points with a 62° gap
     2
     """
-    theta = wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
+    theta = _in_turn(theta_deg)
     if theta.size == 0:
         raise InputError("identifiable_order expects at least one angle; got none")
     return _grid(theta).stable_order
