@@ -185,3 +185,40 @@ def test_stable_argsort_gives_the_sorted_values():
 def test_plainness_and_lines_after_the_head_without_a_copy(body, start, plain, lines):
     assert csv_numbers.plain_body(body, start) is plain
     assert csv_numbers.line_count(body, start) == lines
+
+
+def _stable_argsort_cases():
+    rng = np.random.default_rng(0)
+    uniform = rng.uniform(0.0, 360.0, 3000)
+    # values that share all but their last 12 bits (an index of 3000 takes 12): the packed sort sees them as equal
+    # and orders them by index, the wrong way round here, and sorts their runs again
+    near = uniform.copy()
+    top = near[::300].view(np.int64) & ~np.int64(0xFFF)  # ten such runs (the mending takes up to 3000 // 256)
+    near[::300] = (top | 7).view(np.float64)
+    near[1::300] = (top | 3).view(np.float64)
+    near[2::300] = (top | 3).view(np.float64)  # and an equal pair among them: index order
+    clustered = rng.choice(rng.uniform(0.0, 360.0, 30), 3000) + rng.uniform(0.0, 1e-12, 3000)  # many such runs
+    quantised = np.round(uniform * 2**10 / 360.0) * 360.0 / 2**10
+    signed = np.r_[uniform[:100], -0.0, 0.0, -1.0, 0.0, -0.0]  # a sign bit: not packed
+    return [uniform, near, clustered, quantised, signed, np.tile(uniform[:500], 6), np.zeros(3000)]
+
+
+@pytest.mark.parametrize("case", range(7))
+def test_stable_argsort_by_packed_integers_is_numpys_stable_order(case):
+    values = _stable_argsort_cases()[case]
+    order, ordered = stable_argsort(values, return_sorted=True)
+    np.testing.assert_array_equal(order, np.argsort(values, kind="stable"))
+    np.testing.assert_array_equal(ordered, values[order])
+
+
+def test_the_packed_sort_mends_runs_of_shared_top_bits_and_gives_up_on_many():
+    from encal._core.sorting import _packed_argsort
+
+    uniform, near, clustered = _stable_argsort_cases()[:3]
+    shift = 12
+    packed = (near.view(np.int64) >> shift << shift) | np.arange(near.size)
+    packed.sort()
+    unmended = packed & 0xFFF
+    assert np.count_nonzero(np.diff(near[unmended]) < 0) == 10  # the mending has work to do
+    np.testing.assert_array_equal(_packed_argsort(near)[0], np.argsort(near, kind="stable"))
+    assert _packed_argsort(clustered) is None  # left to the argsort and its mending of ties
