@@ -38,16 +38,18 @@ def assert_klipper_case(case):
 
 
 @needs_klipper
+@pytest.mark.parametrize("direction", [1, -1])
 @pytest.mark.parametrize("bits, reversed_, encoder_zero, step_zero", [
     (16, False, 2.5, 0.0),   # issue 26: RMS 1171 arcmin with exit 0 (the wrap straddled Klipper's reverse test)
     (16, False, 3.6, 0.0),
     (14, True, 0.0, 1.8),    # the driver phase off by a full step unless index 0 is at phase 0
     (14, False, 0.0, 30.0),
 ])
-def test_klipper_own_code_reads_the_list_as_encal_states(bits, reversed_, encoder_zero, step_zero):
+def test_klipper_own_code_reads_the_list_as_encal_states(bits, reversed_, encoder_zero, step_zero, direction):
     comp = klipper_own.model_for(bits, reversed_, encoder_zero)
-    case = klipper_own.run_case(comp, bits, step_zero, "")
-    assert case.reversed_as_klipper_reads == reversed_
+    case = klipper_own.run_case(comp, bits, step_zero, "", direction)
+    # Klipper's reversed list: the sensor counts down as the stepper steps up
+    assert case.reversed_as_klipper_reads == (reversed_ != (direction == -1))
     assert_klipper_case(case)
 
 
@@ -55,10 +57,44 @@ def test_klipper_own_code_reads_the_list_as_encal_states(bits, reversed_, encode
 @pytest.mark.slow
 def test_klipper_matrix():
     cases = list(klipper_own.cases())
-    assert len(cases) == 62
+    assert len(cases) == 122  # 60 configurations for each step direction, and the two refusals
     for case in cases:
         assert_klipper_case(case)
     assert sum(bool(case.row.refused) for case in cases) == 2
+    assert sum("--step-direction -1" in case.row.configuration for case in cases) == 60
+
+
+@needs_klipper
+def test_klipper_list_for_a_stepper_turning_against_the_reference_needs_the_step_direction():
+    # task klipper-dir: the stepper's positive steps lower the reference angle (its dir_pin the other way);
+    # the list written as before (step_direction 1) runs the stepper's angle backwards through Klipper's own code
+    comp = klipper_own.model_for(16, False, 2.5)
+    before = export_klipper(comp, step_zero_deg=0.9)
+    rms, _, phase, _ = klipper_own.measure(comp, 16, 0.9, before.text, -1)
+    assert rms > 100.0 and phase > 1.9  # 125 arcmin RMS (modulo 4 full steps), 2 full steps off
+    case = klipper_own.run_case(comp, 16, 0.9, "", -1)
+    assert_klipper_case(case)
+    assert "--step-direction -1" in export_klipper(comp, step_zero_deg=0.9, step_direction=-1).describe()
+
+
+@needs_klipper
+@pytest.mark.parametrize("reversed_", [False, True])
+@pytest.mark.parametrize("direction", [1, -1])
+def test_klipper_list_is_the_one_klipper_own_angle_calibrate_measures(tmp_path, reversed_, direction):
+    # known truth: ANGLE_CALIBRATE sweeps the stepper's positive steps and orders the list itself
+    comp = klipper_own.model_for(16, reversed_, 2.5)
+    own = read_klipper(klipper_own.saved_printer_cfg(tmp_path, comp, 0.9, direction=direction))
+    written = read_klipper(export_klipper(comp, step_zero_deg=0.9, step_direction=direction).text)
+    assert written.reading_sign == own.reading_sign == (1 if reversed_ == (direction == -1) else -1)
+    assert np.max(np.abs(written.encoder_deg - own.encoder_deg)) * 65536 / 360 < 0.051  # the same %.1f values
+
+
+def test_klipper_step_direction_is_one_or_minus_one():
+    comp = klipper_own.model_for(16, False, 0.0)
+    for bad in (0, 2, True, 1.5, "-1", None):
+        with pytest.raises(InputError, match=r"'step_direction' parameter of export_klipper must be 1 or -1") as info:
+            export_klipper(comp, step_zero_deg=0.0, step_direction=bad)
+        assert one_sentence(str(info.value)), str(info.value)
 
 
 @needs_klipper
@@ -169,6 +205,25 @@ def test_mechaduino_model_sees_the_torque_issue_26_measured(step_zero, factor):
     wrong = np.round(np.asarray(comp.correct(np.arange(16384) * 360 / 16384)) % 360, 3).astype(np.float32)
     _, wiring = mechaduino_own.firmware_calibration(comp, step_zero)
     assert mechaduino_own.torque_factor(comp, wrong, step_zero, wiring) == pytest.approx(factor, abs=0.03)
+
+
+@pytest.mark.parametrize("reversed_", [False, True])
+def test_mechaduino_firmware_fixes_the_stepper_direction_so_the_table_needs_none(reversed_):
+    # task klipper-dir: of the motor's two wirings (forward steps raising or lowering the reference), the firmware's
+    # calibrate() accepts the one whose forward steps count the encoder up and says "Wired backwards" to the other
+    # (the user swaps a phase); encal's one table (no direction asked) commutates the accepted wiring, and the
+    # refused one is refused by the firmware for any table it writes (they all rise with the count)
+    comp = klipper_own.model_for(14, reversed_, 0.0)
+    lookup = mechaduino_own.read_lookup(export_mechaduino(comp, step_zero_deg=1.0).text)
+    accepted = -comp.reading_sign  # Motor's wiring -1: forward steps raise the reference angle
+    for wiring in (1, -1):
+        table = mechaduino_own.calibrate(mechaduino_own.Motor(comp, 1.0, wiring), start_step=8)
+        factor = mechaduino_own.torque_factor(comp, lookup, 1.0, wiring)
+        if wiring == accepted:
+            assert table is not None and factor >= 0.99
+            assert mechaduino_own.torque_factor(comp, table, 1.0, wiring) >= 0.99
+        else:
+            assert table is None and factor < -0.99  # "Wired backwards"; the torque would be reversed
 
 
 def test_mechaduino_table_rises_with_the_count_for_a_reversed_encoder():

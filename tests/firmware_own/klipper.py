@@ -11,7 +11,8 @@ unmodified; only what they import from the rest of Klipper is stubbed (``extras.
 3. Klipper's own ``apply_calibration`` corrects every 16-bit angle the sensor can give (the codes of a
    14-bit sensor are its angles shifted left by 2), and the stepper position it stands for
    (``new_angle + angle_phase_offset``) is compared with the model's corrected angle from the step at driver
-   phase 0, modulo the driver's electrical cycle (4 full steps);
+   phase 0 (``step_direction`` times it: the stepper's angle), modulo the driver's electrical cycle (4 full
+   steps);
 4. Klipper's own ``calc_mcu_pos_offset`` aligns the sensor with the driver's phase at every full step of a
    simulated stepper (the sensor reading at each step from the model inverted): the phase error, in full
    steps, is how far the stepper position Klipper derives from the sensor is from the stepper's.
@@ -214,52 +215,59 @@ class Case:
 
 
 def _configurations():
-    for bits in (14, 16):
-        for reversed_ in (False, True):
-            for zero in ZEROS_DEG:
-                yield bits, reversed_, zero, 0.0, f"encoder zero {zero:g} deg ahead, step 0 at 0"
-            for zero in ZEROS_DEG[1:]:
-                yield bits, reversed_, 0.0, zero, f"step 0 at {zero:g} deg"
+    for direction in (1, -1):  # task klipper-dir: the stepper's positive steps raise, or lower, the reference
+        for bits in (14, 16):
+            for reversed_ in (False, True):
+                for zero in ZEROS_DEG:
+                    yield bits, reversed_, zero, 0.0, direction, f"encoder zero {zero:g} deg ahead, step 0 at 0"
+                for zero in ZEROS_DEG[1:]:
+                    yield bits, reversed_, 0.0, zero, direction, f"step 0 at {zero:g} deg"
 
 
 def cases():
     """Every configuration of the matrix through Klipper's own code."""
-    for bits, reversed_, encoder_zero, step_zero, what in _configurations():
-        label = f"{bits}-bit, {'reversed, ' if reversed_ else ''}{what}"
-        yield run_case(model_for(bits, reversed_, encoder_zero), bits, step_zero, label)
+    for bits, reversed_, encoder_zero, step_zero, direction, what in _configurations():
+        label = (f"{bits}-bit, {'reversed, ' if reversed_ else ''}{what}"
+                 + (", stepper against the reference (--step-direction -1)" if direction == -1 else ""))
+        yield run_case(model_for(bits, reversed_, encoder_zero), bits, step_zero, label, direction)
     yield run_case(model_for(16, False, 0.0), 16, None, "16-bit, no --step-zero")
     yield run_case(model_for(16, False, 0.0, high_order=True), 16, 0.0,
                    "16-bit, a 90th order Klipper's 64 buckets cannot hold")
 
 
-def run_case(comp, bits, step_zero, label):
-    """One export of ``comp`` (``step_zero`` the reference angle of step 0, or None) through Klipper's code."""
+def run_case(comp, bits, step_zero, label, direction=1):
+    """One export of ``comp`` (``step_zero`` the reference angle of step 0, or None; the stepper's positive steps
+    turning the reference the way ``direction`` says) through Klipper's code."""
     from encal.deploy.firmware import export_klipper
     from encal._core.errors import InputError
 
     try:
-        written = export_klipper(comp, full_steps=FULL_STEPS, step_zero_deg=step_zero)
+        written = export_klipper(comp, full_steps=FULL_STEPS, step_zero_deg=step_zero, step_direction=direction)
     except InputError as error:
         return Case(Row("klipper", label, None, None, None, None, str(error)), None, None)
-    rms, largest, phase, reversed_ = measure(comp, bits, step_zero, written.text)
+    rms, largest, phase, reversed_ = measure(comp, bits, step_zero, written.text, direction)
     row = Row("klipper", label, written.rms_error_arcmin, written.max_error_arcmin, rms, largest)
     return Case(row, phase, reversed_)
 
 
-def measure(comp, bits, step_zero, calibrate_text):
+def measure(comp, bits, step_zero, calibrate_text, direction=1):
     """A ``calibrate:`` text through Klipper's own code: (RMS, max) arcmin of the stepper position it gives
     against the model's from step 0 (modulo 4 full steps) on every code, the largest phase error (full
-    steps) of ``calc_mcu_pos_offset`` over the full steps, and whether Klipper reads the list as reversed."""
+    steps) of ``calc_mcu_pos_offset`` over the full steps, and whether Klipper reads the list as reversed.
+
+    ``direction`` is which way the stepper's positive full steps turn the reference (1 raise its angle, -1
+    lower it): the stepper's angle is ``direction * (theta - step_zero)``, its full step ``k`` at reference
+    angle ``step_zero + direction * k * 360 / steps``."""
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "printer.cfg"
         path.write_text(printer_cfg(calibrate_text))
         calibration, _ = load_klipper(path)
     codes = np.arange(2**bits, dtype=np.int64) << (16 - bits)
     position = (klipper_positions(calibration, codes) + calibration.angle_phase_offset) * (360.0 / 65536)
-    expected = np.asarray(comp.correct(codes * (360.0 / 65536))) - step_zero
+    expected = direction * (np.asarray(comp.correct(codes * (360.0 / 65536))) - step_zero)
     period = 4 * 360.0 / FULL_STEPS
     gap = ((position - expected + period / 2) % period - period / 2) * 60.0
-    steps = step_zero + np.arange(FULL_STEPS) * (360.0 / FULL_STEPS)
+    steps = step_zero + direction * np.arange(FULL_STEPS) * (360.0 / FULL_STEPS)
     phase = phase_errors(calibration, step_readings_of(comp, steps))
     return (float(np.sqrt(np.mean(gap**2))), float(np.max(np.abs(gap))), float(np.max(np.abs(phase))),
             bool(calibration.calibration_reversed))
@@ -270,18 +278,19 @@ def matrix():
         yield case.row
 
 
-def saved_printer_cfg(folder, comp, step_zero_deg, *, first_step=100):
+def saved_printer_cfg(folder, comp, step_zero_deg, *, first_step=100, direction=1):
     """A ``printer.cfg`` as Klipper's own ``ANGLE_CALIBRATE`` then ``SAVE_CONFIG`` leave it.
 
     The sweep (``do_calibration_moves``) is replaced by the sensor's readings from the model inverted at
     each full step ``first_step + i`` from a step at driver phase 0 (``ANGLE_CALIBRATE`` samples from half a
-    turn past its phase-0 start); the rest is Klipper's code: averaging, ordering, writing the option, and
-    ``SAVE_CONFIG`` writing the ``#*#`` block.
+    turn past its phase-0 start), full step ``k`` at reference angle ``step_zero_deg + direction * k * 360 /
+    steps``; the rest is Klipper's code: averaging, ordering, writing the option, and ``SAVE_CONFIG`` writing
+    the ``#*#`` block.
     """
     path = Path(folder) / "printer.cfg"
     path.write_text(printer_cfg("") + "\n[printer]\nkinematics: none\n")
     calibration, printer = load_klipper(path)
-    steps = step_zero_deg + (first_step + np.arange(FULL_STEPS)) * (360.0 / FULL_STEPS)
+    steps = step_zero_deg + direction * (first_step + np.arange(FULL_STEPS)) * (360.0 / FULL_STEPS)
     readings = step_readings_of(comp, steps)
     measured = {i: [float(r)] for i, r in enumerate(readings)}
     calibration.do_calibration_moves = lambda: (measured, measured)

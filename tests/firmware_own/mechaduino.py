@@ -287,6 +287,9 @@ def run_case(comp, step_zero, label):
         return Case(Row("mechaduino", label, None, None, None, None, str(error)), None, None, None)
     lookup = read_lookup(written.text)
     own, wiring = firmware_calibration(comp, step_zero)
+    # task klipper-dir: which way the wiring calibrate() accepts turns the reference (Motor: dir true lowers the
+    # field angle, so its forward steps raise the reference angle when wiring is -1)
+    label += f", forward steps {'raise' if wiring == -1 else 'lower'} the reference"
     theta = np.asarray(comp.correct(np.arange(CPR) * (360.0 / CPR)), dtype=float)
     frame = (-wiring * (theta - step_zero)) % 360.0  # the rotor's angle from step 0, the way the firmware counts
     gap = ((lookup.astype(float) - frame + 180.0) % 360.0 - 180.0) * 60.0

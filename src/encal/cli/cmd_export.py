@@ -20,9 +20,10 @@
                  the file. Prints the round trip through that firmware's own
                  run-time rule against the model, on every code. SimpleFOC:
                  --firmware-version 1.0.8|1.0.9|uint16 (default 1.0.9).
-                 run-time rule against the model, on every code. Klipper and
-                 Mechaduino need --step-zero DEG: the reference angle of a full
-                 step at driver phase 0 (their tables follow the stepper's phase).
+                 Klipper and Mechaduino need --step-zero DEG: the reference
+                 angle of a full step at driver phase 0 (their tables follow the
+                 stepper's phase). Klipper: --step-direction -1 when the
+                 stepper's positive steps lower the reference angle.
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
@@ -100,6 +101,9 @@ def add_arguments(parser):
                         help="klipper, mechaduino: the reference angle, degrees, of a full step at driver phase 0 "
                              "(electrical zero); the table is written from it (required: both firmwares tie the "
                              "table to the stepper's phase)")
+    parser.add_argument("--step-direction", type=int, choices=(1, -1), metavar="{1,-1}",
+                        help="klipper: which way the stepper's positive full steps (a positive FORCE_MOVE, dir_pin "
+                             "included) turn the reference: 1 raise its angle (default), -1 lower it")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -126,10 +130,11 @@ _APPLIES_TO = {
     "moteus_style": ("moteus",),
     "firmware_version": ("simplefoc",),
     "full_steps": ("klipper",), "step_zero": ("klipper", "mechaduino"),
+    "step_direction": ("klipper",),  # Mechaduino's calibrate() fixes it: forward steps must count the encoder up
 }
 #: the defaults of the options above, applied once the formats are checked
 _DEFAULTS = {"target": "host", "form": "table", "name": "encal", "table": False, "constants": "auto",
-             "source": 0, "moteus_style": "restore", "full_steps": 200}
+             "source": 0, "moteus_style": "restore", "full_steps": 200, "step_direction": 1}
 
 
 def _check_applies(args):
@@ -282,6 +287,8 @@ def _export(args):
             options["firmware_version"] = args.firmware_version
         if args.format in ("klipper", "mechaduino"):
             options["step_zero_deg"] = args.step_zero
+        if args.format == "klipper":
+            options["step_direction"] = args.step_direction
         written = EXPORTERS[args.format](compensator, **options)
         atomic_write(output, written.text)
         if args.json:
