@@ -76,6 +76,31 @@ def test_step_zero_is_required_for_the_stepper_firmwares_and_only_for_them(tmp_p
     assert "klipper, mechaduino:" in capsys.readouterr().out + _help(capsys)
 
 
+def test_klipper_step_direction_writes_the_list_for_a_stepper_against_the_reference(tmp_path, capsys):
+    # task klipper-dir: the same list as the API's, whose round trip through Klipper's own code is tested in
+    # tests/test_firmware_own_klipper_mechaduino.py; the default is the stepper turning with the reference
+    from encal.deploy.firmware import export_klipper
+
+    for extra, direction in (([], 1), (["--step-direction", "-1"], -1), (["--step-direction", "1"], 1)):
+        path = tmp_path / f"k{direction}{len(extra)}.cfg"
+        status, out, _ = run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0.9", *extra, "-o", path)
+        assert status == 0 and f"--step-direction {direction})" in out
+        assert path.read_text() == export_klipper(encal.load_model(MODEL), step_zero_deg=0.9,
+                                                  step_direction=direction).text
+    assert (tmp_path / "k-12.cfg").read_text() != (tmp_path / "k10.cfg").read_text()
+    for bad in ("0", "+2", "down", "-1.0"):
+        with pytest.raises(SystemExit) as info:
+            run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "--step-direction", bad,
+                "-o", tmp_path / "x")
+        assert info.value.code == 2 and "--step-direction" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "export", MODEL, "--format", "mechaduino", "--bits", "14", "--step-zero", "0",
+            "--step-direction", "-1", "-o", tmp_path / "x")
+    assert info.value.code == 2
+    assert "--step-direction applies to --format klipper, not mechaduino" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
 def _help(capsys):
     with pytest.raises(SystemExit):
         run(capsys, "export", "--help")

@@ -66,7 +66,7 @@ def _run(argv, capsys):
 _VALUES = {"bits": "14", "dtype": "int16", "target": "host", "form": "table", "nodes": "64", "interpolation": "linear",
            "tolerance": "0.1", "cost": "bytes", "name": "enc", "table": None, "constants": "auto", "source": "1",
            "full_steps": "200", "sign": "-1", "offset": "1000", "conf": "dump.txt", "moteus_style": "console",
-           "firmware_version": "1.0.8", "step_zero": "0"}
+           "firmware_version": "1.0.8", "step_zero": "0", "step_direction": "-1"}
 
 
 @pytest.mark.parametrize("option, fmt", [(option, fmt) for option, formats in _APPLIES_TO.items()

@@ -1148,6 +1148,24 @@ ISSUE31_CASES = [
 ]
 CASES += ISSUE31_CASES
 
+# task klipper-dir: --step-direction (Klipper only: which way the stepper's positive steps turn the reference)
+STEP_DIRECTION_CASES = [
+    Case("export-klipper-step-direction-0", ("export", "{model}", "--format", "klipper", "--step-zero", "0",
+                                             "--step-direction", "0", "-o", "{out}/k.cfg"), 2),
+    Case("export-klipper-step-direction-word", ("export", "{model}", "--format", "klipper", "--step-zero", "0",
+                                                "--step-direction", "reversed", "-o", "{out}/k.cfg"), 2),
+    Case("export-klipper-step-direction-without-step-zero", ("export", "{model}", "--format", "klipper",
+                                                             "--step-direction", "-1", "-o", "{out}/k.cfg"), 2),
+    Case("export-mechaduino-step-direction", ("export", "{model}", "--format", "mechaduino", "--bits", "14",
+                                              "--step-zero", "0", "--step-direction", "-1", "-o", "{out}/m.c"), 2),
+    Case("export-moteus-step-direction", ("export", "{model}", "--format", "moteus", "--step-direction", "-1",
+                                          "-o", "{out}/m.cfg"), 2),
+    Case("export-klipper-step-direction-accepted", ("export", "{model}", "--format", "klipper", "--step-zero", "0.9",
+                                                    "--step-direction", "-1", "-o", "{scratch}/k_against.cfg"), 0,
+         prints=("round trip", "--step-direction -1")),
+]
+CASES += STEP_DIRECTION_CASES
+
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
 _DRIVER = r'''

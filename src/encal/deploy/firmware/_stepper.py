@@ -5,7 +5,9 @@ from the list index (``index & 3``), Mechaduino commutates with the table's angl
 A table is right only in the frame of a full step at driver phase 0 (electrical zero). A calibration's
 reference zero is arbitrary (the mean error is removed from step calibrations, a reference encoder has
 its own zero), so encal is told where that step sits: ``step_zero_deg``, the reference angle (degrees)
-of a full step at driver phase 0.
+of a full step at driver phase 0. Klipper's list also runs in the stepper's positive direction, which encal
+is told against the reference's: ``step_direction`` (Mechaduino's own calibration fixes its direction: forward
+steps count the encoder up).
 """
 
 import numpy as np
