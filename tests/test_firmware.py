@@ -372,30 +372,33 @@ def klipper_new_angle(calibration, reversed_, angle):
     return -new_angle if reversed_ else new_angle
 
 
+@pytest.mark.parametrize("direction", [1, -1])  # task klipper-dir: the stepper's positive steps raise or lower
 @pytest.mark.parametrize("kind", ["fourier", "lut"])
-def test_klipper_round_trip(kind):
+def test_klipper_round_trip(kind, direction):
     comp = model(kind)
-    out = export_klipper(comp, full_steps=200, step_zero_deg=0.9)
+    out = export_klipper(comp, full_steps=200, step_zero_deg=0.9, step_direction=direction)
     assert out.text.startswith("calibrate:\n")
     angles = [float(v) for v in out.text.split(":", 1)[1].replace("\n", " ").split(",")]
     assert len(angles) == 200
     calibration, reversed_ = klipper_calibration(angles)
+    assert reversed_ == (direction == -1)  # the sensor counts with the reference: against a stepper turning back
     phase_offset = (angles.index(min(angles)) & 3) * 65536 / 200  # angle_phase_offset
     new = np.array([klipper_new_angle(calibration, reversed_, a) for a in range(65536)])
     position = (new + phase_offset) * (360 / 65536)
     # the stepper's position from step 0 (at 0.9 deg of the reference), modulo the driver's 4-step cycle
-    gap = ((position - (comp.correct(np.arange(65536) * 360 / 65536) - 0.9) + 3.6) % 7.2 - 3.6) * 60
+    stepper = direction * (comp.correct(np.arange(65536) * 360 / 65536) - 0.9)
+    gap = ((position - stepper + 3.6) % 7.2 - 3.6) * 60
     assert np.max(np.abs(gap)) == pytest.approx(out.max_error_arcmin, rel=1e-9)
     assert np.sqrt(np.mean(gap**2)) == pytest.approx(out.rms_error_arcmin, rel=1e-9)
     # what 64 buckets lose: under the profile's own size
     assert out.max_error_arcmin < 0.5 * np.ptp(comp.predict(np.arange(0, 360, 0.1)))
     cal = read_klipper(out.text)
     assert len(cal) == 200
-    # the list starts at a multiple of 4 steps from step 0: its index i is at 0.9 + (i + 4k) * 1.8 deg
-    shift = (cal.encoder_deg - cal.reference_deg - 0.9 + 180) % 360 - 180
+    # the list starts at a multiple of 4 steps from step 0: its index i is at 0.9 + direction * (i + 4k) * 1.8 deg
+    readings = cal.reading_sign * np.asarray(cal.encoder_deg)
+    shift = (direction * (comp.correct(readings) - 0.9) - cal.reference_deg + 180) % 360 - 180
     k4 = np.round(np.median(shift) / 7.2) * 7.2
-    residual = (cal.errors_arcmin - comp.predict(cal.encoder_deg)) - (0.9 + k4) * 60
-    assert np.max(np.abs(residual)) < 1.01 * 0.05 * 21600 / 65536  # "%.1f" of 16-bit units (times the slope)
+    assert np.max(np.abs(shift - k4)) * 60 < 1.01 * 0.05 * 21600 / 65536  # "%.1f" of 16-bit units (times the slope)
 
 
 def test_klipper_list_starts_as_angle_calibrate_orders_it():
