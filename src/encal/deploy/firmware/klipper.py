@@ -20,8 +20,9 @@ sensor counting against that direction is Klipper's to handle (the reversed list
 way the stepper turns the *reference* only the user knows. encal writes the angle the sensor reads at each
 full step ``step_zero + d * i * 360 / steps`` of the reference (the model inverted), with ``step_zero`` the
 reference angle of a full step at driver phase 0 and ``d`` the step direction, 1 when the stepper's positive
-steps raise the reference angle, -1 when they lower it; it rotates the list as ``ANGLE_CALIBRATE`` does. It reads back a list, a config section holding one, or the ``#*#``
-``SAVE_CONFIG`` block of a ``printer.cfg``, as a calibration.
+steps raise the reference angle, -1 when they lower it; it rotates the list as ``ANGLE_CALIBRATE`` does.
+It reads back a list, a config section holding one, or the ``#*#`` ``SAVE_CONFIG`` block of a
+``printer.cfg``, as a calibration.
 """
 
 import re
