@@ -25,7 +25,7 @@ def run(capsys, *args):
     ("moteus", ["--source", "2"], "\nmotor_position.sources.2.compensation_table.0 "),
     ("moteus", ["--source", "2", "--moteus-style", "console"],
      "conf set motor_position.sources.2.compensation_table.0 "),
-    ("klipper", ["--full-steps", "400", "--step-zero", "0.9"], "calibrate:"),
+    ("klipper", ["--full-steps", "400", "--step-zero", "0.9", "--step-direction", "1"], "calibrate:"),
     ("mechaduino", ["--bits", "14", "--step-zero", "0"], "lookup[16384]"),
     ("tinymovr", ["--bits", "13"], "int32_t rec_table[64]"),
     ("tinymovr", ["--bits", "24"], "int32_t rec_table[64]"),
@@ -55,7 +55,7 @@ def test_import_round_trips(tmp_path, capsys):
     theta = np.arange(0.0, 360.0, 0.5)
     reread = encal.load_model(tmp_path / "m.json")
     assert np.max(np.abs(reread.predict(theta) - encal.load_model(MODEL).predict(theta))) < 0.05
-    run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "-o", tmp_path / "k.cfg")
+    run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "--step-direction", "1", "-o", tmp_path / "k.cfg")
     status, out, _ = run(capsys, "import", "klipper", tmp_path / "k.cfg", "-o", tmp_path / "k.csv")
     assert status == 0 and "200 points" in out and len(encal.read_calibration(tmp_path / "k.csv")) == 200
 
@@ -78,16 +78,20 @@ def test_step_zero_is_required_for_the_stepper_firmwares_and_only_for_them(tmp_p
 
 def test_klipper_step_direction_writes_the_list_for_a_stepper_against_the_reference(tmp_path, capsys):
     # task klipper-dir: the same list as the API's, whose round trip through Klipper's own code is tested in
-    # tests/test_firmware_own_klipper_mechaduino.py; the default is the stepper turning with the reference
+    # tests/test_firmware_own_klipper_mechaduino.py; without --step-direction the export is refused
     from encal.deploy.firmware import export_klipper
 
-    for extra, direction in (([], 1), (["--step-direction", "-1"], -1), (["--step-direction", "1"], 1)):
+    for extra, direction in ((["--step-direction", "-1"], -1), (["--step-direction", "1"], 1)):
         path = tmp_path / f"k{direction}{len(extra)}.cfg"
         status, out, _ = run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0.9", *extra, "-o", path)
         assert status == 0 and f"--step-direction {direction})" in out
         assert path.read_text() == export_klipper(encal.load_model(MODEL), step_zero_deg=0.9,
                                                   step_direction=direction).text
-    assert (tmp_path / "k-12.cfg").read_text() != (tmp_path / "k10.cfg").read_text()
+    assert (tmp_path / "k-12.cfg").read_text() != (tmp_path / "k12.cfg").read_text()
+    with pytest.raises(SystemExit) as info:
+        run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0.9", "-o", tmp_path / "x")
+    assert info.value.code == 2 and "needs --step-direction 1 or -1" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
     for bad in ("0", "+2", "down", "-1.0"):
         with pytest.raises(SystemExit) as info:
             run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "--step-direction", bad,

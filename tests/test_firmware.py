@@ -405,7 +405,7 @@ def test_klipper_list_starts_as_angle_calibrate_orders_it():
     # the sensor's zero 3 deg ahead: the step at 358.2 deg reads past the wrap; Klipper's reverse test
     # angles[-2] > angles[-1] would read the list backwards (issue 26: RMS 1171 arcmin with exit 0)
     comp = Compensator(FourierModel([0, 1], [180.0, 20.0], [0.0, 0.0], encoder={"resolution_bits": 16}))
-    out = export_klipper(comp, step_zero_deg=0.0)
+    out = export_klipper(comp, step_zero_deg=0.0, step_direction=1)
     angles = [float(v) for v in out.text.split(":", 1)[1].replace("\n", " ").split(",")]
     assert angles.index(min(angles)) < 4 and angles[-2] < angles[-1]
     assert out.rms_error_arcmin < 1.0
@@ -413,7 +413,7 @@ def test_klipper_list_starts_as_angle_calibrate_orders_it():
 
 def test_klipper_needs_a_stepper_of_whole_electrical_cycles():
     with pytest.raises(InputError, match="multiple of 4"):
-        export_klipper(model("fourier"), full_steps=202, step_zero_deg=0.0)
+        export_klipper(model("fourier"), full_steps=202, step_zero_deg=0.0, step_direction=1)
 
 
 def test_klipper_list_in_a_config_section(tmp_path):

@@ -69,7 +69,7 @@ def test_klipper_list_for_a_stepper_turning_against_the_reference_needs_the_step
     # task klipper-dir: the stepper's positive steps lower the reference angle (its dir_pin the other way);
     # the list written as before (step_direction 1) runs the stepper's angle backwards through Klipper's own code
     comp = klipper_own.model_for(16, False, 2.5)
-    before = export_klipper(comp, step_zero_deg=0.9)
+    before = export_klipper(comp, step_zero_deg=0.9, step_direction=1)
     rms, _, phase, _ = klipper_own.measure(comp, 16, 0.9, before.text, -1)
     assert rms > 100.0 and phase > 1.9  # 125 arcmin RMS (modulo 4 full steps), 2 full steps off
     case = klipper_own.run_case(comp, 16, 0.9, "", -1)
@@ -91,10 +91,13 @@ def test_klipper_list_is_the_one_klipper_own_angle_calibrate_measures(tmp_path, 
 
 def test_klipper_step_direction_is_one_or_minus_one():
     comp = klipper_own.model_for(16, False, 0.0)
-    for bad in (0, 2, True, 1.5, "-1", None):
+    for bad in (0, 2, True, 1.5, "-1"):
         with pytest.raises(InputError, match=r"'step_direction' parameter of export_klipper must be 1 or -1") as info:
             export_klipper(comp, step_zero_deg=0.0, step_direction=bad)
         assert one_sentence(str(info.value)), str(info.value)
+    with pytest.raises(InputError, match=r"pass --step-direction 1 if they raise .* or -1 if they lower") as info:
+        export_klipper(comp, step_zero_deg=0.0)  # required: the calibration does not say which way the stepper ran
+    assert one_sentence(str(info.value)), str(info.value)
 
 
 @needs_klipper
@@ -110,7 +113,7 @@ def test_klipper_phase_is_wrong_when_index_0_is_not_at_driver_phase_0(tmp_path):
     # the harness sees the fault the option fixes: step 0 is at 1.8 deg, and the list was written for 0
     comp = klipper_own.model_for(16, False, 0.0)
     path = tmp_path / "printer.cfg"
-    path.write_text(klipper_own.printer_cfg(export_klipper(comp, step_zero_deg=0.0).text))
+    path.write_text(klipper_own.printer_cfg(export_klipper(comp, step_zero_deg=0.0, step_direction=1).text))
     calibration, _ = klipper_own.load_klipper(path)
     readings = klipper_own.step_readings_of(comp, 1.8 + np.arange(200) * 1.8)
     assert np.allclose(klipper_own.phase_errors(calibration, readings), 1.0, atol=0.02)  # a full step off
@@ -130,7 +133,7 @@ def test_klipper_written_angle_near_65536_is_read_by_klipper_as_the_line_it_is(t
         pytest.fail("no step zero puts a step within half a unit of 65536")
     case = klipper_own.run_case(comp, 16, step_zero, "")
     assert_klipper_case(case)
-    text = export_klipper(comp, step_zero_deg=step_zero).text
+    text = export_klipper(comp, step_zero_deg=step_zero, step_direction=1).text
     below = re.search(r"-0\.\d", text).group(0)  # written below 0, extrapolated from bucket 0
     as_is = text.replace(below, f"{65536 + float(below):.1f}")
     assert case.row.measured_rms < 0.95 * klipper_own.measure(comp, 16, step_zero, as_is)[0]
@@ -154,7 +157,7 @@ def test_klipper_save_config_block_imports_whole_and_round_trips(tmp_path, rever
     assert klipper_phase_offset(list(values)) == calibration.angle_phase_offset
     # fitted and exported back with step 0 at the list's index 0: Klipper derives the stepper's phase
     model = fit(cal, "fourier", orders=[0, 1, 2, 3])
-    again = export_klipper(model, step_zero_deg=0.0)
+    again = export_klipper(model, step_zero_deg=0.0, step_direction=1)
     path.write_text(klipper_own.printer_cfg(again.text))
     calibration, _ = klipper_own.load_klipper(path)
     readings = klipper_own.step_readings_of(comp, 0.9 + np.arange(200) * 1.8)

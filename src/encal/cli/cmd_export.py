@@ -22,8 +22,9 @@
                  --firmware-version 1.0.8|1.0.9|uint16 (default 1.0.9).
                  Klipper and Mechaduino need --step-zero DEG: the reference
                  angle of a full step at driver phase 0 (their tables follow the
-                 stepper's phase). Klipper: --step-direction -1 when the
-                 stepper's positive steps lower the reference angle.
+                 stepper's phase). Klipper also needs --step-direction 1|-1:
+                 whether the stepper's positive steps raise or lower the
+                 reference angle.
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
@@ -103,7 +104,8 @@ def add_arguments(parser):
                              "table to the stepper's phase)")
     parser.add_argument("--step-direction", type=int, choices=(1, -1), metavar="{1,-1}",
                         help="klipper: which way the stepper's positive full steps (a positive FORCE_MOVE, dir_pin "
-                             "included) turn the reference: 1 raise its angle (default), -1 lower it")
+                             "included) turn the reference: 1 raise its angle, -1 lower it (required: the "
+                             "calibration does not say, and the wrong way is a list two full steps out of phase)")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -134,7 +136,7 @@ _APPLIES_TO = {
 }
 #: the defaults of the options above, applied once the formats are checked
 _DEFAULTS = {"target": "host", "form": "table", "name": "encal", "table": False, "constants": "auto",
-             "source": 0, "moteus_style": "restore", "full_steps": 200, "step_direction": 1}
+             "source": 0, "moteus_style": "restore", "full_steps": 200}
 
 
 def _check_applies(args):
@@ -169,6 +171,10 @@ def _check_combinations(args):
         _usage_error(f"--format {args.format} needs --step-zero DEG: the reference angle of a full step at driver "
                      "phase 0 (electrical zero), as the table is tied to the stepper's phase (0 for a model fitted "
                      "to a calibration imported from that firmware)")
+    if args.step_direction is None and args.format == "klipper":
+        _usage_error("--format klipper needs --step-direction 1 or -1: which way the stepper's positive full steps "
+                     "(a positive FORCE_MOVE, dir_pin included) turn the reference, 1 if they raise its angle, -1 if "
+                     "they lower it (1 for a model fitted to a calibration imported from Klipper)")
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")

@@ -33,6 +33,11 @@ def check_step_direction(step_direction, caller):
     """``step_direction`` as the int 1 or -1: which way the stepper's positive full steps turn the reference."""
     from ..._core.parameters import invalid
 
+    if step_direction is None:
+        raise InputError(
+            f"{caller} needs the way the stepper's positive full steps turn the reference, got none; pass "
+            "--step-direction 1 if they raise the reference angle or -1 if they lower it (step_direction= in "
+            f"{caller})")
     if isinstance(step_direction, bool) or step_direction not in (1, -1):
         raise invalid("step_direction", caller, "1 or -1 (1: the stepper's positive full steps raise the reference "
                       "angle, -1: they lower it)", step_direction)

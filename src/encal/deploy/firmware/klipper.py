@@ -109,7 +109,7 @@ def step_readings(comp, reference_deg):
     return reading
 
 
-def export_klipper(model, *, full_steps=200, step_zero_deg=None, step_direction=1, bits=None):
+def export_klipper(model, *, full_steps=200, step_zero_deg=None, step_direction=None, bits=None):
     """The ``calibrate:`` option of Klipper's ``[angle]`` section for a stepper of ``full_steps`` per turn.
 
     Parameters
@@ -120,9 +120,11 @@ def export_klipper(model, *, full_steps=200, step_zero_deg=None, step_direction=
     step_zero_deg : float
         The reference angle, degrees, of a full step at driver phase 0 (electrical zero); the list's
         index 0 is that step. Required: Klipper reads the driver phase from the index.
-    step_direction : {1, -1}, default=1
+    step_direction : {1, -1}
         Which way the stepper's positive full steps (Klipper's mcu position rising: a positive
         ``FORCE_MOVE``, ``dir_pin`` inversion included) turn the reference: 1 raise its angle, -1 lower it.
+        Required: the calibration does not say which way the stepper turned, and the wrong one gives a list
+        two full steps out of phase.
         The list's index ``i`` is the full step at reference angle ``step_zero_deg + step_direction * i *
         360 / full_steps``.
     bits : int, optional
@@ -140,7 +142,7 @@ def export_klipper(model, *, full_steps=200, step_zero_deg=None, step_direction=
     Raises
     ------
     InputError
-        Without ``step_zero_deg``, or when that round trip is not far smaller than the correction
+        Without ``step_zero_deg`` or ``step_direction``, or when that round trip is not far smaller than the correction
         (:func:`~encal.deploy.firmware._common.checked`).
     """
     full_steps = check_full_steps(full_steps, "export_klipper")
@@ -199,7 +201,7 @@ def read_klipper(source_text, *, name=None):
     Calibration
         ``reference_deg = i * 360 / steps``: the list index is the stepper's full step from one at driver
         phase 0, in its positive direction, so a model fitted to it is exported back with ``step_zero_deg=0``
-        (and the default ``step_direction=1``). ``encoder_deg`` the
+        (and ``step_direction=1``). ``encoder_deg`` the
         sensor angle at step ``i``; for a list Klipper reads as reversed (``angles[-2] > angles[-1]``),
         ``reading_sign`` -1 and the negated angles (as :func:`~encal.read_calibration` with ``reverse``).
 
