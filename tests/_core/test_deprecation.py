@@ -31,6 +31,10 @@ MOVED = {
     "encal.studies.sweep": ("hidden_node_sweep", "encal.paper.studies.sweep"),
     "encal.studies.tables": ("Table", "encal.paper.studies.tables"),
     "encal.arcs": ("arc_of", "encal._core.arcs"),
+    "encal.selfcal.simulate": ("make_motor", "encal.selfcal.synthetic"),
+    "encal.selfcal.simulate.encoder": ("draw_magnetic_encoder", "encal.selfcal.synthetic.encoder"),
+    "encal.selfcal.simulate.motor": ("simulate_spin", "encal.selfcal.synthetic.motor"),
+    "encal.selfcal.simulate.stepper": ("simulate_steps", "encal.selfcal.synthetic.stepper"),
 }
 
 
@@ -51,6 +55,20 @@ def test_from_import_of_an_old_path_warns_and_names_the_public_place_when_there_
         from encal.calibration import check_folds
     assert read_calibration is importlib.import_module("encal").read_calibration
     assert check_folds is importlib.import_module("encal.data.calibration").check_folds
+
+
+def test_an_old_folder_left_behind_does_not_hide_the_new_place(tmp_path, monkeypatch):
+    # After a pull that moved selfcal/simulate, its folder stays with only __pycache__ in an editable checkout.
+    import sys
+
+    import encal.selfcal
+
+    (tmp_path / "simulate" / "__pycache__").mkdir(parents=True)
+    monkeypatch.setattr(encal.selfcal, "__path__", [*encal.selfcal.__path__, str(tmp_path)])
+    monkeypatch.delitem(sys.modules, "encal.selfcal.simulate", raising=False)
+    module = importlib.import_module("encal.selfcal.simulate")
+    with pytest.warns(DeprecationWarning, match="import make_motor from encal.selfcal.synthetic instead"):
+        assert module.make_motor is importlib.import_module("encal.selfcal.synthetic").make_motor
 
 
 def test_an_old_path_says_which_name_it_lacks():

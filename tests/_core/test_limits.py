@@ -19,7 +19,7 @@ from encal.deploy import runtime
 from encal._core.errors import InputError, ModelFileError
 from encal.models.ann import ANNModel
 
-from conftest import grid_csv
+from tests.conftest import grid_csv
 
 
 @pytest.fixture

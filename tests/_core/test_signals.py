@@ -21,7 +21,7 @@ from encal._core import atomic as _atomic, signals as _signals
 from encal.cli import main
 from encal.models.fourier import FourierModel
 
-from conftest import grid_csv
+from tests.conftest import grid_csv
 
 PYTHON = [sys.executable, "-m", "encal"]
 

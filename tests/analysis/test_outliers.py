@@ -115,7 +115,7 @@ def test_each_direction_is_judged_on_its_own(tmp_path):
 def test_identical_repeated_rows_are_no_misreads(write_csv):
     """Identical repeated rows are accepted (docs/robustness.md); their zero steps once shrank the typical
     step until smooth points were called misreads (issue 17, item 12)."""
-    from conftest import grid_csv
+    from tests.conftest import grid_csv
 
     lines = grid_csv(error=lambda r: (2 * np.sin(np.radians(r)) + 0.3 * np.sin(np.radians(16 * r))) / 60).splitlines()
     rows = [lines[0]] + [line for line in lines[1:121] for _ in range(3)] + lines[121:]

@@ -5,15 +5,14 @@ import select
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from encal.cli import main
 from encal.deploy import Compensator
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 MODEL = DATA / "model_v1_fourier.json"
 ENCAL = [sys.executable, "-m", "encal"]
 
@@ -235,11 +234,10 @@ def test_ten_million_lines_in_constant_memory(compensator):
 
 def test_direction_option_selects_a_directional_models_part(tmp_path, capsys):
     """`--direction` corrects with one direction's model; without it, the mean of both."""
-    from pathlib import Path
 
     import encal
 
-    model_path = Path(__file__).parent / "data" / "model_v1_directional.json"
+    model_path = DATA / "model_v1_directional.json"
     model = encal.load_model(model_path)
     angles = tmp_path / "a.txt"
     theta = [0.0, 10.5, 123.25, 359.9]

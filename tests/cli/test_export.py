@@ -9,8 +9,8 @@ import pytest
 from encal.cli import main
 from encal.deploy import Compensator, compile_table, load_table
 from encal.models.fourier import FourierModel
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 MODEL = DATA / "model_v1_lut.json"
 
 

@@ -1,14 +1,12 @@
 """`encal export --format <firmware>` and `encal import`: firmware formats from the command line."""
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 import encal
 from encal.cli import main
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 MODEL = DATA / "model_v1_lut.json"
 
 

@@ -7,10 +7,10 @@ from encal.data.calibration import read_calibration
 from encal.cli import build_parser, main
 from encal.deploy import load_model
 from encal.selfcal.moteus_capture import write_moteus_capture
-from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_spin, simulate_sweep
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin, simulate_sweep
 from encal.selfcal.spin import SpinLog
 from encal.selfcal.spin_log import write_spin_log
-from selfcal_truth import GRID, rms, truth_at_orders
+from tests.selfcal_truth import GRID, rms, truth_at_orders
 
 ENCODER = draw_magnetic_encoder(31, eccentricity_deg=1.0)
 
@@ -88,7 +88,7 @@ def test_missing_method_is_a_usage_error(capsys):
 
 def test_steps_with_two_calibrations_writes_the_calibration_and_the_stepper(tmp_path, capsys):
     from encal.data.calibration import write_calibration
-    from encal.selfcal.simulate import draw_stepper, simulate_steps
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
 
     stepper = draw_stepper(4)
     paths = []
@@ -109,7 +109,7 @@ def test_steps_with_two_calibrations_writes_the_calibration_and_the_stepper(tmp_
 
 def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
     from encal.data.calibration import write_calibration
-    from encal.selfcal.simulate import draw_stepper, simulate_steps
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
 
     path = tmp_path / "a.csv"
     write_calibration(path, simulate_steps(draw_stepper(4), ENCODER, rng=1).calibration)

@@ -12,8 +12,8 @@ import encal.cli
 from encal.cli import COMMANDS, build_parser
 from encal.deploy import Compensator
 from encal.models import kind_names
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 
 #: Runs main() on the arguments after the first and writes the names of the modules it imported
 #: (of SciPy, Matplotlib and encal) to the file named by the first.

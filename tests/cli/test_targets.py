@@ -1,14 +1,13 @@
 """`encal export --format c --target cortex-m4f|fixed`: compact tables from the command line."""
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 import encal
 from encal.cli import main
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 MODEL = DATA / "model_v1_fourier.json"
 
 

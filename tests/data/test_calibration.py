@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose, assert_array_equal
 
-from conftest import grid_csv
+from tests.conftest import grid_csv
 from encal import Calibration, CalibrationError, read_calibration, write_calibration
 from encal._core.errors import EncalWarning
 

@@ -2,7 +2,6 @@
 the resolution inferred from the readings; each of the README's three kinds of file with one command."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +9,8 @@ import pytest
 from encal import read_calibration
 from encal.cli import main
 from encal._core.errors import CalibrationError
+from tests._paths import EXAMPLES
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 STEPPER = ["--ref-col", "step_deg", "--enc-col", "counts", "--enc-unit", "counts:14"]
 MOTOR = ["--ref-col", "commanded_rev", "--enc-col", "measured_rev", "--unit", "rev"]
 #: RMS of the examples' profile 9 sin + 6 cos 2θ + 2.5 sin 4θ (arcmin)

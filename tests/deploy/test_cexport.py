@@ -15,7 +15,6 @@ import json
 import re
 import shutil
 import subprocess
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -27,8 +26,8 @@ from encal._core.errors import InputError
 from encal.models.ann import fit_ann
 from encal.models.fourier import FourierModel
 from encal.models.lut import fit_lut
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 GCC = shutil.which("gcc")
 CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-Wshadow",
           "-Wdouble-promotion", "-Wconversion", "-O2"]

@@ -1,7 +1,6 @@
 """Compact periodic tables: node fit, quantisation, stated deployed error, cheapest choice."""
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,8 +10,8 @@ from encal.deploy.compact import (BAM_ARCMIN, CompactTable, choose_compact, comp
 from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
 from encal.models.lut import LookupTableModel
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 BITS = 16
 
 

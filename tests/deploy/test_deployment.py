@@ -1,7 +1,6 @@
 """Cost-aware choice: the cheapest deployment within a tolerance, the most accurate within a budget."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +9,8 @@ from encal.cli import main
 from encal.deploy.deployment import candidates, choose_deployment, parse_budget
 from encal.deploy.targets import export_target
 from encal._core.errors import InputError
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 FOURIER = DATA / "model_v1_fourier.json"
 
 

@@ -9,7 +9,6 @@ klippy/extras/angle.py (load_calibration, apply_calibration), Mechaduino Control
 
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +19,8 @@ from encal.deploy.firmware import (export_klipper, export_mechaduino, export_mot
                                    read_mechaduino, read_moteus_conf, read_simplefoc, read_tinymovr)
 from encal._core.errors import CalibrationError, EncalError, InputError
 from encal.models.fourier import FourierModel
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 KINDS = ["fourier", "lut", "ann", "stack"]
 
 

@@ -2,7 +2,6 @@
 
 import struct
 import zlib
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +9,8 @@ import pytest
 from encal.deploy import Compensator, CorrectionTable, compile_table, load_table, save_table
 from encal._core.errors import InputError, ModelFileError
 from encal.models.fourier import FourierModel
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 FILES = {"fourier": DATA / "model_v1_fourier.json", "lut": DATA / "model_v1_lut.json",
          "lut_linear": DATA / "model_v1_lut_linear.json",
          "directional": DATA / "model_v1_directional.json"}

@@ -24,8 +24,8 @@ from encal.deploy.series32 import fourier_float32, fourier_terms
 from encal.deploy.targets import export_target, write_target
 from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 GCC = shutil.which("gcc")
 ARM_GCC = shutil.which("arm-none-eabi-gcc")
 ARM_OBJDUMP = shutil.which("arm-none-eabi-objdump")

@@ -13,6 +13,7 @@ from encal.models.fourier import FourierModel
 from encal.models.modelfile import dumps, model_to_dict
 from encal.simulate import simulate_fleet
 from encal.store import open_store
+from tests._paths import SRC
 
 
 def _fourier_json(cos, sin):
@@ -181,14 +182,13 @@ def test_an_interrupted_batch_resumes_and_stores_every_unit_once(tmp_path):
     import subprocess
     import sys
     import time
-    from pathlib import Path
 
     folder = tmp_path / "lot"
     folder.mkdir()
     for member in simulate_fleet(40, seed=9):
         write_calibration(folder / f"SN{member.name[3:]:>04}.csv", member.train.calibration)
     store = folder / "encal-store.sqlite"
-    environment = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    environment = {**os.environ, "PYTHONPATH": str(SRC)}
     command = [sys.executable, "-m", "encal", "fleet", "fit", str(folder), "--jobs", "1"]
     process = subprocess.Popen(command, env=environment, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120

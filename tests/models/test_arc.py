@@ -2,7 +2,6 @@
 
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,8 +14,7 @@ from encal.deploy import Compensator, compile_table
 from encal._core.errors import InputError, ModelFileError
 from encal.models.arc import fit_arc
 from encal.models.modelfile import load_model, model_to_dict
-
-DATA = Path(__file__).resolve().parent / "data"
+from tests._paths import DATA
 
 
 def truth(theta_deg):

@@ -11,6 +11,7 @@ from encal.models._table import TABLE_MIN_ANGLES, TABLE_TOLERANCE_ARCMIN, series
 from encal.models.base import in_chunks
 from encal.models.fourier import FourierModel
 from encal.models.spectral import SpectralModel
+from tests._paths import DATA
 
 
 def _exact(model, theta):
@@ -92,11 +93,9 @@ def test_lookup_table_model_within_the_bound(interpolation):
 
 @pytest.mark.parametrize("name", ["ann", "hybrid", "stack", "lut", "fourier", "spectral"])
 def test_every_stored_kind_within_the_bound(name):
-    from pathlib import Path
-
     from encal.deploy import load_model
 
-    model = load_model(Path(__file__).parent / "data" / f"model_v1_{name}.json")
+    model = load_model(DATA / f"model_v1_{name}.json")
     theta = np.random.default_rng(5).uniform(0.0, 360.0, TABLE_MIN_ANGLES * 2)
     fast = model.correct(theta, table=True)
     if name != "lut" or model.interpolation == "cubic":
@@ -105,11 +104,9 @@ def test_every_stored_kind_within_the_bound(name):
 
 
 def test_raw_network_has_no_table():
-    from pathlib import Path
-
     from encal.deploy import load_model
 
-    model = load_model(Path(__file__).parent / "data" / "model_v1_ann.json")
+    model = load_model(DATA / "model_v1_ann.json")
     model.encoding = "raw"  # the raw encoding jumps at 0/360 degrees: no bound on f''
     assert model._table_bound() is None and model._correction_table() is None
 

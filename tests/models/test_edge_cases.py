@@ -11,7 +11,6 @@ Networks train for a few epochs only (the suite must stay fast), so their bounds
 closed-form families must be exact where the profile is in their span.
 """
 
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -23,6 +22,7 @@ from encal.deploy import Compensator
 from encal._core.errors import CalibrationError, EncalError
 from encal.models.select import Candidate
 from encal.training import ALGORITHMS
+from tests._paths import DATA
 
 #: auto with a short list of quick candidates (one per family); the default list runs in
 #: test_auto_with_default_candidates.
@@ -251,7 +251,7 @@ def test_the_outside_attacks_api_cases_are_encal_errors():
 
     import encal
 
-    model = encal.load_model(Path(__file__).parent / "data" / "model_v1_fourier.json")
+    model = encal.load_model(DATA / "model_v1_fourier.json")
     with pytest.raises(encal.InputError, match="finite numbers of degrees"):
         model.correct(10**400)
     with pytest.raises(encal.InputError, match="must be a SimulatedRun"):

@@ -3,7 +3,6 @@
 import json
 import math
 import struct
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,8 +18,8 @@ from encal._core.errors import InputError, ModelFileError
 from encal.models.base import Model
 from encal.models.fourier import FourierModel
 from encal.models.lut import fit_lut
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 V1_FILES = sorted(DATA.glob("model_v1_*.json"))
 EXPECTED = DATA / "expected_v1.json"
 V3_FILES = sorted(DATA.glob("model_v3_*.json"))

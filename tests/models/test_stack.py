@@ -244,7 +244,7 @@ def test_c_directional_with_stacked_parts_agrees_to_1e9_arcmin(tmp_path, directi
 @pytest.mark.parametrize("name, constants", [("two_fourier", "float"), ("every_kind", "auto"),
                                              ("directional", "auto")])
 def test_c_float_api_agrees_within_the_float32_budget(request, tmp_path, name, constants):
-    # The tolerances of tests/test_cexport.py: float32 constants, then the float32 return value.
+    # The tolerances of tests/deploy/test_cexport.py: float32 constants, then the float32 return value.
     model = two_fourier() if name == "two_fourier" else request.getfixturevalue(name)
     comp = Compensator(model)
     files = write_c(comp, tmp_path, prefix="flt", constants=constants)

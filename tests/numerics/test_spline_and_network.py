@@ -4,7 +4,6 @@ without the optimisers."""
 import json
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,9 +13,9 @@ from numpy.testing import assert_allclose
 
 from encal._core.errors import InputError
 from encal.numerics.spline import periodic_smoothing_spline
+from tests._paths import DATA
 
 GRID = np.arange(0.0, 360.0, 2.0)
-DATA = Path(__file__).resolve().parent / "data"
 
 
 def profile(theta_deg):

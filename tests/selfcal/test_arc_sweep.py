@@ -7,7 +7,7 @@ from encal.cli import main
 from encal._core.errors import InputError
 from encal.selfcal.arc_sweep import arc_sweep
 from encal.selfcal.moteus_capture import write_moteus_capture
-from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_sweep
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_sweep
 
 ENCODER = draw_magnetic_encoder(21, eccentricity_deg=1.5)
 

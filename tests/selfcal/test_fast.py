@@ -9,7 +9,7 @@ import pytest
 
 from encal.data.calibration import read_calibration
 from encal.cli import main
-from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_spin, simulate_sweep
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin, simulate_sweep
 from encal.selfcal.spin import cubic_bspline_design
 from encal.selfcal.spin_log import read_spin_log
 from encal.selfcal.sweep_log import read_sweep_log

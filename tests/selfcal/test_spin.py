@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from encal._core.errors import InputError
-from encal.selfcal.simulate import MagneticEncoder, draw_magnetic_encoder, make_motor, simulate_spin
+from encal.selfcal.synthetic import MagneticEncoder, draw_magnetic_encoder, make_motor, simulate_spin
 from encal.selfcal.spin import SpinLog, motor_ripple_orders, spin
-from selfcal_truth import GRID, rms, truth_at_orders
+from tests.selfcal_truth import GRID, rms, truth_at_orders
 
 ENCODER = draw_magnetic_encoder(11, eccentricity_deg=1.0)
 #: a 12-slot 14-pole motor with an unbalanced load: torque ripple of order 1, 12, 14, 84, 168

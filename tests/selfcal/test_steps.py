@@ -1,20 +1,19 @@
 """Full-step self-calibration and the shift method, against the simulator's truth and on the real Mechaduino data."""
 
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from encal.data.calibration import Calibration, read_calibration
 from encal._core.errors import InputError
-from encal.selfcal.simulate import draw_magnetic_encoder, draw_stepper, simulate_steps
+from encal.selfcal.synthetic import draw_magnetic_encoder, draw_stepper, simulate_steps
 from encal.selfcal.steps import step_errors, steps
-from selfcal_truth import GRID, rms, truth_at_orders
+from tests.selfcal_truth import GRID, rms, truth_at_orders
+from tests._paths import REAL_MECHADUINO as REAL
 
 ENCODER = draw_magnetic_encoder(5, eccentricity_deg=0.5)
 STEPPER = draw_stepper(6)
-REAL = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "mechaduino"
 
 
 def _pair(turn, start_b=0):

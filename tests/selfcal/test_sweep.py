@@ -5,9 +5,9 @@ import pytest
 
 from encal._core.errors import InputError
 from encal.selfcal.moteus_capture import read_moteus_capture, write_moteus_capture
-from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_sweep
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_sweep
 from encal.selfcal.sweep import sweep, sweep_capture
-from selfcal_truth import GRID, rms, truth_at_orders
+from tests.selfcal_truth import GRID, rms, truth_at_orders
 
 ENCODER = draw_magnetic_encoder(21, eccentricity_deg=1.5)
 

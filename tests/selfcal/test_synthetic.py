@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from encal.selfcal.simulate import (MagneticEncoder, draw_magnetic_encoder, draw_stepper, make_motor, simulate_spin,
+from encal.selfcal.synthetic import (MagneticEncoder, draw_magnetic_encoder, draw_stepper, make_motor, simulate_spin,
                                     simulate_steps, simulate_sweep)
 
 

@@ -10,14 +10,14 @@ import subprocess
 import sys
 import textwrap
 import uuid
-from pathlib import Path
 
 import pytest
 
 from encal._core.errors import InputError
 from encal.store import GRADE_NONE, grade_of, open_store, parse_grades
+from tests import _paths
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+SRC = str(_paths.SRC)
 
 
 def _postgres_url():

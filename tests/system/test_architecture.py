@@ -10,9 +10,9 @@ imports inside functions, ``importlib.import_module("encal.x")`` calls, and tabl
 """
 
 import ast
-from pathlib import Path
+from tests._paths import SRC, TESTS
 
-PACKAGE_ROOT = Path(__file__).resolve().parents[1] / "src" / "encal"
+PACKAGE_ROOT = SRC / "encal"
 
 #: encal's layers from the bottom up, each a name and its packages (``docs/architecture.md``, "The layers").
 LAYERS = (
@@ -29,6 +29,10 @@ LAYERS = (
     ("command line", ("encal.cli",)),
     ("entry points", ("encal", "encal.__main__")),
 )
+
+#: Folders of ``tests/`` that are no package of encal: the tests that cross the layers, and the harnesses that
+#: run the firmwares' own code (``tests/data/`` is both the data package's tests and the model files they read).
+TESTS_BESIDE_THE_TREE = ("system", "deploy/firmware_own")
 
 
 def module_files(root):
@@ -197,3 +201,13 @@ def test_each_package_imports_only_from_the_layers_below_it():
     violations = layer_violations(import_graph(PACKAGE_ROOT), LAYERS)
     assert violations == [], "imports that do not go down the layers (docs/architecture.md):\n" + "\n".join(
         f"{module} -> {target}: {why}" for module, target, why in violations)
+
+
+def test_each_folder_of_tests_mirrors_a_package_of_encal():
+    """A test's path names its layer: ``tests/<package>/`` holds the tests of ``src/encal/<package>/``."""
+    packages = {path.parent.relative_to(PACKAGE_ROOT).as_posix() for path in PACKAGE_ROOT.rglob("__init__.py")}
+    folders = {path.parent.relative_to(TESTS).as_posix() for path in TESTS.rglob("test_*.py")}
+    assert sorted(folders - packages - set(TESTS_BESIDE_THE_TREE) - {"."}) == [], \
+        "a folder of tests/ that mirrors no package of src/encal (docs/architecture.md, 'The tests')"
+    # Test files of the same name in two folders (tests/cli/test_fit.py, ...) need each folder to be a package.
+    assert sorted(folder for folder in folders if not (TESTS / folder / "__init__.py").is_file()) == []

@@ -10,7 +10,6 @@ import json
 import os
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +17,7 @@ import pytest
 import encal
 from encal.cli import main
 from encal.models.select import Candidate
+from tests._paths import REPO
 
 QUICK_AUTO = (
     Candidate("fourier", {"select": "top", "n_orders": 10}),
@@ -147,9 +147,9 @@ def test_cli_fit_is_byte_identical(argv, calibration_path, tmp_path, monkeypatch
 
 
 _FIT_ALL = r'''
-import sys
+import importlib, sys
 sys.path.insert(0, sys.argv[3])
-import test_determinism as t
+t = importlib.import_module(sys.argv[4])
 for key in t.METHODS:
     t._fit_and_save(sys.argv[1], key, f"{sys.argv[2]}/{key}.json", reproducible=True)
 '''
@@ -163,7 +163,7 @@ def two_processes(calibration_path, tmp_path_factory):
         folder = tmp_path_factory.mktemp(f"process{hash_seed}")
         env = dict(os.environ, PYTHONHASHSEED=hash_seed)
         processes.append(subprocess.Popen([sys.executable, "-c", _FIT_ALL, str(calibration_path), str(folder),
-                                           str(Path(__file__).parent)], env=env))
+                                           str(REPO), __name__], env=env))
         folders.append(folder)
     try:
         for process in processes:

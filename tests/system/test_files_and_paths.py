@@ -2,7 +2,7 @@
 ``encal correct`` bounds its lines and never leaves part of a line, spreadsheet exports read as they mean,
 and the Python API refuses what is no path with encal's errors.
 
-The command-line cases are also in the catalogue (tests/test_robustness_cli.py, "issue 25: files and paths");
+The command-line cases are also in the catalogue (tests/system/test_robustness_cli.py, "issue 25: files and paths");
 here are the ones that need a file system trick, a process of their own, or a look at the numbers read.
 """
 

@@ -2,7 +2,7 @@
 
 Each test fails without its fix: a repeat pass that is the calibration itself, an encoder that does not turn once
 per reference turn, a correction that makes the errors larger, a continuous sweep whose reference is a quantised
-encoder, a long spin log (tests/test_selfcal_spin.py), the zero offset a correction leaves.
+encoder, a long spin log (tests/selfcal/test_spin.py), the zero offset a correction leaves.
 """
 
 import warnings

@@ -4,9 +4,8 @@ import re
 import subprocess
 import sys
 import warnings
-from pathlib import Path
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+from tests._paths import README
 
 
 def test_the_readme_python_example_runs_as_written(tmp_path, monkeypatch):

@@ -1,7 +1,6 @@
 """The encoder resolution from the readings: inferred, recorded in the model file, printed, overridden."""
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,8 +9,7 @@ import encal
 from encal._core.angles import resolution_of_readings
 from encal.cli import main
 from encal.models.fitting import resolution_bits
-
-REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "mechaduino"
+from tests._paths import REAL_MECHADUINO as REAL
 
 
 @pytest.mark.parametrize("bits", [8, 12, 14, 16, 20, 24])

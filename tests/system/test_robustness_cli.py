@@ -826,7 +826,7 @@ def _issue25_cases():
         Case("export-bad-recorded-deployment", ("export", "{bad_deployment}", "--format", "c", "--target", "fixed",
                                                 "-o", "{out}/c"), 1, ("bad_deployment.json", "training.deployment",
                                                                       "nodes")),
-        # a hostile encoder name is escaped in the C comments (tests/test_export_options.py compiles it)
+        # a hostile encoder name is escaped in the C comments (tests/cli/test_export_options.py compiles it)
         Case("export-hostile-name-accepted", ("export", "{hostile_name}", "--format", "c", "--target", "cortex-m4f",
                                               "-o", "{scratch}/hostile"), 0),
         # fit --noise: finite, > 0, at most a turn (usage); at least the errors' resolution (the data's)
@@ -1052,7 +1052,7 @@ CASES += ISSUE32_CASES
 
 def _make_plausibility_files(folder, paths):
     """The inputs of the plausibility cases (issue 25): wrong units, another encoder, sweeps, a long spin."""
-    from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_spin
+    from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin
     from encal.selfcal.spin import SpinLog
     from encal.selfcal.spin_log import write_spin_log
 

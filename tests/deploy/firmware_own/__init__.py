@@ -15,9 +15,8 @@ A harness module exposes
 """
 
 from dataclasses import dataclass
-from pathlib import Path
+from tests._paths import FIRMWARE
 
-FIRMWARE = Path(__file__).resolve().parents[2].parent / "shared" / "firmware"
 
 __all__ = ["FIRMWARE", "Row", "agrees"]
 

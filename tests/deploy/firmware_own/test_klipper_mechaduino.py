@@ -1,8 +1,8 @@
 """Issue 26: Klipper's and Mechaduino's tables as the firmwares' own code applies them.
 
 Klipper: its own ``klippy/extras/angle.py`` and ``klippy/configfile.py``, imported from ../shared/firmware/
-(tests/firmware_own/klipper.py). Mechaduino: a faithful model of its ``calibrate()`` and commutation,
-file and line of commit ca2835c9 (tests/firmware_own/mechaduino.py).
+(tests/deploy/firmware_own/klipper.py). Mechaduino: a faithful model of its ``calibrate()`` and commutation,
+file and line of commit ca2835c9 (tests/deploy/firmware_own/mechaduino.py).
 """
 
 import re
@@ -16,9 +16,9 @@ from encal.deploy.firmware import export_klipper, export_mechaduino, read_klippe
 from encal.deploy.firmware.klipper import klipper_apply, klipper_load, klipper_phase_offset
 from encal._core.errors import InputError
 from encal.models.fourier import FourierModel
-from tests.firmware_own import agrees
-from tests.firmware_own import klipper as klipper_own
-from tests.firmware_own import mechaduino as mechaduino_own
+from tests.deploy.firmware_own import agrees
+from tests.deploy.firmware_own import klipper as klipper_own
+from tests.deploy.firmware_own import mechaduino as mechaduino_own
 
 needs_klipper = pytest.mark.skipif(klipper_own.unavailable() is not None, reason=str(klipper_own.unavailable()))
 # the arcmin of one full step of a 200-step motor

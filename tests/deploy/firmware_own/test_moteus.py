@@ -1,4 +1,4 @@
-"""encal's moteus tables through moteus's own fw/motor_position.h (compiled; tests/firmware_own/moteus.py).
+"""encal's moteus tables through moteus's own fw/motor_position.h (compiled; tests/deploy/firmware_own/moteus.py).
 
 Every configuration of issue 26 (14/16 bits, encoder reversed, reference zero 0 to 30 degrees, source sign -1,
 offset 1000, console or --restore-config file, a conf dump/restore of the scale) is applied by the firmware's
@@ -8,8 +8,8 @@ own code to every raw code; encal's stated round trip must be what the firmware 
 import numpy as np
 import pytest
 
-from tests.firmware_own import agrees
-from tests.firmware_own import moteus as harness
+from tests.deploy.firmware_own import agrees
+from tests.deploy.firmware_own import moteus as harness
 
 pytestmark = pytest.mark.skipif(harness.unavailable() is not None, reason=harness.unavailable() or "")
 

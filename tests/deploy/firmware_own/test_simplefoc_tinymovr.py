@@ -1,6 +1,6 @@
 """SimpleFOC and Tinymovr exports through the firmwares' own code (issue 26).
 
-The harnesses (``tests/firmware_own/simplefoc.py``, ``tinymovr.py``) compile Arduino-FOC-drivers'
+The harnesses (``tests/deploy/firmware_own/simplefoc.py``, ``tinymovr.py``) compile Arduino-FOC-drivers'
 ``CalibratedSensor.cpp`` (1.0.8, 1.0.9) with the core's ``Sensor.cpp``, and Tinymovr's ``sensor.h``,
 from ``../shared/firmware/``; every code of a 14- and 16-bit encoder goes through them. Each row of the
 matrix (bits, reversed encoder, reference zero from 0 to 30 degrees, each SimpleFOC version) must state
@@ -13,9 +13,9 @@ import pytest
 from encal.deploy import Compensator
 from encal.deploy.firmware import export_simplefoc, export_tinymovr, read_simplefoc, read_tinymovr
 from encal._core.errors import InputError
-from tests.firmware_own import agrees
-from tests.firmware_own import simplefoc as sfoc
-from tests.firmware_own import tinymovr as tiny
+from tests.deploy.firmware_own import agrees
+from tests.deploy.firmware_own import simplefoc as sfoc
+from tests.deploy.firmware_own import tinymovr as tiny
 
 needs_simplefoc = pytest.mark.skipif(sfoc.unavailable() is not None, reason=str(sfoc.unavailable()))
 needs_tinymovr = pytest.mark.skipif(tiny.unavailable() is not None, reason=str(tiny.unavailable()))
