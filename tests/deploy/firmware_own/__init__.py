@@ -1,9 +1,9 @@
 """Harnesses that run encal's firmware exports through the firmwares' **own code**.
 
-Each module here (one per firmware) compiles or imports that firmware's run-time code from
-``../shared/firmware/`` (beside this repository), with only the hardware stubbed, and applies a
-table encal wrote to every code of an encoder. The firmware code is a test fixture: it is read
-from shared/, never copied into the project.
+Each harness module here (one per firmware, beside the tests ``test_*.py`` that use it) compiles or
+imports that firmware's run-time code from ``../shared/firmware/`` (beside this repository), with only
+the hardware stubbed, and applies a table encal wrote to every code of an encoder. The firmware code
+is a test fixture: it is read from shared/, never copied into the project.
 
 A harness module exposes
 
