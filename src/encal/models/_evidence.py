@@ -120,17 +120,21 @@ class Hyper:
 
     def variances(self, design):
         """Prior variance of every column."""
-        orders = design.orders
-        s = np.empty(orders.size)
-        positive = orders > 0
-        s[positive] = self.amplitude * orders[positive].astype(float) ** (-self.exponent)
-        s[~positive] = _VAGUE * design.scale
-        s[positive] += self.flat
+        return self._variances(design, _work(design))[0]
+
+    def _variances(self, design, work):
+        """The prior variances and the background's part of them (one array each)."""
+        s = np.empty(design.orders.size)
+        background = self.amplitude * work.positive_orders ** (-self.exponent)
+        s[work.positive] = background
+        s[work.not_positive] = _VAGUE * design.scale
+        if self.flat:
+            s[work.positive] += self.flat
         for order, variance in self.lines.items():
-            s[(orders == order) & design.lineable] += variance
+            s[work.columns(order)] += variance
         if design.rounding is not None:
             s = s + design.rounding
-        return s
+        return s, background
 
 
 @dataclass
@@ -185,22 +189,22 @@ def evidence(design, variances, noise_var, covariance=True):
         covariance = s * inverse_diagonal
         residual2 = yy - 2.0 * design.projection @ mean + np.sum(g * mean**2)
     else:
-        import scipy.linalg  # SciPy is imported by a fit, not by a spectral model file's reader
+        from scipy.linalg import lapack  # SciPy is imported by a fit, not by a spectral model file's reader
 
         g = design.gram
-        big_b = (d[:, None] * g) * (d[None, :] / sigma2)
-        big_b[np.diag_indices_from(big_b)] += 1.0
-        factor = _cholesky(big_b)
-        z = scipy.linalg.cho_solve((factor, True), u)
+        work = _work(design)
+        factor = _cholesky(lambda out: _precision(g, d, sigma2, out), work.buffer)
+        z = lapack.dpotrs(factor, u, lower=1)[0]
+        logdet = 2.0 * float(np.sum(np.log(np.diag(factor))))
+        # the factor's own buffer is overwritten by the inverse (it is not needed after this)
         if covariance:
-            inverse, info = scipy.linalg.lapack.dpotri(factor, lower=1)
+            inverse, info = lapack.dpotri(factor, lower=1, overwrite_c=1)
             inverse = np.tril(inverse) + np.tril(inverse, -1).T
             inverse_diagonal = np.diag(inverse).copy()
         else:
             # B⁻¹ = L⁻ᵀ L⁻¹: its diagonal is the column sums of squares of L⁻¹ (upper triangle zero)
-            inverse_factor, info = scipy.linalg.lapack.dtrtri(factor, lower=1)
+            inverse_factor, info = lapack.dtrtri(factor, lower=1, overwrite_c=1)
             inverse_diagonal = np.einsum("ij,ij->j", inverse_factor, inverse_factor)
-        logdet = 2.0 * float(np.sum(np.log(np.diag(factor))))
         mean = d * z
         covariance = d[:, None] * inverse * d[None, :] if covariance else None
         residual2 = yy - 2.0 * design.projection @ mean + mean @ g @ mean
@@ -229,15 +233,54 @@ def signal_part(design, variances, noise_var, post):
     return Posterior(post.log_evidence, share * post.mean, covariance, post.grad_log_variance, post.grad_log_noise)
 
 
-def _cholesky(matrix):
-    """Lower Cholesky factor of ``I + d G d / σ²``; where rounding makes it indefinite (noise-free data,
-    σ² at its bound), a jitter of up to 1e-8 of its largest diagonal entry is added."""
-    import scipy.linalg
+def _precision(gram, d, sigma2, out):
+    """``B = I + d G d / σ²`` written into ``out`` (Fortran order, for LAPACK without a copy)."""
+    np.multiply(d[:, None], gram, out=out)
+    np.multiply(out, d[None, :] / sigma2, out=out)
+    out.flat[:: out.shape[0] + 1] += 1.0
+    return out
 
-    factor, info = scipy.linalg.lapack.dpotrf(matrix, lower=1)
-    jitter = 1e-14 * float(np.max(np.diag(matrix)))
-    while info != 0 and jitter <= 1e-8 * float(np.max(np.diag(matrix))):
-        factor, info = scipy.linalg.lapack.dpotrf(matrix + jitter * np.eye(matrix.shape[0]), lower=1)
+
+class _Work:
+    """What every evaluation of one design reuses: a ``P × P`` buffer and the columns of each order."""
+
+    def __init__(self, design):
+        self.gram, self.orders, self.lineable = design.gram, design.orders, design.lineable
+        self.buffer = None if design.diagonal else np.empty(design.gram.shape, order="F")
+        self.positive = np.flatnonzero(design.orders > 0)
+        self.not_positive = np.flatnonzero(design.orders <= 0)
+        self.positive_orders = design.orders[self.positive].astype(float)
+        self._columns = {}
+
+    def columns(self, order):
+        """Indices of the lineable columns of ``order``."""
+        found = self._columns.get(order)
+        if found is None:
+            found = self._columns[order] = np.flatnonzero((self.orders == order) & self.lineable)
+        return found
+
+
+def _work(design):
+    work = design.__dict__.get("_work")
+    if work is None or work.gram is not design.gram or work.orders is not design.orders \
+            or work.lineable is not design.lineable:
+        work = design.__dict__["_work"] = _Work(design)
+    return work
+
+
+def _cholesky(fill, buffer):
+    """Lower Cholesky factor of ``I + d G d / σ²`` (``fill(buffer)`` writes it; factorised in place); where
+    rounding makes it indefinite (noise-free data, σ² at its bound), a jitter of up to 1e-8 of its largest
+    diagonal entry is added."""
+    from scipy.linalg import lapack
+
+    top = float(np.max(np.diag(fill(buffer))))
+    factor, info = lapack.dpotrf(buffer, lower=1, overwrite_a=1)
+    jitter = 1e-14 * top
+    while info != 0 and jitter <= 1e-8 * top:
+        matrix = fill(buffer)
+        matrix.flat[:: matrix.shape[0] + 1] += jitter
+        factor, info = lapack.dpotrf(matrix, lower=1, overwrite_a=1)
         jitter *= 100.0
     if info != 0:
         raise np.linalg.LinAlgError("the posterior precision is not positive definite")
@@ -266,20 +309,20 @@ def _unpack(x, hyper, line_orders):
 
 def _objective(x, design, hyper, line_orders, background_parts):
     trial = _unpack(x, hyper, line_orders)
-    s = trial.variances(design)
+    work = _work(design)
+    s, positive_background = trial._variances(design, work)
     try:
         post = evidence(design, s, trial.noise_var, covariance=False)
     except np.linalg.LinAlgError:  # rounding at an extreme trial point: steer the line search back
         return _FAILED_OBJECTIVE, np.zeros(x.size)
-    positive = design.orders > 0
     background = np.zeros(s.size)
-    background[positive] = trial.amplitude * design.orders[positive].astype(float) ** (-trial.exponent)
+    background[work.positive] = positive_background
     weight = post.grad_log_variance * background / s  # ∂ log p / ∂ log A, per column
     grad = [float(np.sum(weight)), float(-np.sum(weight * background_parts))]
     if not hyper.noise_fixed:
         grad.append(post.grad_log_noise)
     for k in line_orders:
-        columns = (design.orders == k) & design.lineable
+        columns = work.columns(k)
         grad.append(float(np.sum(post.grad_log_variance[columns] * trial.lines[k] / s[columns])))
     scale = 1.0 / max(design.n, 1)
     return -post.log_evidence * scale, -np.array(grad) * scale
