@@ -218,8 +218,9 @@ def _evidence(design, variances, noise_var, covariance):
         logdet = 2.0 * float(np.sum(np.log(np.diag(factor))))
         # the factor's own buffer is overwritten by the inverse (it is not needed after this)
         if covariance:
-            inverse, info = lapack.dpotri(factor, lower=1, overwrite_c=1)
-            inverse = np.tril(inverse) + np.tril(inverse, -1).T
+            lower, info = lapack.dpotri(factor, lower=1, overwrite_c=1)
+            inverse = lower.T.copy()  # C order; its upper triangle (and diagonal) from B⁻¹'s lower triangle
+            np.copyto(inverse, lower, where=work.strictly_lower)
             inverse_diagonal = np.diag(inverse).copy()
         else:
             # B⁻¹ = L⁻ᵀ L⁻¹: its diagonal is the column sums of squares of L⁻¹ (upper triangle zero)
@@ -269,6 +270,7 @@ class _Work:
         # the same layout as the buffer: the products run over contiguous memory
         self.fortran_gram = None if design.diagonal else np.asfortranarray(design.gram)
         self.buffer = None if design.diagonal else np.empty(design.gram.shape, order="F")
+        self.strictly_lower = None if design.diagonal else np.tri(design.orders.size, k=-1, dtype=bool)
         self.positive = np.flatnonzero(design.orders > 0)
         self.not_positive = np.flatnonzero(design.orders <= 0)
         self.positive_orders = design.orders[self.positive].astype(float)
