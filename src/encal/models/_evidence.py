@@ -130,8 +130,9 @@ class Hyper:
         s[work.not_positive] = _VAGUE * design.scale
         if self.flat:
             s[work.positive] += self.flat
-        for order, variance in self.lines.items():
-            s[work.columns(order)] += variance
+        if self.lines:
+            columns, _, counts = work.line_columns(tuple(self.lines))
+            s[columns] += np.repeat(list(self.lines.values()), counts)  # one addition per column
         if design.rounding is not None:
             s = s + design.rounding
         return s, background
@@ -209,19 +210,18 @@ def _evidence(design, variances, noise_var, covariance):
         covariance = s * inverse_diagonal
         residual2 = yy - 2.0 * design.projection @ mean + np.sum(g * mean**2)
     else:
-        from scipy.linalg import lapack  # SciPy is imported by a fit, not by a spectral model file's reader
-
+        lapack = _lapack()
         g = design.gram
         work = _work(design)
         factor = _cholesky(lambda out: _precision(work.fortran_gram, d, sigma2, out), work.buffer)
         z = lapack.dpotrs(factor, u, lower=1)[0]
-        logdet = 2.0 * float(np.sum(np.log(np.diag(factor))))
+        logdet = 2.0 * float(np.log(factor.diagonal()).sum())
         # the factor's own buffer is overwritten by the inverse (it is not needed after this)
         if covariance:
             lower, info = lapack.dpotri(factor, lower=1, overwrite_c=1)
             inverse = lower.T.copy()  # C order; its upper triangle (and diagonal) from B⁻¹'s lower triangle
             np.copyto(inverse, lower, where=work.strictly_lower)
-            inverse_diagonal = np.diag(inverse).copy()
+            inverse_diagonal = inverse.diagonal().copy()
         else:
             # B⁻¹ = L⁻ᵀ L⁻¹: its diagonal is the column sums of squares of L⁻¹ (upper triangle zero)
             inverse_factor, info = lapack.dtrtri(factor, lower=1, overwrite_c=1)
@@ -231,8 +231,21 @@ def _evidence(design, variances, noise_var, covariance):
         residual2 = yy - 2.0 * design.projection @ mean + mean @ g @ mean
     log_p = -0.5 * (n * math.log(2.0 * math.pi * sigma2) + logdet + yy / sigma2 - u @ z)
     grad_s = 0.5 * (z**2 + inverse_diagonal - 1.0)
-    grad_noise = 0.5 * (max(residual2, 0.0) / sigma2 + s.size - float(np.sum(inverse_diagonal)) - n)
+    grad_noise = 0.5 * (max(residual2, 0.0) / sigma2 + s.size - float(inverse_diagonal.sum()) - n)
     return Posterior(float(log_p), mean, covariance, grad_s, float(grad_noise))
+
+
+def _lapack():
+    """SciPy's LAPACK wrappers, imported by a fit (not by a spectral model file's reader)."""
+    global _lapack_module
+    if _lapack_module is None:
+        from scipy.linalg import lapack
+
+        _lapack_module = lapack
+    return _lapack_module
+
+
+_lapack_module = None
 
 
 def signal_part(design, variances, noise_var, post):
@@ -309,9 +322,8 @@ def _cholesky(fill, buffer):
     """Lower Cholesky factor of ``I + d G d / σ²`` (``fill(buffer)`` writes it; factorised in place); where
     rounding makes it indefinite (noise-free data, σ² at its bound), a jitter of up to 1e-8 of its largest
     diagonal entry is added."""
-    from scipy.linalg import lapack
-
-    top = float(np.max(np.diag(fill(buffer))))
+    lapack = _lapack()
+    top = float(fill(buffer).diagonal().max())
     factor, info = lapack.dpotrf(buffer, lower=1, overwrite_a=1)
     jitter = 1e-14 * top
     while info != 0 and jitter <= 1e-8 * top:
