@@ -182,7 +182,7 @@ def evidence(design, variances, noise_var, covariance=True):
         return _evidence(design, variances, noise_var, covariance)
     work = _work(design)
     key = (np.asarray(variances, dtype=float).tobytes(), float(noise_var), bool(covariance),
-           id(design.projection), design.yy, design.n)
+           design.projection.tobytes(), design.yy, design.n)
     for known, post in work.recent:
         if known == key:
             return post
@@ -276,7 +276,11 @@ def _precision(gram, d, sigma2, out):
 
 
 class _Work:
-    """What every evaluation of one design reuses: a ``P × P`` buffer and the columns of each order."""
+    """What every evaluation of one design reuses: a ``P × P`` buffer, the columns of each order, recent results.
+
+    Made again when the design's Gram matrix, orders or lineable columns are other arrays; a design's arrays
+    are never written in place (the kept results and the Fortran-ordered copy of the Gram matrix assume it).
+    """
 
     def __init__(self, design):
         self.gram, self.orders, self.lineable = design.gram, design.orders, design.lineable
