@@ -88,8 +88,12 @@ def test_the_jitter_is_added_to_a_rebuilt_matrix():
     factor = _evidence._cholesky(fill, np.empty((2, 2), order="F"))
     assert len(writes) == 2
     np.testing.assert_allclose(np.tril(factor) @ np.tril(factor).T, matrix + 1e-14 * np.eye(2), rtol=0, atol=1e-15)
+    def fill_indefinite(out):  # an eigenvalue of -1: no jitter up to 1e-8 of the diagonal repairs it
+        out[...] = [[1.0, 2.0], [2.0, 1.0]]
+        return out
+
     with pytest.raises(np.linalg.LinAlgError):
-        _evidence._cholesky(lambda out: fill(out) - np.eye(2), np.empty((2, 2), order="F"))
+        _evidence._cholesky(fill_indefinite, np.empty((2, 2), order="F"))
 
 
 def test_moments_from_kept_exponentials_are_those_computed_afresh():
