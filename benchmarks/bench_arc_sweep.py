@@ -4,7 +4,7 @@ Usage::
 
     python benchmarks/bench_arc_sweep.py      # a few seconds
 
-A simulated motor (encal.selfcal.simulate.make_motor: cogging, field distortion, Coulomb friction) with a
+A simulated motor (encal.selfcal.synthetic.make_motor: cogging, field distortion, Coulomb friction) with a
 magnetic encoder (draw_magnetic_encoder(21), 1.5 deg eccentricity) is swept open loop over a fraction of a
 turn, two pairs of passes up and down, 64 samples per electrical period. ``encal.selfcal.arc_sweep`` recovers
 the encoder's error over the arc and the lag. Compared with the truth after removing from both what a sweep
@@ -20,7 +20,7 @@ for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 
 from encal.selfcal.arc_sweep import arc_sweep  # noqa: E402
-from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_sweep  # noqa: E402
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_sweep  # noqa: E402
 
 
 def without_electrical_period(grid_deg, values, pole_pairs, harmonics=24):

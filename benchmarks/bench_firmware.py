@@ -34,6 +34,8 @@ def main():
             options = {"bits": bits or 16} if fmt == "tinymovr" else {}
             if fmt in ("klipper", "mechaduino"):
                 options["step_zero_deg"] = 0.0  # the reference's zero taken for a full step at driver phase 0
+            if fmt == "klipper":
+                options["step_direction"] = 1  # the stepper's positive steps raise the reference angle
             written = export(comp, **options)
             print(f"| {name} | {fmt} | {len(written.text.encode())} | {written.max_error_arcmin:.3g} / "
                   f"{written.rms_error_arcmin:.3g} | {written.quantisation_arcmin:.3g} | {written.offset_arcmin:.4g} |")

@@ -43,7 +43,7 @@ import numpy as np  # noqa: E402
 
 from encal.data.calibration import read_calibration  # noqa: E402
 from encal.selfcal import SpinLog, spin, steps, sweep  # noqa: E402
-from encal.selfcal.simulate import (MagneticEncoder, draw_magnetic_encoder, draw_stepper, make_motor,  # noqa: E402
+from encal.selfcal.synthetic import (MagneticEncoder, draw_magnetic_encoder, draw_stepper, make_motor,  # noqa: E402
                                     simulate_spin, simulate_steps, simulate_sweep)
 
 GRID = np.arange(720) * 0.5

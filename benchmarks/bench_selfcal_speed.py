@@ -4,7 +4,7 @@ Usage::
 
     PYTHONPATH=src python benchmarks/bench_selfcal_speed.py [--rows 200000] [--repeats 5] [--other-src PATH]
 
-A spin log of ``--rows`` samples (two runs, at 2 and 4 rev/s, of a 7-pole-pair motor, ``encal.selfcal.simulate``)
+A spin log of ``--rows`` samples (two runs, at 2 and 4 rev/s, of a 7-pole-pair motor, ``encal.selfcal.synthetic``)
 is written with ``write_spin_log``. The two commands run alternately as whole processes with one BLAS thread:
 
 * ``python -m encal selfcal spin LOG --pole-pairs 7 -o CAL.csv``;
@@ -72,7 +72,7 @@ def main():
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--other-src", help="another encal source folder, timed as 'before'")
     args = parser.parse_args()
-    from encal.selfcal.simulate import draw_magnetic_encoder, make_motor, simulate_spin
+    from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin
     from encal.selfcal.spin import SpinLog
     from encal.selfcal.spin_log import write_spin_log
 

@@ -7,19 +7,17 @@ import os
 for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_variable, "1")
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import settings
+
+from tests._paths import REAL_MECHADUINO as REAL_DATA
 
 # Locally Hypothesis explores new examples on every run; in CI (CI=true) it replays a fixed sequence so
 # that a run's verdict does not depend on which examples happened to be drawn.
 settings.register_profile("ci", derandomize=True, deadline=None, print_blob=True)
 settings.register_profile("dev", deadline=None)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
-
-REAL_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "mechaduino"
 
 
 @pytest.fixture(autouse=True)

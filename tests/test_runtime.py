@@ -18,8 +18,8 @@ from encal.models.ann import fit_ann
 from encal.models.hybrid import fit_hybrid
 from encal.runtime import ModelFileError
 from encal._core.errors import InputError
+from tests._paths import DATA
 
-DATA = Path(__file__).parent / "data"
 V1_FILES = sorted(DATA.glob("model_v1_*.json"))
 EXPECTED = json.loads((DATA / "expected_v1.json").read_text(encoding="utf-8"))
 RUNTIME_SOURCE = Path(runtime.__file__)

@@ -46,6 +46,8 @@ _MOVED = {
     "report": "paper.report", "demo": "paper.demo", "studies": "paper.studies", "arcs": "_core.arcs",
     **{f"studies.{name}": f"paper.studies.{name}"
        for name in ("algorithms", "comparison", "pruning", "reproducibility", "sweep", "tables")},
+    "selfcal.simulate": "selfcal.synthetic",  # named apart from the resolver simulator encal.simulate
+    **{f"selfcal.simulate.{name}": f"selfcal.synthetic.{name}" for name in ("encoder", "motor", "stepper")},
 }
 install_moved_modules({f"{__name__}.{old}": f"{__name__}.{new}" for old, new in _MOVED.items()}, _PUBLIC)
 

@@ -21,7 +21,8 @@ spaces), so a file written by encal reads back with the same fields.
 
 import re
 
-__all__ = ["split_lines", "is_skipped", "fields", "column_names", "repeated_names", "quote", "join", "QuotingError"]
+__all__ = ["split_lines", "is_skipped", "fields", "column_names", "repeated_names", "is_number", "quote", "join",
+           "QuotingError"]
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _NEEDS_QUOTES = re.compile(r'[",\r\n]|^\s|\s$')
@@ -133,7 +134,7 @@ def repeated_names(names):
     where = {}
     for index, name in enumerate(names, start=1):
         name = name.strip().lower()
-        if name and not _is_number(name):
+        if name and not is_number(name):
             where.setdefault(name, []).append(index)
     repeated = {name: columns for name, columns in where.items() if len(columns) > 1}
     if not repeated:
@@ -143,7 +144,8 @@ def repeated_names(names):
     return f"the header names {said}; expected each column once, so that it is clear which to read"
 
 
-def _is_number(text):
+def is_number(text):
+    """Whether ``text`` reads as one number (``float()`` accepts it: ``1e3``, `` -2.5 ``, ``nan``)."""
     try:
         float(text)
     except ValueError:

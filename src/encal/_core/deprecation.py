@@ -80,4 +80,6 @@ class _MovedModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 def install_moved_modules(moved, public_names=()):
     """Answer the import of every old path of ``moved`` (old dotted name -> new dotted name), once per process."""
     if not any(isinstance(finder, _MovedModules) for finder in sys.meta_path):
-        sys.meta_path.append(_MovedModules(moved, public_names))
+        # First, before the finder of files: an old package's folder left behind with only its __pycache__ (an
+        # editable install after a `git pull` that moved it) would otherwise be imported as an empty namespace.
+        sys.meta_path.insert(0, _MovedModules(moved, public_names))

@@ -20,9 +20,11 @@
                  the file. Prints the round trip through that firmware's own
                  run-time rule against the model, on every code. SimpleFOC:
                  --firmware-version 1.0.8|1.0.9|uint16 (default 1.0.9).
-                 run-time rule against the model, on every code. Klipper and
-                 Mechaduino need --step-zero DEG: the reference angle of a full
-                 step at driver phase 0 (their tables follow the stepper's phase).
+                 Klipper and Mechaduino need --step-zero DEG: the reference
+                 angle of a full step at driver phase 0 (their tables follow the
+                 stepper's phase). Klipper also needs --step-direction 1|-1:
+                 whether the stepper's positive steps raise or lower the
+                 reference angle.
 --format c --target fixed
                  int32/int16 arithmetic only: a compact integer table; angles
                  as 32-bit binary angles, codes in and out.
@@ -100,6 +102,10 @@ def add_arguments(parser):
                         help="klipper, mechaduino: the reference angle, degrees, of a full step at driver phase 0 "
                              "(electrical zero); the table is written from it (required: both firmwares tie the "
                              "table to the stepper's phase)")
+    parser.add_argument("--step-direction", type=int, choices=(1, -1), metavar="{1,-1}",
+                        help="klipper: which way the stepper's positive full steps (a positive FORCE_MOVE, dir_pin "
+                             "included) turn the reference: 1 raise its angle, -1 lower it (required: the "
+                             "calibration does not say, and the wrong way is a list two full steps out of phase)")
     parser.set_defaults(export_parser=parser)
     parser.add_argument("--name", metavar="PREFIX",
                         help="C: prefix of the file names and functions (default: encal)")
@@ -126,6 +132,7 @@ _APPLIES_TO = {
     "moteus_style": ("moteus",),
     "firmware_version": ("simplefoc",),
     "full_steps": ("klipper",), "step_zero": ("klipper", "mechaduino"),
+    "step_direction": ("klipper",),  # Mechaduino's calibrate() fixes it: forward steps must count the encoder up
 }
 #: the defaults of the options above, applied once the formats are checked
 _DEFAULTS = {"target": "host", "form": "table", "name": "encal", "table": False, "constants": "auto",
@@ -164,6 +171,10 @@ def _check_combinations(args):
         _usage_error(f"--format {args.format} needs --step-zero DEG: the reference angle of a full step at driver "
                      "phase 0 (electrical zero), as the table is tied to the stepper's phase (0 for a model fitted "
                      "to a calibration imported from that firmware)")
+    if args.step_direction is None and args.format == "klipper":
+        _usage_error("--format klipper needs --step-direction 1 or -1: which way the stepper's positive full steps "
+                     "(a positive FORCE_MOVE, dir_pin included) turn the reference, 1 if they raise its angle, -1 if "
+                     "they lower it (1 for a model fitted to a calibration imported from Klipper)")
     if args.dtype == "int8" and (args.format == "table" or args.target == "host"):
         _usage_error("--dtype int8 is for the compact tables of --format c --target cortex-m4f or fixed; "
                      "a dense table is int16 or float32")
@@ -282,6 +293,8 @@ def _export(args):
             options["firmware_version"] = args.firmware_version
         if args.format in ("klipper", "mechaduino"):
             options["step_zero_deg"] = args.step_zero
+        if args.format == "klipper":
+            options["step_direction"] = args.step_direction
         written = EXPORTERS[args.format](compensator, **options)
         atomic_write(output, written.text)
         if args.json:

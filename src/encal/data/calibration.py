@@ -659,7 +659,7 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
     """
     names = [name.strip().lower() for name in names]
     # a first row of numbers (with decimal commas, where the separator is no comma) is no header
-    is_number = (lambda text: _is_number(text.replace(",", "."))) if decimal_comma else _is_number
+    is_number = (lambda text: _csv.is_number(text.replace(",", "."))) if decimal_comma else _csv.is_number
     numbered = [_column_number(column) for column in (reference_column, encoder_column)]
     if all(number is not None for number in numbered) and all(is_number(cell) for cell in names if cell):
         for column, number in zip((reference_column, encoder_column), numbered):
@@ -709,14 +709,6 @@ def _column_number(column):
         return int(column)
     text = str(column).strip()
     return int(text) if text.isascii() and text.isdigit() else None
-
-
-def _is_number(text):
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def is_multi_revolution(reference_deg):

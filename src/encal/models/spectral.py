@@ -362,8 +362,11 @@ def _general_design(theta_rad, error, orders, shifts, lineable):
     difference = orders[:, None] - orders[None, :]
     total = orders[:, None] + orders[None, :]
     s_diff = np.where(difference >= 0, weights[np.abs(difference)], np.conj(weights[np.abs(difference)]))
-    gram = 0.5 * np.real(np.exp(-1j * (shifts[:, None] - shifts[None, :])) * s_diff
-                         + np.exp(-1j * (shifts[:, None] + shifts[None, :])) * weights[total])
+    # the shifts take a few values: each phase factor is computed once per pair of values and gathered
+    distinct, which = np.unique(shifts, return_inverse=True)
+    pair = (which[:, None], which[None, :])
+    gram = 0.5 * np.real(np.exp(-1j * (distinct[:, None] - distinct[None, :]))[pair] * s_diff
+                         + np.exp(-1j * (distinct[:, None] + distinct[None, :]))[pair] * weights[total])
     gram = 0.5 * (gram + gram.T)
     return _evidence.Design(orders, shifts, gram, projection, float(error @ error), error.size, lineable)
 

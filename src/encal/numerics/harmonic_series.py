@@ -17,7 +17,7 @@ roundings whatever the chain: ``k (e_1 + 3u)``, with ``e_1`` the error of ``(cos
 conversion to radians and the two functions, about ``4π u + 2u`` for θ below 2π). The direct form has the
 same ``k e_1`` from the conversion plus the rounding of ``k θ`` (``2π k u``), so the two agree to a few
 ``k u`` of the coefficients. Stated bound, for θ in [0, 2π) and m orders: within
-``u Σ_k (|a_k| + |b_k|) (20 k + m + 2)`` of the exact series; ``tests/test_harmonic_series.py`` checks it
+``u Σ_k (|a_k| + |b_k|) (20 k + m + 2)`` of the exact series; ``tests/numerics/test_harmonic_series.py`` checks it
 against an extended precision reference for orders up to the model file's largest, for each of the three
 forms.
 

@@ -44,6 +44,26 @@ def _nodes(theta_rad, size):
     return np.mod(node, size).astype(np.int64), position - node
 
 
+#: The direct path's matrices ``exp(i m θ_i)`` of the last few sets of angles, ``(bytes of θ, matrix)`` the newest
+#: first: a spectral fit takes moments of one set of angles with several weights (its Gram matrix, projections,
+#: the rounding's carriers), and the complex exponentials were most of each sum's time.
+_recent_exponentials = []
+_RECENT_LIMIT = 2
+
+
+def _exponentials(theta, count):
+    """``exp(i m θ_i)`` for ``m < count``, shape ``(count, n)`` (rows of a kept matrix when it has enough)."""
+    global _recent_exponentials
+    key = theta.tobytes()
+    for known, matrix in _recent_exponentials:
+        if known == key and matrix.shape[0] >= count:
+            return matrix[:count]
+    matrix = np.exp(1j * np.multiply.outer(np.arange(count), theta))
+    _recent_exponentials = [(key, matrix)] + [entry for entry in _recent_exponentials
+                                              if entry[0] != key][: _RECENT_LIMIT - 1]
+    return matrix
+
+
 def trig_moments(theta_rad, weights, highest_order):
     """``S_m = Σ_i w_i exp(i m θ_i)`` for ``m = 0 .. highest_order``.
 
@@ -71,7 +91,7 @@ def trig_moments(theta_rad, weights, highest_order):
     weights = np.asarray(weights, dtype=float).reshape(-1)
     orders = np.arange(highest_order + 1)
     if theta.size * (highest_order + 1) <= _DIRECT_LIMIT:
-        return np.exp(1j * np.multiply.outer(orders, theta)) @ weights
+        return _exponentials(theta, highest_order + 1) @ weights
     size, terms = _fine_grid(highest_order)
     node, offset = _nodes(theta, size)
     step = 2.0 * math.pi / size

@@ -34,7 +34,7 @@ Against MATLAB's ``trainbr.m``, measured:
   current ``trainbr.m`` takes the Jacobian at the accepted weights, as here.
 
 Both together, on ``17 sin 4θ + 11.5 sin 2θ + 1.8 sin θ`` arcmin with 2' noise
-at 200 points (periodic 1:12:1, ``tests/test_trainbr.py``), the old start and
+at 200 points (periodic 1:12:1, ``tests/training/test_trainbr.py``), the old start and
 order ended at a constant for 14 seeds of 200, these for none; on a real
 AS5047D calibration (``mech_jcchurch_2016-11-23_0p9deg``, trained on the even
 rows, 1:12:1) for 5 seeds of 30 (test RMS 14.75' instead of 2.19'), these

@@ -5,7 +5,9 @@ from the list index (``index & 3``), Mechaduino commutates with the table's angl
 A table is right only in the frame of a full step at driver phase 0 (electrical zero). A calibration's
 reference zero is arbitrary (the mean error is removed from step calibrations, a reference encoder has
 its own zero), so encal is told where that step sits: ``step_zero_deg``, the reference angle (degrees)
-of a full step at driver phase 0.
+of a full step at driver phase 0. Klipper's list also runs in the stepper's positive direction, which encal
+is told against the reference's: ``step_direction`` (Mechaduino's own calibration fixes its direction: forward
+steps count the encoder up).
 """
 
 import numpy as np
@@ -13,7 +15,7 @@ import numpy as np
 from ..._core.errors import InputError
 from ..._core.parameters import check_number
 
-__all__ = ["check_step_zero", "check_full_steps"]
+__all__ = ["check_step_zero", "check_step_direction", "check_full_steps"]
 
 
 def check_step_zero(step_zero_deg, firmware, caller):
@@ -25,6 +27,21 @@ def check_step_zero(step_zero_deg, firmware, caller):
             f"its reference angle in degrees, got none; pass --step-zero DEG (step_zero_deg= in {caller})")
     return check_number(step_zero_deg, "step_zero_deg", caller, note="the reference angle of a full step at driver "
                         "phase 0, degrees")
+
+
+def check_step_direction(step_direction, caller):
+    """``step_direction`` as the int 1 or -1: which way the stepper's positive full steps turn the reference."""
+    from ..._core.parameters import invalid
+
+    if step_direction is None:
+        raise InputError(
+            f"{caller} needs the way the stepper's positive full steps turn the reference, got none; pass "
+            "--step-direction 1 if they raise the reference angle or -1 if they lower it (step_direction= in "
+            f"{caller})")
+    if isinstance(step_direction, bool) or step_direction not in (1, -1):
+        raise invalid("step_direction", caller, "1 or -1 (1: the stepper's positive full steps raise the reference "
+                      "angle, -1: they lower it)", step_direction)
+    return int(step_direction)
 
 
 def check_full_steps(full_steps, caller):

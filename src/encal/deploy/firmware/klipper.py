@@ -13,11 +13,16 @@ list index is the stepper's full step counted from a step at driver phase 0, in 
 positive direction (``ANGLE_CALIBRATE`` starts its sweep at phase 0 and rotates the list by a
 multiple of 4 to start at the lowest angle, or the highest for a reversed sensor).
 
-encal writes the angle the sensor reads at each full step ``step_zero + i * 360 / steps`` of the
-reference (the model inverted), with ``step_zero`` the reference angle of a full step at driver
-phase 0 and the reference's positive direction taken as the stepper's; it rotates the list as
-``ANGLE_CALIBRATE`` does. It reads back a list, a config section holding one, or the ``#*#``
-``SAVE_CONFIG`` block of a ``printer.cfg``, as a calibration.
+The index counts full steps in the stepper's positive direction as Klipper counts it: its mcu position
+(``klippy/stepper.py``, negated from the MCU's count when ``dir_pin`` is inverted; ``ANGLE_CALIBRATE`` samples
+with positive moves), the driver phase following it (``klippy/extras/tmc.py`` ``_handle_sync_mcu_pos``). A
+sensor counting against that direction is Klipper's to handle (the reversed list, its angle negated); which
+way the stepper turns the *reference* only the user knows. encal writes the angle the sensor reads at each
+full step ``step_zero + d * i * 360 / steps`` of the reference (the model inverted), with ``step_zero`` the
+reference angle of a full step at driver phase 0 and ``d`` the step direction, 1 when the stepper's positive
+steps raise the reference angle, -1 when they lower it; it rotates the list as ``ANGLE_CALIBRATE`` does.
+It reads back a list, a config section holding one, or the ``#*#`` ``SAVE_CONFIG`` block of a
+``printer.cfg``, as a calibration.
 """
 
 import re
@@ -28,7 +33,7 @@ from ..._core.angles import wrap180
 from ...data.calibration import Calibration
 from ..._core.errors import InputError
 from ._common import FirmwareExport, checked, compensator, correction_on_codes, grid_bits, read_text, round_trip
-from ._stepper import check_full_steps, check_step_zero, wrap_period
+from ._stepper import check_full_steps, check_step_direction, check_step_zero, wrap_period
 
 __all__ = ["export_klipper", "read_klipper", "klipper_load", "klipper_apply", "klipper_phase_offset"]
 
@@ -104,7 +109,7 @@ def step_readings(comp, reference_deg):
     return reading
 
 
-def export_klipper(model, *, full_steps=200, step_zero_deg=None, bits=None):
+def export_klipper(model, *, full_steps=200, step_zero_deg=None, step_direction=None, bits=None):
     """The ``calibrate:`` option of Klipper's ``[angle]`` section for a stepper of ``full_steps`` per turn.
 
     Parameters
@@ -115,6 +120,13 @@ def export_klipper(model, *, full_steps=200, step_zero_deg=None, bits=None):
     step_zero_deg : float
         The reference angle, degrees, of a full step at driver phase 0 (electrical zero); the list's
         index 0 is that step. Required: Klipper reads the driver phase from the index.
+    step_direction : {1, -1}
+        Which way the stepper's positive full steps (Klipper's mcu position rising: a positive
+        ``FORCE_MOVE``, ``dir_pin`` inversion included) turn the reference: 1 raise its angle, -1 lower it.
+        Required: the calibration does not say which way the stepper turned, and the wrong one gives a list
+        two full steps out of phase.
+        The list's index ``i`` is the full step at reference angle ``step_zero_deg + step_direction * i *
+        360 / full_steps``.
     bits : int, optional
         The sensor's resolution (default the model file's, else 16): the round trip is measured on its
         codes as Klipper sees them (16-bit angles).
@@ -123,22 +135,24 @@ def export_klipper(model, *, full_steps=200, step_zero_deg=None, bits=None):
     -------
     FirmwareExport
         Its round trip is Klipper's own rule (``load_calibration``, ``apply_calibration`` plus
-        ``angle_phase_offset``) against the model's corrected angle from ``step_zero_deg``, modulo the
-        4 full steps of the driver's electrical cycle (what Klipper aligns with the driver's phase).
+        ``angle_phase_offset``) against the stepper's angle the model gives, ``step_direction`` times its
+        corrected angle from ``step_zero_deg``, modulo the 4 full steps of the driver's electrical cycle
+        (what Klipper aligns with the driver's phase).
 
     Raises
     ------
     InputError
-        Without ``step_zero_deg``, or when that round trip is not far smaller than the correction
+        Without ``step_zero_deg`` or ``step_direction``, or when that round trip is not far smaller than the correction
         (:func:`~encal.deploy.firmware._common.checked`).
     """
     full_steps = check_full_steps(full_steps, "export_klipper")
     comp = compensator(model)
     step_zero = check_step_zero(step_zero_deg, "Klipper", "export_klipper")
+    direction = check_step_direction(step_direction, "export_klipper")
     grid = min(grid_bits(comp, bits, "export_klipper"), ANGLE_BITS)
     angle_max = 1 << ANGLE_BITS
     step_deg = 360.0 / full_steps
-    reference = step_zero + np.arange(full_steps) * step_deg
+    reference = step_zero + direction * np.arange(full_steps) * step_deg
     units = step_readings(comp, reference) * (angle_max / 360.0)
     written = np.round(units, 1) % angle_max
     # load_calibration rounds int(angle + .5) % 65536: an angle within half a unit of 65536 falls in bucket 0
@@ -147,26 +161,28 @@ def export_klipper(model, *, full_steps=200, step_zero_deg=None, bits=None):
     # ANGLE_CALIBRATE's order: by a multiple of 4 (the driver phase stays the index & 3) to start at the
     # lowest angle (the highest for a sensor counting against the stepper), so that Klipper's reverse test
     # angles[-2] > angles[-1] never straddles the sensor's wrap.
-    extreme = int(np.argmin(written) if comp.reading_sign == 1 else np.argmax(written))
+    against = comp.reading_sign * direction == -1  # the sensor counts down as the stepper steps up
+    extreme = int(np.argmax(written) if against else np.argmin(written))
     first = extreme & ~3
     written = np.concatenate([written[first:], written[:first]])
     angles = [float(f"{v:.1f}") for v in written]
     table, reversed_ = klipper_load(angles)
-    if reversed_ != (comp.reading_sign == -1):
+    if reversed_ != against:
         raise InputError(f"expected a list Klipper reads in the sensor's direction, got one whose last two angles "
                          f"({angles[-2]:.1f}, {angles[-1]:.1f}) say {'reversed' if reversed_ else 'forward'}: the "
                          "model's error is too steep between full steps; no file was written")
     codes = np.arange(2**grid, dtype=np.int64) << (ANGLE_BITS - grid)
     position = (klipper_apply(table, reversed_, codes) + klipper_phase_offset(angles)) * (360.0 / angle_max)
-    expected = np.asarray(comp.correct(codes * (360.0 / angle_max))) - step_zero
+    expected = direction * (np.asarray(comp.correct(codes * (360.0 / angle_max))) - step_zero)
     gap = wrap_period(position - expected, 4 * step_deg) * 60.0
     max_error, rms_error = round_trip(gap, 0.0)
     items = [f"{v:.1f}" for v in angles]
     lines = [", ".join(items[i:i + 8]) for i in range(0, full_steps, 8)]
     text = ("calibrate:\n" + ",\n".join(f"    {line}" for line in lines) + "\n")
     note = (f"paste into the [angle] section (index 0 is a full step at driver phase 0, the reference's "
-            f"{step_zero:g} deg); Klipper keeps {1 << CALIBRATION_BITS} buckets, so detail finer than 5.6 "
-            "degrees is lost")
+            f"{step_zero:g} deg, and the stepper's positive steps {'raise' if direction == 1 else 'lower'} the "
+            f"reference angle: --step-direction {direction}); Klipper keeps {1 << CALIBRATION_BITS} buckets, so "
+            "detail finer than 5.6 degrees is lost")
     correction = correction_on_codes(comp, grid)
     export = FirmwareExport("klipper", text, max_error, rms_error, 0.05 * 21600.0 / angle_max, codes.size, note)
     return checked(export, correction - np.mean(correction))
@@ -184,7 +200,8 @@ def read_klipper(source_text, *, name=None):
     -------
     Calibration
         ``reference_deg = i * 360 / steps``: the list index is the stepper's full step from one at driver
-        phase 0, so a model fitted to it is exported back with ``step_zero_deg=0``. ``encoder_deg`` the
+        phase 0, in its positive direction, so a model fitted to it is exported back with ``step_zero_deg=0``
+        (and ``step_direction=1``). ``encoder_deg`` the
         sensor angle at step ``i``; for a list Klipper reads as reversed (``angles[-2] > angles[-1]``),
         ``reading_sign`` -1 and the negated angles (as :func:`~encal.read_calibration` with ``reverse``).
 

@@ -1,0 +1,133 @@
+"""`encal selfcal`: spin and sweep from the command line, and a moteus capture end to end to firmware."""
+
+import numpy as np
+import pytest
+
+from encal.data.calibration import read_calibration
+from encal.cli import build_parser, main
+from encal.deploy import load_model
+from encal.selfcal.moteus_capture import write_moteus_capture
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin, simulate_sweep
+from encal.selfcal.spin import SpinLog
+from encal.selfcal.spin_log import write_spin_log
+from tests.selfcal_truth import GRID, rms, truth_at_orders
+
+ENCODER = draw_magnetic_encoder(31, eccentricity_deg=1.0)
+
+
+def _export_formats():
+    parser = build_parser(every_command=True)
+    export = parser._subparsers._group_actions[0].choices["export"]
+    return next(action.choices for action in export._actions if action.dest == "format")
+
+
+def test_moteus_capture_to_model_to_c_and_moteus_table(tmp_path, capsys):
+    motor = make_motor(21, 36, 9)
+    capture = simulate_sweep(motor, ENCODER, rng=10)
+    raw = tmp_path / "moteus_raw.txt"
+    write_moteus_capture(raw, capture.direction, capture.phase, capture.encoder)
+    cal_path, model_path = tmp_path / "cal.csv", tmp_path / "model.json"
+    assert main(["selfcal", "sweep", str(raw), "--pole-pairs", "21", "-o", str(cal_path)]) == 0
+    printed = capsys.readouterr().out
+    assert "multiple of 21" in printed and "+-2 sigma" in printed
+    cal = read_calibration(cal_path)
+    assert len(cal) == 360 and cal.resolution_bits == 16
+    assert main(["fit", str(cal_path), "-o", str(model_path), "--method", "fourier"]) == 0
+    model = load_model(model_path)
+    truth = truth_at_orders(ENCODER, [k for k in range(1, 33) if k % 21])
+    predicted = model.predict(GRID)
+    assert rms(predicted - predicted.mean() - truth) <= 0.1 * rms(truth)
+    out = tmp_path / "firmware"
+    assert main(["export", str(model_path), "--format", "c", "-o", str(out)]) == 0
+    source = (out / "encal.c").read_text()
+    assert "encal_correct_deg" in source
+    assert "moteus" in _export_formats()
+    moteus = tmp_path / "moteus.cfg"
+    assert main(["export", str(model_path), "--format", "moteus", "-o", str(moteus)]) == 0
+    assert "conf set" in moteus.read_text()
+
+
+def test_spin_at_two_speeds_from_one_log_file(tmp_path, capsys):
+    motor = make_motor(7, 12, 3)
+    runs = [simulate_spin(motor, ENCODER, speed, revolutions=10, sample_rate_hz=1200.0, rng=seed)
+            for speed, seed in ((2.0, 1), (4.0, 2))]
+    log = tmp_path / "spin.csv"
+    write_spin_log(log, [SpinLog(r.time_s, r.encoder_deg) for r in runs])
+    out = tmp_path / "cal.csv"
+    assert main(["selfcal", "spin", str(log), "--pole-pairs", "7", "-o", str(out), "--bits", "14"]) == 0
+    assert "speed ripple" in capsys.readouterr().out
+    cal = read_calibration(out)
+    truth = truth_at_orders(ENCODER, range(1, 33), grid=cal.encoder_deg)
+    assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)
+    header = [line for line in out.read_text().splitlines() if not line.startswith("#")][0]
+    assert header == "reference_deg,encoder_deg,error_arcmin,sigma_arcmin"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["sweep", "{missing}", "--pole-pairs", "7"], "no such file"),
+    (["sweep", "{bad}", "--pole-pairs", "7"], "line 2, field 1: direction is 9"),
+    (["spin", "{badlog}"], "line 3, column 2: encoder_deg is 'x'"),
+])
+def test_bad_input_is_one_sentence_and_exit_1(tmp_path, capsys, args, message):
+    (tmp_path / "bad.txt").write_text("CAL start\n9 0 0\nCAL done\n")
+    (tmp_path / "badlog.csv").write_text("time_s,encoder_deg\n0,1\n0.1,x\n")
+    paths = {"missing": tmp_path / "none.txt", "bad": tmp_path / "bad.txt", "badlog": tmp_path / "badlog.csv"}
+    args = [a.format(**paths) for a in args]
+    out = tmp_path / "cal.csv"
+    assert main(["selfcal", *args, "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and message in err[0] and "Traceback" not in err[0]
+    assert not out.exists()
+
+
+def test_missing_method_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["selfcal"])
+    assert exit_.value.code == 2
+
+
+def test_steps_with_two_calibrations_writes_the_calibration_and_the_stepper(tmp_path, capsys):
+    from encal.data.calibration import write_calibration
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
+
+    stepper = draw_stepper(4)
+    paths = []
+    for turn, seed in ((0.0, 1), (137.5, 2)):
+        run = simulate_steps(stepper, ENCODER.turned(turn), rng=seed)
+        paths.append(tmp_path / f"cal{seed}.csv")
+        write_calibration(paths[-1], run.calibration)
+    out, stepper_csv = tmp_path / "enc.csv", tmp_path / "stepper.csv"
+    assert main(["selfcal", "steps", *map(str, paths), "-o", str(out), "--stepper-csv", str(stepper_csv)]) == 0
+    assert "turn deg: 137.5" in capsys.readouterr().out
+    cal = read_calibration(out)
+    assert cal.resolution_bits == 14
+    truth = truth_at_orders(ENCODER, range(1, 17), grid=cal.encoder_deg)
+    assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)
+    rows = stepper_csv.read_text().splitlines()
+    assert rows[0].startswith("step,reference_deg,stepper_error_arcmin") and len(rows) == 201
+
+
+def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
+    from encal.data.calibration import write_calibration
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
+
+    path = tmp_path / "a.csv"
+    write_calibration(path, simulate_steps(draw_stepper(4), ENCODER, rng=1).calibration)
+    assert main(["selfcal", "steps", str(path), "--turn", "90", "-o", str(tmp_path / "o.csv")]) == 1
+    assert "need a second calibration" in capsys.readouterr().err
+    assert not (tmp_path / "o.csv").exists()
+
+
+def test_sweep_from_a_csv_of_the_commanded_electrical_angle(tmp_path):
+    motor = make_motor(7, 12, 9)
+    capture = simulate_sweep(motor, ENCODER, rng=11)
+    log = tmp_path / "sweep.csv"
+    rows = ["electrical_deg,encoder_deg"]
+    electrical = np.unwrap(capture.phase * 360.0 / 65536, period=360.0)  # any turn: unwrapped or not
+    rows += [f"{float(p)!r},{float(e) * 360.0 / 65536!r}" for p, e in zip(electrical, capture.encoder)]
+    log.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "cal.csv"
+    assert main(["selfcal", "sweep", str(log), "--pole-pairs", "7", "-o", str(out)]) == 0
+    cal = read_calibration(out)
+    truth = truth_at_orders(ENCODER, [k for k in range(1, 33) if k % 7], grid=cal.encoder_deg)
+    assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)

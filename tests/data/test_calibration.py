@@ -1,0 +1,322 @@
+import warnings
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+from numpy.testing import assert_allclose, assert_array_equal
+
+from tests.conftest import grid_csv
+from encal import Calibration, CalibrationError, read_calibration, write_calibration
+from encal._core.errors import EncalWarning
+
+
+# ---------------------------------------------------------------- refused, in one sentence
+
+
+def _refused(path, match, **kwargs):
+    with pytest.raises(CalibrationError, match=match) as info:
+        read_calibration(path, **kwargs)
+    message = str(info.value)
+    assert "\n" not in message
+    assert str(path) in message
+    return message
+
+
+def test_missing_file(tmp_path):
+    _refused(tmp_path / "nope.csv", "no such file")
+
+
+def test_folder(tmp_path):
+    _refused(tmp_path, "is a folder")
+
+
+@pytest.mark.parametrize("text", ["", "\n\n", "# only a comment\n"])
+def test_empty_file(write_csv, text):
+    _refused(write_csv(text), "empty")
+
+
+def test_no_header(write_csv):
+    text = "\n".join(f"{r},{r}" for r in range(0, 360, 10))
+    message = _refused(write_csv(text), "header lacks reference_deg and encoder_deg")
+    assert "line 1" in message and "row of numbers" in message
+
+
+def test_header_without_encoder_column(write_csv):
+    message = _refused(write_csv("reference_deg,reading\n0,0\n"), "header lacks encoder_deg")
+    assert "reference_deg, reading" in message
+
+
+def test_semicolons_are_read_like_commas(write_csv):
+    """A spreadsheet's semicolon-separated export (issue 25): the same calibration as the comma-separated file."""
+    comma = read_calibration(write_csv(grid_csv(), name="comma.csv"))
+    semicolons = read_calibration(write_csv(grid_csv().replace(",", ";"), name="semicolons.csv"))
+    np.testing.assert_array_equal(semicolons.reference_deg, comma.reference_deg)
+    np.testing.assert_array_equal(semicolons.encoder_deg, comma.encoder_deg)
+
+
+@pytest.mark.parametrize("separator", ["\t", " ", "  \t "])
+def test_a_header_without_commas_is_read_as_whitespace_separated(write_csv, separator):
+    comma = read_calibration(write_csv(grid_csv(), name="comma.csv"))
+    blanks = read_calibration(write_csv(grid_csv().replace(",", separator), name="blank.txt"))
+    np.testing.assert_array_equal(blanks.reference_deg, comma.reference_deg)
+    np.testing.assert_array_equal(blanks.encoder_deg, comma.encoder_deg)
+
+
+def test_non_numeric_value_names_line_and_column(write_csv):
+    lines = grid_csv().splitlines()
+    lines[5] = "8.0,abc"
+    message = _refused(write_csv("\n".join(lines)), "'abc'")
+    assert "line 6, column 2" in message
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf", "-inf", "NaN"])
+def test_nan_and_infinity(write_csv, bad):
+    lines = grid_csv().splitlines()
+    lines[3] = f"{bad},4.0"
+    message = _refused(write_csv("\n".join(lines)), "finite")
+    assert "line 4, column 1" in message
+
+
+def test_too_few_points(write_csv):
+    text = "reference_deg,encoder_deg\n" + "".join(f"{r},{r}\n" for r in range(0, 360, 52))
+    _refused(write_csv(text), "7 calibration points, expected at least 8")
+
+
+def test_truncated_row(write_csv):
+    text = grid_csv() + "358.5\n"
+    _refused(write_csv(text), "truncated")
+
+
+def test_binary_file(write_csv):
+    _refused(write_csv(bytes(range(256)) * 4), "binary")
+
+
+def test_gap_refused_and_allowed(write_csv):
+    text = grid_csv(step=2.0)
+    # two gaps (100-150 and 200-300 deg): scattered data, refused (issue 31 accepts one contiguous arc)
+    lines = [line for line in text.splitlines() if line.startswith("reference")
+             or not (100 <= float(line.split(",")[0]) < 150 or 200 <= float(line.split(",")[0]) < 300)]
+    path = write_csv("\n".join(lines))
+    message = _refused(path, "gap of")
+    assert "--allow-gaps" in message
+    cal = read_calibration(path, allow_gaps=True)
+    assert len(cal) == len(lines) - 1
+    # one gap: a calibration over one arc is read without options
+    arc = [line for line in text.splitlines() if line.startswith("reference") or float(line.split(",")[0]) < 200]
+    assert len(read_calibration(write_csv("\n".join(arc)))) == len(arc) - 1
+
+
+def test_reversed_encoder_refused_and_accepted(write_csv):
+    ref = np.arange(0.0, 360.0, 2.0)
+    text = "reference_deg,encoder_deg\n" + "".join(f"{r},{(-r + 0.01) % 360}\n" for r in ref)
+    path = write_csv(text)
+    _refused(path, "counts against the reference.*--reverse")
+    cal = read_calibration(path, reverse=True)
+    assert_allclose(cal.errors_arcmin, -0.6, atol=1e-9)
+
+
+def test_conflicting_duplicates_refused_or_averaged(write_csv):
+    text = grid_csv() + "4.0,4.02\n"
+    path = write_csv(text)
+    _refused(path, "more than once with different readings")
+    # The repeat reads 1.2 arcmin off the first, over 10 times the profile's typical step: averaged as asked,
+    # and named as a likely misread.
+    with pytest.warns(EncalWarning, match=r"line 182 \(encoder 4\.020 deg\) .* a misread\?"):
+        cal = read_calibration(path, duplicates="average")
+    assert len(cal) == 180
+    i = int(np.flatnonzero(cal.reference_deg == 4.0)[0])
+    assert_allclose(cal.encoder_deg[i], (4.0 + 0.01 * np.sin(np.radians(4.0)) + 4.02) / 2)
+
+
+def _rows(reference, encoder, labels=None, header="reference_deg,encoder_deg"):
+    """CSV text of the given rows (``labels``: an extra last column, named in ``header``)."""
+    cells = zip(reference, encoder, labels if labels is not None else [None] * len(reference))
+    return header + "\n" + "".join(f"{float(r)!r},{float(e)!r}" + (f",{x}" if x is not None else "") + "\n"
+                                    for r, e, x in cells)
+
+
+def _noisy(reference, seed=0):
+    """Readings of the grid_csv profile with 0.1 arcmin of noise (degrees)."""
+    noise = np.random.default_rng(seed).normal(0.0, 0.1 / 60.0, np.size(reference))
+    return np.asarray(reference) + 0.01 * np.sin(np.radians(reference)) + noise
+
+
+GRID = np.arange(0.0, 360.0, 2.0)
+
+
+@pytest.mark.parametrize("reference", [np.repeat(GRID, 3), np.tile(GRID, 2),
+                                       np.tile(np.random.default_rng(1).permutation(GRID), 3)],
+                         ids=["three-in-a-row", "two-passes", "three-passes-in-a-shuffled-order"])
+def test_the_same_number_of_readings_at_every_stop_is_read_as_repeated_readings(write_csv, reference):
+    cal = read_calibration(write_csv(_rows(reference, _noisy(reference))))
+    assert len(cal) == reference.size
+    assert_array_equal(cal.reference_deg, reference)
+    # --average-duplicates still averages them
+    assert len(read_calibration(write_csv(_rows(reference, _noisy(reference))), duplicates="average")) == 180
+
+
+@pytest.mark.parametrize("reference", [
+    np.r_[GRID, 10.0],                          # a stray repeated row
+    np.r_[np.repeat(GRID, 3), 10.0],            # four readings at one stop, three at the others
+    np.r_[GRID, GRID[::-1]],                    # there and back: a second direction of travel
+    np.r_[np.repeat(GRID[:90], 2), GRID[90:]],  # half the stops read twice
+], ids=["stray", "one-count-differs", "there-and-back", "half-the-stops"])
+def test_repeats_without_a_deliberate_pattern_are_refused(write_csv, reference):
+    path = write_csv(_rows(reference, _noisy(reference)))
+    message = _refused(path, "appears more than once with different readings")
+    assert "or the same number at every angle" in message
+    assert "use --keep-duplicates to keep them as repeated readings of one stop" in message
+    assert len(read_calibration(path, duplicates="keep")) == reference.size
+
+
+def test_repeats_are_judged_within_each_epoch(write_csv):
+    reference = np.r_[np.repeat(GRID, 2), GRID]
+    labels = ["a"] * 360 + ["b"] * 180
+    text = _rows(reference, _noisy(reference), labels, header="reference_deg,encoder_deg,epoch")
+    assert len(read_calibration(write_csv(text))) == 540
+    # a stray repeat in epoch b is still refused
+    reference = np.r_[reference, 10.0]
+    text = _rows(reference, _noisy(reference), labels + ["b"], header="reference_deg,encoder_deg,epoch")
+    _refused(write_csv(text), "reference angle 10 deg appears more than once")
+
+
+def test_is_repeated_stops():
+    from encal.data.calibration import is_repeated_stops
+
+    assert is_repeated_stops(np.repeat(GRID, 2))
+    assert is_repeated_stops(np.tile(GRID, 4) + 360.0)  # angles wrap
+    assert not is_repeated_stops(GRID)  # nothing repeated
+    assert not is_repeated_stops(np.r_[GRID, GRID[::-1]])
+    runs = np.r_[np.zeros(360, int), np.ones(360, int)]
+    assert is_repeated_stops(np.r_[np.tile(GRID, 2), np.repeat(GRID, 2)], runs)
+    assert not is_repeated_stops(np.r_[np.tile(GRID, 2), np.repeat(GRID, 2)])  # one run: no pattern
+
+
+def test_identical_duplicates_kept(write_csv):
+    text = grid_csv()
+    repeat = text.splitlines()[3]
+    cal = read_calibration(write_csv(text + repeat + "\n"))
+    assert len(cal) == 181
+
+
+# ---------------------------------------------------------------- accepted
+
+
+def test_odd_but_valid_file(write_csv):
+    ref = np.arange(0.0, 360.0, 5.0)
+    rows = [f"x{i},{r + 720.0 + 0.02},{r - 360.0}" for i, r in enumerate(ref)]
+    text = "\ufeff# a comment\r\nNote,Encoder_DEG,REFERENCE_deg\r\n" + "\r\n".join(rows[:10]) \
+        + "\r\n# another comment\r\n" + "\r\n".join(rows[10:]) + "\r\n"
+    cal = read_calibration(write_csv(text))
+    assert len(cal) == ref.size
+    assert_allclose(cal.reference_deg, ref, atol=1e-9)
+    assert_allclose(cal.errors_arcmin, 1.2, atol=1e-9)
+    assert np.all((cal.encoder_deg >= 0) & (cal.encoder_deg < 360))
+    assert cal.name == "cal"
+
+
+def test_direction_and_epoch_columns(write_csv):
+    ref = np.arange(0.0, 360.0, 10.0)
+    rows = [f"{r},{r},cw,a" for r in ref] + [f"{r},{r + 0.01},CCW,a" for r in ref]
+    cal = read_calibration(write_csv("reference_deg,encoder_deg,direction,epoch\n" + "\n".join(rows)))
+    assert_array_equal(np.unique(cal.direction), [-1, 1])
+    assert set(cal.epoch) == {"a"}
+
+
+def test_bad_direction(write_csv):
+    text = "reference_deg,encoder_deg,direction\n" + "".join(f"{r},{r},up\n" for r in range(0, 360, 10))
+    message = _refused(write_csv(text), "direction is 'up'")
+    assert "line 2, column 3" in message
+
+
+def test_resolution_comment(write_csv):
+    cal = read_calibration(write_csv("# resolution_bits: 14\n" + grid_csv()))
+    assert cal.resolution_bits == 14
+
+
+def test_large_zero_offset_near_180_stays_continuous():
+    ref = np.arange(0.0, 360.0, 1.8)
+    error_deg = 179.9 + 0.2 * np.sin(np.radians(ref))  # crosses the +-180 boundary
+    cal = Calibration(ref, ref + error_deg)
+    assert_allclose(cal.errors_arcmin / 60.0 % 360.0, error_deg % 360.0, atol=1e-9)
+    assert np.ptp(cal.errors_arcmin) < 0.5 * 60
+
+
+def test_real_file(real_data_dir):
+    cal = read_calibration(real_data_dir / "mech_jcchurch_2016-11-22_9d73d2c6.csv")
+    assert len(cal) == 200
+    assert 10 < np.ptp(cal.errors_arcmin) < 200
+
+
+# ---------------------------------------------------------------- round trip
+
+angles = arrays(np.float64, st.integers(8, 60),
+                elements=st.floats(-1e4, 1e4, allow_nan=False, allow_infinity=False))
+
+
+@settings(max_examples=50, deadline=None)
+@given(angles, st.floats(-5, 5), st.sampled_from([None, 12, 16]))
+def test_write_read_round_trip(tmp_path_factory, reference, offset, bits):
+    reference = np.sort(np.mod(reference, 360.0))
+    cal = Calibration(reference, reference + offset / 60.0, name="rt", resolution_bits=bits)
+    path = tmp_path_factory.mktemp("rt") / "rt.csv"
+    write_calibration(path, cal, extra_columns={"note": ["n"] * len(cal)})
+    with warnings.catch_warnings():  # a few angles within 0..2*pi look like radians: not what is tested here
+        warnings.simplefilter("ignore", EncalWarning)
+        back = read_calibration(path, allow_gaps=True, duplicates="average")
+    unique = np.unique(np.round(cal.reference_deg, 9)).size
+    if unique == len(cal):
+        assert_array_equal(back.reference_deg, cal.reference_deg)
+        assert_array_equal(back.encoder_deg, cal.encoder_deg)
+    assert back.resolution_bits == bits
+
+
+def test_write_is_atomic_when_folder_missing(tmp_path):
+    cal = Calibration(np.arange(0, 360, 10.0), np.arange(0, 360, 10.0))
+    with pytest.raises(Exception, match="does not exist"):
+        write_calibration(tmp_path / "missing" / "x.csv", cal)
+    assert not (tmp_path / "missing").exists()
+
+
+def test_calibration_validation():
+    with pytest.raises(CalibrationError, match="one reading per reference angle"):
+        Calibration([0, 1], [0])
+    with pytest.raises(CalibrationError, match="finite"):
+        Calibration([0, np.nan], [0, 1])
+    with pytest.raises(CalibrationError, match=r"\+1 or -1"):
+        Calibration([0, 1], [0, 1], direction=[1, 0])
+
+
+def test_a_column_named_twice_is_refused(write_csv):
+    lines = grid_csv().splitlines()
+    text = "reference_deg,encoder_deg,Encoder_deg\n" + "\n".join(f"{row},{float(row.split(',')[1]) + 1}"
+                                                               for row in lines[1:]) + "\n"
+    message = _refused(write_csv(text), "line 1: the header names encoder_deg 2 times")
+    assert message.endswith("(columns 2, 3); expected each column once, so that it is clear which to read")
+
+
+@pytest.mark.parametrize("cell", ["1" * 100_000, "x" * 100_000])
+def test_a_huge_cell_is_shown_shortened(write_csv, cell):
+    lines = grid_csv().splitlines()
+    lines[5] = lines[5].split(",")[0] + "," + cell
+    message = _refused(write_csv("\n".join(lines) + "\n"), "line 6, column 2: encoder_deg is '")
+    assert len(message) < 300 and "...'" in message
+
+
+def test_a_huge_header_is_shown_shortened(write_csv):
+    path = write_csv("[" * 100_000 + "\n" + "1,2\n" * 10)
+    message = _refused(path, "the header lacks")
+    # The file's name is as long as the temporary folder makes it (longer under pytest-xdist): not counted.
+    assert len(message) - len(str(path)) < 450
+
+
+def test_quoted_fields_are_read_as_csv(write_csv):
+    lines = grid_csv().splitlines()
+    rows = [f'"run 1, table A",{row}' if i % 2 else f'"note",{",".join(f"{chr(34)}{c}{chr(34)}" for c in row.split(","))}'
+            for i, row in enumerate(lines[1:])]
+    cal = read_calibration(write_csv("note,\"reference_deg\",encoder_deg\n" + "\n".join(rows) + "\n"))
+    plain = read_calibration(write_csv(grid_csv(), name="plain.csv"))
+    assert np.array_equal(cal.reference_deg, plain.reference_deg)
+    assert np.array_equal(cal.encoder_deg, plain.encoder_deg)

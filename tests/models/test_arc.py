@@ -1,0 +1,301 @@
+"""Calibrations over an arc (issue 31): the arc kind, range_deg in the model file, the rule outside the arc."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import encal
+from encal import runtime
+from encal._core.arcs import arc_of, clamp_to_range, inside
+from encal.cli import main
+from encal.deploy import Compensator, compile_table
+from encal._core.errors import InputError, ModelFileError
+from encal.models.arc import fit_arc
+from encal.models.modelfile import load_model, model_to_dict
+from tests._paths import DATA
+
+
+def truth(theta_deg):
+    t = np.radians(theta_deg)
+    return 3.0 * np.sin(t) + 1.2 * np.sin(2 * t + 1.0) + 0.4 * np.sin(7 * t) + 0.2 * np.sin(15 * t + 0.3)
+
+
+def arc_data(start, span, n=1500, noise=0.1, seed=1):
+    rng = np.random.default_rng(seed)
+    theta = np.mod(start + np.sort(rng.uniform(0.0, span, n)), 360.0)
+    return theta, truth(theta) + rng.normal(0.0, noise, n)
+
+
+def write_arc_csv(path, start, span, n=600, seed=2):
+    theta, error = arc_data(start, span, n=n, seed=seed)
+    reference = np.mod(theta - error / 60.0, 360.0)
+    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{r:.10f},{e:.10f}\n" for r, e in zip(reference, theta)))
+    return path
+
+
+# -- the range and the rule, pure ------------------------------------------------------------
+
+def test_arc_of_finds_one_arc_and_refuses_scattered_gaps():
+    assert arc_of([10.0, 40.0, 70.0, 100.0, 130.0], 30.0) == (10.0, 130.0)
+    assert arc_of([330.0, 350.0, 0.0, 20.0, 50.0], 30.0) == (330.0, 50.0)  # through zero
+    assert arc_of(np.arange(0.0, 360.0, 10.0), 30.0) is None  # a full turn
+    assert arc_of([0.0, 10.0, 100.0, 110.0, 200.0, 210.0], 30.0) is None  # three arcs
+
+
+def test_inside_and_clamp_go_round_the_circle():
+    arc = [330.0, 50.0]
+    assert inside([340.0, 0.0, 49.0, 51.0, 200.0, 329.0], arc).tolist() == [True, True, True, False, False, False]
+    assert clamp_to_range([60.0, 320.0, 10.0], arc).tolist() == [50.0, 330.0, 10.0]
+
+
+# -- the arc kind ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("span", [30.0, 90.0, 180.0])
+def test_arc_model_reaches_the_noise_floor_over_the_arc(span):
+    theta, error = arc_data(10.0, span, noise=0.1)
+    model = fit_arc(theta, error)
+    start, end = model.range_deg
+    grid = start + np.linspace(0.0, (end - start) % 360.0, 2001)
+    rms_vs_truth = float(np.sqrt(np.mean((model.predict(grid) - truth(grid)) ** 2)))
+    assert rms_vs_truth < 0.045  # the model's own error, well under the noise (0.1): test RMS <= 1.1x the floor
+
+
+def test_uncertainty_grows_toward_the_ends_and_covers_the_truth():
+    theta, error = arc_data(40.0, 90.0, n=400, noise=0.3, seed=4)
+    model = fit_arc(theta, error)
+    noise = model.uncertainty["noise_std_arcmin"]
+    start, end = model.range_deg
+    middle = start + ((end - start) % 360.0) / 2.0
+    _, std = model.predict([start, middle, end], return_std=True)
+    model_std = np.sqrt(std**2 - noise**2)
+    assert model_std[0] > 1.5 * model_std[1] and model_std[2] > 1.5 * model_std[1]
+    grid = start + np.linspace(0.0, (end - start) % 360.0, 500)
+    mean, std = model.predict(grid, return_std=True)
+    within = np.abs(mean - truth(grid)) <= 2.0 * np.sqrt(std**2 - noise**2)
+    assert within.mean() > 0.85
+
+
+def test_outside_the_arc_the_api_answers_nan_never_a_number():
+    theta, error = arc_data(10.0, 120.0)
+    model = fit_arc(theta, error)
+    assert np.isnan(model.predict(200.0)) and np.isnan(model.correct(200.0))
+    mean, std = model.predict([50.0, 200.0], return_std=True)
+    assert np.isfinite(mean[0]) and np.isnan(mean[1]) and np.isnan(std[1])
+    assert np.isnan(Compensator(model).correct(300.0))
+
+
+def test_arc_through_zero():
+    theta, error = arc_data(320.0, 90.0)
+    model = fit_arc(theta, error)
+    assert model.range_deg[0] > 300.0 and model.range_deg[1] < 60.0
+    grid = np.array([330.0, 359.9, 0.0, 20.0, 45.0])
+    assert np.max(np.abs(model.predict(grid) - truth(grid))) < 0.15
+    assert np.isnan(model.predict(180.0))
+
+
+def test_fit_chooses_the_arc_kind_on_an_arc_and_records_the_range_on_any_kind():
+    theta, error = arc_data(10.0, 120.0, n=400)
+    cal = encal.Calibration(np.mod(theta - error / 60.0, 360.0), theta)
+    model = encal.fit(cal)
+    assert model.kind == "arc" and model.range_deg == pytest.approx([theta.min(), theta.max()])
+    table = encal.fit(cal, method="lut")
+    assert table.range_deg == model.range_deg and np.isnan(table.predict(250.0))
+    # a periodic model is not pinned down between the points of part of a turn (the outside attack: a spectral
+    # fit over 45-314 deg swung to 5e8 arcmin inside its arc, with exit 0)
+    for method in ("fourier", "spectral", "hybrid", "ann", "stack"):
+        with pytest.raises(encal.InputError, match=f"covers only an arc .* --method {method} fits a periodic model"):
+            encal.fit(cal, method=method)
+
+
+# -- the model file and the runtime ------------------------------------------------------------
+
+def test_model_file_records_the_range_and_the_runtime_answers_nan_outside(tmp_path):
+    theta, error = arc_data(10.0, 120.0, n=400)
+    model = fit_arc(theta, error)
+    path = model.save(tmp_path / "arc.json")
+    document = json.loads(path.read_text())
+    assert document["version"] == 4 and document["kind"] == "arc" and document["range_deg"] == model.range_deg
+    loaded = load_model(path)
+    assert loaded.range_deg == model.range_deg
+    grid = np.array([15.0, 60.0, 125.0])
+    np.testing.assert_allclose(loaded.predict(grid), model.predict(grid), rtol=0, atol=1e-12)
+    light = runtime.load(path)
+    assert light.predict_arcmin(60.0) == pytest.approx(float(model.predict(60.0)), abs=1e-12)
+    assert math.isnan(light.predict_arcmin(200.0)) and math.isnan(light.correct_deg(200.0))
+
+
+def test_old_files_load_as_full_turn_models():
+    for path in sorted(DATA.glob("model_v1_*.json")):
+        model = load_model(path)
+        assert model.range_deg is None and runtime.load(path).range_deg is None
+        assert np.all(np.isfinite(model.predict(np.arange(0.0, 360.0, 7.0))))
+
+
+def test_the_stored_version_4_file_predicts_what_it_predicted():
+    expected = json.loads((DATA / "expected_v4.json").read_text())["model_v4_arc.json"]
+    model, light = load_model(DATA / "model_v4_arc.json"), runtime.load(DATA / "model_v4_arc.json")
+    for theta, value in zip(expected["theta_deg"], expected["predict_arcmin"]):
+        got, got_light = float(model.predict(theta)), light.predict_arcmin(theta)
+        if value is None:
+            assert math.isnan(got) and math.isnan(got_light)
+        else:
+            assert got == pytest.approx(value, abs=1e-12) and got_light == pytest.approx(value, abs=1e-12)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d.update(version=3), "format version 3 has no 'range_deg' field"),
+    (lambda d: d.update(range_deg=[10.0]), "expected 'range_deg' to be null or"),
+    (lambda d: d.update(range_deg=[10.0, 400.0]), "expected 'range_deg' to be null or"),
+    (lambda d: d.update(range_deg=[10.0, 10.0]), "expected 'range_deg' to be null or"),
+])
+def test_the_runtime_refuses_a_malformed_range(change, message):
+    model = fit_arc(*arc_data(10.0, 120.0, n=200))
+    document = model_to_dict(model)
+    change(document)
+    document["sha256"] = runtime.content_sha256(document)
+    with pytest.raises(runtime.ModelFileError, match=message):
+        runtime.check_document(document, "arc.json")
+    with pytest.raises(ModelFileError):
+        encal.models.modelfile.model_from_dict(document)
+
+
+# -- the command line ------------------------------------------------------------------------
+
+@pytest.fixture
+def arc_model_file(tmp_path):
+    csv = write_arc_csv(tmp_path / "arc.csv", 10.0, 120.0)
+    assert main(["fit", str(csv), "-o", str(tmp_path / "arc.json")]) == 0
+    return tmp_path / "arc.json"
+
+
+def test_cli_fit_an_arc_without_options_and_correct_refuses_outside(arc_model_file, tmp_path, capsys, monkeypatch):
+    assert json.loads(arc_model_file.read_text())["kind"] == "arc"
+    angles = tmp_path / "angles.txt"
+    angles.write_text("50\n200\n")
+    capsys.readouterr()
+    assert main(["correct", str(arc_model_file), str(angles)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "200 deg is outside the calibrated range" in err and "--outside" in err
+    model = load_model(arc_model_file)
+    assert main(["correct", str(arc_model_file), str(angles), "--outside", "pass"]) == 0
+    lines = capsys.readouterr().out.split()
+    assert float(lines[0]) == pytest.approx(float(model.correct(50.0)), abs=1e-11) and float(lines[1]) == 200.0
+    assert main(["correct", str(arc_model_file), str(angles), "--outside", "clamp"]) == 0
+    lines = capsys.readouterr().out.split()
+    end = model.range_deg[1]
+    assert float(lines[1]) == pytest.approx(200.0 - float(model.predict(end)) / 60.0, abs=1e-11)
+
+
+def test_cli_scattered_gaps_are_still_refused(tmp_path, capsys):
+    ref = np.concatenate([np.arange(0.0, 100.0, 1.0), np.arange(150.0, 250.0, 1.0)])
+    path = tmp_path / "gaps.csv"
+    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{r},{r + 0.01}\n" for r in ref))
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json")]) == 1
+    assert "gap of" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("export", [["table", "--bits", "12"], ["c"], ["moteus", "--bits", "14"], ["simplefoc"],
+                                    ["tinymovr", "--bits", "14"], ["klipper", "--step-zero", "0", "--step-direction", "1"],
+                                    ["mechaduino", "--step-zero", "0"]])
+def test_every_export_refuses_an_arc_model_without_a_rule(arc_model_file, tmp_path, capsys, export):
+    out = tmp_path / "out"
+    capsys.readouterr()
+    assert main(["export", str(arc_model_file), "--format", *export, "-o", str(out)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--outside clamp" in err and not out.exists()
+    for rule in ("clamp", "pass"):
+        status = main(["export", str(arc_model_file), "--format", *export, "-o", str(out), "--outside", rule])
+        if export[0] == "klipper" and status == 1:  # 64 buckets cannot follow the clamp rule's step: refused
+            assert "would not do what the model says" in capsys.readouterr().err and not out.exists()
+        else:
+            assert status == 0 and out.exists()
+
+
+def test_the_dense_table_honours_the_rule_exactly(arc_model_file):
+    model = load_model(arc_model_file)
+    with pytest.raises(InputError, match="calibrated over"):
+        compile_table(model, 12)
+    from encal._core.arcs import periodic_for_export
+
+    codes = np.arange(4096) * 360.0 / 4096
+    held = inside(codes, model.range_deg)
+    for rule in ("clamp", "pass"):
+        table = compile_table(periodic_for_export(model, rule), 12, dtype="float32")
+        values = np.asarray(table.values, dtype=float) * getattr(table, "scale", 1.0)
+        expected = np.where(held, model.predict(np.where(held, codes, model.range_deg[0])), 0.0)
+        if rule == "clamp":
+            expected[~held] = model.predict(clamp_to_range(codes[~held], model.range_deg))
+        np.testing.assert_allclose(values, expected, atol=1e-3)
+
+
+def test_export_outside_is_a_usage_error_for_a_full_turn_model(tmp_path, capsys):
+    model = encal.models.fourier.FourierModel([0, 1], [0.0, 1.0], [0.0, 0.0], encoder={"resolution_bits": 12})
+    path = model.save(tmp_path / "f.json")
+    with pytest.raises(SystemExit) as info:
+        main(["export", str(path), "--format", "table", "-o", str(tmp_path / "t.bin"), "--outside", "clamp"])
+    assert info.value.code == 2
+
+
+def test_profile_evaluate_report_work_on_an_arc(arc_model_file, tmp_path, capsys):
+    csv = arc_model_file.parent / "arc.csv"
+    test = write_arc_csv(tmp_path / "test.csv", 10.0, 120.0, n=300, seed=9)
+    assert main(["profile", str(csv)]) == 0
+    assert "harmonics of the shaft angle are defined over the full turn only" in capsys.readouterr().out
+    assert main(["evaluate", str(arc_model_file), str(test), "--json"]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert result["rms_arcmin"] < 0.13 and result["before"]["rms_arcmin"] > 1.0
+    assert main(["report", str(csv), str(test), "-o", str(tmp_path / "r.html")]) == 0
+    assert "harmonics of the shaft angle are defined over the full turn only" in (tmp_path / "r.html").read_text()
+
+
+def test_a_bidirectional_arc_and_a_spectral_fit_answer_nan_outside(tmp_path):
+    rng = np.random.default_rng(0)
+    reference = np.linspace(20.0, 140.0, 300)
+    error = 3.0 * np.sin(np.radians(reference))
+    travel = np.concatenate([np.ones(300), -np.ones(300)]).astype(int)
+    both = np.concatenate([reference, reference[::-1]])
+    measured = np.concatenate([error + 0.5, error[::-1] - 0.5]) + rng.normal(0, 0.05, 600)
+    model = encal.fit(encal.Calibration(both, both + measured / 60.0, direction=travel))
+    assert model.kind == "directional"
+    loaded = load_model(model.save(tmp_path / "d.json"))
+    for candidate in (model, loaded):
+        predicted = candidate.predict([50.0, 200.0], direction=1)
+        assert np.isfinite(predicted[0]) and np.isnan(predicted[1])
+        corrected = candidate.correct([50.0, 200.0], direction=-1)
+        assert np.isfinite(corrected[0]) and np.isnan(corrected[1])
+        assert np.isnan(candidate.correct(200.0))
+    assert math.isnan(runtime.load(tmp_path / "d.json").predict_arcmin(200.0, 1))
+    theta, values = arc_data(10.0, 120.0, n=300)
+    from encal.models.spectral import fit_spectral
+
+    spectral = fit_spectral(theta, values)  # encal.fit refuses a periodic model on an arc; the range still rules
+    spectral.range_deg = [float(theta.min()), float(theta.max())]
+    mean, std = spectral.predict([60.0, 250.0], return_std=True)
+    assert np.isfinite(mean[0]) and np.isfinite(std[0]) and np.isnan(mean[1]) and np.isnan(std[1])
+
+
+@pytest.mark.parametrize("target", ["host", "cortex-m4f", "fixed"])
+def test_the_c_header_states_the_range_and_tests_it(arc_model_file, tmp_path, target):
+    import shutil
+    import subprocess
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the header's range test is compiled with it")
+    out = tmp_path / "c"
+    assert main(["export", str(arc_model_file), "--format", "c", "--target", target, "--bits", "14",
+                 "--outside", "clamp", "-o", str(out)]) == 0
+    model = load_model(arc_model_file)
+    angles = [5.0, model.range_deg[0] + 0.01, 60.0, model.range_deg[1] - 0.01, 200.0, 359.0]
+    if target == "fixed":
+        calls = " ".join(f'printf("%d\\n", encal_in_range_code({int(a / 360 * 16384)}u));' for a in angles)
+    else:
+        calls = " ".join(f'printf("%d\\n", encal_in_range({a!r}));' for a in angles)
+    source = f'#include <stdio.h>\n#include "encal.h"\nint main(void) {{ {calls} return 0; }}\n'
+    (tmp_path / "main.c").write_text(source)
+    binary = tmp_path / "main"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", "-I", str(out), str(tmp_path / "main.c"), "-o",
+                    str(binary)], check=True)
+    flags = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split()
+    assert flags == ["0", "1", "1", "1", "0", "0"]

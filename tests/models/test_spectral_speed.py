@@ -1,0 +1,112 @@
+"""The spectral fit's reuse across evaluations (issue 32): a work buffer, kept results, kept exponentials.
+
+Each shortcut must give the numbers of the plain computation: the evidence against its formulas written
+out with dense NumPy, results that stay put when the buffer is reused, the jitter retried on a rebuilt
+matrix, and trigonometric moments from kept exponentials equal to fresh ones bit for bit.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from encal.models import _evidence
+from encal.models.spectral import _columns, _general_design
+from encal.numerics import trigsums
+
+
+def _jittered_design(seed=5, stops=120, highest=40):
+    rng = np.random.default_rng(seed)
+    theta = np.sort(np.radians(np.arange(stops) * 360.0 / stops + rng.uniform(-1.0, 1.0, stops)))
+    error = 2.0 * np.cos(theta) + 0.5 * np.sin(7 * theta) + 0.1 * rng.normal(size=stops)
+    orders, shifts, lineable = _columns(highest, None, 0.0)
+    return _general_design(theta, error - error.mean(), orders, shifts, lineable)
+
+
+def _direct(design, s, sigma2):
+    """The evidence, posterior and gradients written out with dense NumPy (inverse and slogdet)."""
+    d = np.sqrt(s)
+    b = np.eye(s.size) + d[:, None] * design.gram * d[None, :] / sigma2
+    inverse = np.linalg.inv(b)
+    u = d * design.projection / sigma2
+    z = inverse @ u
+    log_p = -0.5 * (design.n * math.log(2 * math.pi * sigma2) + np.linalg.slogdet(b)[1] + design.yy / sigma2 - u @ z)
+    mean = d * z
+    residual2 = design.yy - 2 * design.projection @ mean + mean @ design.gram @ mean
+    grad_s = 0.5 * (z**2 + np.diag(inverse) - 1.0)
+    grad_noise = 0.5 * (residual2 / sigma2 + s.size - np.trace(inverse) - design.n)
+    return log_p, mean, d[:, None] * inverse * d[None, :], grad_s, grad_noise
+
+
+@pytest.mark.parametrize("covariance", [True, False])
+def test_general_evidence_matches_its_formulas(covariance):
+    design = _jittered_design()
+    hyper = _evidence.Hyper(0.3, 2.2, 0.02, {1: 3.0, 7: 0.2}, False)
+    s = hyper.variances(design)
+    post = _evidence.evidence(design, s, hyper.noise_var, covariance=covariance)
+    log_p, mean, cov, grad_s, grad_noise = _direct(design, s, hyper.noise_var)
+    assert post.log_evidence == pytest.approx(log_p, rel=1e-12)
+    np.testing.assert_allclose(post.mean, mean, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(post.grad_log_variance, grad_s, rtol=1e-9, atol=1e-11)
+    assert post.grad_log_noise == pytest.approx(grad_noise, rel=1e-9)
+    if covariance:
+        np.testing.assert_allclose(post.covariance, cov, rtol=1e-9, atol=1e-14)
+        assert post.covariance.flags.c_contiguous  # as before: the later matrix products round by the layout
+    else:
+        assert post.covariance is None
+
+
+def test_results_stay_put_when_the_buffer_is_reused():
+    design = _jittered_design()
+    hyper = _evidence.Hyper(0.3, 2.2, 0.02, {1: 3.0}, False)
+    first = _evidence.evidence(design, hyper.variances(design), hyper.noise_var)
+    kept = [first.mean.copy(), first.covariance.copy(), first.grad_log_variance.copy()]
+    for noise in (0.01, 0.03, 0.05, 0.08):  # more points than the results kept: the first is computed again
+        _evidence.evidence(design, hyper.variances(design), noise, covariance=False)
+        _evidence.evidence(design, hyper.variances(design), noise)
+    for array, copy in zip((first.mean, first.covariance, first.grad_log_variance), kept):
+        np.testing.assert_array_equal(array, copy)
+    again = _evidence.evidence(design, hyper.variances(design), hyper.noise_var)
+    assert again is not first and again.log_evidence == first.log_evidence
+    np.testing.assert_array_equal(again.covariance, first.covariance)
+    # a point asked for again at once is the result kept, and each kind of evaluation is kept apart
+    assert _evidence.evidence(design, hyper.variances(design), hyper.noise_var) is again
+    assert _evidence.evidence(design, hyper.variances(design), hyper.noise_var, covariance=False).covariance is None
+
+
+def test_the_jitter_is_added_to_a_rebuilt_matrix():
+    # indefinite by 1e-15, which the first jitter (1e-14 of the diagonal) repairs; the failed factorisation
+    # overwrote the buffer, so each try must write the matrix again
+    matrix = np.array([[1.0, 1.0], [1.0, 1.0]]) - 1e-15 * np.eye(2)
+    writes = []
+
+    def fill(out):
+        writes.append(1)
+        out[...] = matrix
+        return out
+
+    factor = _evidence._cholesky(fill, np.empty((2, 2), order="F"))
+    assert len(writes) == 2
+    np.testing.assert_allclose(np.tril(factor) @ np.tril(factor).T, matrix + 1e-14 * np.eye(2), rtol=0, atol=1e-15)
+    def fill_indefinite(out):  # an eigenvalue of -1: no jitter up to 1e-8 of the diagonal repairs it
+        out[...] = [[1.0, 2.0], [2.0, 1.0]]
+        return out
+
+    with pytest.raises(np.linalg.LinAlgError):
+        _evidence._cholesky(fill_indefinite, np.empty((2, 2), order="F"))
+
+
+def test_moments_from_kept_exponentials_are_those_computed_afresh():
+    rng = np.random.default_rng(2)
+    theta = rng.uniform(0.0, 2 * math.pi, 150)
+    weights = rng.normal(size=150)
+    trigsums.trig_moments(theta, np.ones(150), 120)  # keeps the exponentials up to order 120
+    fresh = np.exp(1j * np.multiply.outer(np.arange(61), theta)) @ weights
+    np.testing.assert_array_equal(trigsums.trig_moments(theta, weights, 60), fresh)
+    other = theta.copy()
+    other[3] += 1e-9  # other angles are never served the kept matrix
+    np.testing.assert_array_equal(trigsums.trig_moments(other, weights, 60),
+                                  np.exp(1j * np.multiply.outer(np.arange(61), other)) @ weights)
+    theta[0] = 1.0  # nor the same array changed in place
+    np.testing.assert_array_equal(trigsums.trig_moments(theta, weights, 60),
+                                  np.exp(1j * np.multiply.outer(np.arange(61), theta)) @ weights)

@@ -1,0 +1,74 @@
+"""Self-calibration over a limited range (issue 31): a back-and-forth open-loop sweep of an arc."""
+
+import numpy as np
+import pytest
+
+from encal.cli import main
+from encal._core.errors import InputError
+from encal.selfcal.arc_sweep import arc_sweep
+from encal.selfcal.moteus_capture import write_moteus_capture
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_sweep
+
+ENCODER = draw_magnetic_encoder(21, eccentricity_deg=1.5)
+
+
+def without_electrical_period(grid_deg, values, pole_pairs, harmonics=24):
+    """``values`` less their constant and their harmonics of the electrical angle (which a sweep cannot see)."""
+    angle = np.deg2rad(np.asarray(grid_deg) * pole_pairs)
+    basis = np.column_stack([np.ones_like(angle)] + [f(m * angle) for m in range(1, harmonics + 1)
+                                                     for f in (np.cos, np.sin)])
+    return values - basis @ np.linalg.lstsq(basis, values, rcond=None)[0]
+
+
+@pytest.mark.parametrize("pole_pairs, slots, revolutions", [(21, 36, 0.25), (7, 12, 0.5)])
+def test_arc_sweep_recovers_the_error_and_the_lag(pole_pairs, slots, revolutions):
+    motor = make_motor(pole_pairs, slots, 4)
+    capture = simulate_sweep(motor, ENCODER, revolutions=revolutions, rng=5, passes=2)
+    result = arc_sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+                       np.where(np.isin(capture.direction, (1, 3)), 1, -1), pole_pairs)
+    assert (result.range_deg[1] - result.range_deg[0]) % 360 == pytest.approx(360 * revolutions, abs=2.0)
+    truth = without_electrical_period(result.grid_deg, ENCODER.error_at_reading(result.grid_deg), pole_pairs)
+    estimate = without_electrical_period(result.grid_deg, result.error_arcmin, pole_pairs)
+    miss = estimate - truth
+    assert np.sqrt(np.mean(miss ** 2)) <= 0.05 * np.sqrt(np.mean(truth ** 2))
+    assert np.mean(np.abs(miss) <= 2 * result.sigma_arcmin) >= 0.9
+    lag = np.degrees(np.arcsin(motor.coulomb_nm / motor.holding_torque_nm)) / pole_pairs * 60
+    assert result.details["lag_arcmin"] == pytest.approx(lag, rel=0.05)
+    assert not result.details["lag_varies"]
+
+
+def synthetic_sweep(lag_of_angle, pole_pairs=11, span=120.0, samples=600, seed=0):
+    """Quasi-static sweep up and down an arc: rotor = command - travel * lag(angle); a two-harmonic encoder."""
+    rng = np.random.default_rng(seed)
+    command = np.linspace(30.0, 30.0 + span, samples)
+    command = np.concatenate([command, command[::-1], command, command[::-1]])
+    travel = np.concatenate([np.ones(samples), -np.ones(samples)] * 2)
+    rotor = command - travel * lag_of_angle(command) / 60.0
+    error = 6.0 * np.sin(np.radians(rotor) + 0.3) + 2.0 * np.sin(np.radians(3 * rotor))
+    reading = rotor + (error + rng.normal(0, 0.05, rotor.size)) / 60.0
+    return command * pole_pairs, reading, travel
+
+
+def test_a_lag_that_varies_with_angle_is_detected_and_stated():
+    steady = arc_sweep(*synthetic_sweep(lambda a: 4.0 + 0 * a), 11, skip=0)
+    assert steady.details["lag_arcmin"] == pytest.approx(4.0, abs=0.05) and not steady.details["lag_varies"]
+    loaded = arc_sweep(*synthetic_sweep(lambda a: 4.0 + 2.0 * np.sin(np.radians(2 * a))), 11, skip=0)
+    assert loaded.details["lag_varies"] and "varies over the arc" in loaded.summary()
+    assert loaded.details["lag_variation_rms_arcmin"] > 0.5
+
+
+def test_a_sweep_over_the_full_turn_or_scattered_is_not_an_arc():
+    phase, reading, travel = synthetic_sweep(lambda a: 4.0 + 0 * a, span=360.0, samples=1500)
+    with pytest.raises(InputError, match="do not form one arc"):
+        arc_sweep(phase, reading, travel, 11, skip=0)
+
+
+def test_cli_sweep_over_an_arc_writes_a_calibration_fitted_over_the_arc(tmp_path, capsys):
+    motor = make_motor(21, 36, 4)
+    capture = simulate_sweep(motor, ENCODER, revolutions=0.25, rng=5, passes=2)
+    path = tmp_path / "capture.txt"
+    write_moteus_capture(path, capture.direction, capture.phase, capture.encoder)
+    assert main(["selfcal", "sweep", str(path), "--pole-pairs", "21", "-o", str(tmp_path / "cal.csv")]) == 0
+    assert "open-loop sweep over 13.2" in capsys.readouterr().out
+    assert main(["fit", str(tmp_path / "cal.csv"), "-o", str(tmp_path / "m.json")]) == 0
+    assert "arc model" in capsys.readouterr().out

@@ -1,0 +1,128 @@
+"""Inertial spin self-calibration against the simulator's truth."""
+
+import numpy as np
+import pytest
+
+from encal._core.errors import InputError
+from encal.selfcal.synthetic import MagneticEncoder, draw_magnetic_encoder, make_motor, simulate_spin
+from encal.selfcal.spin import SpinLog, motor_ripple_orders, spin
+from tests.selfcal_truth import GRID, rms, truth_at_orders
+
+ENCODER = draw_magnetic_encoder(11, eccentricity_deg=1.0)
+#: a 12-slot 14-pole motor with an unbalanced load: torque ripple of order 1, 12, 14, 84, 168
+MOTOR = make_motor(7, 12, 5, unbalance_nm=3e-5)
+
+
+def _log(speed, seed, encoder=ENCODER, motor=MOTOR, revolutions=12):
+    run = simulate_spin(motor, encoder, speed, revolutions=revolutions, sample_rate_hz=1500.0, rng=seed,
+                        torque_noise_nm=5e-6)
+    return SpinLog(run.time_s, run.encoder_deg, f"{speed} rev/s")
+
+
+@pytest.fixture(scope="module")
+def logs():
+    return {2.0: _log(2.0, 1), 4.0: _log(4.0, 2)}
+
+
+def test_ripple_orders_are_multiples_of_pole_pairs_and_slots():
+    assert motor_ripple_orders(30, pole_pairs=7, slots=12) == (7, 12, 14, 21, 24, 28)
+    assert motor_ripple_orders(30) == ()
+
+
+def test_two_speeds_recover_the_error_within_ten_percent(logs):
+    result = spin([logs[2.0], logs[4.0]], pole_pairs=7, slots=12)
+    truth = truth_at_orders(ENCODER, result.series.orders)
+    miss = result.error_arcmin(GRID) - truth
+    assert result.removed_orders == ()
+    assert rms(miss) <= 0.1 * rms(ENCODER.error_at_reading(GRID) - ENCODER.error_at_reading(GRID).mean())
+    # the +-2 sigma band holds the truth at nearly every reading
+    assert np.mean(np.abs(miss) <= 2 * result.sigma_arcmin(GRID)) >= 0.9
+    # the unbalance's speed ripple was found, four times larger at half the speed
+    ripple = [value for key, value in result.details.items() if key.startswith("speed_ripple")]
+    assert ripple[0] == pytest.approx(4 * ripple[1], rel=0.01) and ripple[0] > 5.0
+
+
+def test_one_speed_leaves_out_the_motor_orders_and_is_confounded_at_order_one(logs):
+    result = spin([logs[4.0]], pole_pairs=7, slots=12)
+    assert result.removed_orders == motor_ripple_orders(32, 7, 12)
+    assert "one speed" in result.confounded
+    miss = result.error_arcmin(GRID) - truth_at_orders(ENCODER, result.series.orders)
+    # the unbalanced load's order-1 speed ripple (about 6 arcmin at 4 rev/s) stays in the estimate
+    first = result.series.orders == 1
+    truth_first = truth_at_orders(ENCODER, [1])
+    estimate_first = result.series.without([k for k in result.series.orders if k != 1]).evaluate(GRID)
+    assert rms(estimate_first - truth_first) > 2.0
+    assert first.any()
+    # every other order is right within 10 % of the error
+    others = result.series.without([1])
+    others_truth = truth_at_orders(ENCODER, others.orders)
+    assert rms(others.evaluate(GRID) - others_truth) <= 0.1 * rms(truth_at_orders(ENCODER, range(1, 33)))
+    assert rms(miss) > rms(others.evaluate(GRID) - others_truth)
+
+
+def test_a_perfect_encoder_gives_a_flat_profile():
+    perfect = MagneticEncoder((), noise_arcmin=1.0, bits=None)
+    motor = make_motor(7, 12, 5)
+    result = spin([_log(2.0, 3, perfect, motor), _log(4.0, 4, perfect, motor)])
+    recovered = result.error_arcmin(GRID)
+    assert rms(recovered) < 2.0
+    assert np.mean(np.abs(recovered) <= 2 * result.sigma_arcmin(GRID)) >= 0.9
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda t, e: (t[:200], e[:200]), "revolutions"),
+    (lambda t, e: (t[::-1], e), "time does not increase"),
+    (lambda t, e: (np.arange(500.0), np.arange(500) * 130.0 % 360), "between samples"),
+    (lambda t, e: (t, e[:-1]), "one reading per time"),
+])
+def test_bad_logs_are_refused_in_one_sentence(logs, change, message):
+    time, encoder = change(logs[2.0].time_s, logs[2.0].encoder_deg)
+    with pytest.raises(InputError, match=message):
+        spin([SpinLog(time, encoder)])
+
+
+def test_speeds_too_close_are_refused(logs):
+    faster = SpinLog(logs[2.0].time_s / 1.05, logs[2.0].encoder_deg)
+    with pytest.raises(InputError, match="differ by less than"):
+        spin([logs[2.0], faster])
+
+
+@pytest.mark.parametrize("damped", [False, True])
+def test_three_speeds_check_the_inverse_square_law(damped):
+    """A damped rotor (ripple falling as 1/speed, not 1/speed^2) is flagged; an inertia-dominated one is not."""
+    # no cogging (orders 84, 168): the law is about the unbalance's order-1 ripple, and the log is quick to simulate
+    quiet = {"cogging_nm": 0.0, "irregularity": 0.0}
+    motor = (make_motor(7, 12, 5, unbalance_nm=3e-4, viscous_nm_s=3e-3, **quiet) if damped
+             else make_motor(7, 12, 5, unbalance_nm=3e-5, **quiet))
+    logs = [_log(speed, seed, motor=motor) for speed, seed in ((1.5, 1), (3.0, 2), (6.0, 3))]
+    result = spin(logs, pole_pairs=7, slots=12)
+    law = result.details["ripple_law_chi2_per_dof"]
+    if damped:
+        assert law > 10 and "do not follow the 1/speed^2 law" in result.confounded
+    else:
+        assert law < 3 and "do not follow" not in result.confounded
+
+
+def test_the_result_type_is_public():
+    import encal
+    import encal.selfcal
+
+    assert encal.SelfCalibration is encal.selfcal.SelfCalibration
+    assert {"spin", "sweep", "steps", "read_moteus_capture"} <= set(encal.selfcal.__all__)
+
+
+@pytest.mark.parametrize("revolutions", [48])
+def test_long_logs_recover_the_error(revolutions):
+    """Issue 25: over 40 revolutions a jackknife group held a whole end piece of the smooth phase's spline, and
+    its replicate was singular (``LinAlgError: Singular matrix``); the replicate now leaves that piece out."""
+    runs = []
+    for speed, seed in ((4.0, 1), (8.0, 2)):
+        run = simulate_spin(MOTOR, ENCODER, speed, revolutions=revolutions, sample_rate_hz=600.0, rng=seed,
+                            torque_noise_nm=5e-6)
+        runs.append(SpinLog(run.time_s, run.encoder_deg, f"{speed} rev/s"))
+    result = spin(runs, pole_pairs=7, slots=12)
+    truth = truth_at_orders(ENCODER, result.series.orders)
+    miss = result.error_arcmin(GRID) - truth
+    assert rms(miss) <= 0.1 * rms(ENCODER.error_at_reading(GRID) - ENCODER.error_at_reading(GRID).mean())
+    assert np.all(np.isfinite(result.sigma_arcmin(GRID)))
+    assert np.mean(np.abs(miss) <= 2 * result.sigma_arcmin(GRID)) >= 0.9

@@ -1,0 +1,117 @@
+"""Full-step self-calibration and the shift method, against the simulator's truth and on the real Mechaduino data."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from encal.data.calibration import Calibration, read_calibration
+from encal._core.errors import InputError
+from encal.selfcal.synthetic import draw_magnetic_encoder, draw_stepper, simulate_steps
+from encal.selfcal.steps import step_errors, steps
+from tests.selfcal_truth import GRID, rms, truth_at_orders
+from tests._paths import REAL_MECHADUINO as REAL
+
+ENCODER = draw_magnetic_encoder(5, eccentricity_deg=0.5)
+STEPPER = draw_stepper(6)
+
+
+def _pair(turn, start_b=0):
+    first = simulate_steps(STEPPER, ENCODER, rng=1)
+    second = simulate_steps(STEPPER, ENCODER.turned(turn), start_step=start_b, rng=2)
+    return first, second
+
+
+@pytest.mark.parametrize("turn, start_b, options", [
+    (137.5, 0, {}),                          # unknown turn, same start
+    (60.0, 2, {}),                           # unknown turn, starts 2 steps apart (found from the 4-step pattern)
+    (200.0, 33, {"turn_deg": 200.0}),        # known turn, any start
+    (95.0, 150, {"step_shift": 150}),        # known start
+])
+def test_two_turned_calibrations_separate_encoder_and_stepper(turn, start_b, options):
+    first, second = _pair(turn, start_b)
+    result = steps(first.calibration, second.calibration, **options)
+    assert result.details["turn_deg"] == pytest.approx(((turn + 180) % 360) - 180, abs=0.05)
+    assert result.details["step_shift"] == start_b
+    truth = truth_at_orders(ENCODER, result.series.orders)
+    miss = result.error_arcmin(GRID) - truth
+    assert rms(miss) <= 0.1 * rms(truth)
+    assert np.mean(np.abs(miss) <= 2 * result.sigma_arcmin(GRID)) >= 0.9
+    stepper_truth = first.stepper_error_arcmin - first.stepper_error_arcmin.mean()
+    for key in ("stepper_error", "stepper_model"):
+        estimate, sigma = result.details[key + "_arcmin"], result.details[key.replace("error", "sigma")
+                                                                           .replace("model", "model_sigma")
+                                                                           + "_arcmin"]
+        assert rms(estimate - stepper_truth) <= 0.2 * rms(stepper_truth)
+        assert np.mean(np.abs(estimate - stepper_truth) <= 2 * sigma) >= 0.9
+
+
+def test_orders_the_turn_cannot_see_are_named():
+    first, second = _pair(60.0)
+    result = steps(first.calibration, second.calibration)
+    assert "cannot see orders 6, 12" in result.confounded
+
+
+def test_a_repeat_with_the_magnet_not_turned_separates_nothing():
+    first, second = _pair(0.0, start_b=44)
+    result = steps(first.calibration, second.calibration)
+    assert result.details["step_shift"] == 44
+    assert "not turned" in result.confounded and "repeats" in result.confounded
+
+
+def test_one_calibration_removes_the_four_step_pattern():
+    first, _ = _pair(0.0)
+    result = steps(first.calibration)
+    pattern = [float(v) for v in result.details["stepper_pattern_arcmin"].split(",")]
+    assert np.allclose(pattern, STEPPER.pattern_arcmin, atol=0.5)
+    assert "tooth" in result.confounded
+    truth = truth_at_orders(ENCODER, result.series.orders)
+    # what is left is the stepper's tooth errors (RMS 1 arcmin) and noise
+    assert rms(result.error_arcmin(GRID) - truth) <= 0.1 * rms(truth)
+
+
+def test_not_full_steps_is_refused():
+    cal = Calibration(np.arange(0, 360, 1.8) + 0.3, np.arange(0, 360, 1.8))
+    with pytest.raises(InputError, match="not the 200 full steps"):
+        step_errors(cal, "x.csv")
+
+
+def test_repeated_readings_at_the_full_steps_are_named_as_such():
+    reference = np.repeat(np.arange(0, 360, 1.8), 2)
+    cal = Calibration(reference, reference + np.tile([0.0, 0.01], 200))
+    with pytest.raises(InputError, match=r"x.csv: has 400 readings at 200 reference angles; expected one reading per "
+                                         r"full step \(--average-duplicates"):
+        step_errors(cal, "x.csv")
+
+
+@pytest.mark.skipif(not REAL.is_dir(), reason="real data not found")
+def test_real_repeats_of_one_board_are_recognised_as_repeats():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = read_calibration(next(REAL.glob("mech_kaiwol_2016-10-20_b_*.csv")))
+        second = read_calibration(next(REAL.glob("mech_kaiwol_2016-10-21_*.csv")))
+    result = steps(first, second)
+    assert result.details["step_shift"] == 156
+    assert "not turned" in result.confounded
+    # the two agree to a few arcmin (the README: repeats agree to about 0.02..0.03 deg)
+    assert result.details["difference_residual_rms_arcmin"] < 2.0
+
+
+def test_result_plots_itself_with_its_band():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    first, second = _pair(137.5)
+    ax = steps(first.calibration, second.calibration).plot(truth_arcmin=ENCODER.error_at_reading)
+    assert [line.get_label() for line in ax.get_lines()] == ["recovered (steps)", "true"]
+    assert ax.get_xlabel() == "encoder reading / deg"
+    plt.close(ax.figure)
+
+
+def test_a_turn_that_is_not_a_number_is_refused():
+    first, second = _pair(137.5)
+    with pytest.raises(InputError, match=r"^The 'turn_deg' parameter of steps must be a finite number \(an angle in "
+                                         r"degrees, or None\)\. Got nan instead\.$"):
+        steps(first.calibration, second.calibration, turn_deg=float("nan"))

@@ -1,0 +1,115 @@
+"""Electrical-angle sweep self-calibration and the moteus raw capture, against the simulator's truth."""
+
+import numpy as np
+import pytest
+
+from encal._core.errors import InputError
+from encal.selfcal.moteus_capture import read_moteus_capture, write_moteus_capture
+from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_sweep
+from encal.selfcal.sweep import sweep, sweep_capture
+from tests.selfcal_truth import GRID, rms, truth_at_orders
+
+ENCODER = draw_magnetic_encoder(21, eccentricity_deg=1.5)
+
+
+@pytest.mark.parametrize("pole_pairs, slots, removed", [
+    (7, 12, (7, 12, 14, 21, 24, 28)),   # --slots 12: the per-slot ripple (order 12) is left out too
+    (21, 36, (21,)),
+])
+def test_sweep_recovers_the_error_outside_the_multiples_of_the_pole_pairs(pole_pairs, slots, removed):
+    motor = make_motor(pole_pairs, slots, 4)
+    capture = simulate_sweep(motor, ENCODER, rng=5, passes=2)
+    result = sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+                   np.where(np.isin(capture.direction, (1, 3)), 1, -1), pole_pairs,
+                   slots=slots if pole_pairs == 7 else None)
+    assert result.removed_orders == removed
+    assert not np.isin(result.series.orders, result.removed_orders).any()
+    truth = truth_at_orders(ENCODER, result.series.orders)
+    miss = result.error_arcmin(GRID) - truth
+    assert rms(miss) <= 0.1 * rms(truth)
+    assert np.mean(np.abs(miss) <= 2 * result.sigma_arcmin(GRID)) >= 0.9
+    # the lag is the Coulomb friction's angle: asin(friction / holding torque) electrical, / p mechanical
+    lag = np.degrees(np.arcsin(motor.coulomb_nm / motor.holding_torque_nm)) / pole_pairs * 60
+    assert result.details["lag_arcmin"] == pytest.approx(lag, rel=0.05)
+
+
+def test_without_the_slot_count_the_per_slot_ripple_stays_at_order_12():
+    motor = make_motor(7, 12, 4)
+    capture = simulate_sweep(motor, ENCODER, rng=5, passes=2)
+    args = (capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+            np.where(np.isin(capture.direction, (1, 3)), 1, -1), 7)
+    result = sweep(*args)
+    assert "multiples of the slot count" in result.confounded
+    at_12 = result.series.without([k for k in result.series.orders if k != 12])
+    miss_12 = rms(at_12.evaluate(GRID) - truth_at_orders(ENCODER, [12]))
+    assert miss_12 > 3 * rms(at_12.sigma(GRID))  # a confounded bias, not noise
+
+
+def test_an_encoder_counting_against_the_phase_is_calibrated_as_it_reads():
+    motor = make_motor(7, 12, 4)
+    capture = simulate_sweep(motor, ENCODER, rng=6)
+    reversed_reading = (-capture.encoder) % 65536
+    result = sweep(capture.phase * 360 / 65536, reversed_reading * 360 / 65536,
+                   np.where(capture.direction == 1, 1, -1), 7)
+    assert result.details["encoder_counts_against_phase"]
+    # the error of the mirrored encoder at reading r is minus the error at 360 - r
+    truth = -truth_at_orders(ENCODER, result.series.orders, grid=(360 - GRID) % 360)
+    assert rms(result.error_arcmin(GRID) - truth) <= 0.1 * rms(truth)
+
+
+def test_a_wrong_pole_pair_count_is_named(tmp_path):
+    capture = simulate_sweep(make_motor(21, 36, 4), ENCODER, rng=7)
+    with pytest.raises(InputError, match="is the pole-pair count 21"):
+        sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+              np.where(capture.direction == 1, 1, -1), 20)
+
+
+def test_capture_round_trip(tmp_path):
+    capture = simulate_sweep(make_motor(7, 12, 4), ENCODER, rng=8, passes=2)
+    path = tmp_path / "raw.txt"
+    write_moteus_capture(path, capture.direction, capture.phase, capture.encoder)
+    read = read_moteus_capture(path)
+    np.testing.assert_array_equal(read.direction, capture.direction)
+    np.testing.assert_array_equal(read.phase, capture.phase)
+    np.testing.assert_array_equal(read.encoder, capture.encoder)
+    assert read.line[0] == 2 and set(read.travel) == {1, -1}
+    result = sweep_capture(read, 7)
+    assert result.name == "raw"
+
+
+def test_extra_current_fields_are_ignored(tmp_path):
+    path = tmp_path / "raw.txt"
+    path.write_text("CAL start\n1 0 100 i1=10 i2=-5 i3=-5\n2 1000 200 i1=1\nCAL done\n")
+    capture = read_moteus_capture(path)
+    assert list(capture.encoder) == [100, 200]
+
+
+@pytest.mark.parametrize("text, message", [
+    ("1 0 100\nCAL done\n", "line 1: expected the capture to begin with 'CAL start'"),
+    ("CAL start\n1 0 100\n2 5 6\n", "line 3: the capture ends without 'CAL done'"),
+    ("CAL start\n1 0\nCAL done\n", "line 2: has 2 fields"),
+    ("CAL start\n5 0 100\nCAL done\n", "line 2, field 1: direction is 5, expected 1, 2, 3 or 4"),
+    ("CAL start\n1 70000 100\nCAL done\n", "line 2, field 2: phase is 70000"),
+    ("CAL start\n1 0 1.5\nCAL done\n", "line 2, field 3: encoder is '1.5'"),
+    ("CAL start\n1 0 5 junk\nCAL done\n", "line 2, field 4: extra field 'junk'"),
+    ("CAL start\n1 0 5\n3 5 6\nCAL done\n", "no pass down"),
+])
+def test_bad_captures_are_refused_in_one_sentence(tmp_path, text, message):
+    path = tmp_path / "raw.txt"
+    path.write_text(text)
+    with pytest.raises(InputError, match=message):
+        read_moteus_capture(path)
+
+
+def test_sweep_log_directions(tmp_path):
+    from encal.selfcal.sweep_log import read_sweep_log
+
+    path = tmp_path / "s.csv"
+    path.write_text("electrical_deg,encoder_deg\n0,1\n10,2\n20,3\n10,2\n")
+    assert list(read_sweep_log(path).travel) == [1, 1, 1, -1]
+    path.write_text("electrical_deg,encoder_deg,direction\n0,1,1\n10,2,0\n")
+    with pytest.raises(InputError, match="data row 2 has direction 0, expected"):
+        read_sweep_log(path)
+    path.write_text("phase,encoder_deg\n0,1\n")
+    with pytest.raises(InputError, match="line 1: the header lacks electrical_deg"):
+        read_sweep_log(path)
