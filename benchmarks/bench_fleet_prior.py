@@ -4,6 +4,7 @@ Usage::
 
     python benchmarks/bench_fleet_prior.py                       # two simulated lots of 60 and the 60 real boards
     python benchmarks/bench_fleet_prior.py --simulated 30 --real 0 --lots production
+    python benchmarks/bench_fleet_prior.py --simulated 0 --alias-ratio 0     # a rule of encal.fleet.prior changed
 
 For each unit, the prior is learned (encal.fleet.prior.fleet_prior) from the full-calibration spectral
 fits of every *other* unit; then the unit is fitted from part of its calibration, alone
@@ -44,6 +45,7 @@ import numpy as np  # noqa: E402
 
 import _fleet_lots  # noqa: E402
 from encal.data.calibration import read_calibration  # noqa: E402
+import encal.fleet.prior as prior_module  # noqa: E402
 from encal.fleet.prior import fit_with_prior, fleet_prior  # noqa: E402
 from encal.models.spectral import fit_spectral  # noqa: E402
 
@@ -161,7 +163,15 @@ def main():
     parser.add_argument("--lots", default="simulated,production", help="simulated lots, comma-separated")
     parser.add_argument("--draws", type=int, default=4000, help="fresh units of a lot for its true distribution")
     parser.add_argument("--real", type=int, default=60, help="real boards used, at most 60 (0: none)")
+    parser.add_argument("--alias-ratio", type=float, help="encal.fleet.prior.ALIAS_RATIO for this run (0: fit every "
+                        "order past the Nyquist order, inf: hold every one at the fleet's mean)")
+    parser.add_argument("--scale-range", type=float, help="how far a unit's scale of the fleet's spread goes either "
+                        "side of 1 for this run (1: no scale; default 30)")
     args = parser.parse_args()
+    if args.alias_ratio is not None:
+        prior_module.ALIAS_RATIO = args.alias_ratio
+    if args.scale_range is not None:
+        prior_module._SCALE_RANGE = args.scale_range
     start = time.process_time()
     for lot in (name for name in args.lots.split(",") if args.simulated):
         make_lot, draw_profiles = _fleet_lots.LOTS[lot]

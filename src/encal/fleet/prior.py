@@ -44,9 +44,9 @@ _NOISE_RANGE = 100.0
 _SCALE_RANGE = 30.0
 #: On regular stops, an order past their Nyquist order is fitted (not held at the fleet's mean) when the fleet's
 #: variance there is more than this many times that of the order it aliases onto: the fleet then says which of
-#: the two carries the harmonic (bench_fleet_prior.py, a quarter of the simulated lot's points: 1.89x its full
-#: calibration with 1, 2.12x with 2 or 10, which hold its order 48 (2x the variance of its alias 3); the real
-#: boards and the production lot the same with 1, 2 and 10).
+#: the two carries the harmonic (``benchmarks/bench_fleet_prior.py --alias-ratio``: a quarter of the simulated
+#: lot's points is 1.89x its full calibration with 1, 2.12x with 2, which holds its order 48, about twice the
+#: variance of its alias, order 3).
 ALIAS_RATIO = 1.0
 #: Median absolute deviation to standard deviation, for a normal distribution.
 _MAD_TO_STD = 1.4826
@@ -215,13 +215,14 @@ def _held_orders(theta_deg, orders, variance):
 
     On ``m`` regular stops over the turn an order ``k`` takes the values of its alias ``|k - j m|`` (the
     nearest multiple ``j m``): the data show only their sum. Such an order is held at the fleet's mean, its alias
-    taking the data, unless the fleet's variance at ``k`` is more than :data:`ALIAS_RATIO` times that of its alias: then
-    the fleet knows which of the two carries the harmonic and the posterior splits the data by their variances.
-    Holding every order past the Nyquist order left the simulated lot's quarter of the points at 2.71x its full
-    calibration (1.89x with this rule; the informed bound is 1.82x); freeing every one took the real Mechaduino
-    boards' from 3.4 to 4.8 arcmin at the stops left out: their high orders spread no more than their aliases, at
-    the level of the full fits' noise (benchmarks/bench_fleet_prior.py). Stops over part of a turn, or uneven,
-    do not alias so and hold nothing.
+    taking the data, unless the fleet's variance at ``k`` is more than :data:`ALIAS_RATIO` times that of its
+    alias: then the fleet knows which of the two carries the harmonic and the posterior splits the data by their
+    variances. A multiple of ``m`` aliases onto the flat offset and is always held. Holding every order past the
+    Nyquist order left the simulated lot's quarter of the points at 2.71x its full calibration (1.89x with this
+    rule; the informed bound is 1.82x); on the real Mechaduino boards a quarter of the stops is 2.84x its full fit
+    with this rule, 3.16x with every order fitted but the multiples of ``m`` (``benchmarks/bench_fleet_prior.py
+    --alias-ratio 0``): their high orders spread no more than their aliases, at the level of the full fits'
+    noise. Stops over part of a turn, or uneven, do not alias so and hold nothing.
     """
     from ..analysis.profile import distinct_angles
 
