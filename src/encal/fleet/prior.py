@@ -4,16 +4,18 @@ The spectral model (:mod:`encal.models.spectral`) puts independent zero-mean Gau
 Fourier coefficients of one unit, with a variance per order chosen from that unit's own data. Units
 of one kind, built and mounted alike, share much of their error: the same orders, often the same
 phases. :class:`FleetPrior` is that prior learned from the fleet instead: per order ``k`` the mean of
-the coefficients ``(a_k, b_k)`` across units and their variance across units (empirical Bayes: the
-units are draws from the prior, so its moments are estimated from them). A new unit of the same
+the coefficients ``(a_k, b_k)`` across units and their 2x2 covariance across units (empirical Bayes: the
+units are draws from the prior, so its moments are estimated from them; a unit's gain or a design's
+quadrature moves one of ``a_k, b_k`` more than the other, so the two need not spread alike). A new unit of the same
 kind is then the fleet's mean profile plus what its own readings show, and a few readings, or a
 partial sweep, suffice where the unit alone needs a full turn.
 
 :func:`fit_with_prior` is the posterior of a new unit under the fleet prior (Gaussian linear
 regression, closed form), the noise ``σ`` and a scale of the fleet's spread for this unit chosen by
 their marginal likelihood (type-II maximum likelihood, as the spectral model chooses its own), the
-zero offset under a flat prior (a motor's zero is arbitrary). It returns a :class:`~encal.models.spectral.SpectralModel`: the same model file,
-the same posterior standard deviation, read and evaluated as every spectral model is.
+zero offset under a flat prior (a motor's zero is arbitrary). It returns a
+:class:`~encal.models.spectral.SpectralModel`: the same model file, the same posterior standard deviation,
+read and evaluated as every spectral model is.
 
 ``benchmarks/bench_fleet_prior.py`` measures it leave-one-out on the 60 real Mechaduino boards and on
 simulated lots (docs/production.md, "A fleet prior").
@@ -26,7 +28,7 @@ import numpy as np
 
 from .._core.errors import InputError
 
-__all__ = ["FleetPrior", "fleet_prior", "fit_with_prior", "MIN_UNITS", "DEFAULT_ORDERS"]
+__all__ = ["FleetPrior", "fleet_prior", "fit_with_prior", "MIN_UNITS", "DEFAULT_ORDERS", "ALIAS_RATIO"]
 
 #: Fewest units a fleet prior is learned from.
 MIN_UNITS = 5
@@ -40,6 +42,14 @@ _MIN_VARIANCE = 1e-8
 _NOISE_RANGE = 100.0
 #: How far a unit's scale of the fleet's spread goes either side of 1 (a factor).
 _SCALE_RANGE = 30.0
+#: On regular stops, an order past their Nyquist order is fitted (not held at the fleet's mean) when the fleet's
+#: variance there is more than this many times that of the order it aliases onto: the fleet then says which of
+#: the two carries the harmonic (``benchmarks/bench_fleet_prior.py --alias-ratio``: a quarter of the simulated
+#: lot's points is 1.89x its full calibration with 1, 2.12x with 2, which holds its order 48, about twice the
+#: variance of its alias, order 3).
+ALIAS_RATIO = 1.0
+#: Median absolute deviation to standard deviation, for a normal distribution.
+_MAD_TO_STD = 1.4826
 
 
 def _golden(function, low, high, steps=25):
@@ -70,6 +80,9 @@ class FleetPrior:
         The fleet's median noise (the noise search starts there).
     units : int
         Units it was learned from.
+    variance_cos, variance_sin, covariance_cos_sin : ndarray of shape (K,), optional
+        The 2x2 covariance of ``(a_k, b_k)`` across units at each order (arcmin²); default ``variance``,
+        ``variance`` and 0 (the two alike and independent).
     """
 
     orders: np.ndarray
@@ -78,12 +91,49 @@ class FleetPrior:
     variance: np.ndarray
     noise_std_arcmin: float
     units: int
+    variance_cos: np.ndarray | None = None
+    variance_sin: np.ndarray | None = None
+    covariance_cos_sin: np.ndarray | None = None
+
+    def blocks(self):
+        """``(var_cos, var_sin, cov_cos_sin)``, each of shape (K,), arcmin²: the prior's 2x2 block at each order."""
+        variance = np.asarray(self.variance, dtype=float)
+        cos = variance if self.variance_cos is None else np.asarray(self.variance_cos, dtype=float)
+        sin = variance if self.variance_sin is None else np.asarray(self.variance_sin, dtype=float)
+        cross = np.zeros_like(variance) if self.covariance_cos_sin is None else np.asarray(self.covariance_cos_sin,
+                                                                                            dtype=float)
+        return cos, sin, cross
 
     def as_dict(self):
         """JSON-ready."""
+        cos, sin, cross = self.blocks()
         return {"orders": [int(k) for k in self.orders], "mean_cos": [float(v) for v in self.mean_cos],
                 "mean_sin": [float(v) for v in self.mean_sin], "variance": [float(v) for v in self.variance],
+                "variance_cos": [float(v) for v in cos], "variance_sin": [float(v) for v in sin],
+                "covariance_cos_sin": [float(v) for v in cross],
                 "noise_std_arcmin": float(self.noise_std_arcmin), "units": int(self.units)}
+
+
+def _robust_variance(values):
+    """Variance across units (axis 0) from the median absolute deviation: a few units far off do not widen it."""
+    deviation = np.median(np.abs(values - np.median(values, axis=0)), axis=0)
+    return (_MAD_TO_STD * deviation) ** 2
+
+
+def _robust_block(cos, sin):
+    """Robust 2x2 covariance of ``(cos, sin)`` across units (axis 0), per order.
+
+    The variances from the median absolute deviation; the correlation from those of the sum and the
+    difference of the standardised parts (Gnanadesikan and Kettenring: ``cov(u, w) = (var(u + w) -
+    var(u - w)) / 4`` for unit variances), kept inside (-1, 1) so that every block is positive definite.
+    """
+    var_cos, var_sin = _robust_variance(cos), _robust_variance(sin)
+    std_cos, std_sin = np.sqrt(np.maximum(var_cos, _MIN_VARIANCE)), np.sqrt(np.maximum(var_sin, _MIN_VARIANCE))
+    u, w = cos / std_cos, sin / std_sin
+    plus, minus = _robust_variance(u + w), _robust_variance(u - w)
+    correlation = np.clip((plus - minus) / np.maximum(plus + minus, 1e-300), -0.99, 0.99)
+    var_cos, var_sin = np.maximum(var_cos, _MIN_VARIANCE), np.maximum(var_sin, _MIN_VARIANCE)
+    return var_cos, var_sin, correlation * np.sqrt(var_cos * var_sin)
 
 
 def fleet_prior(models, *, orders=DEFAULT_ORDERS, points=360):
@@ -117,15 +167,13 @@ def fleet_prior(models, *, orders=DEFAULT_ORDERS, points=360):
     profiles = np.array([np.asarray(m.predict(grid), dtype=float) for m in models])
     coefficients = harmonics(profiles - profiles.mean(axis=1, keepdims=True), orders)
     # robust moments: a few units far off (a bad mount, a prototype) must not widen the prior of every unit.
-    # The median of the cos and sin coefficients; for a complex Gaussian of variance v per part, |c - mean|^2 is
-    # exponential with mean 2v, so its median is 2v ln 2.
     mean = np.median(coefficients.real, axis=0) + 1j * np.median(coefficients.imag, axis=0)
-    variance = np.maximum(np.median(np.abs(coefficients - mean) ** 2, axis=0) / (2.0 * math.log(2.0)), _MIN_VARIANCE)
+    var_cos, var_sin, cross = _robust_block(coefficients.real, coefficients.imag)
     noises = [m.uncertainty["noise_std_arcmin"] for m in models
               if getattr(m, "uncertainty", None) and "noise_std_arcmin" in m.uncertainty]
     noise = float(np.median(noises)) if noises else 0.1
-    return FleetPrior(np.arange(1, coefficients.shape[1] + 1), mean.real.copy(), mean.imag.copy(), variance,
-                      max(noise, 1e-6), len(models))
+    return FleetPrior(np.arange(1, coefficients.shape[1] + 1), mean.real.copy(), mean.imag.copy(),
+                      0.5 * (var_cos + var_sin), max(noise, 1e-6), len(models), var_cos, var_sin, cross)
 
 
 def _design(theta_deg, orders):
@@ -134,37 +182,65 @@ def _design(theta_deg, orders):
     return np.column_stack([np.ones_like(theta), np.cos(angles), np.sin(angles)])
 
 
-def _posterior(design, error, prior_mean, prior_variance, noise_var):
-    """Posterior mean, covariance and log marginal likelihood (up to the flat offset's constant)."""
-    n = error.size
-    residual = error - design @ prior_mean
-    precision = np.diag(1.0 / prior_variance) + design.T @ design / noise_var
+def _prior_precision(var_cos, var_sin, cross):
+    """Precision of the prior on ``(offset, a_1..a_K, b_1..b_K)`` and the log determinant of its 2x2 blocks."""
+    orders = var_cos.size
+    determinant = var_cos * var_sin - cross**2
+    precision = np.zeros((2 * orders + 1, 2 * orders + 1))
+    precision[0, 0] = 1.0 / _FLAT_VARIANCE
+    cos, sin = np.arange(1, orders + 1), np.arange(orders + 1, 2 * orders + 1)
+    precision[cos, cos], precision[sin, sin] = var_sin / determinant, var_cos / determinant
+    precision[cos, sin] = precision[sin, cos] = -cross / determinant
+    return precision, float(np.sum(np.log(determinant)))
+
+
+def _posterior(gram, projected, residual_square, n, prior_precision, prior_log_det, noise_var):
+    """Posterior mean offset from the prior mean, Cholesky factor of the posterior precision, log evidence.
+
+    ``gram`` is ``X'X``, ``projected`` ``X'r`` and ``residual_square`` ``r'r`` for the design ``X`` and the
+    residual ``r`` of the readings from the prior mean; the log evidence is up to the flat offset's constant.
+    """
+    precision = prior_precision + gram / noise_var
     cholesky = np.linalg.cholesky(precision)
-    projected = design.T @ residual / noise_var
-    solved = np.linalg.solve(cholesky, projected)
-    mean = prior_mean + np.linalg.solve(cholesky.T, solved)
-    log_det = 2.0 * np.sum(np.log(np.diag(cholesky))) + np.sum(np.log(prior_variance[1:])) + n * math.log(noise_var)
-    quadratic = residual @ residual / noise_var - solved @ solved
+    solved = np.linalg.solve(cholesky, projected / noise_var)
+    shift = np.linalg.solve(cholesky.T, solved)
+    log_det = 2.0 * np.sum(np.log(np.diag(cholesky))) + prior_log_det + n * math.log(noise_var)
+    quadratic = residual_square / noise_var - solved @ solved
     log_evidence = -0.5 * (quadratic + log_det + n * math.log(2.0 * math.pi))
-    return mean, cholesky, log_evidence
+    return shift, cholesky, log_evidence
 
 
-def _highest_order(theta_deg, highest):
-    """``highest``, or below the Nyquist order of stops on a regular grid over the whole turn.
+def _held_orders(theta_deg, orders, variance):
+    """Which orders are held at the fleet's mean: past the Nyquist order of regular stops, unless the fleet says.
 
-    On ``m`` regular stops the orders ``k`` and ``m - k`` take the same values: past the Nyquist order the
-    prior alone would split a unit's harmonic between an order and its alias, and the correction between
-    the stops would be wrong (on the real Mechaduino boards, a quarter of the stops: 4.6 arcmin at the stops
-    left out with every order free, 3.2 with this; benchmarks/bench_fleet_prior.py). Stops over part of a
-    turn do not alias so and keep every order.
+    On ``m`` regular stops over the turn an order ``k`` takes the values of its alias ``|k - j m|`` (the
+    nearest multiple ``j m``): the data show only their sum. Such an order is held at the fleet's mean, its alias
+    taking the data, unless the fleet's variance at ``k`` is more than :data:`ALIAS_RATIO` times that of its
+    alias: then the fleet knows which of the two carries the harmonic and the posterior splits the data by their
+    variances. A multiple of ``m`` aliases onto the flat offset and is always held. Holding every order past the
+    Nyquist order left the simulated lot's quarter of the points at 2.71x its full calibration (1.89x with this
+    rule; the informed bound is 1.82x); on the real Mechaduino boards a quarter of the stops is 2.84x its full fit
+    with this rule, 3.16x with every order fitted but the multiples of ``m`` (``benchmarks/bench_fleet_prior.py
+    --alias-ratio 0``): their high orders spread no more than their aliases, at the level of the full fits'
+    noise. Stops over part of a turn, or uneven, do not alias so and hold nothing.
     """
     from ..analysis.profile import distinct_angles
 
+    held = np.zeros(orders.size, dtype=bool)
     stops = distinct_angles(np.mod(theta_deg, 360.0))[0]
     spacing = np.diff(np.r_[stops, stops[0] + 360.0])
-    if stops.size >= 3 and np.max(spacing) < 1.5 * 360.0 / stops.size:  # about evenly over the whole turn
-        return min(highest, (stops.size - 1) // 2)
-    return highest
+    if stops.size < 3 or np.max(spacing) >= 1.5 * 360.0 / stops.size:  # not about evenly over the whole turn
+        return held
+    m = stops.size
+    by_order = dict(zip((int(k) for k in orders), variance))
+    for index, order in enumerate(int(k) for k in orders):
+        if order <= (m - 1) // 2:
+            continue
+        folded = order % m
+        alias = min(folded, m - folded)
+        # the offset (alias 0) is flat, and the Nyquist order (m even) is its own alias
+        held[index] = alias == 0 or alias == order or not variance[index] > ALIAS_RATIO * by_order.get(alias, np.inf)
+    return held
 
 
 def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
@@ -199,16 +275,27 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         raise InputError(f"fit_with_prior expects 2 or more finite readings, as many angles as errors; got "
                          f"{theta.size} angles and {error.size} errors")
     orders = np.asarray(prior.orders)
-    # past the Nyquist order of regular stops an order is held at the fleet's mean (its alias takes the data)
-    variance = np.where(orders <= _highest_order(theta, int(np.max(orders))), prior.variance, _MIN_VARIANCE)
+    var_cos, var_sin, cross = prior.blocks()
+    held = _held_orders(theta, orders, 0.5 * (var_cos + var_sin))
+    var_cos, var_sin = np.where(held, _MIN_VARIANCE, var_cos), np.where(held, _MIN_VARIANCE, var_sin)
+    cross = np.where(held, 0.0, cross)
     design = _design(theta, orders)
     prior_mean = np.r_[0.0, prior.mean_cos, prior.mean_sin]
-    prior_variance = np.r_[_FLAT_VARIANCE, variance, variance]
+    residual = error - design @ prior_mean
+    gram, projected, residual_square = design.T @ design, design.T @ residual, float(residual @ residual)
+    precision, log_det = _prior_precision(var_cos, var_sin, cross)
+    spread = 2 * orders.size  # coefficients whose prior the unit's scale multiplies (all but the flat offset)
+
     # type-II maximum likelihood over the noise σ (unless known) and the unit's scale s of the fleet's spread
-    # (a unit may be louder or quieter than the fleet: its prior variances are s times the fleet's)
+    # (a unit may be louder or quieter than the fleet: its prior covariance is s times the fleet's)
+    def posterior(log_sigma, log_scale):
+        scaled = precision * math.exp(-log_scale)
+        scaled[0, 0] = precision[0, 0]
+        return _posterior(gram, projected, residual_square, error.size, scaled, log_det + spread * log_scale,
+                          math.exp(2 * log_sigma))
+
     def evidence(log_sigma, log_scale):
-        scaled = np.r_[_FLAT_VARIANCE, prior_variance[1:] * math.exp(log_scale)]
-        return _posterior(design, error, prior_mean, scaled, math.exp(2 * log_sigma))[2]
+        return posterior(log_sigma, log_scale)[2]
 
     if noise_arcmin is not None:
         sigmas = np.array([math.log(float(noise_arcmin))])
@@ -228,17 +315,18 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
                             log_scale + (scales[1] - scales[0]))
     noise_var = math.exp(2 * log_sigma)
-    prior_variance = np.r_[_FLAT_VARIANCE, prior_variance[1:] * math.exp(log_scale)]
-    mean, cholesky, log_evidence = _posterior(design, error, prior_mean, prior_variance, noise_var)
+    shift, cholesky, log_evidence = posterior(log_sigma, log_scale)
+    mean = prior_mean + shift
     all_orders = np.r_[0, orders]
     cos = np.r_[mean[0], mean[1:orders.size + 1]]
     sin = np.r_[0.0, mean[orders.size + 1:]]
     training = {
         "select": "fleet prior",
-        "prior": (f"the fleet's: the mean and the spread of each order 1..{int(orders.max())} across "
+        "prior": (f"the fleet's: the mean and the 2x2 covariance of each order 1..{int(orders.max())} across "
                   f"{prior.units} units (empirical Bayes), the zero offset flat"),
         "noise": {"source": source, "std_arcmin": math.sqrt(noise_var)},
-        "fleet_prior": {"units": int(prior.units), "orders": int(orders.max()), "spread_scale": math.exp(log_scale)},
+        "fleet_prior": {"units": int(prior.units), "orders": int(orders.max()), "spread_scale": math.exp(log_scale),
+                        "held_orders": [int(k) for k in orders[held]]},
         "log_evidence_nats": float(log_evidence),
         "stops": int(np.unique(np.round(theta, 9)).size),
     }
