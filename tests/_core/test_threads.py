@@ -48,3 +48,12 @@ def test_fit_runs_on_one_blas_thread(monkeypatch):
         encal.fit(cal, method="fourier")
         assert blas_threads() == [2]
     assert seen and all(threads == [1] for threads in seen)
+
+
+def test_public_entry_points_that_fit_limit_blas_themselves():
+    # a program that imports encal sets no thread variables: each entry point that solves small linear
+    # systems limits BLAS itself (the fleet prior's fit took 20 s of CPU instead of 0.15 s without it)
+    from encal.fleet.prior import fit_with_prior, fleet_prior
+
+    for function in (encal.fit, encal.evaluate, fit_with_prior, fleet_prior):
+        assert getattr(function, "__wrapped__", None) is not None, function.__qualname__

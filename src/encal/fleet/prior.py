@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core.errors import InputError
+from .._core.threads import single_blas_thread
 
 __all__ = ["FleetPrior", "fleet_prior", "fit_with_prior", "MIN_UNITS", "DEFAULT_ORDERS", "ALIAS_RATIO"]
 
@@ -136,6 +137,7 @@ def _robust_block(cos, sin):
     return var_cos, var_sin, correlation * np.sqrt(var_cos * var_sin)
 
 
+@single_blas_thread
 def fleet_prior(models, *, orders=DEFAULT_ORDERS, points=360):
     """Learn the prior from the fitted models of a fleet's units.
 
@@ -243,6 +245,7 @@ def _held_orders(theta_deg, orders, variance):
     return held
 
 
+@single_blas_thread
 def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     """Fit one unit under a fleet prior: the posterior mean of its coefficients.
 
