@@ -222,3 +222,17 @@ def test_the_packed_sort_mends_runs_of_shared_top_bits_and_gives_up_on_many():
     assert np.count_nonzero(np.diff(near[unmended]) < 0) == 10  # the mending has work to do
     np.testing.assert_array_equal(_packed_argsort(near)[0], np.argsort(near, kind="stable"))
     assert _packed_argsort(clustered) is None  # left to the argsort and its mending of ties
+
+
+# --- task reader-audit: the fast reader against the careful one
+
+
+@pytest.mark.parametrize("suffix", [".xz", ".lzma", ".gz", ".bz2"])
+def test_a_plain_file_named_as_compressed_is_read_as_the_text_it_is(tmp_path, suffix):
+    text = _sweep_text(stops=200, passes=1)
+    (tmp_path / "sweep.csv").write_text(text)
+    (tmp_path / f"sweep{suffix}").write_text(text)  # np.loadtxt of this path would decompress it (.xz: LZMAError)
+    expected = read_calibration(tmp_path / "sweep.csv")
+    cal = read_calibration(tmp_path / f"sweep{suffix}")
+    np.testing.assert_array_equal(cal.reference_deg, expected.reference_deg)
+    np.testing.assert_array_equal(cal.encoder_deg, expected.encoder_deg)
