@@ -1,6 +1,8 @@
 """Dense files at NumPy speed (issue 30 item 2, task read-speed): a plain file parsed by NumPy from its path,
 the checks sharing their sorts and passes. Every shortcut is checked against the computation it replaces."""
 
+import os
+import time
 import warnings
 
 import numpy as np
@@ -39,9 +41,15 @@ def test_wrap180_without_fmod_is_the_same_bit_for_bit():
         np.testing.assert_array_equal(wrap180(values).view(np.int64), _old_wrap180(values).view(np.int64))
 
 
+def _settled(monkeypatch):
+    """Read every file as if written a second ago (a file changed less than 0.1 s before is read from its bytes)."""
+    monkeypatch.setattr(calibration, "_clock_ns", lambda: time.time_ns() + 1_000_000_000)
+
+
 def test_a_plain_regular_file_is_parsed_by_numpy_from_its_path(tmp_path, monkeypatch):
     path = tmp_path / "sweep.csv"
     path.write_text("# resolution_bits: 20\n\n" + _sweep_text())
+    _settled(monkeypatch)
     read_from = []
     real_loadtxt = np.loadtxt
     monkeypatch.setattr(csv_numbers.np, "loadtxt", lambda source, *a, **k: read_from.append(source)
@@ -238,3 +246,34 @@ def test_a_plain_file_named_as_compressed_is_read_as_the_text_it_is(tmp_path, su
     cal = read_calibration(tmp_path / f"sweep{suffix}")
     np.testing.assert_array_equal(cal.reference_deg, expected.reference_deg)
     np.testing.assert_array_equal(cal.encoder_deg, expected.encoder_deg)
+
+
+def test_a_file_rewritten_within_one_tick_of_its_time_stamps_is_read_as_first_read(tmp_path, monkeypatch):
+    # coarse time stamps (a kernel tick, before Linux 6.13): a rewrite as long in the tick of the last one leaves size,
+    # modification time and inode as they were; the reader takes the bytes it checked, not the ones written since
+    path = tmp_path / "sweep.csv"
+    text = _sweep_text()
+    path.write_text(text)
+    before = os.stat(path)
+    real = csv_numbers.plain_file_rows
+    path_read = None
+
+    def rewritten_in_the_same_tick(*args, **kwargs):
+        if path_read is not None:
+            time.sleep(0.02)  # past the tick (at most 10 ms) of the write before the read: st_ctime tells them apart
+        path.write_text(text.replace("0.0000000000,", "9.0000000000,", 1))
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+        if path_read is None:
+            pytest.fail("a file changed 0.1 s before it was read was read again from its path")
+        path_read.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(calibration, "plain_file_rows", rewritten_in_the_same_tick)
+    monkeypatch.setattr(calibration, "_clock_ns", lambda: before.st_ctime_ns + 1_000_000)  # read 1 ms after the write
+    assert read_calibration(path).reference_deg[0] == 0.0  # a file changed 0.1 s before or less: its bytes
+    path.write_text(text)
+    before = os.stat(path)
+    _settled(monkeypatch)
+    path_read = []
+    assert read_calibration(path).reference_deg[0] == 0.0  # an older one: read again, its change told by st_ctime
+    assert path_read == [1]
