@@ -277,3 +277,84 @@ def test_a_file_rewritten_within_one_tick_of_its_time_stamps_is_read_as_first_re
     path_read = []
     assert read_calibration(path).reference_deg[0] == 0.0  # an older one: read again, its change told by st_ctime
     assert path_read == [1]
+
+
+def _variants():
+    """Files of 40 rows that the dense reader may take or leave: (name, text, keyword arguments)."""
+    reference = np.arange(40) * 9.0
+    encoder = reference + 0.1 * np.sin(np.radians(reference))
+    rows = [f"{r!r},{e!r}" for r, e in zip(reference.tolist(), encoder.tolist())]
+    head, body = "reference_deg,encoder_deg", "\n".join(rows)
+    return [
+        ("plain", f"{head}\n{body}\n", {}),
+        ("comma after every row", head + "\n" + "\n".join(r + "," for r in rows) + "\n", {}),
+        ("comma after the header and every row", head + ",\n" + "\n".join(r + "," for r in rows) + "\n", {}),
+        ("blank lines of spaces and tabs", f"{head}\n" + "\n".join(rows[:20]) + "\n \n\t\n" + "\n".join(rows[20:]), {}),
+        ("CR line ends", head + "\r" + "\r".join(rows) + "\r", {}),
+        ("a comment ending with CR", f"# c\r{head}\r{body}\n", {}),
+        ("CR CR LF", head + "\n" + "\r\r\n".join(rows) + "\r\r\n", {}),
+        ("LF CR", head + "\n" + "\n\r".join(rows) + "\n", {}),
+        ("blanks and tabs", "reference_deg\t encoder_deg\n" + body.replace(",", " \t ") + "\n", {}),
+        ("no header, leading blanks", "\n".join("  " + r.replace(",", "   ") for r in rows) + "\n",
+         {"reference_column": 1, "encoder_column": 2}),
+        ("no header, columns swapped", body + "\n", {"reference_column": 2, "encoder_column": 1}),
+        ("a vertical tab in a number", f"{head}\n" + "\n".join(rows[:5]) + "\n1.0\x0b,2.0\n" + "\n".join(rows[5:]), {}),
+        ("a form feed in a comment", f"# a\x0cb\n{head}\n{body}\n", {}),
+        ("a line of spaces first", f"   \r\n{head}\r\n" + "\r\n".join(rows) + "\r\n", {}),
+        ("blank line at the end", f"{head}\n{body}\n\n", {}),
+        ("spaces at the end, no line end", f"{head}\n{body}\n \t", {}),
+        ("fifty other columns first", ",".join([f"x{i}" for i in range(50)] + [head]) + "\n"
+         + "\n".join(",".join(["1.5"] * 50 + [r]) for r in rows) + "\n", {}),
+        ("beyond 1e9 degrees", f"{head}\n{body}\n1000000000,1000000000.0000001\n", {}),
+        ("1e9 degrees", f"{head}\n{body}\n1000000000,-1000000000\n", {}),
+        ("signs and points", f"{head}\n{body}\n-0,-0.0\n+.5,5.\n", {}),
+        ("a sign alone", f"{head}\n{body}\n+,1\n", {}),
+        ("an exponent without digits", f"{head}\n{body}\n1e,1\n", {}),
+        ("an empty field", f"{head}\n{body}\n1,,2\n", {}),
+        ("a blank inside a number", f"{head}\n{body}\n1 0,2\n", {}),
+        ("subnormal and underflow", f"{head}\n{body}\n4.9e-324,1e-400\n", {}),
+        ("overflow", f"{head}\n{body}\n1e400,1\n", {}),
+        ("counts", head + "\n" + "\n".join(f"{int(r * 16384 / 360)},{int(e * 16384 / 360)}"
+                                            for r, e in zip(reference, encoder)) + "\n",
+         {"reference_unit": "counts:14", "encoder_unit": "counts:14"}),
+        ("counts beyond 1e9 degrees", f"{head}\n{body}\n1,30000000000000\n", {"encoder_unit": "counts:14"}),
+        ("tabs with decimal commas", "reference_deg\tencoder_deg\n" + body.replace(",", "\t").replace(".", ",") + "\n",
+         {}),
+        ("a second header", f"{head}\n{head}\n{body}\n", {}),
+        ("a quoted number", f'{head}\n{body}\n"1.0",2.0\n', {}),
+        ("underscores", f"{head}\n{body}\n1_0,2\n", {}),
+        ("a minus sign", f"{head}\n{body}\n\u22121,2\n", {}),
+        ("only the header", f"{head}\n", {}),
+        ("only the header, no line end", head, {}),
+    ]
+
+
+def _outcome(path, kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            cal = read_calibration(path, **kwargs)
+        except calibration.CalibrationError as exc:
+            return str(exc), [str(w.message) for w in caught]
+    return (cal.reference_deg.tobytes(), cal.encoder_deg.tobytes(), cal.resolution_bits), [str(w.message)
+                                                                                         for w in caught]
+
+
+@pytest.mark.parametrize("name, text, kwargs", _variants(), ids=[case[0] for case in _variants()])
+@pytest.mark.parametrize("suffix", [".csv", ".xz"])
+def test_the_numpy_reader_and_the_careful_one_agree(tmp_path, monkeypatch, name, text, kwargs, suffix):
+    # numbers bit for bit, messages and warnings word for word, with the file read again from its path, or from its
+    # bytes (also in pieces of a few lines), or line by line
+    path = tmp_path / f"cal{suffix}"
+    path.write_bytes(text.encode())
+    _settled(monkeypatch)
+    outcomes = [_outcome(path, kwargs)]
+    with monkeypatch.context() as patch:
+        patch.setattr(calibration, "plain_file_rows", lambda *args, **kwargs: None)
+        outcomes.append(_outcome(path, kwargs))
+        patch.setattr(csv_numbers, "CHUNK_BYTES", 97)
+        outcomes.append(_outcome(path, kwargs))
+    with monkeypatch.context() as patch:
+        patch.setattr(calibration, "_head_of_plain", lambda raw: None)
+        careful = _outcome(path, kwargs)
+    assert outcomes == [careful] * 3
