@@ -1,6 +1,8 @@
 """Dense files at NumPy speed (issue 30 item 2, task read-speed): a plain file parsed by NumPy from its path,
 the checks sharing their sorts and passes. Every shortcut is checked against the computation it replaces."""
 
+import os
+import time
 import warnings
 
 import numpy as np
@@ -39,9 +41,15 @@ def test_wrap180_without_fmod_is_the_same_bit_for_bit():
         np.testing.assert_array_equal(wrap180(values).view(np.int64), _old_wrap180(values).view(np.int64))
 
 
+def _settled(monkeypatch):
+    """Read every file as if written a second ago (a file changed less than 0.1 s before is read from its bytes)."""
+    monkeypatch.setattr(calibration, "_clock_ns", lambda: time.time_ns() + 1_000_000_000)
+
+
 def test_a_plain_regular_file_is_parsed_by_numpy_from_its_path(tmp_path, monkeypatch):
     path = tmp_path / "sweep.csv"
     path.write_text("# resolution_bits: 20\n\n" + _sweep_text())
+    _settled(monkeypatch)
     read_from = []
     real_loadtxt = np.loadtxt
     monkeypatch.setattr(csv_numbers.np, "loadtxt", lambda source, *a, **k: read_from.append(source)
@@ -200,15 +208,17 @@ def _stable_argsort_cases():
     clustered = rng.choice(rng.uniform(0.0, 360.0, 30), 3000) + rng.uniform(0.0, 1e-12, 3000)  # many such runs
     quantised = np.round(uniform * 2**10 / 360.0) * 360.0 / 2**10
     signed = np.r_[uniform[:100], -0.0, 0.0, -1.0, 0.0, -0.0]  # a sign bit: not packed
-    return [uniform, near, clustered, quantised, signed, np.tile(uniform[:500], 6), np.zeros(3000)]
+    zeros = np.where(np.arange(300) % 3 == 0, -0.0, 0.0)  # ties of -0.0 and 0.0: their sorted values told apart
+    return [uniform, near, clustered, quantised, signed, np.tile(uniform[:500], 6), np.zeros(3000),
+            np.r_[uniform[:300], zeros][::-1]]
 
 
-@pytest.mark.parametrize("case", range(7))
+@pytest.mark.parametrize("case", range(8))
 def test_stable_argsort_by_packed_integers_is_numpys_stable_order(case):
     values = _stable_argsort_cases()[case]
     order, ordered = stable_argsort(values, return_sorted=True)
     np.testing.assert_array_equal(order, np.argsort(values, kind="stable"))
-    np.testing.assert_array_equal(ordered, values[order])
+    np.testing.assert_array_equal(ordered.view(np.int64), values[order].view(np.int64))  # bit for bit: -0.0
 
 
 def test_the_packed_sort_mends_runs_of_shared_top_bits_and_gives_up_on_many():
@@ -222,3 +232,129 @@ def test_the_packed_sort_mends_runs_of_shared_top_bits_and_gives_up_on_many():
     assert np.count_nonzero(np.diff(near[unmended]) < 0) == 10  # the mending has work to do
     np.testing.assert_array_equal(_packed_argsort(near)[0], np.argsort(near, kind="stable"))
     assert _packed_argsort(clustered) is None  # left to the argsort and its mending of ties
+
+
+# --- task reader-audit: the fast reader against the careful one
+
+
+@pytest.mark.parametrize("suffix", [".xz", ".lzma", ".gz", ".bz2"])
+def test_a_plain_file_named_as_compressed_is_read_as_the_text_it_is(tmp_path, suffix):
+    text = _sweep_text(stops=200, passes=1)
+    (tmp_path / "sweep.csv").write_text(text)
+    (tmp_path / f"sweep{suffix}").write_text(text)  # np.loadtxt of this path would decompress it (.xz: LZMAError)
+    expected = read_calibration(tmp_path / "sweep.csv")
+    cal = read_calibration(tmp_path / f"sweep{suffix}")
+    np.testing.assert_array_equal(cal.reference_deg, expected.reference_deg)
+    np.testing.assert_array_equal(cal.encoder_deg, expected.encoder_deg)
+
+
+def test_a_file_rewritten_within_one_tick_of_its_time_stamps_is_read_as_first_read(tmp_path, monkeypatch):
+    # coarse time stamps (a kernel tick, before Linux 6.13): a rewrite as long in the tick of the last one leaves size,
+    # modification time and inode as they were; the reader takes the bytes it checked, not the ones written since
+    path = tmp_path / "sweep.csv"
+    text = _sweep_text()
+    path.write_text(text)
+    before = os.stat(path)
+    real = csv_numbers.plain_file_rows
+    path_read = None
+
+    def rewritten_in_the_same_tick(*args, **kwargs):
+        if path_read is not None:
+            time.sleep(0.02)  # past the tick (at most 10 ms) of the write before the read: st_ctime tells them apart
+        path.write_text(text.replace("0.0000000000,", "9.0000000000,", 1))
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+        if path_read is None:
+            pytest.fail("a file changed 0.1 s before it was read was read again from its path")
+        path_read.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(calibration, "plain_file_rows", rewritten_in_the_same_tick)
+    monkeypatch.setattr(calibration, "_clock_ns", lambda: before.st_ctime_ns + 1_000_000)  # read 1 ms after the write
+    assert read_calibration(path).reference_deg[0] == 0.0  # a file changed 0.1 s before or less: its bytes
+    path.write_text(text)
+    before = os.stat(path)
+    _settled(monkeypatch)
+    path_read = []
+    assert read_calibration(path).reference_deg[0] == 0.0  # an older one: read again, its change told by st_ctime
+    assert path_read == [1]
+
+
+def _variants():
+    """Files of 40 rows that the dense reader may take or leave: (name, text, keyword arguments)."""
+    reference = np.arange(40) * 9.0
+    encoder = reference + 0.1 * np.sin(np.radians(reference))
+    rows = [f"{r!r},{e!r}" for r, e in zip(reference.tolist(), encoder.tolist())]
+    head, body = "reference_deg,encoder_deg", "\n".join(rows)
+    return [
+        ("plain", f"{head}\n{body}\n", {}),
+        ("comma after every row", head + "\n" + "\n".join(r + "," for r in rows) + "\n", {}),
+        ("comma after the header and every row", head + ",\n" + "\n".join(r + "," for r in rows) + "\n", {}),
+        ("blank lines of spaces and tabs", f"{head}\n" + "\n".join(rows[:20]) + "\n \n\t\n" + "\n".join(rows[20:]), {}),
+        ("CR line ends", head + "\r" + "\r".join(rows) + "\r", {}),
+        ("a comment ending with CR", f"# c\r{head}\r{body}\n", {}),
+        ("CR CR LF", head + "\n" + "\r\r\n".join(rows) + "\r\r\n", {}),
+        ("LF CR", head + "\n" + "\n\r".join(rows) + "\n", {}),
+        ("blanks and tabs", "reference_deg\t encoder_deg\n" + body.replace(",", " \t ") + "\n", {}),
+        ("no header, leading blanks", "\n".join("  " + r.replace(",", "   ") for r in rows) + "\n",
+         {"reference_column": 1, "encoder_column": 2}),
+        ("no header, columns swapped", body + "\n", {"reference_column": 2, "encoder_column": 1}),
+        ("a vertical tab in a number", f"{head}\n" + "\n".join(rows[:5]) + "\n1.0\x0b,2.0\n" + "\n".join(rows[5:]), {}),
+        ("a form feed in a comment", f"# a\x0cb\n{head}\n{body}\n", {}),
+        ("a line of spaces first", f"   \r\n{head}\r\n" + "\r\n".join(rows) + "\r\n", {}),
+        ("blank line at the end", f"{head}\n{body}\n\n", {}),
+        ("spaces at the end, no line end", f"{head}\n{body}\n \t", {}),
+        ("fifty other columns first", ",".join([f"x{i}" for i in range(50)] + [head]) + "\n"
+         + "\n".join(",".join(["1.5"] * 50 + [r]) for r in rows) + "\n", {}),
+        ("beyond 1e9 degrees", f"{head}\n{body}\n1000000000,1000000000.0000001\n", {}),
+        ("1e9 degrees", f"{head}\n{body}\n1000000000,-1000000000\n", {}),
+        ("signs and points", f"{head}\n{body}\n-0,-0.0\n+.5,5.\n", {}),
+        ("a sign alone", f"{head}\n{body}\n+,1\n", {}),
+        ("an exponent without digits", f"{head}\n{body}\n1e,1\n", {}),
+        ("an empty field", f"{head}\n{body}\n1,,2\n", {}),
+        ("a blank inside a number", f"{head}\n{body}\n1 0,2\n", {}),
+        ("subnormal and underflow", f"{head}\n{body}\n4.9e-324,1e-400\n", {}),
+        ("overflow", f"{head}\n{body}\n1e400,1\n", {}),
+        ("counts", head + "\n" + "\n".join(f"{int(r * 16384 / 360)},{int(e * 16384 / 360)}"
+                                            for r, e in zip(reference, encoder)) + "\n",
+         {"reference_unit": "counts:14", "encoder_unit": "counts:14"}),
+        ("counts beyond 1e9 degrees", f"{head}\n{body}\n1,30000000000000\n", {"encoder_unit": "counts:14"}),
+        ("tabs with decimal commas", "reference_deg\tencoder_deg\n" + body.replace(",", "\t").replace(".", ",") + "\n",
+         {}),
+        ("a second header", f"{head}\n{head}\n{body}\n", {}),
+        ("a quoted number", f'{head}\n{body}\n"1.0",2.0\n', {}),
+        ("underscores", f"{head}\n{body}\n1_0,2\n", {}),
+        ("a minus sign", f"{head}\n{body}\n\u22121,2\n", {}),
+        ("only the header", f"{head}\n", {}),
+        ("only the header, no line end", head, {}),
+    ]
+
+
+def _outcome(path, kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            cal = read_calibration(path, **kwargs)
+        except calibration.CalibrationError as exc:
+            return str(exc), [str(w.message) for w in caught]
+    return (cal.reference_deg.tobytes(), cal.encoder_deg.tobytes(), cal.resolution_bits), [str(w.message)
+                                                                                         for w in caught]
+
+
+@pytest.mark.parametrize("name, text, kwargs", _variants(), ids=[case[0] for case in _variants()])
+@pytest.mark.parametrize("suffix", [".csv", ".xz"])
+def test_the_numpy_reader_and_the_careful_one_agree(tmp_path, monkeypatch, name, text, kwargs, suffix):
+    # numbers bit for bit, messages and warnings word for word, with the file read again from its path, or from its
+    # bytes (also in pieces of a few lines), or line by line
+    path = tmp_path / f"cal{suffix}"
+    path.write_bytes(text.encode())
+    _settled(monkeypatch)
+    outcomes = [_outcome(path, kwargs)]
+    with monkeypatch.context() as patch:
+        patch.setattr(calibration, "plain_file_rows", lambda *args, **kwargs: None)
+        outcomes.append(_outcome(path, kwargs))
+        patch.setattr(csv_numbers, "CHUNK_BYTES", 97)
+        outcomes.append(_outcome(path, kwargs))
+    with monkeypatch.context() as patch:
+        patch.setattr(calibration, "_head_of_plain", lambda raw: None)
+        careful = _outcome(path, kwargs)
+    assert outcomes == [careful] * 3

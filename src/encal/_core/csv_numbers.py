@@ -28,6 +28,9 @@ __all__ = ["plain_rows", "plain_file_rows", "plain_body", "line_count", "CHUNK_B
 CHUNK_BYTES = 1 << 22
 
 _PLAIN_BYTES = b"0123456789.eE+-,\n\r \t"
+#: Endings of a path that ``np.loadtxt`` opens as compressed (``numpy.lib._datasource``, exact letter case): a plain
+#: text file so named is read from its bytes (a ``.xz`` one would raise ``lzma.LZMAError``, a traceback).
+_DECOMPRESSED_SUFFIXES = (".gz", ".bz2", ".xz", ".lzma")
 _LF, _CR = ord("\n"), ord("\r")
 
 
@@ -109,9 +112,11 @@ def plain_file_rows(path, skip_lines, n_rows, separator, n_columns):
     -------
     ndarray of float of shape (n_rows, n_columns), or None
         None if NumPy refuses a row or cannot read the file, or if it reads another number of rows (a
-        blank line skipped, a file changed since its bytes were checked): the caller then reads the bytes
-        it has.
+        blank line skipped, a file changed since its bytes were checked), or if NumPy would decompress the
+        file for its name (:data:`_DECOMPRESSED_SUFFIXES`): the caller then reads the bytes it has.
     """
+    if os.path.splitext(os.fspath(path))[1] in _DECOMPRESSED_SUFFIXES:
+        return None
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # "input contained no data": not plain

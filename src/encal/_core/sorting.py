@@ -79,4 +79,6 @@ def stable_argsort(values, return_sorted=False):
         order[positions] = packed % order.size
     else:
         order[positions] = order[positions][np.lexsort((order[positions], run))]
-    return (order, ordered) if return_sorted else order  # equal values: the same sorted values
+    if return_sorted:  # equal values are the same sorted values, but for -0.0 and 0.0 (equal, other bits)
+        ordered[positions] = values[order[positions]]
+    return (order, ordered) if return_sorted else order

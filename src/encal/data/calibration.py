@@ -3,6 +3,7 @@
 import os
 import re
 import stat
+import time
 import warnings
 from dataclasses import dataclass, field
 
@@ -172,8 +173,16 @@ def _fail(path, line, message, column=None):
     raise CalibrationError(f"{where}: {message}")
 
 
+#: Age, in nanoseconds, of a regular file's last change below which it is not parsed again from its path (it may be
+#: being written): where time stamps are coarse (a kernel tick of up to 10 ms, before Linux 6.13's fine-grained
+#: ones) a rewrite in the same tick would leave its size, times and inode as they were.
+_SETTLED_NS = 100_000_000
+_clock_ns = time.time_ns
+
+
 def _read_bytes(path):
-    """The file's bytes, and its ``os.stat_result`` if it is a regular file (else None).
+    """The file's bytes, and its ``os.stat_result`` if it is a regular file whose last change (``st_mtime``,
+    ``st_ctime``) is :data:`_SETTLED_NS` older than the read (else None: read from the bytes alone).
 
     Read in chunks: a binary or endless input is refused at its first NUL byte or at :data:`MAX_FILE_BYTES`, not
     after it has filled the memory. A regular file's bytes up to its size are read at once (half the time of
@@ -183,6 +192,7 @@ def _read_bytes(path):
     with open(path, "rb") as handle:
         status = os.fstat(handle.fileno())
         regular = stat.S_ISREG(status.st_mode)
+        settled = _clock_ns() - max(status.st_mtime_ns, status.st_ctime_ns) >= _SETTLED_NS
         first = handle.read(status.st_size) if regular and 0 < status.st_size <= MAX_FILE_BYTES else b""
         while chunk := first or handle.read(_READ_CHUNK):
             first = b""
@@ -196,7 +206,7 @@ def _read_bytes(path):
                 raise CalibrationError(f"{path}: is larger than {MAX_FILE_BYTES >> 20} MiB; expected a calibration "
                                        "CSV (is this an endless stream or a device?)")
             chunks.append(chunk)
-    return (chunks[0] if len(chunks) == 1 else b"".join(chunks)), (status if regular else None)
+    return (chunks[0] if len(chunks) == 1 else b"".join(chunks)), (status if regular and settled else None)
 
 
 def _decode(path, raw):
@@ -249,7 +259,8 @@ _ONE_PIECE_BYTES = 1 << 26
 def _plain_table(path, raw, status, skip_lines, body_start, separator, n_columns, progress=None):
     """The numbers of a file whose lines from ``body_start`` (after ``skip_lines`` lines) are plain numbers
     (:mod:`encal._core.csv_numbers`), or None. A regular file of up to :data:`_ONE_PIECE_BYTES` that has not
-    changed since ``raw`` was read is read again by NumPy from its path, the fastest way; else ``raw``."""
+    changed since ``raw`` was read (size, times, inode) is read again by NumPy from its path, the fastest way;
+    else ``raw``. ``status``: of :func:`_read_bytes`, None for a file not to be read again."""
     if status is not None and len(raw) <= _ONE_PIECE_BYTES:
         if not plain_body(raw, body_start):
             return None
@@ -261,8 +272,8 @@ def _plain_table(path, raw, status, skip_lines, body_start, separator, n_columns
             now = os.stat(path)
         except OSError:
             now = None
-        if table is not None and now is not None and (now.st_size, now.st_mtime_ns, now.st_ino) == \
-                (status.st_size, status.st_mtime_ns, status.st_ino):
+        if table is not None and now is not None and (now.st_size, now.st_mtime_ns, now.st_ctime_ns, now.st_ino) == \
+                (status.st_size, status.st_mtime_ns, status.st_ctime_ns, status.st_ino):
             if progress is not None:
                 progress(len(raw) - body_start, len(raw) - body_start)
             return table
