@@ -1,0 +1,64 @@
+"""`encal fit` of dense files (issue 30): the spectral fit sorts each set of angles once, with the same numbers.
+
+A dense sweep (passes over the same stops, the readings off any grid) takes the Fourier-feature path, capped,
+with the scan above the cap. Before, the reference angles were sorted four times (the identical repeats, the
+stops, the repeats' noise, the alias coherence) and the encoder angles twice (the uniform nodes, the scan's
+identifiable order); each sort of 10^6 angles is tens of milliseconds.
+"""
+
+import numpy as np
+import pytest
+
+from encal.analysis import profile
+from encal.analysis.profile import identifiable_order
+from encal.models import spectral
+from encal.models.spectral import _alias_coherence, fit_spectral, repeat_noise
+
+
+def _sweep(stops=4000, passes=5, seed=3):
+    rng = np.random.default_rng(seed)
+    reference = np.tile(np.arange(stops) * 360.0 / stops, passes)
+    error = 3.0 * np.cos(np.radians(reference) + 0.3) + 0.6 * np.cos(np.radians(16 * reference) + 2.0) \
+        + 0.3 * np.cos(np.radians(230 * reference)) + rng.normal(0.0, 0.1, reference.size)
+    return np.mod(reference + error / 60.0, 360.0), error
+
+
+def test_a_dense_sweep_sorts_each_set_of_angles_once(monkeypatch):
+    theta, error = _sweep()
+    sorted_sizes = []
+    plain = profile.stable_argsort
+
+    def counted(values, *args, **kwargs):
+        sorted_sizes.append(np.asarray(values).size)
+        return plain(values, *args, **kwargs)
+
+    monkeypatch.setattr(profile, "stable_argsort", counted)
+    model = fit_spectral(theta, error)
+    assert model.training["path"] == "fourier-features" and "orders_above_cap" in model.training  # 230 found
+    # three fits (the first, and a refit after each of two scans above the cap), each sorting the reference
+    # angles once and the encoder angles once (20 sorts before); the stops' own angles (4000) apart
+    assert model.training["orders_above_cap"]["orders"] == [214, 229, 230, 231, 246]
+    assert sorted_sizes.count(theta.size) == 3 * 2
+
+
+def test_the_shared_sorts_give_the_figures_of_the_plain_functions():
+    theta, error = _sweep()
+    model = fit_spectral(theta, error)
+    reference = np.mod(theta - error / 60.0, 360.0)
+    std, dof = repeat_noise(reference, error)
+    noise = model.training["noise"]
+    assert noise["source"] == "repeated readings"
+    assert noise["repeat_std_arcmin"] == std and noise["repeat_dof"] == dof
+    assert model.training["alias_coherence"] == _alias_coherence(spectral.wrap360(theta - error / 60.0))
+    # the scan ran to the order the encoder angles identify (its own sort), as before
+    assert identifiable_order(theta) == profile.angles_and_grid(theta)[2].stable_order
+
+
+@pytest.mark.parametrize("angles", [np.arange(0.0, 360.0, 2.0), np.r_[0:300:2.0], [0.0, 10.0, 20.0, 30.0, 50.0]])
+def test_angles_and_grid_agrees_with_uniform_grid_and_identifiable_order(angles):
+    distinct, group, grid = profile.angles_and_grid(angles)
+    plain_distinct, plain_group = profile.distinct_angles(angles)
+    np.testing.assert_array_equal(distinct, plain_distinct)
+    np.testing.assert_array_equal(group, plain_group)
+    assert grid.stable_order == identifiable_order(angles)
+    assert (grid.phase_rad is None) == (profile.uniform_grid(distinct) is None)
