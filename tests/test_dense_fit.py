@@ -62,3 +62,20 @@ def test_angles_and_grid_agrees_with_uniform_grid_and_identifiable_order(angles)
     np.testing.assert_array_equal(group, plain_group)
     assert grid.stable_order == identifiable_order(angles)
     assert (grid.phase_rad is None) == (profile.uniform_grid(distinct) is None)
+
+
+def test_nodes_are_np_mod_of_the_rounded_position_bit_for_bit():
+    from encal.numerics.trigsums import _nodes
+
+    rng = np.random.default_rng(0)
+    theta = np.r_[rng.uniform(0.0, 2.0 * np.pi, 10_000), 0.0, -0.0, 2.0 * np.pi, np.nextafter(2.0 * np.pi, 0.0),
+                  -3.0, 7.0, 123456.7, -1e300, 1e300]
+    for size in (16, 4096, 32768):
+        position = theta * (size / (2.0 * np.pi))
+        node = np.round(position)
+        index, offset = _nodes(theta, size)
+        np.testing.assert_array_equal(index, np.mod(node, size).astype(np.int64))
+        np.testing.assert_array_equal(offset.view(np.int64), (position - node).view(np.int64))
+        small, small_offset = _nodes(theta[:-2], size)  # every position exact as an int64: the low bits
+        np.testing.assert_array_equal(small, index[:-2])
+        np.testing.assert_array_equal(small_offset, offset[:-2])
