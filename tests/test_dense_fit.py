@@ -79,3 +79,23 @@ def test_nodes_are_np_mod_of_the_rounded_position_bit_for_bit():
         small, small_offset = _nodes(theta[:-2], size)  # every position exact as an int64: the low bits
         np.testing.assert_array_equal(small, index[:-2])
         np.testing.assert_array_equal(small_offset, offset[:-2])
+
+
+def test_a_dense_sweep_fit_holds_no_copy_it_no_longer_needs():
+    import tracemalloc
+
+    rng = np.random.default_rng(1)
+    n = 200_000
+    reference = np.tile(np.arange(n // 5) * 360.0 / (n // 5), 5)
+    error = 3.0 * np.cos(np.radians(reference)) + 0.5 * np.cos(np.radians(16 * reference)) + rng.normal(0.0, 0.1, n)
+    theta = np.mod(reference + error / 60.0, 360.0)
+    tracemalloc.start()
+    try:
+        base = tracemalloc.get_traced_memory()[0]
+        fit_spectral(theta, error)
+        peak = tracemalloc.get_traced_memory()[1] - base
+    finally:
+        tracemalloc.stop()
+    # the scan above the cap is the peak: 105.3 bytes a reading while the fit still held the reference angles and
+    # the centred errors, 98.1 now (the command line's 10^6-row random file: 211 -> 195 MiB resident)
+    assert peak / n < 101.0

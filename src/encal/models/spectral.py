@@ -482,6 +482,12 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     m = stop_angles.size
     if m < 3:
         raise InputError(f"fit_spectral expects readings at 3 or more distinct reference angles; got {m}")
+    bits = resolution_of_readings(theta)
+    quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
+    noise_var, noise_source, repeat_dof, repeat_std = _known_noise(noise_arcmin, reference, error, quantisation_var,
+                                                                    group)
+    coherence = _alias_coherence(reference, reference_distinct)
+    del group, reference_distinct  # (before the encoder angles' sort: 8 bytes a reading each)
     grid = uniform_grid(stop_angles)
     regular_points = m if grid is not None else None
     phase = math.radians(grid[0]) if grid is not None else 0.0
@@ -505,12 +511,6 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     if highest < nyquist:
         regular_points = None  # no Nyquist column below the cap
 
-    bits = resolution_of_readings(theta)
-    quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
-    noise_var, noise_source, repeat_dof, repeat_std = _known_noise(noise_arcmin, reference, error, quantisation_var,
-                                                                    group)
-    coherence = _alias_coherence(reference, reference_distinct)
-    del group, reference_distinct
     beyond = max_order is None and uniform is None and highest == nyquist and coherence < ALIAS_COHERENCE
     first_pass = first_prior = None
     if beyond and noise_var is None:
@@ -543,6 +543,7 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
     if ROUNDING_SPECTRUM and bits and grid is not None:
         design.rounding = _rounding_variance(bits, theta, error, reference, orders)
+    del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
@@ -736,10 +737,16 @@ def _alias_coherence(reference_deg, distinct=None):
     """
     if distinct is None:
         distinct, _ = distinct_angles(reference_deg)
-    theta = np.radians(np.sort(distinct))
+    theta = np.radians(distinct)  # (increasing already: distinct_angles sorts them)
     gaps = np.diff(np.r_[theta, theta[0] + 2.0 * math.pi])
     nodes = {distinct.size, int(round(2.0 * math.pi / max(float(gaps.min()), 1e-12)))}
-    return max(float(abs(np.mean(np.exp(1j * n * theta)))) for n in nodes if n >= distinct.size)
+    del gaps
+    coherence = []
+    for n in nodes:
+        if n >= distinct.size:
+            phasors = 1j * n * theta
+            coherence.append(float(abs(np.mean(np.exp(phasors, out=phasors)))))  # (in place: 16 bytes a stop less)
+    return max(coherence)
 
 
 #: Stages after which fit_spectral calls ``progress``.
