@@ -99,3 +99,25 @@ def test_a_dense_sweep_fit_holds_no_copy_it_no_longer_needs():
     # the scan above the cap is the peak: 105.3 bytes a reading while the fit still held the reference angles and
     # the centred errors, 98.1 now (the command line's 10^6-row random file: 211 -> 195 MiB resident)
     assert peak / n < 101.0
+
+
+@pytest.mark.parametrize("case", ["copied rows", "repeats that differ", "no repeats"])
+def test_identical_repeats_are_dropped_as_np_unique_finds_the_first_readings(case):
+    from encal.models.spectral import _without_identical_repeats
+
+    rng = np.random.default_rng(2)
+    stops = rng.permutation(np.arange(0.0, 360.0, 2.0))  # the first reading of a stop is not the lowest angle's
+    reference = np.r_[stops, stops[::-1]] if case != "no repeats" else stops
+    error = np.cos(np.radians(reference))
+    if case == "repeats that differ":
+        error = error + rng.normal(0.0, 0.01, error.size)
+    theta = np.mod(reference + error / 60.0, 360.0)
+    kept_theta, kept_error, dropped = _without_identical_repeats(theta, error)
+    _, group = profile.distinct_angles(np.mod(theta - error / 60.0, 360.0))
+    first = np.sort(np.unique(group, return_index=True)[1])
+    if case == "copied rows":
+        assert dropped == stops.size
+        np.testing.assert_array_equal(kept_theta, theta[first])
+        np.testing.assert_array_equal(kept_error, error[first])
+    else:
+        assert dropped == 0 and kept_theta is theta and kept_error is error
