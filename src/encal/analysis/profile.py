@@ -441,6 +441,22 @@ class _Grid:
 
 def _grid(theta_deg, tolerance_deg=ANGLE_TOLERANCE_DEG):
     distinct = distinct_angles(theta_deg)[0]  # (the groups, as large as the angles, let go at once)
+    return _grid_of_distinct(distinct, tolerance_deg)
+
+
+def angles_and_grid(theta_deg):
+    """``(distinct, group, grid)``: :func:`distinct_angles` of the angles and how they sample the circle, from one
+    sort.
+
+    ``grid.stable_order`` is :func:`identifiable_order`, and ``grid.phase_rad`` is not None exactly when
+    :func:`uniform_grid` of the distinct angles is not None (its nodes ``φ + 360° j / m``). A fit that asks all
+    three of 10^6 angles sorted them three times (tens of milliseconds each).
+    """
+    distinct, group = distinct_angles(_in_turn(theta_deg))
+    return distinct, group, _grid_of_distinct(distinct)
+
+
+def _grid_of_distinct(distinct, tolerance_deg=ANGLE_TOLERANCE_DEG):
     m = distinct.size
     phase, deviation, regular = _fit_grid(distinct, m)
     uniform = regular and deviation * 360.0 / m <= tolerance_deg

@@ -37,11 +37,25 @@ def _fine_grid(highest_order):
     return size, terms
 
 
+#: Positions (in grid spacings) whose nearest node is exact as an int64 (and as a double).
+_EXACT_POSITION = 2.0**52
+
+
 def _nodes(theta_rad, size):
-    """Node index on the fine grid and offset in grid spacings (in [-1/2, 1/2]) of every angle."""
+    """Node index on the fine grid and offset in grid spacings (in [-1/2, 1/2]) of every angle.
+
+    ``size`` is a power of 2, so the node modulo ``size`` is the integer node's low bits: the same indices as
+    ``np.mod`` of the rounded position, a fifth of its time (12 -> 2.6 ms for 10^6 angles).
+    """
     position = np.asarray(theta_rad, dtype=float) * (size / (2.0 * math.pi))
-    node = np.round(position)
-    return np.mod(node, size).astype(np.int64), position - node
+    node = np.rint(position)  # np.round's value
+    if position.size and -_EXACT_POSITION < position.min() and position.max() < _EXACT_POSITION:
+        index = node.astype(np.int64)
+        index &= size - 1
+    else:  # a huge angle, or NaN: as before
+        index = np.mod(node, size).astype(np.int64)
+    position -= node  # (in place: 8 bytes an angle less at the peak)
+    return index, position
 
 
 #: The direct path's matrices ``exp(i m θ_i)`` of the last few sets of angles, ``(bytes of θ, matrix)`` the newest
@@ -101,7 +115,7 @@ def trig_moments(theta_rad, weights, highest_order):
     for p in range(terms):
         binned = np.bincount(node, weights=power, minlength=size)
         total += factor * (np.fft.ifft(binned)[: highest_order + 1] * size)
-        power = power * offset
+        power *= offset  # (in place, as every product below: no fresh pages for each term of 10^6 angles)
         factor = factor * (1j * orders * step) / (p + 1)
     return total
 
@@ -191,6 +205,9 @@ class SeriesEvaluator:
         result = np.zeros(theta.size)
         power = np.ones(theta.size)  # δ^p / p!
         for p, values in enumerate(self._terms):
-            result += values[node] * power
-            power = power * offset / (p + 1)
+            term = values[node]
+            term *= power
+            result += term
+            power *= offset
+            power /= p + 1
         return result
