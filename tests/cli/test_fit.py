@@ -54,6 +54,17 @@ def test_fit_ann_with_seed_is_reproducible(train_and_test, tmp_path, capsys):
     assert paths[0].read_bytes() == paths[1].read_bytes()
 
 
+def test_fit_reproducible_without_a_seed_fixes_the_seed_too(train_and_test, tmp_path, capsys):
+    # a drawn seed (auto's folds, ann's weights) made two --reproducible runs write different files
+    train, _ = train_and_test
+    paths = [tmp_path / "a.json", tmp_path / "b.json"]
+    for path in paths:
+        assert main(["fit", str(train), "-o", str(path), "--method", "ann", "--hidden", "8", "--epochs", "30",
+                     "--reproducible"]) == 0
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    assert json.loads(paths[0].read_text())["training"]["seed"] == 0
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--method", "fourier", "--hidden", "5"], "--hidden applies to --method ann or hybrid, not fourier"),
     (["--method", "fourier", "--orders", "1,x"], "--orders must be whole numbers"),

@@ -67,7 +67,8 @@ def add_arguments(parser):
     parser.add_argument("--target", choices=["cortex-m4f", "fixed"], default=None,
                         help="the processor of --budget: cortex-m4f (float32, default) or fixed (integers)")
     parser.add_argument("--reproducible", action="store_true",
-                        help="fix the date field so the same inputs give a byte-identical file")
+                        help="fix the date field (and the seed, 0 unless --seed is given) so the same inputs give a "
+                             "byte-identical file")
     parser.add_argument("--json", action="store_true",
                         help="print one JSON object (model, seed, training-set statistics, selection table)")
     add_zero_options(parser)
@@ -318,6 +319,8 @@ def run(args):
                 cal = _with_repeat(cal, second)
         if args.seed is not None:
             options["rng"] = args.seed
+        elif args.reproducible and args.method in _APPLIES_TO["seed"]:
+            options["rng"] = 0  # a drawn seed would make two runs' files differ
         if args.method in ("spectral", "auto") and not _cv_options(options) and not has_both_directions(cal):
             from ..models.spectral import STAGES
 
