@@ -79,7 +79,6 @@ REALISED_ROUNDING = True
 _REALISED_HARMONICS = 40
 #: Least uncertainty of the estimated unrounded reading, in codes (see ``_realised_rounding``).
 _MIN_TAU_CODES = 0.04
-_REFIT_FROM_FIRST = True
 #: A line whose removal leaves the readings this close to as likely in their codes (nats) is the rounding's.
 _CELL_TIE_NATS = 0.5
 #: Below this alias coherence of the reference stops (see ``_alias_coherence``) the orders above the
@@ -532,13 +531,14 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     post = _evidence.signal_part(design, hyper.variances(design), hyper.noise_var, post)
     rounding_lines = []
     if design.rounding is not None and REALISED_ROUNDING:
-        # The rounding's realised pattern, from the readings' estimated unrounded values (issue 27).
-        design.rounding, rounding_lines = _realised_rounding(bits, theta, error - offset, offset, design, hyper, post)
+        # Lines that the codes show to be the rounding's pattern: refit with its realised spectrum (issue 27).
+        realised, rounding_lines = _realised_rounding(bits, theta, error - offset, design, hyper, post)
+    if rounding_lines:
+        design.rounding = realised
         restart = _evidence.Hyper(hyper.amplitude, hyper.exponent, hyper.noise_var,
                                   {k: v for k, v in hyper.lines.items() if k not in rounding_lines})
         hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
-                                                    start=restart if _REFIT_FROM_FIRST else
-                                                    (first_prior if _start is None else _start))
+                                                    start=restart)
         post = _evidence.signal_part(design, hyper.variances(design), hyper.noise_var, post)
     _advance(progress)
     split = None
@@ -824,7 +824,7 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
     return excess[orders]
 
 
-def _realised_rounding(bits, theta_deg, centred_arcmin, offset_arcmin, design, hyper, post):
+def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
     """The rounding's variance per column from its realised pattern at the stops, and the lines it explains.
 
     The rounding to whole codes is a known function of the unrounded reading ``x``: ``round(x) - x``.
@@ -853,9 +853,11 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, offset_arcmin, design, h
 
     Returns
     -------
-    (ndarray of shape (P,), list of int)
+    (ndarray of shape (P,) or None, list of int)
         The rounding's variance per column beyond its white share (arc-minutes²; the design's
-        ``rounding``) and the first fit's lines taken as the rounding's pattern.
+        ``rounding``) and the first fit's lines taken as the rounding's pattern; None and [] when no
+        line is (the expected pattern is kept then: alone, the realised one added a false line at order
+        62 to a 12-bit encoder of the physics world whose readings swing over many codes, M12-10).
     """
     from scipy.special import log_ndtr
 
@@ -885,6 +887,8 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, offset_arcmin, design, h
             taken.append(int(order))
             profile = profile - line
             base = in_codes(profile)
+    if not taken:
+        return None, taken
     codes = (theta_deg - (centred_arcmin - profile) / ARCMIN_PER_DEG) * (2**bits / 360.0)
     pattern = np.zeros_like(codes)
     for h in range(1, _REALISED_HARMONICS + 1):
