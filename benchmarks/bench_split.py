@@ -13,7 +13,8 @@ what such a rule gains on the worst encoder only when it picks the same ``f`` ev
 of bench_worlds.py's suites (all but the dense sweeps) this fits the spectral model blind with the
 fraction ``f`` held fixed (``BLIND_SPLIT = 'fNN'``) for every ``f`` asked, and prints the ratio to the
 best plain baseline: per fraction the worst encoder and the suite medians, then ``min over f of (max
-over encoders)`` and, per encoder, the best fraction (the oracle no single run can choose).
+over encoders)``, the same for the best fixed mixture of the fractions' predictions (weights that do not
+depend on the run), and, per encoder, the best fraction (the oracle no single run can choose).
 """
 
 import os
@@ -39,20 +40,50 @@ SPLIT_SUITES = tuple(s for s in SUITES if s != "stepper-dense")
 
 
 def ratios(case, fractions):
-    """Test RMS over the best plain baseline's, per fraction (and for the default 'uniform')."""
+    """Test RMS over the best plain baseline's, per fraction (and for the default 'uniform'); the test
+    residuals of each fixed fraction scaled by that baseline's RMS, for :func:`minimax_mixture`."""
     theta, y, theta_test, y_test = case["theta"], case["y"], case["theta_test"], case["y_test"]
     plain = [rms(y_test - interp_model(theta, y)(theta_test)),
              rms(y_test - fit_fourier(theta, y, select="cv").predict(theta_test)),
              rms(y_test - fit_fourier(theta, y, select="top", n_orders=10).predict(theta_test))]
     best = min(plain)
-    out = {}
+    out, residuals = {}, []
     for rule in ["uniform"] + [f"f{round(100 * f)}" for f in fractions]:
         spectral.BLIND_SPLIT = rule
         try:
-            out[rule] = rms(y_test - fit_spectral(theta, y).predict(theta_test)) / best
+            residual = (y_test - fit_spectral(theta, y).predict(theta_test)) / best
         finally:
             spectral.BLIND_SPLIT = "uniform"
-    return out
+        out[rule] = rms(residual)
+        if rule != "uniform":
+            residuals.append(residual)
+    return out, np.array(residuals)
+
+
+def minimax_mixture(residuals):
+    """Weights ``w`` on the fixed fractions (``w >= 0``, ``Σ w = 1``) whose mean prediction has the lowest
+    worst ratio over the encoders: ``min_w max_e rms(Σ_f w_f r_ef)`` (convex; SLSQP on its epigraph).
+
+    Parameters
+    ----------
+    residuals : list of ndarray of shape (F, n_e)
+        Per encoder, the scaled test residuals of each fixed fraction.
+    """
+    from scipy.optimize import minimize
+
+    count = residuals[0].shape[0]
+
+    def worst(w):
+        return [rms(w @ r) for r in residuals]
+
+    start = np.append(np.full(count, 1.0 / count), max(worst(np.full(count, 1.0 / count))))
+    result = minimize(lambda v: v[-1], start, method="SLSQP", bounds=[(0.0, 1.0)] * count + [(0.0, None)],
+                      constraints=[{"type": "eq", "fun": lambda v: np.sum(v[:-1]) - 1.0},
+                                   {"type": "ineq", "fun": lambda v: v[-1] - np.array(worst(v[:-1]))}],
+                      options={"maxiter": 500, "ftol": 1e-10})
+    weights = np.clip(result.x[:-1], 0.0, None)
+    weights /= weights.sum()
+    return weights, max(worst(weights))
 
 
 def main():
@@ -63,10 +94,12 @@ def main():
     args = parser.parse_args()
     if any(not 0.0 <= f <= 1.0 for f in args.fractions):
         parser.error("--fractions must lie in [0, 1]")
-    table = []  # (suite, encoder, {rule: ratio})
+    table, residuals = [], []  # (suite, encoder, {rule: ratio}); per encoder, the fixed fractions' residuals
     for suite in args.suites:
         for encoder, case in suite_cases(suite):
-            table.append((suite, encoder, ratios(case, args.fractions)))
+            ratio, residual = ratios(case, args.fractions)
+            table.append((suite, encoder, ratio))
+            residuals.append(residual)
             print(suite, encoder, " ".join(f"{k}={v:.3f}" for k, v in table[-1][2].items()), file=sys.stderr,
                   flush=True)
     if args.json:
@@ -91,6 +124,9 @@ def main():
     print(f"\nmin over f of (max over encoders): {worst[best_rule]:.3f} at f = {int(best_rule[1:]) / 100:.1f}")
     oracle = np.array([min(r[rule] for rule in fixed) for _, _, r in table])
     print(f"oracle (each encoder at its own best f): worst {oracle.max():.3f}, above 1.05: {int(np.sum(oracle > 1.05))}")
+    weights, bound = minimax_mixture(residuals)
+    print(f"min over fixed mixtures of the fractions' predictions (max over encoders): {bound:.3f}, weights "
+          + ", ".join(f"{f:.1f}: {w:.2f}" for f, w in zip(args.fractions, weights) if w > 0.005))
 
 
 if __name__ == "__main__":
