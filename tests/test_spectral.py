@@ -775,4 +775,7 @@ def test_the_blind_split_rules_the_benchmark_compares():
     assert noise["uniform"] == pytest.approx(0.5 * hyper.noise_var, rel=0.05)  # half of it, on average
     assert noise["uniform"] < noise["u80"] < noise["u70"] < noise["u60"] < noise["half"] < noise["noise"]
     assert any(noise["gcv"] == pytest.approx((1.0 - k / 9) * hyper.noise_var) for k in range(9))
+    # a fixed fraction f (benchmarks/bench_split.py): the noise is (1 - f) of the flat level
+    assert _evidence.split_average(design, hyper, rule="f0")[1] == pytest.approx(noise["noise"])
+    assert _evidence.split_average(design, hyper, rule="f30")[1] == pytest.approx(0.7 * hyper.noise_var)
     assert spectral.BLIND_SPLIT == "uniform"
