@@ -42,7 +42,7 @@ BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot spli
                "the quantisation's LSB/sqrt(12) when the readings show the resolution")
 #: How the blind fit splits the flat level (see ``_evidence.split_average``): 'uniform' is the default; the others
 #: are the variants benchmarks/bench_worlds.py --blind measures (docs/model-selection.md).
-BLIND_SPLITS = ("uniform", "noise", "half", "gcv", "u60", "u70", "u80")
+BLIND_SPLITS = ("uniform", "noise", "half", "gcv", "u60", "u70", "u80", "b10-80")
 BLIND_SPLIT = "uniform"
 #: Added to the blind prior when the stops are off a regular grid (safeguard 5).
 BLIND_BEYOND_NYQUIST = ("; the stops being off a regular grid, the series then runs past the Nyquist order with "
