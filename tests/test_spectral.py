@@ -225,6 +225,9 @@ def test_the_sidebands_of_the_rounding_pattern_get_no_line(monkeypatch):
     # (where the third harmonic's carrier 48 has a sideband, 48 - 2 x 16) on all 8, profile error at
     # the midpoints at most 0.243 arcmin; with the expected pattern alone 7 and 0.514; with neither 32
     assert false_lines_and_error() == (0, pytest.approx(0.243, abs=0.03), True)
+    model = fit_spectral(*read_12_bit_modulated(7))
+    assert model.training["rounding_lines"] == [12, 28, 30]  # measured: the first fit's false lines
+    assert "orders 12, 28, 30: taken as the rounding's pattern" in model.report()
     monkeypatch.setattr(spectral, "REALISED_ROUNDING", False)
     expected_only, worst, _ = false_lines_and_error()
     assert 3 <= expected_only <= 10 and worst > 0.4
