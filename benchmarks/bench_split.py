@@ -123,7 +123,8 @@ def main():
     best_rule = min(fixed, key=worst.get)
     print(f"\nmin over f of (max over encoders): {worst[best_rule]:.3f} at f = {int(best_rule[1:]) / 100:.1f}")
     oracle = np.array([min(r[rule] for rule in fixed) for _, _, r in table])
-    print(f"oracle (each encoder at its own best f): worst {oracle.max():.3f}, above 1.05: {int(np.sum(oracle > 1.05))}")
+    print(f"oracle (each encoder at its own best f): worst {oracle.max():.3f}, "
+          f"above 1.05: {int(np.sum(oracle > 1.05))}")
     weights, bound = minimax_mixture(residuals)
     print(f"min over fixed mixtures of the fractions' predictions (max over encoders): {bound:.3f}, weights "
           + ", ".join(f"{f:.1f}: {w:.2f}" for f, w in zip(args.fractions, weights) if w > 0.005))

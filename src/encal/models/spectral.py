@@ -195,8 +195,9 @@ class SpectralModel(FourierModel):
             text.append(f"orders {_ranges(t['rounding_orders'])}: no line (where the rounding of the readings to whole "
                         "codes lands on this grid)")
         if t.get("rounding_lines"):
-            text.append(f"orders {_ranges(t['rounding_lines'])}: taken as the rounding's pattern, not lines (the readings "
-                        "lie in their codes as well without them), and refitted with the rounding's realised spectrum")
+            text.append(f"orders {_ranges(t['rounding_lines'])}: taken as the rounding's pattern, not lines (the "
+                        "readings lie in their codes as well without them), and refitted with the rounding's realised "
+                        "spectrum")
         sigma = t["noise"]["std_arcmin"]
         split = t["noise"].get("split")
         # the held-out estimate uses a new reading's noise: said whenever it is not sigma (issue 28: an estimate
