@@ -754,9 +754,11 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="unifo
     floor_var : float, default=0.0
         Smallest noise variance.
     points : int, default=SPLIT_POINTS
-    rule : {'uniform', 'noise', 'half', 'gcv'}, default='uniform'
+    rule : {'uniform', 'noise', 'half', 'gcv', 'uNN', 'fNN', 'bNN-MM'}, default='uniform'
         ``'uniform'``: the evidence-weighted mixture over fractions uniform on [0, 1]; ``'half'``: on
-        [0, 1/2]; ``'noise'``: the fraction 0 alone (all of the flat level noise); ``'gcv'``: the one
+        [0, 1/2]; ``'uNN'``: on [0, NN/100]; ``'fNN'``: the one fixed fraction NN/100; ``'bNN-MM'``: the
+        two fractions NN/100 and MM/100 (evidence-weighted); ``'noise'``: the
+        fraction 0 alone (all of the flat level noise); ``'gcv'``: the one
         fraction of the grid [0, 1) (0 included) whose posterior mean, a linear smoother of the data,
         has the lowest generalised cross-validation score ``n RSS / (n - tr H)²`` (Wahba 1985).
 
@@ -778,6 +780,10 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="unifo
         fractions = float(rule[1:]) / 100.0 * (np.arange(points) + 0.5) / points
     elif rule == "noise":
         fractions = np.zeros(1)
+    elif rule.startswith("f"):  # 'f30': the one fixed fraction 0.30 (benchmarks/bench_split.py)
+        fractions = np.array([float(rule[1:]) / 100.0])
+    elif rule.startswith("b"):  # 'b10-80': the two fractions 0.10 and 0.80, weighted by their evidence
+        fractions = np.array([float(part) / 100.0 for part in rule[1:].split("-")])
     else:
         fractions = np.arange(points) / points
     posteriors, noises = [], []
