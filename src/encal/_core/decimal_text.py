@@ -190,7 +190,8 @@ def format_fixed(values):
     rounded with its exact residual (Dekker's product), ties to even as printf does, and its 15 digits
     made eight at a time. Others (NaN, values outside [0, 360), and the scaled values too close to a
     tie to decide in double-double) are written by Python. A value that rounds to ``360.000000000000``
-    is written ``0.000000000000``: the same angle, kept in [0, 360).
+    is written ``0.000000000000``: the same angle, kept in [0, 360); so is ``-0.0`` (where printf writes
+    ``-0.000000000000``).
 
     Parameters
     ----------
