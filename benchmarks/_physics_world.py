@@ -230,15 +230,17 @@ PHYSICS_SUITES = ("resolver", "resolver-epoch", "resolver-36", "resolver-rough",
                   "stepper-dense")
 
 
-def physics_cases(name):
-    """``(encoder name, case)`` of one suite of this world."""
+def physics_cases(name, fresh=0):
+    """``(encoder name, case)`` of one suite of this world; ``fresh`` > 0 draws other encoders of the same
+    physics (seeds moved by ``100_000 * fresh``), ones no rule was chosen on."""
+    shift = 100_000 * fresh
     if name.startswith("resolver"):
-        yield from resolver_cases(name)
+        yield from resolver_cases(name, seed=27 + shift)
     elif name == "magnetic":
-        yield from magnetic_cases(14)
+        yield from magnetic_cases(14, seed=270 + shift)
     elif name == "12bit-physics":
-        yield from magnetic_cases(12)
+        yield from magnetic_cases(12, seed=270 + shift)
     elif name == "stepper-dense":
-        yield from stepper_cases()
+        yield from stepper_cases(seed=2700 + shift)
     else:
         raise ValueError(f"unknown suite {name!r}")

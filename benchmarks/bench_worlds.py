@@ -58,12 +58,15 @@ def rms(values):
     return float(np.sqrt(np.mean(np.square(values))))
 
 
+FRESH = 0  # --fresh: other encoders of the physics world
+
+
 def suite_cases(name):
     if name in OWN_SUITES:
         for _, encoder, case in own_cases([name]):
             yield encoder, case
     else:
-        yield from physics_cases(name)
+        yield from physics_cases(name, FRESH)
 
 
 def evaluate(case):
@@ -186,7 +189,14 @@ def main():
                         help=f"the blind split of the flat level (default {spectral.BLIND_SPLIT!r})")
     parser.add_argument("--docs", action="store_true",
                         help="with --write: also rewrite the generated blocks of README.md and RESULTS.md")
+    parser.add_argument("--fresh", type=int, default=0, metavar="K",
+                        help="other encoders of the physics world (its seeds moved; K > 0), to check a rule "
+                             "on encoders it was not chosen on; not with --docs")
     args = parser.parse_args()
+    if args.fresh and args.docs:
+        parser.error("--fresh is a check on other encoders; the README and RESULTS cite the standard ones")
+    global FRESH
+    FRESH = args.fresh
     if args.docs and not args.write:
         parser.error("--docs needs --write PATH (the file the README's figures cite)")
     if args.blind:
@@ -194,6 +204,7 @@ def main():
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
                             cwd=Path(__file__).parent).stdout.strip()
     command = "python benchmarks/bench_worlds.py" + (f" --blind {args.blind}" if args.blind else "") \
+        + (f" --fresh {args.fresh}" if args.fresh else "") \
         + (f" --suites {' '.join(args.suites)}" if args.suites != list(SUITES) else "") \
         + (f" --write {args.write.as_posix()}" if args.write else "") + (" --docs" if args.docs else "")
     body = (f"Written by `{command}` ({time.strftime('%Y-%m-%d', time.gmtime())}, commit {commit}; blind split "
