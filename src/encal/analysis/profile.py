@@ -541,10 +541,6 @@ def _in_turn(theta_deg):
     return wrap360(theta)
 
 
-def _angles(theta_deg):
-    return wrap360(np.asarray(theta_deg, dtype=float).reshape(-1))
-
-
 def _snap(theta_deg, grid):
     """The angles moved to their nodes of a regular grid (degrees)."""
     spacing = 360.0 / grid.n_distinct
@@ -672,7 +668,7 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, caller)
     orders = [int(k) for k in orders]
-    grid = _grid(theta if grid_deg is None else _angles(grid_deg))
+    grid = _grid(theta if grid_deg is None else _in_turn(grid_deg))
     too_high = [k for k in orders if k > grid.max_order]
     if too_high:
         raise InputError(_aliasing_message(caller, too_high, grid))
@@ -734,7 +730,7 @@ def nested_harmonic_predictions(theta_deg, error_arcmin, ranked_orders, predict_
     theta, error = profile_arrays(theta_deg, error_arcmin, "nested_harmonic_predictions")
     predict = wrap360(np.asarray(predict_deg, dtype=float).reshape(-1))
     orders = [int(k) for k in ranked_orders]
-    grid = _grid(theta if grid_deg is None else _angles(grid_deg))
+    grid = _grid(theta if grid_deg is None else _in_turn(grid_deg))
     design, owners = _design(theta, orders, grid)
     owner = np.array([index for index, _ in owners])
     check = design if grid.phase_rad is None else _design(_snap(theta, grid), orders, grid)[0]
@@ -1066,7 +1062,7 @@ def rank_orders(theta_deg, error_arcmin, max_order=None, *, grid_deg=None, count
     one Gram-Schmidt step, O(N log N + n c) for ``c`` orders taken.
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, "rank_orders")
-    grid = None if grid_deg is None else _grid(_angles(grid_deg))
+    grid = None if grid_deg is None else _grid(_in_turn(grid_deg))
     if grid is None or grid.phase_rad is None or _grid(theta).n_distinct == grid.n_distinct:
         ranking = harmonics(theta, error, max_order).ranked()
         return [int(k) for k in ranking[:count]]
