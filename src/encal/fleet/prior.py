@@ -126,7 +126,8 @@ def _robust_block(cos, sin):
 
     The variances from the median absolute deviation; the correlation from those of the sum and the
     difference of the standardised parts (Gnanadesikan and Kettenring: ``cov(u, w) = (var(u + w) -
-    var(u - w)) / 4`` for unit variances), kept inside (-1, 1) so that every block is positive definite.
+    var(u - w)) / 4`` for unit variances, here in its normalised form ``(var(u + w) - var(u - w)) / (var(u + w) +
+    var(u - w))``), kept inside (-1, 1) so that every block is positive definite.
     """
     var_cos, var_sin = _robust_variance(cos), _robust_variance(sin)
     std_cos, std_sin = np.sqrt(np.maximum(var_cos, _MIN_VARIANCE)), np.sqrt(np.maximum(var_sin, _MIN_VARIANCE))
@@ -219,12 +220,9 @@ def _held_orders(theta_deg, orders, variance):
     nearest multiple ``j m``): the data show only their sum. Such an order is held at the fleet's mean, its alias
     taking the data, unless the fleet's variance at ``k`` is more than :data:`ALIAS_RATIO` times that of its
     alias: then the fleet knows which of the two carries the harmonic and the posterior splits the data by their
-    variances. A multiple of ``m`` aliases onto the flat offset and is always held. Holding every order past the
-    Nyquist order left the simulated lot's quarter of the points at 2.71x its full calibration (1.89x with this
-    rule; the informed bound is 1.82x); on the real Mechaduino boards a quarter of the stops is 2.84x its full fit
-    with this rule, 3.16x with every order fitted but the multiples of ``m`` (``benchmarks/bench_fleet_prior.py
-    --alias-ratio 0``): their high orders spread no more than their aliases, at the level of the full fits'
-    noise. Stops over part of a turn, or uneven, do not alias so and hold nothing.
+    variances. A multiple of ``m`` aliases onto the flat offset and is always held. What the rule gains and costs
+    is measured in docs/production.md ("A fleet prior"). Stops over part of a turn, or uneven, do not alias so and
+    hold nothing.
     """
     from ..analysis.profile import distinct_angles
 

@@ -175,8 +175,8 @@ def evidence(design, variances, noise_var, covariance=True):
     ``log p = -½ [n log 2πσ² + log|B| + yᵀy/σ² - uᵀB⁻¹u]``, ``u = d b / σ²``;
     posterior mean ``d B⁻¹ u``, covariance ``d B⁻¹ d``. With ``covariance=False`` the general
     path computes only the diagonal of ``B⁻¹`` (all the gradient needs) and returns no covariance.
-    On the general path the last few results are kept: the search asks for the same point again
-    (the optimiser's last point, then the round's posterior there; about 4 of 85 evaluations).
+    On the general path the last few results are kept: the optimiser asks for the same point again (about 1
+    evaluation in 20). A result is shared by those callers, which only read it.
     """
     if design.diagonal:
         return _evidence(design, variances, noise_var, covariance)

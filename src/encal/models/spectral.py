@@ -349,13 +349,13 @@ def _uniform_nodes(theta_deg, angles=None):
         return None
     if sampling.phase_rad is None:  # uniform_grid(distinct) is None
         return None
-    grid = wrap360(np.degrees(sampling.phase_rad) + 360.0 * np.arange(nodes) / nodes)  # uniform_grid(distinct)
+    first = float(wrap360(np.degrees(sampling.phase_rad)))  # uniform_grid(distinct)[0]
     spacing = 360.0 / nodes
-    position = (distinct - grid[0]) / spacing
+    position = (distinct - first) / spacing
     if np.max(np.abs(position - np.round(position))) * spacing > ANGLE_TOLERANCE_DEG:
         return None
     index = np.mod(np.round(position).astype(int), nodes)
-    return math.radians(grid[0]), index[group], nodes
+    return math.radians(first), index[group], nodes
 
 
 def _fft_design(error, uniform, orders, shifts, lineable):
@@ -502,9 +502,11 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     grid = uniform_grid(stop_angles)
     regular_points = m if grid is not None else None
     phase = math.radians(grid[0]) if grid is not None else 0.0
-    angles = angles_and_grid(theta)  # the encoder angles' sort, for the uniform nodes and the scan above the cap
-    uniform = _uniform_nodes(theta, angles) if path != "features" else None
-    stable_order = angles[2].stable_order  # identifiable_order(theta)
+    # the encoder angles' sort, for the uniform nodes and the scan above the cap (which sorts them itself after
+    # a fit on the Fourier-feature path, when it scans at all)
+    angles = angles_and_grid(theta) if path != "features" else None
+    uniform = _uniform_nodes(theta, angles) if angles is not None else None
+    stable_order = angles[2].stable_order if angles is not None else None  # identifiable_order(theta)
     del angles  # (the groups: 8 bytes a reading)
     if uniform is not None and uniform[2] != m:
         uniform = None
@@ -554,6 +556,7 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
     if ROUNDING_SPECTRUM and bits and grid is not None:
         design.rounding = _rounding_variance(bits, theta, error, reference, orders)
+    reference_bits = resolution_of_readings(reference) if capped else None  # for the scan above the cap
     del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
@@ -640,8 +643,7 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         # The cap is the cost's, not the data's: orders above it that the residual's periodogram shows
         # clearly (a stepper's detent at 200 and its sidebands) are carried as columns, and the fit repeated.
         found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra,
-                                  resolution_of_readings(wrap360(theta - error / ARCMIN_PER_DEG)),
-                                  stable_order=stable_order)
+                                  reference_bits, stable_order=stable_order)
         if found:
             _advance(progress)
             return _fit_spectral(theta, error, noise_arcmin=noise_arcmin, max_order=None,
@@ -744,7 +746,7 @@ def _without_identical_repeats(theta, error, group=None):
     stops = int(group.max()) + 1
     if stops == theta.size:  # no repeats
         return theta, error, 0
-    # each stop's first reading (np.unique's return_index, without its sort: 9 -> 2 ms for 10^6 readings)
+    # each stop's first reading (np.unique's return_index, without its sort)
     first = np.full(stops, theta.size)
     np.minimum.at(first, group, np.arange(theta.size))
     if np.any(np.abs(error - error[first[group]]) > IDENTICAL_ARCMIN):
