@@ -48,16 +48,30 @@ def ratios(case, fractions):
              rms(y_test - fit_fourier(theta, y, select="top", n_orders=10).predict(theta_test))]
     best = min(plain)
     out, residuals = {}, []
-    for rule in ["uniform"] + [f"f{round(100 * f)}" for f in fractions]:
+    default = spectral.BLIND_SPLIT
+    for rule in list(dict.fromkeys([default, "uniform"])) + [f"f{round(100 * f)}" for f in fractions]:
         spectral.BLIND_SPLIT = rule
         try:
             residual = (y_test - fit_spectral(theta, y).predict(theta_test)) / best
         finally:
-            spectral.BLIND_SPLIT = "uniform"
+            spectral.BLIND_SPLIT = default
         out[rule] = rms(residual)
-        if rule != "uniform":
+        if not _is_mixture(rule):
             residuals.append(residual)
     return out, np.array(residuals)
+
+
+def _is_mixture(rule):
+    """Whether ``rule`` mixes several fractions (the default and the uniform prior) rather than fixing one."""
+    return not rule.startswith("f")
+
+
+def _label(rule):
+    if rule == "uniform":
+        return "uniform on [0, 1]"
+    if rule.startswith("b"):
+        return "two points " + " and ".join(f"{int(part) / 100:.1f}" for part in rule[1:].split("-"))
+    return f"f = {int(rule[1:]) / 100:.1f}"
 
 
 def minimax_mixture(residuals):
@@ -116,10 +130,10 @@ def main():
         k = int(np.argmax(values))
         worst[rule] = values[k]
         medians = [np.median([r[rule] for s, _, r in table if s == suite]) for suite in suites]
-        label = "uniform on [0, 1]" if rule == "uniform" else f"f = {int(rule[1:]) / 100:.1f}"
+        label = _label(rule) + (" (the default)" if rule == spectral.BLIND_SPLIT else "")
         print(f"| {label} | {values[k]:.3f} ({table[k][0]} {table[k][1]}) | {int(np.sum(values > 1.02))} / "
               f"{int(np.sum(values > 1.05))} | " + " | ".join(f"{m:.3f}" for m in medians) + " |")
-    fixed = [rule for rule in rules if rule != "uniform"]
+    fixed = [rule for rule in rules if not _is_mixture(rule)]
     best_rule = min(fixed, key=worst.get)
     print(f"\nmin over f of (max over encoders): {worst[best_rule]:.3f} at f = {int(best_rule[1:]) / 100:.1f}")
     oracle = np.array([min(r[rule] for rule in fixed) for _, _, r in table])

@@ -476,7 +476,7 @@ def test_posterior_intervals_cover_draws_from_the_prior_when_the_noise_is_known(
 
 
 def test_blind_intervals_under_cover_when_the_flat_level_is_all_noise():
-    # Documented (docs/model-selection.md): the blind split gives the flat level a uniform prior; where
+    # Documented (docs/model-selection.md): the blind split keeps part of the flat level as profile; where
     # it is in truth all noise, the mean keeps part of it and the intervals cover less than 95 %.
     covered, without_noise = prior_draw_coverage()
     assert 0.78 <= covered <= 0.93
@@ -767,7 +767,7 @@ def test_orders_above_the_cap_of_dense_irregular_data_follow_the_data(monkeypatc
 
 def test_the_blind_split_rules_the_benchmark_compares():
     # Issue 27: bench_worlds.py --blind RULE measures other priors on the split of the flat level; the
-    # default stays the uniform prior on [0, 1] (docs/model-selection.md says why).
+    # default is the two-point prior 0.1 / 0.8, chosen for its worst encoder (docs/model-selection.md).
     rng = np.random.default_rng(5)
     error = line_profile(GRID) + rng.normal(0.0, 0.1, GRID.size)
     orders, shifts, lineable = _columns(90, 180, 0.0)
@@ -781,4 +781,7 @@ def test_the_blind_split_rules_the_benchmark_compares():
     # a fixed fraction f (benchmarks/bench_split.py): the noise is (1 - f) of the flat level
     assert _evidence.split_average(design, hyper, rule="f0")[1] == pytest.approx(noise["noise"])
     assert _evidence.split_average(design, hyper, rule="f30")[1] == pytest.approx(0.7 * hyper.noise_var)
-    assert spectral.BLIND_SPLIT == "uniform"
+    # the default: the noise is 0.9 or 0.2 of the flat level, averaged by the two splits' evidence
+    assert spectral.BLIND_SPLIT == "b10-80"
+    assert _evidence.split_fractions("b10-80").tolist() == [0.1, 0.8]
+    assert 0.2 * hyper.noise_var < noise["b10-80"] < 0.9 * hyper.noise_var

@@ -736,15 +736,46 @@ def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
 SPLIT_POINTS = 9
 
 
+def split_fractions(rule, points=SPLIT_POINTS):
+    """The fractions of the flat level called profile that the blind split ``rule`` mixes.
+
+    Parameters
+    ----------
+    rule : str
+        A rule of :func:`split_average`.
+    points : int, default=SPLIT_POINTS
+        Midpoints of a uniform prior's interval.
+
+    Returns
+    -------
+    ndarray
+        Fractions in [0, 1] (dimensionless); ``'gcv'`` chooses one of them.
+    """
+    if rule == "uniform":
+        return (np.arange(points) + 0.5) / points
+    if rule == "half":
+        return 0.5 * (np.arange(points) + 0.5) / points
+    if rule.startswith("u"):  # 'u70': uniform on [0, 0.70]
+        return float(rule[1:]) / 100.0 * (np.arange(points) + 0.5) / points
+    if rule == "noise":
+        return np.zeros(1)
+    if rule.startswith("f"):  # 'f30': the one fixed fraction 0.30 (benchmarks/bench_split.py)
+        return np.array([float(rule[1:]) / 100.0])
+    if rule.startswith("b"):  # 'b10-80': the two fractions 0.10 and 0.80, weighted by their evidence
+        return np.array([float(part) / 100.0 for part in rule[1:].split("-")])
+    return np.arange(points) / points
+
+
 def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="uniform"):
     """The posterior averaged over how the flat level divides between signal and noise.
 
     On a uniform grid a flat part of the profile and white noise add the same level to every
     order: the evidence is flat along ``flat + σ²/g = L`` (``g`` the Gram diagonal of an order's
-    column) and one run cannot tell the split. Blind, the fraction ``f = flat / L`` gets a
-    uniform prior on [0, 1]: the posterior is the mixture, over ``points`` midpoints of [0, 1],
-    of the posteriors at each split, weighted by their evidence (nearly equal on the ridge), with
-    the noise variance never below ``floor_var`` (the quantisation's, when known).
+    column) and one run cannot tell the split. Blind, the fraction ``f = flat / L`` gets a prior
+    chosen by the benchmark (``rule``; the default of the spectral model is
+    ``spectral.BLIND_SPLIT``): the posterior is the mixture of the posteriors at the prior's
+    fractions, weighted by their evidence (nearly equal on the ridge), with the noise variance
+    never below ``floor_var`` (the quantisation's, when known).
 
     Parameters
     ----------
@@ -772,20 +803,7 @@ def split_average(design, hyper, floor_var=0.0, points=SPLIT_POINTS, rule="unifo
     positive = design.orders > 0
     g = float(np.median(g_all[positive])) if np.any(positive) else float(max(design.n, 1))
     level = hyper.flat + hyper.noise_var / g
-    if rule == "uniform":
-        fractions = (np.arange(points) + 0.5) / points
-    elif rule == "half":
-        fractions = 0.5 * (np.arange(points) + 0.5) / points
-    elif rule.startswith("u"):  # 'u70': uniform on [0, 0.70]
-        fractions = float(rule[1:]) / 100.0 * (np.arange(points) + 0.5) / points
-    elif rule == "noise":
-        fractions = np.zeros(1)
-    elif rule.startswith("f"):  # 'f30': the one fixed fraction 0.30 (benchmarks/bench_split.py)
-        fractions = np.array([float(rule[1:]) / 100.0])
-    elif rule.startswith("b"):  # 'b10-80': the two fractions 0.10 and 0.80, weighted by their evidence
-        fractions = np.array([float(part) / 100.0 for part in rule[1:].split("-")])
-    else:
-        fractions = np.arange(points) / points
+    fractions = split_fractions(rule, points)
     posteriors, noises = [], []
     for fraction in fractions:
         noise = max((1.0 - fraction) * level * g, floor_var, 1e-300)
