@@ -121,3 +121,27 @@ def test_identical_repeats_are_dropped_as_np_unique_finds_the_first_readings(cas
         np.testing.assert_array_equal(kept_error, error[first])
     else:
         assert dropped == 0 and kept_theta is theta and kept_error is error
+
+
+def test_fit_of_one_run_takes_the_turn_check_and_the_errors_from_one_mean_phasor(monkeypatch):
+    """``encal.fit`` of a calibration of one run: the coherence of the turn check and the errors' circular mean
+    come from one mean phasor (two passes of 10^6 cosines and sines before), the model that of its errors."""
+    from encal import Calibration, fit
+    from encal.data import calibration
+    from encal.models import fitting
+
+    theta, error = _sweep(stops=500, passes=2)
+    cal = Calibration(np.mod(theta - error / 60.0, 360.0), theta)
+    calls = []
+    plain_phasor = calibration._mean_phasor
+
+    def counted(*args):
+        calls.append(1)
+        return plain_phasor(*args)
+
+    monkeypatch.setattr(fitting, "_mean_phasor", counted)
+    monkeypatch.setattr(calibration, "_mean_phasor", counted)
+    model = fit(cal, method="spectral")
+    assert len(calls) == 1
+    direct = fit_spectral(cal.encoder_deg, cal.errors_arcmin)
+    assert np.array_equal(model.cos, direct.cos) and np.array_equal(model.sin, direct.sin)
