@@ -345,11 +345,13 @@ def remove_offset(error_arcmin, offset_arcmin):
 # --------------------------------------------------------------------------- sampling grid
 
 
-def profile_arrays(theta_deg, error_arcmin, caller):
+def profile_arrays(theta_deg, error_arcmin, caller, copy=True):
     """Validated angle and error arrays of one profile.
 
     Returns ``(theta_deg wrapped to [0, 360), error_arcmin)`` as 1-D float
     arrays of equal length; ``caller`` names the function in error messages.
+    With ``copy=False`` the angles are the array given when it is one in
+    [0, 360) already (for a caller that only reads them: 8 bytes an angle).
     """
     theta = np.asarray(theta_deg, dtype=float).reshape(-1)
     error = np.asarray(error_arcmin, dtype=float).reshape(-1)
@@ -365,7 +367,7 @@ def profile_arrays(theta_deg, error_arcmin, caller):
             f"{caller} expects finite angles (degrees) and errors (arc-minutes); "
             "got NaN or infinity"
         )
-    return wrap360(theta), error
+    return (wrap360(theta) if copy else _in_turn(theta)), error
 
 
 def distinct_angles(theta_deg):
