@@ -160,7 +160,7 @@ def _read_only(*arrays):
     return copies
 
 
-@pytest.mark.parametrize("case", ["dense sweep", "grid", "quantised grid", "random stops"])
+@pytest.mark.parametrize("case", ["dense sweep", "grid", "quantised grid", "random stops", "jittered stops"])
 def test_fit_spectral_reads_its_angles_without_copying_or_writing_them(case, monkeypatch):
     """The angles given (in [0, 360) already) are used as they are, never written: read-only arrays fit the same
     model as writable copies on each path (the scan above the cap, the FFT path, the rounding's, random stops)."""
@@ -168,7 +168,9 @@ def test_fit_spectral_reads_its_angles_without_copying_or_writing_them(case, mon
     if case == "dense sweep":
         theta, error = _sweep(stops=3000, passes=3)
     else:
-        reference = np.arange(360) * 1.0 if case != "random stops" else np.sort(rng.uniform(0.0, 360.0, 3000))
+        reference = {"random stops": np.sort(rng.uniform(0.0, 360.0, 3000)),
+                     "jittered stops": np.arange(180) * 2.0 + rng.uniform(-0.6, 0.6, 180)}.get(case, np.arange(360.0))
+        reference = np.mod(reference, 360.0)
         error = 2.0 * np.sin(np.radians(reference)) + rng.normal(0.0, 0.05, reference.size)
         theta = np.mod(reference + error / 60.0, 360.0)
         if case == "quantised grid":
@@ -184,5 +186,7 @@ def test_fit_spectral_reads_its_angles_without_copying_or_writing_them(case, mon
     monkeypatch.setattr(profile, "wrap360", counted)
     model = fit_spectral(*_read_only(theta, error))
     assert not any(copied)  # the encoder angles were not wrapped into a copy
+    if case == "jittered stops":  # blind off a grid: a first fit to Nyquist, then the orders beyond it
+        assert "beyond_nyquist" in model.training
     writable = fit_spectral(theta.copy(), error.copy())
     assert np.array_equal(model.cos, writable.cos) and np.array_equal(model.sin, writable.sin)
