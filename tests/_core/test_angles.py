@@ -1,4 +1,5 @@
 import numpy as np
+import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
@@ -65,3 +66,53 @@ def test_wrap360_is_np_mod_bit_for_bit():
         expected = np.mod(angles, 360.0)
         expected = np.where(expected >= 360.0, 0.0, expected)
         np.testing.assert_array_equal(wrap360(angles).view(np.int64), expected.view(np.int64))
+
+
+# -- issue 30 (dense30): resolution_of_readings wraps the readings only when the first ones show a resolution ------
+
+def _resolution_before(angles_deg, min_bits=8, max_bits=24, tolerance_counts=1e-3):
+    """The function before: every reading wrapped by np.mod first."""
+    angles = np.asarray(angles_deg, dtype=float).reshape(-1)
+    if angles.size == 0 or not np.all(np.isfinite(angles)):
+        return None
+    angles = np.mod(angles, 360.0)
+
+    def whole(values, bits):
+        counts = values * (2**bits / 360.0)
+        return bool(np.all(np.abs(counts - np.round(counts)) < tolerance_counts))
+
+    for bits in range(min_bits, max_bits + 1):
+        if whole(angles[:1024], bits) and whole(angles, bits):
+            return bits
+    return None
+
+
+@pytest.mark.parametrize("case", ["14-bit codes", "codes past a turn", "negative codes", "-0.0 and 360", "noisy",
+                                  "codes then noise", "12-bit with decimals", "few"])
+def test_resolution_of_readings_as_before(case):
+    from encal._core.angles import resolution_of_readings
+
+    rng = np.random.default_rng(30)
+    codes = rng.integers(0, 2**14, 5000) * 360.0 / 2**14
+    angles = {"14-bit codes": codes,
+              "codes past a turn": codes + 360.0 * rng.integers(-3, 4, codes.size),
+              "negative codes": -codes,
+              "-0.0 and 360": np.r_[-0.0, 360.0, codes],
+              "noisy": rng.uniform(0.0, 360.0, 5000),
+              "codes then noise": np.r_[codes[:2000], rng.uniform(0.0, 360.0, 10)],
+              "12-bit with decimals": np.round(rng.integers(0, 4096, 3000) * 360.0 / 4096, 4),
+              "few": codes[:5]}[case]
+    assert resolution_of_readings(angles) == _resolution_before(angles)
+
+
+def test_readings_the_first_ones_refuse_are_not_all_wrapped(monkeypatch):
+    """10^5 readings that are no whole codes: refused on the first 1024, without a wrap of them all."""
+    from encal._core import angles as module
+
+    wrapped = []
+    plain = module.wrap360
+    monkeypatch.setattr(module, "wrap360", lambda a: wrapped.append(np.size(a)) or plain(a))
+    plain_mod = np.mod
+    monkeypatch.setattr(module.np, "mod", lambda a, b: wrapped.append(np.size(a)) or plain_mod(a, b))
+    assert module.resolution_of_readings(np.random.default_rng(1).uniform(0.0, 360.0, 100_000)) is None
+    assert max(wrapped, default=0) <= 1024

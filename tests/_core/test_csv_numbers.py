@@ -133,3 +133,32 @@ def test_a_plain_file_is_not_parsed_line_by_line(tmp_path, monkeypatch):
     path = tmp_path / "plain.csv"
     path.write_text("# resolution_bits: 24\n\n" + sweep_text())
     assert len(read_quietly(path)) == 20_000
+
+
+# -- issue 30 (dense30): lines counted a piece at a time -----------------------------------------------------------
+
+@pytest.mark.parametrize("text", [b"", b"a", b"a\n", b"1,2\n3,4", b"\n\n\n", b"x" * 70_000 + b"\n" * 3 + b"y"])
+@pytest.mark.parametrize("start", [0, 1, 2])
+@pytest.mark.parametrize("piece", [1, 3, 1 << 18])
+def test_line_count_is_the_lf_count_and_a_last_line(text, start, piece, monkeypatch):
+    from encal._core import csv_numbers
+
+    monkeypatch.setattr(csv_numbers, "_COUNT_PIECE", piece)
+    start = min(start, len(text))
+    expected = text.count(b"\n", start) + (len(text) > start and not text.endswith(b"\n"))
+    assert csv_numbers.line_count(text, start) == expected
+
+
+def test_line_count_of_a_large_file_allocates_no_array_as_large():
+    import tracemalloc
+
+    from encal._core.csv_numbers import line_count
+
+    text = b"123.4567890123,234.5678901234\n" * 1_000_000  # 30 MB, as a 10^6-row calibration
+    tracemalloc.start()
+    try:
+        assert line_count(text) == 1_000_000
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 2**20  # a 30 MB boolean array before

@@ -328,3 +328,53 @@ def test_harmonics_fall_back_on_the_qr_when_conjugate_gradients_do_not_converge(
     result = harmonics(theta, errors)
     assert_allclose(result.cos_arcmin, expected.cos_arcmin, rtol=0, atol=1e-12)
     assert_allclose(result.sin_arcmin, expected.sin_arcmin, rtol=0, atol=1e-12)
+
+
+# -- issue 30 (dense30): angles plainly off every grid skip the grid fit ------------------------------------------
+
+def _grid_the_long_way(theta_deg):
+    """``angles_and_grid``'s grid computed by ``_fit_grid`` whatever the gaps (the code before the shortcut)."""
+    from encal.analysis import profile
+
+    distinct = distinct_angles(theta_deg)[0]
+    m = distinct.size
+    phase, deviation, regular = profile._fit_grid(distinct, m)
+    return regular, (phase if regular else None), regular and deviation * 360.0 / m <= profile.ANGLE_TOLERANCE_DEG
+
+
+@pytest.mark.parametrize("case", ["random", "grid", "jitter 0.2", "jitter 0.3", "jitter 0.37", "one node missing",
+                                  "two per node"])
+def test_grid_shortcut_agrees_with_the_grid_fit(case):
+    """The shortcut (a gap over 1.75 spacings: on no grid of as many nodes as angles) answers as ``_fit_grid``."""
+    from encal.analysis.profile import angles_and_grid, uniform_grid
+
+    rng = np.random.default_rng(30)
+    m = 720
+    nodes = np.arange(m) * 360.0 / m
+    spacing = 360.0 / m
+    theta = {"random": rng.uniform(0.0, 360.0, 5000),
+             "grid": nodes,
+             "jitter 0.2": nodes + rng.uniform(-0.2, 0.2, m) * spacing,
+             "jitter 0.3": nodes + rng.uniform(-0.3, 0.3, m) * spacing,
+             "jitter 0.37": nodes + rng.choice([-0.37, 0.37], m) * spacing,
+             "one node missing": np.delete(nodes, 100),
+             "two per node": np.r_[nodes, nodes + 0.1 * spacing]}[case] % 360.0
+    regular, phase, uniform = _grid_the_long_way(theta)
+    grid = angles_and_grid(theta)[2]
+    assert (grid.phase_rad is None) == (phase is None) and grid.uniform == uniform
+    if phase is not None:
+        assert grid.phase_rad == phase
+    assert (uniform_grid(theta) is None) == (not regular)
+
+
+def test_random_angles_skip_the_grid_fit(monkeypatch):
+    """10^4 random angles (gaps of many spacings) are no uniform grid of 10^4 nodes without the grid fit's passes."""
+    from encal.analysis import profile
+
+    def refuse(*args):
+        raise AssertionError("_fit_grid called for angles plainly off every grid")
+
+    monkeypatch.setattr(profile, "_fit_grid", refuse)
+    theta = np.random.default_rng(1).uniform(0.0, 360.0, 10_000)
+    assert profile.angles_and_grid(theta)[2].phase_rad is None
+    assert profile.uniform_grid(theta) is None

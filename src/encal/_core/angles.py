@@ -192,15 +192,18 @@ def resolution_of_readings(angles_deg, *, min_bits=8, max_bits=24, tolerance_cou
     angles = np.asarray(angles_deg, dtype=float).reshape(-1)
     if angles.size == 0 or not np.all(np.isfinite(angles)):
         return None
-    angles = np.mod(angles, 360.0)
 
     def whole(values, bits):
         counts = values * (2**bits / 360.0)
         return bool(np.all(np.abs(counts - np.round(counts)) < tolerance_counts))
 
-    head = angles[:1024]  # a resolution the first readings refuse is refused without a pass over the rest
-    for bits in range(min_bits, max_bits + 1):
-        if whole(head, bits) and whole(angles, bits):
+    # a resolution the first readings refuse is refused without a pass over the rest (nor a wrap of them all)
+    head = np.mod(angles[:1024], 360.0)
+    candidates = [bits for bits in range(min_bits, max_bits + 1) if whole(head, bits)]
+    if candidates:
+        angles = wrap360(angles)  # np.mod's values
+    for bits in candidates:
+        if whole(angles, bits):
             return bits
     return None
 

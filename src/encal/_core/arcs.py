@@ -42,7 +42,10 @@ def arc_of(angles_deg, max_gap_deg):
     >>> arc_of(np.arange(0.0, 360.0, 10.0), 30.0) is None
     True
     """
-    angles = np.unique(wrap360(np.asarray(angles_deg, dtype=float)))
+    angles = wrap360(np.asarray(angles_deg, dtype=float)).reshape(-1)
+    if angles.size > _FEW and _every_bin_filled(angles, max_gap_deg / 2.0):
+        return None  # no gap over max_gap_deg: a full turn, told without a sort of the angles
+    angles = np.unique(angles)
     if angles.size < 2:
         return None
     gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
@@ -51,6 +54,26 @@ def arc_of(angles_deg, max_gap_deg):
         return None
     before = int(large[0])
     return float(angles[(before + 1) % angles.size]), float(angles[before])
+
+
+#: Angles from which :func:`arc_of` first looks for a gap by bins.
+_FEW = 4096
+
+
+def _every_bin_filled(angles, width_deg):
+    """Whether every bin of ``width_deg`` degrees round the circle (the last one shorter) holds one of the angles
+    (in [0, 360)). Then no gap between neighbouring angles exceeds ``2 width_deg``: a longer one would hold a whole
+    bin. One pass, against the sort of 10^6 angles (12 ms for a sweep's, 70 ms for random ones)."""
+    if not width_deg > 0.0:
+        return False
+    bins = int(np.ceil(360.0 / width_deg))
+    if bins > angles.size:
+        return False
+    index = (angles / width_deg).astype(np.intp)
+    if index.min() < 0:  # NaN: left to the sort
+        return False
+    np.minimum(index, bins - 1, out=index)  # an angle just under 360 whose quotient rounds up
+    return bool(np.bincount(index, minlength=bins).all())
 
 
 def span_of(range_deg):

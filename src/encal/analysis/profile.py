@@ -12,6 +12,7 @@ angles can identify is decided by :func:`identifiable_order`;
 ``docs/statistics.md`` explains the rules.
 """
 
+import math
 import numbers
 from dataclasses import dataclass
 
@@ -344,11 +345,13 @@ def remove_offset(error_arcmin, offset_arcmin):
 # --------------------------------------------------------------------------- sampling grid
 
 
-def profile_arrays(theta_deg, error_arcmin, caller):
+def profile_arrays(theta_deg, error_arcmin, caller, copy=True):
     """Validated angle and error arrays of one profile.
 
     Returns ``(theta_deg wrapped to [0, 360), error_arcmin)`` as 1-D float
     arrays of equal length; ``caller`` names the function in error messages.
+    With ``copy=False`` the angles are the array given when it is one in
+    [0, 360) already (for a caller that only reads them: 8 bytes an angle).
     """
     theta = np.asarray(theta_deg, dtype=float).reshape(-1)
     error = np.asarray(error_arcmin, dtype=float).reshape(-1)
@@ -364,7 +367,7 @@ def profile_arrays(theta_deg, error_arcmin, caller):
             f"{caller} expects finite angles (degrees) and errors (arc-minutes); "
             "got NaN or infinity"
         )
-    return wrap360(theta), error
+    return (wrap360(theta) if copy else _in_turn(theta)), error
 
 
 def distinct_angles(theta_deg):
@@ -414,7 +417,7 @@ class _Grid:
     phase_rad: float | None  # phase of the uniform grid the angles match, if they match one
     largest_gap_deg: float
     uniform: bool  # every angle within the tolerance (ANGLE_TOLERANCE_DEG unless told) of its node
-    offset_rad: float = 0.0  # the largest distance of an angle from its node of that grid
+    offset_rad: float = 0.0  # the largest distance of an angle from its node of that grid (NaN: plainly off it)
 
     @property
     def nyquist_order(self):
@@ -458,10 +461,23 @@ def angles_and_grid(theta_deg):
 
 def _grid_of_distinct(distinct, tolerance_deg=ANGLE_TOLERANCE_DEG):
     m = distinct.size
+    largest_gap = float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0])))
+    if _off_every_grid(largest_gap, m):
+        return _Grid(m, None, largest_gap, False, math.nan)
     phase, deviation, regular = _fit_grid(distinct, m)
     uniform = regular and deviation * 360.0 / m <= tolerance_deg
-    largest_gap = float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0])))
     return _Grid(m, phase if regular else None, largest_gap, uniform, deviation * 2.0 * np.pi / m)
+
+
+def _off_every_grid(largest_gap_deg, points):
+    """Whether ``points`` distinct angles with this largest gap between neighbours (degrees, across 0/360 too) are
+    plainly on no uniform grid of ``points`` nodes, which :func:`_fit_grid` would find (without its passes).
+
+    One angle a node, each within a quarter spacing of it (:data:`_REGULAR_DEVIATION`), leaves gaps under 1.5
+    spacings; 1.75 leaves room for rounding. Random or jittered angles (a sweep's encoder readings) have gaps of
+    many spacings.
+    """
+    return largest_gap_deg > (1.0 + 3.0 * _REGULAR_DEVIATION) * 360.0 / points
 
 
 def _fit_grid(distinct_deg, points):
@@ -526,6 +542,9 @@ def uniform_grid(theta_deg, points=None):
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < distinct.size:
         raise InputError(f"uniform_grid expects points to be an int >= the {distinct.size} distinct "
                          f"encoder angles. Got {points!r} instead.")
+    if distinct.size and points == distinct.size \
+            and _off_every_grid(float(np.max(np.diff(np.r_[distinct, distinct[0] + 360.0]))), points):
+        return None
     phase, _, on_grid = _fit_grid(distinct, int(points))
     if not on_grid:
         return None

@@ -292,6 +292,7 @@ def _check_same_zero(cal, second):
 
 
 def run(args):
+    from .._core.memory import release_freed_memory
     from ..data.reversal import has_both_directions
     from ..models.fitting import evaluate, fit
     from . import _fit_report
@@ -317,6 +318,7 @@ def run(args):
                               "with --noise)", EncalWarning, stacklevel=2)
             else:
                 cal = _with_repeat(cal, second)
+        release_freed_memory()  # what the reading freed, before the fit's arrays (encal._core.memory)
         if args.seed is not None:
             options["rng"] = args.seed
         elif args.reproducible and args.method in _APPLIES_TO["seed"]:

@@ -28,6 +28,7 @@ from .._core.errors import InputError
 from ..analysis.profile import (ANGLE_TOLERANCE_DEG, angles_and_grid, distinct_angles, identifiable_order,
                                 profile_arrays, uniform_grid)
 from . import _evidence
+from .base import in_chunks
 from ..numerics.trigsums import SeriesEvaluator, trig_moments, trig_series
 from .fourier import MAX_ORDER, FourierModel
 
@@ -480,7 +481,8 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         Internal: how many scans above the cap came before this fit (at most :data:`SCAN_ROUNDS`).
     """
     start = time.perf_counter()
-    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_spectral")
+    # the angles as given when they are in [0, 360) already (no copy: the fit only reads them)
+    theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_spectral", copy=False)
     if path not in ("auto", "fft", "features"):
         raise InputError(f"The 'path' parameter of fit_spectral must be 'auto', 'fft' or 'features'. "
                          f"Got {path!r} instead.")
@@ -502,9 +504,11 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     quantisation_var = (ARCMIN_PER_DEG * 360.0 / 2**bits) ** 2 / 12.0 if bits else 0.0
     noise_var, noise_source, repeat_dof, repeat_std = _known_noise(noise_arcmin, reference, error, quantisation_var,
                                                                     group)
+    del group  # (before the coherence's temporaries, 40 bytes a stop, the fit's peak on random stops)
     coherence = _alias_coherence(reference, reference_distinct)
-    del group, reference_distinct  # (before the encoder angles' sort: 8 bytes a reading each)
+    del reference_distinct  # (before the encoder angles' sort: 8 bytes a reading)
     grid = uniform_grid(stop_angles)
+    del stop_angles  # (8 bytes a stop)
     regular_points = m if grid is not None else None
     phase = math.radians(grid[0]) if grid is not None else 0.0
     # the encoder angles' sort, for the uniform nodes and the scan above the cap (which sorts them itself after
@@ -648,8 +652,11 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     if capped and len(extra) < MAX_EXTRA_ORDERS and _scan_round < SCAN_ROUNDS:
         # The cap is the cost's, not the data's: orders above it that the residual's periodogram shows
         # clearly (a stepper's detent at 200 and its sidebands) are carried as columns, and the fit repeated.
-        found = _orders_above_cap(theta, error - model._predict(theta), cap, nyquist, extra,
-                                  reference_bits, stable_order=stable_order)
+        # The prediction a chunk of angles at a time, as Model.predict (the same numbers: the evaluator's value
+        # at an angle does not depend on the others); its temporaries of 10^6 angles at once were the fit's peak.
+        residual = error - in_chunks(model._predict, theta, model.evaluation_width)
+        found = _orders_above_cap(theta, residual, cap, nyquist, extra, reference_bits, stable_order=stable_order)
+        del residual
         if found:
             _advance(progress)
             return _fit_spectral(theta, error, noise_arcmin=noise_arcmin, max_order=None,

@@ -1,0 +1,46 @@
+"""``encal._core.arcs``: the arc a set of angles covers (issue 30, dense30: a full turn told without a sort)."""
+
+import numpy as np
+import pytest
+
+from encal._core import arcs
+from encal._core.angles import wrap360
+
+
+def _arc_by_sort(angles_deg, max_gap_deg):
+    """``arc_of`` as it was: the distinct angles sorted, then their gaps."""
+    angles = np.unique(wrap360(np.asarray(angles_deg, dtype=float)))
+    if angles.size < 2:
+        return None
+    gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
+    large = np.flatnonzero(gaps > max_gap_deg + 1e-9)
+    if large.size != 1:
+        return None
+    before = int(large[0])
+    return float(angles[(before + 1) % angles.size]), float(angles[before])
+
+
+@pytest.mark.parametrize("case", ["random turn", "sweep", "arc of 300", "gap of 30.5", "gap of 29.9",
+                                  "two gaps", "gap across 0", "past a turn", "few"])
+@pytest.mark.parametrize("max_gap", [30.0, 7.0])
+def test_arc_of_as_by_sort(case, max_gap):
+    rng = np.random.default_rng(30)
+    turn = rng.uniform(0.0, 360.0, 20_000)
+    angles = {"random turn": turn,
+              "sweep": np.tile(np.linspace(0.0, 360.0, 5000, endpoint=False), 3),
+              "arc of 300": rng.uniform(20.0, 320.0, 20_000),
+              "gap of 30.5": np.r_[rng.uniform(100.5, 360.0, 20_000), 100.5, 70.0, rng.uniform(0.0, 70.0, 5000)],
+              "gap of 29.9": np.r_[rng.uniform(99.9, 360.0, 20_000), 99.9, 70.0, rng.uniform(0.0, 70.0, 5000)],
+              "two gaps": turn[(turn < 100.0) | ((turn > 140.0) & (turn < 250.0)) | (turn > 300.0)],
+              "gap across 0": rng.uniform(20.0, 340.0, 20_000) + 180.0,
+              "past a turn": turn + 360.0 * rng.integers(-2, 3, turn.size),
+              "few": turn[:50]}[case]
+    assert arcs.arc_of(angles, max_gap) == _arc_by_sort(angles, max_gap)
+
+
+def test_a_full_turn_of_dense_angles_is_told_without_a_sort(monkeypatch):
+    def refuse(*args, **kwargs):
+        raise AssertionError("sorted")
+
+    monkeypatch.setattr(arcs.np, "unique", refuse)
+    assert arcs.arc_of(np.random.default_rng(1).uniform(0.0, 360.0, 100_000), 30.0) is None
