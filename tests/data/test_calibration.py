@@ -320,3 +320,18 @@ def test_quoted_fields_are_read_as_csv(write_csv):
     plain = read_calibration(write_csv(grid_csv(), name="plain.csv"))
     assert np.array_equal(cal.reference_deg, plain.reference_deg)
     assert np.array_equal(cal.encoder_deg, plain.encoder_deg)
+
+
+def test_turn_checked_errors_are_the_calibrations_errors_and_refuse_a_wound_encoder():
+    from encal.data.calibration import turn_checked_errors
+
+    reference = np.arange(0.0, 360.0, 2.0)
+    error_arcmin = 3.0 * np.sin(np.radians(reference)) + 1.5
+    one_run = Calibration(reference, np.mod(reference + error_arcmin / 60.0, 360.0))
+    two_runs = Calibration(np.r_[reference, reference], np.mod(np.r_[reference, reference] + 0.1, 360.0),
+                           epoch=np.repeat([1, 2], reference.size))
+    for cal in (one_run, two_runs):
+        assert np.array_equal(turn_checked_errors(cal), cal.errors_arcmin)
+    wound = Calibration(reference, np.mod(3.0 * reference, 360.0))  # the encoder turns three times a turn
+    with pytest.raises(CalibrationError, match="turn"):
+        turn_checked_errors(wound, where="wound.csv")

@@ -134,7 +134,6 @@ def test_fit_of_one_run_takes_the_turn_check_and_the_errors_from_one_mean_phasor
     come from one mean phasor (two passes of 10^6 cosines and sines before), the model that of its errors."""
     from encal import Calibration, fit
     from encal.data import calibration
-    from encal.models import fitting
 
     theta, error = _sweep(stops=500, passes=2)
     cal = Calibration(np.mod(theta - error / 60.0, 360.0), theta)
@@ -145,7 +144,6 @@ def test_fit_of_one_run_takes_the_turn_check_and_the_errors_from_one_mean_phasor
         calls.append(1)
         return plain_phasor(*args)
 
-    monkeypatch.setattr(fitting, "_mean_phasor", counted)
     monkeypatch.setattr(calibration, "_mean_phasor", counted)
     model = fit(cal, method="spectral")
     assert len(calls) == 1

@@ -17,7 +17,7 @@ from .._core.errors import CalibrationError, EncalWarning
 from .._core.parameters import check_bool, check_choice, check_int, check_type, invalid
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "check_turns",
-           "is_multi_revolution", "is_repeated_stops"]
+           "turn_checked_errors", "is_multi_revolution", "is_repeated_stops"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -986,6 +986,35 @@ def check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs
         Naming the units read, the coherence and, when one fits, the option of the right unit.
     """
     _check_turns(reference, encoder, units, reverse=reverse, runs=runs, where=where)
+
+
+def turn_checked_errors(cal, *, where="calibration"):
+    """:func:`check_turns` of a calibration (each run its own), then its :attr:`Calibration.errors_arcmin`.
+
+    For a calibration of one run the two share one mean phasor of the differences (one pass of cosines and sines
+    of every point fewer); the errors are those of :attr:`Calibration.errors_arcmin`, bit for bit.
+
+    Parameters
+    ----------
+    cal : Calibration
+    where : str
+        Name of the data, for the message.
+
+    Returns
+    -------
+    ndarray of shape (n,)
+        The errors ``encoder - reference`` in arc-minutes.
+
+    Raises
+    ------
+    CalibrationError
+        The encoder does not turn once per turn of the reference.
+    """
+    runs = _runs(cal)
+    phasor = _mean_phasor(cal.reference_deg, cal.encoder_deg) if runs is None else None
+    _check_turns(cal.reference_deg, cal.encoder_deg, runs=runs, where=where,
+                 found=None if phasor is None else abs(phasor))
+    return _errors_arcmin(cal, phasor)
 
 
 def _check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs=None, where="calibration",

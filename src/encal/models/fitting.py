@@ -21,8 +21,7 @@ from ..data.reversal import (
     require_directions,
     reversal,
 )
-from ..data.calibration import Calibration, _check_turns, _errors_arcmin, _mean_phasor, check_folds
-from ..data.calibration import _runs as calibration_runs
+from ..data.calibration import Calibration, check_folds, turn_checked_errors
 from .._core.errors import CalibrationError, InputError
 from . import Model, kind_names, model_kind
 from .._core.parameters import check_bool, check_choice, check_seed, check_type
@@ -167,11 +166,7 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     options = dict(options)
     fit_family = fitter(method)
     where = cal.source or cal.name or "calibration"
-    runs = calibration_runs(cal)
-    # of one run, the errors' circular mean and the turn check's coherence are one mean phasor (one pass of 10^6)
-    phasor = _mean_phasor(cal.reference_deg, cal.encoder_deg) if runs is None else None
-    _check_turns(cal.reference_deg, cal.encoder_deg, runs=runs, where=where,
-                 found=None if phasor is None else abs(phasor))
+    errors = turn_checked_errors(cal, where=where)
     check_folds(cal, where=where)
     # recorded for a refit; a progress callback is no option of the model (nor JSON)
     fit_options = {key: value for key, value in options.items() if key != "progress"}
@@ -179,7 +174,7 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
     if randomised:
         options["rng"] = rng  # a deterministic method ignores rng (scikit-learn's random_state does the same)
     _check_options(method, fit_family, options)
-    model = fit_family(cal.encoder_deg, _errors_arcmin(cal, phasor), **options)
+    model = fit_family(cal.encoder_deg, errors, **options)
     model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
     model.training = {
         "method": method,
