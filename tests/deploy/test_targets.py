@@ -150,6 +150,20 @@ def test_cortex_m4f_cubic_table_equals_its_python_rule_and_the_model_within_the_
     assert summary["max_error_arcmin"] < (0.2 if dtype == "int8" else 0.05)
 
 
+def _fixed_driver_agrees_with_its_python_rule(folder, table):
+    """Run the compiled fixed-point driver on every code and the angles between; assert each output equals the
+    Python rule's, and return the corrections in LSB/256."""
+    out = run_c(folder, FIXED_DRIVER, np.int32)
+    codes = np.arange(N, dtype=np.int64)
+    np.testing.assert_array_equal(out[:, 0], correction_bam(table, codes << 16))
+    q8 = correction_lsb_q8(table, codes, BITS)
+    np.testing.assert_array_equal(out[:, 1], q8)
+    np.testing.assert_array_equal(out[:, 2], (codes - ((q8 + 128) >> 8)) % N)
+    angles = (codes * 65537) & 0xFFFFFFFF
+    np.testing.assert_array_equal(out[:, 3].view(np.uint32), (angles - correction_bam(table, angles)) & 0xFFFFFFFF)
+    return q8
+
+
 @needs_gcc
 @pytest.mark.parametrize("dtype", ["int8", "int16"])
 def test_fixed_cubic_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, dtype):
@@ -158,14 +172,7 @@ def test_fixed_cubic_table_equals_its_python_rule_and_the_model_within_the_state
                               interpolation="cubic")
     table = summary["table"]
     assert summary["interpolation"] == "cubic" and table.interpolation == "cubic"
-    out = run_c(tmp_path, FIXED_DRIVER, np.int32)
-    codes = np.arange(N, dtype=np.int64)
-    np.testing.assert_array_equal(out[:, 0], correction_bam(table, codes << 16))
-    q8 = correction_lsb_q8(table, codes, BITS)
-    np.testing.assert_array_equal(out[:, 1], q8)
-    np.testing.assert_array_equal(out[:, 2], (codes - ((q8 + 128) >> 8)) % N)
-    angles = (codes * 65537) & 0xFFFFFFFF
-    np.testing.assert_array_equal(out[:, 3].view(np.uint32), (angles - correction_bam(table, angles)) & 0xFFFFFFFF)
+    q8 = _fixed_driver_agrees_with_its_python_rule(tmp_path, table)
     truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
     error = np.abs(q8 / 256.0 * (21600.0 / N) - truth)
     assert error.max() <= summary["max_error_arcmin"] + 1e-12
@@ -183,14 +190,7 @@ def test_fixed_cubic_table_equals_its_python_rule_and_the_model_within_the_state
 def test_fixed_table_equals_its_python_rule_and_the_model_within_the_stated_error(tmp_path, kind):
     _, summary = write_target(model_path(kind), tmp_path, "fixed", prefix="enc", bits=BITS)
     table = summary["table"]
-    out = run_c(tmp_path, FIXED_DRIVER, np.int32)
-    codes = np.arange(N, dtype=np.int64)
-    np.testing.assert_array_equal(out[:, 0], correction_bam(table, codes << 16))
-    q8 = correction_lsb_q8(table, codes, BITS)
-    np.testing.assert_array_equal(out[:, 1], q8)
-    np.testing.assert_array_equal(out[:, 2], (codes - ((q8 + 128) >> 8)) % N)
-    angles = (codes * 65537) & 0xFFFFFFFF
-    np.testing.assert_array_equal(out[:, 3].view(np.uint32), (angles - correction_bam(table, angles)) & 0xFFFFFFFF)
+    q8 = _fixed_driver_agrees_with_its_python_rule(tmp_path, table)
     error = np.abs(q8 / 256.0 * (21600.0 / N) - reference(kind))
     assert error.max() <= summary["max_error_arcmin"] + 1e-12
     assert summary["max_error_arcmin"] <= 0.1 * 21600.0 / N
