@@ -38,19 +38,19 @@ __all__ = ["SpectralModel", "fit_spectral", "repeat_noise",
 #: Highest order of the Fourier-feature path when the caller names none (its cost is O(K³) per
 #: likelihood evaluation); the FFT path has no cap below the Nyquist order.
 DEFAULT_MAX_ORDER_IRREGULAR = 200
-#: What the blind fit assumes about the split of a flat spectrum between signal and noise.
-BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot split between profile and noise, "
-               "is split under a two-point prior (0.1 or 0.8 of it profile, the posteriors averaged by their "
-               "evidence), the noise never below the quantisation's LSB/sqrt(12) when the readings show the "
-               "resolution")
 #: How the blind fit splits the flat level (see ``_evidence.split_average``): 'b10-80', the default, was chosen
 #: for its worst encoder over every suite of benchmarks/bench_worlds.py; the others are the variants its
 #: --blind option measures (docs/model-selection.md, "The blind split").
 BLIND_SPLITS = ("b10-80", "uniform", "noise", "half", "gcv", "u60", "u70", "u80")
-BLIND_SPLIT = "b10-80"
-#: The default's words in :data:`BLIND_PRIOR`, replaced when a benchmark runs another rule.
+DEFAULT_BLIND_SPLIT = "b10-80"
+BLIND_SPLIT = DEFAULT_BLIND_SPLIT
+#: The default split in words (in :data:`BLIND_PRIOR`; a benchmark's other rule is named instead).
 _BLIND_SPLIT_WORDS = ("under a two-point prior (0.1 or 0.8 of it profile, the posteriors averaged by their "
                       "evidence)")
+#: What the blind fit assumes about the split of a flat spectrum between signal and noise.
+BLIND_PRIOR = ("blind: the flat level of the spectrum, which one run cannot split between profile and noise, "
+               f"is split {_BLIND_SPLIT_WORDS}, the noise never below the quantisation's LSB/sqrt(12) when the "
+               "readings show the resolution")
 #: Added to the blind prior when the stops are off a regular grid (safeguard 5).
 BLIND_BEYOND_NYQUIST = ("; the stops being off a regular grid, the series then runs past the Nyquist order with "
                         "the split's mean noise held fixed")
@@ -971,7 +971,7 @@ def _prior_text(source):
         return "noise supplied by the user; background, lines by maximum likelihood"
     if source == "repeated readings":
         return "noise from repeated readings at the same reference angle; background, lines by maximum likelihood"
-    if BLIND_SPLIT != "b10-80":  # a benchmark's variant (bench_worlds.py --blind)
+    if BLIND_SPLIT != DEFAULT_BLIND_SPLIT:  # a benchmark's variant (bench_worlds.py --blind)
         return BLIND_PRIOR.replace(_BLIND_SPLIT_WORDS, f"by the rule {BLIND_SPLIT!r} (a benchmark's variant)")
     return BLIND_PRIOR
 
