@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from encal.models import _evidence
-from encal.models.spectral import _columns, _general_design
+from encal.models.spectral import _columns, _general_design, fit_spectral
 from encal.numerics import trigsums
 
 
@@ -110,3 +110,47 @@ def test_moments_from_kept_exponentials_are_those_computed_afresh():
     theta[0] = 1.0  # nor the same array changed in place
     np.testing.assert_array_equal(trigsums.trig_moments(theta, weights, 60),
                                   np.exp(1j * np.multiply.outer(np.arange(61), theta)) @ weights)
+
+
+def test_seed_lines_starts_lines_where_the_evidence_asks_for_them():
+    # Issue 27: a refit after the scan above the cap starts with lines at the orders the scan found. Known truth:
+    # order 35 carries 0.8 arcmin, order 30 nothing. At a start without a line at 35 the seed adds one there, with
+    # about the variance of its coefficients (0.8² / 2 per column). The orders are judged all at once, so an order
+    # that only shows order 35's leakage off the grid may be seeded too (the search drops it); once 35 has its
+    # line, order 30 is not seeded.
+    rng = np.random.default_rng(11)
+    theta = np.sort(rng.uniform(0.0, 2.0 * math.pi, 3000))
+    error = 2.0 * np.cos(theta) + 0.8 * np.cos(35 * theta + 0.7) + 0.1 * rng.normal(size=theta.size)
+    orders, shifts, lineable = _columns(40, None, 0.0)
+    design = _general_design(theta, error - error.mean(), orders, shifts, lineable)
+    start = _evidence.Hyper(1e-3, 2.0, 0.01, {1: 2.0}, False)
+    seeded = _evidence.seed_lines(design, start, [30, 35])
+    assert 35 in seeded.lines and seeded.lines[1] == 2.0
+    assert 0.1 < seeded.lines[35] < 1.0  # the grid of variances is spaced by a factor 1.78; 0.32 the truth
+    assert start.lines == {1: 2.0}  # the start is not changed
+    with_line = _evidence.Hyper(1e-3, 2.0, 0.01, {1: 2.0, 35: 0.32}, False)
+    assert _evidence.seed_lines(design, with_line, [30, 35]).lines == {1: 2.0, 35: 0.32}
+    hyper, _ = _evidence.fit_hyperparameters(design, start=seeded)
+    assert sorted(hyper.lines) == [1, 35]
+
+
+def test_the_refit_above_the_cap_starts_with_the_lines_found(monkeypatch):
+    # Without them the background rose to explain the new orders, the lines below the cap were dropped, and
+    # the refit of a 10^5-reading stepper sweep took 434 evaluations in its first optimisation (61 before it).
+    rng = np.random.default_rng(0)
+    reference = np.sort(rng.uniform(0.0, 360.0, 10_000))
+    r = np.radians(reference)
+    error = 3.0 * np.sin(r) + np.cos(200 * r) + 0.8 * np.sin(250 * r + 0.4) + rng.normal(0.0, 0.2, r.size)
+    starts = []
+    optimise = _evidence._optimise
+
+    def spy(design, hyper):
+        starts.append((design.orders.size, set(hyper.lines)))
+        return optimise(design, hyper)
+
+    monkeypatch.setattr(_evidence, "_optimise", spy)
+    model = fit_spectral(reference + error / 60.0, error)
+    found = model.training["orders_above_cap"]["orders"]
+    assert {249, 250, 251} <= set(found)
+    wider = next(lines for size, lines in starts if size > 401)  # the first search with columns above the cap
+    assert {250} <= wider and {1, 200} <= wider

@@ -625,6 +625,47 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
     return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
 
 
+def seed_lines(design, hyper, orders, threshold=LINE_THRESHOLD_NATS):
+    """``hyper`` with a line at each of ``orders`` that would raise its evidence by more than ``threshold``.
+
+    Each order's gain and best variance are those of :func:`_admit`, computed at ``hyper``'s posterior for
+    every order at once (not one after another): a start for :func:`fit_hyperparameters` when columns are
+    added to a design whose search ended at ``hyper`` and the new orders show power. The search that follows
+    drops any line the others make weak.
+
+    Parameters
+    ----------
+    design : Design
+    hyper : Hyper
+        Hyperparameters of a search on this design's other columns.
+    orders : sequence of int
+        Orders that may start with a line (those with a line in ``hyper`` are kept as they are).
+    threshold : float, default=LINE_THRESHOLD_NATS
+        Nats a line must add to the log evidence.
+
+    Returns
+    -------
+    Hyper
+        A new one; ``hyper`` is not changed.
+    """
+    seeded = Hyper(hyper.amplitude, hyper.exponent, hyper.noise_var, dict(hyper.lines), hyper.noise_fixed, hyper.flat)
+    all_orders, cos_index, sin_index = _pairs(design)
+    pick = np.isin(all_orders, np.asarray(orders, dtype=int)) & ~np.isin(all_orders, list(hyper.lines))
+    if not np.any(pick):
+        return seeded
+    try:
+        post = evidence(design, hyper.variances(design), hyper.noise_var)
+    except np.linalg.LinAlgError:
+        return seeded
+    blocks, q = _blocks(design, post, hyper.noise_var, cos_index[pick], sin_index[pick])
+    gains, variances = _best_gains(blocks, q, design.scale)
+    gains = gains - design.extra_nats(all_orders[pick])
+    for k, gain, v in zip(all_orders[pick], gains, variances):
+        if gain > threshold:
+            seeded.lines[int(k)] = float(v)
+    return seeded
+
+
 def _penalised_evidence(design, hyper, threshold):
     return evidence(design, hyper.variances(design), hyper.noise_var, covariance=False).log_evidence \
         - threshold * len(hyper.lines)

@@ -468,7 +468,7 @@ def fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin=None, max_order=No
 
 
 def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, threshold_nats, path, progress,
-                  _extra_orders=(), _start=None, _scan_round=0):
+                  _extra_orders=(), _start=None, _scan_round=0, _seed_orders=()):
     """:func:`fit_spectral`, and its refit with the orders above the cap that the residual showed.
 
     Parameters
@@ -479,6 +479,9 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         Internal: where the hyperparameter search starts (the fit before those orders were added).
     _scan_round : int
         Internal: how many scans above the cap came before this fit (at most :data:`SCAN_ROUNDS`).
+    _seed_orders : sequence of int
+        Internal: the orders the last scan found, where the search starts with a line when the evidence at
+        ``_start`` asks for one (:func:`encal.models._evidence.seed_lines`).
     """
     start = time.perf_counter()
     # the angles as given when they are in [0, 360) already (no copy: the fit only reads them)
@@ -570,6 +573,10 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
     _advance(progress)
+    if _start is not None and _seed_orders:
+        # Without lines there the background rose to explain the new orders' power, the lines below the cap fell
+        # under it and were dropped (for the rest of that search), and the optimiser took ten times its usual steps.
+        _start = _evidence.seed_lines(design, _start, _seed_orders, threshold_nats)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
                                                 start=first_prior if _start is None else _start)
     post = _evidence.signal_part(design, hyper.variances(design), hyper.noise_var, post)
@@ -662,7 +669,7 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
             return _fit_spectral(theta, error, noise_arcmin=noise_arcmin, max_order=None,
                                  threshold_nats=threshold_given,
                                  path=path, progress=None, _extra_orders=extra + found, _start=hyper,
-                                 _scan_round=_scan_round + 1)
+                                 _scan_round=_scan_round + 1, _seed_orders=found)
     if extra:
         model.training["orders_above_cap"] = {"cap": int(cap), "orders": extra}
     _advance(progress)
