@@ -154,3 +154,16 @@ def test_the_refit_above_the_cap_starts_with_the_lines_found(monkeypatch):
     assert {249, 250, 251} <= set(found)
     wider = next(lines for size, lines in starts if size > 401)  # the first search with columns above the cap
     assert {250} <= wider and {1, 200} <= wider
+
+
+def test_lines_at_orders_a_scan_picked_are_no_collapse():
+    # Issue 27: lines on more than a third of the orders mean a collapsed search (repeated from a power law),
+    # but orders carried above the cap were picked for their lines. A 2·10^5-reading stepper sweep with 150 of
+    # them had the whole search repeated (17 s instead of 4.9) for the lines it was meant to have.
+    design = _jittered_design(highest=40)
+    hyper = _evidence.Hyper(0.3, 2.0, 0.01, {k: 1.0 for k in range(21, 41)}, False)
+    assert _evidence._collapsed(design, hyper)  # 20 lines on 40 orders
+    design.picked = np.arange(26, 41)  # 15 of them picked by a scan: 5 lines on 25 orders
+    assert not _evidence._collapsed(design, hyper)
+    hyper.lines.update({k: 1.0 for k in range(1, 5)})  # 9 lines on 25 orders
+    assert _evidence._collapsed(design, hyper)

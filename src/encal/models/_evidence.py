@@ -71,6 +71,9 @@ class Design:
         Variance per column that a quantised encoder's rounding puts there beyond its white share (on a
         uniform grid): part of every column's prior variance, so that the evidence explains it, but not of
         the profile (:func:`signal_part` takes it out of the posterior).
+    picked : ndarray of int, optional
+        Orders carried because a scan of the residual showed a line there (above a cap on the orders), not
+        as part of a contiguous band: lines there are expected and the collapse safeguard does not count them.
     """
 
     orders: np.ndarray
@@ -83,6 +86,7 @@ class Design:
     nyquist: int = None
     beyond_nyquist_nats: float = 0.0
     rounding: np.ndarray = None
+    picked: np.ndarray = None
 
     def extra_nats(self, orders):
         """Nats a line at each of ``orders`` needs beyond the threshold: ``beyond_nyquist_nats`` above
@@ -615,7 +619,7 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
         hyper = _search(design, noise_var, threshold, progress, from_trend=False, initial=initial)
     else:
         hyper = _search(design, noise_var, threshold, progress, from_trend=False)
-    if len(hyper.lines) > COLLAPSE_LINE_FRACTION * np.unique(design.orders[design.lineable]).size:
+    if _collapsed(design, hyper):
         # Started with every order above the noise as a line (a small known noise, a smooth profile), the
         # background can shrink under them until no line can leave. Start again from a power law through the
         # periodogram and keep the better of the two, each line costing the threshold it had to pass.
@@ -623,6 +627,17 @@ def fit_hyperparameters(design, *, noise_var=None, threshold=LINE_THRESHOLD_NATS
         if _penalised_evidence(design, again, threshold) > _penalised_evidence(design, hyper, threshold):
             hyper = again
     return hyper, evidence(design, hyper.variances(design), hyper.noise_var)
+
+
+def _collapsed(design, hyper):
+    """Whether lines sit on more than :data:`COLLAPSE_LINE_FRACTION` of the orders (those of ``design.picked`` and
+    their lines aside: a scan chose them for their lines)."""
+    orders = np.unique(design.orders[design.lineable])
+    lines = np.array(sorted(hyper.lines), dtype=int)
+    if design.picked is not None:
+        orders = orders[~np.isin(orders, design.picked)]
+        lines = lines[~np.isin(lines, design.picked)]
+    return lines.size > COLLAPSE_LINE_FRACTION * orders.size
 
 
 def seed_lines(design, hyper, orders, threshold=LINE_THRESHOLD_NATS):

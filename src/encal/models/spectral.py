@@ -572,6 +572,8 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
     if beyond:
         design.nyquist, design.beyond_nyquist_nats = nyquist, BEYOND_NYQUIST_NATS
+    if extra:
+        design.picked = np.array(extra, dtype=int)
     _advance(progress)
     if _start is not None and _seed_orders:
         # Without lines there the background rose to explain the new orders' power, the lines below the cap fell
