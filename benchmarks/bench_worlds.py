@@ -144,8 +144,8 @@ def run_suites(names, out):
     print(table, file=out)
     print("\n## Every encoder: test RMS / best plain baseline\n", file=out)
     print("| suite | encoder | readings | floor (arcmin) | interp | fourier cv | fourier top10 | blind | "
-          "noise supplied | informed | lines | highest order | ±2σ coverage | blind CPU (s) | noise supplied CPU (s) |",
-          file=out)
+          "noise supplied | informed | lines | highest order | ±2σ coverage | blind CPU (s) | "
+          "noise supplied CPU (s) |", file=out)
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|", file=out)
     print("\n".join(rows), file=out)
     return table, figures

@@ -28,7 +28,8 @@ def add_arguments(parser):
                         help="model family, as for encal fit (default: auto)")
     parser.add_argument("--seed", type=int, help="random seed, as for encal fit")
     parser.add_argument("--no-uncertainty", dest="uncertainty", action="store_false",
-                        help="skip the uncertainty band (it costs 30 to 100 refits of the chosen model)")
+                        help="skip the bootstrap of the uncertainty band (30 to 100 refits of a chosen model other "
+                             "than the spectral model, whose band comes from its posterior at no cost and is kept)")
     comparison = parser.add_mutually_exclusive_group()
     comparison.add_argument("--no-comparison", dest="compare", action="store_const", const=False, default="auto",
                             help="skip the model comparison (every candidate family scored on the test "

@@ -167,7 +167,8 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     rng : int, optional
         Seed; drawn and recorded when None, as ``encal fit`` does.
     uncertainty : bool, default=True
-        Estimate the model's prediction uncertainty for the band (bootstrap refits of the chosen family).
+        Estimate the model's prediction uncertainty for the band by bootstrap refits of the chosen family; a
+        spectral model's band comes from its posterior whatever this is.
     compare : bool or 'auto', default='auto'
         Score the candidate families for the model comparison (:func:`model_comparison`); 'auto' does so up
         to :data:`COMPARISON_MAX_POINTS` calibration points and says why it left it out above.
