@@ -167,3 +167,22 @@ def test_lines_at_orders_a_scan_picked_are_no_collapse():
     assert not _evidence._collapsed(design, hyper)
     hyper.lines.update({k: 1.0 for k in range(1, 5)})  # 9 lines on 25 orders
     assert _evidence._collapsed(design, hyper)
+
+
+def test_the_blind_start_reads_the_flat_level_without_the_strong_orders_leakage():
+    # Off a grid a strong order leaks into every other order's periodogram, about its power over n each. At 3
+    # arcmin on order 1 and 0.1 arcmin of noise over 20,000 random readings, the leakage is 400 times the noise's
+    # level: the blind search's start would take the noise for 2 arcmin and the maximum (0.1) for a collapse.
+    rng = np.random.default_rng(4)
+    theta = np.sort(rng.uniform(0.0, 2.0 * math.pi, 20_000))
+    error = 3.0 * np.cos(theta + 0.3) + 1.5 * np.cos(2 * theta) + 0.1 * rng.normal(size=theta.size)
+    orders, shifts, lineable = _columns(100, None, 0.0)
+    design = _general_design(theta, error - error.mean(), orders, shifts, lineable)
+    start = _evidence._initial(design, None, _evidence.LINE_THRESHOLD_NATS)
+    assert {1, 2} <= set(start.lines)
+    assert 0.5 < math.sqrt(start.noise_var) / 0.1 < 2.0
+    g = np.diag(design.gram)
+    pair_orders, cos_index, sin_index = _evidence._pairs(design)
+    power = _evidence._power(design.projection, g, cos_index, sin_index)
+    leaky = _evidence._flat_level(power, pair_orders, design.scale) * float(np.median(g[cos_index]))
+    assert math.sqrt(leaky) > 10 * 0.1  # what the start was before (2.1 arcmin)
