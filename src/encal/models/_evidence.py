@@ -515,8 +515,14 @@ def _initial(design, noise_var, threshold, from_trend=False):
     """
     orders, cos_index, sin_index = _pairs(design)
     g = design.gram if design.diagonal else np.diag(design.gram)
-    power = _power(design.projection, g, cos_index, sin_index)
-    flat = _flat_level(power, orders, design.scale)
+    # a column that vanishes at every stop (sin 90θ on a 2° grid) has no coefficient to speak of
+    coefficient = np.where(g > 1e-12 * float(np.max(g)), design.projection / np.maximum(g, 1e-300), 0.0)
+    power = 0.5 * (coefficient[cos_index] ** 2 + coefficient[sin_index] ** 2)
+    power[cos_index == sin_index] *= 2.0
+    # The upper half of the orders is where white noise dominates a decaying profile.
+    upper = power[orders > np.median(orders)] if power.size > 1 else power
+    flat = float(np.median(upper)) / math.log(2.0) if upper.size else design.scale
+    flat = max(flat, 1e-30 * design.scale)
     typical_gram = float(np.median(g[cos_index])) if power.size else max(design.n, 1)
     if noise_var is None:
         sigma2 = max(flat * typical_gram, 1e-20 * design.scale)
@@ -531,15 +537,8 @@ def _initial(design, noise_var, threshold, from_trend=False):
     if design.diagonal:
         lines = {int(k): float(p - noise_level) for k, p, st in zip(orders, power, strong) if st}
     else:
-        lines, residual = _pursuit(design, orders, cos_index, sin_index, g, strong,
-                                   np.broadcast_to(cut, power.shape), noise_level)
-        if noise_var is None and lines:
-            # Off a grid a strong order leaks into every other order's periodogram (about its power over n each):
-            # the flat level is read again with the strong orders taken out. Left in, it was the noise's 660 times
-            # on 10^6 random readings, the blind search took its maximum for a collapse, and five more
-            # optimisations came back to it.
-            sigma2 = max(_flat_level(_power(residual, g, cos_index, sin_index), orders, design.scale) * typical_gram,
-                         1e-20 * design.scale)
+        lines = _pursuit(design, orders, cos_index, sin_index, g, strong, np.broadcast_to(cut, power.shape),
+                         noise_level)
     if trend is not None:
         return Hyper(trend[0], float(np.clip(trend[1], *EXPONENT_BOUNDS)), sigma2, lines, fixed)
     low = power[(~strong) & (orders <= 10)]
@@ -547,26 +546,8 @@ def _initial(design, noise_var, threshold, from_trend=False):
     return Hyper(amplitude, 2.0, sigma2, lines, fixed)
 
 
-def _power(projection, g, cos_index, sin_index):
-    """Periodogram of each order from the projections ``Φᵀy`` and the Gram diagonal ``g``."""
-    # a column that vanishes at every stop (sin 90θ on a 2° grid) has no coefficient to speak of
-    coefficient = np.where(g > 1e-12 * float(np.max(g)), projection / np.maximum(g, 1e-300), 0.0)
-    power = 0.5 * (coefficient[cos_index] ** 2 + coefficient[sin_index] ** 2)
-    power[cos_index == sin_index] *= 2.0
-    return power
-
-
-def _flat_level(power, orders, scale):
-    """Robust flat level of a periodogram: the median of its upper half of orders over ln 2."""
-    # The upper half of the orders is where white noise dominates a decaying profile.
-    upper = power[orders > np.median(orders)] if power.size > 1 else power
-    flat = float(np.median(upper)) / math.log(2.0) if upper.size else scale
-    return max(flat, 1e-30 * scale)
-
-
 def _pursuit(design, orders, cos_index, sin_index, g, candidates, cut, noise_level):
-    """The strong orders one at a time, each fitted and taken out of the projections before the next:
-    ``(lines, projections left)``.
+    """The strong orders one at a time, each fitted and taken out of the projections before the next.
 
     Off a uniform grid the columns are correlated: a strong order leaks into every other order's
     periodogram (3 arcmin at order 1 on 180 stops moved by ±0.2 spacings started 52 lines, and the
@@ -591,7 +572,7 @@ def _pursuit(design, orders, cos_index, sin_index, g, candidates, cut, noise_lev
         if columns.size:
             block = design.gram[np.ix_(columns, columns)]
             residual -= design.gram[:, columns] @ np.linalg.lstsq(block, residual[columns], rcond=None)[0]
-    return lines, residual
+    return lines
 
 
 def _trend(orders, power, noise_level, threshold, rounds=4):
@@ -776,10 +757,17 @@ def _prefer_noise(design, hyper, flat_noise_var, slack=NOISE_SLACK_NATS, steps=4
     if hyper.noise_fixed or hyper.noise_var >= COLLAPSE_FRACTION * flat_noise_var:
         return hyper
     best = evidence(design, hyper.variances(design), hyper.noise_var).log_evidence
+    low, high = math.log(hyper.noise_var), math.log(flat_noise_var)
+    # The smallest raise the bisection can make first: where even it costs more than the slack, so does every larger
+    # one (the evidence falls away from its maximum) and the maximum stands. Off a grid a strong order's leakage
+    # lifts the periodogram's flat level far above the noise (660 times on 10^6 random readings); the search then
+    # took its maximum for a collapse and ran five optimisations to come back to it.
+    if _profile(design, hyper, math.exp(low + (high - low) / 2**steps))[1] < best - slack:
+        return hyper
     top, value = _profile(design, hyper, flat_noise_var)
     if value >= best - slack:
         return top
-    low, high, chosen = math.log(hyper.noise_var), math.log(flat_noise_var), hyper
+    chosen = hyper
     for _ in range(steps):
         middle = 0.5 * (low + high)
         trial, value = _profile(design, chosen, math.exp(middle))
