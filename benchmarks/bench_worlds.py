@@ -167,8 +167,8 @@ def readme_lines(figures, table_path):
         for f in group:
             lines.append(f"  - `{f['suite']}` ({f['encoders']} encoders): {f['median']:.3f} ({f['worst']:.3f}); "
                          f"{f['over_2']} above 1.02; with the noise supplied {f['noise_median']:.3f}; "
-                         f"coverage {100 * f['coverage']:.1f} % ({100 * f['coverage_min']:.0f}–"
-                         f"{100 * f['coverage_max']:.0f} %)")
+                         f"coverage {100 * f['coverage']:.1f} % ({100 * f['coverage_min']:.1f}–"
+                         f"{100 * f['coverage_max']:.1f} %)")
     return "\n".join(lines) + "\n"
 
 
