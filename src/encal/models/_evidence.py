@@ -485,6 +485,14 @@ def _best_gains(blocks, q, scale, chunk=4096):
     return gains, variances
 
 
+def _candidate_gains(design, post, noise_var, orders, cos_index, sin_index, chosen):
+    """Each chosen order's best evidence gain as a new line, less the extra nats its order needs, and that line's
+    variance (the orders and column pairs of :func:`_pairs`, ``chosen`` a mask over them)."""
+    blocks, q = _blocks(design, post, noise_var, cos_index[chosen], sin_index[chosen])
+    gains, variances = _best_gains(blocks, q, design.scale)
+    return gains - design.extra_nats(orders[chosen]), variances
+
+
 def _removal_gains(design, hyper, post, orders, cos_index, sin_index):
     """Evidence each present line adds over the model without it (nats)."""
     present = [i for i, k in enumerate(orders) if k in hyper.lines]
@@ -683,9 +691,7 @@ def seed_lines(design, hyper, orders, threshold=LINE_THRESHOLD_NATS):
         post = evidence(design, hyper.variances(design), hyper.noise_var)
     except np.linalg.LinAlgError:
         return seeded
-    blocks, q = _blocks(design, post, hyper.noise_var, cos_index[pick], sin_index[pick])
-    gains, variances = _best_gains(blocks, q, design.scale)
-    gains = gains - design.extra_nats(all_orders[pick])
+    gains, variances = _candidate_gains(design, post, hyper.noise_var, all_orders, cos_index, sin_index, pick)
     for k, gain, v in zip(all_orders[pick], gains, variances):
         if gain > threshold:
             seeded.lines[int(k)] = float(v)
@@ -752,7 +758,8 @@ def _prefer_noise(design, hyper, flat_noise_var, slack=NOISE_SLACK_NATS, steps=4
     nearly constant (docs/model-selection.md); the maximum may then sit at σ → 0, where the model
     interpolates the noise. When the maximum's σ² is below :data:`COLLAPSE_FRACTION` of the
     periodogram's flat level, the noise is raised towards that level as far as the evidence allows
-    (bisection on log σ²); otherwise the maximum stands.
+    (bisection on log σ²); otherwise the maximum stands. The bisection's smallest step is tried first: when
+    even it costs more than ``slack`` the maximum stands at once.
     """
     if hyper.noise_fixed or hyper.noise_var >= COLLAPSE_FRACTION * flat_noise_var:
         return hyper
@@ -789,9 +796,7 @@ def _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
         free = np.array([int(k) not in hyper.lines and int(k) not in seen for k in orders])
         if not np.any(free):
             break
-        blocks, q = _blocks(design, post, hyper.noise_var, cos_index[free], sin_index[free])
-        gains, variances = _best_gains(blocks, q, design.scale)
-        gains = gains - design.extra_nats(orders[free])
+        gains, variances = _candidate_gains(design, post, hyper.noise_var, orders, cos_index, sin_index, free)
         if design.diagonal:
             passing = gains > threshold
             for k, v in zip(orders[free][passing], variances[passing]):

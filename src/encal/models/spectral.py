@@ -577,7 +577,7 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     _advance(progress)
     if _start is not None and _seed_orders:
         # Without lines there the background rose to explain the new orders' power, the lines below the cap fell
-        # under it and were dropped (for the rest of that search), and the optimiser took ten times its usual steps.
+        # under it and were dropped (for the rest of that search), and the optimiser took seven times its usual steps.
         _start = _evidence.seed_lines(design, _start, _seed_orders, threshold_nats)
     hyper, post = _evidence.fit_hyperparameters(design, noise_var=noise_var, threshold=threshold_nats,
                                                 start=first_prior if _start is None else _start)
