@@ -22,6 +22,10 @@ __all__ = ["trig_moments", "trig_series", "SeriesEvaluator"]
 _DIRECT_LIMIT = 200_000
 #: Relative size of the first Taylor term left out.
 _TAYLOR_TOLERANCE = 1e-17
+#: Angles per block of :func:`trig_moments` (a block's arrays, 8 bytes an angle each, fit in a core's cache).
+_BLOCK_ANGLES = 1 << 15
+#: Largest binning (fine-grid nodes times Taylor terms, 8 bytes each) kept for every term at once.
+_BINNED_LIMIT = 1 << 21
 
 
 def _fine_grid(highest_order):
@@ -103,21 +107,48 @@ def trig_moments(theta_rad, weights, highest_order):
     """
     theta = np.asarray(theta_rad, dtype=float).reshape(-1)
     weights = np.asarray(weights, dtype=float).reshape(-1)
-    orders = np.arange(highest_order + 1)
     if theta.size * (highest_order + 1) <= _DIRECT_LIMIT:
         return _exponentials(theta, highest_order + 1) @ weights
     size, terms = _fine_grid(highest_order)
-    node, offset = _nodes(theta, size)
+    if terms * size > _BINNED_LIMIT:
+        return _moments_by_term(theta, weights, highest_order, size, terms)
+    # Block by block, every Taylor term's binning: a block's nodes, offsets and powers stay in the cache (term by
+    # term, each term read and wrote them from memory: on 10^6 angles, half as long again).
+    binned = np.zeros((terms, size))
+    for start in range(0, theta.size, _BLOCK_ANGLES):
+        node, offset = _nodes(theta[start:start + _BLOCK_ANGLES], size)
+        power = weights[start:start + _BLOCK_ANGLES].copy()  # w δ^p (δ in spacings)
+        for p in range(terms):
+            binned[p] += np.bincount(node, weights=power, minlength=size)
+            power *= offset
+    spectra = np.fft.ifft(binned, axis=1)[:, : highest_order + 1]
+    spectra *= size
+    return _taylor_sum(spectra, highest_order, size)
+
+
+def _taylor_sum(spectra, highest_order, size):
+    """``Σ_p (i m h)^p / p! · spectra[p, m]``: the Taylor terms' spectra summed into the moments."""
+    orders = np.arange(highest_order + 1)
     step = 2.0 * math.pi / size
     total = np.zeros(highest_order + 1, dtype=complex)
     factor = np.ones(highest_order + 1, dtype=complex)  # (i m h)^p / p!
-    power = weights.copy()  # w δ^p (δ in spacings)
-    for p in range(terms):
-        binned = np.bincount(node, weights=power, minlength=size)
-        total += factor * (np.fft.ifft(binned)[: highest_order + 1] * size)
-        power *= offset  # (in place, as every product below: no fresh pages for each term of 10^6 angles)
+    for p, spectrum in enumerate(spectra):
+        total += factor * spectrum
         factor = factor * (1j * orders * step) / (p + 1)
     return total
+
+
+def _moments_by_term(theta, weights, highest_order, size, terms):
+    """:func:`trig_moments` one Taylor term at a time over all the angles (a fine grid too large to keep every
+    term's binning)."""
+    node, offset = _nodes(theta, size)
+    power = weights.copy()
+    spectra = []
+    for _ in range(terms):
+        binned = np.bincount(node, weights=power, minlength=size)
+        spectra.append(np.fft.ifft(binned)[: highest_order + 1] * size)
+        power *= offset  # (in place, as every product below: no fresh pages for each term of 10^6 angles)
+    return _taylor_sum(spectra, highest_order, size)
 
 
 def trig_series(coefficients, theta_rad):
