@@ -85,6 +85,10 @@ class Calibration:
             if epoch.shape != ref.shape:
                 raise CalibrationError("epoch must hold one label for every point")
             object.__setattr__(self, "epoch", epoch)
+        # Frozen, arrays and all (they are the calibration's own: made above): what a check found stays true.
+        for values in (self.reference_deg, self.encoder_deg, self.direction, self.epoch):
+            if values is not None:
+                values.flags.writeable = False
 
     def __len__(self):
         return self.reference_deg.size
@@ -98,7 +102,10 @@ class Calibration:
         offset is near 180 degrees it keeps the profile continuous instead of splitting it into values near
         +10800 and -10800 arcmin.
         """
-        return _errors_arcmin(self)
+        known = _passed(self).get("errors")
+        if known is None:
+            known = _remember_errors(self, _errors_arcmin(self))
+        return known.copy()
 
     @property
     def readings_deg(self):
@@ -119,6 +126,19 @@ class Calibration:
             metadata=dict(self.metadata),
             reading_sign=self.reading_sign,
         )
+
+
+def _passed(cal):
+    """What was found of ``cal`` already (its arrays are read-only): ``'turns'`` and ``'folds'`` when those checks
+    passed, ``'errors'`` its :attr:`Calibration.errors_arcmin` (read-only); a fit need not check again what
+    :func:`read_calibration` checked, nor compute the errors again (on 10^6 readings each costs tens of ms)."""
+    return cal.__dict__.setdefault("_passed", {})
+
+
+def _remember_errors(cal, errors):
+    errors.flags.writeable = False
+    _passed(cal)["errors"] = errors
+    return errors
 
 
 def _mean_phasor(reference_deg, encoder_deg):
@@ -562,8 +582,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     _check_folds(cal, str(path), order=order, by_reference=by_reference)
     del by_reference
     _check_coverage(path, cal, allow_gaps)
-    _warn_if_isolated(path, rows, line_numbers, order=None if runs is not None else reference_order,
-                      errors=None if phasor is None else _errors_arcmin(rows, phasor))
+    errors = None if phasor is None else _remember_errors(rows, _errors_arcmin(rows, phasor))
+    if phasor is not None:
+        _passed(rows)["turns"] = True  # the check of the columns in their units is the fit's check, passed
+    _warn_if_isolated(path, rows, line_numbers, order=None if runs is not None else reference_order, errors=errors)
     return cal
 
 
@@ -1010,11 +1032,14 @@ def turn_checked_errors(cal, *, where="calibration"):
     CalibrationError
         The encoder does not turn once per turn of the reference.
     """
+    if "turns" in _passed(cal):
+        return cal.errors_arcmin
     runs = _runs(cal)
     phasor = _mean_phasor(cal.reference_deg, cal.encoder_deg) if runs is None else None
     _check_turns(cal.reference_deg, cal.encoder_deg, runs=runs, where=where,
                  found=None if phasor is None else abs(phasor))
-    return _errors_arcmin(cal, phasor)
+    _passed(cal)["turns"] = True
+    return _remember_errors(cal, _errors_arcmin(cal, phasor)).copy()
 
 
 def _check_turns(reference, encoder, units=("deg", "deg"), *, reverse=False, runs=None, where="calibration",
@@ -1130,12 +1155,18 @@ def check_folds(cal, where="calibration"):
     CalibrationError
         Naming both points and how far the encoder went back.
     """
-    _check_folds(cal, where)
+    if "folds" not in _passed(cal):
+        _check_folds(cal, where)
 
 
 def _check_folds(cal, where, order=None, by_reference=None):
     """:func:`check_folds`; ``order``: the stable argsort of the reference angles of a calibration of one run,
     ``by_reference``: its reference and encoder angles in that order, if known."""
+    _find_folds(cal, where, order, by_reference)
+    _passed(cal)["folds"] = True
+
+
+def _find_folds(cal, where, order, by_reference):
     runs = _runs(cal)
     for run in (0,) if runs is None else np.unique(runs):
         run_order = order

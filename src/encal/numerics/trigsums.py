@@ -24,8 +24,9 @@ _DIRECT_LIMIT = 200_000
 _TAYLOR_TOLERANCE = 1e-17
 #: Angles per block of :func:`trig_moments` (a block's arrays, 8 bytes an angle each, fit in a core's cache).
 _BLOCK_ANGLES = 1 << 15
-#: Largest binning (fine-grid nodes times Taylor terms, 8 bytes each) kept for every term at once.
-_BINNED_LIMIT = 1 << 21
+#: Largest binning (fine-grid nodes times Taylor terms, 8 bytes each) kept for every term at once: the orders of a
+#: fit's Gram matrix, not the scan above its cap (a fine grid of 2^15 nodes would hold 4 MB).
+_BINNED_LIMIT = 1 << 16
 
 
 def _fine_grid(highest_order):
@@ -121,9 +122,8 @@ def trig_moments(theta_rad, weights, highest_order):
         for p in range(terms):
             binned[p] += np.bincount(node, weights=power, minlength=size)
             power *= offset
-    spectra = np.fft.ifft(binned, axis=1)[:, : highest_order + 1]
-    spectra *= size
-    return _taylor_sum(spectra, highest_order, size)
+    # Σ_j x_j exp(+2πi jm/L) of a real x is the conjugate of its real FFT
+    return _taylor_sum((np.conj(np.fft.rfft(row)[: highest_order + 1]) for row in binned), highest_order, size)
 
 
 def _taylor_sum(spectra, highest_order, size):
