@@ -335,3 +335,41 @@ def test_turn_checked_errors_are_the_calibrations_errors_and_refuse_a_wound_enco
     wound = Calibration(reference, np.mod(3.0 * reference, 360.0))  # the encoder turns three times a turn
     with pytest.raises(CalibrationError, match="turn"):
         turn_checked_errors(wound, where="wound.csv")
+
+
+# -- a frozen calibration: what its checks found is kept ------------------------------------------------------------
+
+def test_a_calibrations_arrays_are_read_only_and_its_errors_a_fresh_copy_each_time():
+    reference = np.arange(36) * 10.0
+    cal = Calibration(reference, reference + 0.05)
+    for values in (cal.reference_deg, cal.encoder_deg):
+        with pytest.raises(ValueError, match="read-only"):
+            values[0] = 1.0
+    errors = cal.errors_arcmin
+    assert_allclose(errors, 3.0, rtol=0, atol=1e-9)
+    errors[:] = 99.0  # the caller's copy: the calibration's own errors are as they were
+    assert_allclose(cal.errors_arcmin, 3.0, rtol=0, atol=1e-9)
+    assert reference.flags.writeable  # the caller's array is not the calibration's
+
+
+def test_a_fit_does_not_check_again_what_reading_the_file_checked(write_csv, monkeypatch):
+    import encal
+    from encal.data import calibration as module
+
+    reference = np.arange(90) * 4.0
+    path = write_csv("reference_deg,encoder_deg\n" + "".join(
+        f"{float(r)!r},{float(r + 0.1 * np.sin(np.radians(r)))!r}\n" for r in reference))
+    calls = {"folds": 0, "turns": 0, "errors": 0}
+    for name, key in (("_find_folds", "folds"), ("_check_turns", "turns"), ("_errors_arcmin", "errors")):
+        def counted(*args, _original=getattr(module, name), _key=key, **kwargs):
+            calls[_key] += 1
+            return _original(*args, **kwargs)
+        monkeypatch.setattr(module, name, counted)
+    cal = read_calibration(path)
+    assert calls == {"folds": 1, "turns": 1, "errors": 1}
+    model = encal.fit(cal, method="fourier")
+    assert calls == {"folds": 1, "turns": 1, "errors": 1}
+    assert np.abs(model.predict(cal.encoder_deg) - cal.errors_arcmin).max() < 1e-3  # the profile, 6 arcmin
+    fresh = Calibration(cal.reference_deg, cal.encoder_deg)  # not read from a file: checked by the fit
+    encal.fit(fresh, method="fourier")
+    assert calls == {"folds": 2, "turns": 2, "errors": 2}

@@ -39,8 +39,10 @@ def rms(values):
 
 # -- trigonometric sums -------------------------------------------------------------------------
 
-@pytest.mark.parametrize("n, highest", [(50, 7), (30_000, 300)])
+@pytest.mark.parametrize("n, highest", [(50, 7), (30_000, 300), (100_000, 60), (5_000, 1200)])
 def test_trigonometric_sums_match_direct_evaluation(n, highest):
+    """Direct sums; the NUFFT's moments in one block of angles, in several (100,000), and term by term (a fine grid
+    too large to bin every term at once, order 1200)."""
     rng = np.random.default_rng(n)
     theta = rng.uniform(-10.0, 10.0, n)
     weights = rng.normal(size=n)
