@@ -466,7 +466,7 @@ def evaluate(model, cal, *, zero="fixed"):
         keep = within_model_range(model, cal)
         observed, predicted, encoder_deg = observed[keep], predicted[keep], encoder_deg[keep]
     residual = wrap180((observed - predicted) / ARCMIN_PER_DEG) * ARCMIN_PER_DEG
-    arbitrary = zero_is_arbitrary(zero, zero_offset_arcmin(observed), zero_offset_arcmin(residual))
-    mode = "arbitrary" if arbitrary else "fixed"
+    offsets = (zero_offset_arcmin(observed), zero_offset_arcmin(residual)) if zero == "auto" else ()
+    mode = "arbitrary" if zero_is_arbitrary(zero, *offsets) else "fixed"
     return Evaluation(error_stats(observed, zero=mode), error_stats(residual, zero=mode), encoder_deg.copy(),
                       residual, observed.copy(), zero)

@@ -224,21 +224,20 @@ class SeriesEvaluator:
         step = 2.0 * math.pi / self.size
         padded = np.zeros(self.size, dtype=complex)
         term = coefficients.copy()
-        self._terms = []
-        for _ in range(terms):
+        tables = []
+        for p in range(terms):
             padded[: coefficients.size] = term
-            self._terms.append(np.real(np.fft.ifft(padded) * self.size))
+            tables.append(np.real(np.fft.ifft(padded) * self.size) / math.factorial(p))
             term = term * (1j * orders * step)
+        self._tables = tables[::-1]  # f^(p)(node) h^p / p!, the highest p first: Horner's rule in the offset
 
     def __call__(self, theta_rad):
         theta = np.asarray(theta_rad, dtype=float).reshape(-1)
         node, offset = _nodes(theta, self.size)
-        result = np.zeros(theta.size)
-        power = np.ones(theta.size)  # δ^p / p!
-        for p, values in enumerate(self._terms):
-            term = values[node]
-            term *= power
+        result = self._tables[0][node]
+        term = np.empty_like(result)
+        for table in self._tables[1:]:
+            result *= offset
+            np.take(table, node, out=term)
             result += term
-            power *= offset
-            power /= p + 1
         return result
