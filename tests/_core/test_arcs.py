@@ -44,3 +44,15 @@ def test_a_full_turn_of_dense_angles_is_told_without_a_sort(monkeypatch):
 
     monkeypatch.setattr(arcs.np, "unique", refuse)
     assert arcs.arc_of(np.random.default_rng(1).uniform(0.0, 360.0, 100_000), 30.0) is None
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_no_gap_over_says_true_only_when_every_gap_is_within_the_bound(seed):
+    rng = np.random.default_rng(seed)
+    angles = np.mod(rng.uniform(0.0, 360.0, 60) + rng.uniform(0.0, 360.0), 360.0)  # about as sparse as a bin each
+    ordered = np.sort(angles)
+    largest = float(np.diff(np.r_[ordered, ordered[0] + 360.0]).max())
+    if arcs.no_gap_over(angles, 30.0):
+        assert largest <= 30.0
+    dense = rng.uniform(0.0, 360.0, 5000)
+    assert arcs.no_gap_over(dense, 30.0) and not arcs.no_gap_over(dense[dense < 300.0], 30.0)

@@ -359,17 +359,21 @@ def test_a_fit_does_not_check_again_what_reading_the_file_checked(write_csv, mon
     reference = np.arange(90) * 4.0
     path = write_csv("reference_deg,encoder_deg\n" + "".join(
         f"{float(r)!r},{float(r + 0.1 * np.sin(np.radians(r)))!r}\n" for r in reference))
-    calls = {"folds": 0, "turns": 0, "errors": 0}
-    for name, key in (("_find_folds", "folds"), ("_check_turns", "turns"), ("_errors_arcmin", "errors")):
-        def counted(*args, _original=getattr(module, name), _key=key, **kwargs):
+    from encal._core import arcs
+
+    calls = {"folds": 0, "turns": 0, "errors": 0, "arc": 0}
+    for owner, name, key in ((module, "_find_folds", "folds"), (module, "_check_turns", "turns"),
+                             (module, "_errors_arcmin", "errors"), (arcs, "arc_of", "arc")):
+        def counted(*args, _original=getattr(owner, name), _key=key, **kwargs):
             calls[_key] += 1
             return _original(*args, **kwargs)
-        monkeypatch.setattr(module, name, counted)
+        monkeypatch.setattr(owner, name, counted)
     cal = read_calibration(path)
-    assert calls == {"folds": 1, "turns": 1, "errors": 1}
+    assert calls == {"folds": 1, "turns": 1, "errors": 1, "arc": 0}  # every 15-degree bin filled: no gap over 30
     model = encal.fit(cal, method="fourier")
-    assert calls == {"folds": 1, "turns": 1, "errors": 1}
+    assert calls == {"folds": 1, "turns": 1, "errors": 1, "arc": 0}
+    assert model.range_deg is None
     assert np.abs(model.predict(cal.encoder_deg) - cal.errors_arcmin).max() < 1e-3  # the profile, 6 arcmin
     fresh = Calibration(cal.reference_deg, cal.encoder_deg)  # not read from a file: checked by the fit
     encal.fit(fresh, method="fourier")
-    assert calls == {"folds": 2, "turns": 2, "errors": 2}
+    assert calls == {"folds": 2, "turns": 2, "errors": 2, "arc": 1}

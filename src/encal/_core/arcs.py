@@ -19,7 +19,7 @@ import numpy as np
 from .angles import ARCMIN_PER_DEG, model_input, wrap360
 from .errors import InputError, ModelFileError
 
-__all__ = ["arc_of", "inside", "clamp_to_range", "check_range", "describe_range", "OUTSIDE_RULES",
+__all__ = ["arc_of", "no_gap_over", "inside", "clamp_to_range", "check_range", "describe_range", "OUTSIDE_RULES",
            "apply_outside_rule", "OutsideRule", "refuse_arc", "periodic_for_export",
            "within_model_range"]
 
@@ -54,6 +54,20 @@ def arc_of(angles_deg, max_gap_deg):
         return None
     before = int(large[0])
     return float(angles[(before + 1) % angles.size]), float(angles[before])
+
+
+def no_gap_over(angles_deg, max_gap_deg):
+    """True when the angles (degrees in [0, 360)) fill every bin of half ``max_gap_deg`` round the circle: then no
+    gap between neighbouring angles exceeds ``max_gap_deg`` (a longer one would hold a whole bin), and
+    :func:`arc_of` is None. False says nothing (the angles may still leave no such gap): one pass, no sort.
+
+    Examples
+    --------
+    >>> no_gap_over(np.arange(0.0, 360.0, 1.0), 30.0), no_gap_over(np.arange(0.0, 300.0, 1.0), 30.0)
+    (True, False)
+    """
+    angles = np.asarray(angles_deg, dtype=float).reshape(-1)
+    return _every_bin_filled(angles, max_gap_deg / 2.0)
 
 
 #: Angles from which :func:`arc_of` first looks for a gap by bins.

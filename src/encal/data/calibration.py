@@ -135,6 +135,16 @@ def _passed(cal):
     return cal.__dict__.setdefault("_passed", {})
 
 
+def remembered(cal, what, compute):
+    """``compute(cal)``, once per calibration (its arrays are read-only): ``what`` names the result among those
+    kept (``'arc'``: the arc :func:`encal._core.arcs.arc_of` finds, which reading the file may have found
+    already)."""
+    found = _passed(cal)
+    if what not in found:
+        found[what] = compute(cal)
+    return found[what]
+
+
 def _remember_errors(cal, errors):
     errors.flags.writeable = False
     _passed(cal)["errors"] = errors
@@ -1195,14 +1205,17 @@ def _find_folds(cal, where, order, by_reference):
 
 
 def _check_coverage(path, cal, allow_gaps):
+    from .._core.arcs import arc_of, no_gap_over
+
+    if no_gap_over(cal.encoder_deg, MAX_GAP_DEG):  # a full turn, told without a sort
+        _passed(cal)["arc"] = None
+        return
     angles = np.sort(cal.encoder_deg)  # repeats leave gaps of 0, which do not change the largest
     if angles.size == 1:
         gap = 360.0
     else:
         gaps = np.diff(np.concatenate([angles, angles[:1] + 360.0]))
         gap = float(gaps.max())
-    from .._core.arcs import arc_of
-
     if gap > MAX_GAP_DEG + 1e-9 and arc_of(angles, MAX_GAP_DEG) is not None \
             and not _looks_like_radians(cal.encoder_deg):  # a turn in radians is no arc of 6 degrees
         return  # one contiguous arc (a joint of limited travel): fitted over the arc, see encal._core.arcs

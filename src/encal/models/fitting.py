@@ -136,9 +136,9 @@ def calibrated_arc(cal):
     """The arc ``(start, end)`` (degrees of the encoder angle) a calibration covers when it leaves one gap over
     30 degrees, else None (a full turn or scattered gaps)."""
     from .._core.arcs import arc_of
-    from ..data.calibration import MAX_GAP_DEG
+    from ..data.calibration import MAX_GAP_DEG, remembered
 
-    return arc_of(cal.encoder_deg, MAX_GAP_DEG)
+    return remembered(cal, "arc", lambda known: arc_of(known.encoder_deg, MAX_GAP_DEG))
 
 
 def _fit(cal, method, *, rng=None, uncertainty=False, bidirectional=None, **options):
