@@ -206,3 +206,14 @@ def test_the_noise_is_raised_after_a_collapse_only_where_the_evidence_allows(see
         assert maximum < 1e-5 and 5e-3 < chosen < 2e-2 and len(calls) == 6  # the probe, the top, 4 bisections
     else:
         assert chosen == maximum and len(calls) == 1
+
+
+def test_the_stops_angles_are_the_readings_own_when_each_stop_has_one():
+    from encal.models.spectral import _stops
+
+    theta = np.array([10.0, 359.999, 0.001, 200.0])
+    group = np.array([1, 3, 0, 2])
+    np.testing.assert_array_equal(_stops(theta, group), [0.001, 10.0, 200.0, 359.999])
+    # two readings at a stop across 0/360: their circular mean
+    means = _stops(np.array([359.0, 1.0, 90.0]), np.array([0, 0, 1]))
+    assert min(abs(means[0]), abs(means[0] - 360.0)) < 1e-12 and abs(means[1] - 90.0) < 1e-12

@@ -409,6 +409,10 @@ def _reference_stops(theta, error):
 def _stops(theta, group):
     """The mean encoder angle (degrees) at each stop, ``group`` each reading's stop."""
     stops = int(group.max()) + 1
+    if stops == theta.size:  # a reading at every stop (random or time-sampled reference angles): its own angle
+        alone = np.empty(stops)
+        alone[group] = theta
+        return alone
     phasor = np.bincount(group, weights=np.cos(np.radians(theta)), minlength=stops) \
         + 1j * np.bincount(group, weights=np.sin(np.radians(theta)), minlength=stops)
     return wrap360(np.degrees(np.angle(phasor)))
