@@ -730,24 +730,33 @@ SERIES_ORDER_SETS = {
 }
 
 
+EVALUATOR = "spectral's evaluator"
+
+
 def section_series(sources, folder, quick):
     import json
 
     rounds = 5 if quick else 40
-    rows = json.loads(run_with(sources["after"], sys.executable, "-c", SERIES_WORKER,
-                               json.dumps(SERIES_ORDER_SETS), str(rounds)).stdout)
+
+    def measured(label):
+        return json.loads(run_with(sources[label], sys.executable, "-c", SERIES_WORKER,
+                                   json.dumps(SERIES_ORDER_SETS), str(rounds)).stdout)
+
+    rows = measured("after")
+    before = measured("before") if "before" in sources else None  # (one process each, one after the other)
     labels = ["every order", "squaring", "difference", "planned"]
     print("\n### A Fourier series on 8,192 angles: ns per angle (best of 3 CPU times) and products of each chain\n")
     print("| orders | direct ns | " + " | ".join(f"{label} ns (products)" for label in labels)
-          + " | spectral's evaluator ns | chosen | chosen / direct |")
-    print("|---|---|" + "---|" * len(labels) + "---|---|---|")
+          + " | spectral's evaluator ns" + (" | the evaluator before ns" if before else "") + " | chosen | chosen / direct |")
+    print("|---|---|" + "---|" * len(labels) + "---|---|---|" + ("---|" if before else ""))
     for name, row in rows.items():
         chosen = row["ns"][{"recurrence": "planned", "taylor": "spectral's evaluator"}.get(row["chosen"], "direct")]
-        spectral = row["ns"]["spectral's evaluator"]
+        spectral = row["ns"][EVALUATOR]
+        earlier = f" | {before[name]['ns'][EVALUATOR]:.1f}" if before else ""
         print(f"| {name} | {row['ns']['direct']:.1f} | "
               + " | ".join(f"{row['ns'][label]:.1f} ({row['products'][label]})" if label in row["ns"] else "-"
                            for label in labels)
-              + f" | {spectral:.1f} | {row['chosen']} | {chosen / row['ns']['direct']:.2f} |", flush=True)
+              + f" | {spectral:.1f}{earlier} | {row['chosen']} | {chosen / row['ns']['direct']:.2f} |", flush=True)
 
 
 SECTIONS = {"c": section_c, "correct": section_correct, "trainlm": section_trainlm, "fits": section_fits,

@@ -49,9 +49,13 @@ TERM_COST = 0.06
 #: around them (45-50 ns; a single order alone costs one pair, its row sum being no sum).
 DIRECT_ORDER_COST = 2.0
 #: The spectral model's evaluator (:class:`encal.numerics.trigsums.SeriesEvaluator`: a Taylor expansion about the
-#: nodes of a fine grid, whose tables hold the series' derivatives), whatever the orders: 42-48 ns (chunks of
-#: 8,192 and 3,548 angles) while its tables stay in cache.
-TAYLOR_COST = 2.1
+#: nodes of a fine grid, whose tables hold the series' derivatives, summed by Horner's rule), whatever the orders:
+#: 24-29 ns (chunks of 8,192 angles) while its tables hold up to :data:`TAYLOR_CACHED_NUMBERS` numbers (orders up to
+#: about 1,000), then up to 50 ns (:data:`TAYLOR_COST_LARGE`) as they outgrow the cache.
+TAYLOR_COST = 1.0
+TAYLOR_COST_LARGE = 1.8
+#: Table numbers up to which the evaluator costs :data:`TAYLOR_COST`.
+TAYLOR_CACHED_NUMBERS = 1 << 17
 #: Largest tables the evaluator may build (numbers: 4 MiB), so that they stay in cache and are built in a few
 #: milliseconds: orders up to about 5,000. Above, 33 MB for the largest order, 32767, built in 0.1 s.
 TAYLOR_TABLE_NUMBERS = 1 << 19
@@ -130,10 +134,9 @@ class HarmonicSeries:
     """``f(θ) = Σ_k a_k cos(k θ) + b_k sin(k θ)`` for fixed orders and coefficients, at any angles.
 
     Evaluated the cheapest of three ways by the measured costs (:data:`PRODUCT_COST`, :data:`TERM_COST`,
-    :data:`DIRECT_ORDER_COST`, :data:`TAYLOR_COST`): the direct form for one order alone (or a few very high
-    ones); the addition chain of :func:`plan_products` for a few orders (up to about ten products); the
-    spectral model's evaluator for more, while its tables are small (:data:`TAYLOR_TABLE_NUMBERS`); the
-    chain again for series of higher orders.
+    :data:`DIRECT_ORDER_COST`, :data:`TAYLOR_COST`): the spectral model's evaluator while its tables are small
+    (:data:`TAYLOR_TABLE_NUMBERS`), the direct form for a single order, else the addition chain of
+    :func:`plan_products`, or the direct form for a few very high orders.
 
     Parameters
     ----------
@@ -174,8 +177,9 @@ class HarmonicSeries:
             costs = {"direct": 1.0 + DIRECT_ORDER_COST * max(self.orders.size - 1, 0)}
             if highest > 0:
                 costs["recurrence"] = 1.0 + PRODUCT_COST * len(steps) + TERM_COST * self.orders.size
-                if SeriesEvaluator.table_numbers(highest) <= TAYLOR_TABLE_NUMBERS:
-                    costs["taylor"] = TAYLOR_COST
+                numbers = SeriesEvaluator.table_numbers(highest)
+                if numbers <= TAYLOR_TABLE_NUMBERS:
+                    costs["taylor"] = TAYLOR_COST if numbers <= TAYLOR_CACHED_NUMBERS else TAYLOR_COST_LARGE
             method = min(costs, key=costs.get)  # the first on a tie
         if method not in ("recurrence", "taylor", "direct"):
             raise ValueError("HarmonicSeries's method must be None, 'recurrence', 'taylor' or 'direct'; "
