@@ -81,6 +81,8 @@ _ROUNDING_WIDTH = 2
 ROUNDING_SPECTRUM = True
 _ROUNDING_HARMONICS_SPECTRUM = 3
 _SMOOTH_ORDER = 32
+#: Most readings for which the rounding is placed on the reference's grid when the encoder angles show none.
+ROUNDING_GRID_MAX_READINGS = 10_000
 #: Then model the rounding's realised pattern at the stops (``_realised_rounding``), and refit.
 REALISED_ROUNDING = True
 _REALISED_HARMONICS = 40
@@ -512,10 +514,10 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     grid = uniform_grid(stop_angles)
     # The rounding's pattern follows the reference's grid, which the encoder angles may leave by more than a
     # quarter of its spacing (a dense grid, a large profile): then the reference's nodes are its grid, when
-    # the pattern lands on an order a fit can reach (a dense sweep's lands above: its cost, 15 times the fit's
-    # on 10^6 readings, would buy nothing).
+    # the pattern lands on an order a fit can reach and the readings are few enough (its variance costs
+    # readings x orders: 8 and 15 times the fit on 10^5 and 10^6 readings).
     rounding_grid = grid
-    if grid is None and bits and _rounding_reachable(bits, m):
+    if grid is None and bits and theta.size <= ROUNDING_GRID_MAX_READINGS and _rounding_reachable(bits, m):
         rounding_grid = uniform_grid(reference_distinct)
     del reference_distinct  # (before the encoder angles' sort: 8 bytes a reading)
     del stop_angles  # (8 bytes a stop)
