@@ -255,6 +255,25 @@ def test_direction_option_selects_a_directional_models_part(tmp_path, capsys):
     assert results[1] != results[-1]  # the two directions' models differ by arc-minutes here
 
 
+def test_a_direction_column_corrects_each_row_with_its_direction(tmp_path, capsys):
+    """Task edge5: a CSV with the calibration's direction column was corrected with the mean of both directions
+    (exit 0); each row now gets its own direction, and --direction with such a file is refused."""
+    import encal
+
+    model_path = DATA / "model_v1_directional.json"
+    model = encal.load_model(model_path)
+    theta = [0.0, 10.5, 123.25, 359.9]
+    direction = [1, -1, -1, 1]
+    table = tmp_path / "run.csv"
+    table.write_text("encoder_deg,direction\n" + "".join(f"{t},{'cw' if d > 0 else 'ccw'}\n"
+                                                         for t, d in zip(theta, direction)), encoding="utf-8")
+    assert main(["correct", str(model_path), str(table)]) == 0
+    assert capsys.readouterr().out.split() == fixed(model.correct(theta, direction=np.array(direction)))
+    assert main(["correct", str(model_path), str(table), "--direction", "-1"]) == 1
+    out, err = capsys.readouterr()
+    assert out == "" and "names each reading's direction in its direction column, and --direction -1" in err
+
+
 def test_closed_standard_output_is_one_sentence(tmp_path):
     readings = tmp_path / "angles.txt"
     readings.write_text("10\n20\n")

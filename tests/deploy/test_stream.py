@@ -77,3 +77,66 @@ def test_stream_answers_do_not_depend_on_how_the_input_arrives(model):
     whole = io.BytesIO()
     correct_stream(Compensator(model), io.BytesIO(data), whole)
     assert answers[0] == answers[1] == answers[2] == whole.getvalue()
+
+
+# -- task edge5: a direction column corrects each reading with its own direction -------------------------------
+
+HYSTERESIS = 1.5  # arc-minutes: a forward reading is 0.75 above the profile, a reverse one 0.75 below
+
+
+def _bidirectional_truth():
+    """A directional model of a known profile and hysteresis, and readings of both directions with their truth."""
+    reference = np.r_[GRID, GRID[::-1]]
+    direction = np.r_[np.ones(GRID.size), -np.ones(GRID.size)]
+    exact = (2.0 * np.sin(np.radians(reference) + 0.3) + 0.6 * np.cos(np.radians(2 * reference))
+             + direction * HYSTERESIS / 2.0)
+    model = encal.fit(encal.Calibration(reference, reference + exact / 60.0, direction=direction), "fourier",
+                      orders=[0, 1, 2])
+    truth = np.arange(0.5, 360.0, 7.0)
+    sign = np.where(np.arange(truth.size) % 3 == 0, -1, 1)
+    reading = truth + (2.0 * np.sin(np.radians(truth) + 0.3) + 0.6 * np.cos(np.radians(2 * truth))
+                       + sign * HYSTERESIS / 2.0) / 60.0
+    return model, truth, sign, reading
+
+
+@pytest.mark.parametrize("cells", [("+1", "-1"), ("cw", "CCW"), ('"1"', '"-1"')])
+def test_a_direction_column_corrects_each_reading_with_its_own_direction(cells):
+    """It was ignored: every reading got the mean of the two directions, 0.75 arcmin (half the hysteresis) off
+    the truth, with exit 0."""
+    model, truth, sign, reading = _bidirectional_truth()
+    assert model.kind == "directional"
+    rows = "".join(f"{i},{r!r},{cells[0] if s > 0 else cells[1]}\n"
+                   for i, (r, s) in enumerate(zip(reading.tolist(), sign)))
+    data = ("t,encoder_deg,direction\n" + rows).encode()
+    for sizes in ([len(data)], np.random.default_rng(1).integers(1, 40, 400).tolist()):
+        sink = io.BytesIO()
+        correct_stream(Compensator(model), _Chunks(data, sizes), sink)
+        corrected = np.array(sink.getvalue().split(), dtype=float)
+        gap = ((corrected - truth + 180.0) % 360.0 - 180.0) * 60.0
+        assert np.max(np.abs(gap)) < 2e-3  # measured 6.3e-4 (3 orders of a profile of the reference); was 0.75
+    mean = io.BytesIO()  # without the column: the mean of both, as documented
+    plain = b"encoder_deg\n" + "".join(f"{r!r}\n" for r in reading.tolist()).encode()
+    correct_stream(Compensator(model), io.BytesIO(plain), mean)
+    off = np.max(np.abs(np.array(mean.getvalue().split(), dtype=float) - truth)) * 60.0
+    assert off == pytest.approx(HYSTERESIS / 2.0, abs=3e-3)
+
+
+def test_a_direction_column_and_a_direction_option_are_refused_and_a_bad_direction_is_named():
+    from encal._core.errors import InputError
+
+    model, *_ = _bidirectional_truth()
+    data = b"encoder_deg,direction\n10.0,+1\n11.0,up\n12.0,-1\n"
+    with pytest.raises(InputError, match=r"^stdin names each reading's direction in its direction column, and "
+                                         r"--direction \+1 was given too; expected one of them"):
+        correct_stream(Compensator(model), io.BytesIO(data), io.BytesIO(), direction=1)
+    sink = io.BytesIO()
+    with pytest.raises(InputError, match=r"^line 3 of stdin: expected \+1, -1, cw or ccw in column 2 \(direction\), "
+                                         r"the direction of a reading for a directional model, got '11.0,up'$"):
+        correct_stream(Compensator(model), io.BytesIO(data), sink)
+    assert len(sink.getvalue().split()) == 1  # the line before it is answered
+    sink = io.BytesIO()
+    correct_stream(Compensator(model), io.BytesIO(data), sink, skip_bad=True)
+    assert sink.getvalue().split()[1] == b"nan"
+    plain = io.BytesIO()  # another kind of model ignores the column, as before
+    correct_stream(Compensator(encal.fit(CAL, "fourier")), io.BytesIO(data), plain)
+    assert len(plain.getvalue().split()) == 3

@@ -77,6 +77,23 @@ def test_uncertainty_grows_toward_the_ends_and_covers_the_truth():
     assert within.mean() > 0.85
 
 
+@pytest.mark.parametrize("span, n", [(10.0, 46), (10.0, 200), (30.0, 100), (90.0, 46)])
+def test_clean_readings_keep_a_real_noise_and_the_curve(span, n):
+    """Task edge5: readings without noise over a short arc. The deviance y'y - c'B'y cancelled to rounding, was
+    floored, and the criterion's floor won: noise 3e-150 arcmin, a stated held-out RMS of 3e-150 against a
+    real 0.0029, and a straight line over the curved 10-degree arc (0.006 arcmin off the truth)."""
+    theta = 20.0 + np.linspace(0.0, span, n)
+    model = fit_arc(theta, truth(theta))
+    grid = 20.0 + np.linspace(0.0, span, 2001)
+    mean, std = model.predict(grid, return_std=True)
+    gap = np.abs(mean - truth(grid))
+    assert gap.max() < 1e-3 * span / 10.0  # was 0.0060 over 10 degrees (a straight line)
+    assert model.uncertainty["noise_std_arcmin"] > 1e-12  # was 3e-150
+    rms = float(np.sqrt(np.mean(gap**2)))
+    assert rms / 3.0 < model.expected_rms_between_points() < 15.0 * rms  # measured 0.56-11x; was 1e-145x
+    assert np.mean(gap <= 2.0 * std) > 0.8  # measured 0.84-0.99; was 0.0
+
+
 def test_outside_the_arc_the_api_answers_nan_never_a_number():
     theta, error = arc_data(10.0, 120.0)
     model = fit_arc(theta, error)

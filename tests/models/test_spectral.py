@@ -246,6 +246,28 @@ def test_the_rounding_of_a_profile_over_many_codes_is_noise():
     assert fit_spectral(theta, error).training["rounding_orders"] == []
 
 
+def four_arcmin_profile(theta_deg):
+    r = np.radians(theta_deg)
+    return 4.0 * np.sin(r) + 2.0 * np.cos(2 * r + 0.3) + 0.8 * np.sin(3 * r) + 0.3 * np.cos(7 * r)
+
+
+@pytest.mark.parametrize("step_deg", [0.5, 0.25])
+def test_the_rounding_on_a_dense_grid_of_stops_the_readings_leave_gets_no_line(step_deg):
+    """Task edge5: a 12-bit encoder read without noise at 0.5 or 0.25-degree stops, a profile of 4 arcmin. The
+    readings stray up to a quarter of a spacing from the stops' grid, which was then not found, and the
+    rounding's pattern (order 4096 mod 720 = 496, folded to 224, and its sidebands) was fitted as 24-25 lines
+    at orders 213-283: a profile 1.07-1.17 arcmin RMS off the truth between the stops. The reference's grid
+    places the pattern."""
+    reference = np.arange(0.0, 360.0, step_deg)
+    theta = np.round((reference + four_arcmin_profile(reference) / 60.0) / CODE_12_BIT_DEG) * CODE_12_BIT_DEG
+    model = fit_spectral(theta, (theta - reference) * 60.0)
+    assert model.training["lines"] == [1, 2, 3, 7]  # were 28-29 lines
+    between = np.arange(0.05, 360.0, 0.1)
+    gap = model.predict(between + four_arcmin_profile(between) / 60.0) - four_arcmin_profile(between)
+    assert rms(gap) < 0.1  # measured 0.026 and 0.025 arcmin; were 1.12 and 1.07
+    assert 222 in model.training["rounding_orders"]
+
+
 def jittered_power_law(seed, noise_arcmin=0.05):
     """72 stops of a 5° grid, each moved by up to ±1°, on a profile with a ν^-2 spectrum to order 120.
 

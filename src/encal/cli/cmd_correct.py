@@ -43,7 +43,8 @@ def add_arguments(parser):
                              "(default: 12 decimals, within 5e-13 degrees, faster)")
     parser.add_argument("--direction", type=int, choices=[1, -1], metavar="{+1,-1}",
                         help="direction of travel of the readings, for a bidirectional model fitted per "
-                             "direction (default: the mean of both directions; other models ignore it)")
+                             "direction (default: each row's own direction when the CSV has a direction column, "
+                             "else the mean of both directions; other models ignore it)")
     add_serial_options(parser)  # issue 32: the unit's latest model in the calibration store (FILE the one argument)
     parser.add_argument("--outside", choices=("error", "clamp", "pass"), default="error",
                         help="a reading outside the range of a model calibrated over an arc: refuse it (default), "

@@ -33,6 +33,10 @@ BLOCK_BYTES = 1 << 16
 #: Longest line accepted, in bytes: bounds the memory when no newline comes.
 MAX_LINE_BYTES = 1 << 16
 _HEADER_COLUMN = "encoder_deg"
+#: The calibration CSV's direction column and its values (encal.data.calibration's): read for a directional model.
+_DIRECTION_COLUMN = "direction"
+_DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
+_DIRECTION_PROBLEM = "the direction column"  # (a marker between _value and _error)
 _LF, _CR, _COMMA = (np.uint8(ord(c)) for c in "\n\r,")
 
 
@@ -67,7 +71,9 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
         Name of the input in messages.
     direction : {+1, -1}, optional
         Direction of travel of every reading, for bidirectional (``directional``) models; other
-        models ignore it. None: the mean of the two directions.
+        models ignore it. None: the mean of the two directions, or, for a directional model, each row's
+        own direction when the CSV header names a ``direction`` column (``+1``/``-1``/``cw``/``ccw``, as in a
+        calibration); ``direction`` given with such a column is refused.
     exact : bool, default=False
         Write each corrected angle as Python's ``repr`` (the shortest text that reads back to the same
         double) instead of ``'%.12f'`` (within 5e-13 degrees, about five times faster to write).
@@ -81,7 +87,8 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     ------
     InputError
         At the first malformed line (unless ``skip_bad``), naming its number
-        and content; the answers to the lines before it are written first.
+        and content; the answers to the lines before it are written first. When ``direction`` is given
+        for a directional model and the CSV has a direction column, before anything is written.
     """
     caller = "correct_stream"
     check_bool(skip_bad, "skip_bad", caller)
@@ -91,7 +98,8 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
                                   or direction not in (1, -1)):
         raise invalid("direction", caller, "+1 (forward), -1 (reverse) or None (unknown)", direction)
     _reuse_block_memory()
-    parser = _LineParser(skip_bad, name)
+    model = getattr(compensator, "model", compensator)
+    parser = _LineParser(skip_bad, name, read_direction=getattr(model, "kind", None) == "directional")
     read = getattr(source, "read1", source.read)
     write = _format_repr if exact else format_fixed
     pending = b""
@@ -105,9 +113,13 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
             number = parser.line_number + data.count(b"\n", 0, cut) + 1
             raise InputError(f"line {number} of {name}: expected "
                              f"lines of at most {MAX_LINE_BYTES} bytes, got a longer one")
-        values, error = parser.parse(data[:cut] if block else data)
+        values, directions, error = parser.parse(data[:cut] if block else data)
+        if directions is not None and direction is not None:
+            raise InputError(f"{name} names each reading's direction in its {_DIRECTION_COLUMN} column, and "
+                             f"--direction {direction:+d} was given too; expected one of them (drop --direction to "
+                             "correct each reading with its own direction)")
         if values.size:
-            sink.write(write(_correct(compensator, values, direction)))
+            sink.write(write(_correct(compensator, values, direction if directions is None else directions)))
             sink.flush()
             written += values.size
         if error is not None:
@@ -117,13 +129,20 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
 
 
 def _correct(compensator, values, direction=None):
-    correct = compensator.correct if direction is None else (
-        lambda theta: compensator.correct(theta, direction))
+    """``direction``: None, +1, -1, or one per value (a direction column)."""
+    per_value = np.ndim(direction) > 0
+
+    def correct(mask):
+        theta = values if mask is None else values[mask]
+        if direction is None:
+            return compensator.correct(theta)
+        return compensator.correct(theta, direction[mask] if per_value and mask is not None else direction)
+
     good = np.isfinite(values)
     if good.all():
-        return correct(values)
+        return correct(None)
     corrected = np.full(values.shape, np.nan)
-    corrected[good] = correct(values[good])
+    corrected[good] = correct(good)
     return corrected
 
 
@@ -138,30 +157,32 @@ class _LineParser:
     and every row of a CSV table with as many fields as its header.
     """
 
-    def __init__(self, skip_bad, name):
+    def __init__(self, skip_bad, name, read_direction=False):
         self.skip_bad = skip_bad
         self.name = name
         self.line_number = 0
         self.column = None  # None: no data line seen yet; -1: one angle per line
         self.n_fields = 1  # fields of every row: the header's
+        self.read_direction = read_direction  # a directional model: read a direction column if there is one
+        self.direction_column = None
 
     def parse(self, text):
-        """Angles of ``text`` (bytes: whole lines, or the end of the input), and the error to raise after
-        writing them (or None)."""
-        if self.column is not None and text.endswith(b"\n"):
+        """Angles of ``text`` (bytes: whole lines, or the end of the input), their directions (None without a
+        direction column that is read), and the error to raise after writing them (or None)."""
+        if self.column is not None and self.direction_column is None and text.endswith(b"\n"):
             values = (parse_lines(np.frombuffer(text, dtype=np.uint8)) if self.column < 0
                       else self._fast_column(text))
             if values is not None:
                 self.line_number += values.size
-                return values, None
+                return values, None, None
         lines = text.split(b"\n") if text else []
         if text.endswith(b"\n"):
             lines.pop()  # the line end of the last line does not start another one
         if self.column is not None and not (self.column >= 0 and b"#" in text):  # (a comment's fields)
-            values = self._fast(lines)
-            if values is not None:
+            fast = self._fast(lines)
+            if fast is not None:
                 self.line_number += len(lines)
-                return values, None
+                return fast
         return self._slow(lines)
 
     def _fast_column(self, text):
@@ -198,7 +219,9 @@ class _LineParser:
         return parse_lines(field)
 
     def _fast(self, lines):
-        # The common case of a block: every line a finite number (in the column) and no quotes; else None.
+        # The common case of a block: every line a finite number (in the column) and no quotes, and a valid
+        # direction in its column; else None.
+        directions = None
         try:
             if self.column < 0:
                 values = np.array([float(line) for line in lines])
@@ -207,12 +230,20 @@ class _LineParser:
                 if any(len(row) != self.n_fields or b'"' in line for row, line in zip(rows, lines)):
                     return None
                 values = np.array([float(row[self.column]) for row in rows])
-        except ValueError:
+                if self.direction_column is not None:
+                    directions = np.array([_DIRECTIONS[row[self.direction_column].strip().lower().decode("ascii")]
+                                           for row in rows], dtype=int)
+        except (ValueError, KeyError, UnicodeDecodeError):
             return None
-        return values if np.all(np.isfinite(values)) else None
+        return (values, directions, None) if np.all(np.isfinite(values)) else None
 
     def _slow(self, lines):
-        values = []
+        values, directions = [], []
+
+        def read(error=None):
+            return (np.array(values), None if self.direction_column is None else np.array(directions, dtype=int),
+                    error)
+
         for text in self._texts(lines):
             if _csv.is_skipped(text):
                 continue
@@ -220,13 +251,14 @@ class _LineParser:
                 continue
             if self.column is None:
                 self.column = -1
-            value, problem = self._value(text)
+            value, direction, problem = self._value(text)
             if value is None:
                 if not self.skip_bad:
-                    return np.array(values), self._error(text, problem)
-                value = np.nan
+                    return read(self._error(text, problem))
+                value, direction = np.nan, 1
             values.append(value)
-        return np.array(values), None
+            directions.append(direction)
+        return read()
 
     def _texts(self, lines):
         """The text of each line (split at LF), counting line numbers; a CR alone also ends a line."""
@@ -246,28 +278,37 @@ class _LineParser:
         if _HEADER_COLUMN in names:
             self.column = names.index(_HEADER_COLUMN)
             self.n_fields = len(names)
+            if self.read_direction and _DIRECTION_COLUMN in names:
+                self.direction_column = names.index(_DIRECTION_COLUMN)
             return True
         return False
 
     def _value(self, text):
-        """The angle of a data line, or None and what is wrong with it (None: not a finite number)."""
+        """The angle of a data line and its direction (None without a direction column), or None and what is
+        wrong with the line (None: not a finite number)."""
+        direction = None
         if self.column < 0:
             field = text
         else:
             try:
                 cells = _csv.fields(text)
             except _csv.QuotingError as exc:
-                return None, str(exc)
+                return None, None, str(exc)
             if len(cells) != self.n_fields:
                 count = f"{len(cells)} field" + ("s" if len(cells) != 1 else "")
-                return None, (f"it has {count}, not {self.n_fields} as in the header"
-                              + (" (a decimal comma?)" if len(cells) > self.n_fields else ""))
+                return None, None, (f"it has {count}, not {self.n_fields} as in the header"
+                                    + (" (a decimal comma?)" if len(cells) > self.n_fields else ""))
             field = cells[self.column]
+            if self.direction_column is not None:
+                cell = cells[self.direction_column].strip()
+                direction = _DIRECTIONS.get(cell.lower())
+                if direction is None:
+                    return None, None, _DIRECTION_PROBLEM
         try:
             value = float(field)
         except ValueError:
-            return None, None
-        return (value, None) if np.isfinite(value) else (None, None)
+            return None, None, None
+        return (value, direction, None) if np.isfinite(value) else (None, None, None)
 
     def _error(self, text, problem=None):
         shown = text.strip()
@@ -275,6 +316,9 @@ class _LineParser:
         expected = ("an encoder angle in degrees (one number per line, or a CSV header with "
                     "an encoder_deg column first)" if self.column < 0
                     else f"a finite number of degrees in column {self.column + 1} (encoder_deg)")
+        if problem == _DIRECTION_PROBLEM:
+            expected, problem = (f"+1, -1, cw or ccw in column {self.direction_column + 1} ({_DIRECTION_COLUMN}), "
+                                 "the direction of a reading for a directional model"), None
         why = f"; {problem}" if problem else ""
         return InputError(f"line {self.line_number} of {self.name}: expected {expected}, "
                           f"got {shown!r}{why}")

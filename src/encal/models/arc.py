@@ -151,8 +151,12 @@ def fit_arc(theta_enc_deg, error_arcmin, *, knot_spacing_deg=None, range_deg=Non
         weight = scale * np.exp(log_lambda)
         factor = cholesky_banded(gram_band + weight * penalty_band)
         coef = cho_solve_banded((factor, False), rhs)
-        # ||y - Bc||^2 + w c'Sc = y'y - c'B'y at the penalised optimum
-        deviance = max(yty - float(coef @ rhs), 1e-300 * max(yty, 1.0))
+        # ||y - Bc||^2 + w c'Sc summed as it stands: its equal y'y - c'B'y cancels to rounding when the spline
+        # follows the readings closely (clean readings, a strong or a weak penalty), and a deviance of 0 there
+        # sent the criterion to its floor (noise 3e-150 arcmin, a straight line over a curved 10-degree arc).
+        residual = error - design @ coef
+        roughness = float(np.sum(np.diff(coef, 2) ** 2))  # c'Sc, S = D'D the second differences
+        deviance = max(float(residual @ residual) + weight * roughness, 1e-300 * max(yty, 1.0))
         log_det = 2.0 * np.sum(np.log(factor[-1]))
         return (max(n - null_dim, 1)) * np.log(deviance) + log_det - rank * np.log(weight), coef, factor, deviance
 

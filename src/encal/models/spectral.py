@@ -81,6 +81,8 @@ _ROUNDING_WIDTH = 2
 ROUNDING_SPECTRUM = True
 _ROUNDING_HARMONICS_SPECTRUM = 3
 _SMOOTH_ORDER = 32
+#: Most readings for which the rounding is placed on the reference's grid when the encoder angles show none.
+ROUNDING_GRID_MAX_READINGS = 10_000
 #: Then model the rounding's realised pattern at the stops (``_realised_rounding``), and refit.
 REALISED_ROUNDING = True
 _REALISED_HARMONICS = 40
@@ -513,8 +515,15 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
                                                                     group)
     del group  # (before the coherence's temporaries, 40 bytes a stop, the fit's peak on random stops)
     coherence = _alias_coherence(reference, reference_distinct)
-    del reference_distinct  # (before the encoder angles' sort: 8 bytes a reading)
     grid = uniform_grid(stop_angles)
+    # The rounding's pattern follows the reference's grid, which the encoder angles may leave by more than a
+    # quarter of its spacing (a dense grid, a large profile): then the reference's nodes are its grid, when
+    # the pattern lands on an order a fit can reach and the readings are few enough (its variance costs
+    # readings x orders: 8 and 15 times the fit on 10^5 and 10^6 readings).
+    rounding_grid = grid
+    if grid is None and bits and theta.size <= ROUNDING_GRID_MAX_READINGS and _rounding_reachable(bits, m):
+        rounding_grid = uniform_grid(reference_distinct)
+    del reference_distinct  # (before the encoder angles' sort: 8 bytes a reading)
     del stop_angles  # (8 bytes a stop)
     regular_points = m if grid is not None else None
     phase = math.radians(grid[0]) if grid is not None else 0.0
@@ -564,13 +573,13 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     capped = max_order is None and uniform is None and not beyond and highest < nyquist
     extra = sorted(int(k) for k in _extra_orders if k > highest)
     orders, shifts, lineable = _columns(highest, regular_points, phase, extra)
-    rounding_orders = _quantisation_orders(bits, grid, theta)
+    rounding_orders = _quantisation_orders(bits, rounding_grid, theta)
     lineable &= ~np.isin(orders, rounding_orders)
     if uniform is not None:
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
-    if ROUNDING_SPECTRUM and bits and grid is not None:
+    if ROUNDING_SPECTRUM and bits and rounding_grid is not None:
         design.rounding = _rounding_variance(bits, theta, error, reference, orders)
     reference_bits = resolution_of_readings(reference) if capped else None  # for the scan above the cap
     del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
@@ -868,6 +877,13 @@ def _quantisation_orders(bits, grid, theta):
         order = min(order, stops - order)
         excluded.update(range(max(order - _ROUNDING_WIDTH, 1), order + _ROUNDING_WIDTH + 1))
     return np.array(sorted(k for k in excluded if k <= stops // 2), dtype=int)
+
+
+def _rounding_reachable(bits, stops):
+    """True when a ``bits``-bit encoder's rounding at ``stops`` regular stops lands on an order up to
+    :data:`SCAN_LIMIT` (harmonics 1 to :data:`_ROUNDING_HARMONICS`, folded as in :func:`_quantisation_orders`)."""
+    folded = [min(h * 2**bits % stops, stops - h * 2**bits % stops) for h in range(1, _ROUNDING_HARMONICS + 1)]
+    return min(folded) <= SCAN_LIMIT
 
 
 def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):

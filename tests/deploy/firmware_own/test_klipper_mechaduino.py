@@ -109,6 +109,22 @@ def test_klipper_refuses_without_the_step_zero_and_a_list_its_buckets_cannot_hol
 
 
 @needs_klipper
+@pytest.mark.parametrize("shape_arcmin", [0.0, 0.2])
+@pytest.mark.parametrize("step_zero, direction", [(0.0, 1), (0.9, 1), (0.0, -1)])
+def test_klipper_writes_a_profile_smaller_than_its_own_rounding(shape_arcmin, step_zero, direction):
+    """Task edge5: a model of a constant 7.5 arcmin (or with a 0.2-arcmin first harmonic) was refused: its round
+    trip, Klipper's own integer rounding (RMS 0.086-0.135 arcmin), was held against the correction less its
+    mean (RMS 0 or 0.14) with a floor of the list's "%.1f" alone (0.0165). The floor is now all of Klipper's
+    rounding, 1.05 units of 16 bits; Klipper's own code holds the offset, within what encal states."""
+    comp = Compensator(FourierModel([0, 1], [7.5, shape_arcmin], [0.0, 0.0], encoder={"resolution_bits": 16}))
+    written = export_klipper(comp, step_zero_deg=step_zero, step_direction=direction)
+    assert written.quantisation_arcmin == pytest.approx(1.05 * 21600 / 65536)
+    rms, largest, phase, _ = klipper_own.measure(comp, 16, step_zero, written.text, direction)
+    assert largest <= written.max_error_arcmin + 1e-9 and rms == pytest.approx(written.rms_error_arcmin, rel=1e-6)
+    assert largest < 0.5 and phase < 0.02  # measured 0.40-0.45; the 7.5 arcmin held (without it: 7.5)
+
+
+@needs_klipper
 def test_klipper_phase_is_wrong_when_index_0_is_not_at_driver_phase_0(tmp_path):
     # the harness sees the fault the option fixes: step 0 is at 1.8 deg, and the list was written for 0
     comp = klipper_own.model_for(16, False, 0.0)

@@ -184,7 +184,11 @@ def export_klipper(model, *, full_steps=200, step_zero_deg=None, step_direction=
             f"reference angle: --step-direction {direction}); Klipper keeps {1 << CALIBRATION_BITS} buckets, so "
             "detail finer than 5.6 degrees is lost")
     correction = correction_on_codes(comp, grid)
-    export = FirmwareExport("klipper", text, max_error, rms_error, 0.05 * 21600.0 / angle_max, codes.size, note)
+    # The rounding a priori, in 16-bit units: the list's "%.1f" (0.05), load_calibration's int(s + .5) of each
+    # bucket (0.5) and apply_calibration's integer result (0.5). Only the first counted before: a profile whose
+    # shape is a few LSB (a constant offset: none) was refused for Klipper's own 0.1-arcmin rounding.
+    rounding = (0.05 + 0.5 + 0.5) * 21600.0 / angle_max
+    export = FirmwareExport("klipper", text, max_error, rms_error, rounding, codes.size, note)
     return checked(export, correction - np.mean(correction))
 
 
