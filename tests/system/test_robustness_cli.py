@@ -176,6 +176,7 @@ def _make_files(folder):
     _make_issue25_files(folder, paths, document)
     _make_files_and_paths_files(folder, paths, good)
     _make_plausibility_files(folder, paths)
+    _make_fuzz5_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1167,6 +1168,55 @@ STEP_DIRECTION_CASES = [
          prints=("round trip", "--step-direction -1")),
 ]
 CASES += STEP_DIRECTION_CASES
+
+# ---------------------------------------------------------------- task fuzz5: mutation fuzzing of the input files
+
+
+def _make_fuzz5_files(folder, paths):
+    """The reproducers the mutation fuzzer of task fuzz5 found, minimised."""
+    tiny = ["0"] * 64
+    tiny[17] = "2147483647"  # 2^31 - 1 ticks of a 13-bit sensor: 262,144 turns
+    texts = {
+        # a float entry beyond float32 (C reads 1e308f as infinity): was a message naming neither file nor entry
+        "fuzz5_sfoc_huge.h": "float calibrationLut[4] = {0.001f, 1e308f, 0.0f, -0.001f};\n",
+        # 256 radians (a wrong unit, a flipped byte) was read as a correction of 14,668 degrees
+        "fuzz5_sfoc_256.h": "float calibrationLut[4] = {0.001f, 256f, 0.0f, -0.001f};\n",
+        "fuzz5_tiny_huge.h": "int32_t rec_table[64] = {" + ", ".join(tiny) + "};\n",
+        "fuzz5_tiny_63.h": "int32_t rec_table[] = {" + ", ".join(["0"] * 63) + "};\n",
+        "fuzz5_moteus_scale.cfg": "".join(f"motor_position.sources.0.compensation_table.{i} {i % 7 - 3}\n"
+                                          for i in range(256)) + "motor_position.sources.0.compensation_scale 1e308\n",
+        # one glitched angle of 6e23 degrees in a log was read (the written calibration 180 arcmin uncertain)
+        "fuzz5_sweep.csv": "electrical_deg,encoder_deg\n0,0\n6.02e23,1\n",
+        "fuzz5_dual.csv": "motor_deg,output_deg\n0,0\n1,6.02e23\n",
+        "fuzz5_spin.csv": "time_s,encoder_deg\n0,0\n0.1,1e12\n",
+    }
+    for name, text in texts.items():
+        paths[name.replace(".", "_")] = folder / name
+        paths[name.replace(".", "_")].write_text(text, encoding="utf-8")
+
+
+FUZZ5_CASES = [
+    Case("import-simplefoc-beyond-float32", ("import", "simplefoc", "{fuzz5_sfoc_huge_h}", "-o", "{out}/s.json",
+                                             "--firmware-version", "1.0.9"), 1,
+         ("fuzz5_sfoc_huge.h", "element 1 of calibrationLut[]", "half a turn")),
+    Case("import-simplefoc-256-radians", ("import", "simplefoc", "{fuzz5_sfoc_256_h}", "-o", "{out}/s.json",
+                                          "--firmware-version", "1.0.8"), 1,
+         ("fuzz5_sfoc_256.h", "element 1 of calibrationLut[] (256)", "half a turn")),
+    Case("import-tinymovr-int32-max", ("import", "tinymovr", "{fuzz5_tiny_huge_h}", "-o", "{out}/t.json", "--bits",
+                                       "13"), 1, ("fuzz5_tiny_huge.h", "element 17 of rec_table[]", "half a turn")),
+    Case("import-tinymovr-63-entries", ("import", "tinymovr", "{fuzz5_tiny_63_h}", "-o", "{out}/t.json", "--bits",
+                                        "13"), 1, ("fuzz5_tiny_63.h", "64 rec_table entries, got 63")),
+    Case("import-moteus-scale-1e308", ("import", "moteus", "{fuzz5_moteus_scale_cfg}", "-o", "{out}/m.json"), 1,
+         ("fuzz5_moteus_scale.cfg", "compensation_table.0 on line 1", "compensation_scale 1e+308", "half a turn")),
+    Case("selfcal-sweep-angle-6e23", ("selfcal", "sweep", "{fuzz5_sweep_csv}", "--pole-pairs", "7", "-o",
+                                      "{out}/c.csv"), 1, ("fuzz5_sweep.csv", "line 3, column 1", "within +-1e+09")),
+    Case("selfcal-dual-angle-6e23", ("selfcal", "dual", "{fuzz5_dual_csv}", "--ratio", "6", "--motor-cal",
+                                     "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_dual.csv", "line 3, column 2", "within +-1e+09")),
+    Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
+         ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
+]
+CASES += FUZZ5_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -142,21 +142,44 @@ def grid_bits(comp, bits, caller, default=16):
     return evaluation_bits(default if bits is None else bits)
 
 
-def correction_model(correction_arcmin, *, name="", note=""):
+#: Largest correction a firmware table can mean, arc-minutes: half a turn (180 degrees). The firmwares' own
+#: calibrations store the error about its mean, a few degrees at most; an entry of half a turn or more is a
+#: wrong unit or a corrupted file (a SimpleFOC entry of 256 radians was read as 14,668 degrees).
+MAX_CORRECTION_ARCMIN = 10800.0
+
+
+def correction_model(correction_arcmin, *, name="", note="", where="the table", entry=None):
     """An encal model of an existing firmware correction: nodes at ``i * 360 / N``, linear with wrap.
 
     Parameters
     ----------
     correction_arcmin : array-like of shape (N,)
         The correction the firmware adds at each node, arc-minutes.
+    where : str
+        The file, for messages.
+    entry : callable, optional
+        ``entry(i)`` names node ``i`` in the file for messages (default ``"entry i"``).
 
     Returns
     -------
     LookupTableModel
         Predicts the error ``-correction`` (what the firmware assumes), so it can be
         evaluated on a calibration or compared with another model.
+
+    Raises
+    ------
+    InputError
+        If an entry is not a finite correction of less than half a turn (:data:`MAX_CORRECTION_ARCMIN`).
     """
-    error = -np.asarray(correction_arcmin, dtype=float).reshape(-1)
+    correction = np.asarray(correction_arcmin, dtype=float).reshape(-1)
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~(np.abs(correction) < MAX_CORRECTION_ARCMIN))
+    if bad.size:
+        index = int(bad[0])
+        raise InputError(f"{where}: {entry(index) if entry else f'entry {index}'} is a correction of "
+                         f"{correction[index]:.6g} arcmin; expected less than half a turn ({MAX_CORRECTION_ARCMIN:g} "
+                         "arcmin), all a correction table can mean (a wrong unit, or a corrupted file?)")
+    error = -correction
     n = error.size
     breaks = np.arange(n + 1) * (360.0 / n)
     slopes = (np.roll(error, -1) - error) / (360.0 / n)

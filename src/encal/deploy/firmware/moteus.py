@@ -345,6 +345,7 @@ def read_moteus_conf(source_text, *, source=None):
                              "with a compensation_scale; expected 256 entries with a scale, or 32 without")
         revolutions = np.array([entries[i][0] for i in range(OLD_NODES)])
         note = "moteus compensation_table, 32 float bins (firmware before 0x0109)"
+        scaled = " revolutions"
     elif set(entries) == set(range(NODES)):
         if k not in scale:
             raise InputError(f"{where}: the 256-entry compensation_table of source {k} has no "
@@ -355,12 +356,17 @@ def read_moteus_conf(source_text, *, source=None):
             if value != int(value) or not -128 <= value <= 127:
                 raise InputError(f"{where}, line {number}: compensation_table.{i} is {value:g}; expected a whole "
                                  "number from -128 to 127 (an int8)")
-        revolutions = np.array([entries[i][0] for i in range(NODES)]) * scale[k][0] / 127.0
+        with np.errstate(over="ignore"):  # a scale of 1e308 is refused below, as a correction beyond half a turn
+            revolutions = np.array([entries[i][0] for i in range(NODES)]) * scale[k][0] / 127.0
         note = "moteus compensation_table"
+        scaled = f" times compensation_scale {scale[k][0]:g} / 127, line {scale[k][1]}"
     else:
         raise InputError(f"{where}: expected compensation_table.0 to .255 of source {k} (firmware 0x0109 or later) "
                          f"or .0 to .31 (earlier), got {len(entries)} entries")
-    return correction_model(revolutions * 21600.0, name=f"moteus source {k}", note=note)
+    with np.errstate(over="ignore"):
+        correction_arcmin = revolutions * 21600.0
+    return correction_model(correction_arcmin, name=f"moteus source {k}", note=note, where=where,
+                            entry=lambda i: f"compensation_table.{i} on line {entries[i][1]} ({entries[i][0]:g}{scaled})")
 
 
 _DECIMAL_COMMA = re.compile(r"\d,\d")
