@@ -1189,6 +1189,11 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_sweep.csv": "electrical_deg,encoder_deg\n0,0\n6.02e23,1\n",
         "fuzz5_dual.csv": "motor_deg,output_deg\n0,0\n1,6.02e23\n",
         "fuzz5_spin.csv": "time_s,encoder_deg\n0,0\n0.1,1e12\n",
+        # a table whose commas became '|' is one element: the message quoted all of it (10 MB for a long line)
+        "fuzz5_sfoc_long.h": "float calibrationLut[2] = {0.1f| " + "0.2f| " * 100 + "0.3f};\n",
+        "fuzz5_klipper_long.cfg": "[angle s]\ncalibrate:\n    1.0| " + "2.0| " * 100 + "3.0\n",
+        # the output turned 150 degrees: the message did not say in which file
+        "fuzz5_dual_short.csv": "motor_deg,output_deg\n" + "".join(f"{6 * o},{o}\n" for o in range(151)),
     }
     for name, text in texts.items():
         paths[name.replace(".", "_")] = folder / name
@@ -1213,6 +1218,13 @@ FUZZ5_CASES = [
     Case("selfcal-dual-angle-6e23", ("selfcal", "dual", "{fuzz5_dual_csv}", "--ratio", "6", "--motor-cal",
                                      "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
          ("fuzz5_dual.csv", "line 3, column 2", "within +-1e+09")),
+    Case("import-simplefoc-long-element", ("import", "simplefoc", "{fuzz5_sfoc_long_h}", "-o", "{out}/s.json",
+                                           "--firmware-version", "1.0.9"), 1, ("fuzz5_sfoc_long.h", "element 0", "| 0.2f| 0...'")),
+    Case("import-klipper-long-item", ("import", "klipper", "{fuzz5_klipper_long_cfg}", "-o", "{out}/k.csv"), 1,
+         ("fuzz5_klipper_long.cfg", "line 3", "| 2.0| 2.0| '")),
+    Case("selfcal-dual-less-than-a-turn", ("selfcal", "dual", "{fuzz5_dual_short_csv}", "--ratio", "6", "--motor-cal",
+                                           "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_dual_short.csv", "turned 150 deg", "at least one full turn")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]

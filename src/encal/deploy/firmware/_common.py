@@ -197,6 +197,12 @@ def read_text(source):
     return path.read_text(encoding="utf-8", errors="replace"), str(path)
 
 
+def _shown(text, limit=40):
+    """``text`` for a message: whole if short, else its start and '...' (an element may be megabytes long: a table
+    whose commas became another separator is one element)."""
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
 def read_c_array(source, name):
     """The numbers of the C array ``name`` (``... name[N] = { ... };``) in a file or text.
 
@@ -226,11 +232,11 @@ def read_c_array(source, name):
         try:
             value = float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16))
         except ValueError:
-            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {item!r}, expected a number") \
-                from None
+            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {_shown(item)!r}, expected a "
+                             "number") from None
         if not np.isfinite(value):
-            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {item!r}, expected a finite "
-                             "number")
+            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {_shown(item)!r}, expected a "
+                             "finite number")
         values.append(value)
     declared = match.group(1)
     if declared.isdigit() and int(declared) != len(values):
