@@ -228,15 +228,16 @@ def read_c_array(source, name):
         + [len(part) - len(part.lstrip()) for part in parts]
     values = []
     for index, item in enumerate(items):
-        line = text.count("\n", 0, int(starts[index])) + 1
         try:
             value = float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16))
         except ValueError:
+            value = None
+        if value is None or not np.isfinite(value):
+            # the line counted only here: counted for every element, 5 million one-digit elements on one line took
+            # minutes (each count scans the text up to the element)
+            line = text.count("\n", 0, int(starts[index])) + 1
             raise InputError(f"{where}: line {line}: element {index} of {name}[] is {_shown(item)!r}, expected a "
-                             "number") from None
-        if not np.isfinite(value):
-            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {_shown(item)!r}, expected a "
-                             "finite number")
+                             f"{'number' if value is None else 'finite number'}")
         values.append(value)
     declared = match.group(1)
     if declared.isdigit() and int(declared) != len(values):
