@@ -19,6 +19,7 @@ no model file, no temporary file, and an existing output file untouched.
 
 import json
 import os
+import re
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -1552,6 +1553,29 @@ def test_a_single_glitch_is_refused_and_named(tmp_path):
     path = _write(tmp_path, GRID_TRAIN, encoder)
     with pytest.raises(encal.CalibrationError, match="reference 100 deg"):
         encal.read_calibration(path)
+
+
+@pytest.mark.parametrize("row, shift_deg, named", [(0, -80.0, "280 deg at reference 0 deg (a turn on)"),
+                                                    (-1, 100.0, "reads 98.02 deg at reference 358 deg"),
+                                                    (0, 5.0, "reference 0 deg"), (-1, -5.0, "reference 358 deg")])
+def test_a_glitch_in_the_first_or_last_row_is_refused_as_in_any_other(tmp_path, row, shift_deg, named):
+    """Task fuzz5: a glitch in the first row that reads back, or in the last that reads ahead, was accepted with a
+    warning (nothing before the first point to fall below), and `encal fit --method lut` wrote a table that corrected
+    280 deg to 0; the same glitch in row 50 is refused. The turn is now closed by the first point again."""
+    encoder = GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0
+    encoder[row] += shift_deg
+    path = _write(tmp_path, GRID_TRAIN, encoder)
+    with pytest.raises(encal.CalibrationError, match=re.escape(named) + ".*back although the reference went forward"):
+        encal.read_calibration(path)
+    with pytest.raises(encal.CalibrationError, match="back although"):  # arrays: the check of encal.fit
+        encal.fit(encal.Calibration(GRID_TRAIN, encoder), method="lut")
+
+
+def test_an_arc_is_not_closed_into_a_turn(tmp_path):
+    """An arc (10-130 deg) whose error differs by 2 degrees at its two ends is no fold: only a whole turn is closed."""
+    reference = np.arange(10.0, 131.0, 2.0)
+    path = _write(tmp_path, reference, reference + np.linspace(0.0, 2.0, reference.size))
+    assert len(encal.read_calibration(path)) == reference.size
 
 
 def test_noise_below_the_fold_threshold_is_accepted(tmp_path):

@@ -1148,6 +1148,10 @@ def _check_folds(cal, where, order=None, by_reference=None):
             ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
         if ref.size < 2:
             continue
+        if ref[0] + 360.0 - ref[-1] <= MAX_GAP_DEG:
+            # a whole turn: its first point again, a turn on, so that a glitch in the first or the last point (the
+            # first read 81 deg back, nothing before it to fall below) is measured as one in any other point
+            ref, enc = np.append(ref, ref[0] + 360.0), np.append(enc, enc[0])
         step_ref = np.diff(ref)
         travel = np.concatenate([[0.0], np.cumsum(step_ref + wrap180(np.diff(enc) - step_ref))])
         drop = np.maximum.accumulate(travel) - travel
@@ -1156,7 +1160,8 @@ def _check_folds(cal, where, order=None, by_reference=None):
             first = int(np.argmax(travel[: last + 1]))
             raise CalibrationError(
                 f"{where}: the encoder reads {enc[first]:.4g} deg at reference {ref[first]:.4g} deg but "
-                f"{enc[last]:.4g} deg at reference {ref[last]:.4g} deg, {drop[last]:.3g} deg back although the "
+                f"{enc[last]:.4g} deg at reference {wrap360(ref[last]):.4g} deg"
+                f"{' (a turn on)' if ref[last] >= 360.0 else ''}, {drop[last]:.3g} deg back although the "
                 f"reference went forward; expected the encoder angle to increase with the reference (within "
                 f"{MAX_FOLD_DEG:g} deg of noise), since otherwise the error is not a function of the encoder "
                 "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch; or a column "
