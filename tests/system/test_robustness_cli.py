@@ -1184,6 +1184,8 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_sfoc_256.h": "float calibrationLut[4] = {0.001f, 256f, 0.0f, -0.001f};\n",
         "fuzz5_tiny_huge.h": "int32_t rec_table[64] = {" + ", ".join(tiny) + "};\n",
         "fuzz5_tiny_63.h": "int32_t rec_table[] = {" + ", ".join(["0"] * 63) + "};\n",
+        "fuzz5_tiny_1e308.h": "int32_t rec_table[64] = {1e308, " + ", ".join(["0"] * 63) + "};\n",
+        "fuzz5_tiny_half.h": "int32_t rec_table[64] = {" + ", ".join(["0"] * 63) + ", 1.5};\n",
         "fuzz5_moteus_scale.cfg": "".join(f"motor_position.sources.0.compensation_table.{i} {i % 7 - 3}\n"
                                           for i in range(256)) + "motor_position.sources.0.compensation_scale 1e308\n",
         # one glitched angle of 6e23 degrees in a log was read (the written calibration 180 arcmin uncertain)
@@ -1212,6 +1214,10 @@ FUZZ5_CASES = [
                                        "13"), 1, ("fuzz5_tiny_huge.h", "element 17 of rec_table[]", "half a turn")),
     Case("import-tinymovr-63-entries", ("import", "tinymovr", "{fuzz5_tiny_63_h}", "-o", "{out}/t.json", "--bits",
                                         "13"), 1, ("fuzz5_tiny_63.h", "64 rec_table entries, got 63")),
+    Case("import-tinymovr-1e308", ("import", "tinymovr", "{fuzz5_tiny_1e308_h}", "-o", "{out}/t.json", "--bits",
+                                   "13"), 1, ("fuzz5_tiny_1e308.h", "element 0 of rec_table[]", "half a turn")),
+    Case("import-tinymovr-fraction", ("import", "tinymovr", "{fuzz5_tiny_half_h}", "-o", "{out}/t.json", "--bits",
+                                      "13"), 1, ("fuzz5_tiny_half.h", "element 63 of rec_table[] is 1.5", "whole")),
     Case("import-moteus-scale-1e308", ("import", "moteus", "{fuzz5_moteus_scale_cfg}", "-o", "{out}/m.json"), 1,
          ("fuzz5_moteus_scale.cfg", "compensation_table.0 on line 1", "compensation_scale 1e+308", "half a turn")),
     Case("selfcal-sweep-angle-6e23", ("selfcal", "sweep", "{fuzz5_sweep_csv}", "--pole-pairs", "7", "-o",
