@@ -1197,6 +1197,10 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_klipper_long.cfg": "[angle s]\ncalibrate:\n    1.0| " + "2.0| " * 100 + "3.0\n",
         # the output turned 150 degrees: the message did not say in which file
         "fuzz5_dual_short.csv": "motor_deg,output_deg\n" + "".join(f"{6 * o},{o}\n" for o in range(151)),
+        # a 'conf enumerate' dump without the source's sign line was exported for sign 1 (mirrored on a -1 source)
+        "fuzz5_dump_no_sign.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.offset 1000\n",
+        "fuzz5_dump_no_offset.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.sign -1\n",
+        "fuzz5_dump_offset_1e300.txt": "motor_position.sources.0.sign -1\nmotor_position.sources.0.offset 1e300\n",
     }
     for name, text in texts.items():
         paths[name.replace(".", "_")] = folder / name
@@ -1232,6 +1236,15 @@ FUZZ5_CASES = [
     Case("selfcal-dual-less-than-a-turn", ("selfcal", "dual", "{fuzz5_dual_short_csv}", "--ratio", "6", "--motor-cal",
                                            "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
          ("fuzz5_dual_short.csv", "turned 150 deg", "at least one full turn")),
+    Case("export-moteus-conf-without-sign", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg", "--conf",
+                                             "{fuzz5_dump_no_sign_txt}"), 1,
+         ("fuzz5_dump_no_sign.txt", "no motor_position.sources.0.sign line")),
+    Case("export-moteus-conf-without-offset", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg",
+                                               "--conf", "{fuzz5_dump_no_offset_txt}"), 1,
+         ("fuzz5_dump_no_offset.txt", "no motor_position.sources.0.offset line")),
+    Case("export-moteus-conf-offset-1e300", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg",
+                                             "--conf", "{fuzz5_dump_offset_1e300_txt}"), 1,
+         ("fuzz5_dump_offset_1e300.txt", "line 2", "offset is '1e300'")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]

@@ -267,6 +267,9 @@ def read_moteus_source_config(source_text, *, source=0):
             found["sign"] = 1 if _conf_number(where, number, field, value, whole=True) >= 0 else -1
         elif field == "offset":
             found["offset"] = _conf_number(where, number, field, value)
+            if abs(found["offset"]) > 2.0**30:  # as export_moteus checks it, here naming the line
+                raise InputError(f"{where}, line {number}: offset is {value[:40]!r}; expected counts within "
+                                 f"+-2^30 ({2.0**30:g})")
         elif field == "cpr":
             cpr = int(_conf_number(where, number, field, value, whole=True))
             if cpr < 1 or cpr & (cpr - 1):
