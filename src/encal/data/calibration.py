@@ -623,17 +623,22 @@ MISREAD_EFFECT = ("It pulls every model towards it, and one that passes through 
 
 
 def _resolution_from_comments(path, lines):
+    found = None  # (line number, bits) of the first declaration
     for number, line in enumerate(lines, start=1):
         if not line.lstrip().startswith("#"):
             continue
         stripped = line.strip().lstrip("#").strip().lower()
         if stripped.startswith("resolution_bits"):
             value = stripped.split(":", 1)[-1].split("=", 1)[-1].strip()
-            if value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_BITS:  # not '²': int() refuses it
-                return int(value)
-            _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
-                                f"{MAX_BITS}")
-    return None
+            if not (value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_BITS):  # not '²': int() refuses it
+                _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
+                                    f"{MAX_BITS}")
+            if found is None:
+                found = (number, int(value))
+            elif int(value) != found[1]:  # fuzz5: the first of two was taken, silently
+                _fail(path, number, f"resolution_bits is {int(value)} but line {found[0]} says {found[1]}; expected "
+                                    "one resolution (remove one of the comments)")
+    return None if found is None else found[1]
 
 
 def _warn_if_radians(path, columns):
