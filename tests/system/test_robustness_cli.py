@@ -1203,6 +1203,8 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_dump_offset_1e300.txt": "motor_position.sources.0.sign -1\nmotor_position.sources.0.offset 1e300\n",
         # two resolutions declared: the first was taken silently (a 12-bit LSB on 16-bit readings)
         "fuzz5_two_bits.csv": "# resolution_bits: 12\n# resolution_bits: 16\n" + Path(paths["train"]).read_text(),
+        # -1e308 revolutions is -inf degrees: the message named no line
+        "fuzz5_compare.txt": "".join(f"{i / 20} {-1e308 if i == 3 else i / 20}\n" for i in range(20)),
     }
     for name, text in texts.items():
         paths[name.replace(".", "_")] = folder / name
@@ -1249,6 +1251,8 @@ FUZZ5_CASES = [
          ("fuzz5_dump_offset_1e300.txt", "line 2", "offset is '1e300'")),
     Case("profile-two-resolutions", ("profile", "{fuzz5_two_bits_csv}"), 1,
          ("fuzz5_two_bits.csv", "line 2", "resolution_bits is 16 but line 1 says 12")),
+    Case("import-moteus-compare-1e308", ("import", "moteus-compare", "{fuzz5_compare_txt}", "-o", "{out}/c.csv"), 1,
+         ("fuzz5_compare.txt", "line 4, column 2", "-1e+308")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]

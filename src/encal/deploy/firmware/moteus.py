@@ -41,7 +41,7 @@ import re
 
 import numpy as np
 
-from ...data.calibration import Calibration
+from ...data.calibration import MAX_ABS_DEG, Calibration
 from ..._core.errors import CalibrationError, InputError
 from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
 from ...selfcal.sweep import DEFAULT_SKIP, check_sweep_travel
@@ -392,6 +392,10 @@ def _pair_fields(where, number, line):
             value = None
         if value is None or not math.isfinite(value):
             raise CalibrationError(f"{where}, line {number}, column {column}: expected a finite number, "
+                                   f"got {field[:40]!r}")
+        if abs(value) * 360.0 > MAX_ABS_DEG:  # fuzz5: -1e308 revolutions was -inf degrees, a message naming no line
+            raise CalibrationError(f"{where}, line {number}, column {column}: expected revolutions within "
+                                   f"+-{MAX_ABS_DEG / 360.0:.4g} (+-{MAX_ABS_DEG:g} degrees, as in a calibration CSV), "
                                    f"got {field[:40]!r}")
         values.append(value)
     return values
