@@ -1205,6 +1205,9 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_two_bits.csv": "# resolution_bits: 12\n# resolution_bits: 16\n" + Path(paths["train"]).read_text(),
         # -1e308 revolutions is -inf degrees: the message named no line
         "fuzz5_compare.txt": "".join(f"{i / 20} {-1e308 if i == 3 else i / 20}\n" for i in range(20)),
+        # a lookup[] angle of 6.02e23 degrees was written to the calibration, wrapped into a turn
+        "fuzz5_mechaduino.h": "const float lookup[16384] = {\n" + ", ".join(
+            ["6.02e23" if i == 5 else f"{i * 360 / 16384:.3f}" for i in range(16384)]) + "\n};\n",
     }
     for name, text in texts.items():
         paths[name.replace(".", "_")] = folder / name
@@ -1253,6 +1256,8 @@ FUZZ5_CASES = [
          ("fuzz5_two_bits.csv", "line 2", "resolution_bits is 16 but line 1 says 12")),
     Case("import-moteus-compare-1e308", ("import", "moteus-compare", "{fuzz5_compare_txt}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_compare.txt", "line 4, column 2", "-1e+308")),
+    Case("import-mechaduino-6e23", ("import", "mechaduino", "{fuzz5_mechaduino_h}", "-o", "{out}/c.csv"), 1,
+         ("fuzz5_mechaduino.h", "element 5 of lookup[]", "within +-1e+09")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]
