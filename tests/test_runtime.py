@@ -135,7 +135,7 @@ def test_runtime_verifies_the_checksum(tmp_path):
 
 
 def test_a_bad_row_is_described_not_quoted(tmp_path):
-    """Task fuzz5: a coefficient row replaced by a list of numbers was quoted whole (180 numbers, 3 kB) in the message."""
+    """Task fuzz5: a list holding a row where a number belongs quoted the row whole (180 numbers, 3 kB)."""
     document = json.loads((DATA / "model_v1_lut.json").read_text(encoding="utf-8"))
     coefficients = document["parameters"]["coefficients"]
     coefficients[1] = 0.5  # a number in place of a row: the other rows are the list's values that are no number

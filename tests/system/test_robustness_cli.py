@@ -1173,6 +1173,16 @@ CASES += STEP_DIRECTION_CASES
 # ---------------------------------------------------------------- task fuzz5: mutation fuzzing of the input files
 
 
+def _joint_rows(outputs_deg):
+    """Rows ``motor_deg,output_deg`` of a 6:1 joint at these output angles, each encoder with a small error."""
+    rows = []
+    for output in outputs_deg:
+        motor = 6.0 * output
+        rows.append(f"{motor + 0.2 * np.sin(np.radians(3 * motor)):.6f},"
+                    f"{output + 0.05 * np.sin(np.radians(output)):.6f}\n")
+    return rows
+
+
 def _make_fuzz5_files(folder, paths):
     """The reproducers the mutation fuzzer of task fuzz5 found, minimised."""
     tiny = ["0"] * 64
@@ -1197,6 +1207,11 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_klipper_long.cfg": "[angle s]\ncalibrate:\n    1.0| " + "2.0| " * 100 + "3.0\n",
         # the output turned 150 degrees: the message did not say in which file
         "fuzz5_dual_short.csv": "motor_deg,output_deg\n" + "".join(f"{6 * o},{o}\n" for o in range(151)),
+        # a 6:1 joint log: --ratio 12 doubled the motor's profile, exit 0; rows out of time order were fitted (a motor
+        # profile of 0 +- 1e-147 arcmin)
+        "fuzz5_joint.csv": "motor_deg,output_deg\n" + "".join(_joint_rows(range(400))),
+        "fuzz5_joint_shuffled.csv": "motor_deg,output_deg\n" + "".join(_joint_rows([*range(10), 200, *range(11, 200),
+                                                                                      10, *range(201, 400)])),
         # a 'conf enumerate' dump without the source's sign line was exported for sign 1 (mirrored on a -1 source)
         "fuzz5_dump_no_sign.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.offset 1000\n",
         "fuzz5_dump_no_offset.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.sign -1\n",
@@ -1237,7 +1252,8 @@ FUZZ5_CASES = [
                                      "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
          ("fuzz5_dual.csv", "line 3, column 2", "within +-1e+09")),
     Case("import-simplefoc-long-element", ("import", "simplefoc", "{fuzz5_sfoc_long_h}", "-o", "{out}/s.json",
-                                           "--firmware-version", "1.0.9"), 1, ("fuzz5_sfoc_long.h", "element 0", "| 0.2f| 0...'")),
+                                           "--firmware-version", "1.0.9"), 1,
+         ("fuzz5_sfoc_long.h", "element 0", "| 0.2f| 0...'")),
     Case("import-klipper-long-item", ("import", "klipper", "{fuzz5_klipper_long_cfg}", "-o", "{out}/k.csv"), 1,
          ("fuzz5_klipper_long.cfg", "line 3", "| 2.0| 2.0| '")),
     Case("selfcal-dual-less-than-a-turn", ("selfcal", "dual", "{fuzz5_dual_short_csv}", "--ratio", "6", "--motor-cal",
@@ -1258,6 +1274,14 @@ FUZZ5_CASES = [
          ("fuzz5_compare.txt", "line 4, column 2", "-1e+308")),
     Case("import-mechaduino-6e23", ("import", "mechaduino", "{fuzz5_mechaduino_h}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_mechaduino.h", "element 5 of lookup[]", "within +-1e+09")),
+    Case("selfcal-dual-wrong-ratio", ("selfcal", "dual", "{fuzz5_joint_csv}", "--ratio", "12", "--motor-cal",
+                                      "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_joint.csv", "the gear ratio is 12", "is it --ratio 6?")),
+    Case("selfcal-dual-right-ratio", ("selfcal", "dual", "{fuzz5_joint_csv}", "--ratio", "6", "--motor-cal",
+                                      "{scratch}/fuzz5_m.csv", "--output-cal", "{scratch}/fuzz5_o.csv"), 0),
+    Case("selfcal-dual-out-of-order", ("selfcal", "dual", "{fuzz5_joint_shuffled_csv}", "--ratio", "6", "--motor-cal",
+                                       "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_joint_shuffled.csv", "between readings 10 and 11", "at most 90 deg")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]

@@ -369,7 +369,8 @@ def read_moteus_conf(source_text, *, source=None):
     with np.errstate(over="ignore"):
         correction_arcmin = revolutions * 21600.0
     return correction_model(correction_arcmin, name=f"moteus source {k}", note=note, where=where,
-                            entry=lambda i: f"compensation_table.{i} on line {entries[i][1]} ({entries[i][0]:g}{scaled})")
+                            entry=lambda i: f"compensation_table.{i} on line {entries[i][1]} "
+                                            f"({entries[i][0]:g}{scaled})")
 
 
 _DECIMAL_COMMA = re.compile(r"\d,\d")
