@@ -1212,6 +1212,10 @@ def _make_fuzz5_files(folder, paths):
         "fuzz5_joint.csv": "motor_deg,output_deg\n" + "".join(_joint_rows(range(400))),
         "fuzz5_joint_shuffled.csv": "motor_deg,output_deg\n" + "".join(_joint_rows([*range(10), 200, *range(11, 200),
                                                                                       10, *range(201, 400)])),
+        # one row's epoch label mistyped: drift gave that 'epoch' of one point a verdict, exit 0
+        "fuzz5_epochs.csv": "reference_deg,encoder_deg,epoch\n" + "".join(
+            f"{r!r},{float(r + _profile_arcmin(r) / 60.0)!r},{'Epoch1' if i == 50 else 'epoch1'}\n"
+            for i, r in enumerate(GRID_TRAIN.tolist())),
         # a 'conf enumerate' dump without the source's sign line was exported for sign 1 (mirrored on a -1 source)
         "fuzz5_dump_no_sign.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.offset 1000\n",
         "fuzz5_dump_no_offset.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.sign -1\n",
@@ -1282,6 +1286,8 @@ FUZZ5_CASES = [
     Case("selfcal-dual-out-of-order", ("selfcal", "dual", "{fuzz5_joint_shuffled_csv}", "--ratio", "6", "--motor-cal",
                                        "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
          ("fuzz5_joint_shuffled.csv", "between readings 10 and 11", "at most 90 deg")),
+    Case("drift-epoch-of-one-point", ("drift", "{fuzz5_epochs_csv}"), 1,
+         ("fuzz5_epochs.csv", "epoch Epoch1 has 1 calibration point", "at least 8 in each epoch")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]
