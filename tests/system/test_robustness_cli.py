@@ -1288,6 +1288,8 @@ FUZZ5_CASES = [
          ("fuzz5_joint_shuffled.csv", "between readings 10 and 11", "at most 90 deg")),
     Case("drift-epoch-of-one-point", ("drift", "{fuzz5_epochs_csv}"), 1,
          ("fuzz5_epochs.csv", "epoch Epoch1 has 1 calibration point", "at least 8 in each epoch")),
+    Case("report-epoch-of-one-point", ("report", "{fuzz5_epochs_csv}", "-o", "{out}/r.html", "--no-uncertainty"), 1,
+         ("fuzz5_epochs.csv", "epoch Epoch1 has 1 calibration point")),
     Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]

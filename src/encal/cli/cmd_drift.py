@@ -48,7 +48,6 @@ def add_arguments(parser):
 
 def run(args):
     from ..reports.drift import circular_mean_offset_arcmin, compare_calibrations, split_epochs
-    from ..data.calibration import MIN_POINTS
     from ..analysis.profile import zero_is_arbitrary, zero_sentence
 
     check_paths(inputs=[*((path, "calibration") for path in args.calibrations), (args.model, "model")])
@@ -56,11 +55,6 @@ def run(args):
     for path in args.calibrations:
         cal = read_calibration_from_args(path, args)
         runs = split_epochs(cal) if len(args.calibrations) == 1 else [cal]
-        few = [run for run in runs if len(run) < MIN_POINTS]
-        if few:  # fuzz5: an epoch of one row (a typo in its label) got a verdict, as a file of one row could not
-            raise InputError(f"{path}: epoch {few[0].epoch[0]} has {len(few[0])} calibration point"
-                             f"{'' if len(few[0]) == 1 else 's'}, expected at least {MIN_POINTS} in each epoch, as in "
-                             "a calibration file (is its label mistyped?)")
         cals.extend(runs)
         labels.extend([Path(path).name] if len(runs) == 1 else [str(run.epoch[0]) for run in runs])
     model = None
