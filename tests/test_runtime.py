@@ -134,6 +134,19 @@ def test_runtime_verifies_the_checksum(tmp_path):
         runtime.load(path)
 
 
+def test_a_bad_row_is_described_not_quoted(tmp_path):
+    """Task fuzz5: a list holding a row where a number belongs quoted the row whole (180 numbers, 3 kB)."""
+    document = json.loads((DATA / "model_v1_lut.json").read_text(encoding="utf-8"))
+    coefficients = document["parameters"]["coefficients"]
+    coefficients[1] = 0.5  # a number in place of a row: the other rows are the list's values that are no number
+    document["sha256"] = runtime.content_sha256({k: v for k, v in document.items() if k != "sha256"})
+    path = tmp_path / "m.json"
+    path.write_text(json.dumps(document), encoding="utf-8")
+    with pytest.raises(ModelFileError, match=r"including a list of \d+ values$") as refused:
+        runtime.load(path)
+    assert len(str(refused.value)) < 300
+
+
 def test_runtime_errors_are_value_errors():
     assert issubclass(ModelFileError, ValueError)
 

@@ -612,7 +612,7 @@ def _describe(value):
             lengths = sorted({len(row) for row in value})
             return f"{len(value)} rows of {'/'.join(map(str, lengths))} values"
         bad = [v for v in value if not _is_number(v)]
-        detail = f" including {json.dumps(bad[0])}" if bad else ""
+        detail = f" including {_describe(bad[0])}" if bad else ""  # short: a row of 180 numbers was quoted whole
         return f"a list of {len(value)} values{detail}"
     text = json.dumps(value)
     return text if len(text) <= 60 else text[:57] + "..."

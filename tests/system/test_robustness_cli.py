@@ -19,6 +19,7 @@ no model file, no temporary file, and an existing output file untouched.
 
 import json
 import os
+import re
 import subprocess
 import sys
 from dataclasses import dataclass, field
@@ -176,6 +177,7 @@ def _make_files(folder):
     _make_issue25_files(folder, paths, document)
     _make_files_and_paths_files(folder, paths, good)
     _make_plausibility_files(folder, paths)
+    _make_fuzz5_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1168,6 +1170,131 @@ STEP_DIRECTION_CASES = [
 ]
 CASES += STEP_DIRECTION_CASES
 
+# ---------------------------------------------------------------- task fuzz5: mutation fuzzing of the input files
+
+
+def _joint_rows(outputs_deg):
+    """Rows ``motor_deg,output_deg`` of a 6:1 joint at these output angles, each encoder with a small error."""
+    rows = []
+    for output in outputs_deg:
+        motor = 6.0 * output
+        rows.append(f"{motor + 0.2 * np.sin(np.radians(3 * motor)):.6f},"
+                    f"{output + 0.05 * np.sin(np.radians(output)):.6f}\n")
+    return rows
+
+
+def _make_fuzz5_files(folder, paths):
+    """The reproducers the mutation fuzzer of task fuzz5 found, minimised."""
+    tiny = ["0"] * 64
+    tiny[17] = "2147483647"  # 2^31 - 1 ticks of a 13-bit sensor: 262,144 turns
+    texts = {
+        # a float entry beyond float32 (C reads 1e308f as infinity): was a message naming neither file nor entry
+        "fuzz5_sfoc_huge.h": "float calibrationLut[4] = {0.001f, 1e308f, 0.0f, -0.001f};\n",
+        # 256 radians (a wrong unit, a flipped byte) was read as a correction of 14,668 degrees
+        "fuzz5_sfoc_256.h": "float calibrationLut[4] = {0.001f, 256f, 0.0f, -0.001f};\n",
+        "fuzz5_tiny_huge.h": "int32_t rec_table[64] = {" + ", ".join(tiny) + "};\n",
+        "fuzz5_tiny_63.h": "int32_t rec_table[] = {" + ", ".join(["0"] * 63) + "};\n",
+        "fuzz5_tiny_1e308.h": "int32_t rec_table[64] = {1e308, " + ", ".join(["0"] * 63) + "};\n",
+        "fuzz5_tiny_half.h": "int32_t rec_table[64] = {" + ", ".join(["0"] * 63) + ", 1.5};\n",
+        "fuzz5_moteus_scale.cfg": "".join(f"motor_position.sources.0.compensation_table.{i} {i % 7 - 3}\n"
+                                          for i in range(256)) + "motor_position.sources.0.compensation_scale 1e308\n",
+        # one glitched angle of 6e23 degrees in a log was read (the written calibration 180 arcmin uncertain)
+        "fuzz5_sweep.csv": "electrical_deg,encoder_deg\n0,0\n6.02e23,1\n",
+        "fuzz5_dual.csv": "motor_deg,output_deg\n0,0\n1,6.02e23\n",
+        "fuzz5_spin.csv": "time_s,encoder_deg\n0,0\n0.1,1e12\n",
+        # a table whose commas became '|' is one element: the message quoted all of it (10 MB for a long line)
+        "fuzz5_sfoc_long.h": "float calibrationLut[2] = {0.1f| " + "0.2f| " * 100 + "0.3f};\n",
+        "fuzz5_klipper_long.cfg": "[angle s]\ncalibrate:\n    1.0| " + "2.0| " * 100 + "3.0\n",
+        # the output turned 150 degrees: the message did not say in which file
+        "fuzz5_dual_short.csv": "motor_deg,output_deg\n" + "".join(f"{6 * o},{o}\n" for o in range(151)),
+        # a 6:1 joint log: --ratio 12 doubled the motor's profile, exit 0; rows out of time order were fitted (a motor
+        # profile of 0 +- 1e-147 arcmin)
+        "fuzz5_joint.csv": "motor_deg,output_deg\n" + "".join(_joint_rows(range(400))),
+        "fuzz5_joint_shuffled.csv": "motor_deg,output_deg\n" + "".join(_joint_rows([*range(10), 200, *range(11, 200),
+                                                                                      10, *range(201, 400)])),
+        # one row's epoch label mistyped: drift gave that 'epoch' of one point a verdict, exit 0
+        "fuzz5_epochs.csv": "reference_deg,encoder_deg,epoch\n" + "".join(
+            f"{r!r},{float(r + _profile_arcmin(r) / 60.0)!r},{'Epoch1' if i == 50 else 'epoch1'}\n"
+            for i, r in enumerate(GRID_TRAIN.tolist())),
+        # a 'conf enumerate' dump without the source's sign line was exported for sign 1 (mirrored on a -1 source)
+        "fuzz5_dump_no_sign.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.offset 1000\n",
+        "fuzz5_dump_no_offset.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.sign -1\n",
+        "fuzz5_dump_offset_1e300.txt": "motor_position.sources.0.sign -1\nmotor_position.sources.0.offset 1e300\n",
+        # two resolutions declared: the first was taken silently (a 12-bit LSB on 16-bit readings)
+        "fuzz5_two_bits.csv": "# resolution_bits: 12\n# resolution_bits: 16\n" + Path(paths["train"]).read_text(),
+        # -1e308 revolutions is -inf degrees: the message named no line
+        "fuzz5_compare.txt": "".join(f"{i / 20} {-1e308 if i == 3 else i / 20}\n" for i in range(20)),
+        # a lookup[] angle of 6.02e23 degrees was written to the calibration, wrapped into a turn
+        "fuzz5_mechaduino.h": "const float lookup[16384] = {\n" + ", ".join(
+            ["6.02e23" if i == 5 else f"{i * 360 / 16384:.3f}" for i in range(16384)]) + "\n};\n",
+    }
+    for name, text in texts.items():
+        paths[name.replace(".", "_")] = folder / name
+        paths[name.replace(".", "_")].write_text(text, encoding="utf-8")
+
+
+FUZZ5_CASES = [
+    Case("import-simplefoc-beyond-float32", ("import", "simplefoc", "{fuzz5_sfoc_huge_h}", "-o", "{out}/s.json",
+                                             "--firmware-version", "1.0.9"), 1,
+         ("fuzz5_sfoc_huge.h", "element 1 of calibrationLut[]", "half a turn")),
+    Case("import-simplefoc-256-radians", ("import", "simplefoc", "{fuzz5_sfoc_256_h}", "-o", "{out}/s.json",
+                                          "--firmware-version", "1.0.8"), 1,
+         ("fuzz5_sfoc_256.h", "element 1 of calibrationLut[] (256)", "half a turn")),
+    Case("import-tinymovr-int32-max", ("import", "tinymovr", "{fuzz5_tiny_huge_h}", "-o", "{out}/t.json", "--bits",
+                                       "13"), 1, ("fuzz5_tiny_huge.h", "element 17 of rec_table[]", "half a turn")),
+    Case("import-tinymovr-63-entries", ("import", "tinymovr", "{fuzz5_tiny_63_h}", "-o", "{out}/t.json", "--bits",
+                                        "13"), 1, ("fuzz5_tiny_63.h", "64 rec_table entries, got 63")),
+    Case("import-tinymovr-1e308", ("import", "tinymovr", "{fuzz5_tiny_1e308_h}", "-o", "{out}/t.json", "--bits",
+                                   "13"), 1, ("fuzz5_tiny_1e308.h", "element 0 of rec_table[]", "half a turn")),
+    Case("import-tinymovr-fraction", ("import", "tinymovr", "{fuzz5_tiny_half_h}", "-o", "{out}/t.json", "--bits",
+                                      "13"), 1, ("fuzz5_tiny_half.h", "element 63 of rec_table[] is 1.5", "whole")),
+    Case("import-moteus-scale-1e308", ("import", "moteus", "{fuzz5_moteus_scale_cfg}", "-o", "{out}/m.json"), 1,
+         ("fuzz5_moteus_scale.cfg", "compensation_table.0 on line 1", "compensation_scale 1e+308", "half a turn")),
+    Case("selfcal-sweep-angle-6e23", ("selfcal", "sweep", "{fuzz5_sweep_csv}", "--pole-pairs", "7", "-o",
+                                      "{out}/c.csv"), 1, ("fuzz5_sweep.csv", "line 3, column 1", "within +-1e+09")),
+    Case("selfcal-dual-angle-6e23", ("selfcal", "dual", "{fuzz5_dual_csv}", "--ratio", "6", "--motor-cal",
+                                     "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_dual.csv", "line 3, column 2", "within +-1e+09")),
+    Case("import-simplefoc-long-element", ("import", "simplefoc", "{fuzz5_sfoc_long_h}", "-o", "{out}/s.json",
+                                           "--firmware-version", "1.0.9"), 1,
+         ("fuzz5_sfoc_long.h", "element 0", "| 0.2f| 0...'")),
+    Case("import-klipper-long-item", ("import", "klipper", "{fuzz5_klipper_long_cfg}", "-o", "{out}/k.csv"), 1,
+         ("fuzz5_klipper_long.cfg", "line 3", "| 2.0| 2.0| '")),
+    Case("selfcal-dual-less-than-a-turn", ("selfcal", "dual", "{fuzz5_dual_short_csv}", "--ratio", "6", "--motor-cal",
+                                           "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_dual_short.csv", "turned 150 deg", "at least one full turn")),
+    Case("export-moteus-conf-without-sign", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg", "--conf",
+                                             "{fuzz5_dump_no_sign_txt}"), 1,
+         ("fuzz5_dump_no_sign.txt", "no motor_position.sources.0.sign line")),
+    Case("export-moteus-conf-without-offset", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg",
+                                               "--conf", "{fuzz5_dump_no_offset_txt}"), 1,
+         ("fuzz5_dump_no_offset.txt", "no motor_position.sources.0.offset line")),
+    Case("export-moteus-conf-offset-1e300", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg",
+                                             "--conf", "{fuzz5_dump_offset_1e300_txt}"), 1,
+         ("fuzz5_dump_offset_1e300.txt", "line 2", "offset is '1e300'")),
+    Case("profile-two-resolutions", ("profile", "{fuzz5_two_bits_csv}"), 1,
+         ("fuzz5_two_bits.csv", "line 2", "resolution_bits is 16 but line 1 says 12")),
+    Case("import-moteus-compare-1e308", ("import", "moteus-compare", "{fuzz5_compare_txt}", "-o", "{out}/c.csv"), 1,
+         ("fuzz5_compare.txt", "line 4, column 2", "-1e+308")),
+    Case("import-mechaduino-6e23", ("import", "mechaduino", "{fuzz5_mechaduino_h}", "-o", "{out}/c.csv"), 1,
+         ("fuzz5_mechaduino.h", "element 5 of lookup[]", "within +-1e+09")),
+    Case("selfcal-dual-wrong-ratio", ("selfcal", "dual", "{fuzz5_joint_csv}", "--ratio", "12", "--motor-cal",
+                                      "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_joint.csv", "the gear ratio is 12", "is it --ratio 6?")),
+    Case("selfcal-dual-right-ratio", ("selfcal", "dual", "{fuzz5_joint_csv}", "--ratio", "6", "--motor-cal",
+                                      "{scratch}/fuzz5_m.csv", "--output-cal", "{scratch}/fuzz5_o.csv"), 0),
+    Case("selfcal-dual-out-of-order", ("selfcal", "dual", "{fuzz5_joint_shuffled_csv}", "--ratio", "6", "--motor-cal",
+                                       "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("fuzz5_joint_shuffled.csv", "between readings 10 and 11", "at most 90 deg")),
+    Case("drift-epoch-of-one-point", ("drift", "{fuzz5_epochs_csv}"), 1,
+         ("fuzz5_epochs.csv", "epoch Epoch1 has 1 calibration point", "at least 8 in each epoch")),
+    Case("report-epoch-of-one-point", ("report", "{fuzz5_epochs_csv}", "-o", "{out}/r.html", "--no-uncertainty"), 1,
+         ("fuzz5_epochs.csv", "epoch Epoch1 has 1 calibration point")),
+    Case("selfcal-spin-angle-1e12", ("selfcal", "spin", "{fuzz5_spin_csv}", "-o", "{out}/c.csv"), 1,
+         ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
+]
+CASES += FUZZ5_CASES
+
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
 _DRIVER = r'''
@@ -1490,6 +1617,29 @@ def test_a_single_glitch_is_refused_and_named(tmp_path):
     path = _write(tmp_path, GRID_TRAIN, encoder)
     with pytest.raises(encal.CalibrationError, match="reference 100 deg"):
         encal.read_calibration(path)
+
+
+@pytest.mark.parametrize("row, shift_deg, named", [(0, -80.0, "280 deg at reference 0 deg (a turn on)"),
+                                                    (-1, 100.0, "reads 98.02 deg at reference 358 deg"),
+                                                    (0, 5.0, "reference 0 deg"), (-1, -5.0, "reference 358 deg")])
+def test_a_glitch_in_the_first_or_last_row_is_refused_as_in_any_other(tmp_path, row, shift_deg, named):
+    """Task fuzz5: a glitch in the first row that reads back, or in the last that reads ahead, was accepted with a
+    warning (nothing before the first point to fall below), and `encal fit --method lut` wrote a table that corrected
+    280 deg to 0; the same glitch in row 50 is refused. The turn is now closed by the first point again."""
+    encoder = GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0
+    encoder[row] += shift_deg
+    path = _write(tmp_path, GRID_TRAIN, encoder)
+    with pytest.raises(encal.CalibrationError, match=re.escape(named) + ".*back although the reference went forward"):
+        encal.read_calibration(path)
+    with pytest.raises(encal.CalibrationError, match="back although"):  # arrays: the check of encal.fit
+        encal.fit(encal.Calibration(GRID_TRAIN, encoder), method="lut")
+
+
+def test_an_arc_is_not_closed_into_a_turn(tmp_path):
+    """An arc (10-130 deg) whose error differs by 2 degrees at its two ends is no fold: only a whole turn is closed."""
+    reference = np.arange(10.0, 131.0, 2.0)
+    path = _write(tmp_path, reference, reference + np.linspace(0.0, 2.0, reference.size))
+    assert len(encal.read_calibration(path)) == reference.size
 
 
 def test_noise_below_the_fold_threshold_is_accepted(tmp_path):

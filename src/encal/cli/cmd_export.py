@@ -216,6 +216,11 @@ def _moteus_options(args):
         args.export_parser.error("--conf reads the sign and offset of the source from the dump; expected it without "
                                  "--sign and --offset")
     device = read_moteus_source_config(args.conf, source=args.source)
+    missing = [key for key in ("sign", "offset") if key not in device]
+    if missing:  # fuzz5: a dump without the sign line was exported for sign 1, a mirrored table on a sign -1 source
+        raise InputError(f"{args.conf}: no motor_position.sources.{args.source}.{missing[0]} line; expected the sign "
+                         "and offset of the source, as 'conf enumerate' writes them (or --sign and --offset without "
+                         "--conf)")
     if device["table_entries"] == OLD_NODES:
         raise InputError(f"{args.conf}: source {args.source} has a 32-entry compensation_table, firmware before "
                          f"0x0109; expected firmware 0x0109 or later ({NODES} int8 entries and a scale), which is "

@@ -242,8 +242,11 @@ def _dual(args):
     if Path(args.motor_cal).resolve() == Path(args.output_cal).resolve():
         raise InputError(f"--motor-cal and --output-cal are both {args.motor_cal}; expected two files")
     motor, output, name = read_dual_log(args.log)
-    result = dual(motor, output, args.ratio, motor_orders=args.max_order, output_orders=args.max_order,
-                  pinion_teeth=args.pinion_teeth, name=name)
+    try:
+        result = dual(motor, output, args.ratio, motor_orders=args.max_order, output_orders=args.max_order,
+                      pinion_teeth=args.pinion_teeth, name=name)
+    except InputError as exc:  # the library's sentence is about arrays: say which file they came from
+        raise InputError(f"{args.log}: {exc}") from None
     with atomic_file_set():
         result.motor.write(args.motor_cal, points=args.points)
         result.output.write(args.output_cal, points=args.points)

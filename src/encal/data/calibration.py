@@ -655,17 +655,22 @@ MISREAD_EFFECT = ("It pulls every model towards it, and one that passes through 
 
 
 def _resolution_from_comments(path, lines):
+    found = None  # (line number, bits) of the first declaration
     for number, line in enumerate(lines, start=1):
         if not line.lstrip().startswith("#"):
             continue
         stripped = line.strip().lstrip("#").strip().lower()
         if stripped.startswith("resolution_bits"):
             value = stripped.split(":", 1)[-1].split("=", 1)[-1].strip()
-            if value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_BITS:  # not '²': int() refuses it
-                return int(value)
-            _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
-                                f"{MAX_BITS}")
-    return None
+            if not (value.isascii() and value.isdigit() and 1 <= int(value) <= MAX_BITS):  # not '²': int() refuses it
+                _fail(path, number, f"resolution_bits is {value!r}, expected a whole number of bits from 1 to "
+                                    f"{MAX_BITS}")
+            if found is None:
+                found = (number, int(value))
+            elif int(value) != found[1]:  # fuzz5: the first of two was taken, silently
+                _fail(path, number, f"resolution_bits is {int(value)} but line {found[0]} says {found[1]}; expected "
+                                    "one resolution (remove one of the comments)")
+    return None if found is None else found[1]
 
 
 def _warn_if_radians(path, columns):
@@ -1189,6 +1194,10 @@ def _find_folds(cal, where, order, by_reference):
             ref, enc = cal.reference_deg[run_order], cal.encoder_deg[run_order]
         if ref.size < 2:
             continue
+        if ref[0] + 360.0 - ref[-1] <= MAX_GAP_DEG:
+            # a whole turn: its first point again, a turn on, so that a glitch in the first or the last point (the
+            # first read 81 deg back, nothing before it to fall below) is measured as one in any other point
+            ref, enc = np.append(ref, ref[0] + 360.0), np.append(enc, enc[0])
         step_ref = np.diff(ref)
         travel = np.concatenate([[0.0], np.cumsum(step_ref + wrap180(np.diff(enc) - step_ref))])
         drop = np.maximum.accumulate(travel) - travel
@@ -1197,7 +1206,8 @@ def _find_folds(cal, where, order, by_reference):
             first = int(np.argmax(travel[: last + 1]))
             raise CalibrationError(
                 f"{where}: the encoder reads {enc[first]:.4g} deg at reference {ref[first]:.4g} deg but "
-                f"{enc[last]:.4g} deg at reference {ref[last]:.4g} deg, {drop[last]:.3g} deg back although the "
+                f"{enc[last]:.4g} deg at reference {wrap360(ref[last]):.4g} deg"
+                f"{' (a turn on)' if ref[last] >= 360.0 else ''}, {drop[last]:.3g} deg back although the "
                 f"reference went forward; expected the encoder angle to increase with the reference (within "
                 f"{MAX_FOLD_DEG:g} deg of noise), since otherwise the error is not a function of the encoder "
                 "angle (an error of tens of degrees that folds over, a slipping coupling or a glitch; or a column "

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings, wrap180, wrap360
-from ..data.calibration import MAX_BITS, Calibration
+from ..data.calibration import MAX_BITS, MIN_POINTS, Calibration
 from .._core.errors import InputError
 from ..models.base import Model
 from .._core.parameters import check_choice, check_int, check_number, check_type, invalid
@@ -222,11 +222,24 @@ class DriftReport:
 
 
 def split_epochs(cal):
-    """The runs of a calibration with an ``epoch`` column, one calibration per label, in order of appearance."""
+    """The runs of a calibration with an ``epoch`` column, one calibration per label, in order of appearance.
+
+    Raises
+    ------
+    InputError
+        If an epoch has fewer than ``MIN_POINTS`` (8) points, as a calibration file may not (fuzz5: one row
+        whose label was mistyped got a drift verdict of its own).
+    """
     if cal.epoch is None:
         return [cal]
     labels = dict.fromkeys(cal.epoch.tolist())  # first appearance order
-    return [cal.subset(cal.epoch == label) for label in labels]
+    runs = [cal.subset(cal.epoch == label) for label in labels]
+    for label, run in zip(labels, runs):
+        if len(run) < MIN_POINTS:
+            raise InputError(f"{cal.source or cal.name or 'the calibration'}: epoch {label} has {len(run)} "
+                             f"calibration point{'' if len(run) == 1 else 's'}, expected at least {MIN_POINTS} in each "
+                             "epoch, as in a calibration file (is its label mistyped?)")
+    return runs
 
 
 def circular_mean_offset_arcmin(cal):

@@ -6,6 +6,7 @@ import numpy as np
 
 from .._core import csv_dialect as _csv
 from .._core.errors import InputError
+from ..data.calibration import MAX_ABS_DEG  # the largest |angle| in a log, degrees, as in a calibration CSV
 
 __all__ = ["read_columns"]
 
@@ -94,15 +95,18 @@ def read_columns(path, required, optional=(), what="log", labels=(), columns=Non
                                  f"{expected}")
     numeric = [(name, f"{units[name]} (as given)" if name in units and units[name].name != "deg" else unit)
                for name, unit in (*required, *optional) if name in index]
+    # degrees per unit of each angle column, for the bound of MAX_ABS_DEG (a time or direction column has none)
+    scales = {name: units[name].degrees_per_unit if name in units else 1.0
+              for name, unit in (*required, *optional) if name in index and (name in units or "degrees" in unit)}
     text_columns = [name for name in labels if name in index]
     values = None
     if head is not None:
-        values = _plain_columns(body, len(names), numeric, text_columns, index)
+        values = _plain_columns(body, len(names), numeric, text_columns, index, scales)
         if values is None:  # the careful reader names the first problem
             records = [(number, line) for number, line in
                        enumerate(_csv.split_lines(raw.decode("ascii")), start=1) if not _csv.is_skipped(line)]
     if values is None:
-        values = _careful_columns(path, records, names, numeric, text_columns, index, expected)
+        values = _careful_columns(path, records, names, numeric, text_columns, index, expected, scales)
     for name, unit in units.items():
         if name in values:
             values[name] = unit.to_degrees(values[name])
@@ -122,9 +126,10 @@ def _plain_head(raw):
     return len(lines), lines[-1], raw[body_start:]
 
 
-def _plain_columns(body, n_columns, numeric, text_columns, index):
+def _plain_columns(body, n_columns, numeric, text_columns, index, scales):
     """The columns of a plain body (:func:`encal._core.csv_numbers.plain_rows`), or None: not plain, no rows, or
-    a value that is not finite. A label column of numbers is returned as the text of each label's first row."""
+    a value that is not finite (or, in an angle column, beyond +-1e9 degrees). A label column of numbers is
+    returned as the text of each label's first row."""
     from .._core.csv_numbers import plain_rows
 
     table = plain_rows(body, ",", n_columns)
@@ -134,6 +139,8 @@ def _plain_columns(body, n_columns, numeric, text_columns, index):
     for name, _ in numeric:
         column = table[:, index[name]].copy()
         if not np.all(np.isfinite(column)):
+            return None
+        if name in scales and np.max(np.abs(column)) * scales[name] > MAX_ABS_DEG:
             return None
         values[name] = column
     if text_columns:
@@ -149,7 +156,7 @@ def _plain_columns(body, n_columns, numeric, text_columns, index):
     return values
 
 
-def _careful_columns(path, records, names, numeric, text_columns, index, expected):
+def _careful_columns(path, records, names, numeric, text_columns, index, expected, scales):
     """The columns read line by line, naming the line and column of the first bad value."""
     values = {name: [] for name, _ in numeric} | {name: [] for name in text_columns}
     for number, line in records[1:]:
@@ -166,6 +173,10 @@ def _careful_columns(path, records, names, numeric, text_columns, index, expecte
             if not np.isfinite(value):
                 _fail(path, number, f"{names[column]} is {cells[column].strip()[:40]!r}, expected a finite number "
                                     f"of {unit}", column + 1)
+            if name in scales and abs(value) * scales[name] > MAX_ABS_DEG:
+                _fail(path, number, f"{names[column]} is {cells[column].strip()[:40]!r}, expected an angle within "
+                                    f"+-{MAX_ABS_DEG:g} degrees (beyond it a double cannot hold the angle within a "
+                                    "turn to 1e-5 arcmin: a glitch, or a column in another unit?)", column + 1)
             values[name].append(value)
         for name in text_columns:
             values[name].append(cells[index[name]].strip())

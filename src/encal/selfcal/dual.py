@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._core.angles import ARCMIN_PER_DEG
+from .._core.angles import ARCMIN_PER_DEG, wrap180
 from .._core.errors import InputError
 from ._logfile import read_columns
 from ._series import HarmonicSeries
@@ -34,6 +34,13 @@ from .result import SelfCalibration
 
 __all__ = ["DualCalibration", "dual", "read_dual_log", "simulate_dual", "confounded_pairs"]
 
+#: Largest step of either encoder between two readings, degrees: beyond it the turns cannot be followed (as a
+#: spin log's 90 degrees).
+MAX_STEP_DEG = 90.0
+#: Largest relative difference between the gear ratio given and the one the log shows. Beyond it the ratio is wrong
+#: (the motor's profile, fitted in output arc-minutes times the ratio, scales with it: --ratio 12 on a 6:1 joint
+#: doubled it) or the log is not of the joint.
+RATIO_TOLERANCE = 0.01
 #: Fixed-point iterations of the evidence (they converge in a few dozen).
 ITERATIONS = 200
 #: Prior precision of the unpenalised columns (constant, ratio slope): effectively flat.
@@ -132,6 +139,13 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
             or ratio == 0:
         raise InputError(f"the gear ratio must be a finite number of motor turns per output turn, not 0; got {ratio!r}")
     ratio = float(ratio)
+    for shaft, reading in (("motor", motor), ("output", output)):
+        steps = np.abs(wrap180(np.diff(reading)))
+        if steps.max() > MAX_STEP_DEG:  # fuzz5: a log out of time order was fitted (a motor profile of 0 +- 1e-147)
+            jump = int(np.flatnonzero(steps > MAX_STEP_DEG)[0])
+            raise InputError(f"the {shaft} encoder moves {steps[jump]:.4g} deg between readings {jump + 1} and "
+                             f"{jump + 2}; expected at most {MAX_STEP_DEG:g} deg, so that its turns can be followed "
+                             "(a log in time order, at least four readings a motor turn)")
     motor_u = np.rad2deg(np.unwrap(np.deg2rad(motor)))
     output_u = np.rad2deg(np.unwrap(np.deg2rad(output)))
     turns = float(np.ptp(output_u) / 360.0)
@@ -180,6 +194,10 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     out_vec, out_cov = mean[2:2 + n_out], covariance[2:2 + n_out, 2:2 + n_out]
     mot_vec, mot_cov = mean[2 + n_out:], covariance[2 + n_out:, 2 + n_out:]
     ratio_estimated = _ratio_from_slope(ratio, mean[1])
+    if not abs(ratio_estimated - ratio) <= RATIO_TOLERANCE * abs(ratio):
+        raise InputError(f"the log turns the motor {ratio_estimated:.6g} times per output turn but the gear ratio is "
+                         f"{ratio:g}; expected them to agree within {RATIO_TOLERANCE:.0%} (the motor encoder's profile "
+                         f"scales with the ratio: is it --ratio {ratio_estimated:.4g}?)")
     pairs = confounded_pairs(ratio, k_mot, k_out, turns)
     note = ("motor orders " + ", ".join(str(j) for j in sorted({j for j, _ in pairs})[:10])
             + " meet output orders at j x ratio; their split is the prior's" if pairs else "")

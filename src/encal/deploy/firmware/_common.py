@@ -142,21 +142,44 @@ def grid_bits(comp, bits, caller, default=16):
     return evaluation_bits(default if bits is None else bits)
 
 
-def correction_model(correction_arcmin, *, name="", note=""):
+#: Largest correction a firmware table can mean, arc-minutes: half a turn (180 degrees). The firmwares' own
+#: calibrations store the error about its mean, a few degrees at most; an entry of half a turn or more is a
+#: wrong unit or a corrupted file (a SimpleFOC entry of 256 radians was read as 14,668 degrees).
+MAX_CORRECTION_ARCMIN = 10800.0
+
+
+def correction_model(correction_arcmin, *, name="", note="", where="the table", entry=None):
     """An encal model of an existing firmware correction: nodes at ``i * 360 / N``, linear with wrap.
 
     Parameters
     ----------
     correction_arcmin : array-like of shape (N,)
         The correction the firmware adds at each node, arc-minutes.
+    where : str
+        The file, for messages.
+    entry : callable, optional
+        ``entry(i)`` names node ``i`` in the file for messages (default ``"entry i"``).
 
     Returns
     -------
     LookupTableModel
         Predicts the error ``-correction`` (what the firmware assumes), so it can be
         evaluated on a calibration or compared with another model.
+
+    Raises
+    ------
+    InputError
+        If an entry is not a finite correction of less than half a turn (:data:`MAX_CORRECTION_ARCMIN`).
     """
-    error = -np.asarray(correction_arcmin, dtype=float).reshape(-1)
+    correction = np.asarray(correction_arcmin, dtype=float).reshape(-1)
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(~(np.abs(correction) < MAX_CORRECTION_ARCMIN))
+    if bad.size:
+        index = int(bad[0])
+        raise InputError(f"{where}: {entry(index) if entry else f'entry {index}'} is a correction of "
+                         f"{correction[index]:.6g} arcmin; expected less than half a turn ({MAX_CORRECTION_ARCMIN:g} "
+                         "arcmin), all a correction table can mean (a wrong unit, or a corrupted file?)")
+    error = -correction
     n = error.size
     breaks = np.arange(n + 1) * (360.0 / n)
     slopes = (np.roll(error, -1) - error) / (360.0 / n)
@@ -172,6 +195,12 @@ def read_text(source):
     if not path.is_file():
         raise InputError(f"{path}: no such file")
     return path.read_text(encoding="utf-8", errors="replace"), str(path)
+
+
+def _shown(text, limit=40):
+    """``text`` for a message: whole if short, else its start and '...' (an element may be megabytes long: a table
+    whose commas became another separator is one element)."""
+    return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
 def read_c_array(source, name):
@@ -199,15 +228,16 @@ def read_c_array(source, name):
         + [len(part) - len(part.lstrip()) for part in parts]
     values = []
     for index, item in enumerate(items):
-        line = text.count("\n", 0, int(starts[index])) + 1
         try:
             value = float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16))
         except ValueError:
-            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {item!r}, expected a number") \
-                from None
-        if not np.isfinite(value):
-            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {item!r}, expected a finite "
-                             "number")
+            value = None
+        if value is None or not np.isfinite(value):
+            # the line counted only here: counted for every element, 5 million one-digit elements on one line took
+            # minutes (each count scans the text up to the element)
+            line = text.count("\n", 0, int(starts[index])) + 1
+            raise InputError(f"{where}: line {line}: element {index} of {name}[] is {_shown(item)!r}, expected a "
+                             f"{'number' if value is None else 'finite number'}")
         values.append(value)
     declared = match.group(1)
     if declared.isdigit() and int(declared) != len(values):

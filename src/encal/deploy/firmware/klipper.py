@@ -260,9 +260,10 @@ def _numbers(fragment, where, number):
             value = float(item)
         except ValueError:
             raise InputError(f"{where}, line {number}: expected a number in the calibrate list, "
-                             f"got {item!r}") from None
+                             f"got {item[:40]!r}") from None
         if not np.isfinite(value):
-            raise InputError(f"{where}, line {number}: expected a finite angle in the calibrate list, got {item!r}")
+            raise InputError(f"{where}, line {number}: expected a finite angle in the calibrate list, "
+                             f"got {item[:40]!r}")
         values.append(value)
     return values
 

@@ -21,7 +21,7 @@ thousandth of a degree.
 import numpy as np
 
 from ..._core.angles import wrap180
-from ...data.calibration import Calibration
+from ...data.calibration import MAX_ABS_DEG, Calibration
 from ..._core.errors import InputError
 from ..._core.parameters import invalid
 from ._common import FirmwareExport, checked, compensator, correction_on_codes, read_c_array, read_text, round_trip
@@ -93,10 +93,10 @@ def read_mechaduino(source_text, *, name=None):
     lookup = read_c_array(source_text, "lookup")
     if lookup.size != COUNTS:
         raise InputError(f"{where}: expected {COUNTS} lookup entries, got {lookup.size}")
-    bad = np.flatnonzero(~np.isfinite(lookup))
+    bad = np.flatnonzero(~(np.abs(lookup) <= MAX_ABS_DEG))  # fuzz5: 6.02e23 was written to the calibration, wrapped
     if bad.size:
         raise InputError(f"{where}: element {bad[0]} of lookup[] is {float(lookup[bad[0]])!r}, expected a finite "
-                         "angle in degrees")
+                         f"angle in degrees (within +-{MAX_ABS_DEG:g}, as in a calibration CSV)")
     turn = float(np.sum(wrap180(np.diff(lookup, append=lookup[:1]))))
     if abs(abs(turn) - 360.0) > 1.0:
         raise InputError(f"{where}: expected a lookup[] that goes once round the turn with the count (+360 "

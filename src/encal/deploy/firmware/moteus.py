@@ -41,7 +41,7 @@ import re
 
 import numpy as np
 
-from ...data.calibration import Calibration
+from ...data.calibration import MAX_ABS_DEG, Calibration
 from ..._core.errors import CalibrationError, InputError
 from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
 from ...selfcal.sweep import DEFAULT_SKIP, check_sweep_travel
@@ -267,6 +267,9 @@ def read_moteus_source_config(source_text, *, source=0):
             found["sign"] = 1 if _conf_number(where, number, field, value, whole=True) >= 0 else -1
         elif field == "offset":
             found["offset"] = _conf_number(where, number, field, value)
+            if abs(found["offset"]) > 2.0**30:  # as export_moteus checks it, here naming the line
+                raise InputError(f"{where}, line {number}: offset is {value[:40]!r}; expected counts within "
+                                 f"+-2^30 ({2.0**30:g})")
         elif field == "cpr":
             cpr = int(_conf_number(where, number, field, value, whole=True))
             if cpr < 1 or cpr & (cpr - 1):
@@ -345,6 +348,7 @@ def read_moteus_conf(source_text, *, source=None):
                              "with a compensation_scale; expected 256 entries with a scale, or 32 without")
         revolutions = np.array([entries[i][0] for i in range(OLD_NODES)])
         note = "moteus compensation_table, 32 float bins (firmware before 0x0109)"
+        scaled = " revolutions"
     elif set(entries) == set(range(NODES)):
         if k not in scale:
             raise InputError(f"{where}: the 256-entry compensation_table of source {k} has no "
@@ -355,12 +359,18 @@ def read_moteus_conf(source_text, *, source=None):
             if value != int(value) or not -128 <= value <= 127:
                 raise InputError(f"{where}, line {number}: compensation_table.{i} is {value:g}; expected a whole "
                                  "number from -128 to 127 (an int8)")
-        revolutions = np.array([entries[i][0] for i in range(NODES)]) * scale[k][0] / 127.0
+        with np.errstate(over="ignore"):  # a scale of 1e308 is refused below, as a correction beyond half a turn
+            revolutions = np.array([entries[i][0] for i in range(NODES)]) * scale[k][0] / 127.0
         note = "moteus compensation_table"
+        scaled = f" times compensation_scale {scale[k][0]:g} / 127, line {scale[k][1]}"
     else:
         raise InputError(f"{where}: expected compensation_table.0 to .255 of source {k} (firmware 0x0109 or later) "
                          f"or .0 to .31 (earlier), got {len(entries)} entries")
-    return correction_model(revolutions * 21600.0, name=f"moteus source {k}", note=note)
+    with np.errstate(over="ignore"):
+        correction_arcmin = revolutions * 21600.0
+    return correction_model(correction_arcmin, name=f"moteus source {k}", note=note, where=where,
+                            entry=lambda i: f"compensation_table.{i} on line {entries[i][1]} "
+                                            f"({entries[i][0]:g}{scaled})")
 
 
 _DECIMAL_COMMA = re.compile(r"\d,\d")
@@ -383,6 +393,10 @@ def _pair_fields(where, number, line):
             value = None
         if value is None or not math.isfinite(value):
             raise CalibrationError(f"{where}, line {number}, column {column}: expected a finite number, "
+                                   f"got {field[:40]!r}")
+        if abs(value) * 360.0 > MAX_ABS_DEG:  # fuzz5: -1e308 revolutions was -inf degrees, a message naming no line
+            raise CalibrationError(f"{where}, line {number}, column {column}: expected revolutions within "
+                                   f"+-{MAX_ABS_DEG / 360.0:.4g} (+-{MAX_ABS_DEG:g} degrees, as in a calibration CSV), "
                                    f"got {field[:40]!r}")
         values.append(value)
     return values

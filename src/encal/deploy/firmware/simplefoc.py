@@ -275,5 +275,8 @@ def read_simplefoc(source_text, *, firmware_version=None):
         radians = -decode_u16(lut.astype(np.uint16)).astype(float)
     else:
         radians = lut if version == "1.0.8" else -lut
-    return correction_model(np.degrees(radians) * 60.0, name=f"SimpleFOC calibrationLut ({version})",
-                            note=f"SimpleFOC CalibratedSensor, Arduino-FOC-drivers {version}")
+    with np.errstate(over="ignore"):  # an entry of 1e308 is refused below, as a correction beyond half a turn
+        correction_arcmin = np.degrees(radians) * 60.0
+    return correction_model(correction_arcmin, name=f"SimpleFOC calibrationLut ({version})",
+                            note=f"SimpleFOC CalibratedSensor, Arduino-FOC-drivers {version}", where=where,
+                            entry=lambda i: f"element {i} of {_ARRAY}[] ({lut[i]:g})")

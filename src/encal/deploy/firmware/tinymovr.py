@@ -18,7 +18,8 @@ import numpy as np
 from ..._core.errors import InputError
 from ..._core.parameters import check_int
 from ..compact import evaluation_bits
-from ._common import FirmwareExport, checked, compensator, correction_model, correction_nodes, read_c_array, round_trip
+from ._common import (FirmwareExport, checked, compensator, correction_model, correction_nodes, read_c_array,
+                      read_text, round_trip)
 
 __all__ = ["export_tinymovr", "tinymovr_rule", "read_tinymovr", "NODES"]
 
@@ -81,9 +82,17 @@ def read_tinymovr(source_text, *, bits):
     """
     bits = _check_bits(bits, "read_tinymovr")
     table = read_c_array(source_text, "rec_table")
+    where = read_text(source_text)[1]
     if table.size != NODES:
-        raise InputError(f"expected {NODES} rec_table entries, got {table.size}")
-    return correction_model(table * (21600.0 / 2**bits), name="Tinymovr rec_table", note="Tinymovr")
+        raise InputError(f"{where}: expected {NODES} rec_table entries, got {table.size}")
+    fractional = np.flatnonzero(table != np.rint(table))
+    if fractional.size:  # C would truncate 1.5 to 1 in an int32_t initialiser: read as 1.5 it is another table
+        raise InputError(f"{where}: element {int(fractional[0])} of rec_table[] is {table[fractional[0]]:g}, "
+                         "expected a whole number of ticks (the table is int32_t or int16_t)")
+    with np.errstate(over="ignore"):  # an entry of 1e308 is refused below, as a correction beyond half a turn
+        correction_arcmin = table * (21600.0 / 2**bits)
+    return correction_model(correction_arcmin, name="Tinymovr rec_table", note="Tinymovr", where=where,
+                            entry=lambda i: f"element {i} of rec_table[] ({table[i]:g} ticks of a {bits}-bit sensor)")
 
 
 def _check_bits(bits, caller):
