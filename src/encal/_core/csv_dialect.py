@@ -22,7 +22,11 @@ spaces), so a file written by encal reads back with the same fields.
 import re
 
 __all__ = ["split_lines", "is_skipped", "fields", "column_names", "repeated_names", "is_number", "quote", "join",
-           "QuotingError"]
+           "QuotingError", "DIRECTIONS"]
+
+#: The values of a ``direction`` column (lower case, without surrounding spaces) and the direction of travel each
+#: means: +1 forward, -1 reverse.
+DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _NEEDS_QUOTES = re.compile(r'[",\r\n]|^\s|\s$')

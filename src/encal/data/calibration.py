@@ -173,7 +173,6 @@ def _errors_arcmin(cal, mean_phasor=None):
 # --------------------------------------------------------------------------- CSV
 
 _REQUIRED = ("reference_deg", "encoder_deg")
-_DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
 MIN_POINTS = 8
 MAX_GAP_DEG = 30.0
 #: Encoder resolutions a calibration may declare, in bits.
@@ -532,10 +531,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                 _check_decimal_marks(path, marks[","], marks["."])
             if dir_col is not None:
                 cell = cells[dir_col].strip().lower()
-                if cell not in _DIRECTIONS:
+                if cell not in _csv.DIRECTIONS:
                     _fail(path, number, f"direction is {cells[dir_col].strip()!r}, expected +1, -1, cw or ccw",
                           dir_col + 1)
-                direction.append(_DIRECTIONS[cell])
+                direction.append(_csv.DIRECTIONS[cell])
             if epoch_col is not None:
                 epoch.append(cells[epoch_col].strip())
             if progress is not None and count % _PROGRESS_LINES == 0:

@@ -33,9 +33,8 @@ BLOCK_BYTES = 1 << 16
 #: Longest line accepted, in bytes: bounds the memory when no newline comes.
 MAX_LINE_BYTES = 1 << 16
 _HEADER_COLUMN = "encoder_deg"
-#: The calibration CSV's direction column and its values (encal.data.calibration's): read for a directional model.
+#: The calibration CSV's direction column (values: encal._core.csv_dialect.DIRECTIONS), read for a directional model.
 _DIRECTION_COLUMN = "direction"
-_DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
 _DIRECTION_PROBLEM = "the direction column"  # (a marker between _value and _error)
 _LF, _CR, _COMMA = (np.uint8(ord(c)) for c in "\n\r,")
 
@@ -231,7 +230,7 @@ class _LineParser:
                     return None
                 values = np.array([float(row[self.column]) for row in rows])
                 if self.direction_column is not None:
-                    directions = np.array([_DIRECTIONS[row[self.direction_column].strip().lower().decode("ascii")]
+                    directions = np.array([_csv.DIRECTIONS[row[self.direction_column].strip().lower().decode("ascii")]
                                            for row in rows], dtype=int)
         except (ValueError, KeyError, UnicodeDecodeError):
             return None
@@ -301,7 +300,7 @@ class _LineParser:
             field = cells[self.column]
             if self.direction_column is not None:
                 cell = cells[self.direction_column].strip()
-                direction = _DIRECTIONS.get(cell.lower())
+                direction = _csv.DIRECTIONS.get(cell.lower())
                 if direction is None:
                     return None, None, _DIRECTION_PROBLEM
         try:
