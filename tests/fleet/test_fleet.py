@@ -90,13 +90,14 @@ def test_fleet_fit_stores_every_unit_refuses_a_bad_file_and_resumes(lot, tmp_pat
     assert all(r.station == "eol-1" and r.epoch == 1 and r.grade in ("A", "B", "out") for r in records)
     assert all(r.held_out_arcmin is not None and r.rms_after_arcmin < r.rms_before_arcmin for r in records)
     # resumed: the stored files are skipped, the mended one fitted
-    (folder / "SN9999.csv").write_bytes((lot / "SN0001.csv").read_bytes())
+    mended, again = simulate_fleet(2, seed=6)
+    write_calibration(folder / "SN9999.csv", mended.train.calibration)
     assert main(["fleet", "fit", str(folder), "--store", str(store), "--jobs", "0"]) == 0
     out, _ = capsys.readouterr()
     assert "1 of 5 files fitted" in out and "4 already stored, skipped" in out
     # a new calibration of a unit is a new epoch; the first stays
     (folder / "again").mkdir()
-    (folder / "again" / "SN0002.csv").write_bytes((lot / "SN0003.csv").read_bytes())
+    write_calibration(folder / "again" / "SN0002.csv", again.train.calibration)
     assert main(["fleet", "fit", str(folder / "again" / "*.csv"), "--store", str(store), "--jobs", "0"]) == 0
     with open_store(store) as opened:
         assert [r.epoch for r in opened.history("SN0002")] == [1, 2]

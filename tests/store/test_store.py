@@ -153,3 +153,15 @@ def test_a_calibration_stored_meanwhile_is_left_out_inside_the_transaction(locat
                                 {"serial": "SN-1", "model_json": "{}", "source_sha256": "cd"}], skip_stored=True)
         assert first[0].epoch == 1 and again[0] is None and again[1].epoch == 2
         assert store.count() == 2
+
+
+def test_a_serial_number_is_one_whatever_its_unicode_form(tmp_path):
+    """Composed (NFC) and decomposed (NFD, as macOS names files) spellings of one serial are one unit."""
+    import unicodedata
+
+    composed, decomposed = (unicodedata.normalize(form, "SNÅ1") for form in ("NFC", "NFD"))
+    with open_store(tmp_path / "s.sqlite") as store:
+        store.add(composed, "{}")
+        store.add(decomposed, "{}")
+        assert store.serials() == [composed]
+        assert [r.epoch for r in store.history(decomposed)] == [1, 2] and store.latest(composed).epoch == 2

@@ -74,14 +74,31 @@ def serial_of(path, pattern=None):
     InputError
         When ``pattern`` does not match the stem.
     """
+    from ..store._store import MAX_SERIAL_CHARS, check_serial
+
     stem = Path(path).stem
     if pattern is None:
-        return stem
-    match = re.search(pattern, stem)
-    if match is None:
-        raise InputError(f"{path}: --serial-pattern {pattern} does not match its name {stem!r}; expected a pattern "
-                         "that finds the serial number in every file name (its first group, or the whole match)")
-    return match.group(1) if match.groups() else match.group(0)
+        found = stem
+    else:
+        match = re.search(pattern, stem)
+        if match is None:
+            raise InputError(f"{path}: --serial-pattern {pattern} does not match its name {stem!r}; expected a "
+                             "pattern that finds the serial number in every file name (its first group, or the whole "
+                             "match)")
+        found = match.group(1) if match.groups() else match.group(0)
+    try:
+        # the store's form (stripped, NFC): files of one unit are one task, fitted in order, whatever their spelling
+        return check_serial(found or "")
+    except InputError:
+        raise InputError(f"{path}: its serial number {found!r} is not 1 to {MAX_SERIAL_CHARS} printable characters "
+                         "(no line ends or control characters); expected the file renamed, or --serial-pattern "
+                         "to find the serial number in its name") from None
+
+
+def _natural_key(path):
+    """Sort key of a path with its digit runs compared as numbers: ``run9`` before ``run10``, ``day9/`` before
+    ``day10/``."""
+    return [int(part) if part.isdigit() else part for part in re.split(r"(\d+)", str(path))]
 
 
 @dataclass
@@ -237,21 +254,35 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     paths = list(paths)
     result = BatchResult()
     stored = store.stored_sources()
-    units = {}
+
+    def refuse(path, sentence):
+        result.refused.append((Path(path), sentence))
+        if on_refused:
+            on_refused(Path(path), sentence)
+
+    known = []
     for path in paths:
         try:
-            serial = serial_of(path, serial_pattern)
-            sha256 = file_sha256(path)
+            known.append((path, serial_of(path, serial_pattern), file_sha256(path)))
         except (InputError, OSError) as exc:
-            sentence = str(exc) if isinstance(exc, InputError) else f"{path}: cannot be read ({exc.strerror or exc})"
-            result.refused.append((Path(path), sentence))
-            if on_refused:
-                on_refused(Path(path), sentence)
-            continue
+            refuse(path, str(exc) if isinstance(exc, InputError) else f"{path}: cannot be read ({exc.strerror or exc})")
+    owners = _owners_of_bytes(known, stored)
+    units = {}
+    for path, serial, sha256 in known:
         if (serial, sha256) in stored:
             result.skipped.append(Path(path))
             continue
+        others = sorted(owners[sha256] - {serial})
+        if others:
+            # one unit's readings under another's serial number: a copied or misnamed file; which of them is
+            # that unit's own cannot be told, so none is fitted (the store's record, if any, stays as it was)
+            where = "in the store" if any((other, sha256) in stored for other in others) else "in this batch"
+            refuse(path, f"{path}: its bytes are the calibration of {', '.join(others)} as well ({where}); expected "
+                         f"each unit's own calibration (a copied or misnamed file?), not fitted as {serial}")
+            continue
         units.setdefault(serial, []).append((str(path), sha256))
+    for files in units.values():
+        files.sort(key=lambda file: _natural_key(file[0]))  # a unit's epochs in the order of its files' names
     tasks = [(serial, files, method, list(grades), dict(read_options or {}), prior)
              for serial, files in units.items()]
     if progress and len(paths) - sum(len(files) for files in units.values()):
@@ -264,9 +295,26 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     waiting_paths = []
     last_flush = [time.monotonic()]
 
+    def add_each(records, paths):
+        """``store.add_many``, or record by record when one of them is refused (the others are kept)."""
+        try:
+            return store.add_many(records, skip_stored=True)
+        except InputError:
+            pass
+        added = []
+        for record, path in zip(records, paths):
+            try:
+                added.extend(store.add_many([record], skip_stored=True))
+            except InputError as exc:
+                refuse(path, f"{path}: its record was refused by the store ({exc})")
+                added.append(False)
+        return added
+
     def flush():
         if waiting:
-            for path, record in zip(waiting_paths, store.add_many(waiting, skip_stored=True)):
+            for path, record in zip(waiting_paths, add_each(waiting, waiting_paths)):
+                if record is False:
+                    continue
                 if record is None:  # another batch stored the same file meanwhile
                     result.skipped.append(path)
                 else:
@@ -285,9 +333,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
                 waiting.append({**fields, "station": station})
                 waiting_paths.append(Path(path))
             else:
-                result.refused.append((Path(path), value))
-                if on_refused:
-                    on_refused(Path(path), value)
+                refuse(path, value)
         if len(waiting) >= FLUSH_RECORDS or time.monotonic() - last_flush[0] >= FLUSH_S:
             flush()
         if progress:
@@ -302,6 +348,18 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     finally:
         flush()  # an interrupted batch keeps every unit it finished
     return result
+
+
+def _owners_of_bytes(known, stored):
+    """The serial numbers whose calibration has each SHA-256 of ``known`` ((path, serial, sha256)), in the batch
+    or in ``stored`` ((serial, sha256) pairs of the store)."""
+    owners = {sha256: set() for _, _, sha256 in known}
+    for serial, sha256 in stored:
+        if sha256 in owners:
+            owners[sha256].add(serial)
+    for _, serial, sha256 in known:
+        owners[sha256].add(serial)
+    return owners
 
 
 def _run_pool(tasks, jobs, write):

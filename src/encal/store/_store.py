@@ -6,6 +6,7 @@ import datetime
 import hashlib
 import math
 import re
+import unicodedata
 from pathlib import Path
 
 from .._version import __version__
@@ -154,10 +155,16 @@ def open_store(location):
 
 
 def check_serial(serial):
-    """``serial`` stripped, or InputError when it is empty, too long or holds control characters."""
+    """``serial`` stripped and in Unicode's composed form (NFC), or InputError when it is empty, too long or holds
+    control characters.
+
+    The form is one, whatever wrote it: macOS names files in the decomposed form (NFD), so that ``SNÅ1.csv`` from a
+    Mac and ``--serial SNÅ1`` typed elsewhere would otherwise be two units, the lookup finding the older one. Case
+    and leading zeros are kept: ``sn1``, ``SN1`` and ``SN001`` are three units.
+    """
     if not isinstance(serial, str):
         raise InputError(f"a serial number must be text; got {type(serial).__name__}")
-    text = serial.strip()
+    text = unicodedata.normalize("NFC", serial).strip()
     if not text or len(text) > MAX_SERIAL_CHARS or not _SERIAL.fullmatch(text):
         raise InputError(f"serial number {serial!r}: expected 1 to {MAX_SERIAL_CHARS} printable characters "
                          "(no line ends or control characters)")
