@@ -165,3 +165,33 @@ def test_a_serial_number_is_one_whatever_its_unicode_form(tmp_path):
         store.add(decomposed, "{}")
         assert store.serials() == [composed]
         assert [r.epoch for r in store.history(decomposed)] == [1, 2] and store.latest(composed).epoch == 2
+
+
+
+def test_a_store_opened_while_another_opener_turns_it_to_wal_waits(tmp_path, monkeypatch):
+    """SQLite answers "database is locked" at once, without its busy wait, to a request for WAL mode made while
+    another connection makes the same: 4 processes opening a new store at one instant, 15 times, had 14 of their
+    60 openings refused ("cannot be used as a store (database is locked)"). The first two requests fail here."""
+    import sqlite3
+
+    connect = sqlite3.connect
+    refusals = []
+
+    class Busy:
+        def __init__(self, connection):
+            self.connection = connection
+
+        def execute(self, sql, *parameters):
+            if sql.startswith("PRAGMA journal_mode") and len(refusals) < 2:
+                refusals.append(sql)
+                raise sqlite3.OperationalError("database is locked")
+            return self.connection.execute(sql, *parameters)
+
+        def __getattr__(self, name):
+            return getattr(self.connection, name)
+
+    monkeypatch.setattr(sqlite3, "connect", lambda *args, **kwargs: Busy(connect(*args, **kwargs)))
+    with open_store(tmp_path / "s.sqlite") as store:
+        store.add("SN1", "{}")
+        assert store.count() == 1
+    assert len(refusals) == 2
