@@ -155,12 +155,12 @@ def test_a_calibration_stored_meanwhile_is_left_out_inside_the_transaction(locat
         assert store.count() == 2
 
 
-def test_a_serial_number_is_one_whatever_its_unicode_form(tmp_path):
+def test_a_serial_number_is_one_whatever_its_unicode_form(location):
     """Composed (NFC) and decomposed (NFD, as macOS names files) spellings of one serial are one unit."""
     import unicodedata
 
     composed, decomposed = (unicodedata.normalize(form, "SNÅ1") for form in ("NFC", "NFD"))
-    with open_store(tmp_path / "s.sqlite") as store:
+    with open_store(location) as store:
         store.add(composed, "{}")
         store.add(decomposed, "{}")
         assert store.serials() == [composed]
@@ -195,3 +195,16 @@ def test_a_store_opened_while_another_opener_turns_it_to_wal_waits(tmp_path, mon
         store.add("SN1", "{}")
         assert store.count() == 1
     assert len(refusals) == 2
+
+
+def test_odd_serial_numbers_are_units_of_their_own_found_as_written(location):
+    """Quotes, ';', '/', '..', case and leading zeros: each serial its own unit, its own model."""
+    serials = ["SN'; DROP TABLE encal_records;--", 'SN"1', "lot/7", "..", "%", "SN_1", "sn1", "SN1", "SN01"]
+    with open_store(location) as store:
+        for serial in serials:
+            store.add(serial, _model_json(serial))
+        store.add(" SN1 ", _model_json("SN1 again"))
+        assert sorted(store.serials()) == sorted(serials)
+        for serial in serials:
+            assert json.loads(store.latest(serial).model_json)["label"] == ("SN1 again" if serial == "SN1" else serial)
+        assert store.latest("SN%") is None and store.latest("SN_") is None  # no pattern matching
