@@ -65,7 +65,8 @@ def unit_profiles(records, points=GRID_POINTS):
 
 
 def harmonics(profiles, orders=ORDERS):
-    """Complex harmonics ``c_k``, k = 1..orders, of profiles on a uniform grid (arc-minutes of amplitude)."""
+    """Complex harmonics ``c_k = a_k + i b_k``, k = 1..orders, of profiles ``Σ a_k cos kθ + b_k sin kθ`` on a uniform
+    grid (arc-minutes of amplitude; the fleet compares their moduli and their means across units)."""
     points = profiles.shape[-1]
     spectrum = np.fft.rfft(profiles, axis=-1) * (2.0 / points)
     return np.conj(spectrum[..., 1:min(orders, points // 2 - 1) + 1])
