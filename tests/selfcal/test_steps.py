@@ -155,5 +155,6 @@ def test_a_reversed_encoder_written_and_fitted_corrects_toward_the_truth(tmp_pat
     gap = (np.mod(comp.correct(raw) - magnet + 180.0, 360.0) - 180.0) * 60
     assert rms(gap - gap.mean()) < 1.0  # 0.22 arcmin: noise-free readings, the tooth errors cancelled
     assert result.reading_sign == -1
+    assert "fit the calibration written with --reverse" in result.summary()
     with pytest.raises(InputError, match="reverse"):
         steps(first, Calibration(second.reference_deg, -second.encoder_deg))  # one reversed, one not

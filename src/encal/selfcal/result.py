@@ -146,6 +146,8 @@ class SelfCalibration:
             lines.append("orders left out: " + _orders_text(self.removed_orders))
         if self.confounded:
             lines.append("not separable: " + self.confounded)
+        if self.reading_sign == -1:
+            lines.append("the encoder counts against the reference: fit the calibration written with --reverse")
         return "\n".join(lines)
 
 
