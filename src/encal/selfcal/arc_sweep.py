@@ -148,6 +148,11 @@ def arc_sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, skip=DEFAULT_SKIP
     electrical = np.deg2rad(sense * reference * pole_pairs)
     harmonics = np.arange(1, MOTOR_HARMONICS + 1)
     motor = np.hstack([np.cos(np.outer(electrical, harmonics)), np.sin(np.outer(electrical, harmonics))])
+    # The motor's error is periodic in the rotor's angle, which trails the command by the lag, one way going up and
+    # the other going down: one set of harmonics for both directions left the difference (2 x lag x the cogging's
+    # slope) in the encoder's error, 0.33 arcmin RMS against a stated sigma of 0.12. Each direction has its own
+    # set, as in the full-turn sweep's fit of each direction.
+    motor = np.hstack([motor * (travel == 1)[:, None], motor * (travel == -1)[:, None]])
     scaled = 2.0 * offset / span - 1.0
     lag = travel[:, None] * np.polynomial.legendre.legvander(scaled, LAG_DEGREE)
     design = np.hstack([spline, motor, lag])

@@ -32,6 +32,10 @@ class SelfCalibration:
         Method-specific findings (speeds and speed ripple, lag, turn angle, the stepper's error, ...).
     name : str
         Name of the encoder (the input's stem).
+    reading_sign : {1, -1}
+        -1 when the input counted against its reference and was read negated (``--reverse``): ``series`` is
+        then a function of the negated reading, and :meth:`write` writes the readings as the encoder gave them,
+        to be fitted with ``--reverse`` like the input.
     """
 
     method: str
@@ -40,6 +44,7 @@ class SelfCalibration:
     confounded: str = ""
     details: dict = field(default_factory=dict)
     name: str = ""
+    reading_sign: int = 1
 
     def error_arcmin(self, encoder_deg):
         """The recovered error in arc-minutes at encoder readings ``encoder_deg`` (degrees)."""
@@ -61,7 +66,7 @@ class SelfCalibration:
         """
         encoder = self.grid(points)
         reference = encoder - self.error_arcmin(encoder) / ARCMIN_PER_DEG
-        return Calibration(reference, encoder, name=self.name,
+        return Calibration(reference, encoder, name=self.name, reading_sign=self.reading_sign,
                            metadata={"selfcal": self.method, "removed_orders": list(self.removed_orders)})
 
     def write(self, path, points=DEFAULT_POINTS, resolution_bits=None):
@@ -72,11 +77,18 @@ class SelfCalibration:
         from ..data.calibration import write_calibration
 
         cal = self.calibration(points)
-        if resolution_bits is not None:
-            cal = Calibration(cal.reference_deg, cal.encoder_deg, name=cal.name, resolution_bits=resolution_bits)
         encoder = cal.encoder_deg
         comments = [f"encal selfcal {self.method}: encoder error recovered without a precision reference",
                     "error_arcmin = encoder - reference; sigma_arcmin = its standard uncertainty (1 sigma)"]
+        if self.reading_sign == -1:
+            # The series is of the negated reading (the input was read with --reverse). Written as it stands, a
+            # plain `encal fit` took the negated grid for raw readings: the table corrected the mirrored angle
+            # with the wrong sign (6.8 arcmin RMS made 12.4). The raw readings are written instead, so the file
+            # reads back only with --reverse, as its input did.
+            comments.append("the encoder counts against the reference: encoder_deg holds its readings as it gave "
+                            "them; fit with --reverse (error_arcmin is of the negated reading, as --reverse reads it)")
+        cal = Calibration(cal.reference_deg, np.mod(self.reading_sign * encoder, 360.0), name=cal.name,
+                          resolution_bits=resolution_bits)
         if self.removed_orders:
             comments.append("orders left out (not separable): " + _orders_text(self.removed_orders))
         comments += [f"not separable: {line}" for line in _wrap(self.confounded)]
@@ -134,6 +146,8 @@ class SelfCalibration:
             lines.append("orders left out: " + _orders_text(self.removed_orders))
         if self.confounded:
             lines.append("not separable: " + self.confounded)
+        if self.reading_sign == -1:
+            lines.append("the encoder counts against the reference: fit the calibration written with --reverse")
         return "\n".join(lines)
 
 

@@ -16,6 +16,8 @@ once the steps are paired (the same start, or a known shift between the starts; 
 4-step pattern fixes the shift within a tooth). See docs/self-calibration.md.
 """
 
+from dataclasses import replace
+
 import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, wrap180
@@ -116,11 +118,15 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         raise InputError(f"max_order {max_order} is too high for {n} full steps; expected below {n // 2}")
     orders = np.arange(1, max_order + 1)
     if second is None:
-        return _one(reading_a, error_a, orders, name or first.name)
+        return replace(_one(reading_a, error_a, orders, name or first.name), reading_sign=first.reading_sign)
+    if second.reading_sign != first.reading_sign:
+        raise InputError("one calibration was read with reverse (--reverse) and the other without; expected both "
+                         "read the same way (the encoder counts the same way in both)")
     reading_b, error_b = step_errors(second)
     if reading_b.size != n:
         raise InputError(f"the calibrations have {n} and {reading_b.size} full steps; expected the same motor")
-    return _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, name or first.name)
+    result = _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, name or first.name)
+    return replace(result, reading_sign=first.reading_sign)
 
 
 def _pattern(values):
