@@ -121,6 +121,16 @@ class ReversalAnalysis:
         return bool(np.all(self.n_forward >= 2) and np.all(self.n_reverse >= 2))
 
     @property
+    def repeatability_forward(self):
+        """Unidirectional repeatability of positioning ``R↑ = max 4 s↑_i`` (arcmin), or None without repeats."""
+        return float(4 * np.max(self.std_forward_arcmin)) if self.has_repeats else None
+
+    @property
+    def repeatability_reverse(self):
+        """Unidirectional repeatability of positioning ``R↓ = max 4 s↓_i`` (arcmin), or None without repeats."""
+        return float(4 * np.max(self.std_reverse_arcmin)) if self.has_repeats else None
+
+    @property
     def repeatability(self):
         """Bidirectional repeatability of positioning ``R = max R_i`` (arcmin), or None without repeats.
 
@@ -133,6 +143,27 @@ class ReversalAnalysis:
         return float(np.max(r_i))
 
     @property
+    def accuracy_forward(self):
+        """Unidirectional accuracy of positioning ``A↑ = max(x̄↑_i + 2 s↑_i) − min(x̄↑_i − 2 s↑_i)`` (arcmin), or
+        None without repeats."""
+        if not self.has_repeats:
+            return None
+        return _band_range(self.mean_forward_arcmin, self.std_forward_arcmin)
+
+    @property
+    def accuracy_reverse(self):
+        """Unidirectional accuracy of positioning ``A↓ = max(x̄↓_i + 2 s↓_i) − min(x̄↓_i − 2 s↓_i)`` (arcmin), or
+        None without repeats."""
+        if not self.has_repeats:
+            return None
+        return _band_range(self.mean_reverse_arcmin, self.std_reverse_arcmin)
+
+    @property
+    def min_approaches(self):
+        """Fewest approaches in one direction at one target; ISO 230-2 asks for 5 (``R`` and ``A`` need 2)."""
+        return int(min(self.n_forward.min(), self.n_reverse.min()))
+
+    @property
     def accuracy(self):
         """Bidirectional accuracy of positioning ``A`` (arcmin), or None without repeats.
 
@@ -140,10 +171,8 @@ class ReversalAnalysis:
         """
         if not self.has_repeats:
             return None
-        up, down = self.std_forward_arcmin, self.std_reverse_arcmin
-        high = np.concatenate([self.mean_forward_arcmin + 2 * up, self.mean_reverse_arcmin + 2 * down])
-        low = np.concatenate([self.mean_forward_arcmin - 2 * up, self.mean_reverse_arcmin - 2 * down])
-        return float(high.max() - low.min())
+        return _band_range(np.concatenate([self.mean_forward_arcmin, self.mean_reverse_arcmin]),
+                           np.concatenate([self.std_forward_arcmin, self.std_reverse_arcmin]))
 
     def as_dict(self):
         """The axis values as JSON-ready data (arc-minutes; LSB too when the resolution is known)."""
@@ -156,14 +185,24 @@ class ReversalAnalysis:
             "systematic_deviation_reverse_arcmin": self.systematic_deviation_reverse,
             "systematic_deviation_arcmin": self.systematic_deviation,
             "mean_bidirectional_deviation_arcmin": self.mean_bidirectional_deviation,
+            "repeatability_forward_arcmin": self.repeatability_forward,
+            "repeatability_reverse_arcmin": self.repeatability_reverse,
             "repeatability_arcmin": self.repeatability,
+            "accuracy_forward_arcmin": self.accuracy_forward,
+            "accuracy_reverse_arcmin": self.accuracy_reverse,
             "accuracy_arcmin": self.accuracy,
+            "min_approaches": self.min_approaches,
         }
         if self.resolution_bits is not None:
             lsb = lsb_arcmin(self.resolution_bits)
             data["reversal_value_lsb"] = self.reversal_value / lsb
             data["mean_reversal_value_lsb"] = self.mean_reversal_value / lsb
         return data
+
+
+def _band_range(mean, std):
+    """``max(mean + 2 std) − min(mean − 2 std)``: the range an accuracy of positioning spans (arcmin)."""
+    return float(np.max(mean + 2 * std) - np.min(mean - 2 * std))
 
 
 def require_directions(cal, caller):
@@ -196,13 +235,43 @@ def direction_subset(cal, direction):
                        reading_sign=cal.reading_sign)
 
 
+def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG):
+    """The target position of every reading: reference angles within ``tolerance_deg`` of a neighbour are one target.
+
+    Sorted reference angles (wrapped to [0, 360), 360 − tolerance and above taken as just below 0) split where two
+    neighbours are more than ``tolerance_deg`` apart; each group's target is its first angle. Rounding to a grid
+    instead would split two readings 1e-9 degree apart on either side of a grid line.
+
+    Parameters
+    ----------
+    reference_deg : ndarray
+        Reference angles (degrees).
+    tolerance_deg : float
+        Largest gap (degrees) between neighbouring angles of one target.
+
+    Returns
+    -------
+    ndarray
+        Target position (degrees, in [0, 360)) of each reading.
+    """
+    angle = wrap360(np.asarray(reference_deg, dtype=float))
+    angle = np.where(angle >= 360.0 - tolerance_deg, angle - 360.0, angle)
+    order = np.argsort(angle, kind="stable")
+    ordered = angle[order]
+    starts = np.r_[True, np.diff(ordered) > tolerance_deg]
+    target = np.empty_like(angle)
+    target[order] = ordered[starts][np.cumsum(starts) - 1]
+    return wrap360(target)
+
+
 def reversal(cal):
     """Reversal (hysteresis) error of a bidirectional calibration, as ISO 230-2:2014 evaluates it.
 
     Parameters
     ----------
     cal : Calibration
-        With a ``direction`` column; target positions are matched by reference angle (within 1e-6 degree).
+        With a ``direction`` column; target positions are matched by reference angle: angles within 1e-6
+        degree of a neighbour are one target (:func:`target_positions`).
 
     Returns
     -------
@@ -224,8 +293,7 @@ def reversal(cal):
     (0.2, 0.2)
     """
     require_directions(cal, "reversal")
-    target = np.round(wrap360(cal.reference_deg) / TARGET_TOLERANCE_DEG) * TARGET_TOLERANCE_DEG
-    target = np.where(target >= 360.0, 0.0, target)
+    target = target_positions(cal.reference_deg)
     error = cal.errors_arcmin
     stats = {}
     for sign in (1, -1):
