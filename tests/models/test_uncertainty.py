@@ -309,3 +309,26 @@ def test_refit_spec_of_auto_chosen_by_evidence_is_the_spectral_model(options, ex
     cal = encal.Calibration(ref, ref + np.sin(np.radians(ref)) / 60)
     model = encal.fit(cal, noise_arcmin=options["noise_arcmin"]) if options["noise_arcmin"] else encal.fit(cal)
     assert refit_spec(model, "auto", model.training["fit_options"]) == ("spectral", expected)
+
+
+def test_repeated_approaches_to_one_target_do_not_shrink_a_tables_uncertainty():
+    # An ISO 230-2-style run: 5 readings at each 10-degree target. A table passes through every point, so
+    # with a target's other readings in the training folds it predicted a held-out one from them, and the
+    # k = 2 band covered about 60 % of fresh readings between the targets; the same-target readings now
+    # share a fold.
+    rng = np.random.default_rng(3)
+    noise = 0.06
+
+    def profile(theta):
+        return 1.2 * np.sin(np.radians(theta)) + 0.15 * np.sin(np.radians(5 * theta))
+
+    def run(targets):
+        reference = np.repeat(targets, 5)
+        return reference, reference + (profile(reference) + rng.normal(0.0, noise, reference.size)) / 60.0
+
+    reference, encoder = run(np.arange(0.0, 360.0, 10.0))
+    model = encal.fit(Calibration(reference, encoder), method="lut", uncertainty=True, rng=0)
+    reference, encoder = run(np.arange(5.0, 360.0, 10.0))
+    residual = (encoder - reference) * 60.0 - model.predict(encoder)
+    std = model.predict(encoder, return_std=True)[1]
+    assert np.mean(np.abs(residual) <= 2 * std) >= 0.9

@@ -1,0 +1,84 @@
+"""ISO 230-2:2014 figures of a bidirectional calibration against the standard's definitions, computed here."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from encal import Calibration
+from encal.data.reversal import reversal, target_positions
+
+#: Irregular target positions over a turn (ISO 230-2 spaces them irregularly), degrees.
+TARGETS = np.array([0.0, 27.5, 61.0, 90.0, 118.25, 152.0, 180.0, 209.75, 241.0, 270.0, 296.5, 331.0])
+RUNS = 5  # approaches per direction and target, as ISO 230-2 prescribes for rotary axes
+
+
+def iso_run(runs=RUNS, seed=5):
+    """Runs up and down over TARGETS with a known profile, reversal and repeatability per target.
+
+    Returns the calibration and the deviations ``x[i, j]`` (arcmin) of each direction, target ``i``, run ``j``.
+    """
+    rng = np.random.default_rng(seed)
+    rank = np.arange(TARGETS.size)
+    profile = 1.2 * np.sin(np.radians(TARGETS)) + 0.4 * np.cos(np.radians(2 * TARGETS)) + 0.3
+    half_reversal = 0.1 + 0.05 * rank / TARGETS.size
+    spread = {1: 0.05 + 0.02 * (rank % 3), -1: 0.06 + 0.015 * (rank % 4)}
+    deviation = {sign: profile[:, None] + sign * half_reversal[:, None]
+                 + spread[sign][:, None] * rng.normal(size=(TARGETS.size, runs)) for sign in (1, -1)}
+    reference, encoder, direction = [], [], []
+    for run in range(runs):
+        for sign, order in ((1, slice(None)), (-1, slice(None, None, -1))):
+            reference.append(TARGETS[order])
+            encoder.append((TARGETS + deviation[sign][:, run] / 60.0)[order])
+            direction.append(np.full(TARGETS.size, sign))
+    cal = Calibration(np.concatenate(reference), np.concatenate(encoder), direction=np.concatenate(direction))
+    return cal, deviation[1], deviation[-1]
+
+
+def test_every_figure_matches_the_standards_definition():
+    cal, up, down = iso_run()
+    mean_up, mean_down = up.mean(axis=1), down.mean(axis=1)
+    s_up, s_down = up.std(axis=1, ddof=1), down.std(axis=1, ddof=1)
+    b_i = mean_up - mean_down
+    expected = {
+        "reversal_value_arcmin": np.abs(b_i).max(),
+        "mean_reversal_value_arcmin": b_i.mean(),
+        "systematic_deviation_forward_arcmin": mean_up.max() - mean_up.min(),
+        "systematic_deviation_reverse_arcmin": mean_down.max() - mean_down.min(),
+        "systematic_deviation_arcmin": max(mean_up.max(), mean_down.max()) - min(mean_up.min(), mean_down.min()),
+        "mean_bidirectional_deviation_arcmin": np.ptp((mean_up + mean_down) / 2),
+        "repeatability_forward_arcmin": 4 * s_up.max(),
+        "repeatability_reverse_arcmin": 4 * s_down.max(),
+        "repeatability_arcmin": max(np.max(2 * s_up + 2 * s_down + np.abs(b_i)), 4 * s_up.max(), 4 * s_down.max()),
+        "accuracy_forward_arcmin": (mean_up + 2 * s_up).max() - (mean_up - 2 * s_up).min(),
+        "accuracy_reverse_arcmin": (mean_down + 2 * s_down).max() - (mean_down - 2 * s_down).min(),
+        "accuracy_arcmin": (max((mean_up + 2 * s_up).max(), (mean_down + 2 * s_down).max())
+                            - min((mean_up - 2 * s_up).min(), (mean_down - 2 * s_down).min())),
+    }
+    figures = reversal(cal).as_dict()
+    for key, value in expected.items():
+        assert figures[key] == pytest.approx(value, abs=1e-9), key
+    assert figures["n_targets"] == TARGETS.size and figures["min_approaches"] == RUNS
+
+
+def test_fewer_than_two_approaches_leave_r_and_a_out_and_say_how_many():
+    cal, _, _ = iso_run(runs=2)
+    keep = np.ones(len(cal), bool)
+    keep[np.flatnonzero((cal.direction == -1) & (cal.reference_deg == 90.0))[0]] = False
+    figures = reversal(cal.subset(keep)).as_dict()
+    assert figures["min_approaches"] == 1
+    assert all(figures[key] is None for key in ("repeatability_arcmin", "repeatability_forward_arcmin",
+                                                "accuracy_arcmin", "accuracy_reverse_arcmin"))
+    assert figures["reversal_value_arcmin"] is not None
+
+
+def test_readings_closer_than_the_tolerance_are_one_target_even_across_a_rounding_boundary():
+    # 2e-10 degree apart, either side of where rounding to a 1e-6 degree grid splits them
+    reference = np.array([10.0000004999, 10.0000005001, 359.9999999999, 0.0])
+    target = target_positions(reference)
+    assert target[0] == target[1] and target[2] == target[3]
+    ref = np.repeat(np.arange(0.0, 360.0, 30.0), 2) + np.tile([0.4999e-6, 0.5001e-6], 12)
+    direction = np.tile([1, -1], 12)
+    cal = Calibration(ref, ref + (0.5 + 0.1 * direction) / 60.0, direction=direction)
+    analysis = reversal(cal)
+    assert analysis.target_deg.size == 12 and analysis.n_unmatched == 0
+    assert_allclose(analysis.reversal_arcmin, 0.2, atol=1e-6)
