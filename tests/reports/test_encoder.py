@@ -261,3 +261,18 @@ def test_the_page_opens_with_a_verdict_on_the_data_it_rests_on(tmp_path, capsys)
     write_encoder_report(alone, out)
     page = out.read_text(encoding="utf-8")
     assert page.index('class="verdict"') < page.index("<h2>Summary</h2>")
+
+
+def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
+    # Reference angles read at every stop (not set exactly) rarely coincide: the ISO 230-2 values then rest on a
+    # few chance matches, and the report says so instead of a bare target count.
+    from encal.data.reversal import reversal
+    from encal.reports.encoder import _reversal_caption
+    rng = np.random.default_rng(0)
+    grid = np.arange(0.0, 360.0, 5.0)
+    reference = np.concatenate([grid, grid, grid + rng.uniform(1e-4, 3e-4, grid.size)])
+    direction = np.repeat([1, -1, -1], grid.size)
+    cal = Calibration(reference, reference + 0.1 * direction / 60.0, direction=direction)
+    caption = _reversal_caption(reversal(cal))
+    assert caption.startswith(f"{grid.size} targets approached both ways, at least 1 time(s) each way")
+    assert f"; {grid.size} points at reference angles approached one way only" in caption

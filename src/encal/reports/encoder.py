@@ -613,7 +613,17 @@ def _reversal_section(report):
     heading = "mean deviation (arcmin)" + (" about the zero offset" if report.arbitrary_zero else "")
     return (_html.table(["direction", "points", heading], directions, "Points per direction")
             + _html.table(["ISO 230-2 value", "arcmin"], rows,
-                          f"{analysis.target_deg.size} targets approached both ways"))
+                          _reversal_caption(analysis)))
+
+
+def _reversal_caption(analysis):
+    """How many targets the ISO 230-2 values rest on, the points left out, and the fewest approaches."""
+    caption = (f"{analysis.target_deg.size} targets approached both ways, at least {analysis.min_approaches} "
+               "time(s) each way (ISO 230-2 asks for 5)")
+    if analysis.n_unmatched:
+        caption += (f"; {analysis.n_unmatched} points at reference angles approached one way only (targets match "
+                    "within 1e-6 degree) are left out")
+    return caption
 
 
 def _drift_section(report):
