@@ -408,8 +408,8 @@ def _folds(theta, n_folds, error):
     # every point (lut) predicts it from them, so the held-out residual and the noise estimate come out low.
     reference = wrap360(theta - error / ARCMIN_PER_DEG)
     n_references = distinct_angles(reference)[0].size
-    if 2 * n_folds <= n_references < distinct_angles(wrap360(theta))[0].size:
-        return interleaved_folds(reference, n_folds)
+    if 4 <= n_references < distinct_angles(wrap360(theta))[0].size:
+        return interleaved_folds(reference, min(n_folds, n_references // 2))
     return interleaved_folds(theta, n_folds)
 
 
