@@ -141,3 +141,20 @@ def test_drift_judges_the_model_encal_fit_makes_by_default(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     assert result["method"] == "auto" and result["model_kind"] == encal.fit(encal.read_calibration(paths[0]),
                                                                                 rng=0).kind
+
+
+def test_pure_noise_without_a_resolution_holds_and_the_reference_is_stated(capsys, tmp_path):
+    # drift5: readings that are not counts (resolution unknown), noise 0.3 arcmin, the default model. Before,
+    # the in-sample residual was the reference and the tolerance 10 % of it: "does not hold", exit 0.
+    paths = []
+    for seed, name in ((0, "a.csv"), (1, "b.csv")):
+        noise = np.random.default_rng(seed).normal(0.0, 0.3, GRID.size)
+        paths.append(tmp_path / name)
+        write_calibration(paths[-1], Calibration(GRID, GRID + (profile(GRID) + noise) / 60.0))
+    status, out, _ = run(capsys, *paths, "--method", "fourier")
+    assert status == 0 and "expected on an unchanged repeat" in out
+    assert "verdict: the model still holds on every later calibration" in out
+    data = json.loads(run(capsys, *paths, "--method", "fourier", "--json")[1])
+    (epoch,) = data["epochs"]
+    assert data["holds"] and epoch["noise_rms_arcmin"] == pytest.approx(0.3 * np.sqrt(2), rel=0.15)
+    assert epoch["increase_arcmin"] == pytest.approx(epoch["residual_rms_arcmin"] - epoch["expected_rms_arcmin"])
