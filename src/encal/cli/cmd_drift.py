@@ -32,7 +32,8 @@ def add_arguments(parser):
     parser.add_argument("calibrations", metavar="CAL.csv", nargs="+",
                         help="the first calibration, then later ones (or one file with an epoch column)")
     parser.add_argument("--tolerance", metavar="ARCMIN", type=_number, default=None,
-                        help="allowed increase of the residual RMS (default: max(1 LSB, 10%%))")
+                        help="allowed excess of the residual RMS over the one expected on an unchanged repeat "
+                             "(default: max(1 LSB, max(10%%, 3/sqrt(n)) of that))")
     parser.add_argument("--method", default=None, choices=("auto", "spectral", "fourier", "lut", "ann", "hybrid"),
                         help="model fitted on the first calibration (default: auto, the model encal fit makes; "
                              "fourier is the paper's ten harmonics; not with --model)")

@@ -516,9 +516,9 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
         The first calibration, then the later ones; or one calibration whose ``epoch`` column names the runs
         (in order of appearance). One direction of travel each.
     tolerance_arcmin : float, optional
-        Allowed increase of the model's residual RMS from the first calibration to a later one, arc-minutes.
-        Default ``max(1 LSB, 10 % of the residual expected on an unchanged repeat)`` (10 % alone when the resolution is unknown
-        and cannot be inferred from the readings).
+        Allowed excess of a later calibration's residual RMS over the one expected on an unchanged repeat,
+        arc-minutes. Default ``max(1 LSB, max(10 %, 3 / sqrt(n)) · rms_e)`` (the relative term alone when the
+        resolution is unknown and cannot be inferred from the readings).
     model : Model, optional
         The model to judge, normally fitted on the first calibration. Default: fit ``method`` on it.
     method : str, default='fourier'
