@@ -311,3 +311,20 @@ def test_real_repeat_holds_and_another_board_does_not(real_data_dir):
     same, different = report.epochs
     assert same.holds and same.difference.rms < 1.5 * report.lsb_arcmin
     assert not different.holds
+
+
+def test_a_profile_the_grid_barely_resolves_is_not_taken_for_noise():
+    # A stepper's 50th harmonic on 200 full steps (4 points a period), shared by both calibrations: it is
+    # noise to each calibration's own second differences but cancels from their difference, so the repeat's
+    # expected residual stays at the noise and a drift twice the detectable one still fails (drift5).
+    steps = np.arange(0.0, 360.0, 1.8)
+    cogging = profile(steps) + 1.5 * np.sin(np.radians(50 * steps) + 0.3)
+    first = calibration(steps, cogging, 30, noise=0.3)
+    repeat = calibration(steps, cogging, 31, noise=0.3)
+    report = compare_calibrations([first, repeat], orders=[0, 1, 2, 5, 50])
+    assert report.noise_rms_arcmin > 0.6  # the first's own estimate: the harmonic counted as noise
+    assert report.epochs[0].noise_rms_arcmin == pytest.approx(0.3 * np.sqrt(2), rel=0.15)
+    change = 2 * report.detectable_drift_rms_arcmin * np.sqrt(2) * np.sin(np.radians(3 * steps))
+    assert report.holds and report.expected_rms_arcmin < 0.5  # not sqrt(2 * 0.93² − rms₀²) = 1.2
+    assert not compare_calibrations([first, calibration(steps, cogging + change, 31, noise=0.3)],
+                                    orders=[0, 1, 2, 5, 50]).holds
