@@ -328,3 +328,12 @@ def test_a_profile_the_grid_barely_resolves_is_not_taken_for_noise():
     assert report.holds and report.expected_rms_arcmin < 0.5  # not sqrt(2 * 0.93² − rms₀²) = 1.2
     assert not compare_calibrations([first, calibration(steps, cogging + change, 31, noise=0.3)],
                                     orders=[0, 1, 2, 5, 50]).holds
+
+
+def test_calibrations_that_declare_different_resolutions_are_judged_by_the_finest():
+    # drift5: the first file said 12 bits (LSB 5.27 arcmin), the later 16: the first's was taken and a drift
+    # of 0.71 arcmin RMS (a 3rd harmonic of 1 arcmin) held; at 16 bits (LSB 0.33) it does not.
+    first = calibration(GRID, profile(GRID), 40, noise=0.1, resolution_bits=12)
+    later = calibration(GRID, profile(GRID) + np.sin(np.radians(3 * GRID)), 41, noise=0.1, resolution_bits=16)
+    report = compare_calibrations([first, later])
+    assert report.resolution_bits == 16 and not report.holds
