@@ -141,3 +141,36 @@ def test_drift_judges_the_model_encal_fit_makes_by_default(tmp_path, capsys):
     result = json.loads(capsys.readouterr().out)
     assert result["method"] == "auto" and result["model_kind"] == encal.fit(encal.read_calibration(paths[0]),
                                                                                 rng=0).kind
+
+
+def test_pure_noise_without_a_resolution_holds_and_the_reference_is_stated(capsys, tmp_path):
+    # drift5: readings that are not counts (resolution unknown), noise 0.3 arcmin, the default model. Before,
+    # the in-sample residual was the reference and the tolerance 10 % of it: "does not hold", exit 0.
+    paths = []
+    for seed, name in ((0, "a.csv"), (1, "b.csv")):
+        noise = np.random.default_rng(seed).normal(0.0, 0.3, GRID.size)
+        paths.append(tmp_path / name)
+        write_calibration(paths[-1], Calibration(GRID, GRID + (profile(GRID) + noise) / 60.0))
+    status, out, _ = run(capsys, *paths, "--method", "fourier")
+    assert status == 0 and "expected on an unchanged repeat" in out
+    assert "verdict: the model still holds on every later calibration" in out
+    data = json.loads(run(capsys, *paths, "--method", "fourier", "--json")[1])
+    (epoch,) = data["epochs"]
+    assert data["holds"] and epoch["noise_rms_arcmin"] == pytest.approx(0.3 * np.sqrt(2), rel=0.15)
+    assert epoch["increase_arcmin"] == pytest.approx(epoch["residual_rms_arcmin"] - epoch["expected_rms_arcmin"])
+
+
+def test_a_zero_moved_by_half_a_degree_counts_unless_the_zero_is_arbitrary(capsys, tmp_path):
+    # drift5: a remount whose reference zero moved by 0.5 degree (the profile follows the shaft). --zero auto
+    # (the default) keeps offsets within 1 degree, says so, and the 30' offset makes it "not hold";
+    # --zero arbitrary removes it and the repeat holds, its offset change stated.
+    noise = np.random.default_rng(3).normal(0.0, 0.1, GRID.size)
+    later = Calibration(GRID, GRID + 0.5 + (profile(GRID + 0.5) + noise) / 60.0, resolution_bits=16)
+    write_calibration(tmp_path / "later.csv", later)
+    first = write(tmp_path, "first.csv", profile(GRID), 0)
+    status, out, _ = run(capsys, first, tmp_path / "later.csv", "--method", "fourier")
+    assert status == 0 and "taken as fixed" in out and "does not hold" in out
+    data = json.loads(run(capsys, first, tmp_path / "later.csv", "--method", "fourier", "--zero", "arbitrary",
+                          "--json")[1])
+    (epoch,) = data["epochs"]
+    assert data["holds"] and epoch["offset_change_arcmin"] == pytest.approx(30.0, abs=0.1)

@@ -4,7 +4,8 @@ The first file is the baseline; each later one is compared at the same shaft pos
 zero is arbitrary (--zero; by default when a calibration's zero offset, the circular mean of its error, exceeds
 1 degree) each calibration's offset is removed and the changes of offset are stated apart. A model of the
 first calibration (by default the one `encal fit` makes of it: --method auto) still holds on a later one when its
-residual RMS there exceeds its residual on the first by at most the tolerance: by default max(1 LSB, 10 %).
+residual RMS there exceeds the residual expected on an unchanged repeat by at most the tolerance: by default
+max(1 LSB, 10 % or three standard errors).
 The verdict is data: the exit status is 0 whether the model holds or not, 1 on bad input.
 
 Examples:
@@ -31,7 +32,8 @@ def add_arguments(parser):
     parser.add_argument("calibrations", metavar="CAL.csv", nargs="+",
                         help="the first calibration, then later ones (or one file with an epoch column)")
     parser.add_argument("--tolerance", metavar="ARCMIN", type=_number, default=None,
-                        help="allowed increase of the residual RMS (default: max(1 LSB, 10%%))")
+                        help="allowed excess of the residual RMS over the one expected on an unchanged repeat "
+                             "(default: max(1 LSB, max(10%%, 3/sqrt(n)) of that))")
     parser.add_argument("--method", default=None, choices=("auto", "spectral", "fourier", "lut", "ann", "hybrid"),
                         help="model fitted on the first calibration (default: auto, the model encal fit makes; "
                              "fourier is the paper's ten harmonics; not with --model)")
@@ -103,11 +105,14 @@ def _print_table(report, model_path):
     source = f"{report.model_kind} model from {model_path}" if model_path else \
         f"{report.method} model fitted on {report.baseline_label}"
     print(f"drift against {report.baseline_label} (arcmin; {resolution}; {offsets})")
-    print(f"{source}: residual RMS {report.baseline_rms_arcmin:.4f} on the first calibration; "
-          f"tolerance +{report.tolerance_arcmin:.4f} ({report.tolerance_rule})")
+    print(f"{source}: residual RMS {report.baseline_rms_arcmin:.4f} on the first calibration, "
+          f"{report.expected_rms_arcmin:.4f} expected on an unchanged repeat (from the noise, least over the "
+          f"later ones); "
+          f"tolerance +{report.tolerance_arcmin:.4f} ({report.tolerance_rule}); "
+          f"catches a drift of {report.detectable_drift_rms_arcmin:.4f} RMS")
     width = max(12, *(len(epoch.label) for epoch in report.epochs))
     header = (f"{'calibration':<{width}} {'n':>5} {'interp':>6} {'offset Δ':>10} {'diff RMS':>9} "
-              f"{'max |d|':>8} {'≤1 LSB':>7} {'resid RMS':>10} {'change':>8}  verdict")
+              f"{'max |d|':>8} {'≤1 LSB':>7} {'resid RMS':>10} {'excess':>8}  verdict")
     print(header)
     for epoch in report.epochs:
         stats = epoch.difference

@@ -634,11 +634,13 @@ def _drift_section(report):
     offsets = ("zero offsets removed (arbitrary zero), their changes stated apart" if drift.offset == "remove"
                else "zero offsets kept (fixed zero)")
     return (_html.paragraph(f"Against {drift.baseline_label}; {offsets}. A {drift.method} model of the first "
-                            f"calibration leaves RMS {drift.baseline_rms_arcmin:.3g} arcmin there; it holds on a later "
-                            f"one when its residual grows by at most {drift.tolerance_arcmin:.3g} arcmin "
+                            f"calibration leaves RMS {drift.baseline_rms_arcmin:.3g} arcmin there "
+                            f"({_f(drift.expected_rms_arcmin)} expected on an unchanged repeat); it holds on a "
+                            f"later one when its residual exceeds the expected by at most {drift.tolerance_arcmin:.3g} "
+                            "arcmin "
                             f"({drift.tolerance_rule})." )
             + _html.table(["calibration", "n", "offset change", "difference RMS", "max |difference|",
-                           "residual RMS", "change", "verdict"], rows, "Drift (arcmin)"))
+                           "residual RMS", "excess over expected", "verdict"], rows, "Drift (arcmin)"))
 
 
 def _figure(figures, name):
