@@ -18,9 +18,9 @@ has residual RMS ``rms₀`` on the first calibration and ``rms_k`` on a later on
 optimistic: on a repeat of an unchanged encoder with fresh noise of RMS ``σ`` a least-squares fit leaves
 ``rms_e = sqrt(2 σ² − rms₀²)`` (``σ`` estimated from the first calibration's point-to-point scatter,
 :func:`noise_rms_arcmin`; never below ``rms₀``). The model still holds when ``rms_k − rms_e <= tolerance``, by
-default ``max(1 LSB, 0.1 · rms_e)``: a change below one LSB is below what the encoder resolves (its
-quantisation and 1-LSB hysteresis), and 10 % covers the sampling error of an RMS over 180 points (about 5 %)
-twice. See ``docs/drift.md``.
+default ``max(1 LSB, max(0.1, 3 / sqrt(n)) · rms_e)`` over ``n`` points: a change below one LSB is below what the
+encoder resolves (its quantisation and 1-LSB hysteresis), and 10 % covers the sampling error of an RMS over 180
+points (about 5 %) twice, three standard errors on fewer. See ``docs/drift.md``.
 """
 
 import math
