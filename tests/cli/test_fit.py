@@ -305,6 +305,37 @@ def test_bidirectional_mean_states_its_held_out_estimate_and_half_the_reversal(t
     assert half == pytest.approx(0.15, abs=0.02)
 
 
+def test_a_target_tolerance_fits_the_mean_of_a_reference_read_afresh_and_is_recorded(tmp_path, capsys):
+    csv = _bidirectional_csv(tmp_path / "bi.csv")
+    lines = csv.read_text(encoding="utf-8").splitlines()
+    wobble = np.random.default_rng(1).uniform(-0.003, 0.003, len(lines) - 2)  # the reference read afresh
+    rows = [f"{float(r) + w:.17g},{float(e) + w:.17g},{d}"
+            for (r, e, d), w in zip((line.split(",") for line in lines[2:]), wobble)]
+    afresh = tmp_path / "afresh.csv"
+    afresh.write_text("\n".join(lines[:2] + rows) + "\n", encoding="utf-8")
+    out = str(tmp_path / "m.json")
+    assert main(["fit", str(afresh), "-o", out, "--method", "lut", "--bidirectional", "mean"]) == 1
+    assert "no reference angle was approached in both directions" in capsys.readouterr().err
+    assert main(["fit", str(afresh), "-o", out, "--method", "lut", "--bidirectional", "mean",
+                 "--target-tolerance", "0.01"]) == 0
+    training = encal.load_model(out).training
+    assert training["target_tolerance_deg"] == 0.01 and training["n_points"] == 180
+    assert training["mean_reversal_value_arcmin"] == pytest.approx(0.3, abs=0.03)
+
+
+def test_a_target_tolerance_is_refused_for_one_direction_and_as_no_plain_number(train_and_test, tmp_path, capsys):
+    train, _ = train_and_test
+    assert main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--target-tolerance", "0.01"]) == 1
+    err = capsys.readouterr().err
+    assert "--target-tolerance matches the targets of a run in both directions" in err
+    assert "Traceback" not in err and not (tmp_path / "m.json").exists()
+    for text in ("1_0", "0", "11", "nan"):
+        with pytest.raises(SystemExit) as exit_:
+            main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--target-tolerance", text])
+        assert exit_.value.code == 2
+        assert "argument --target-tolerance: expected degrees greater than 0 and at most 10" in capsys.readouterr().err
+
+
 def test_fit_json_has_the_held_out_estimate_and_the_noise_as_data(train_and_test, tmp_path, capsys):
     train, _ = train_and_test
     assert main(["fit", str(train), "-o", str(tmp_path / "m.json"), "--method", "spectral", "--noise", "0.1",

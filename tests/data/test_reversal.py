@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose
 
-from encal import Calibration
+from encal import Calibration, CalibrationError
+
 from encal.data.reversal import reversal, target_positions
 
 #: Irregular target positions over a turn (ISO 230-2 spaces them irregularly), degrees.
@@ -82,3 +83,59 @@ def test_readings_closer_than_the_tolerance_are_one_target_even_across_a_roundin
     analysis = reversal(cal)
     assert analysis.target_deg.size == 12 and analysis.n_unmatched == 0
     assert_allclose(analysis.reversal_arcmin, 0.2, atol=1e-6)
+
+
+def afresh_run(scatter_deg=0.002, seed=7):
+    """:func:`iso_run`'s runs with the reference read afresh at every approach: each reading's reference angle is
+    its target plus up to ``scatter_deg`` (the encoder reading moved with it, the deviation unchanged)."""
+    cal, up, down = iso_run(seed=seed)
+    wobble = np.random.default_rng(seed + 1).uniform(-scatter_deg, scatter_deg, len(cal))
+    return cal, Calibration(cal.reference_deg + wobble, cal.encoder_deg + wobble, direction=cal.direction,
+                            target_tolerance_deg=0.01)
+
+
+def test_a_target_tolerance_matches_a_reference_read_afresh_as_the_set_targets():
+    exact, afresh = afresh_run()
+    expected, analysis = reversal(exact).as_dict(), reversal(afresh).as_dict()
+    assert analysis.pop("target_tolerance_deg") == 0.01
+    expected.pop("target_tolerance_deg")
+    for key, value in expected.items():
+        assert analysis[key] == pytest.approx(value, abs=1e-9), key
+    targets = reversal(afresh).target_deg  # ascending in [0, 360): a median just below 0 is last
+    gap = (targets[:, None] - TARGETS[None, :] + 180.0) % 360.0 - 180.0
+    assert_allclose(np.abs(gap).min(axis=1), 0.0, atol=0.002)
+    assert sorted(np.abs(gap).argmin(axis=1)) == list(range(TARGETS.size))
+    # without the tolerance the same readings match only by chance: here not at all, and the message names the option
+    plain = Calibration(afresh.reference_deg, afresh.encoder_deg, direction=afresh.direction)
+    with pytest.raises(CalibrationError, match="approached in both directions.*--target-tolerance"):
+        reversal(plain)
+
+
+def test_a_tolerance_that_joins_neighbouring_targets_or_splits_one_is_refused():
+    _, afresh = afresh_run()
+    joined = Calibration(afresh.reference_deg, afresh.encoder_deg, direction=afresh.direction,
+                         target_tolerance_deg=0.001, name="afresh")  # below the scatter: one target's readings chain
+    with pytest.raises(CalibrationError, match=r"afresh: the reference angles from .* span .* as one target"):
+        reversal(joined)
+    grid = np.arange(0.0, 360.0, 0.5)
+    dense = Calibration(np.r_[grid, grid], np.r_[grid, grid], direction=np.repeat([1, -1], grid.size),
+                        target_tolerance_deg=0.6, name="dense")
+    with pytest.raises(CalibrationError, match="dense: all the reference angles, each within the target tolerance"):
+        reversal(dense)
+
+
+def test_the_target_is_the_median_and_exactly_an_angle_written_the_same_way():
+    target = target_positions(np.array([10.001, 9.999, 10.0, 0.1 + 0.2, 0.1 + 0.2, 0.1 + 0.2]), 0.01)
+    assert_allclose(target[:3], 10.0, atol=1e-12)
+    assert np.all(target[3:] == 0.1 + 0.2)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -0.1, float("nan"), 10.5, True])
+def test_a_calibration_refuses_a_target_tolerance_out_of_range(tolerance):
+    with pytest.raises(CalibrationError, match="target_tolerance_deg"):
+        Calibration(np.arange(8.0), np.arange(8.0), target_tolerance_deg=tolerance)
+
+
+def test_a_subset_keeps_the_target_tolerance():
+    _, afresh = afresh_run()
+    assert afresh.subset(np.arange(20)).target_tolerance_deg == 0.01

@@ -276,3 +276,8 @@ def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
     caption = _reversal_caption(reversal(cal))
     assert caption.startswith(f"{grid.size} targets approached both ways, at least 1 time(s) each way")
     assert f"; {grid.size} points at reference angles approached one way only" in caption
+    # with a target tolerance above the scatter the afresh readings join their targets, and the caption says so
+    joined = _reversal_caption(reversal(Calibration(reference, reference + 0.1 * direction / 60.0, direction=direction,
+                                                    target_tolerance_deg=0.001)))
+    assert joined == (f"{grid.size} targets approached both ways, at least 1 time(s) each way (ISO 230-2 asks for 5); "
+                      "reference angles within 0.001 degree are one target")

@@ -8,8 +8,8 @@ import warnings
 
 from .._core.errors import EncalWarning
 
-__all__ = ["add_calibration_options", "add_zero_options", "read_calibration_from_args", "positive_int", "print_json",
-           "warnings_as_lines", "check_environment", "output_that_may_close", "activity", "check_paths"]
+__all__ = ["add_calibration_options", "add_target_tolerance_option", "add_zero_options", "read_calibration_from_args",
+           "positive_int", "print_json", "warnings_as_lines", "check_environment", "output_that_may_close", "activity", "check_paths"]
 
 
 def add_calibration_options(parser):
@@ -35,6 +35,29 @@ def add_calibration_options(parser):
                         help="unit of the encoder column: deg (default), rad, rev or counts:B (B bits)")
     parser.add_argument("--unit", metavar="UNIT", type=angle_unit_argument, default=None,
                         help="unit of both columns, unless --ref-unit or --enc-unit says otherwise")
+
+
+def add_target_tolerance_option(parser):
+    """``--target-tolerance DEG``: reference angles this close to a neighbour are one ISO 230-2 target."""
+    from ..data.calibration import MAX_TARGET_TOLERANCE_DEG
+
+    def parse(text):
+        import argparse
+        import re
+
+        # a plain decimal number (float() would also take '1_0' and other scripts' digits)
+        plain = re.fullmatch(r"\+?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", text.strip(), flags=re.ASCII)
+        value = float(text) if plain else float("nan")
+        if not 0.0 < value <= MAX_TARGET_TOLERANCE_DEG:
+            raise argparse.ArgumentTypeError(f"expected degrees greater than 0 and at most "
+                                             f"{MAX_TARGET_TOLERANCE_DEG:g}, got {text!r}")
+        return value
+
+    parse.__name__ = "float"  # argparse names the type in its messages
+    parser.add_argument("--target-tolerance", type=parse, metavar="DEG", dest="target_tolerance",
+                        help="a bidirectional run whose reference is read afresh at every approach: reference "
+                             "angles within DEG of a neighbour are one target position (ISO 230-2; default: the "
+                             "same angle written twice, 1e-6 degree)")
 
 
 def angle_unit_argument(text):
@@ -69,9 +92,10 @@ def activity(command, enabled=True):
     return Activity(f"encal {command}", enabled=enabled)
 
 
-def read_calibration_from_args(path, args, progress=None):
+def read_calibration_from_args(path, args, progress=None, *, targets=False):
     """Read ``path`` with the options of :func:`add_calibration_options`; ``progress`` (an
-    :func:`activity`) shows the reading as a stage of its own."""
+    :func:`activity`) shows the reading as a stage of its own; with ``targets``, the option of
+    :func:`add_target_tolerance_option` too (the calibration a model is fitted on, not a test file)."""
     from ..data.calibration import read_calibration
 
     reference = getattr(args, "ref_col", "reference_deg")
@@ -81,7 +105,7 @@ def read_calibration_from_args(path, args, progress=None):
                            "the reference and the encoder in two different columns")
     if progress is not None:
         progress.stage(f"reading {path}")
-    return read_calibration(
+    cal = read_calibration(
         path,
         progress=None if progress is None else progress.update,
         allow_gaps=getattr(args, "allow_gaps", False),
@@ -92,7 +116,22 @@ def read_calibration_from_args(path, args, progress=None):
         encoder_column=getattr(args, "enc_col", "encoder_deg"),
         reference_unit=getattr(args, "ref_unit", None) or getattr(args, "unit", None) or "deg",
         encoder_unit=getattr(args, "enc_unit", None) or getattr(args, "unit", None) or "deg",
+        target_tolerance_deg=getattr(args, "target_tolerance", None) if targets else None,
     )
+    if cal.target_tolerance_deg is not None:
+        _check_both_directions(cal, path)
+    return cal
+
+
+def _check_both_directions(cal, path):
+    """Refuse ``--target-tolerance`` for a calibration of one direction of travel (it matches nothing there)."""
+    from .._core.errors import InputError
+    from ..data.reversal import has_both_directions
+
+    if not has_both_directions(cal):
+        raise InputError(f"{path}: --target-tolerance matches the targets of a run in both directions of travel, "
+                         "but this calibration has readings of one direction only; expected a direction column "
+                         "holding +1 and -1 (or leave out --target-tolerance)")
 
 
 def int_in_range(low, high=None):

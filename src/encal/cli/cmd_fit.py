@@ -12,8 +12,8 @@ reference's zero. When that zero is arbitrary (--zero; by default when the offse
 the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
-from ._common import (activity, add_calibration_options, add_zero_options, check_paths, int_in_range, print_json,
-                      read_calibration_from_args, size_option)
+from ._common import (activity, add_calibration_options, add_target_tolerance_option, add_zero_options, check_paths,
+                      int_in_range, print_json, read_calibration_from_args, size_option)
 
 
 def add_arguments(parser):
@@ -73,6 +73,7 @@ def add_arguments(parser):
                         help="print one JSON object (model, seed, training-set statistics, selection table)")
     add_zero_options(parser)
     add_calibration_options(parser)
+    add_target_tolerance_option(parser)
     parser.set_defaults(fit_parser=parser)
 
 
@@ -215,7 +216,7 @@ def _with_repeat(cal, second):
     return Calibration(np.r_[cal.reference_deg, second.reference_deg], np.r_[cal.encoder_deg, second.encoder_deg],
                        direction=direction, epoch=np.r_[passes[0], passes[1]], name=cal.name,
                        resolution_bits=cal.resolution_bits or second.resolution_bits, source=cal.source,
-                       reading_sign=cal.reading_sign)
+                       reading_sign=cal.reading_sign, target_tolerance_deg=cal.target_tolerance_deg)
 
 
 def _check_same_stops(cal, second):
@@ -303,7 +304,7 @@ def run(args):
     check_paths(inputs=[(args.calibration, "calibration"), (args.repeat, "calibration")],
                 outputs=[("-o", args.output)])
     with activity("fit") as progress:
-        cal = read_calibration_from_args(args.calibration, args, progress)
+        cal = read_calibration_from_args(args.calibration, args, progress, targets=True)
         if args.repeat is not None:
             _check_not_itself(args.repeat, args.calibration)
             second = read_calibration_from_args(args.repeat, args, progress)

@@ -14,7 +14,8 @@ Examples:
 
 from pathlib import Path
 
-from ._common import activity, add_calibration_options, add_zero_options, check_paths, read_calibration_from_args
+from ._common import (activity, add_calibration_options, add_target_tolerance_option, add_zero_options, check_paths,
+                      read_calibration_from_args)
 
 
 def add_arguments(parser):
@@ -41,6 +42,7 @@ def add_arguments(parser):
                         help="also write the model file (the same model encal fit writes)")
     add_zero_options(parser)
     add_calibration_options(parser)
+    add_target_tolerance_option(parser)
 
 
 def run(args):
@@ -54,7 +56,7 @@ def run(args):
                 folders=[("--figures" if args.figures is not None else "the figures' folder", figures_dir,
                           [f"{name}.png" for name in ENCODER_FIGURES])])
     with activity("report") as progress:
-        cal = read_calibration_from_args(args.calibration, args, progress)
+        cal = read_calibration_from_args(args.calibration, args, progress, targets=True)
         tests = [read_calibration_from_args(path, args, progress) for path in args.tests]
         progress.stage(f"fitting ({args.method})" + (", comparing the models" if args.compare is not False else "")
                        + (", the uncertainty band" if args.uncertainty else ""))

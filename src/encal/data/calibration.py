@@ -14,7 +14,7 @@ from .._core.csv_numbers import line_count, plain_body, plain_file_rows, plain_r
 from .._core.sorting import stable_argsort
 from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .._core.errors import CalibrationError, EncalWarning
-from .._core.parameters import check_bool, check_choice, check_int, check_type, invalid
+from .._core.parameters import check_bool, check_choice, check_int, check_number, check_type, invalid
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "check_turns",
            "turn_checked_errors", "is_multi_revolution", "is_repeated_stops"]
@@ -45,6 +45,12 @@ class Calibration:
     reading_sign : {1, -1}, default=1
         -1 when the encoder counts against the reference: ``encoder_deg`` then holds the negated readings
         (see ``reverse`` of :func:`read_calibration`), and models fitted to it record it.
+    target_tolerance_deg : float, optional
+        For a bidirectional run whose reference is read afresh at every approach (a rotary table positioned
+        to its targets and measured by an autocollimator or a reference encoder): reference angles within this
+        many degrees of a neighbour are one target position of ISO 230-2 (:func:`encal.data.reversal.reversal`,
+        the mean of both directions). Default None: :data:`encal.data.reversal.TARGET_TOLERANCE_DEG`, the
+        same angle written twice. From 0 (exclusive) to :data:`MAX_TARGET_TOLERANCE_DEG`.
     """
 
     reference_deg: np.ndarray
@@ -56,6 +62,7 @@ class Calibration:
     source: str | None = None
     metadata: dict = field(default_factory=dict)
     reading_sign: int = 1
+    target_tolerance_deg: float | None = None
 
     def __post_init__(self):
         ref = np.asarray(self.reference_deg, dtype=float).reshape(-1)
@@ -73,6 +80,11 @@ class Calibration:
                 note="or None when unknown", error=CalibrationError))
         if self.reading_sign not in READING_SIGNS or isinstance(self.reading_sign, bool):
             raise invalid("reading_sign", "Calibration", "1 or -1", self.reading_sign, error=CalibrationError)
+        if self.target_tolerance_deg is not None:
+            object.__setattr__(self, "target_tolerance_deg", check_number(
+                self.target_tolerance_deg, "target_tolerance_deg", "Calibration", low=0.0, low_open=True,
+                high=MAX_TARGET_TOLERANCE_DEG, note="degrees, or None: the same angle written twice",
+                error=CalibrationError))
         object.__setattr__(self, "reference_deg", wrap360(ref).reshape(-1))
         object.__setattr__(self, "encoder_deg", wrap360(enc).reshape(-1))
         if self.direction is not None:
@@ -125,6 +137,7 @@ class Calibration:
             source=self.source,
             metadata=dict(self.metadata),
             reading_sign=self.reading_sign,
+            target_tolerance_deg=self.target_tolerance_deg,
         )
 
 
@@ -177,6 +190,9 @@ MIN_POINTS = 8
 MAX_GAP_DEG = 30.0
 #: Encoder resolutions a calibration may declare, in bits.
 MAX_BITS = 32
+#: Largest target tolerance (degrees): ISO 230-2's targets on a rotary axis are degrees apart, and a tolerance that
+#: joins neighbouring targets is refused by :func:`encal.data.reversal.target_positions` in any case.
+MAX_TARGET_TOLERANCE_DEG = 10.0
 #: Largest |angle| read from a file, in degrees (2.8 million turns): up to it a double keeps the angle to
 #: better than 1e-5 arcmin after wrapping to [0, 360); far beyond it the column is not angles in degrees.
 MAX_ABS_DEG = 1e9
@@ -374,7 +390,7 @@ def _check_decimal_marks(path, first_comma, first_point):
 
 def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolution_bits=None,
                      duplicates="refuse", reference_column="reference_deg", encoder_column="encoder_deg",
-                     reference_unit="deg", encoder_unit="deg", progress=None):
+                     reference_unit="deg", encoder_unit="deg", progress=None, target_tolerance_deg=None):
     """Read a calibration CSV (see DESIGN.md).
 
     The file is UTF-8 text (a byte-order mark is accepted), comma-separated (encal's dialect,
@@ -419,6 +435,9 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     progress : callable, optional
         Called as ``progress(done, total)`` while the rows are read (bytes or lines done of the total), for
         a progress bar on a long file.
+    target_tolerance_deg : float, optional
+        Reference angles within this many degrees of a neighbour are one target position of a bidirectional
+        run (see :class:`Calibration`).
 
     Returns
     -------
@@ -562,6 +581,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         resolution_bits=resolution_bits,
         source=str(path),
         reading_sign=-1 if reverse else 1,
+        target_tolerance_deg=target_tolerance_deg,
     )
     rows = cal
     runs = _runs(cal)
@@ -939,7 +959,8 @@ def _check_duplicates(path, cal, duplicates, repeated=None, order=None, sorted_r
     return Calibration(averaged.reference_deg, (encoder[first] + mean_offset)[in_file_order],
                        direction=averaged.direction, epoch=averaged.epoch, name=cal.name,
                        resolution_bits=cal.resolution_bits, source=cal.source,
-                       metadata={"averaged_duplicates": len(cal) - keep.size}, reading_sign=cal.reading_sign)
+                       metadata={"averaged_duplicates": len(cal) - keep.size}, reading_sign=cal.reading_sign,
+                       target_tolerance_deg=cal.target_tolerance_deg)
 
 
 #: Reference angles that agree to this many decimals of a degree are one stop (far below any reference's

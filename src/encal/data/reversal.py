@@ -62,6 +62,9 @@ class ReversalAnalysis:
         Points at target positions approached in one direction only (left out).
     resolution_bits : int or None
         Encoder resolution, for values in LSB.
+    target_tolerance_deg : float
+        Reference angles within this many degrees of a neighbour were taken as one target (see
+        :func:`target_positions`).
     """
 
     target_deg: np.ndarray
@@ -73,6 +76,7 @@ class ReversalAnalysis:
     std_reverse_arcmin: np.ndarray
     n_unmatched: int = 0
     resolution_bits: int | None = None
+    target_tolerance_deg: float = TARGET_TOLERANCE_DEG
 
     @property
     def reversal_arcmin(self):
@@ -192,6 +196,7 @@ class ReversalAnalysis:
             "accuracy_reverse_arcmin": self.accuracy_reverse,
             "accuracy_arcmin": self.accuracy,
             "min_approaches": self.min_approaches,
+            "target_tolerance_deg": self.target_tolerance_deg,
         }
         if self.resolution_bits is not None:
             lsb = lsb_arcmin(self.resolution_bits)
@@ -235,12 +240,13 @@ def direction_subset(cal, direction):
                        reading_sign=cal.reading_sign)
 
 
-def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG):
+def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where=None):
     """The target position of every reading: reference angles within ``tolerance_deg`` of a neighbour are one target.
 
     Sorted reference angles (wrapped to [0, 360), 360 − tolerance and above taken as just below 0) split where two
-    neighbours are more than ``tolerance_deg`` apart; each group's target is its first angle. Rounding to a grid
-    instead would split two readings 1e-9 degree apart on either side of a grid line.
+    neighbours are more than ``tolerance_deg`` apart; each group's target is its median angle (the angle itself when
+    it was written the same way every time). Rounding to a grid instead would split two readings 1e-9 degree apart
+    on either side of a grid line.
 
     Parameters
     ----------
@@ -248,19 +254,42 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG):
         Reference angles (degrees).
     tolerance_deg : float
         Largest gap (degrees) between neighbouring angles of one target.
+    where : str, optional
+        The calibration's file or name. When given, a group whose angles span more than ``tolerance_deg`` (its
+        neighbours each within the tolerance, so that neighbouring targets were joined) is refused, naming it.
 
     Returns
     -------
     ndarray
         Target position (degrees, in [0, 360)) of each reading.
+
+    Raises
+    ------
+    CalibrationError
+        With ``where``: when one target's angles span more than ``tolerance_deg``.
     """
     angle = wrap360(np.asarray(reference_deg, dtype=float))
     angle = np.where(angle >= 360.0 - tolerance_deg, angle - 360.0, angle)
     order = np.argsort(angle, kind="stable")
     ordered = angle[order]
     starts = np.r_[True, np.diff(ordered) > tolerance_deg]
+    first = np.flatnonzero(starts)
+    last = np.r_[first[1:], ordered.size] - 1
+    if where is not None:
+        span = ordered[last] - ordered[first]
+        if np.any(span > tolerance_deg):
+            worst = int(np.argmax(span))
+            joined = "all the reference angles" if first.size == 1 else (
+                f"the reference angles from {wrap360(ordered[first[worst]]):.6g} to "
+                f"{wrap360(ordered[last[worst]]):.6g} deg")
+            raise CalibrationError(
+                f"{where}: {joined}, each within the target tolerance {tolerance_deg:g} deg of a neighbour, span "
+                f"{span[worst]:.3g} deg as one target; expected the approaches to one target within the tolerance "
+                "of each other (give a target tolerance below the spacing of the targets)")
+    # the median of each group (sorted): exact for an angle written the same way every time
+    median = 0.5 * (ordered[first + (last - first) // 2] + ordered[first + (last - first + 1) // 2])
     target = np.empty_like(angle)
-    target[order] = ordered[starts][np.cumsum(starts) - 1]
+    target[order] = median[np.cumsum(starts) - 1]
     return wrap360(target)
 
 
@@ -270,8 +299,9 @@ def reversal(cal):
     Parameters
     ----------
     cal : Calibration
-        With a ``direction`` column; target positions are matched by reference angle: angles within 1e-6
-        degree of a neighbour are one target (:func:`target_positions`).
+        With a ``direction`` column; target positions are matched by reference angle: angles within the
+        calibration's ``target_tolerance_deg`` (by default 1e-6 degree) of a neighbour are one target
+        (:func:`target_positions`).
 
     Returns
     -------
@@ -280,8 +310,9 @@ def reversal(cal):
     Raises
     ------
     CalibrationError
-        If the calibration has no direction column, fewer than 8 points in a direction, or no target
-        position approached in both directions.
+        If the calibration has no direction column, fewer than 8 points in a direction, no target
+        position approached in both directions, or (with a ``target_tolerance_deg`` given) one target whose
+        reference angles span more than the tolerance.
 
     Examples
     --------
@@ -293,7 +324,10 @@ def reversal(cal):
     (0.2, 0.2)
     """
     require_directions(cal, "reversal")
-    target = target_positions(cal.reference_deg)
+    tolerance = cal.target_tolerance_deg
+    where = cal.source or cal.name or "the calibration"
+    target = target_positions(cal.reference_deg, TARGET_TOLERANCE_DEG if tolerance is None else tolerance,
+                              where=None if tolerance is None else where)
     error = cal.errors_arcmin
     stats = {}
     for sign in (1, -1):
@@ -307,9 +341,10 @@ def reversal(cal):
         stats[sign] = (keys, counts, means, stds)
     common, up_index, down_index = np.intersect1d(stats[1][0], stats[-1][0], return_indices=True)
     if common.size == 0:
-        raise CalibrationError(f"{cal.source or cal.name or 'the calibration'}: no reference angle was "
-                               "approached in both directions; expected the same target positions forward "
-                               "and reverse")
+        within = "" if tolerance is None else f" within {tolerance:g} deg"
+        raise CalibrationError(f"{where}: no reference angle was approached in both directions{within}; expected "
+                               "the same target positions forward and reverse (a reference read afresh at every "
+                               "approach needs a target tolerance: --target-tolerance DEG)")
     unmatched = int(stats[1][1].sum() - stats[1][1][up_index].sum()
                     + stats[-1][1].sum() - stats[-1][1][down_index].sum())
     up, down = stats[1], stats[-1]
@@ -319,6 +354,7 @@ def reversal(cal):
         mean_forward_arcmin=up[2][up_index], mean_reverse_arcmin=down[2][down_index],
         std_forward_arcmin=up[3][up_index], std_reverse_arcmin=down[3][down_index],
         n_unmatched=unmatched, resolution_bits=cal.resolution_bits,
+        target_tolerance_deg=TARGET_TOLERANCE_DEG if tolerance is None else tolerance,
     )
 
 

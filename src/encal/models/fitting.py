@@ -241,7 +241,8 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, unc
     Model
         ``training`` records ``bidirectional`` (the mode), ``fit_options`` and the calibration's
         ``mean_reversal_value_arcmin`` and ``reversal_value_arcmin`` (None in ``'per-direction'`` mode
-        when no target position was approached both ways).
+        when no target position was approached both ways), and the calibration's ``target_tolerance_deg`` when it
+        has one.
 
     Raises
     ------
@@ -274,6 +275,7 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, unc
         "fit_options": dict(options),
         "mean_reversal_value_arcmin": None if analysis is None else analysis.mean_reversal_value,
         "reversal_value_arcmin": None if analysis is None else analysis.reversal_value,
+        **({"target_tolerance_deg": cal.target_tolerance_deg} if cal.target_tolerance_deg is not None else {}),
     }
     if mode == "mean":
         mean = mean_calibration(cal)
