@@ -255,3 +255,86 @@ def test_compensator_refuses_other_things():
                                "Got an object of type int instead.")
     with pytest.raises(InputError, match="finite"):
         Compensator(DATA / "model_v1_fourier.json").correct([1.0, np.nan])
+
+
+# -- task runtime6: the runtime refuses what encal refuses, and offers encal correct's rules outside an arc ----------
+
+@pytest.mark.parametrize("bad", [None, pytest.param(10**400, id="10**400"), "ten", 1j, math.nan, -math.inf])
+def test_the_runtime_refuses_every_angle_encal_refuses_in_one_sentence(bad):
+    """None raised a TypeError and 10**400 an OverflowError, from float(): neither the runtime's sentence."""
+    stored, model = runtime.load(DATA / "model_v1_fourier.json"), load_model(DATA / "model_v1_fourier.json")
+    with pytest.raises(InputError):
+        model.predict(bad)
+    for call in (stored.predict_arcmin, stored.correct_deg):
+        with pytest.raises(ValueError, match=r"^expected a finite encoder angle in degrees, got .{1,60}$"):
+            call(bad)
+
+
+@pytest.mark.parametrize("name", ["model_v1_fourier.json", "model_v1_directional.json"])
+@pytest.mark.parametrize("bad", [0, 2, True, np.True_, "1", 1j, [1]])
+def test_the_runtime_refuses_every_direction_encal_refuses(name, bad):
+    """A direction of 0 was ignored by a one-profile model, and True taken for +1 by a directional one: encal
+    refuses both."""
+    stored, model = runtime.load(DATA / name), load_model(DATA / name)
+    with pytest.raises(InputError):
+        model.predict(10.0, direction=bad)
+    for call in (stored.predict_arcmin, stored.correct_deg):
+        with pytest.raises(ValueError, match="^expected a direction of [+]1, -1 or None, got "):
+            call(10.0, bad)
+
+
+@pytest.mark.parametrize("good", [1, -1, 1.0, -1.0, np.int8(-1), np.float64(1.0)])
+def test_the_runtime_takes_the_directions_encal_takes(good):
+    stored, model = runtime.load(DATA / "model_v1_directional.json"), load_model(DATA / "model_v1_directional.json")
+    assert stored.predict_arcmin(10.0, good) == pytest.approx(float(model.predict(10.0, direction=good)), abs=1e-12)
+
+
+def hand_arc_models(tmp_path):
+    """Arc models made by hand (known values): a table over [20, 140] degrees, reversed or not, and a directional
+    one whose parts differ by a constant 0.6 arcmin (a reversal), with a slope so that the two ends differ."""
+    from encal.models.directional import DirectionalModel
+    from encal.models.fourier import FourierModel
+
+    paths = {}
+    for sign in (1, -1):
+        model = FourierModel([0, 1], [0.5, 2.0], [0.0, 3.0])
+        model.range_deg, model.reading_sign = [20.0, 140.0], sign
+        paths[f"fourier{sign:+d}"] = save_model(model, tmp_path / f"arc{sign:+d}.json")
+    model = DirectionalModel(FourierModel([0, 1], [0.3, 2.0], [0.0, 3.0]), FourierModel([0, 1], [-0.3, 2.0], [0.0, 3.0]))
+    model.range_deg = [300.0, 60.0]  # through 0
+    paths["directional"] = save_model(model, tmp_path / "arc-directional.json")
+    return paths
+
+
+@pytest.mark.parametrize("rule", ["clamp", "pass"])
+def test_the_runtime_corrects_outside_an_arc_as_encal_correct_does(tmp_path, rule):
+    """runtime.correct_deg(..., outside=rule) is apply_outside_rule's (encal correct --outside rule), end by end and
+    direction by direction; known truth for the table: clamp uses the error at the nearer end, pass none."""
+    from encal._core.arcs import apply_outside_rule
+
+    readings = [0.0, 10.0, 79.999, 80.0, 80.001, 150.0, 200.0, 259.9, 260.0, 260.1, 290.0, 359.0, -100.0, 500.0]
+    for name, path in hand_arc_models(tmp_path).items():
+        stored, model = runtime.load(path), load_model(path)
+        for direction in ((None, 1, -1) if name == "directional" else (None,)):
+            expected = apply_outside_rule(model, readings, rule, direction=direction)
+            ours = [stored.correct_deg(theta, direction, outside=rule) for theta in readings]
+            np.testing.assert_allclose(ours, expected, rtol=0, atol=1e-12)
+    stored = runtime.load(hand_arc_models(tmp_path)["fourier+1"])
+    error_at = {end: 0.5 + 2.0 * math.cos(math.radians(end)) + 3.0 * math.sin(math.radians(end)) for end in (20, 140)}
+    held = {200.0: 140, 259.9: 140, 260.0: 140, 260.1: 20, 10.0: 20}  # 260: the middle of the gap, a tie: the end
+    for theta, end in held.items():
+        expected = theta - (error_at[end] / 60.0 if rule == "clamp" else 0.0)
+        assert stored.correct_deg(theta, outside=rule) == pytest.approx(expected, abs=1e-12)
+    assert stored.correct_deg(80.0, outside=rule) == stored.correct_deg(80.0)  # inside: the rule does not apply
+
+
+def test_the_runtime_outside_rules_nan_and_error(tmp_path):
+    stored = runtime.load(hand_arc_models(tmp_path)["fourier-1"])
+    assert math.isnan(stored.correct_deg(-200.0)) and math.isnan(stored.correct_deg(-200.0, outside="nan"))
+    assert math.isfinite(stored.correct_deg(-100.0, outside="error"))  # -(-100) = 100: inside
+    with pytest.raises(ValueError, match=r"^the reading -200.0 deg is outside the calibrated range 20.0 to 140.0 deg; "):
+        stored.correct_deg(-200.0, outside="error")
+    with pytest.raises(ValueError, match="^expected outside to be one of 'nan', 'error', 'clamp', 'pass', got 'wrap'$"):
+        stored.correct_deg(100.0, outside="wrap")
+    full = runtime.load(DATA / "model_v1_fourier.json")
+    assert full.correct_deg(200.0, outside="error") == full.correct_deg(200.0)  # a full turn has no outside

@@ -35,7 +35,7 @@ import json
 import math
 
 __all__ = ["load", "read_document", "RuntimeModel", "ModelFileError", "model_input_deg", "reading_sign_of",
-           "version_for", "range_of", "in_range",
+           "version_for", "range_of", "in_range", "nearer_end", "OUTSIDE_RULES",
            "canonical_json", "content_sha256", "check_document", "check_parameters",
            "check_uncertainty", "normalisation_of", "form_of", "names_a_form", "FORMAT", "VERSION", "KINDS",
            "FORMS", "KIND_FORMS"]
@@ -756,40 +756,100 @@ class RuntimeModel:
 
         ``direction`` (+1 turning forward, -1 turning back) selects a part of a
         ``directional`` model; ``None`` (unknown) gives the mean of both parts.
-        Other kinds have one profile and ignore it. NaN for a reading outside the model's ``range_deg``
-        (a model calibrated over an arc, format version 4): it is never given a number there.
+        Other kinds have one profile: they check it (as encal does) and ignore it. NaN for a reading outside the
+        model's ``range_deg`` (a model calibrated over an arc, format version 4): it is never given a number there.
+
+        Raises
+        ------
+        ValueError
+            If ``theta_deg`` is not a finite number, or ``direction`` is not +1, -1 or None.
         """
         theta = model_input_deg(_finite(theta_deg), self.reading_sign)
+        direction = _direction(direction)
         if not in_range(theta, self.range_deg):
             return math.nan  # calibrated over an arc that does not hold this reading
-        if self.directional:
-            return float(self._predict(theta, _direction(direction)))
-        return float(self._predict(theta))
+        return self._error_at(theta, direction)
 
-    def correct_deg(self, theta_deg, direction=None):
+    def _error_at(self, theta_in, direction):
+        """The model's error (arc-minutes) at the model-input angle ``theta_in`` (degrees in [0, 360))."""
+        if self.directional:
+            return float(self._predict(theta_in, direction))
+        return float(self._predict(theta_in))
+
+    def correct_deg(self, theta_deg, direction=None, *, outside="nan"):
         """Corrected angle in degrees, in [0, 360), of the encoder reading ``theta_deg`` (degrees).
 
-        ``direction`` is as for :meth:`predict_arcmin`.
+        ``direction`` is as for :meth:`predict_arcmin`. ``outside`` is what a model calibrated over an arc
+        (``range_deg``) does with a reading outside it, the rules of ``encal correct --outside``: ``'nan'``
+        (default) answers NaN; ``'error'`` raises ValueError naming the reading and the range; ``'clamp'``
+        subtracts the error at the nearer end of the arc (the end after which the reading lies when it is
+        as far from both), in the reading's direction for a directional model; ``'pass'`` leaves the reading
+        uncorrected (``model_input_deg`` of it). A full-turn model has no outside and ignores it.
         """
         # Wrap first: for a multi-turn reading of 1e15 degrees the correction would be lost to rounding.
-        theta = _finite(theta_deg)
-        return _wrap360(model_input_deg(theta, self.reading_sign) - self.predict_arcmin(theta, direction) / 60.0)
+        theta = model_input_deg(_finite(theta_deg), self.reading_sign)
+        direction = _direction(direction)
+        if outside not in OUTSIDE_RULES:
+            raise ValueError(f"expected outside to be one of {', '.join(map(repr, OUTSIDE_RULES))}, got {outside!r}")
+        if not in_range(theta, self.range_deg):
+            if outside == "nan":
+                return math.nan
+            if outside == "pass":
+                return theta
+            if outside == "error":
+                start, end = self.range_deg
+                raise ValueError(f"the reading {theta_deg!r} deg is outside the calibrated range {start!r} to {end!r} "
+                                 "deg; expected a reading inside it (outside='clamp' uses the correction of the "
+                                 "nearer end, outside='pass' leaves it uncorrected)")
+            return _wrap360(theta - self._error_at(nearer_end(theta, self.range_deg), direction) / 60.0)
+        return _wrap360(theta - self._error_at(theta, direction) / 60.0)
 
     def __repr__(self):
         return f"<RuntimeModel kind={self.kind!r} for {self.encoder.get('name')!r}>"
 
 
+#: What :meth:`RuntimeModel.correct_deg` does with a reading outside an arc model's range (``encal correct
+#: --outside``'s rules, and NaN, the default of encal's Python API).
+OUTSIDE_RULES = ("nan", "error", "clamp", "pass")
+
+
+def nearer_end(theta_deg, range_deg):
+    """The end of ``range_deg`` nearer to ``theta_deg`` round the circle (degrees in [0, 360)): the end when
+    the angle is as far past it as before the start (encal's ``clamp_to_range``)."""
+    start, end = range_deg
+    return end if (theta_deg - end) % 360.0 <= (start - theta_deg) % 360.0 else start
+
+
 def _finite(theta_deg):
-    theta = float(theta_deg)
+    try:
+        theta = float(theta_deg)
+    except (TypeError, ValueError, OverflowError):  # None, 'ten', 10**400 (encal refuses them all)
+        theta = math.nan
     if not math.isfinite(theta):
-        raise ValueError(f"expected a finite encoder angle in degrees, got {theta_deg!r}")
+        raise ValueError(f"expected a finite encoder angle in degrees, got {_shown(theta_deg)}")
     return theta
 
 
+def _shown(value):
+    try:
+        text = repr(value)
+    except ValueError:  # an int of more digits than Python writes
+        text = f"an {type(value).__name__} too long to write"
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
 def _direction(direction):
-    if direction is None or direction in (1, -1):
-        return direction
-    raise ValueError(f"expected a direction of +1, -1 or None, got {direction!r}")
+    """``direction`` as +1, -1 or None, refusing what encal refuses (a bool, a string, 0, 2, ...)."""
+    if direction is None:
+        return None
+    if not (isinstance(direction, (str, bytes)) or type(direction).__name__.startswith("bool")):  # NumPy's too
+        try:
+            value = float(direction)
+        except (TypeError, ValueError, OverflowError):
+            value = None
+        if value in (1.0, -1.0):
+            return 1 if value > 0 else -1
+    raise ValueError(f"expected a direction of +1, -1 or None, got {_shown(direction)}")
 
 
 def load(path):

@@ -158,7 +158,7 @@ def apply_outside_rule(model, theta_enc_deg, rule, *, where="reading", direction
                            dtype=float)
     if range_deg is None:
         return corrected
-    wrapped = model_input(wrap360(theta), target.reading_sign)
+    wrapped = model_input(theta, target.reading_sign)  # one rounding, as the model's own (wrapped first: two)
     outside = ~inside(wrapped, range_deg)
     if not outside.any():
         return corrected
@@ -172,9 +172,14 @@ def apply_outside_rule(model, theta_enc_deg, rule, *, where="reading", direction
         corrected[outside] = wrapped[outside]
         return corrected[()]
     held = clamp_to_range(wrapped[outside], range_deg)
-    # the model sees model-input angles; feed it readings that map onto the held angles
-    readings = held if target.reading_sign == 1 else wrap360(-held)
-    error = np.asarray(target.predict(readings), dtype=float)
+    # the model sees model-input angles; feed it readings that map onto the held angles exactly (-held for a
+    # reversed encoder: negated and wrapped, it is held again, where 360 - held would round)
+    readings = held if target.reading_sign == 1 else -held
+    if direction is None:
+        error = np.asarray(target.predict(readings), dtype=float)
+    else:  # a directional model: each reading's own direction's correction at the nearer end, not their mean
+        directions = np.broadcast_to(np.asarray(direction), theta.shape)[outside]
+        error = np.asarray(target.predict(readings, direction=directions), dtype=float)
     corrected[outside] = wrap360(wrapped[outside] - error / ARCMIN_PER_DEG)
     return corrected[()]
 

@@ -109,11 +109,10 @@ class Compensator:
         """
         theta = as_angles(theta_enc_deg)
         if direction is None and type(self.model).correct is Model.correct:
-            # The same formula, evaluated by the model a chunk at a time (in cache, memory flat). The model
-            # wraps the reading itself; wrapping it before negating it can differ in the last bit.
-            theta = theta if self.reading_sign == 1 else wrap360(theta)
+            # The same formula, evaluated by the model a chunk at a time (in cache, memory flat).
             return np.reshape(self.model.correct(theta.reshape(-1)), theta.shape)[()]
-        theta = wrap360(theta)  # wrap first: multi-turn readings keep their precision
+        # model_input negates and wraps in one rounding, as the model, the runtime and the format do: a reading
+        # wrapped before it is negated rounds twice, an ulp away, and at an arc's end inside became outside.
         return wrap360(model_input(theta, self.reading_sign) - self.predict(theta, direction) / ARCMIN_PER_DEG)[()]
 
     __call__ = correct
