@@ -290,8 +290,8 @@ def test_the_runtime_takes_the_directions_encal_takes(good):
 
 
 def hand_arc_models(tmp_path):
-    """Arc models made by hand (known values): a table over [20, 140] degrees, reversed or not, and a directional
-    one whose parts differ by a constant 0.6 arcmin (a reversal), with a slope so that the two ends differ."""
+    """Arc models made by hand (known values): a first harmonic plus 0.5 arcmin over [20, 140] degrees, reversed or
+    not, and a directional one over [300, 60] (through 0) whose parts differ by a constant 0.6 arcmin (a reversal)."""
     from encal.models.directional import DirectionalModel
     from encal.models.fourier import FourierModel
 
@@ -300,7 +300,8 @@ def hand_arc_models(tmp_path):
         model = FourierModel([0, 1], [0.5, 2.0], [0.0, 3.0])
         model.range_deg, model.reading_sign = [20.0, 140.0], sign
         paths[f"fourier{sign:+d}"] = save_model(model, tmp_path / f"arc{sign:+d}.json")
-    model = DirectionalModel(FourierModel([0, 1], [0.3, 2.0], [0.0, 3.0]), FourierModel([0, 1], [-0.3, 2.0], [0.0, 3.0]))
+    forward, reverse = FourierModel([0, 1], [0.3, 2.0], [0.0, 3.0]), FourierModel([0, 1], [-0.3, 2.0], [0.0, 3.0])
+    model = DirectionalModel(forward, reverse)
     model.range_deg = [300.0, 60.0]  # through 0
     paths["directional"] = save_model(model, tmp_path / "arc-directional.json")
     return paths
@@ -309,7 +310,7 @@ def hand_arc_models(tmp_path):
 @pytest.mark.parametrize("rule", ["clamp", "pass"])
 def test_the_runtime_corrects_outside_an_arc_as_encal_correct_does(tmp_path, rule):
     """runtime.correct_deg(..., outside=rule) is apply_outside_rule's (encal correct --outside rule), end by end and
-    direction by direction; known truth for the table: clamp uses the error at the nearer end, pass none."""
+    direction by direction; known truth for the harmonic: clamp uses its error at the nearer end, pass none."""
     from encal._core.arcs import apply_outside_rule
 
     readings = [0.0, 10.0, 79.999, 80.0, 80.001, 150.0, 200.0, 259.9, 260.0, 260.1, 290.0, 359.0, -100.0, 500.0]
@@ -332,7 +333,7 @@ def test_the_runtime_outside_rules_nan_and_error(tmp_path):
     stored = runtime.load(hand_arc_models(tmp_path)["fourier-1"])
     assert math.isnan(stored.correct_deg(-200.0)) and math.isnan(stored.correct_deg(-200.0, outside="nan"))
     assert math.isfinite(stored.correct_deg(-100.0, outside="error"))  # -(-100) = 100: inside
-    with pytest.raises(ValueError, match=r"^the reading -200.0 deg is outside the calibrated range 20.0 to 140.0 deg; "):
+    with pytest.raises(ValueError, match=r"^the reading -200.0 deg is outside the calibrated range 20.0 to 140.0 deg"):
         stored.correct_deg(-200.0, outside="error")
     with pytest.raises(ValueError, match="^expected outside to be one of 'nan', 'error', 'clamp', 'pass', got 'wrap'$"):
         stored.correct_deg(100.0, outside="wrap")
