@@ -339,3 +339,68 @@ def test_the_runtime_outside_rules_nan_and_error(tmp_path):
         stored.correct_deg(100.0, outside="wrap")
     full = runtime.load(DATA / "model_v1_fourier.json")
     assert full.correct_deg(200.0, outside="error") == full.correct_deg(200.0)  # a full turn has no outside
+
+
+def test_the_runtime_alone_loads_checks_and_refuses_in_one_sentence(tmp_path):
+    """runtime.py copied alone into an empty folder, run by a Python with no site-packages (-I -S: neither NumPy
+    nor encal importable): it corrects every frozen file as encal's copy does, and refuses each corrupted file
+    with its ModelFileError, one sentence naming the file."""
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    shutil.copy(RUNTIME_SOURCE, alone / "rt.py")
+    good = json.loads((DATA / "model_v1_fourier.json").read_text(encoding="utf-8"))
+
+    def corrupted(name, change, resign=True):
+        document = json.loads(json.dumps(good))
+        change(document)
+        if resign:  # json's default allows NaN, as a hand-made file might hold it
+            content = {key: value for key, value in document.items() if key != "sha256"}
+            text = json.dumps(content, sort_keys=True, separators=(",", ":"))
+            document["sha256"] = __import__("hashlib").sha256(text.encode("ascii")).hexdigest()
+        (tmp_path / name).write_text(json.dumps(document), encoding="utf-8")
+        return name
+
+    bad = {
+        corrupted("altered.json", lambda d: d["parameters"]["cos"].__setitem__(1, 9.0), resign=False): "was altered",
+        corrupted("missing.json", lambda d: d.pop("training")): "but training is missing",
+        corrupted("nan.json", lambda d: d["parameters"]["sin"].__setitem__(1, math.nan)): "NaN or Infinity",
+        corrupted("kind.json", lambda d: d.update(kind="wavelet")): 'got "wavelet"',
+        corrupted("newer.json", lambda d: d.update(version=5)): "newer than version 4",
+        corrupted("shape.json", lambda d: d["parameters"]["cos"].pop()): "parameters.cos to be a list of",
+    }
+    frozen = [p.name for p in sorted(DATA.glob("model_v*.json"))]
+    script = f"""
+import sys
+sys.path[:] = [{str(alone)!r}] + [p for p in sys.path if p.startswith(sys.base_prefix)]
+for name in ('numpy', 'encal'):
+    try:
+        __import__(name)
+        print('IMPORTABLE', name)
+    except ImportError:
+        pass
+import rt
+for name in {frozen!r}:
+    model = rt.load({str(DATA)!r} + '/' + name)
+    print('OK', name, repr(model.correct_deg(123.456)), repr(model.correct_deg(-1.0, outside='clamp')))
+for name in {sorted(bad)!r}:
+    try:
+        rt.load({str(tmp_path)!r} + '/' + name)
+        print('LOADED', name)
+    except rt.ModelFileError as exc:
+        print('REFUSED', name, str(exc).replace(chr(10), ' '))
+"""
+    result = subprocess.run([sys.executable, "-I", "-S", "-c", script], capture_output=True, text=True, timeout=60,
+                            cwd=alone, env={})
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert not [line for line in lines if line.startswith(("IMPORTABLE", "LOADED"))], lines
+    corrected = {line.split()[1]: line.split()[2:] for line in lines if line.startswith("OK")}
+    assert sorted(corrected) == frozen
+    for name, (at_123, at_minus_1) in corrected.items():
+        ours = runtime.load(DATA / name)
+        assert float(at_123) == ours.correct_deg(123.456)
+        assert float(at_minus_1) == ours.correct_deg(-1.0, outside="clamp")
+    refused = {line.split()[1]: line.split(" ", 2)[2] for line in lines if line.startswith("REFUSED")}
+    assert sorted(refused) == sorted(bad)
+    for name, message in refused.items():
+        assert message.startswith(f"{tmp_path}/{name}: ") and bad[name] in message and message.count(". ") == 0

@@ -199,7 +199,8 @@ def check_document(document, where, *, verify_checksum=True):
                              f"got {_describe(version)}")
     if version > VERSION:
         raise ModelFileError(f"{where}: the file has format version {version}, newer than "
-                             f"version {VERSION} that this encal reads; upgrade encal to read it")
+                             f"version {VERSION} that this encal reads; upgrade encal (or the copy of its "
+                             "runtime.py) to read it")
     if verify_checksum:
         _check_checksum(document, where)
     _check_reading_sign(document, version, where)
@@ -244,8 +245,9 @@ def _check_range(document, version, where):
         return
     if (not isinstance(value, list) or len(value) != 2 or not all(_is_number(v) for v in value)
             or not all(0.0 <= v < 360.0 for v in value) or value[0] == value[1]):
+        shown = json.dumps(value) if isinstance(value, list) and len(json.dumps(value)) <= 60 else _describe(value)
         raise ModelFileError(f"{where}: expected 'range_deg' to be null or [start, end], two different numbers "
-                             f"of degrees in [0, 360), got {_describe(value)}")
+                             f"of degrees in [0, 360), got {shown}")
 
 
 def range_of(document):
