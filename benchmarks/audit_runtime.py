@@ -153,39 +153,16 @@ def frozen():
         yield path.name, path
 
 
-def main():
-    rows = []
-    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        labelled = list(frozen())
-        for label, model in variants():
-            path = Path(folder) / (label.replace(" ", "_") + ".json")
-            save_model(model, path)
-            labelled.append((label, path))
-        for label, path in labelled:
-            try:
-                worst = compare(label, path)
-            except Exception as exc:  # noqa: BLE001 - an audit reports everything
-                print(f"{label:28s} ERROR {type(exc).__name__}: {exc}")
-                continue
-            rows.append((label, worst))
-            print(f"{label:28s} predict {worst['predict']:.3g} arcmin  correct {worst['correct'] * 60:.3g} arcmin  "
-                  f"compensator {worst['compensator'] * 60:.3g} arcmin  scalar {worst['scalar']:.3g} arcmin  "
-                  f"NaN/range mismatches {worst['nan']}", flush=True)
-    return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
-
-
-def cli_compare(path, *, stdin=False, direction_column=False, direction=None, outside=None, inside_only=False):
-    """Largest difference (degrees) of ``encal correct --exact`` against the runtime, NaN mismatches."""
+def cli_compare(path, *, stdin=False, direction_column=False, direction=None, outside=None, inside_only=False,
+                readings=None):
+    """Largest difference (degrees) of ``encal correct --exact`` against the runtime, NaN mismatches, readings."""
     import subprocess
 
     model = load_model(path)
     stored = runtime.load(path)
-    theta = angles_for(model)
+    theta = angles_for(model) if readings is None else np.asarray(readings, dtype=float)
     if inside_only and model.range_deg is not None:
         theta = theta[~np.isnan(model.predict(theta))]
     rng = np.random.default_rng(7)
@@ -213,9 +190,66 @@ def cli_compare(path, *, stdin=False, direction_column=False, direction=None, ou
         return f"exit {result.returncode}: {result.stderr.strip()[:200]}"
     answers = np.array([float(line) for line in result.stdout.split()])
     chosen = direction if direction is not None else None
-    ours = np.array([stored.correct_deg(t, int(d) if direction_column and direction is None else chosen)
+    rule = {} if outside is None else {"outside": outside}
+    ours = np.array([stored.correct_deg(t, int(d) if direction_column and direction is None else chosen, **rule)
                      for t, d in zip(theta, directions if direction_column else [None] * theta.size)])
     nan = int(np.sum(np.isnan(ours) != np.isnan(answers)))
     ok = ~np.isnan(ours) & ~np.isnan(answers)
     gap = np.abs((ours[ok] - answers[ok] + 180.0) % 360.0 - 180.0)
     return float(np.max(gap, initial=0.0)), nan, theta.size
+
+
+def outside_compare(path, rule):
+    """Largest difference (degrees) of ``encal correct --outside rule`` against the runtime's rule, per direction,
+    at readings all round the turn; None when this runtime has no rules (before task runtime6)."""
+    import inspect
+
+    stored = runtime.load(path)
+    if "outside" not in inspect.signature(stored.correct_deg).parameters:
+        return None
+    model = load_model(path)
+    theta = np.linspace(-360.0, 720.0, 1081)
+    worst = 0.0
+    for direction in directions_of(model):
+        gap = cli_compare(path, direction=direction, outside=rule, readings=theta)
+        worst = max(worst, gap[0] + 1e6 * gap[1]) if not isinstance(gap, str) else float("inf")
+    return worst
+
+
+def main():
+    """Print the table of the largest differences, one row per model."""
+    with tempfile.TemporaryDirectory() as folder, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        labelled = list(frozen())
+        for label, model in variants():
+            path = Path(folder) / (label.replace(" ", "_") + ".json")
+            save_model(model, path)
+            labelled.append((label, path))
+        print("| model | predict (arcmin) | correct (arcmin) | Compensator (arcmin) | encal correct (arcmin) "
+              "| NaN mismatches | --outside clamp, pass vs runtime (arcmin) |")
+        print("|---|---|---|---|---|---|---|")
+        for label, path in labelled:
+            try:
+                worst = compare(label, path)
+            except Exception as exc:  # noqa: BLE001 - an audit reports everything
+                print(f"| {label} | refused by encal: {type(exc).__name__}: {str(exc)[-90:]} |||||")
+                continue
+            model = load_model(path)
+            command = [cli_compare(path, inside_only=True)]
+            if model.kind == "directional":
+                command += [cli_compare(path, inside_only=True, direction=d) for d in (1, -1)]
+                command.append(cli_compare(path, inside_only=True, direction_column=True, stdin=True))
+            refused = [c for c in command if isinstance(c, str)]
+            cli = "refused: " + refused[0][:100] if refused else f"{max(c[0] for c in command) * 60:.3g}"
+            nan = worst["nan"] + sum(c[1] for c in command if not isinstance(c, str))
+            rules = "-"
+            if model.range_deg is not None:
+                found = [outside_compare(path, rule) for rule in ("clamp", "pass")]
+                rules = "no rules" if found[0] is None else ", ".join(f"{v * 60:.3g}" for v in found)
+            print(f"| {label} | {worst['predict']:.3g} | {worst['correct'] * 60:.3g} | {worst['compensator'] * 60:.3g} "
+                  f"| {cli} | {nan} | {rules} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -19,7 +19,9 @@ error is ``encoder - reference``; the corrected angle is
 ``theta_in = model_input_deg(theta_enc, reading_sign)`` is the reading itself,
 or its negative for an encoder that counts against its reference (a model
 file with ``"reading_sign": -1``, format version 2). A model calibrated over an
-arc (``"range_deg": [start, end]``, format version 4) answers NaN outside it.
+arc (``"range_deg": [start, end]``, format version 4) answers NaN outside it, or, with
+``correct_deg(theta, outside='error' | 'clamp' | 'pass')``, follows the rule of ``encal correct --outside``.
+An angle or a direction that encal refuses raises ValueError here too.
 
 The file format is specified in encal's ``docs/model-file.md``. encal itself
 uses the checks below when it loads a file, so every file encal loads, this
