@@ -790,7 +790,8 @@ class RuntimeModel:
         as far from both), in the reading's direction for a directional model; ``'pass'`` leaves the reading
         uncorrected (``model_input_deg`` of it). A full-turn model has no outside and ignores it.
         """
-        # Wrap first: for a multi-turn reading of 1e15 degrees the correction would be lost to rounding.
+        # The model input is wrapped first: for a multi-turn reading of 1e15 degrees the correction would be lost
+        # to rounding.
         theta = model_input_deg(_finite(theta_deg), self.reading_sign)
         direction = _direction(direction)
         if outside not in OUTSIDE_RULES:
