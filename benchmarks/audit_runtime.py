@@ -80,6 +80,17 @@ def variants():
     yield "fourier offset -0.5 deg", encal.fit(calibration(offset_arcmin=-30.0), method="fourier")
     yield "fourier 12 bits", encal.fit(calibration(bits=12), method="fourier")
     yield "lut 10 bits", encal.fit(calibration(bits=10, step=0.5), method="lut", interpolation="cubic")
+    yield "arc directional reversed", encal.fit(calibration(step=1.0, arc=(200.0, 330.0), both_ways=True,
+                                                            reverse=True))
+    yield "hybrid reversed", encal.fit(calibration(reverse=True), method="hybrid", rng=6, epochs=20)
+    yield "stack of spectral and ann", encal.fit(full, method="stack", rng=7, weights=[0.7, 0.3],
+                                                 members=[{"family": "spectral"},
+                                                          {"family": "ann", "options": {"hidden": 4, "epochs": 10}}])
+    rng = np.random.default_rng(11)
+    reference = np.sort(rng.uniform(0.0, 360.0, 12000))
+    dense = encal.Calibration(reference, reference + profile(reference) / 60.0, name="dense")
+    yield "lut dense (binned)", encal.fit(dense, method="lut", interpolation="cubic")
+    yield "spectral dense", encal.fit(dense, method="spectral")
 
 
 def angles_for(model):
