@@ -179,7 +179,6 @@ def cli_compare(path, *, stdin=False, direction_column=False, direction=None, ou
     rng = np.random.default_rng(7)
     directions = rng.choice([1, -1], theta.size) if direction_column else None
     texts = [repr(float(t)) for t in theta]
-    texts = [t for t in texts if "e" not in t]  # the CLI reads plain decimals and exponents both; keep it simple
     theta = np.array([float(t) for t in texts])
     if direction_column:
         directions = directions[:theta.size]
