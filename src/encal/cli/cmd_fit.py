@@ -93,13 +93,14 @@ def _positive_float(text):
     import argparse
     import math
 
+    from .._core.number_cells import not_plain_note, read_number
     from ..models.spectral import MAX_NOISE_ARCMIN
 
     expected = f"expected a number of arc-minutes > 0 and at most {MAX_NOISE_ARCMIN:g} (a turn)"
     try:
-        value = float(text)
+        value = read_number(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{expected}, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"{expected}, got {text!r}{not_plain_note(text)}") from None
     # the lower bound depends on the data (the errors' resolution): fit_spectral checks it
     if not (math.isfinite(value) and 0 < value <= MAX_NOISE_ARCMIN):
         raise argparse.ArgumentTypeError(f"{expected}, got {text!r}")

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._core import csv_dialect as _csv
 from .._core.csv_numbers import line_count, plain_body, plain_file_rows, plain_rows
+from .._core.number_cells import not_plain_note, read_number
 from .._core.sorting import stable_argsort
 from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .._core.errors import CalibrationError, EncalWarning
@@ -342,11 +343,12 @@ def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False)
     """
     words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
     try:
-        value = float(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
+        value = read_number(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
     except ValueError:
         grouping = (" (a comma is read as the decimal mark in a file separated by semicolons, tabs or blanks; "
                     "digit grouping is not read)" if decimal_comma and "," in cell else "")
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}", column)
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}"
+                          f"{not_plain_note(cell)}", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
     degrees = value if unit is None else value * unit.degrees_per_unit
