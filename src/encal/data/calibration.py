@@ -342,13 +342,14 @@ def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False)
     With ``decimal_comma`` (a file not separated by commas), a comma in the cell is its decimal mark.
     """
     words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
+    text = cell.replace(",", ".") if decimal_comma and "," in cell else cell
     try:
-        value = read_number(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
+        value = read_number(text)
     except ValueError:
+        why = not_plain_note(text)  # '1_0', a full-width digit: a number to Python alone
         grouping = (" (a comma is read as the decimal mark in a file separated by semicolons, tabs or blanks; "
-                    "digit grouping is not read)" if decimal_comma and "," in cell else "")
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}"
-                          f"{not_plain_note(cell)}", column)
+                    "digit grouping is not read)" if decimal_comma and "," in cell and not why else "")
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}{why}", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
     degrees = value if unit is None else value * unit.degrees_per_unit
