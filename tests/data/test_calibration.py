@@ -383,7 +383,8 @@ def test_a_fit_does_not_check_again_what_reading_the_file_checked(write_csv, mon
 # by the careful reader (the NumPy reader of plain bodies never reads such bytes), in every dialect
 @pytest.mark.parametrize("text, where, why", [
     ("reference_deg,encoder_deg\n" + "".join(f"{r},{r + 0.01}\n" for r in range(0, 360, 30)).replace("\n60,", "\n6_0,"),
-     "line 4, column 1", r"'6_0', expected a number of degrees; an underscore between digits is not read \(write '60'\)"),
+     "line 4, column 1",
+     r"'6_0', expected a number of degrees; an underscore between digits is not read \(write '60'\)"),
     ("reference_deg;encoder_deg\n" + "".join(f"{r};{r},01\n" for r in range(0, 360, 30)).replace("\n30;30,01",
                                                                                                "\n30;3_0,01"),
      "line 3, column 2", "underscore"),

@@ -1299,7 +1299,8 @@ CASES += FUZZ5_CASES
 
 # ------------------------------------------------- strict6: number cells and angle bounds in every reader
 def _make_strict6_files(folder, paths):
-    """Numbers only Python reads ('1_0' is 10; a full-width or Arabic-Indic digit is its digit): each was read, exit 0."""
+    """Numbers only Python reads ('1_0' is 10; a full-width or Arabic-Indic digit is its digit), each read with exit
+    0 before strict6, and readings of ``encal correct`` beyond +-1e9 degrees (1e308 gave 295.99)."""
     good = Path(paths["train"]).read_text(encoding="utf-8")
     octal = ["0"] * 64
     octal[3] = "010"  # C reads 8, float() 10
