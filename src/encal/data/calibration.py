@@ -11,7 +11,7 @@ import numpy as np
 
 from .._core import csv_dialect as _csv
 from .._core.csv_numbers import line_count, plain_body, plain_file_rows, plain_rows
-from .._core.number_cells import not_plain_note, read_number
+from .._core.number_cells import MAX_ABS_DEG, not_plain_note, read_number  # MAX_ABS_DEG: the largest |angle| read
 from .._core.sorting import stable_argsort
 from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .._core.errors import CalibrationError, EncalWarning
@@ -178,9 +178,6 @@ MIN_POINTS = 8
 MAX_GAP_DEG = 30.0
 #: Encoder resolutions a calibration may declare, in bits.
 MAX_BITS = 32
-#: Largest |angle| read from a file, in degrees (2.8 million turns): up to it a double keeps the angle to
-#: better than 1e-5 arcmin after wrapping to [0, 360); far beyond it the column is not angles in degrees.
-MAX_ABS_DEG = 1e9
 #: Largest backward travel of the encoder, in degrees, while the reference moves forward, taken for
 #: reading noise (see :func:`check_folds`).
 MAX_FOLD_DEG = 0.5

@@ -28,8 +28,7 @@ import numpy as np
 from .._core import csv_dialect as _csv
 from .._core.decimal_text import format_fixed, parse_lines
 from .._core.errors import InputError
-from .._core.number_cells import is_plain_number_text, not_plain_note, read_number
-from ..data.calibration import MAX_ABS_DEG
+from .._core.number_cells import MAX_ABS_DEG, is_plain_number_text, not_plain_note, read_number
 from ..models.base import CHUNK_NUMBERS
 from .._core.parameters import check_bool, check_type, invalid
 
