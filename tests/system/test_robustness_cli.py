@@ -1387,6 +1387,10 @@ STRICT6_CASES = [
                                                  "{out}/t.c", "--tolerance", "0_5"), 2),
     Case("strict6-drift-tolerance-underscore", ("drift", "{train}", "{train}", "--tolerance", "1_0"), 2),
     Case("strict6-fit-budget-fullwidth", ("fit", "{train}", "-o", "{out}/m.json", "--budget", "\uff14KiB"), 2),
+    Case("strict6-fit-orders-underscore", ("fit", "{train}", "-o", "{out}/m.json", "--method", "fourier", "--orders",
+                                           "1,1_6"), 2),  # was orders 1 and 16
+    Case("strict6-study-hidden-underscore", ("study", "sweep", "{train}", "--hidden", "1_0", "--epochs", "2"), 1,
+         ("--hidden", "'1_0'")),
 ]
 CASES += STRICT6_CASES
 

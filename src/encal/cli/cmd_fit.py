@@ -12,6 +12,7 @@ reference's zero. When that zero is arbitrary (--zero; by default when the offse
 the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
+from .._core.number_cells import read_whole
 from ._common import (activity, add_calibration_options, add_zero_options, check_paths, int_in_range, print_json,
                       read_calibration_from_args, size_option)
 
@@ -130,7 +131,7 @@ def _options(args):
         options["noise_arcmin"] = args.noise
     if args.orders is not None:
         try:
-            options["orders"] = [int(o) for o in args.orders.split(",") if o.strip()]
+            options["orders"] = [read_whole(o) for o in args.orders.split(",") if o.strip()]  # not '1_0', '１'
         except ValueError:
             usage_error(f"--orders must be whole numbers separated by commas. Got {args.orders!r} instead.")
     return options
