@@ -385,6 +385,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored, each
     named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite
     numbers within +-1e9 degrees (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
+    Numbers are plain ASCII decimals (:mod:`encal._core.number_cells`): not ``1_0`` nor other scripts' digits.
 
     Parameters
     ----------
@@ -429,7 +430,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
         header without the two columns or naming a column twice, a row whose field count differs from
-        the header's, a unit other than the four above, non-numeric, NaN, infinite or
+        the header's, a unit other than the four above, non-numeric (``1_0`` included), NaN, infinite or
         absurdly large (beyond +-1e9 degrees) values, decimal commas mixed with decimal points in a file not
         separated by commas, a resolution outside 1 to 32 bits, fewer than 8 points,
         a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference
