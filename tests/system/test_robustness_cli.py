@@ -1389,6 +1389,8 @@ STRICT6_CASES = [
     Case("strict6-fit-budget-fullwidth", ("fit", "{train}", "-o", "{out}/m.json", "--budget", "\uff14KiB"), 2),
     Case("strict6-fit-orders-underscore", ("fit", "{train}", "-o", "{out}/m.json", "--method", "fourier", "--orders",
                                            "1,1_6"), 2),  # was orders 1 and 16
+    Case("strict6-source-date-epoch-underscore", ("profile", "{train}"), 1, ("SOURCE_DATE_EPOCH", "'86_400'"),
+         env=(("SOURCE_DATE_EPOCH", "86_400"),)),
     Case("strict6-study-hidden-underscore", ("study", "sweep", "{train}", "--hidden", "1_0", "--epochs", "2"), 1,
          ("--hidden", "'1_0'")),
 ]
