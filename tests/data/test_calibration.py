@@ -377,3 +377,23 @@ def test_a_fit_does_not_check_again_what_reading_the_file_checked(write_csv, mon
     fresh = Calibration(cal.reference_deg, cal.encoder_deg)  # not read from a file: checked by the fit
     encal.fit(fresh, method="fourier")
     assert calls == {"folds": 2, "turns": 2, "errors": 2, "arc": 1}
+
+
+# strict6: a cell only Python reads as a number ('1_0' is 10, a full-width or Arabic-Indic digit its digit) is refused
+# by the careful reader (the NumPy reader of plain bodies never reads such bytes), in every dialect
+@pytest.mark.parametrize("text, where, why", [
+    ("reference_deg,encoder_deg\n" + "".join(f"{r},{r + 0.01}\n" for r in range(0, 360, 30)).replace("\n60,", "\n6_0,"),
+     "line 4, column 1",
+     r"'6_0', expected a number of degrees; an underscore between digits is not read \(write '60'\)"),
+    ("reference_deg;encoder_deg\n" + "".join(f"{r};{r},01\n" for r in range(0, 360, 30)).replace("\n30;30,01",
+                                                                                               "\n30;3_0,01"),
+     "line 3, column 2", "underscore"),
+    ('reference_deg,encoder_deg\n"0",0.01\n' + "".join(f"{r},{r + 0.01}\n" for r in range(30, 360, 30)).replace(
+        "\n90,", "\n\uff19\uff10,"), "line 5, column 1", r"U\+FF19 FULLWIDTH DIGIT NINE \(write '90'\)"),
+    ("# an encoder\nreference_deg,encoder_deg\n" + "".join(f"{r},{r + 0.01}\n" for r in range(0, 360, 30)).replace(
+        "\n120,", "\n\u0661\u0662\u0660,"), "line 7, column 1", "U\\+0661 ARABIC-INDIC DIGIT ONE"),
+])
+def test_a_number_only_python_reads_is_refused_in_every_dialect(tmp_path, text, where, why):
+    path = tmp_path / "cal.csv"
+    path.write_text(text, encoding="utf-8")
+    _refused(path, f"{where}: .*{why}")

@@ -617,3 +617,16 @@ def test_a_long_c_array_is_read_in_linear_time():
     assert time.process_time() - start < 5.0
     with pytest.raises(InputError, match=r"line 3: element 300001 of calibrationLut\[\] is 'x'"):
         read_c_array(text.replace("2};", "2,\nx};"), "calibrationLut")
+
+
+# strict6: a C array element is a C literal in plain ASCII: not '1_0' (float() reads 10), not a full-width digit, not
+# an octal integer (C reads 010 as 8, float() as 10)
+@pytest.mark.parametrize("element, why", [("1_0.0f", r"underscore"), ("\uff12.0f", r"U\+FF12"),
+                                          ("010", r"octal \(010 is 8\)"), ("-07", "octal")])
+def test_a_c_element_only_python_reads_is_refused(element, why):
+    from encal.deploy.firmware import read_c_array
+
+    with pytest.raises(InputError, match=rf"^text: line 2: element 2 of a\[\] is .*{why}"):
+        read_c_array(f"const float a[] = {{0.5f,\n 0, {element}, 1}};\n", "a")
+    assert read_c_array("const int a[] = {0, 00, 10u, 0x10, -5, 1e3f, .5};\n", "a").tolist() == [0, 0, 10, 16, -5,
+                                                                                                 1000, 0.5]

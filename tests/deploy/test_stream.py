@@ -140,3 +140,32 @@ def test_a_direction_column_and_a_direction_option_are_refused_and_a_bad_directi
     plain = io.BytesIO()  # another kind of model ignores the column, as before
     correct_stream(Compensator(encal.fit(CAL, "fourier")), io.BytesIO(data), plain)
     assert len(plain.getvalue().split()) == 3
+
+
+# strict6: a reading only Python reads as a number, or beyond +-1e9 degrees, is a malformed line on every path
+# of the stream (NumPy's plain decimals, the block of floats with an exponent, the careful reader, a CSV column)
+@pytest.mark.parametrize("block, bad_line", [
+    (b"10\n20\n1e308\n30\n", 3),  # was 295.99 degrees: the residue of a double beyond any turn
+    (b"1.5e1\n-1e10\n", 2),
+    (b"encoder_deg,x\n10,1\n1e308,2\n", 3),
+    (b"# a comment\n10\n1000000001\n", 3),
+    (b"10\n1_0\n", 2),  # was 10
+    ("10\n\uff120\n".encode(), 2),  # a full-width two: was 20
+    (b"encoder_deg\n10\n2_0\n", 3),
+])
+def test_a_reading_only_python_reads_or_beyond_1e9_degrees_is_a_malformed_line(block, bad_line):
+    from encal._core.errors import InputError
+
+    compensator = Compensator(encal.fit(CAL, "fourier"))
+    for sizes in ([len(block)], [1] * len(block)):  # one read, and a byte at a time (each line its own block)
+        sink = io.BytesIO()
+        with pytest.raises(InputError, match=rf"^line {bad_line} of stdin: expected .*(1e\+09|underscore|U\+FF12)"):
+            correct_stream(compensator, _Chunks(block, sizes), sink)
+        answers = sink.getvalue().split()
+        skipped = io.BytesIO()
+        correct_stream(compensator, _Chunks(block, sizes), skipped, skip_bad=True)
+        assert skipped.getvalue().split()[:len(answers) + 1] == answers + [b"nan"]
+    edge = io.BytesIO()  # the bound itself is an angle
+    correct_stream(compensator, io.BytesIO(b"1e9\n-1000000000\n1000000000.0\n"), edge)
+    assert np.allclose(np.array(edge.getvalue().split(), dtype=float),
+                       compensator.correct(np.array([1e9, -1e9, 1e9])), rtol=0, atol=1e-9)

@@ -178,6 +178,7 @@ def _make_files(folder):
     _make_files_and_paths_files(folder, paths, good)
     _make_plausibility_files(folder, paths)
     _make_fuzz5_files(folder, paths)
+    _make_strict6_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1294,6 +1295,106 @@ FUZZ5_CASES = [
          ("fuzz5_spin.csv", "line 3, column 2", "within +-1e+09")),
 ]
 CASES += FUZZ5_CASES
+
+
+# ------------------------------------------------- strict6: number cells and angle bounds in every reader
+def _make_strict6_files(folder, paths):
+    """Numbers only Python reads ('1_0' is 10; a full-width or Arabic-Indic digit is its digit), each read with exit
+    0 before strict6, and readings of ``encal correct`` beyond +-1e9 degrees (1e308 gave 295.99)."""
+    good = Path(paths["train"]).read_text(encoding="utf-8")
+    octal = ["0"] * 64
+    octal[3] = "010"  # C reads 8, float() 10
+    lookup = [f"{i * 360 / 16384:.3f}" for i in range(16384)]
+    lookup[7] = "０.154"  # a full-width zero
+    table = [f"motor_position.sources.0.compensation_table.{i} {'1_0' if i == 5 else i % 7 - 3}\n" for i in range(256)]
+    texts = {
+        "strict6_underscore.csv": _edit_cell(good, 5, 0, "1_0.0"),
+        "strict6_fullwidth.csv": _edit_cell(good, 10, 1, "\uff120.01"),
+        "strict6_arabic.csv": _edit_cell(good, 6, 0, "\u0661\u0662"),
+        "strict6_spin.csv": "time_s,encoder_deg\n0,0\n0.1,1_0\n",
+        "strict6_sweep.csv": "electrical_deg,encoder_deg\n0,0\n\u0661\u0662,1\n",
+        "strict6_dual.csv": "motor_deg,output_deg\n0,0\n1_0,1\n",
+        "strict6_capture.log": "CAL start\n1 0 5\n1 1_024 10\n2 0 5\nCAL done\n",
+        "strict6_klipper.cfg": "[angle s]\ncalibrate:\n    1.0, 1_0.0, 3.0\n",
+        "strict6_sfoc.h": "float calibrationLut[4] = {0.001f, 1_0.0f, 0.0f, -0.001f};\n",
+        "strict6_tiny_octal.h": "int32_t rec_table[64] = {" + ", ".join(octal) + "};\n",
+        "strict6_mechaduino.h": "const float lookup[16384] = {\n" + ", ".join(lookup) + "\n};\n",
+        "strict6_moteus.cfg": "".join(table) + "motor_position.sources.0.compensation_scale 0.001\n",
+        "strict6_compare.txt": "".join(f"{i / 20} {'0.0_5' if i == 1 else i / 20}\n" for i in range(20)),
+        "strict6_dump.txt": "motor_position.sources.0.cpr 16384\nmotor_position.sources.0.offset 1_000\n"
+                            "motor_position.sources.0.sign -1\n",
+        "strict6_angles.txt": "10\n20\n1e308\n30\n",
+    }
+    for name, text in texts.items():
+        paths[name.replace(".", "_")] = folder / name
+        paths[name.replace(".", "_")].write_text(text, encoding="utf-8")
+
+
+STRICT6_CASES = [
+    Case("strict6-profile-underscore", ("profile", "{strict6_underscore_csv}"), 1,
+         ("strict6_underscore.csv", "line 7, column 1", "'1_0.0'", "underscore", "'10.0'")),
+    Case("strict6-fit-fullwidth-digit", ("fit", "{strict6_fullwidth_csv}", "-o", "{out}/m.json"), 1,
+         ("strict6_fullwidth.csv", "line 12, column 2", "U+FF12", "'20.01'")),
+    Case("strict6-evaluate-arabic-indic-digits", ("evaluate", "{model}", "{strict6_arabic_csv}"), 1,
+         ("strict6_arabic.csv", "line 8, column 1", "U+0661", "'12'")),
+    Case("strict6-correct-1e308-stdin", ("correct", "{model}", "-"), 1, ("line 1 of stdin", "1e308", "+-1e+09"),
+         stdin="1e308\n12\n", answers=0),
+    Case("strict6-correct-beyond-1e9", ("correct", "{model}", "-"), 1, ("line 2 of stdin", "+-1e+09"),
+         stdin="12\n-1000000001\n", answers=1),
+    Case("strict6-correct-1e9-accepted", ("correct", "{model}", "-"), 0, stdin="1e9\n-1000000000\n", answers=2),
+    Case("strict6-correct-1e308-file", ("correct", "{model}", "{strict6_angles_txt}"), 1,
+         ("line 3 of", "strict6_angles.txt", "+-1e+09"), answers=2),
+    Case("strict6-correct-1e308-skip-bad", ("correct", "{model}", "-", "--skip-bad"), 0, prints=("nan",),
+         stdin="1e308\n12\n", answers=2),
+    Case("strict6-correct-1e308-csv-column", ("correct", "{model}", "-"), 1, ("line 3 of stdin", "+-1e+09"),
+         stdin="encoder_deg,x\n10,1\n1e308,2\n", answers=1),
+    Case("strict6-correct-underscore", ("correct", "{model}", "-"), 1, ("line 2 of stdin", "'1_0'", "underscore"),
+         stdin="12\n1_0\n", answers=1),
+    Case("strict6-correct-fullwidth-digit", ("correct", "{model}", "-"), 1, ("line 1 of stdin", "U+FF11"),
+         stdin="\uff112\n", answers=0),
+    Case("strict6-selfcal-spin-underscore", ("selfcal", "spin", "{strict6_spin_csv}", "-o", "{out}/c.csv"), 1,
+         ("strict6_spin.csv", "line 3, column 2", "underscore")),
+    Case("strict6-selfcal-sweep-arabic-indic", ("selfcal", "sweep", "{strict6_sweep_csv}", "--pole-pairs", "7", "-o",
+                                                "{out}/c.csv"), 1, ("strict6_sweep.csv", "line 3, column 1", "U+0661")),
+    Case("strict6-selfcal-dual-underscore", ("selfcal", "dual", "{strict6_dual_csv}", "--ratio", "6", "--motor-cal",
+                                             "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("strict6_dual.csv", "line 3, column 1", "underscore")),
+    Case("strict6-import-moteus-cal-underscore", ("import", "moteus-cal", "{strict6_capture_log}", "-o", "{out}/c.csv"),
+         1, ("strict6_capture.log", "line 3", "phase is '1_024'", "underscore")),
+    Case("strict6-import-klipper-underscore", ("import", "klipper", "{strict6_klipper_cfg}", "-o", "{out}/k.csv"), 1,
+         ("strict6_klipper.cfg", "line 3", "'1_0.0'", "underscore")),
+    Case("strict6-import-simplefoc-underscore", ("import", "simplefoc", "{strict6_sfoc_h}", "-o", "{out}/s.json",
+                                                 "--firmware-version", "1.0.9"), 1,
+         ("strict6_sfoc.h", "element 1 of calibrationLut[]", "underscore")),
+    Case("strict6-import-tinymovr-octal", ("import", "tinymovr", "{strict6_tiny_octal_h}", "-o", "{out}/t.json",
+                                           "--bits", "13"), 1, ("strict6_tiny_octal.h", "element 3 of rec_table[]",
+                                                                "octal")),
+    Case("strict6-import-mechaduino-fullwidth", ("import", "mechaduino", "{strict6_mechaduino_h}", "-o",
+                                                 "{out}/c.csv"), 1,
+         ("strict6_mechaduino.h", "element 7 of lookup[]", "U+FF10")),
+    Case("strict6-import-moteus-underscore", ("import", "moteus", "{strict6_moteus_cfg}", "-o", "{out}/m.json"), 1,
+         ("strict6_moteus.cfg", "line 6", "'1_0'", "underscore")),
+    Case("strict6-import-moteus-compare-underscore", ("import", "moteus-compare", "{strict6_compare_txt}", "-o",
+                                                      "{out}/c.csv"), 1,
+         ("strict6_compare.txt", "line 2, column 2", "underscore")),
+    Case("strict6-export-moteus-conf-underscore", ("export", "{model}", "--format", "moteus", "-o", "{out}/m.cfg",
+                                                   "--conf", "{strict6_dump_txt}"), 1,
+         ("strict6_dump.txt", "line 2", "'1_000'", "underscore")),
+    Case("strict6-fit-noise-underscore", ("fit", "{train}", "-o", "{out}/m.json", "--noise", "1_0"), 2),
+    Case("strict6-export-bits-fullwidth", ("export", "{model}", "--format", "table", "-o", "{out}/t.csv", "--bits",
+                                           "\uff11\uff14"), 2),
+    Case("strict6-export-tolerance-underscore", ("export", "{model}", "--format", "c", "--target", "cortex-m4f", "-o",
+                                                 "{out}/t.c", "--tolerance", "0_5"), 2),
+    Case("strict6-drift-tolerance-underscore", ("drift", "{train}", "{train}", "--tolerance", "1_0"), 2),
+    Case("strict6-fit-budget-fullwidth", ("fit", "{train}", "-o", "{out}/m.json", "--budget", "\uff14KiB"), 2),
+    Case("strict6-fit-orders-underscore", ("fit", "{train}", "-o", "{out}/m.json", "--method", "fourier", "--orders",
+                                           "1,1_6"), 2),  # was orders 1 and 16
+    Case("strict6-source-date-epoch-underscore", ("profile", "{train}"), 1, ("SOURCE_DATE_EPOCH", "'86_400'"),
+         env=(("SOURCE_DATE_EPOCH", "86_400"),)),
+    Case("strict6-study-hidden-underscore", ("study", "sweep", "{train}", "--hidden", "1_0", "--epochs", "2"), 1,
+         ("--hidden", "'1_0'")),
+]
+CASES += STRICT6_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -3,6 +3,7 @@
 import os
 
 from .errors import InputError
+from .number_cells import read_whole
 
 __all__ = ["source_date_epoch", "LATEST_SOURCE_DATE_EPOCH"]
 
@@ -23,7 +24,7 @@ def source_date_epoch():
     if text is None:
         return None
     try:
-        seconds = int(text.strip(), 10) if text.strip().isascii() else None
+        seconds = read_whole(text)  # ASCII digits: not '1_700_000_000' nor another script's
     except ValueError:
         seconds = None
     if seconds is None or not 0 <= seconds <= LATEST_SOURCE_DATE_EPOCH:

@@ -30,6 +30,7 @@ import sys  # noqa: E402
 from .._core import signals as _signals
 from .._version import __version__
 from .._core.errors import EncalError
+from .._core.number_cells import plain_option
 
 __all__ = ["main"]
 
@@ -50,6 +51,17 @@ COMMANDS = {
     "selfcal": 'calibrate without a precision reference: from a spin, an electrical-angle sweep or full steps',
     "fleet": "a production line: fit every unit's calibration into a store by serial number, report on the fleet",
 }
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose ``type=float`` and ``type=int`` options read a number as every file encal reads
+    does (:mod:`encal._core.number_cells`): ``--noise 1_0`` or a full-width digit is a usage error (status 2),
+    not 10. Its sub-parsers (commands, and their own sub-commands) are of this class too."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.register("type", float, plain_option(float))
+        self.register("type", int, plain_option(int))
 
 
 class _CommandsAction(argparse._SubParsersAction):
@@ -86,7 +98,7 @@ def build_parser(*, every_command=False):
         the parser); by default a command's options are added when parsing selects the command, which
         parses and helps exactly alike.
     """
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="encal",
         description="Calibrate low-cost angle encoders and compensate their systematic error.",
     )

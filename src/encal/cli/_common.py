@@ -7,6 +7,7 @@ import sys
 import warnings
 
 from .._core.errors import EncalWarning
+from .._core.number_cells import not_plain_note, read_whole
 
 __all__ = ["add_calibration_options", "add_target_tolerance_option", "add_zero_options", "read_calibration_from_args",
            "positive_int", "print_json", "warnings_as_lines", "check_environment", "output_that_may_close", "activity", "check_paths"]
@@ -43,11 +44,13 @@ def add_target_tolerance_option(parser):
 
     def parse(text):
         import argparse
-        import re
 
-        # a plain decimal number (float() would also take '1_0' and other scripts' digits)
-        plain = re.fullmatch(r"\+?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?", text.strip(), flags=re.ASCII)
-        value = float(text) if plain else float("nan")
+        from .._core.number_cells import read_number
+
+        try:
+            value = read_number(text)
+        except ValueError:
+            value = float("nan")
         if not 0.0 < value <= MAX_TARGET_TOLERANCE_DEG:
             raise argparse.ArgumentTypeError(f"expected degrees greater than 0 and at most "
                                              f"{MAX_TARGET_TOLERANCE_DEG:g}, got {text!r}")
@@ -142,9 +145,9 @@ def int_in_range(low, high=None):
 
     def parse(text):
         try:
-            value = int(text)
+            value = read_whole(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}{not_plain_note(text)}") from None
         if value < low or (high is not None and value > high):
             raise argparse.ArgumentTypeError(f"expected {expected}, got {value}")
         return value
@@ -162,9 +165,9 @@ def size_option(name, low=1):
 
     def parse(text):
         try:
-            value = int(text)
+            value = read_whole(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(size_message(name, low, repr(text))) from None
+            raise argparse.ArgumentTypeError(size_message(name, low, repr(text)) + not_plain_note(text)) from None
         try:
             from .._core.limits import check_size
 

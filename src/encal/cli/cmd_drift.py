@@ -22,10 +22,13 @@ from ._common import add_calibration_options, add_zero_options, check_paths, pri
 
 
 def _number(text):
+    from .._core.number_cells import not_plain_note, read_number
+
     try:
-        return float(text)
+        return read_number(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected a number of arc-minutes, got {text!r}{not_plain_note(text)}") \
+            from None
 
 
 def add_arguments(parser):

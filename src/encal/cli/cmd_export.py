@@ -154,12 +154,14 @@ def _finite_degrees(text):
     import argparse
     import math
 
+    from .._core.number_cells import not_plain_note, read_number
+
     try:
-        value = float(text)
+        value = read_number(text)
     except ValueError:
         value = math.nan
     if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite angle in degrees, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a finite angle in degrees, got {text!r}{not_plain_note(text)}")
     return value
 
 

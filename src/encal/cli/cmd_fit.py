@@ -12,6 +12,7 @@ reference's zero. When that zero is arbitrary (--zero; by default when the offse
 the offset is stated apart and the training-set statistics are of the shape about it.
 """
 
+from .._core.number_cells import read_whole
 from ._common import (activity, add_calibration_options, add_target_tolerance_option, add_zero_options, check_paths,
                       int_in_range, print_json, read_calibration_from_args, size_option)
 
@@ -94,13 +95,14 @@ def _positive_float(text):
     import argparse
     import math
 
+    from .._core.number_cells import not_plain_note, read_number
     from ..models.spectral import MAX_NOISE_ARCMIN
 
     expected = f"expected a number of arc-minutes > 0 and at most {MAX_NOISE_ARCMIN:g} (a turn)"
     try:
-        value = float(text)
+        value = read_number(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{expected}, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"{expected}, got {text!r}{not_plain_note(text)}") from None
     # the lower bound depends on the data (the errors' resolution): fit_spectral checks it
     if not (math.isfinite(value) and 0 < value <= MAX_NOISE_ARCMIN):
         raise argparse.ArgumentTypeError(f"{expected}, got {text!r}")
@@ -130,7 +132,7 @@ def _options(args):
         options["noise_arcmin"] = args.noise
     if args.orders is not None:
         try:
-            options["orders"] = [int(o) for o in args.orders.split(",") if o.strip()]
+            options["orders"] = [read_whole(o) for o in args.orders.split(",") if o.strip()]  # not '1_0', '１'
         except ValueError:
             usage_error(f"--orders must be whole numbers separated by commas. Got {args.orders!r} instead.")
     return options

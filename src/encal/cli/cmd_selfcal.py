@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core.errors import InputError
+from .._core.number_cells import read_whole
 from ._common import add_calibration_options, check_paths, int_in_range, size_option
 
 
@@ -206,7 +207,7 @@ def _orders(text):
     if not text:
         return ()
     try:
-        orders = tuple(int(cell) for cell in text.split(",") if cell.strip())
+        orders = tuple(read_whole(cell) for cell in text.split(",") if cell.strip())
     except ValueError:
         raise InputError(f"--ripple-orders must be whole numbers separated by commas. Got {text!r} instead.") from None
     if any(order < 1 for order in orders):

@@ -12,6 +12,7 @@ Examples:
   encal study prune enc1_train.csv --test enc1_test.csv
 """
 
+from .._core.number_cells import read_whole
 from ._common import add_calibration_options, check_paths, nonnegative_int, read_calibration_from_args, size_option
 
 
@@ -48,7 +49,7 @@ def _counts(text, default, single):
     if text is None:
         return default
     try:
-        values = [int(v) for v in text.split(",") if v.strip()]
+        values = [read_whole(v) for v in text.split(",") if v.strip()]  # not '1_0' (10) nor '１'
     except ValueError:
         values = []
     largest = SIZE_LIMITS["hidden"][0]

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._core import csv_dialect as _csv
 from .._core.csv_numbers import line_count, plain_body, plain_file_rows, plain_rows
+from .._core.number_cells import MAX_ABS_DEG, not_plain_note, read_number  # MAX_ABS_DEG: the largest |angle| read
 from .._core.sorting import stable_argsort
 from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .._core.errors import CalibrationError, EncalWarning
@@ -193,9 +194,6 @@ MAX_BITS = 32
 #: Largest target tolerance (degrees): ISO 230-2's targets on a rotary axis are degrees apart, and a tolerance that
 #: joins neighbouring targets is refused by :func:`encal.data.reversal.target_positions` in any case.
 MAX_TARGET_TOLERANCE_DEG = 10.0
-#: Largest |angle| read from a file, in degrees (2.8 million turns): up to it a double keeps the angle to
-#: better than 1e-5 arcmin after wrapping to [0, 360); far beyond it the column is not angles in degrees.
-MAX_ABS_DEG = 1e9
 #: Largest backward travel of the encoder, in degrees, while the reference moves forward, taken for
 #: reading noise (see :func:`check_folds`).
 MAX_FOLD_DEG = 0.5
@@ -357,12 +355,14 @@ def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False)
     With ``decimal_comma`` (a file not separated by commas), a comma in the cell is its decimal mark.
     """
     words = _UNIT_WORDS[unit.name] if unit is not None else "degrees"
+    text = cell.replace(",", ".") if decimal_comma and "," in cell else cell
     try:
-        value = float(cell.replace(",", ".") if decimal_comma and "," in cell else cell)
+        value = read_number(text)
     except ValueError:
+        why = not_plain_note(text)  # '1_0', a full-width digit: a number to Python alone
         grouping = (" (a comma is read as the decimal mark in a file separated by semicolons, tabs or blanks; "
-                    "digit grouping is not read)" if decimal_comma and "," in cell else "")
-        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}", column)
+                    "digit grouping is not read)" if decimal_comma and "," in cell and not why else "")
+        _fail(path, line, f"{name} is {_shown(cell)!r}, expected a number of {words}{grouping}{why}", column)
     if not np.isfinite(value):
         _fail(path, line, f"{name} is {_shown(cell.strip())!r}, expected a finite number of {words}", column)
     degrees = value if unit is None else value * unit.degrees_per_unit
@@ -401,6 +401,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ``encoder_deg`` unless named otherwise; any letter case, any order, other columns ignored, each
     named once), may have ``#`` comment lines, and LF, CRLF or CR line ends. Angles may be any finite
     numbers within +-1e9 degrees (2.8 million turns) once converted from their unit; they are wrapped into [0, 360).
+    Numbers are plain ASCII decimals (:mod:`encal._core.number_cells`): not ``1_0`` nor other scripts' digits.
 
     Parameters
     ----------
@@ -448,7 +449,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     CalibrationError
         With one sentence naming the file, line and column, for: a missing or empty file, no header or a
         header without the two columns or naming a column twice, a row whose field count differs from
-        the header's, a unit other than the four above, non-numeric, NaN, infinite or
+        the header's, a unit other than the four above, non-numeric (``1_0`` included), NaN, infinite or
         absurdly large (beyond +-1e9 degrees) values, decimal commas mixed with decimal points in a file not
         separated by commas, a resolution outside 1 to 32 bits, fewer than 8 points,
         a coverage gap over 30 degrees (unless ``allow_gaps``), an encoder that counts against the reference

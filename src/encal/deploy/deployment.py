@@ -74,7 +74,7 @@ def parse_budget(text):
     InputError
         If the text is not a positive number followed by a known unit.
     """
-    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([A-Za-z]+)\s*", str(text))
+    match = re.fullmatch(r"\s*(\d+(?:\.\d+)?)\s*([A-Za-z]+)\s*", str(text), flags=re.ASCII)  # not '２0B' (20)
     unit = match and match.group(2).lower()
     if not match or unit not in _UNITS or float(match.group(1)) <= 0:
         raise InputError(f"expected a budget such as 1024B, 4KiB, 256entries or 200ops, got {text!r}")

@@ -14,6 +14,11 @@ read, so the corrector can sit in a live acquisition chain. A block whose lines
 are all plain decimals (``[+-]digits[.digits]``, the common case), or plain CSV
 rows whose column is, is read by :mod:`encal._core.decimal_text` in NumPy; any other
 block line by line, the exact reader whose messages name the line and column.
+
+A number is read as every reader of encal reads one (:mod:`encal._core.number_cells`: plain ASCII
+decimals, not ``1_0`` nor full-width digits), and an angle beyond +-1e9 degrees (``MAX_ABS_DEG``, as in a
+calibration CSV) is a malformed line: its answer would be the residue of a double that keeps less than
+1e-5 arcmin of the angle within a turn (1e308 gave 295.99 degrees), a glitch or a column of counts.
 """
 
 import numbers
@@ -23,6 +28,7 @@ import numpy as np
 from .._core import csv_dialect as _csv
 from .._core.decimal_text import format_fixed, parse_lines
 from .._core.errors import InputError
+from .._core.number_cells import MAX_ABS_DEG, is_plain_number_text, not_plain_note, read_number
 from ..models.base import CHUNK_NUMBERS
 from .._core.parameters import check_bool, check_type, invalid
 
@@ -169,6 +175,7 @@ class _LineParser:
         """Angles of ``text`` (bytes: whole lines, or the end of the input), their directions (None without a
         direction column that is read), and the error to raise after writing them (or None)."""
         if self.column is not None and self.direction_column is None and text.endswith(b"\n"):
+            # (at most 6 integer digits: every angle parse_lines reads is within MAX_ABS_DEG)
             values = (parse_lines(np.frombuffer(text, dtype=np.uint8)) if self.column < 0
                       else self._fast_column(text))
             if values is not None:
@@ -177,8 +184,8 @@ class _LineParser:
         lines = text.split(b"\n") if text else []
         if text.endswith(b"\n"):
             lines.pop()  # the line end of the last line does not start another one
-        if self.column is not None and not (self.column >= 0 and b"#" in text):  # (a comment's fields)
-            fast = self._fast(lines)
+        if self.column is not None and not (self.column >= 0 and b"#" in text) and is_plain_number_text(text):
+            fast = self._fast(lines)  # (not for a comment's fields, nor a block with '1_0' or a non-ASCII byte)
             if fast is not None:
                 self.line_number += len(lines)
                 return fast
@@ -234,7 +241,7 @@ class _LineParser:
                                            for row in rows], dtype=int)
         except (ValueError, KeyError, UnicodeDecodeError):
             return None
-        return (values, directions, None) if np.all(np.isfinite(values)) else None
+        return (values, directions, None) if np.all(np.abs(values) <= MAX_ABS_DEG) else None  # (False for NaN)
 
     def _slow(self, lines):
         values, directions = [], []
@@ -304,10 +311,16 @@ class _LineParser:
                 if direction is None:
                     return None, None, _DIRECTION_PROBLEM
         try:
-            value = float(field)
+            value = read_number(field)
         except ValueError:
+            return None, None, not_plain_note(field).removeprefix("; ") or None
+        if not np.isfinite(value):
             return None, None, None
-        return (value, direction, None) if np.isfinite(value) else (None, None, None)
+        if abs(value) > MAX_ABS_DEG:
+            return None, None, (f"encal reads angles within +-{MAX_ABS_DEG:g} degrees, as in a calibration CSV "
+                                "(beyond, a double keeps less than 1e-5 arcmin of the angle within a turn: a glitch, "
+                                "or counts?)")
+        return value, direction, None
 
     def _error(self, text, problem=None):
         shown = text.strip()

@@ -6,6 +6,7 @@ import numpy as np
 
 from .._core import csv_dialect as _csv
 from .._core.errors import InputError
+from .._core.number_cells import not_plain_note, read_number
 from ..data.calibration import MAX_ABS_DEG  # the largest |angle| in a log, degrees, as in a calibration CSV
 
 __all__ = ["read_columns"]
@@ -167,12 +168,12 @@ def _careful_columns(path, records, names, numeric, text_columns, index, expecte
         for name, unit in numeric:
             column = index[name]
             try:
-                value = float(cells[column])
+                value = read_number(cells[column])
             except ValueError:
                 value = float("nan")
             if not np.isfinite(value):
                 _fail(path, number, f"{names[column]} is {cells[column].strip()[:40]!r}, expected a finite number "
-                                    f"of {unit}", column + 1)
+                                    f"of {unit}{not_plain_note(cells[column])}", column + 1)
             if name in scales and abs(value) * scales[name] > MAX_ABS_DEG:
                 _fail(path, number, f"{names[column]} is {cells[column].strip()[:40]!r}, expected an angle within "
                                     f"+-{MAX_ABS_DEG:g} degrees (beyond it a double cannot hold the angle within a "

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from .._core.errors import InputError
+from .._core.number_cells import not_plain_note, read_whole
 
 __all__ = ["MoteusCapture", "read_moteus_capture", "write_moteus_capture", "UP_CODES", "DOWN_CODES"]
 
@@ -108,9 +109,9 @@ def read_moteus_capture(path):
                 (("direction", fields[0], "1, 2, 3 or 4"), ("phase", fields[1], "a whole number from 0 to 65535"),
                  ("encoder", fields[2], "a whole number from 0 to 65535")), start=1):
             try:
-                value = int(cell)
+                value = read_whole(cell)
             except ValueError:
-                _fail(path, number, f"{name} is {cell[:40]!r}, expected {allowed}", field)
+                _fail(path, number, f"{name} is {cell[:40]!r}, expected {allowed}{not_plain_note(cell)}", field)
             if (name == "direction" and value not in (1, 2, 3, 4)) or not 0 <= value < COUNTS:
                 _fail(path, number, f"{name} is {value}, expected {allowed}", field)
             values.append(value)

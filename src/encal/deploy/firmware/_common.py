@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._core.errors import InputError
+from ..._core.number_cells import is_plain_number_text, not_plain_note
 from ...models.lut import LookupTableModel
 from ..._core.parameters import check_int
 from ..compact import _least_squares_nodes, evaluation_bits, model_on_codes
@@ -203,6 +204,10 @@ def _shown(text, limit=40):
     return text if len(text) <= limit else text[:limit - 3] + "..."
 
 
+#: A C integer literal with a leading zero: octal in C (``010`` is 8), read by ``float`` as decimal (10).
+_C_OCTAL = re.compile(r"[+-]?0+[1-9][0-9]*[uUlL]*")
+
+
 def read_c_array(source, name):
     """The numbers of the C array ``name`` (``... name[N] = { ... };``) in a file or text.
 
@@ -228,7 +233,10 @@ def read_c_array(source, name):
         + [len(part) - len(part.lstrip()) for part in parts]
     values = []
     for index, item in enumerate(items):
+        octal = _C_OCTAL.fullmatch(item) is not None
         try:
+            if octal or not is_plain_number_text(item):  # C reads 010 as 8, and no '1_0' nor a full-width digit
+                raise ValueError(item)
             value = float(item.rstrip("fFlLuU") if not item.lower().startswith("0x") else int(item, 16))
         except ValueError:
             value = None
@@ -236,8 +244,10 @@ def read_c_array(source, name):
             # the line counted only here: counted for every element, 5 million one-digit elements on one line took
             # minutes (each count scans the text up to the element)
             line = text.count("\n", 0, int(starts[index])) + 1
+            why = ("; a C integer with a leading 0 is octal (010 is 8), which encal does not read: write it in "
+                   "decimal" if octal else not_plain_note(item.rstrip("fFlLuU")))
             raise InputError(f"{where}: line {line}: element {index} of {name}[] is {_shown(item)!r}, expected a "
-                             f"{'number' if value is None else 'finite number'}")
+                             f"{'number' if value is None else 'finite number'}{why}")
         values.append(value)
     declared = match.group(1)
     if declared.isdigit() and int(declared) != len(values):

@@ -32,6 +32,7 @@ import numpy as np
 from ..._core.angles import wrap180
 from ...data.calibration import Calibration
 from ..._core.errors import InputError
+from ..._core.number_cells import not_plain_note, read_number
 from ._common import FirmwareExport, checked, compensator, correction_on_codes, grid_bits, read_text, round_trip
 from ._stepper import check_full_steps, check_step_direction, check_step_zero, wrap_period
 
@@ -257,10 +258,10 @@ def _numbers(fragment, where, number):
         if not item:
             continue
         try:
-            value = float(item)
+            value = read_number(item)
         except ValueError:
             raise InputError(f"{where}, line {number}: expected a number in the calibrate list, "
-                             f"got {item[:40]!r}") from None
+                             f"got {item[:40]!r}{not_plain_note(item)}") from None
         if not np.isfinite(value):
             raise InputError(f"{where}, line {number}: expected a finite angle in the calibrate list, "
                              f"got {item[:40]!r}")

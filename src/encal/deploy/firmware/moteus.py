@@ -43,6 +43,7 @@ import numpy as np
 
 from ...data.calibration import MAX_ABS_DEG, Calibration
 from ..._core.errors import CalibrationError, InputError
+from ..._core.number_cells import not_plain_note, read_number
 from ...selfcal.moteus_capture import UP_CODES, read_moteus_capture
 from ...selfcal.sweep import DEFAULT_SKIP, check_sweep_travel
 from ..._core.limits import check_size
@@ -215,7 +216,7 @@ def export_moteus(model, *, source=0, bits=None, sign=1, offset=0, style="restor
                                   offset_value.size, note, sign * mean), target)
 
 
-_KEY = re.compile(r"^motor_position\.(?:sources\.(\d+)\.)?([A-Za-z_][\w.]*)$")
+_KEY = re.compile(r"^motor_position\.(?:sources\.(\d+)\.)?([A-Za-z_][\w.]*)$", re.ASCII)  # ASCII digits only
 
 
 def _conf_items(text):
@@ -234,12 +235,13 @@ def _conf_items(text):
 
 def _conf_number(where, number, field, text, *, whole=False):
     try:
-        value = float(text)
+        value = read_number(text)
     except ValueError:
         value = None
     if value is None or not math.isfinite(value) or (whole and value != int(value)):
         expected = "a whole number" if whole else "a finite number"
-        raise InputError(f"{where}, line {number}: {field} is {text[:40]!r}; expected {expected}")
+        raise InputError(f"{where}, line {number}: {field} is {text[:40]!r}; expected {expected}"
+                         f"{not_plain_note(text)}")
     return value
 
 
@@ -319,7 +321,7 @@ def read_moteus_conf(source_text, *, source=None):
     for number, k, field, value in _conf_items(text):
         if k is None or not field.startswith("compensation_"):
             continue
-        match = re.fullmatch(r"compensation_(?:table\.(\d+)|scale)", field)
+        match = re.fullmatch(r"compensation_(?:table\.(\d+)|scale)", field, flags=re.ASCII)
         if not match:
             continue
         number_value = _conf_number(where, number, f"motor_position.sources.{k}.{field}", value)
@@ -388,12 +390,12 @@ def _pair_fields(where, number, line):
     values = []
     for column, field in enumerate(fields, start=1):
         try:
-            value = float(field)
+            value = read_number(field)
         except ValueError:
             value = None
         if value is None or not math.isfinite(value):
             raise CalibrationError(f"{where}, line {number}, column {column}: expected a finite number, "
-                                   f"got {field[:40]!r}")
+                                   f"got {field[:40]!r}{not_plain_note(field)}")
         if abs(value) * 360.0 > MAX_ABS_DEG:  # fuzz5: -1e308 revolutions was -inf degrees, a message naming no line
             raise CalibrationError(f"{where}, line {number}, column {column}: expected revolutions within "
                                    f"+-{MAX_ABS_DEG / 360.0:.4g} (+-{MAX_ABS_DEG:g} degrees, as in a calibration CSV), "
