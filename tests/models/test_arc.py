@@ -316,3 +316,39 @@ def test_the_c_header_states_the_range_and_tests_it(arc_model_file, tmp_path, ta
                     str(binary)], check=True)
     flags = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split()
     assert flags == ["0", "1", "1", "1", "0", "0"]
+
+
+@pytest.mark.parametrize("target", ["host", "cortex-m4f"])
+def test_the_c_range_test_takes_the_ends_themselves_as_inside_as_the_model_does(target, tmp_path):
+    # In float the end, the start and the span are each rounded to a float step (3e-5 degree near 360): with a
+    # tolerance of 1e-6 a reading at the end was outside on about one arc in four.
+    import shutil
+    import subprocess
+
+    from encal._core.arcs import RANGE_TOLERANCE_DEG, inside, with_range_in_header
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the header's range test is compiled with it")
+    real = "float" if target == "cortex-m4f" else "double"
+    rng = np.random.default_rng(3)
+    ranges = [(float(a), float((a + span) % 360.0))
+              for a, span in zip(rng.uniform(0, 360, 40), rng.uniform(5, 300, 40))]
+    sources, expected = [], []
+    for k, range_deg in enumerate(ranges):
+        header = with_range_in_header({f"r{k}.h": "#ifdef __cplusplus\n}\n#endif\n"}, f"r{k}", target, range_deg,
+                                      "clamp")[f"r{k}.h"]
+        sources.append(header.replace("#ifdef __cplusplus\n}\n#endif\n", ""))
+        start, end = range_deg
+        probes = [start, end, (end + 1e-3) % 360.0, (start - 1e-3) % 360.0]
+        if real == "double":  # the model's own test, to its tolerance, near each end
+            probes += [(end + f * RANGE_TOLERANCE_DEG) % 360.0 for f in (0.5, 2.0)]
+        calls = " ".join(f'printf("%d\\n", r{k}_in_range(({real}){p!r}));' for p in probes)
+        sources.append(f"static void probe{k}(void) {{ {calls} }}")
+        expected += [1, 1, 0, 0] + ([int(inside(p, range_deg)) for p in probes[4:]] if real == "double" else [])
+    main_c = "\n".join(["#include <stdio.h>", *sources, "int main(void) {",
+                        *[f"    probe{k}();" for k in range(len(ranges))], "    return 0;", "}"])
+    (tmp_path / "main.c").write_text(main_c)
+    binary = tmp_path / "main"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", str(tmp_path / "main.c"), "-o", str(binary)], check=True)
+    flags = [int(v) for v in subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split()]
+    assert flags == expected

@@ -27,6 +27,9 @@ __all__ = ["arc_of", "no_gap_over", "inside", "clamp_to_range", "check_range", "
 OUTSIDE_RULES = ("error", "clamp", "pass")
 #: An angle this close to an end of the range (degrees) counts as inside: a reading at the end itself, rounded.
 RANGE_TOLERANCE_DEG = 1e-9
+#: The same in a float header (cortex-m4f): two float steps near 360 degrees, 2^-14 degree (0.22 arc-seconds); 1e-6
+#: was below a float's step there, and a reading at the end rounded outside on about one arc in four.
+FLOAT_RANGE_TOLERANCE_DEG = 2.0**-14
 
 
 def arc_of(angles_deg, max_gap_deg):
@@ -286,12 +289,15 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
                   "}"]
     else:
         real, suffix = ("float", "f") if target == "cortex-m4f" else ("double", "")
+        # within the tolerance of an end is inside: in double the model's own (RANGE_TOLERANCE_DEG); in float two
+        # of its steps near 360 degrees (2^-14), since the reading, the start and the span are each rounded to one
+        tolerance = repr(RANGE_TOLERANCE_DEG) if real == "double" else repr(FLOAT_RANGE_TOLERANCE_DEG)
         lines += ["/* 1 when the reading (degrees in [0, 360)) lies in the calibrated range, else 0. */",
                   f"static inline int {prefix}_in_range({real} angle_deg) {{",
                   f"    {real} offset = angle_deg - ({real}){start!r}{suffix};",
                   f"    if (offset < 0.0{suffix}) offset += 360.0{suffix};",
-                  f"    return offset <= ({real}){span!r}{suffix} + 1e-6{suffix}"
-                  f" || offset >= 360.0{suffix} - 1e-6{suffix};",
+                  f"    return offset <= ({real}){span!r}{suffix} + {tolerance}{suffix}"
+                  f" || offset >= 360.0{suffix} - {tolerance}{suffix};",
                   "}"]
     block = "\n".join(lines) + "\n"
     header = files[name]
