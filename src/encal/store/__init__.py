@@ -17,8 +17,8 @@ nothing half-written; the records table refuses UPDATE and DELETE (a trigger), s
 written, stays as it was.
 """
 
-from ._store import (DEFAULT_STORE_NAME, GRADE_NONE, Record, Store, default_store_path, grade_of, open_store,
-                     parse_grades)
+from ._store import (DEFAULT_STORE_NAME, GRADE_NONE, CopiedCalibrationError, Record, Store, default_store_path,
+                     grade_of, open_store, parse_grades)
 
 __all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
-           "grade_of", "GRADE_NONE"]
+           "grade_of", "GRADE_NONE", "CopiedCalibrationError"]
