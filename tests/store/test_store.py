@@ -16,6 +16,7 @@ import pytest
 from encal._core.errors import InputError
 from encal.store import GRADE_NONE, grade_of, open_store, parse_grades
 from tests import _paths
+from tests.store.old_layout import write_layout_1_store
 
 SRC = str(_paths.SRC)
 
@@ -217,43 +218,9 @@ _MULLER_NFD = "SN-Mu\u0308ller"  # decomposed (NFD), as macOS names a file
 
 
 def _layout_1_store(location, rows):
-    """A store of layout 1 written directly through SQL, its records ``rows`` ((serial, epoch, label), in the order
-    written), as an encal before serials were composed left it: a decomposed serial stored as it came."""
-    from encal.store._store import _COLUMNS, _REFUSAL
-
-    postgres = location.startswith("postgresql")
-    columns = ", ".join(f"{name} {types[1] if postgres else types[0]}" for name, *types in _COLUMNS)
-    statements = [
-        f"CREATE TABLE encal_records (id {'BIGSERIAL' if postgres else 'INTEGER'} PRIMARY KEY"
-        f"{'' if postgres else ' AUTOINCREMENT'}, {columns}, UNIQUE (serial, epoch))",
-        "CREATE TABLE encal_store (key TEXT PRIMARY KEY, value TEXT NOT NULL)",
-        "INSERT INTO encal_store VALUES ('schema_version', '1')",
-    ]
-    if postgres:
-        statements += [f"CREATE FUNCTION encal_records_refuse() RETURNS trigger LANGUAGE plpgsql AS $$ BEGIN RAISE "
-                       f"EXCEPTION '{_REFUSAL}'; END $$",
-                       "CREATE TRIGGER encal_records_never_changed BEFORE UPDATE OR DELETE ON encal_records FOR EACH "
-                       "ROW EXECUTE FUNCTION encal_records_refuse()"]
-    else:
-        statements += [f"CREATE TRIGGER encal_records_no_{event.lower()} BEFORE {event} ON encal_records BEGIN "
-                       f"SELECT RAISE(ABORT, '{_REFUSAL}'); END" for event in ("UPDATE", "DELETE")]
-    insert = ("INSERT INTO encal_records (serial, epoch, created_utc, encal_version, source_sha256, model_json) "
-              "VALUES (?, ?, ?, '0.1.0', ?, ?)")
-    if postgres:
-        import psycopg
-
-        connection = psycopg.connect(location, autocommit=True)
-        insert = insert.replace("?", "%s")
-    else:
-        import sqlite3
-
-        connection = sqlite3.connect(location, isolation_level=None)
-    with connection:
-        for statement in statements:
-            connection.execute(statement)
-        for second, (serial, epoch, label) in enumerate(rows):
-            connection.execute(insert, (serial, epoch, f"2026-01-01T00:00:{second:02d}+00:00", f"sha-{label}",
-                                        _model_json(label)))
+    """A store of layout 1 holding ``rows`` ((serial, epoch, label), in the order written)."""
+    write_layout_1_store(location, [{"serial": serial, "epoch": epoch, "source_sha256": f"sha-{label}",
+                                     "model_json": _model_json(label)} for serial, epoch, label in rows])
 
 
 def _label(record):
