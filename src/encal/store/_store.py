@@ -228,7 +228,7 @@ class Store(abc.ABC):
 
         ``skip_stored``: a record whose serial and ``source_sha256`` are stored already is not inserted (None).
         A record whose ``source_sha256`` is stored under another serial raises :class:`CopiedCalibrationError`
-        (:meth:`_check_not_copied`, inside the transaction) and nothing of the call is written.
+        (:meth:`_stored_already`, inside the transaction) and nothing of the call is written.
         """
 
     @abc.abstractmethod
@@ -386,7 +386,7 @@ class Store(abc.ABC):
         for (serial,) in cursor.fetchall():
             spellings.setdefault(_composed(serial), []).append(serial)
         changes = []  # (id, serial before, epoch before, serial after, epoch after)
-        for serial, written in sorted(spellings.items()):
+        for serial, written in spellings.items():
             if written == [serial]:
                 continue
             marks = ", ".join(mark for _ in written)
