@@ -196,9 +196,10 @@ def _report_numbers(page):
 
 
 def test_fleet_report_and_export_of_a_converted_store_equal_a_store_written_composed(tmp_path, capsys):
-    """A unit calibrated first under its composed name and then from a Mac (decomposed), in a store of layout 1:
-    two units there. Converted, the store gives the report and the exports of a store written with composed serials
-    from the start (its two calibrations one unit's epochs 1 and 2)."""
+    """A unit calibrated first under its composed name and then from a Mac (decomposed), in a store of layout 1,
+    its first file stored once more from the Mac: two units there. Converted, the store gives the report and the
+    exports of a store written with composed serials from the start (its two calibrations one unit's epochs 1 and 2,
+    the file stored twice no third)."""
     from tests.store.old_layout import write_layout_1_store
     from encal.store._store import _NAMES
 
@@ -216,9 +217,11 @@ def test_fleet_report_and_export_of_a_converted_store_equal_a_store_written_comp
     assert [(r.serial, r.epoch) for r in written if r.serial == _MULLER] == [(_MULLER, 1), (_MULLER, 2)]
     old = tmp_path / "old.sqlite"
     decomposed = unicodedata.normalize("NFD", _MULLER)
-    write_layout_1_store(str(old), [{**{name: getattr(r, name) for name in _NAMES},
-                                     **({"serial": decomposed, "epoch": 1} if r.serial == _MULLER and r.epoch == 2
-                                        else {})} for r in written])
+    rows = [{**{name: getattr(r, name) for name in _NAMES},
+             **({"serial": decomposed, "epoch": 1} if r.serial == _MULLER and r.epoch == 2 else {})} for r in written]
+    # and the first file stored again from the Mac's copy of the folder: the same bytes, under the decomposed name
+    rows.append({**next(row for row in rows if row["serial"] == _MULLER), "serial": decomposed, "epoch": 2})
+    write_layout_1_store(str(old), rows)
     with open_store(old) as store:
         converted = store.records()
     assert [{name: getattr(r, name) for name in _NAMES} for r in converted] == [

@@ -218,9 +218,10 @@ _MULLER_NFD = "SN-Mu\u0308ller"  # decomposed (NFD), as macOS names a file
 
 
 def _layout_1_store(location, rows):
-    """A store of layout 1 holding ``rows`` ((serial, epoch, label), in the order written)."""
-    write_layout_1_store(location, [{"serial": serial, "epoch": epoch, "source_sha256": f"sha-{label}",
-                                     "model_json": _model_json(label)} for serial, epoch, label in rows])
+    """A store of layout 1 holding ``rows`` ((serial, epoch, label[, label of the calibration]), in the order
+    written); each calibration's SHA-256 is 'sha-' and its label."""
+    write_layout_1_store(location, [{"serial": serial, "epoch": epoch, "source_sha256": f"sha-{(*row, label)[0]}",
+                                     "model_json": _model_json(label)} for serial, epoch, label, *row in rows])
 
 
 def _label(record):
@@ -230,9 +231,11 @@ def _label(record):
 def test_an_old_store_with_decomposed_serials_is_converted_when_opened(location):
     """A unit calibrated on a Mac (NFD file name), then elsewhere (NFC), then on the Mac again, in a store of layout 1:
     two units there, and --serial with the composed name found its epoch 1 of two (the middle calibration) with exit
-    0. Converted on open: one unit, its three calibrations its epochs 1, 2, 3 in the order written."""
+    0. Converted on open: one unit, its three calibrations its epochs 1, 2, 3 in the order written; the Mac's first
+    file, stored again under the composed name (a batch run on a copy of the folder), is no fourth calibration."""
     _layout_1_store(location, [(_MULLER_NFD, 1, "mac-1"), ("SN3", 1, "sn3"), (_MULLER, 1, "station-1"),
-                               (_MULLER_NFD, 2, "mac-2"), ("SN\u00c52".replace("\u00c5", "A\u030a"), 1, "only-nfd")])
+                               (_MULLER_NFD, 2, "mac-2"), ("SN\u00c52".replace("\u00c5", "A\u030a"), 1, "only-nfd"),
+                               (_MULLER, 2, "mac-1 again", "mac-1")])
     with open_store(location) as store:
         assert store.serials() == sorted([_MULLER, "SN3", "SN\u00c52"])
         for spelling in (_MULLER, _MULLER_NFD):
@@ -248,17 +251,44 @@ def test_an_old_store_with_decomposed_serials_is_converted_when_opened(location)
                                "ORDER BY record_id")
         assert [tuple(row) for row in changed] == [(_MULLER_NFD, 1, _MULLER, 1), (_MULLER, 1, _MULLER, 2),
                                                    (_MULLER_NFD, 2, _MULLER, 3),
-                                                   ("SNA\u030a2", 1, "SN\u00c52", 1)]
+                                                   ("SNA\u030a2", 1, "SN\u00c52", 1), (_MULLER, 2, _MULLER, None)]
+        assert [tuple(row) for row in store._query("SELECT id, serial, epoch, source_sha256 FROM "
+                                                   "encal_serials_composed_duplicates")] == [(6, _MULLER, 2, "sha-mac-1")]
         assert store._query("SELECT value FROM encal_store WHERE key = 'schema_version'")[0][0] == "2"
-        with pytest.raises(Exception, match="never overwritten"):
-            if location.startswith("postgresql"):
-                with store._connection.transaction():
-                    store._connection.execute("UPDATE encal_records SET grade = 'A'")
-            else:
-                store._connection.execute("UPDATE encal_records SET grade = 'A'")
+        for statement in ("UPDATE encal_records SET grade = 'A'", "DELETE FROM encal_records"):
+            with pytest.raises(Exception, match="never overwritten"):
+                if location.startswith("postgresql"):
+                    with store._connection.transaction():
+                        store._connection.execute(statement)
+                else:
+                    store._connection.execute(statement)
         assert store.add(_MULLER_NFD, _model_json("mac-3")).epoch == 4
     with open_store(location) as again:  # converted once: a second opening changes nothing
-        assert again.count() == 6 and len(again._query("SELECT * FROM encal_serials_composed")) == 4
+        assert again.count() == 6 and len(again._query("SELECT * FROM encal_serials_composed")) == 5
+
+
+def test_a_station_that_may_not_convert_an_old_store_is_told_who_may(location, monkeypatch):
+    """PostgreSQL: the conversion changes the tables (ALTER TABLE), which only their owner may do; a station's user
+    with SELECT and INSERT was refused as a store that 'cannot be used', without why."""
+    if not location.startswith("postgresql"):
+        pytest.skip("SQLite has no users: whoever may write the file may convert it")
+    import psycopg
+
+    from encal.store._store import Store
+
+    _layout_1_store(location, [(_MULLER_NFD, 1, "mac-1")])
+
+    def refused(self, cursor):
+        raise psycopg.errors.InsufficientPrivilege("must be owner of table encal_records")
+
+    monkeypatch.setattr(Store, "_compose_serials", refused)
+    with pytest.raises(InputError, match=r"is of layout 1, which its first opening converts to layout 2 \(serial "
+                                         r"numbers composed\), and this user may not \(must be owner of table "
+                                         r"encal_records\); expected encal run once as the owner"):
+        open_store(location)
+    monkeypatch.undo()
+    with open_store(location) as store:  # nothing was half converted
+        assert store.serials() == [_MULLER]
 
 
 def test_a_store_of_a_newer_layout_is_refused(location):

@@ -52,6 +52,8 @@ _NAMES = tuple(name for name, _, _ in _COLUMNS)
 _REFUSAL = "encal store: records are never overwritten or deleted; a new calibration is a new epoch"
 #: What the conversion of layout 1 to 2 changed: each record's serial and epoch before and after.
 _RENAMED_TABLE = "encal_serials_composed"
+#: Records the conversion took out of a unit's history: the same calibration stored under its other spelling.
+_DUPLICATES_TABLE = "encal_serials_composed_duplicates"
 
 
 class CopiedCalibrationError(InputError):
@@ -357,18 +359,21 @@ class Store(abc.ABC):
     def _upgrade(self, cursor):
         """Bring the store's layout to :data:`SCHEMA_VERSION`, in the caller's transaction (which holds the write
         lock); refuse a store of a newer layout."""
-        mark = self._placeholder
         cursor.execute("SELECT value FROM encal_store WHERE key = 'schema_version'")
         version = int(cursor.fetchone()[0])
         if version > SCHEMA_VERSION:
             raise InputError(f"--store {self.location}: written by a newer encal (layout {version}, this encal reads "
                              f"{SCHEMA_VERSION}); expected a store this encal reads (upgrade encal)")
-        if version == SCHEMA_VERSION:
-            return
+        if version < SCHEMA_VERSION:
+            self._convert(cursor, version)
+
+    def _convert(self, cursor, version):
+        """Convert a store of layout ``version`` to :data:`SCHEMA_VERSION`, in the caller's transaction."""
         self._hold_records(cursor)
         cursor.execute("CREATE INDEX IF NOT EXISTS encal_records_source ON encal_records (source_sha256)")
         self._compose_serials(cursor)
-        cursor.execute(f"UPDATE encal_store SET value = {mark} WHERE key = 'schema_version'", (str(SCHEMA_VERSION),))
+        cursor.execute(f"UPDATE encal_store SET value = {self._placeholder} WHERE key = 'schema_version'",
+                       (str(SCHEMA_VERSION),))
 
     def _compose_serials(self, cursor):
         """Store every serial in the form :func:`check_serial` gives (Unicode's composed form, NFC), in the caller's
@@ -378,36 +383,53 @@ class Store(abc.ABC):
         ``SN-Mu\u0308ller`` beside ``SN-M\u00fcller``, two units, of which a lookup by either spelling found one.
         The two spellings are one unit (as every write now takes them), so their records become one history: its
         epochs 1, 2, ... in the order the records were written (their row numbers, the order epochs are given
-        in). Nothing is lost: each changed record's serial and epoch before are kept in ``encal_serials_composed``.
+        in). A record whose calibration (``source_sha256``) an earlier record of the other spelling holds is the
+        same file stored a second time, not a calibration (a batch run again skips it): it is moved, whole, to
+        ``encal_serials_composed_duplicates``. Nothing is lost: each changed record's serial and epoch before are
+        kept in ``encal_serials_composed`` (its epoch after NULL for one moved).
         """
         mark = self._placeholder
         cursor.execute("SELECT DISTINCT serial FROM encal_records")
         spellings = {}
         for (serial,) in cursor.fetchall():
             spellings.setdefault(_composed(serial), []).append(serial)
-        changes = []  # (id, serial before, epoch before, serial after, epoch after)
+        changes = []  # (id, serial before, epoch before, serial after, epoch after or None when moved)
         for serial, written in spellings.items():
             if written == [serial]:
                 continue
             marks = ", ".join(mark for _ in written)
-            cursor.execute(f"SELECT id, serial, epoch FROM encal_records WHERE serial IN ({marks}) ORDER BY id", written)
-            for order, (row_id, before, epoch) in enumerate(cursor.fetchall(), 1):
-                after = order if len(written) > 1 else epoch
+            cursor.execute(f"SELECT id, serial, epoch, source_sha256 FROM encal_records WHERE serial IN ({marks}) "
+                           "ORDER BY id", written)
+            kept, spelled = 0, {}  # spelled: the spellings of the records kept, per calibration
+            for row_id, before, epoch, sha256 in cursor.fetchall():
+                if sha256 is not None and spelled.get(sha256, set()) - {before}:
+                    changes.append((int(row_id), before, int(epoch), serial, None))
+                    continue
+                kept += 1
+                spelled.setdefault(sha256, set()).add(before)
+                after = kept if len(written) > 1 else int(epoch)
                 if (before, epoch) != (serial, after):
                     changes.append((int(row_id), before, int(epoch), serial, after))
         if not changes:
             return
         cursor.execute(f"CREATE TABLE IF NOT EXISTS {_RENAMED_TABLE} (record_id {self._integer} NOT NULL, "
                        "serial_before TEXT NOT NULL, epoch_before INTEGER NOT NULL, serial TEXT NOT NULL, "
-                       "epoch INTEGER NOT NULL, changed_utc TEXT NOT NULL)")
+                       "epoch INTEGER, changed_utc TEXT NOT NULL)")
+        cursor.execute(f"CREATE TABLE IF NOT EXISTS {_DUPLICATES_TABLE} AS SELECT * FROM encal_records WHERE 1 = 0")
         now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
         self._records_changeable(cursor, True)
+        for row_id, *_, epoch in changes:
+            if epoch is None:
+                cursor.execute(f"INSERT INTO {_DUPLICATES_TABLE} SELECT * FROM encal_records WHERE id = {mark}",
+                               (row_id,))
+                cursor.execute(f"DELETE FROM encal_records WHERE id = {mark}", (row_id,))
+        renumbered = [change for change in changes if change[-1] is not None]
         # two passes, so that no (serial, epoch) is held twice between two updates: first each record to an epoch
         # of its own (minus its row number), then to its place in the merged history
-        for row_id, _, _, serial, _ in changes:
+        for row_id, _, _, serial, _ in renumbered:
             cursor.execute(f"UPDATE encal_records SET serial = {mark}, epoch = {mark} WHERE id = {mark}",
                            (serial, -row_id, row_id))
-        for row_id, _, _, _, epoch in changes:
+        for row_id, _, _, _, epoch in renumbered:
             cursor.execute(f"UPDATE encal_records SET epoch = {mark} WHERE id = {mark}", (epoch, row_id))
         self._records_changeable(cursor, False)
         for change in changes:
@@ -420,7 +442,8 @@ class Store(abc.ABC):
 
     @abc.abstractmethod
     def _records_changeable(self, cursor, changeable):
-        """Lift (True) or restore (False) the trigger that refuses UPDATE of a record, in the caller's transaction."""
+        """Lift (True) or restore (False) the triggers that refuse UPDATE and DELETE of a record, in the caller's
+        transaction."""
 
     def history(self, serial):
         """Every record of ``serial``, by epoch (an empty list for an unknown serial)."""
@@ -555,10 +578,11 @@ class _SQLiteStore(Store):
         pass  # BEGIN IMMEDIATE holds the file's write lock already
 
     def _records_changeable(self, cursor, changeable):
-        if changeable:
-            cursor.execute("DROP TRIGGER encal_records_no_update")
-        else:
-            self._refuse(cursor, "UPDATE")
+        for event in ("UPDATE", "DELETE"):
+            if changeable:
+                cursor.execute(f"DROP TRIGGER encal_records_no_{event.lower()}")
+            else:
+                self._refuse(cursor, event)
 
     class _Transaction:
         def __init__(self, connection):
@@ -643,6 +667,15 @@ class _PostgresStore(Store):
                 cursor.execute("CREATE TRIGGER encal_records_never_changed BEFORE UPDATE OR DELETE ON encal_records "
                                "FOR EACH ROW EXECUTE FUNCTION encal_records_refuse()")
             self._upgrade(cursor)
+
+    def _convert(self, cursor, version):
+        try:
+            super()._convert(cursor, version)
+        except self._psycopg.errors.InsufficientPrivilege as exc:
+            raise InputError(f"--store {self.location}: is of layout {version}, which its first opening converts to "
+                             f"layout {SCHEMA_VERSION} (serial numbers composed), and this user may not "
+                             f"({str(exc).strip().splitlines()[0]}); expected encal run once as the owner of the "
+                             "store's tables") from None
 
     def _hold_records(self, cursor):
         # writers wait (readers do not) until the conversion commits: none adds a serial it has not seen
