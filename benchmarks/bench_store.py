@@ -55,8 +55,8 @@ def _records(count):
 def _flushes(store, start, count=20, group=64):
     times = []
     for flush in range(count):
-        records = [{"serial": f"SN-new-{start + flush}-{k}", "model_json": "{}", "calibration_csv": f"{start},{flush},{k}"}
-                   for k in range(group)]
+        records = [{"serial": f"SN-new-{start + flush}-{k}", "model_json": "{}",
+                    "calibration_csv": f"{start},{flush},{k}"} for k in range(group)]
         _, cpu, wall = _timed(lambda: store.add_many(records, skip_stored=True))
         times.append((cpu, wall))
     return statistics.median(t[0] for t in times), statistics.median(t[1] for t in times)

@@ -252,8 +252,8 @@ def test_an_old_store_with_decomposed_serials_is_converted_when_opened(location)
         assert [tuple(row) for row in changed] == [(_MULLER_NFD, 1, _MULLER, 1), (_MULLER, 1, _MULLER, 2),
                                                    (_MULLER_NFD, 2, _MULLER, 3),
                                                    ("SNA\u030a2", 1, "SN\u00c52", 1), (_MULLER, 2, _MULLER, None)]
-        assert [tuple(row) for row in store._query("SELECT id, serial, epoch, source_sha256 FROM "
-                                                   "encal_serials_composed_duplicates")] == [(6, _MULLER, 2, "sha-mac-1")]
+        duplicates = store._query("SELECT id, serial, epoch, source_sha256 FROM encal_serials_composed_duplicates")
+        assert [tuple(row) for row in duplicates] == [(6, _MULLER, 2, "sha-mac-1")]
         assert store._query("SELECT value FROM encal_store WHERE key = 'schema_version'")[0][0] == "2"
         for statement in ("UPDATE encal_records SET grade = 'A'", "DELETE FROM encal_records"):
             with pytest.raises(Exception, match="never overwritten"):
@@ -403,3 +403,30 @@ def test_two_writers_of_one_calibration_under_two_serials_at_once_store_it_once(
     assert isinstance(outcome["second"], CopiedCalibrationError) and outcome["second"].others == ["SN1"]
     with open_store(location) as store:
         assert [(r.serial, r.source_sha256) for r in store.records()] == [("SN1", "ab" * 32)]
+
+
+_OPENER = textwrap.dedent("""
+    import sys
+    from encal.store import open_store
+    location, opener = sys.argv[1], int(sys.argv[2])
+    with open_store(location) as store:
+        store.add("SN-M\\u00fcller", '{"label": "opener-%d"}' % opener)
+""")
+
+
+def test_openers_of_an_old_store_at_once_convert_it_once(location):
+    """4 processes open a store of layout 1 together and each writes the unit's next calibration: the conversion is
+    made once (one set of changes kept), and the unit's epochs are 1..6 without a gap or a repeat."""
+    _layout_1_store(location, [(_MULLER_NFD, 1, "mac-1"), (_MULLER, 1, "station-1")])
+    environment = {**os.environ, "PYTHONPATH": SRC + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    processes = [subprocess.Popen([sys.executable, "-c", _OPENER, location, str(k)], env=environment,
+                                  stderr=subprocess.PIPE, text=True) for k in range(4)]
+    for process in processes:
+        _, error = process.communicate(timeout=120)
+        assert process.returncode == 0, error
+    with open_store(location) as store:
+        history = store.history(_MULLER)
+        assert [r.epoch for r in history] == [1, 2, 3, 4, 5, 6]
+        assert [_label(r) for r in history[:2]] == ["mac-1", "station-1"]
+        assert sorted(_label(r) for r in history[2:]) == [f"opener-{k}" for k in range(4)]
+        assert len(store._query("SELECT * FROM encal_serials_composed")) == 2
