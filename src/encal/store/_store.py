@@ -562,12 +562,12 @@ class _SQLiteStore(Store):
         with self._transaction() as cursor:
             cursor.execute(f"CREATE TABLE IF NOT EXISTS encal_records (id INTEGER PRIMARY KEY AUTOINCREMENT, "
                            f"{columns}, UNIQUE (serial, epoch))")
-            cursor.execute("CREATE INDEX IF NOT EXISTS encal_records_source ON encal_records (source_sha256)")
             cursor.execute("CREATE TABLE IF NOT EXISTS encal_store (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
             cursor.execute("INSERT OR IGNORE INTO encal_store VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
             for event in ("UPDATE", "DELETE"):
                 self._refuse(cursor, event)
             self._upgrade(cursor)
+            cursor.execute("CREATE INDEX IF NOT EXISTS encal_records_source ON encal_records (source_sha256)")
 
     @staticmethod
     def _refuse(cursor, event):
