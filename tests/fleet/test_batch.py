@@ -158,3 +158,101 @@ def test_export_of_a_stored_unit_equals_export_of_its_model_file(tmp_path, capsy
                      "-o", str(by_serial)]) == 0
         assert main(["export", str(tmp_path / "SN2.json"), "--format", fmt, *extra, "-o", str(by_file)]) == 0
         assert by_serial.read_bytes() == by_file.read_bytes()
+
+
+# --- store6: two batches racing with one calibration under two serials; a store of layout 1 converted -------------
+
+def test_two_batches_storing_one_calibration_under_two_serials_at_once_store_it_once(tmp_path, capsys):
+    """Both batches read the store before either wrote (so both passed the check at their start): the second's
+    write is refused inside its transaction, in the same sentence, instead of giving SN9 the model of SN1."""
+    from encal.fleet.batch import fit_batch
+
+    for lot in ("a", "b"):
+        (tmp_path / lot).mkdir()
+    _write_unit(tmp_path / "a" / "SN1.csv", 1, seed=1)
+    (tmp_path / "b" / "SN9.csv").write_bytes((tmp_path / "a" / "SN1.csv").read_bytes())
+    path = tmp_path / "s.sqlite"
+    refused = []
+    with open_store(path) as first, open_store(path) as second:
+        stale = second.stored_sources()
+        one = fit_batch([tmp_path / "a" / "SN1.csv"], first, jobs=0)
+        second.stored_sources = lambda: stale  # as if it had read the store before the first batch wrote
+        two = fit_batch([tmp_path / "b" / "SN9.csv"], second, jobs=0, on_refused=lambda *args: refused.append(args))
+        assert [r.serial for r in one.fitted] == ["SN1"] and not two.fitted and not two.skipped
+        assert [(r.serial, r.epoch) for r in first.records()] == [("SN1", 1)]
+    assert len(refused) == 1 and refused[0][1] == (
+        f"{tmp_path / 'b' / 'SN9.csv'}: its bytes are the calibration of SN1 as well (in the store); expected each "
+        "unit's own calibration (a copied or misnamed file?), not fitted as SN9")
+
+
+_MULLER = unicodedata.normalize("NFC", "SN-Müller")
+
+
+def _report_numbers(page):
+    """The fleet report's tables and figures: its lines but the one that names the store and the time."""
+    lines = page.read_text(encoding="utf-8").splitlines()
+    assert sum('<p class="meta">' in line for line in lines) == 1
+    return [line for line in lines if '<p class="meta">' not in line]
+
+
+def test_fleet_report_and_export_of_a_converted_store_equal_a_store_written_composed(tmp_path, capsys):
+    """A unit calibrated first under its composed name and then from a Mac (decomposed), in a store of layout 1,
+    its first file stored once more from the Mac: two units there. Converted, the store gives the report and the
+    exports of a store written with composed serials from the start (its two calibrations one unit's epochs 1 and 2,
+    the file stored twice no third)."""
+    from tests.store.old_layout import write_layout_1_store
+    from encal.store._store import _NAMES
+
+    first, second = tmp_path / "a", tmp_path / "b"
+    first.mkdir()
+    second.mkdir()
+    for k in (1, 2):
+        _write_unit(first / f"SN{k}.csv", k, seed=k)
+    _write_unit(first / f"{_MULLER}.csv", 3, seed=3)
+    _write_unit(second / f"{_MULLER}.csv", 5, seed=5)
+    fresh = tmp_path / "s.sqlite"
+    assert _fit(first, "--store", fresh) == 0 and _fit(second, "--store", fresh) == 0
+    with open_store(fresh) as store:
+        written = store.records()
+    assert [(r.serial, r.epoch) for r in written if r.serial == _MULLER] == [(_MULLER, 1), (_MULLER, 2)]
+    old = tmp_path / "old.sqlite"
+    decomposed = unicodedata.normalize("NFD", _MULLER)
+    rows = [{**{name: getattr(r, name) for name in _NAMES},
+             **({"serial": decomposed, "epoch": 1} if r.serial == _MULLER and r.epoch == 2 else {})} for r in written]
+    # and the first file stored again from the Mac's copy of the folder: the same bytes, under the decomposed name
+    rows.append({**next(row for row in rows if row["serial"] == _MULLER), "serial": decomposed, "epoch": 2})
+    write_layout_1_store(str(old), rows)
+    with open_store(old) as store:
+        converted = store.records()
+    assert [{name: getattr(r, name) for name in _NAMES} for r in converted] == [
+        {name: getattr(r, name) for name in _NAMES} for r in written]
+    pages = {}
+    for name in ("s", "old"):
+        pages[name] = tmp_path / f"{name}.html"
+        assert main(["fleet", "report", "--store", str(tmp_path / f"{name}.sqlite"), "-o", str(pages[name])]) == 0
+    assert _report_numbers(pages["old"]) == _report_numbers(pages["s"])
+    for spelling in (_MULLER, decomposed):
+        exported = {}
+        for name in ("s", "old"):
+            exported[name] = tmp_path / f"{name}.bin"
+            assert main(["export", "--serial", spelling, "--store", str(tmp_path / f"{name}.sqlite"), "--format",
+                         "table", "--bits", "12", "-o", str(exported[name])]) == 0
+        assert exported["old"].read_bytes() == exported["s"].read_bytes()
+    with open_store(old) as store:
+        assert _first_order_arcmin(store.latest_model(_MULLER)) == pytest.approx(5, abs=0.01)
+
+
+def test_a_file_stored_under_its_decomposed_serial_by_an_old_encal_is_skipped_not_refused(tmp_path, capsys):
+    """Run again on a store of layout 1 that holds it under the decomposed spelling, a unit's file was refused as
+    'the calibration of SN-Müller as well': a copy under a serial that reads the same."""
+    from tests.store.old_layout import write_layout_1_store
+    from encal.fleet.batch import file_sha256
+
+    _write_unit(tmp_path / f"{_MULLER}.csv", 3, seed=3)
+    store = tmp_path / "old.sqlite"
+    write_layout_1_store(str(store), [{"serial": unicodedata.normalize("NFD", _MULLER), "epoch": 1, "model_json": "{}",
+                                       "source_sha256": file_sha256(tmp_path / f"{_MULLER}.csv")}])
+    assert _fit(tmp_path / f"{_MULLER}.csv", "--store", store) == 0
+    assert "1 already stored, skipped" in capsys.readouterr().out
+    with open_store(store) as opened:
+        assert [(r.serial, r.epoch) for r in opened.records()] == [(_MULLER, 1)]

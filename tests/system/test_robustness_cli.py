@@ -179,6 +179,7 @@ def _make_files(folder):
     _make_plausibility_files(folder, paths)
     _make_fuzz5_files(folder, paths)
     _make_strict6_files(folder, paths)
+    _make_store6_files(paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1395,6 +1396,45 @@ STRICT6_CASES = [
          ("--hidden", "'1_0'")),
 ]
 CASES += STRICT6_CASES
+
+
+# ---------------------------------------------------------------- store6: stores of an older or a newer layout
+
+
+def _make_store6_files(paths):
+    """Two stores in the scratch folder (opening converts or touches them, so they are no checked input): one of
+    layout 1 holding SN-Müller's older calibration under the composed spelling and its newer under the decomposed
+    (NFD) one, and one of a newer layout than this encal reads."""
+    import sqlite3
+    import unicodedata
+
+    from encal.store import open_store
+    from tests.store.old_layout import write_layout_1_store
+
+    model_json = Path(paths["model"]).read_text(encoding="utf-8")
+    # the older record's model is no model file: the export succeeds only when it takes the newer, decomposed one
+    write_layout_1_store(str(Path(paths["scratch"]) / "store6_old.sqlite"), [
+        {"serial": unicodedata.normalize(form, "SN-Müller"), "epoch": 1, "model_json": text}
+        for form, text in (("NFC", "{}"), ("NFD", model_json))])
+    newer = Path(paths["scratch"]) / "store6_newer.sqlite"
+    with open_store(newer) as store:
+        store.add("SN1", model_json)
+    with sqlite3.connect(newer) as connection:
+        connection.execute("UPDATE encal_store SET value = '99' WHERE key = 'schema_version'")
+    connection.close()
+
+
+STORE6_CASES = [
+    # a store of layout 1 is converted when opened: the unit's two spellings are one unit, its latest model found
+    Case("export-serial-decomposed-in-an-old-store", ("export", "--serial", "SN-Müller", "--store",
+                                                      "{scratch}/store6_old.sqlite", "--format", "table", "--bits",
+                                                      "12", "-o", "{scratch}/store6.bin"), 0),
+    Case("export-serial-store-of-a-newer-layout", ("export", "--serial", "SN1", "--store",
+                                                   "{scratch}/store6_newer.sqlite", "--format", "table", "--bits",
+                                                   "12", "-o", "{out}/t.bin"), 1,
+         ("store6_newer.sqlite", "written by a newer encal (layout 99", "upgrade encal")),
+]
+CASES += STORE6_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -251,6 +251,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     -------
     BatchResult
     """
+    from ..store import CopiedCalibrationError
+
     paths = list(paths)
     result = BatchResult()
     stored = store.stored_sources()
@@ -277,8 +279,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             # one unit's readings under another's serial number: a copied or misnamed file; which of them is
             # that unit's own cannot be told, so none is fitted (the store's record, if any, stays as it was)
             where = "in the store" if any((other, sha256) in stored for other in others) else "in this batch"
-            refuse(path, f"{path}: its bytes are the calibration of {', '.join(others)} as well ({where}); expected "
-                         f"each unit's own calibration (a copied or misnamed file?), not fitted as {serial}")
+            refuse(path, _copied(path, serial, others, where))
             continue
         units.setdefault(serial, []).append((str(path), sha256))
     for files in units.values():
@@ -305,6 +306,10 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         for record, path in zip(records, paths):
             try:
                 added.extend(store.add_many([record], skip_stored=True))
+            except CopiedCalibrationError as exc:
+                # stored under another serial by a batch running beside this one, after this one's check at its start
+                refuse(path, _copied(path, exc.serial, exc.others, "in the store"))
+                added.append(False)
             except InputError as exc:
                 refuse(path, f"{path}: its record was refused by the store ({exc})")
                 added.append(False)
@@ -348,6 +353,13 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     finally:
         flush()  # an interrupted batch keeps every unit it finished
     return result
+
+
+def _copied(path, serial, others, where):
+    """The refusal of a file whose bytes are the calibration of ``others`` as well (``where``: in the store or in
+    this batch)."""
+    return (f"{path}: its bytes are the calibration of {', '.join(others)} as well ({where}); expected each unit's "
+            f"own calibration (a copied or misnamed file?), not fitted as {serial}")
 
 
 def _owners_of_bytes(known, stored):

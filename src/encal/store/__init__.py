@@ -14,11 +14,14 @@ Two back ends, one interface (:class:`Store`):
 
 Every write is one transaction, so concurrent writers (processes, stations) lose nothing and leave
 nothing half-written; the records table refuses UPDATE and DELETE (a trigger), so a record, once
-written, stays as it was.
+written, stays as it was. The one exception is the conversion of a store of layout 1 when it is opened:
+its serial numbers are put in Unicode's composed form (NFC), two spellings of one unit made one history
+(a file stored under both kept once), and what changed is kept in ``encal_serials_composed`` and
+``encal_serials_composed_duplicates``.
 """
 
-from ._store import (DEFAULT_STORE_NAME, GRADE_NONE, Record, Store, default_store_path, grade_of, open_store,
-                     parse_grades)
+from ._store import (DEFAULT_STORE_NAME, GRADE_NONE, CopiedCalibrationError, Record, Store, default_store_path,
+                     grade_of, open_store, parse_grades)
 
 __all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
-           "grade_of", "GRADE_NONE"]
+           "grade_of", "GRADE_NONE", "CopiedCalibrationError"]

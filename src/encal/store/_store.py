@@ -13,14 +13,16 @@ from .._version import __version__
 from .._core.errors import InputError
 
 __all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
-           "grade_of", "GRADE_NONE"]
+           "grade_of", "GRADE_NONE", "CopiedCalibrationError"]
 
 #: The store's file name when the user names none: next to the calibrations.
 DEFAULT_STORE_NAME = "encal-store.sqlite"
 #: The grade of a unit that meets no threshold.
 GRADE_NONE = "out"
-#: Version of the tables' layout, recorded in the store.
-SCHEMA_VERSION = 1
+#: Version of the tables' layout, recorded in the store. 1: the first. 2: every serial in Unicode's composed form
+#: (NFC) and an index on ``source_sha256``; a store of layout 1, whose serials may be decomposed (NFD, written by an
+#: encal before it composed them), is converted when opened (:meth:`Store._upgrade`).
+SCHEMA_VERSION = 2
 #: Longest serial number, in characters.
 MAX_SERIAL_CHARS = 200
 #: Seconds a writer waits for another's transaction (SQLite's lock) before it gives up.
@@ -48,6 +50,28 @@ _COLUMNS = (
 )
 _NAMES = tuple(name for name, _, _ in _COLUMNS)
 _REFUSAL = "encal store: records are never overwritten or deleted; a new calibration is a new epoch"
+#: What the conversion of layout 1 to 2 changed: each record's serial and epoch before and after.
+_RENAMED_TABLE = "encal_serials_composed"
+#: Records the conversion took out of a unit's history: the same calibration stored under its other spelling.
+_DUPLICATES_TABLE = "encal_serials_composed_duplicates"
+
+
+class CopiedCalibrationError(InputError):
+    """A record whose calibration (the same bytes, by ``source_sha256``) is stored under another serial number.
+
+    Attributes
+    ----------
+    serial : str
+        The serial number the record was to be stored under.
+    others : list of str
+        The serial numbers the same calibration is stored under.
+    """
+
+    def __init__(self, serial, source_sha256, others):
+        self.serial, self.source_sha256, self.others = serial, source_sha256, list(others)
+        super().__init__(f"the calibration of {serial} (SHA-256 {source_sha256[:12]}...) is stored under "
+                         f"{', '.join(self.others)} already; expected each unit's own calibration (a copied or "
+                         f"misnamed file?), not the same bytes under a second serial number")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -171,6 +195,15 @@ def check_serial(serial):
     return text
 
 
+def _composed(serial):
+    """``serial`` in the form :func:`check_serial` gives, or as it is when that refuses it (it is not this
+    conversion's to judge a stored serial)."""
+    try:
+        return check_serial(serial)
+    except InputError:
+        return serial
+
+
 def _figure(value, name):
     if value is None:
         return None
@@ -196,6 +229,8 @@ class Store(abc.ABC):
         """Insert records (dicts of the columns) in one transaction, numbering their epochs; return [(id, epoch)].
 
         ``skip_stored``: a record whose serial and ``source_sha256`` are stored already is not inserted (None).
+        A record whose ``source_sha256`` is stored under another serial raises :class:`CopiedCalibrationError`
+        (:meth:`_stored_already`, inside the transaction) and nothing of the call is written.
         """
 
     @abc.abstractmethod
@@ -230,6 +265,15 @@ class Store(abc.ABC):
         -------
         Record
             As stored, with its epoch and id.
+
+        Raises
+        ------
+        CopiedCalibrationError
+            When the same calibration (``source_sha256``) is stored under another serial number: which unit the
+            readings belong to cannot be told, and a unit must never get another's model. Checked inside the
+            write's transaction, so two writers of one file under two serials at once store it once.
+        InputError
+            When the serial number or a figure is not usable.
         """
         values = self._values(serial, model_json, calibration_csv=calibration_csv, source_name=source_name,
                               source_sha256=source_sha256, model_kind=model_kind, n_points=n_points,
@@ -255,6 +299,11 @@ class Store(abc.ABC):
         -------
         list of Record or None
             One per record; None for one left out.
+
+        Raises
+        ------
+        CopiedCalibrationError
+            When a record's calibration is stored under another serial number (as :meth:`add`); none is written.
         """
         values = [self._values(**fields) for fields in records]
         if not values:
@@ -282,6 +331,119 @@ class Store(abc.ABC):
             "held_out_arcmin": _figure(held_out_arcmin, "held-out estimate"), "grade": grade,
         }
         return values
+
+    # --- shared by the back ends, inside their write transaction ----------------------------------
+    def _stored_already(self, cursor, values, skip_stored):
+        """Whether to leave out ``values`` (``skip_stored`` and its serial and calibration stored already); raise
+        :class:`CopiedCalibrationError` when its calibration is stored under another serial.
+
+        Called inside the write's transaction, after the back end's lock, so that what it reads cannot change before
+        the commit (the batch's check at its start cannot see a batch running beside it).
+        """
+        sha256 = values["source_sha256"]
+        if sha256 is None:
+            return False
+        mark = self._placeholder
+        if skip_stored:
+            cursor.execute(f"SELECT 1 FROM encal_records WHERE serial = {mark} AND source_sha256 = {mark}",
+                           (values["serial"], sha256))
+            if cursor.fetchone() is not None:
+                return True
+        cursor.execute(f"SELECT DISTINCT serial FROM encal_records WHERE source_sha256 = {mark} AND serial <> {mark} "
+                       "ORDER BY serial", (sha256, values["serial"]))
+        others = [row[0] for row in cursor.fetchall()]
+        if others:
+            raise CopiedCalibrationError(values["serial"], sha256, others)
+        return False
+
+    def _upgrade(self, cursor):
+        """Bring the store's layout to :data:`SCHEMA_VERSION`, in the caller's transaction (which holds the write
+        lock); refuse a store of a newer layout."""
+        cursor.execute("SELECT value FROM encal_store WHERE key = 'schema_version'")
+        version = int(cursor.fetchone()[0])
+        if version > SCHEMA_VERSION:
+            raise InputError(f"--store {self.location}: written by a newer encal (layout {version}, this encal reads "
+                             f"{SCHEMA_VERSION}); expected a store this encal reads (upgrade encal)")
+        if version < SCHEMA_VERSION:
+            self._convert(cursor, version)
+
+    def _convert(self, cursor, version):
+        """Convert a store of layout ``version`` to :data:`SCHEMA_VERSION`, in the caller's transaction."""
+        self._hold_records(cursor)
+        cursor.execute("CREATE INDEX IF NOT EXISTS encal_records_source ON encal_records (source_sha256)")
+        self._compose_serials(cursor)
+        cursor.execute(f"UPDATE encal_store SET value = {self._placeholder} WHERE key = 'schema_version'",
+                       (str(SCHEMA_VERSION),))
+
+    def _compose_serials(self, cursor):
+        """Store every serial in the form :func:`check_serial` gives (Unicode's composed form, NFC), in the caller's
+        transaction.
+
+        Stores of layout 1 may hold a serial as it came: a file named on a Mac (decomposed, NFD) stored
+        ``SN-Mu\u0308ller`` beside ``SN-M\u00fcller``, two units, of which a lookup by either spelling found one.
+        The two spellings are one unit (as every write now takes them), so their records become one history: its
+        epochs 1, 2, ... in the order the records were written (their row numbers, the order epochs are given
+        in). A record whose calibration (``source_sha256``) an earlier record of the other spelling holds is the
+        same file stored a second time, not a calibration (a batch run again skips it): it is moved, whole, to
+        ``encal_serials_composed_duplicates``. Nothing is lost: each changed record's serial and epoch before are
+        kept in ``encal_serials_composed`` (its epoch after NULL for one moved).
+        """
+        mark = self._placeholder
+        cursor.execute("SELECT DISTINCT serial FROM encal_records")
+        spellings = {}
+        for (serial,) in cursor.fetchall():
+            spellings.setdefault(_composed(serial), []).append(serial)
+        changes = []  # (id, serial before, epoch before, serial after, epoch after or None when moved)
+        for serial, written in spellings.items():
+            if written == [serial]:
+                continue
+            marks = ", ".join(mark for _ in written)
+            cursor.execute(f"SELECT id, serial, epoch, source_sha256 FROM encal_records WHERE serial IN ({marks}) "
+                           "ORDER BY id", written)
+            kept, spelled = 0, {}  # spelled: the spellings of the records kept, per calibration
+            for row_id, before, epoch, sha256 in cursor.fetchall():
+                if sha256 is not None and spelled.get(sha256, set()) - {before}:
+                    changes.append((int(row_id), before, int(epoch), serial, None))
+                    continue
+                kept += 1
+                spelled.setdefault(sha256, set()).add(before)
+                after = kept if len(written) > 1 else int(epoch)
+                if (before, epoch) != (serial, after):
+                    changes.append((int(row_id), before, int(epoch), serial, after))
+        if not changes:
+            return
+        cursor.execute(f"CREATE TABLE IF NOT EXISTS {_RENAMED_TABLE} (record_id {self._integer} NOT NULL, "
+                       "serial_before TEXT NOT NULL, epoch_before INTEGER NOT NULL, serial TEXT NOT NULL, "
+                       "epoch INTEGER, changed_utc TEXT NOT NULL)")
+        cursor.execute(f"CREATE TABLE IF NOT EXISTS {_DUPLICATES_TABLE} AS SELECT * FROM encal_records WHERE 1 = 0")
+        now = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+        self._records_changeable(cursor, True)
+        for row_id, *_, epoch in changes:
+            if epoch is None:
+                cursor.execute(f"INSERT INTO {_DUPLICATES_TABLE} SELECT * FROM encal_records WHERE id = {mark}",
+                               (row_id,))
+                cursor.execute(f"DELETE FROM encal_records WHERE id = {mark}", (row_id,))
+        renumbered = [change for change in changes if change[-1] is not None]
+        # two passes, so that no (serial, epoch) is held twice between two updates: first each record to an epoch
+        # of its own (minus its row number), then to its place in the merged history
+        for row_id, _, _, serial, _ in renumbered:
+            cursor.execute(f"UPDATE encal_records SET serial = {mark}, epoch = {mark} WHERE id = {mark}",
+                           (serial, -row_id, row_id))
+        for row_id, _, _, _, epoch in renumbered:
+            cursor.execute(f"UPDATE encal_records SET epoch = {mark} WHERE id = {mark}", (epoch, row_id))
+        self._records_changeable(cursor, False)
+        for change in changes:
+            cursor.execute(f"INSERT INTO {_RENAMED_TABLE} VALUES ({mark}, {mark}, {mark}, {mark}, {mark}, {mark})",
+                           (*change, now))
+
+    @abc.abstractmethod
+    def _hold_records(self, cursor):
+        """Keep other writers out of the records table until the caller's transaction ends."""
+
+    @abc.abstractmethod
+    def _records_changeable(self, cursor, changeable):
+        """Lift (True) or restore (False) the triggers that refuse UPDATE and DELETE of a record, in the caller's
+        transaction."""
 
     def history(self, serial):
         """Every record of ``serial``, by epoch (an empty list for an unknown serial)."""
@@ -370,6 +532,9 @@ class _SQLiteStore(Store):
             self.close()
             raise InputError(f"--store {path}: cannot be used as a store ({exc}); expected an SQLite file written "
                              "by encal, or the path of a new one") from None
+        except InputError:
+            self.close()
+            raise
 
     def _write_ahead_log(self):
         """Put the file in WAL mode, waiting for other openers as long as for a writer.
@@ -390,6 +555,8 @@ class _SQLiteStore(Store):
                     raise
                 time.sleep(0.02)
 
+    _integer = "INTEGER"
+
     def _create(self):
         columns = ", ".join(f"{name} {sqlite}" for name, sqlite, _ in _COLUMNS)
         with self._transaction() as cursor:
@@ -398,12 +565,24 @@ class _SQLiteStore(Store):
             cursor.execute("CREATE TABLE IF NOT EXISTS encal_store (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
             cursor.execute("INSERT OR IGNORE INTO encal_store VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
             for event in ("UPDATE", "DELETE"):
-                cursor.execute(f"CREATE TRIGGER IF NOT EXISTS encal_records_no_{event.lower()} BEFORE {event} ON "
-                               f"encal_records BEGIN SELECT RAISE(ABORT, '{_REFUSAL}'); END")
-        version = self._query("SELECT value FROM encal_store WHERE key = 'schema_version'")[0][0]
-        if int(version) > SCHEMA_VERSION:
-            raise InputError(f"--store {self.location}: written by a newer encal (layout {version}, this encal reads "
-                             f"{SCHEMA_VERSION}); expected a store this encal reads (upgrade encal)")
+                self._refuse(cursor, event)
+            self._upgrade(cursor)
+            cursor.execute("CREATE INDEX IF NOT EXISTS encal_records_source ON encal_records (source_sha256)")
+
+    @staticmethod
+    def _refuse(cursor, event):
+        cursor.execute(f"CREATE TRIGGER IF NOT EXISTS encal_records_no_{event.lower()} BEFORE {event} ON "
+                       f"encal_records BEGIN SELECT RAISE(ABORT, '{_REFUSAL}'); END")
+
+    def _hold_records(self, cursor):
+        pass  # BEGIN IMMEDIATE holds the file's write lock already
+
+    def _records_changeable(self, cursor, changeable):
+        for event in ("UPDATE", "DELETE"):
+            if changeable:
+                cursor.execute(f"DROP TRIGGER encal_records_no_{event.lower()}")
+            else:
+                self._refuse(cursor, event)
 
     class _Transaction:
         def __init__(self, connection):
@@ -427,12 +606,9 @@ class _SQLiteStore(Store):
         placed = []
         with self._transaction() as cursor:
             for values in rows:
-                if skip_stored and values["source_sha256"] is not None:
-                    cursor.execute("SELECT 1 FROM encal_records WHERE serial = ? AND source_sha256 = ?",
-                                   (values["serial"], values["source_sha256"]))
-                    if cursor.fetchone() is not None:
-                        placed.append(None)
-                        continue
+                if self._stored_already(cursor, values, skip_stored):
+                    placed.append(None)
+                    continue
                 cursor.execute("SELECT COALESCE(MAX(epoch), 0) + 1 FROM encal_records WHERE serial = ?",
                                (values["serial"],))
                 epoch = int(cursor.fetchone()[0])
@@ -467,6 +643,11 @@ class _PostgresStore(Store):
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise InputError(f"--store {self.location}: cannot be used as a store ({first}); expected a reachable "
                              "PostgreSQL server and a database the user may create tables in") from None
+        except InputError:
+            self.close()
+            raise
+
+    _integer = "BIGINT"
 
     def _create(self):
         columns = ", ".join(f"{name} {postgres}" for name, _, postgres in _COLUMNS)
@@ -477,6 +658,7 @@ class _PostgresStore(Store):
             if cursor.fetchone()[0] is None:
                 cursor.execute(f"CREATE TABLE encal_records (id BIGSERIAL PRIMARY KEY, {columns}, "
                                "UNIQUE (serial, epoch))")
+                cursor.execute("CREATE INDEX encal_records_source ON encal_records (source_sha256)")
                 cursor.execute("CREATE TABLE IF NOT EXISTS encal_store (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
                 cursor.execute("INSERT INTO encal_store VALUES ('schema_version', %s) ON CONFLICT DO NOTHING",
                                (str(SCHEMA_VERSION),))
@@ -484,23 +666,43 @@ class _PostgresStore(Store):
                                f"AS $$ BEGIN RAISE EXCEPTION '{_REFUSAL}'; END $$")
                 cursor.execute("CREATE TRIGGER encal_records_never_changed BEFORE UPDATE OR DELETE ON encal_records "
                                "FOR EACH ROW EXECUTE FUNCTION encal_records_refuse()")
+            self._upgrade(cursor)
+
+    def _convert(self, cursor, version):
+        try:
+            super()._convert(cursor, version)
+        except self._psycopg.errors.InsufficientPrivilege as exc:
+            raise InputError(f"--store {self.location}: is of layout {version}, which its first opening converts to "
+                             f"layout {SCHEMA_VERSION} (serial numbers composed), and this user may not "
+                             f"({str(exc).strip().splitlines()[0]}); expected encal run once as the owner of the "
+                             "store's tables") from None
+
+    def _hold_records(self, cursor):
+        # writers wait (readers do not) until the conversion commits: none adds a serial it has not seen
+        cursor.execute("LOCK TABLE encal_records IN SHARE ROW EXCLUSIVE MODE")
+
+    def _records_changeable(self, cursor, changeable):
+        cursor.execute(f"ALTER TABLE encal_records {'DISABLE' if changeable else 'ENABLE'} TRIGGER "
+                       "encal_records_never_changed")
 
     def _insert(self, rows, skip_stored=False):
         names = ", ".join(_NAMES)
         marks = ", ".join("%s" for _ in _NAMES)
         placed = []
         with self._connection.transaction(), self._connection.cursor() as cursor:
-            # writers of one serial number take turns (a lock held to the commit); others run on. The locks are
-            # taken in the order of the serials, so that two writers of the same serials never wait on each other.
-            for serial in sorted({values["serial"] for values in rows}):
-                cursor.execute("SELECT pg_advisory_xact_lock(hashtextextended(%s, 0))", (serial,))
+            # writers of one serial number take turns (a lock held to the commit), and so do writers of one
+            # calibration (its SHA-256) under any serials, so that the check for a copy sees what the other wrote;
+            # others run on. The locks are taken in the order of their keys, so that two writers never wait on
+            # each other.
+            locked = {values["serial"] for values in rows}
+            locked.update(f"source_sha256:{values['source_sha256']}" for values in rows if values["source_sha256"])
+            cursor.execute("SELECT DISTINCT hashtextextended(name, 0) FROM unnest(%s::text[]) AS name", (list(locked),))
+            for key in sorted(row[0] for row in cursor.fetchall()):
+                cursor.execute("SELECT pg_advisory_xact_lock(%s)", (key,))
             for values in rows:
-                if skip_stored and values["source_sha256"] is not None:
-                    cursor.execute("SELECT 1 FROM encal_records WHERE serial = %s AND source_sha256 = %s",
-                                   (values["serial"], values["source_sha256"]))
-                    if cursor.fetchone() is not None:
-                        placed.append(None)
-                        continue
+                if self._stored_already(cursor, values, skip_stored):
+                    placed.append(None)
+                    continue
                 cursor.execute("SELECT COALESCE(MAX(epoch), 0) + 1 FROM encal_records WHERE serial = %s",
                                (values["serial"],))
                 epoch = int(cursor.fetchone()[0])
