@@ -73,16 +73,21 @@ def test_epochs_count_per_serial_and_latest_is_the_last(location):
         assert again.count() == 3
 
 
+def _assert_records_are_never_changed(store, location):
+    """An UPDATE or DELETE of the records table is refused by the store's own trigger or rule."""
+    for statement in ("UPDATE encal_records SET grade = 'A'", "DELETE FROM encal_records"):
+        with pytest.raises(Exception, match="never overwritten"):
+            if location.startswith("postgresql"):
+                with store._connection.transaction():
+                    store._connection.execute(statement)
+            else:
+                store._connection.execute(statement)
+
+
 def test_a_record_is_never_overwritten_or_deleted(location):
     with open_store(location) as store:
         store.add("SN-1", _model_json("a"))
-        for statement in ("UPDATE encal_records SET grade = 'A'", "DELETE FROM encal_records"):
-            with pytest.raises(Exception, match="never overwritten"):
-                if location.startswith("postgresql"):
-                    with store._connection.transaction():
-                        store._connection.execute(statement)
-                else:
-                    store._connection.execute(statement)
+        _assert_records_are_never_changed(store, location)
         assert store.latest("SN-1").grade is None and store.count() == 1
 
 
@@ -255,13 +260,7 @@ def test_an_old_store_with_decomposed_serials_is_converted_when_opened(location)
         duplicates = store._query("SELECT id, serial, epoch, source_sha256 FROM encal_serials_composed_duplicates")
         assert [tuple(row) for row in duplicates] == [(6, _MULLER, 2, "sha-mac-1")]
         assert store._query("SELECT value FROM encal_store WHERE key = 'schema_version'")[0][0] == "2"
-        for statement in ("UPDATE encal_records SET grade = 'A'", "DELETE FROM encal_records"):
-            with pytest.raises(Exception, match="never overwritten"):
-                if location.startswith("postgresql"):
-                    with store._connection.transaction():
-                        store._connection.execute(statement)
-                else:
-                    store._connection.execute(statement)
+        _assert_records_are_never_changed(store, location)
         assert store.add(_MULLER_NFD, _model_json("mac-3")).epoch == 4
     with open_store(location) as again:  # converted once: a second opening changes nothing
         assert again.count() == 6 and len(again._query("SELECT * FROM encal_serials_composed")) == 5
