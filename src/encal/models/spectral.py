@@ -81,7 +81,8 @@ _ROUNDING_WIDTH = 2
 ROUNDING_SPECTRUM = True
 _ROUNDING_HARMONICS_SPECTRUM = 3
 _SMOOTH_ORDER = 32
-#: Most readings for which the rounding is placed on the reference's grid when the encoder angles show none.
+#: Most readings for which the rounding's spectrum is computed when the encoder angles show no grid (on the
+#: reference's grid, or on stops off any grid).
 ROUNDING_GRID_MAX_READINGS = 10_000
 #: Then model the rounding's realised pattern at the stops (``_realised_rounding``), and refit.
 REALISED_ROUNDING = True
@@ -579,8 +580,10 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
-    if ROUNDING_SPECTRUM and bits and rounding_grid is not None:
-        design.rounding = _rounding_variance(bits, theta, error, reference, orders)
+    if ROUNDING_SPECTRUM and bits and (rounding_grid is not None or theta.size <= ROUNDING_GRID_MAX_READINGS):
+        # (off any grid too: on stops jittered by less than a code's worth of the carrier's period the pattern stays
+        # partly coherent, and a 12-bit encoder on 1,800-3,600 jittered stops got 1-4 false lines near 496)
+        design.rounding = _rounding_variance(bits, theta, error, reference, orders, m, blind=noise_var is None)
     reference_bits = resolution_of_readings(reference) if capped else None  # for the scan above the cap
     del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
     if beyond:
@@ -598,7 +601,8 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     rounding_lines = []
     if design.rounding is not None and REALISED_ROUNDING:
         # Lines that the codes show to be the rounding's pattern: refit with its realised spectrum (issue 27).
-        realised, rounding_lines = _realised_rounding(bits, theta, error - offset, design, hyper, post)
+        realised, rounding_lines = _realised_rounding(bits, theta, error - offset, design, hyper, post, m,
+                                                      blind=noise_var is None)
     if rounding_lines:
         design.rounding = realised
         restart = _evidence.Hyper(hyper.amplitude, hyper.exponent, hyper.noise_var,
@@ -886,7 +890,39 @@ def _rounding_reachable(bits, stops):
     return min(folded) <= SCAN_LIMIT
 
 
-def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
+def _rounding_harmonics(stops):
+    """How many harmonics of the rounding's sawtooth can stand out of its white share at ``stops`` stops.
+
+    Harmonic ``h`` carries ``(q/πh)²/2`` of the sawtooth's ``q²/12``; were the rounding white over the stops, each
+    column would hold ``q²/12 / (m/2)``. A harmonic whose whole power is below that share cannot make a line even
+    if it all lands on one order: ``h < √(3m)/π`` (7 at 180 stops, 23 at 1,800, 33 at 3,600), at least
+    :data:`_ROUNDING_HARMONICS_SPECTRUM` and at most :data:`_REALISED_HARMONICS`. With a profile of a few codes the
+    high harmonics stay coherent: the 4th of a 12-bit encoder at 1,800 stops (16384 mod 1800 = 184) put 4 false
+    lines at orders 175-190 when only the first 3 were modelled.
+    """
+    return int(min(max(math.sqrt(3.0 * stops) / math.pi, _ROUNDING_HARMONICS_SPECTRUM), _REALISED_HARMONICS))
+
+
+def _rounding_share(spectrum, held_var, stops, blind):
+    """What of the rounding's power per column the noise holds (arc-minutes²), the rest going to the columns.
+
+    ``spectrum``: the rounding's power per column at orders ``0..`` (at least to the stops' Nyquist order);
+    ``held_var``: the variance of the harmonics in it. Were the rounding white over the ``m`` stops, each column
+    would hold ``held_var / (m/2)``, whatever the columns fitted (the capped fit's 200 orders or more): that is the
+    share a known noise, which holds ``q²/12`` (the convention of ``_known_noise``), takes. Blind, the noise is
+    the flat level of what the columns leave, and holds only the rounding's own flat level (the median of its
+    spectrum over ``ln 2``): a profile of a few codes on a dense sweep concentrates the rounding on bands of orders
+    (4096 mod 3600 = 496 and its sidebands, for a 12-bit encoder on 3,600 stops), where the whole share
+    subtracted left 39-41 false lines above the cap.
+    """
+    nyquist = max(stops // 2, 1)
+    share = held_var / nyquist
+    if blind:
+        share = min(share, float(np.median(spectrum[1:nyquist + 1])) / math.log(2.0))
+    return share
+
+
+def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, stops, blind=False):
     """Variance per column that a quantised encoder's rounding, spread by the profile, puts on each order.
 
     A reading ``x`` of a ``bits``-bit encoder is rounded to a whole code: an error
@@ -896,9 +932,10 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
     sidebands of the modulation, and there it looks like a line, while at a new reading the rounding has
     another phase. With ``x`` estimated from the reference and the profile's low orders (up to
     :data:`_SMOOTH_ORDER`, projected), the expected power of the rounding at each order (averaged over the
-    unknown sub-code offset; harmonics ``h = 1..``:data:`_ROUNDING_HARMONICS_SPECTRUM`) beyond the share
-    ``q²/12 / K`` it would have if it were white (that share is in the noise) is returned per column: it joins
-    the prior variance so that the evidence explains it, and the posterior of the profile leaves it out.
+    unknown sub-code offset; harmonics ``h = 1..``:func:`_rounding_harmonics`) beyond the share the noise holds
+    (:func:`_rounding_share`; ``stops`` the number of stops, ``blind`` whether the noise is estimated) is returned
+    per column: it joins the prior variance so that the evidence explains it, and the posterior of the profile
+    leaves it out.
 
     Returns
     -------
@@ -906,6 +943,7 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
         Arc-minutes squared, per column of ``orders`` (0 for order 0).
     """
     highest = int(orders.max())
+    spectrum_top = max(highest, stops // 2)  # the share needs the rounding's spectrum over every order the stops see
     n = error_arcmin.size
     reference = np.radians(reference_deg)
     # the profile's strong low orders, projected (the stops spread over the circle): what moves the readings
@@ -916,20 +954,21 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
     codes = (reference_deg + smooth / ARCMIN_PER_DEG) * (2**bits / 360.0)
     theta = np.radians(theta_deg)
     quantum = ARCMIN_PER_DEG * 360.0 / 2**bits
-    expected = np.zeros(highest + 1)
-    for h in range(1, _ROUNDING_HARMONICS_SPECTRUM + 1):
+    expected = np.zeros(spectrum_top + 1)
+    held = 0.0
+    for h in range(1, _rounding_harmonics(stops) + 1):
         carrier = 2.0 * math.pi * h * codes
-        cos_sum = trig_moments(theta, np.cos(carrier), highest)
-        sin_sum = trig_moments(theta, np.sin(carrier), highest)
+        cos_sum = trig_moments(theta, np.cos(carrier), spectrum_top)
+        sin_sum = trig_moments(theta, np.sin(carrier), spectrum_top)
         spread = np.abs(cos_sum + 1j * sin_sum) ** 2 + np.abs(cos_sum - 1j * sin_sum) ** 2
         expected += 0.5 * (quantum / (math.pi * h)) ** 2 * spread / n**2
-    white_share = quantum**2 / 12.0 / max(highest, 1)
-    excess = np.maximum(expected - white_share, 0.0)
+        held += 0.5 * (quantum / (math.pi * h)) ** 2
+    excess = np.maximum(expected[:highest + 1] - _rounding_share(expected, held, stops, blind), 0.0)
     excess[0] = 0.0
     return excess[orders]
 
 
-def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
+def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post, stops, blind=False):
     """The rounding's variance per column from its realised pattern at the stops, and the lines it explains.
 
     The rounding to whole codes is a known function of the unrounded reading ``x``: ``round(x) - x``.
@@ -955,6 +994,8 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
     theta_deg, centred_arcmin : ndarray
         The readings and their errors less ``offset_arcmin`` (the order-0 part, fitted apart).
     design, hyper, post : the first fit (``post`` the profile's part, :func:`_evidence.signal_part`).
+    stops : int
+        The number of stops; ``blind``: whether the noise is estimated (see :func:`_rounding_share`).
 
     Returns
     -------
@@ -996,13 +1037,16 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
         return None, taken
     codes = (theta_deg - (centred_arcmin - profile) / ARCMIN_PER_DEG) * (2**bits / 360.0)
     pattern = np.zeros_like(codes)
+    held = 0.0
     for h in range(1, _REALISED_HARMONICS + 1):
         damping = math.exp(-2.0 * (math.pi * h * tau / quantum) ** 2)
         if damping < 1e-4:
             break
         pattern -= (-1) ** (h + 1) * quantum / (math.pi * h) * damping * np.sin(2.0 * math.pi * h * codes)
-    per_column = 2.0 * np.abs(trig_moments(theta, pattern, highest)) ** 2 / theta.size**2
-    excess = np.maximum(per_column - quantum**2 / 12.0 / max(highest, 1), 0.0)
+        held += 0.5 * (quantum / (math.pi * h) * damping) ** 2
+    spectrum_top = max(highest, stops // 2)
+    per_column = 2.0 * np.abs(trig_moments(theta, pattern, spectrum_top)) ** 2 / theta.size**2
+    excess = np.maximum(per_column[:highest + 1] - _rounding_share(per_column, held, stops, blind), 0.0)
     excess[0] = 0.0
     return excess[design.orders], taken
 
