@@ -583,7 +583,8 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     if ROUNDING_SPECTRUM and bits and (rounding_grid is not None or theta.size <= ROUNDING_GRID_MAX_READINGS):
         # (off any grid too: on stops jittered by less than a code's worth of the carrier's period the pattern stays
         # partly coherent, and a 12-bit encoder on 1,800-3,600 jittered stops got 1-4 false lines near 496)
-        design.rounding = _rounding_variance(bits, theta, error, reference, orders, m, blind=noise_var is None)
+        design.rounding = _rounding_variance(bits, theta, error, reference, orders, m,
+                                             picked=extra if noise_var is None else None)
     reference_bits = resolution_of_readings(reference) if capped else None  # for the scan above the cap
     del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
     if beyond:
@@ -903,26 +904,43 @@ def _rounding_harmonics(stops):
     return int(min(max(math.sqrt(3.0 * stops) / math.pi, _ROUNDING_HARMONICS_SPECTRUM), _REALISED_HARMONICS))
 
 
-def _rounding_share(spectrum, held_var, stops, blind):
-    """What of the rounding's power per column the noise holds (arc-minutes²), the rest going to the columns.
+def _rounding_share(spectrum, quantum, stops, orders, picked=None):
+    """What of the rounding's power the noise holds at each of ``orders`` (arc-minutes² per column).
 
-    ``spectrum``: the rounding's power per column at orders ``0..`` (at least to the stops' Nyquist order);
-    ``held_var``: the variance of the harmonics in it. Were the rounding white over the ``m`` stops, each column
-    would hold ``held_var / (m/2)``, whatever the columns fitted (the capped fit's 200 orders or more): that is the
-    share a known noise, which holds ``q²/12`` (the convention of ``_known_noise``), takes. Blind, the noise is
-    the flat level of what the columns leave, and holds only the rounding's own flat level (the median of its
-    spectrum over ``ln 2``): a profile of a few codes on a dense sweep concentrates the rounding on bands of orders
-    (4096 mod 3600 = 496 and its sidebands, for a 12-bit encoder on 3,600 stops), where the whole share
-    subtracted left 39-41 false lines above the cap.
+    Parameters
+    ----------
+    spectrum : ndarray
+        The rounding's power per column at orders ``0..`` (at least to the stops' Nyquist order ``m/2``).
+    quantum : float
+        The code, arc-minutes.
+    stops : int
+        The number of stops ``m``.
+    orders : ndarray of int
+        The orders asked for.
+    picked : sequence of int, optional
+        Blind (the noise estimated), the orders the scan above the cap picked (see :func:`_orders_above_cap`).
+
+    Notes
+    -----
+    The noise holds the rounding's variance ``q²/12`` (the convention of :func:`_known_noise`); were the rounding
+    white over the ``m`` stops, each column would hold ``q²/12 / (m/2)`` of it, however many columns are fitted.
+    (Divided by the highest order fitted, as before, the capped fit's 200 orders each had 9 times that share taken
+    out on 3,600 stops.) Blind, the noise is the flat level of the residual. At the orders the scan above the cap
+    picked, the residual has shown power far above that level; on a dense sweep it is the rounding, concentrated
+    by a profile of a few codes on bands of orders (4096 mod 3600 = 496 and its sidebands, for a 12-bit encoder
+    on 3,600 stops). There the noise holds only the rounding's own flat level (the median of its spectrum over
+    ``ln 2``), and the band's whole power goes to the columns: with the white share taken out there too, 11-12
+    false lines stayed on such sweeps.
     """
     nyquist = max(stops // 2, 1)
-    share = held_var / nyquist
-    if blind:
-        share = min(share, float(np.median(spectrum[1:nyquist + 1])) / math.log(2.0))
+    share = np.full(orders.shape, quantum**2 / 12.0 / nyquist)
+    if picked is not None and len(picked):
+        floor = float(np.median(spectrum[1:nyquist + 1])) / math.log(2.0)
+        share = np.where(np.isin(orders, picked), np.minimum(share, floor), share)
     return share
 
 
-def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, stops, blind=False):
+def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, stops, picked=None):
     """Variance per column that a quantised encoder's rounding, spread by the profile, puts on each order.
 
     A reading ``x`` of a ``bits``-bit encoder is rounded to a whole code: an error
@@ -933,9 +951,9 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, sto
     another phase. With ``x`` estimated from the reference and the profile's low orders (up to
     :data:`_SMOOTH_ORDER`, projected), the expected power of the rounding at each order (averaged over the
     unknown sub-code offset; harmonics ``h = 1..``:func:`_rounding_harmonics`) beyond the share the noise holds
-    (:func:`_rounding_share`; ``stops`` the number of stops, ``blind`` whether the noise is estimated) is returned
-    per column: it joins the prior variance so that the evidence explains it, and the posterior of the profile
-    leaves it out.
+    (:func:`_rounding_share`; ``stops`` the number of stops, ``picked`` blind the orders the scan above the cap
+    picked) is returned per column: it joins the prior variance so that the evidence explains it, and the
+    posterior of the profile leaves it out.
 
     Returns
     -------
@@ -943,7 +961,8 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, sto
         Arc-minutes squared, per column of ``orders`` (0 for order 0).
     """
     highest = int(orders.max())
-    spectrum_top = max(highest, stops // 2)  # the share needs the rounding's spectrum over every order the stops see
+    # the share at picked orders needs the rounding's spectrum over every order the stops see
+    spectrum_top = max(highest, stops // 2) if picked is not None and len(picked) else highest
     n = error_arcmin.size
     reference = np.radians(reference_deg)
     # the profile's strong low orders, projected (the stops spread over the circle): what moves the readings
@@ -955,15 +974,14 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, sto
     theta = np.radians(theta_deg)
     quantum = ARCMIN_PER_DEG * 360.0 / 2**bits
     expected = np.zeros(spectrum_top + 1)
-    held = 0.0
     for h in range(1, _rounding_harmonics(stops) + 1):
         carrier = 2.0 * math.pi * h * codes
         cos_sum = trig_moments(theta, np.cos(carrier), spectrum_top)
         sin_sum = trig_moments(theta, np.sin(carrier), spectrum_top)
         spread = np.abs(cos_sum + 1j * sin_sum) ** 2 + np.abs(cos_sum - 1j * sin_sum) ** 2
         expected += 0.5 * (quantum / (math.pi * h)) ** 2 * spread / n**2
-        held += 0.5 * (quantum / (math.pi * h)) ** 2
-    excess = np.maximum(expected[:highest + 1] - _rounding_share(expected, held, stops, blind), 0.0)
+    orders_up = np.arange(highest + 1)
+    excess = np.maximum(expected[:highest + 1] - _rounding_share(expected, quantum, stops, orders_up, picked), 0.0)
     excess[0] = 0.0
     return excess[orders]
 
@@ -995,7 +1013,8 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post, sto
         The readings and their errors less ``offset_arcmin`` (the order-0 part, fitted apart).
     design, hyper, post : the first fit (``post`` the profile's part, :func:`_evidence.signal_part`).
     stops : int
-        The number of stops; ``blind``: whether the noise is estimated (see :func:`_rounding_share`).
+        The number of stops; ``blind``: whether the noise is estimated (see :func:`_rounding_share`, which is
+        given the design's ``picked`` orders then).
 
     Returns
     -------
@@ -1037,16 +1056,16 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post, sto
         return None, taken
     codes = (theta_deg - (centred_arcmin - profile) / ARCMIN_PER_DEG) * (2**bits / 360.0)
     pattern = np.zeros_like(codes)
-    held = 0.0
     for h in range(1, _REALISED_HARMONICS + 1):
         damping = math.exp(-2.0 * (math.pi * h * tau / quantum) ** 2)
         if damping < 1e-4:
             break
         pattern -= (-1) ** (h + 1) * quantum / (math.pi * h) * damping * np.sin(2.0 * math.pi * h * codes)
-        held += 0.5 * (quantum / (math.pi * h) * damping) ** 2
-    spectrum_top = max(highest, stops // 2)
+    spectrum_top = max(highest, stops // 2) if blind and design.picked is not None else highest
     per_column = 2.0 * np.abs(trig_moments(theta, pattern, spectrum_top)) ** 2 / theta.size**2
-    excess = np.maximum(per_column[:highest + 1] - _rounding_share(per_column, held, stops, blind), 0.0)
+    orders_up = np.arange(highest + 1)
+    excess = np.maximum(per_column[:highest + 1]
+                        - _rounding_share(per_column, quantum, stops, orders_up, design.picked if blind else None), 0.0)
     excess[0] = 0.0
     return excess[design.orders], taken
 
