@@ -974,7 +974,9 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, sto
     theta = np.radians(theta_deg)
     quantum = ARCMIN_PER_DEG * 360.0 / 2**bits
     expected = np.zeros(spectrum_top + 1)
-    for h in range(1, _rounding_harmonics(stops) + 1):
+    # (past ROUNDING_GRID_MAX_READINGS readings the first three only: each harmonic costs readings x orders)
+    harmonics = _rounding_harmonics(stops) if n <= ROUNDING_GRID_MAX_READINGS else _ROUNDING_HARMONICS_SPECTRUM
+    for h in range(1, harmonics + 1):
         carrier = 2.0 * math.pi * h * codes
         cos_sum = trig_moments(theta, np.cos(carrier), spectrum_top)
         sin_sum = trig_moments(theta, np.sin(carrier), spectrum_top)
