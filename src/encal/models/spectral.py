@@ -892,16 +892,23 @@ def _rounding_reachable(bits, stops):
 
 
 def _rounding_harmonics(stops):
-    """How many harmonics of the rounding's sawtooth can stand out of its white share at ``stops`` stops.
+    """How many harmonics of the rounding's sawtooth could make a line at ``stops`` stops.
 
-    Harmonic ``h`` carries ``(q/πh)²/2`` of the sawtooth's ``q²/12``; were the rounding white over the stops, each
-    column would hold ``q²/12 / (m/2)``. A harmonic whose whole power is below that share cannot make a line even
-    if it all lands on one order: ``h < √(3m)/π`` (7 at 180 stops, 23 at 1,800, 33 at 3,600), at least
+    Harmonic ``h`` carries ``(q/πh)²/2`` of the sawtooth's ``q²/12``; were the rounding white over the ``m``
+    stops, each column would hold ``q²/12 / (m/2)``. A pair of columns whose power is ``x`` times its noise
+    gains ``x - 1 - ln x`` nats from a line, so a harmonic can make one, even with all its power on one order
+    and no other noise, only while ``(q/πh)²/2`` exceeds ``x₃`` times that share, ``x₃ ≈ 5.7`` the ratio at which
+    the gain is the 3-nat threshold: ``h² < 3m / (π² x₃)`` (3 at 180 stops, 9 at 1,800, 13 at 3,600), at least
     :data:`_ROUNDING_HARMONICS_SPECTRUM` and at most :data:`_REALISED_HARMONICS`. With a profile of a few codes the
     high harmonics stay coherent: the 4th of a 12-bit encoder at 1,800 stops (16384 mod 1800 = 184) put 4 false
     lines at orders 175-190 when only the first 3 were modelled.
     """
-    return int(min(max(math.sqrt(3.0 * stops) / math.pi, _ROUNDING_HARMONICS_SPECTRUM), _REALISED_HARMONICS))
+    low, high = 1.0, 100.0  # x - 1 - ln x = threshold, on the branch x > 1
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        low, high = (middle, high) if middle - 1.0 - math.log(middle) < _evidence.LINE_THRESHOLD_NATS else (low, middle)
+    harmonics = int(math.sqrt(3.0 * stops / (math.pi**2 * low)))
+    return min(max(harmonics, _ROUNDING_HARMONICS_SPECTRUM), _REALISED_HARMONICS)
 
 
 def _rounding_share(spectrum, quantum, stops, orders, picked=None):
