@@ -917,7 +917,8 @@ def _rounding_share(spectrum, quantum, stops, orders, picked=None):
     Parameters
     ----------
     spectrum : ndarray
-        The rounding's power per column at orders ``0..`` (at least to the stops' Nyquist order ``m/2``).
+        The rounding's power per column at orders ``0..`` (with ``picked``, at least to the stops' Nyquist order
+        ``m/2`` or :data:`SCAN_LIMIT`, the highest order the scan above the cap reads, whichever is lower).
     quantum : float
         The code, arc-minutes.
     stops : int
@@ -942,7 +943,9 @@ def _rounding_share(spectrum, quantum, stops, orders, picked=None):
     nyquist = max(stops // 2, 1)
     share = np.full(orders.shape, quantum**2 / 12.0 / nyquist)
     if picked is not None and len(picked):
-        floor = float(np.median(spectrum[1:nyquist + 1])) / math.log(2.0)
+        # the flat level over the orders the scan reads, as the scan's own (10^5 orders of a dense sweep of 2·10^5
+        # stops doubled the fit's CPU)
+        floor = float(np.median(spectrum[1:min(nyquist, SCAN_LIMIT) + 1])) / math.log(2.0)
         share = np.where(np.isin(orders, picked), np.minimum(share, floor), share)
     return share
 
@@ -968,8 +971,8 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, sto
         Arc-minutes squared, per column of ``orders`` (0 for order 0).
     """
     highest = int(orders.max())
-    # the share at picked orders needs the rounding's spectrum over every order the stops see
-    spectrum_top = max(highest, stops // 2) if picked is not None and len(picked) else highest
+    # the share at picked orders needs the rounding's spectrum over the orders a fit sees (see _rounding_share)
+    spectrum_top = max(highest, min(stops // 2, SCAN_LIMIT)) if picked is not None and len(picked) else highest
     n = error_arcmin.size
     reference = np.radians(reference_deg)
     # the profile's strong low orders, projected (the stops spread over the circle): what moves the readings
@@ -1070,7 +1073,7 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post, sto
         if damping < 1e-4:
             break
         pattern -= (-1) ** (h + 1) * quantum / (math.pi * h) * damping * np.sin(2.0 * math.pi * h * codes)
-    spectrum_top = max(highest, stops // 2) if blind and design.picked is not None else highest
+    spectrum_top = max(highest, min(stops // 2, SCAN_LIMIT)) if blind and design.picked is not None else highest
     per_column = 2.0 * np.abs(trig_moments(theta, pattern, spectrum_top)) ** 2 / theta.size**2
     orders_up = np.arange(highest + 1)
     excess = np.maximum(per_column[:highest + 1]
