@@ -581,8 +581,8 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
     if ROUNDING_SPECTRUM and bits and (rounding_grid is not None or theta.size <= ROUNDING_GRID_MAX_READINGS):
-        # (off any grid too: on stops jittered by less than a code's worth of the carrier's period the pattern stays
-        # partly coherent, and a 12-bit encoder on 1,800-3,600 jittered stops got 1-4 false lines near 496)
+        # (off any grid too, up to ROUNDING_GRID_MAX_READINGS readings: jittered stops leave the pattern partly
+        # coherent, and a 12-bit encoder on 1,800-3,600 stops jittered by ±0.4 spacings got 1-4 false lines near 496)
         design.rounding = _rounding_variance(bits, theta, error, reference, orders, m,
                                              picked=extra if noise_var is None else None)
     reference_bits = resolution_of_readings(reference) if capped else None  # for the scan above the cap
@@ -903,10 +903,13 @@ def _rounding_harmonics(stops):
     high harmonics stay coherent: the 4th of a 12-bit encoder at 1,800 stops (16384 mod 1800 = 184) put 4 false
     lines at orders 175-190 when only the first 3 were modelled.
     """
-    low, high = 1.0, 100.0  # x - 1 - ln x = threshold, on the branch x > 1
+    low, high = 1.0, 100.0  # x₃: x - 1 - ln x = the threshold, on the branch x > 1 (bisection)
     for _ in range(60):
         middle = 0.5 * (low + high)
-        low, high = (middle, high) if middle - 1.0 - math.log(middle) < _evidence.LINE_THRESHOLD_NATS else (low, middle)
+        if middle - 1.0 - math.log(middle) < _evidence.LINE_THRESHOLD_NATS:
+            low = middle
+        else:
+            high = middle
     harmonics = int(math.sqrt(3.0 * stops / (math.pi**2 * low)))
     return min(max(harmonics, _ROUNDING_HARMONICS_SPECTRUM), _REALISED_HARMONICS)
 
