@@ -81,7 +81,8 @@ _ROUNDING_WIDTH = 2
 ROUNDING_SPECTRUM = True
 _ROUNDING_HARMONICS_SPECTRUM = 3
 _SMOOTH_ORDER = 32
-#: Most readings for which the rounding is placed on the reference's grid when the encoder angles show none.
+#: Most readings for which the rounding's spectrum is computed when the encoder angles show no grid (on the
+#: reference's grid, or on stops off any grid).
 ROUNDING_GRID_MAX_READINGS = 10_000
 #: Then model the rounding's realised pattern at the stops (``_realised_rounding``), and refit.
 REALISED_ROUNDING = True
@@ -579,8 +580,11 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
         design = _fft_design(centred, uniform, orders, shifts, lineable)
     else:
         design = _general_design(np.radians(theta), centred, orders, shifts, lineable)
-    if ROUNDING_SPECTRUM and bits and rounding_grid is not None:
-        design.rounding = _rounding_variance(bits, theta, error, reference, orders)
+    if ROUNDING_SPECTRUM and bits and (rounding_grid is not None or theta.size <= ROUNDING_GRID_MAX_READINGS):
+        # (off any grid too, up to ROUNDING_GRID_MAX_READINGS readings: jittered stops leave the pattern partly
+        # coherent, and a 12-bit encoder on 1,800-3,600 stops jittered by ±0.4 spacings got 1-4 false lines near 496)
+        design.rounding = _rounding_variance(bits, theta, error, reference, orders, m,
+                                             picked=extra if noise_var is None else None)
     reference_bits = resolution_of_readings(reference) if capped else None  # for the scan above the cap
     del centred, reference  # (the scan above the cap, the fit's peak, needs neither: 16 bytes a reading)
     if beyond:
@@ -598,7 +602,8 @@ def _fit_spectral(theta_enc_deg, error_arcmin, *, noise_arcmin, max_order, thres
     rounding_lines = []
     if design.rounding is not None and REALISED_ROUNDING:
         # Lines that the codes show to be the rounding's pattern: refit with its realised spectrum (issue 27).
-        realised, rounding_lines = _realised_rounding(bits, theta, error - offset, design, hyper, post)
+        realised, rounding_lines = _realised_rounding(bits, theta, error - offset, design, hyper, post, m,
+                                                      blind=noise_var is None)
     if rounding_lines:
         design.rounding = realised
         restart = _evidence.Hyper(hyper.amplitude, hyper.exponent, hyper.noise_var,
@@ -886,7 +891,69 @@ def _rounding_reachable(bits, stops):
     return min(folded) <= SCAN_LIMIT
 
 
-def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
+def _rounding_harmonics(stops):
+    """How many harmonics of the rounding's sawtooth could make a line at ``stops`` stops.
+
+    Harmonic ``h`` carries ``(q/πh)²/2`` of the sawtooth's ``q²/12``; were the rounding white over the ``m``
+    stops, each column would hold ``q²/12 / (m/2)``. A pair of columns whose power is ``x`` times its noise
+    gains ``x - 1 - ln x`` nats from a line, so a harmonic can make one, even with all its power on one order
+    and no other noise, only while ``(q/πh)²/2`` exceeds ``x₃`` times that share, ``x₃ ≈ 5.7`` the ratio at which
+    the gain is the 3-nat threshold: ``h² < 3m / (π² x₃)`` (3 at 180 stops, 9 at 1,800, 13 at 3,600), at least
+    :data:`_ROUNDING_HARMONICS_SPECTRUM` and at most :data:`_REALISED_HARMONICS`. With a profile of a few codes the
+    high harmonics stay coherent: the 4th of a 12-bit encoder at 1,800 stops (16384 mod 1800 = 184) put 4 false
+    lines at orders 175-190 when only the first 3 were modelled.
+    """
+    low, high = 1.0, 100.0  # x₃: x - 1 - ln x = the threshold, on the branch x > 1 (bisection)
+    for _ in range(60):
+        middle = 0.5 * (low + high)
+        if middle - 1.0 - math.log(middle) < _evidence.LINE_THRESHOLD_NATS:
+            low = middle
+        else:
+            high = middle
+    harmonics = int(math.sqrt(3.0 * stops / (math.pi**2 * low)))
+    return min(max(harmonics, _ROUNDING_HARMONICS_SPECTRUM), _REALISED_HARMONICS)
+
+
+def _rounding_share(spectrum, quantum, stops, orders, picked=None):
+    """What of the rounding's power the noise holds at each of ``orders`` (arc-minutes² per column).
+
+    Parameters
+    ----------
+    spectrum : ndarray
+        The rounding's power per column at orders ``0..`` (with ``picked``, at least to the stops' Nyquist order
+        ``m/2`` or :data:`SCAN_LIMIT`, the highest order the scan above the cap reads, whichever is lower).
+    quantum : float
+        The code, arc-minutes.
+    stops : int
+        The number of stops ``m``.
+    orders : ndarray of int
+        The orders asked for.
+    picked : sequence of int, optional
+        Blind (the noise estimated), the orders the scan above the cap picked (see :func:`_orders_above_cap`).
+
+    Notes
+    -----
+    The noise holds the rounding's variance ``q²/12`` (the convention of :func:`_known_noise`); were the rounding
+    white over the ``m`` stops, each column would hold ``q²/12 / (m/2)`` of it, however many columns are fitted.
+    (Divided by the highest order fitted, as before, the capped fit's 200 orders each had 9 times that share taken
+    out on 3,600 stops.) Blind, the noise is the flat level of the residual. At the orders the scan above the cap
+    picked, the residual has shown power far above that level; on a dense sweep it is the rounding, concentrated
+    by a profile of a few codes on bands of orders (4096 mod 3600 = 496 and its sidebands, for a 12-bit encoder
+    on 3,600 stops). There the noise holds only the rounding's own flat level (the median of its spectrum over
+    ``ln 2``), and the band's whole power goes to the columns: with the white share taken out there too, 11-12
+    false lines stayed on such sweeps.
+    """
+    nyquist = max(stops // 2, 1)
+    share = np.full(orders.shape, quantum**2 / 12.0 / nyquist)
+    if picked is not None and len(picked):
+        # the flat level over the orders the scan reads, as the scan's own (10^5 orders of a dense sweep of 2·10^5
+        # stops doubled the fit's CPU)
+        floor = float(np.median(spectrum[1:min(nyquist, SCAN_LIMIT) + 1])) / math.log(2.0)
+        share = np.where(np.isin(orders, picked), np.minimum(share, floor), share)
+    return share
+
+
+def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders, stops, picked=None):
     """Variance per column that a quantised encoder's rounding, spread by the profile, puts on each order.
 
     A reading ``x`` of a ``bits``-bit encoder is rounded to a whole code: an error
@@ -896,9 +963,10 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
     sidebands of the modulation, and there it looks like a line, while at a new reading the rounding has
     another phase. With ``x`` estimated from the reference and the profile's low orders (up to
     :data:`_SMOOTH_ORDER`, projected), the expected power of the rounding at each order (averaged over the
-    unknown sub-code offset; harmonics ``h = 1..``:data:`_ROUNDING_HARMONICS_SPECTRUM`) beyond the share
-    ``q²/12 / K`` it would have if it were white (that share is in the noise) is returned per column: it joins
-    the prior variance so that the evidence explains it, and the posterior of the profile leaves it out.
+    unknown sub-code offset; harmonics ``h = 1..``:func:`_rounding_harmonics`) beyond the share the noise holds
+    (:func:`_rounding_share`; ``stops`` the number of stops, ``picked`` blind the orders the scan above the cap
+    picked) is returned per column: it joins the prior variance so that the evidence explains it, and the
+    posterior of the profile leaves it out.
 
     Returns
     -------
@@ -906,6 +974,8 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
         Arc-minutes squared, per column of ``orders`` (0 for order 0).
     """
     highest = int(orders.max())
+    # the share at picked orders needs the rounding's spectrum over the orders a fit sees (see _rounding_share)
+    spectrum_top = max(highest, min(stops // 2, SCAN_LIMIT)) if picked is not None and len(picked) else highest
     n = error_arcmin.size
     reference = np.radians(reference_deg)
     # the profile's strong low orders, projected (the stops spread over the circle): what moves the readings
@@ -916,20 +986,22 @@ def _rounding_variance(bits, theta_deg, error_arcmin, reference_deg, orders):
     codes = (reference_deg + smooth / ARCMIN_PER_DEG) * (2**bits / 360.0)
     theta = np.radians(theta_deg)
     quantum = ARCMIN_PER_DEG * 360.0 / 2**bits
-    expected = np.zeros(highest + 1)
-    for h in range(1, _ROUNDING_HARMONICS_SPECTRUM + 1):
+    expected = np.zeros(spectrum_top + 1)
+    # (past ROUNDING_GRID_MAX_READINGS readings the first three only: each harmonic costs readings x orders)
+    harmonics = _rounding_harmonics(stops) if n <= ROUNDING_GRID_MAX_READINGS else _ROUNDING_HARMONICS_SPECTRUM
+    for h in range(1, harmonics + 1):
         carrier = 2.0 * math.pi * h * codes
-        cos_sum = trig_moments(theta, np.cos(carrier), highest)
-        sin_sum = trig_moments(theta, np.sin(carrier), highest)
+        cos_sum = trig_moments(theta, np.cos(carrier), spectrum_top)
+        sin_sum = trig_moments(theta, np.sin(carrier), spectrum_top)
         spread = np.abs(cos_sum + 1j * sin_sum) ** 2 + np.abs(cos_sum - 1j * sin_sum) ** 2
         expected += 0.5 * (quantum / (math.pi * h)) ** 2 * spread / n**2
-    white_share = quantum**2 / 12.0 / max(highest, 1)
-    excess = np.maximum(expected - white_share, 0.0)
+    orders_up = np.arange(highest + 1)
+    excess = np.maximum(expected[:highest + 1] - _rounding_share(expected, quantum, stops, orders_up, picked), 0.0)
     excess[0] = 0.0
     return excess[orders]
 
 
-def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
+def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post, stops, blind=False):
     """The rounding's variance per column from its realised pattern at the stops, and the lines it explains.
 
     The rounding to whole codes is a known function of the unrounded reading ``x``: ``round(x) - x``.
@@ -955,6 +1027,9 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
     theta_deg, centred_arcmin : ndarray
         The readings and their errors less ``offset_arcmin`` (the order-0 part, fitted apart).
     design, hyper, post : the first fit (``post`` the profile's part, :func:`_evidence.signal_part`).
+    stops : int
+        The number of stops; ``blind``: whether the noise is estimated (see :func:`_rounding_share`, which is
+        given the design's ``picked`` orders then).
 
     Returns
     -------
@@ -1001,8 +1076,11 @@ def _realised_rounding(bits, theta_deg, centred_arcmin, design, hyper, post):
         if damping < 1e-4:
             break
         pattern -= (-1) ** (h + 1) * quantum / (math.pi * h) * damping * np.sin(2.0 * math.pi * h * codes)
-    per_column = 2.0 * np.abs(trig_moments(theta, pattern, highest)) ** 2 / theta.size**2
-    excess = np.maximum(per_column - quantum**2 / 12.0 / max(highest, 1), 0.0)
+    spectrum_top = max(highest, min(stops // 2, SCAN_LIMIT)) if blind and design.picked is not None else highest
+    per_column = 2.0 * np.abs(trig_moments(theta, pattern, spectrum_top)) ** 2 / theta.size**2
+    orders_up = np.arange(highest + 1)
+    excess = np.maximum(per_column[:highest + 1]
+                        - _rounding_share(per_column, quantum, stops, orders_up, design.picked if blind else None), 0.0)
     excess[0] = 0.0
     return excess[design.orders], taken
 
