@@ -16,6 +16,7 @@ from encal.cli import main
 from encal.deploy import Compensator, load_model, save_model
 from encal.models.directional import DirectionalModel
 from encal.models.fourier import FourierModel
+from encal._core.number_cells import MAX_ABS_DEG
 from tests._paths import DATA
 
 #: Largest difference of a corrected angle, degrees: a few units in the last place of 360 (5.7e-14 each).
@@ -36,6 +37,13 @@ def corrected_by_the_command(capsys, folder, path, readings, *options, direction
     out, err = capsys.readouterr()
     assert status == 0, err
     return np.array([float(line) for line in out.split()])
+
+
+def readable_by_the_command(readings, *values):
+    """The readings ``encal correct`` reads (within +-MAX_ABS_DEG; the library and the runtime take any finite
+    angle, the command refuses beyond it), with the matching items of each of ``values``."""
+    keep = [abs(theta) <= MAX_ABS_DEG for theta in readings]
+    return [[item for item, kept in zip(sequence, keep) if kept] for sequence in (readings, *values)]
 
 
 def circular_gap(a, b):
@@ -101,14 +109,16 @@ def test_every_kind_agrees_with_the_runtime_and_the_command(tmp_path, capsys):
             ours = [stored.correct_deg(theta, direction) for theta in readings]
             assert circular_gap(ours, model.correct(readings, direction)) <= ROUNDING_DEG, label
             assert circular_gap(ours, compensator.correct(readings, direction)) <= ROUNDING_DEG, label
-            inside = [theta for theta, value in zip(readings, ours) if not math.isnan(value)]
+            readable, values = readable_by_the_command(readings, ours)
+            inside = [theta for theta, value in zip(readable, values) if not math.isnan(value)]
             options = () if direction is None else ("--direction", str(direction))
             command = corrected_by_the_command(capsys, tmp_path, path, inside, *options)
-            assert circular_gap([value for value in ours if not math.isnan(value)], command) <= ROUNDING_DEG, label
+            assert circular_gap([value for value in values if not math.isnan(value)], command) <= ROUNDING_DEG, label
         if model.kind == "directional":
             directions = np.random.default_rng(0).choice([1, -1], len(readings)).tolist()
-            command = corrected_by_the_command(capsys, tmp_path, path, readings, directions=directions)
-            ours = [stored.correct_deg(theta, d) for theta, d in zip(readings, directions)]
+            readable, directions = readable_by_the_command(readings, directions)
+            command = corrected_by_the_command(capsys, tmp_path, path, readable, directions=directions)
+            ours = [stored.correct_deg(theta, d) for theta, d in zip(readable, directions)]
             assert circular_gap(ours, command) <= ROUNDING_DEG, label
 
 
