@@ -18,6 +18,7 @@ import numpy as np
 
 import encal
 from encal import runtime
+from encal._core.number_cells import MAX_ABS_DEG
 from encal.deploy import Compensator, load_model, save_model
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -176,6 +177,7 @@ def cli_compare(path, *, stdin=False, direction_column=False, direction=None, ou
     theta = angles_for(model) if readings is None else np.asarray(readings, dtype=float)
     if inside_only and model.range_deg is not None:
         theta = theta[~np.isnan(model.predict(theta))]
+    theta = theta[np.abs(theta) <= MAX_ABS_DEG]  # the command reads angles within +-1e9 degrees (a calibration's bound)
     rng = np.random.default_rng(7)
     directions = rng.choice([1, -1], theta.size) if direction_column else None
     texts = [repr(float(t)) for t in theta]
