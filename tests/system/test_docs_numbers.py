@@ -88,3 +88,14 @@ def test_the_real_encoder_table_of_the_statistics_page_is_what_its_code_prints(c
     for name, (median, mean) in computed.items():
         row = next(row for row in rows if row[0].startswith(names[name]))
         assert (_number(row[1]), _number(row[2])) == (median, mean), name
+
+
+def test_the_known_truth_table_of_the_self_calibration_page_is_what_its_benchmark_prints():
+    text = (DOCS / "self-calibration.md").read_text(encoding="utf-8")
+    section = text.split("### Against a truth written outside encal", 1)[1]
+    shown = [line for line in section.splitlines() if line.startswith("| ")]
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_selfcal_truth.py")], check=True,
+                            capture_output=True, text=True, cwd=REPO)
+    printed = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    assert len(shown) > 10
+    assert printed == shown
