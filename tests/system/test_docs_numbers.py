@@ -1,0 +1,101 @@
+"""Figures the user pages state, recomputed by the commands the pages give beside them.
+
+Each test runs a page's own reproduction (its code block or command) and compares every number of the table or
+output the page shows, at the page's rounding, so a change of the simulator, the statistics or a model that moves a
+published figure fails here instead of leaving the page wrong.
+"""
+
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from tests._paths import REAL_MECHADUINO, REPO
+
+DOCS = REPO / "docs"
+
+
+def _python_block_after(page, marker):
+    """The first ```python block of ``page`` after the line holding ``marker``."""
+    text = (DOCS / page).read_text(encoding="utf-8")
+    return re.search(re.escape(marker) + r".*?```python\n(.*?)```", text, flags=re.S).group(1)
+
+
+def _table_rows(page, header_start):
+    """The body rows of the Markdown table whose header begins with ``header_start``, as lists of cells."""
+    lines = (DOCS / page).read_text(encoding="utf-8").splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith(header_start))
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([cell.strip() for cell in line.strip("|").split("|")])
+    return rows
+
+
+def _number(cell):
+    return float(cell.replace("−", "-"))
+
+
+def _run_block(block, capsys):
+    exec(compile(block, "docs", "exec"), {"__name__": "docs"})
+    return capsys.readouterr().out
+
+
+def test_the_demo_fleet_table_of_the_simulator_page_is_what_its_code_prints(capsys):
+    printed = _run_block(_python_block_after("simulator.md", "Reproduce the table:"), capsys)
+    computed = {}
+    for line in printed.splitlines():
+        name, rest = line.split(" ", 1)
+        numbers = [float(x) for x in re.findall(r"-?\d+\.?\d*(?:e-?\d+)?", rest.replace("np.int64(", ""))]
+        computed[name] = numbers
+    rows = _table_rows("simulator.md", "| encoder | seed | MAE |")
+    assert [row[0] for row in rows] == sorted(computed)
+    for row in rows:
+        mae, rms, std, low, high, *rest = computed[row[0]]
+        orders, (epoch_rms, decoder2_max, floor) = rest[:10], rest[10:]
+        shown = [_number(cell) for cell in row[2:7]]
+        assert shown == pytest.approx(np.round([mae, rms, std, low, high], 2), abs=1e-9), row[0]
+        assert [int(o) for o in row[7].split(", ")] == [int(o) for o in orders], row[0]
+        assert _number(row[8]) == pytest.approx(round(epoch_rms, 3), abs=1e-9), row[0]
+        assert _number(row[10]) == pytest.approx(round(decoder2_max, 2), abs=1e-9), row[0]
+        assert _number(row[11]) == pytest.approx(round(floor, 3), abs=1e-9), row[0]
+
+
+def test_the_simulate_example_of_the_simulator_page_is_what_the_command_prints(tmp_path):
+    text = (DOCS / "simulator.md").read_text(encoding="utf-8")
+    shown = re.findall(r"^(enc\d: train .*) -> sims/", text, flags=re.M)
+    assert len(shown) == 4
+    result = subprocess.run([sys.executable, "-m", "encal", "simulate", "--out", str(tmp_path / "sims")],
+                            check=True, capture_output=True, text=True)
+    printed = re.findall(r"^(enc\d: train .*) -> ", result.stdout, flags=re.M)
+    assert [line.rstrip() for line in printed] == [line.rstrip() for line in shown]
+
+
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real Mechaduino calibrations are not beside the repository")
+def test_the_real_encoder_table_of_the_statistics_page_is_what_its_code_prints(capsys, monkeypatch):
+    monkeypatch.chdir(REPO)  # the block globs ../shared/data/real/mechaduino
+    printed = _run_block(_python_block_after("statistics.md", "Reproduce:"), capsys)
+    computed = {m.group(1): (float(m.group(2)), float(m.group(3)))
+                for m in re.finditer(r"^(.+?)\s+median (\S+)\s+mean (\S+) arcmin$", printed, flags=re.M)}
+    names = {"fourier top10": "fourier top 10", "fourier cv": "fourier cv (5 folds", "lut linear": "lut linear",
+             "lut cubic": "lut cubic"}
+    rows = _table_rows("statistics.md", "| method | median | mean | min | max |")
+    assert len(computed) == 4
+    for name, (median, mean) in computed.items():
+        row = next(row for row in rows if row[0].startswith(names[name]))
+        assert (_number(row[1]), _number(row[2])) == (median, mean), name
+
+
+def test_the_known_truth_table_of_the_self_calibration_page_is_what_its_benchmark_prints():
+    text = (DOCS / "self-calibration.md").read_text(encoding="utf-8")
+    section = text.split("### Against a truth written outside encal", 1)[1]
+    shown = [line for line in section.splitlines() if line.startswith("| ")]
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_selfcal_truth.py")], check=True,
+                            capture_output=True, text=True, cwd=REPO)
+    printed = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    assert len(shown) > 10
+    assert printed == shown
