@@ -12,7 +12,6 @@ model file, and a reading outside it is never corrected silently:
   ``--outside clamp`` or ``--outside pass``, which they honour exactly (docs/in-place.md).
 """
 
-import math
 
 import numpy as np
 
@@ -264,8 +263,6 @@ def codes_in_range(range_deg, bits, reading_sign=1):
     >>> codes_in_range([10.0, 20.0], 12), codes_in_range([10.0, 20.0], 12, reading_sign=-1)
     ((114, 227), (3869, 3982))
     """
-    from .angles import model_input
-
     codes = 1 << int(bits)
     step = 360.0 / codes
     ends = np.asarray(range_deg, dtype=float) if reading_sign == 1 else np.mod(-np.asarray(range_deg)[::-1], 360.0)
