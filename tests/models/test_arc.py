@@ -439,9 +439,9 @@ def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_do
             if target == "fixed":
                 calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
                              f'{name}_correct_bam32(c << {32 - bits}u) * (360.0 / 4294967296.0));')
-            else:
+            else:  # the code functions with the test of a code, the angle functions with that of an angle
                 real = "double" if target == "host" else "float"
-                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range(({real})c * ({real}){step!r}), '
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
                              f'(double){name}_correct_counts(c));')
                 calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range(({real})c * ({real}){step!r}), '
                              f'(double){name}_correct_deg((float)c * (float){step!r}));')
@@ -452,8 +452,8 @@ def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_do
         f"int main(void) {{ for (unsigned k = 0; k < {codes.size}u; ++k) {{ const uint32_t c = codes[k]; "
         f"{' '.join(calls)} }} return 0; }}\n")
     binary = tmp_path / "main"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", *(f"-I{s.parent}" for s in sources), str(tmp_path / "main.c"),
-                    *map(str, sources), "-lm", "-o", str(binary)], check=True)
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", *(f"-I{s.parent}" for s in sources),
+                    str(tmp_path / "main.c"), *map(str, sources), "-lm", "-o", str(binary)], check=True)
     rows = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split("\n")
     rows = np.array([row.split() for row in rows if row]).reshape(codes.size, len(calls), 3)
     for k, call in enumerate(calls):
@@ -462,3 +462,25 @@ def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_do
         corrected = rows[:, k, 2].astype(float)
         gap = np.abs((corrected - expected[rule] + 180.0) % 360.0 - 180.0)
         assert gap.max() < 1e-4, (call, codes[np.argmax(gap)], gap.max() * 60.0)  # degrees: 0.006 arcmin
+
+
+def test_the_c_range_test_of_codes_of_an_arc_between_two_codes_says_outside_for_every_code(tmp_path):
+    import shutil
+    import subprocess
+
+    from encal._core.arcs import with_range_in_header
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the header's range test is compiled with it")
+    step = 360.0 / 4096
+    shell = "#include <stdint.h>\n#ifdef __cplusplus\n}\n#endif\n"
+    for target in ("host", "cortex-m4f", "fixed"):
+        header = with_range_in_header({"r.h": shell}, "r", target, [(114 + 0.2) * step, (114 + 0.7) * step],
+                                      "pass", bits=12)["r.h"].replace("#ifdef __cplusplus\n}\n#endif\n", "")
+        (tmp_path / "r.h").write_text(header)
+        (tmp_path / "main.c").write_text('#include <stdio.h>\n#include "r.h"\nint main(void) { uint32_t c, n = 0; '
+                                         'for (c = 0; c < 4096u; ++c) n += (uint32_t)r_in_range_code(c); '
+                                         'printf("%u\\n", n); return 0; }\n')
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path),
+                        str(tmp_path / "main.c"), "-o", str(tmp_path / "main")], check=True)
+        assert subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout == "0\n"

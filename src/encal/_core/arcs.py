@@ -283,8 +283,10 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
 
     The export itself covers the whole turn and follows ``rule`` outside the arc; the header adds
     ``PREFIX_RANGE_START_DEG``, ``PREFIX_RANGE_END_DEG`` and ``PREFIX_in_range(angle)`` (1 inside, 0 outside;
-    ``float`` for cortex-m4f, ``double`` for host), and for ``fixed`` (integers only) the range in codes and
-    ``PREFIX_in_range_code(code)``, so that firmware can tell a reading the calibration did not cover.
+    ``float`` for cortex-m4f, ``double`` for host; not for ``fixed``, integers only), and with the resolution
+    (``bits``; required for ``fixed``) the range in codes and ``PREFIX_in_range_code(code)``, exactly the codes
+    whose readings encal takes as inside (:func:`codes_in_range`), so that firmware can tell a reading the
+    calibration did not cover.
     """
     name = f"{prefix}.h"
     upper = prefix.upper()
@@ -293,34 +295,16 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
         start, end = float(np.mod(-end, 360.0)), float(np.mod(-start, 360.0))
     span = span_of(range_deg)
     meaning = "the nearer end's correction" if rule == "clamp" else "no correction"
-    test = f"{prefix}_in_range{'_code' if target == 'fixed' else ''}()"
+    test = f"{prefix}_in_range{'_code' if bits is not None else ''}()"
     lines = [f"/* Calibrated over an arc only (encal, issue 31): encoder readings from {start!r} to {end!r} deg,",
              "   going forward (through 0 when the start is the larger). Outside it the functions below follow",
              f"   the rule --outside {rule} ({meaning}), which is no calibration: test {test} first. */",
              f"#define {upper}_RANGE_START_DEG {start!r}",
              f"#define {upper}_RANGE_END_DEG {end!r}"]
-    if target == "fixed":
-        if bits is None:
-            raise InputError("the fixed-point export of an arc model needs the encoder resolution to state its "
-                             "range in codes; pass --bits B")
-        codes = 1 << int(bits)
-        held = codes_in_range(range_deg, bits, reading_sign)
-        if held is None:  # an arc between two codes: no code's reading is inside
-            first, last, test = 1, 0, "(void)code;\n    return 0;"
-        else:
-            first, last = held
-            test = (f"return ((code - {upper}_RANGE_START_CODE) & {codes - 1}u) <= "
-                    f"(({upper}_RANGE_END_CODE - {upper}_RANGE_START_CODE) & {codes - 1}u);")
-        none = " None is: START is past END." if held is None else ""
-        lines += [f"/* The first and the last code whose reading, code * 360 / 2^{bits} deg, encal takes as inside",
-                  f"   (within 1e-9 deg of an end), as the functions below correct it.{none} */",
-                  f"#define {upper}_RANGE_START_CODE {first}u",
-                  f"#define {upper}_RANGE_END_CODE {last}u",
-                  f"/* 1 when the code (0 .. 2^{bits} - 1) lies in the calibrated range, else 0. */",
-                  f"static inline int {prefix}_in_range_code(uint32_t code) {{",
-                  f"    {test}",
-                  "}"]
-    else:
+    if target == "fixed" and bits is None:
+        raise InputError("the fixed-point export of an arc model needs the encoder resolution to state its "
+                         "range in codes; pass --bits B")
+    if target != "fixed":
         real, suffix = ("float", "f") if target == "cortex-m4f" else ("double", "")
         # within the tolerance of an end is inside: in double the model's own (RANGE_TOLERANCE_DEG); in float two
         # of its steps near 360 degrees (2^-14), since the reading, the start and the span are each rounded to one
@@ -331,6 +315,24 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
                   f"    if (offset < 0.0{suffix}) offset += 360.0{suffix};",
                   f"    return offset <= ({real}){span!r}{suffix} + {tolerance}{suffix}"
                   f" || offset >= 360.0{suffix} - {tolerance}{suffix};",
+                  "}"]
+    if bits is not None:  # the test of a code, exact in integers, wherever the code functions are exported
+        codes = 1 << int(bits)
+        held = codes_in_range(range_deg, bits, reading_sign)
+        if held is None:  # an arc between two codes: no code's reading is inside
+            first, last, code_test = 1, 0, "(void)code;\n    return 0;"
+        else:
+            first, last = held
+            code_test = (f"return ((code - {upper}_RANGE_START_CODE) & {codes - 1}u) <= "
+                         f"(({upper}_RANGE_END_CODE - {upper}_RANGE_START_CODE) & {codes - 1}u);")
+        none = " None is: START is past END." if held is None else ""
+        lines += [f"/* The first and the last code whose reading, code * 360 / 2^{bits} deg, encal takes as inside",
+                  f"   (within 1e-9 deg of an end), as the functions below correct it.{none} */",
+                  f"#define {upper}_RANGE_START_CODE {first}u",
+                  f"#define {upper}_RANGE_END_CODE {last}u",
+                  f"/* 1 when the code (0 .. 2^{bits} - 1) lies in the calibrated range, else 0. */",
+                  f"static inline int {prefix}_in_range_code(uint32_t code) {{",
+                  f"    {code_test}",
                   "}"]
     block = "\n".join(lines) + "\n"
     header = files[name]
