@@ -104,7 +104,8 @@ def host_export(model, *, prefix="encal", bits=None, table=None, constants="auto
         body = _formula_source(_form(comp), comp.model.parameters(), _Literals(ctype))
         if ctype == "float" or np.isfinite(deviation):
             change = f"{'they change' if ctype == 'float' else 'float would change'} the model by at most " \
-                     f"{deviation:.3g} arcmin on {_CHECK_POINTS} angles"
+                     f"{deviation:.3g} arcmin on {_CHECK_POINTS} angles" + (
+                         " and at the breaks" if _breaks(comp.model.parameters()) else "")
         else:
             change = "float32 cannot hold them"
         how = f"the model's formula in double; constants stored as {ctype} ({change})"
