@@ -430,8 +430,9 @@ def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_do
         capsys.readouterr()
         assert main(["correct", str(path), str(tmp_path / "readings.txt"), "--outside", rule, "--exact"]) == 0
         expected[rule] = np.array(capsys.readouterr().out.split(), dtype=float)
-        for target, options in (("host", []), ("cortex-m4f", ["--dtype", "float32"]), ("fixed", ["--dtype", "int16"])):
-            name = f"{target.replace('-', '')}_{rule}"
+        for target, options in (("host", []), ("host", ["--table", "--dtype", "float32"]),
+                                ("cortex-m4f", ["--dtype", "float32"]), ("fixed", ["--dtype", "int16"])):
+            name = f"{target.replace('-', '')}{'_table' if '--table' in options else ''}_{rule}"
             nodes = [] if target == "host" else ["--nodes", str(1 << bits), "--interpolation", "linear"]
             assert main(["export", str(path), "--format", "c", "--target", target, "--bits", str(bits), "--outside",
                          rule, "--name", name, "-o", str(tmp_path / name), *nodes, *options]) == 0
