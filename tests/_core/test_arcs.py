@@ -56,3 +56,37 @@ def test_no_gap_over_says_true_only_when_every_gap_is_within_the_bound(seed):
         assert largest <= 30.0
     dense = rng.uniform(0.0, 360.0, 5000)
     assert arcs.no_gap_over(dense, 30.0) and not arcs.no_gap_over(dense[dense < 300.0], 30.0)
+
+
+# -- task arcc6: the codes of an encoder inside a range, as encal tells each code's reading ------------------------
+
+def _codes_by_asking_each(range_deg, bits, reading_sign):
+    codes = np.arange(1 << bits)
+    held = arcs.inside(wrap360(reading_sign * codes * (360.0 / (1 << bits))), range_deg)
+    return codes[held]
+
+
+@pytest.mark.parametrize("bits", [12, 14])
+@pytest.mark.parametrize("reading_sign", [1, -1])
+def test_codes_in_range_are_the_codes_whose_readings_are_inside(bits, reading_sign):
+    # floor() of the ends took the code just below a start between two codes as inside
+    step = 360.0 / (1 << bits)
+    rng = np.random.default_rng(6)
+    ranges = [[100 * step, 1500 * step], [(100 + 0.3) * step, (1501 + 0.6) * step],  # on codes, between codes
+              [4000 * step, 700 * step], [(4000 + 0.3) * step, (700 + 0.6) * step],  # through 0
+              [100 * step + 5e-10, 1500 * step - 5e-10], [100 * step - 2e-9, 1500 * step + 2e-9],  # tolerance
+              *[sorted(rng.uniform(0.0, 360.0, 2).tolist(), reverse=k % 2 == 1) for k in range(20)]]
+    for range_deg in ranges:
+        expected = _codes_by_asking_each(range_deg, bits, reading_sign)
+        first, last = arcs.codes_in_range(range_deg, bits, reading_sign)
+        span = (last - first) % (1 << bits)
+        got = np.mod(first + np.arange(span + 1), 1 << bits)
+        assert np.array_equal(np.sort(got), expected), range_deg
+
+
+def test_codes_in_range_of_an_arc_narrower_than_a_code_and_of_a_gap_narrower_than_one():
+    step = 360.0 / 4096
+    assert arcs.codes_in_range([(114 + 0.2) * step, (114 + 0.7) * step], 12) is None  # between two codes
+    assert arcs.codes_in_range([(114 - 0.2) * step, (114 + 0.7) * step], 12) == (114, 114)
+    assert arcs.codes_in_range([(114 + 0.7) * step, (114 + 0.2) * step], 12) == (0, 4095)  # a gap between two
+    assert arcs.codes_in_range([(114 + 0.7) * step, (114 - 0.2) * step], 12) == (115, 113)

@@ -442,3 +442,29 @@ def test_constants_beyond_float32_range():
     assert "static const double model_W2" in export_c(model)["encal.c"]
     with pytest.raises(InputError, match="float32's range"):
         export_c(model, constants="float")
+
+
+# -- task arcc6: float32 constants move a break where an arc model's export steps -----------------------------------
+
+@needs_gcc
+def test_float_constants_are_not_chosen_where_they_move_a_step_of_the_pieces_over_a_code(tmp_path):
+    # The clamp export of an arc model steps at the middle of its gap (the end's correction, then the start's).
+    # Here the middle lies 1e-6 degree past code 182045 of an 18-bit encoder, and float32 rounds it onto the
+    # code: the grid of the float check (2^16 angles) missed it, float constants were chosen, and the code
+    # was given the start's correction where encal correct --outside clamp gives the end's.
+    from encal._core.arcs import apply_outside_rule, periodic_for_export
+    from encal.models.arc import fit_arc
+
+    bits, code = 18, 182045
+    step = 360.0 / 2**bits
+    middle = code * step + 1e-6
+    start, end = 10.0, 2.0 * middle - 370.0
+    assert float(np.float32(middle)) == code * step
+    theta = np.linspace(start, end, 300)
+    model = fit_arc(theta, 3.0 * np.sin(np.radians(theta)) + 1.0, range_deg=[start, end])
+    model.encoder["resolution_bits"] = bits
+    assert abs(float(model.predict(end)) - float(model.predict(start))) > 1.0  # arcmin: the step
+    write_c(Compensator(periodic_for_export(model, "clamp")), tmp_path)
+    on_codes, _ = build_and_run(tmp_path, "encal", bits=bits)
+    expected = apply_outside_rule(model, np.arange(2**bits) * step, "clamp")
+    assert circular(on_codes[:, 2], expected).max() < 2e-5  # degrees: the float return's rounding

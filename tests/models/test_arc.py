@@ -352,3 +352,136 @@ def test_the_c_range_test_takes_the_ends_themselves_as_inside_as_the_model_does(
     subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", str(tmp_path / "main.c"), "-o", str(binary)], check=True)
     flags = [int(v) for v in subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split()]
     assert flags == expected
+
+
+# -- task arcc6: the exports of an arc model at and beyond its ends, against encal correct --outside ------------------
+# Arcs of a 12- and a 14-bit encoder whose ends lie on codes (a calibration's readings are codes) or between them,
+# through 0 or not; each gap is an even number of codes, so that its middle is a code (the clamp rule's tie).
+ARCS_IN_CODES = {"12 on codes": (12, 100, 1500, False), "12 through 0": (12, 3900, 700, False),
+                 "12 between codes": (12, 100, 1501, True), "14 on codes": (14, 16000, 2800, False),
+                 "14 between codes": (14, 400, 6001, True)}
+
+
+def arc_on_codes(bits, first, last, between, reading_sign=1):
+    """An arc model fitted from code ``first`` to code ``last`` of a ``bits``-bit encoder, its ends on these codes
+    or 0.3 and 0.6 of a code past them; ``reading_sign`` set after the fit (the range is of the model input)."""
+    codes = 1 << bits
+    step = 360.0 / codes
+    span = (last - first) % codes + (0.3 if between else 0.0)
+    offsets = np.unique(np.concatenate([np.arange(0.0, span, 7.0), [span]]))
+    theta = np.mod((first + (0.3 if between else 0.0) + offsets) * step, 360.0)
+    model = fit_arc(theta, truth(theta))
+    model.reading_sign = reading_sign
+    model.encoder = {"resolution_bits": bits}
+    return model
+
+
+def codes_near_the_ends(model, bits):
+    """Codes of the encoder within 40 of each end of the model's range, of the middle of its gap, and every 97th."""
+    codes = 1 << bits
+    start, end = np.asarray(model.range_deg) / (360.0 / codes)
+    middle = end + ((start - end) % codes) / 2.0
+    near = [np.arange(-40, 41) + int(np.floor(at)) for at in (start, end, middle)]
+    model_input_codes = np.mod(np.concatenate([*near, np.arange(0, codes, 97)]), codes)
+    return np.unique(np.mod(model.reading_sign * model_input_codes, codes))  # the readings' codes
+
+
+@pytest.mark.parametrize("case", ARCS_IN_CODES)
+@pytest.mark.parametrize("reading_sign", [1, -1])
+def test_the_full_turn_model_and_the_dense_table_do_at_every_code_what_encal_correct_does(case, reading_sign):
+    # Under pass the end itself (a code here) got no correction in every export (3 arcmin off encal correct), and
+    # under clamp the middle of the gap the start's correction where encal correct takes the end's (0.6-3.8 arcmin).
+    from encal._core.angles import wrap180
+    from encal._core.arcs import apply_outside_rule, periodic_for_export
+
+    bits = ARCS_IN_CODES[case][0]
+    model = arc_on_codes(*ARCS_IN_CODES[case], reading_sign=reading_sign)
+    readings = np.arange(1 << bits) * (360.0 / (1 << bits))
+    for rule in ("clamp", "pass"):
+        expected = apply_outside_rule(model, readings, rule)
+        full_turn = Compensator(periodic_for_export(model, rule))
+        assert np.max(np.abs(wrap180(full_turn.correct(readings) - expected))) < 1e-12
+        table = compile_table(full_turn, bits, dtype="float32")
+        from_table = np.mod(reading_sign * readings - np.asarray(table.values, dtype=float) * table.scale_arcmin
+                            / 60.0, 360.0)
+        assert np.max(np.abs(wrap180(from_table - expected))) < 1e-6  # float32 arcmin
+
+
+@pytest.mark.parametrize("case, reading_sign", [("12 through 0", 1), ("12 between codes", -1), ("14 on codes", -1),
+                                                ("14 between codes", 1)])
+def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_does(case, reading_sign, tmp_path,
+                                                                                   capsys):
+    # One node per code (the compact targets), so that the rule itself is compared, not a table's interpolation.
+    # in_range_code took floor() of the start: a code just below a start between two codes was inside.
+    import shutil
+    import subprocess
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the exported C is compiled with it")
+    bits = ARCS_IN_CODES[case][0]
+    model = arc_on_codes(*ARCS_IN_CODES[case], reading_sign=reading_sign)
+    path = model.save(tmp_path / "arc.json")
+    codes = codes_near_the_ends(model, bits)
+    step = 360.0 / (1 << bits)
+    (tmp_path / "readings.txt").write_text("".join(f"{float(c * step)!r}\n" for c in codes))
+    flags = inside(np.mod(reading_sign * codes * step, 360.0), model.range_deg).astype(int)
+    sources, calls, expected = [], [], {}
+    for rule in ("clamp", "pass"):
+        capsys.readouterr()
+        assert main(["correct", str(path), str(tmp_path / "readings.txt"), "--outside", rule, "--exact"]) == 0
+        expected[rule] = np.array(capsys.readouterr().out.split(), dtype=float)
+        for target, options in (("host", []), ("host", ["--table", "--dtype", "float32"]),
+                                ("cortex-m4f", ["--dtype", "float32"]), ("fixed", ["--dtype", "int16"])):
+            name = f"{target.replace('-', '')}{'_table' if '--table' in options else ''}_{rule}"
+            nodes = [] if target == "host" else ["--nodes", str(1 << bits), "--interpolation", "linear"]
+            assert main(["export", str(path), "--format", "c", "--target", target, "--bits", str(bits), "--outside",
+                         rule, "--name", name, "-o", str(tmp_path / name), *nodes, *options]) == 0
+            sources.append(tmp_path / name / f"{name}.c")
+            if target == "fixed":
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
+                             f'{name}_correct_bam32(c << {32 - bits}u) * (360.0 / 4294967296.0));')
+            else:  # the code functions with the test of a code, the angle functions with that of an angle
+                real = "double" if target == "host" else "float"
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
+                             f'(double){name}_correct_counts(c));')
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range(({real})c * ({real}){step!r}), '
+                             f'(double){name}_correct_deg((float)c * (float){step!r}));')
+    includes = "".join(f'#include "{source.stem}.h"\n' for source in sources)
+    table = ", ".join(f"{c}u" for c in codes)
+    (tmp_path / "main.c").write_text(
+        f"#include <stdio.h>\n#include <stdint.h>\n{includes}static const uint32_t codes[] = {{{table}}};\n"
+        f"int main(void) {{ for (unsigned k = 0; k < {codes.size}u; ++k) {{ const uint32_t c = codes[k]; "
+        f"{' '.join(calls)} }} return 0; }}\n")
+    binary = tmp_path / "main"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", *(f"-I{s.parent}" for s in sources),
+                    str(tmp_path / "main.c"), *map(str, sources), "-lm", "-o", str(binary)], check=True)
+    rows = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split("\n")
+    rows = np.array([row.split() for row in rows if row]).reshape(codes.size, len(calls), 3)
+    for k, call in enumerate(calls):
+        rule = rows[0, k, 0]
+        assert np.array_equal(rows[:, k, 1].astype(int), flags), call
+        corrected = rows[:, k, 2].astype(float)
+        gap = np.abs((corrected - expected[rule] + 180.0) % 360.0 - 180.0)
+        assert gap.max() < 1e-4, (call, codes[np.argmax(gap)], gap.max() * 60.0)  # degrees: 0.006 arcmin
+
+
+def test_the_c_range_test_of_codes_of_an_arc_between_two_codes_says_outside_for_every_code(tmp_path):
+    import shutil
+    import subprocess
+
+    from encal._core.arcs import with_range_in_header
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the header's range test is compiled with it")
+    step = 360.0 / 4096
+    shell = "#include <stdint.h>\n#ifdef __cplusplus\n}\n#endif\n"
+    for target in ("host", "cortex-m4f", "fixed"):
+        header = with_range_in_header({"r.h": shell}, "r", target, [(114 + 0.2) * step, (114 + 0.7) * step],
+                                      "pass", bits=12)["r.h"].replace("#ifdef __cplusplus\n}\n#endif\n", "")
+        (tmp_path / "r.h").write_text(header)
+        (tmp_path / "main.c").write_text('#include <stdio.h>\n#include "r.h"\nint main(void) { uint32_t c, n = 0; '
+                                         'for (c = 0; c < 4096u; ++c) n += (uint32_t)r_in_range_code(c); '
+                                         'printf("%u\\n", n); return 0; }\n')
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path),
+                        str(tmp_path / "main.c"), "-o", str(tmp_path / "main")], check=True)
+        assert subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout == "0\n"

@@ -12,7 +12,6 @@ model file, and a reading outside it is never corrected silently:
   ``--outside clamp`` or ``--outside pass``, which they honour exactly (docs/in-place.md).
 """
 
-import math
 
 import numpy as np
 
@@ -21,7 +20,7 @@ from .errors import InputError, ModelFileError
 
 __all__ = ["arc_of", "no_gap_over", "inside", "clamp_to_range", "check_range", "describe_range", "OUTSIDE_RULES",
            "apply_outside_rule", "OutsideRule", "refuse_arc", "periodic_for_export",
-           "within_model_range"]
+           "within_model_range", "codes_in_range"]
 
 #: What to do with a reading outside a model's calibrated range.
 OUTSIDE_RULES = ("error", "clamp", "pass")
@@ -252,13 +251,42 @@ def within_model_range(model, cal):
     return keep
 
 
+def codes_in_range(range_deg, bits, reading_sign=1):
+    """The first and the last code of a ``bits``-bit encoder (going forward) whose reading, ``code * 360 / 2^bits``
+    degrees, lies in ``range_deg`` as :func:`inside` of its model input tells; ``(0, 2^bits - 1)`` when every code
+    does, None when none does (an arc narrower than a code, between two).
+
+    Each code near an end is asked, not the end's floor: a code just below a start between two codes is outside.
+
+    Examples
+    --------
+    >>> codes_in_range([10.0, 20.0], 12), codes_in_range([10.0, 20.0], 12, reading_sign=-1)
+    ((114, 227), (3869, 3982))
+    """
+    codes = 1 << int(bits)
+    step = 360.0 / codes
+    ends = np.asarray(range_deg, dtype=float) if reading_sign == 1 else np.mod(-np.asarray(range_deg)[::-1], 360.0)
+    near = np.floor(ends / step).astype(np.int64)[:, None] + np.arange(-2, 4)  # each end's neighbours, in order
+    candidates = np.mod(near, codes)
+    held = inside(model_input(candidates * step, reading_sign), range_deg)
+    before = inside(model_input(np.mod(candidates - 1, codes) * step, reading_sign), range_deg)
+    after = inside(model_input(np.mod(candidates + 1, codes) * step, reading_sign), range_deg)
+    firsts, lasts = candidates[held & ~before], candidates[held & ~after]
+    if firsts.size and lasts.size:
+        return int(firsts[0]), int(lasts[-1])
+    # no end among the neighbours: every code is inside (a gap narrower than a code) or none
+    return (0, codes - 1) if bool(held.any()) else None
+
+
 def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, reading_sign=1):
     """The C files of an export of an arc model, its header stating the range and a test of it.
 
     The export itself covers the whole turn and follows ``rule`` outside the arc; the header adds
     ``PREFIX_RANGE_START_DEG``, ``PREFIX_RANGE_END_DEG`` and ``PREFIX_in_range(angle)`` (1 inside, 0 outside;
-    ``float`` for cortex-m4f, ``double`` for host), and for ``fixed`` (integers only) the range in codes and
-    ``PREFIX_in_range_code(code)``, so that firmware can tell a reading the calibration did not cover.
+    ``float`` for cortex-m4f, ``double`` for host; not for ``fixed``, integers only), and with the resolution
+    (``bits``; required for ``fixed``) the range in codes and ``PREFIX_in_range_code(code)``, exactly the codes
+    whose readings encal takes as inside (:func:`codes_in_range`), so that firmware can tell a reading the
+    calibration did not cover.
     """
     name = f"{prefix}.h"
     upper = prefix.upper()
@@ -267,27 +295,16 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
         start, end = float(np.mod(-end, 360.0)), float(np.mod(-start, 360.0))
     span = span_of(range_deg)
     meaning = "the nearer end's correction" if rule == "clamp" else "no correction"
-    test = f"{prefix}_in_range{'_code' if target == 'fixed' else ''}()"
+    test = f"{prefix}_in_range{'_code' if bits is not None else ''}()"
     lines = [f"/* Calibrated over an arc only (encal, issue 31): encoder readings from {start!r} to {end!r} deg,",
              "   going forward (through 0 when the start is the larger). Outside it the functions below follow",
              f"   the rule --outside {rule} ({meaning}), which is no calibration: test {test} first. */",
              f"#define {upper}_RANGE_START_DEG {start!r}",
              f"#define {upper}_RANGE_END_DEG {end!r}"]
-    if target == "fixed":
-        if bits is None:
-            raise InputError("the fixed-point export of an arc model needs the encoder resolution to state its "
-                             "range in codes; pass --bits B")
-        codes = 1 << int(bits)
-        first = int(math.floor(start / 360.0 * codes)) % codes
-        last = int(math.floor(end / 360.0 * codes)) % codes
-        lines += [f"#define {upper}_RANGE_START_CODE {first}u",
-                  f"#define {upper}_RANGE_END_CODE {last}u",
-                  f"/* 1 when the code (0 .. 2^{bits} - 1) lies in the calibrated range, else 0. */",
-                  f"static inline int {prefix}_in_range_code(uint32_t code) {{",
-                  f"    return ((code - {upper}_RANGE_START_CODE) & {codes - 1}u) <= "
-                  f"(({upper}_RANGE_END_CODE - {upper}_RANGE_START_CODE) & {codes - 1}u);",
-                  "}"]
-    else:
+    if target == "fixed" and bits is None:
+        raise InputError("the fixed-point export of an arc model needs the encoder resolution to state its "
+                         "range in codes; pass --bits B")
+    if target != "fixed":
         real, suffix = ("float", "f") if target == "cortex-m4f" else ("double", "")
         # within the tolerance of an end is inside: in double the model's own (RANGE_TOLERANCE_DEG); in float two
         # of its steps near 360 degrees (2^-14), since the reading, the start and the span are each rounded to one
@@ -298,6 +315,24 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
                   f"    if (offset < 0.0{suffix}) offset += 360.0{suffix};",
                   f"    return offset <= ({real}){span!r}{suffix} + {tolerance}{suffix}"
                   f" || offset >= 360.0{suffix} - {tolerance}{suffix};",
+                  "}"]
+    if bits is not None:  # the test of a code, exact in integers, wherever the code functions are exported
+        codes = 1 << int(bits)
+        held = codes_in_range(range_deg, bits, reading_sign)
+        if held is None:  # an arc between two codes: no code's reading is inside
+            first, last, code_test = 1, 0, "(void)code;\n    return 0;"
+        else:
+            first, last = held
+            code_test = (f"return ((code - {upper}_RANGE_START_CODE) & {codes - 1}u) <= "
+                         f"(({upper}_RANGE_END_CODE - {upper}_RANGE_START_CODE) & {codes - 1}u);")
+        none = " None is: START is past END." if held is None else ""
+        lines += [f"/* The first and the last code whose reading, code * 360 / 2^{bits} deg, encal takes as inside",
+                  f"   (within 1e-9 deg of an end), as the functions below correct it.{none} */",
+                  f"#define {upper}_RANGE_START_CODE {first}u",
+                  f"#define {upper}_RANGE_END_CODE {last}u",
+                  f"/* 1 when the code (0 .. 2^{bits} - 1) lies in the calibrated range, else 0. */",
+                  f"static inline int {prefix}_in_range_code(uint32_t code) {{",
+                  f"    {code_test}",
                   "}"]
     block = "\n".join(lines) + "\n"
     header = files[name]

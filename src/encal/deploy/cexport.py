@@ -37,7 +37,7 @@ import numpy as np
 from .. import runtime
 from .._core.atomic import write_file_set
 from .._version import __version__
-from .._core.errors import InputError
+from .._core.errors import InputError, ModelFileError
 from ..models import model_kind
 from .._core.parameters import check_choice, check_int, invalid
 from .compact import check_exportable
@@ -104,7 +104,8 @@ def host_export(model, *, prefix="encal", bits=None, table=None, constants="auto
         body = _formula_source(_form(comp), comp.model.parameters(), _Literals(ctype))
         if ctype == "float" or np.isfinite(deviation):
             change = f"{'they change' if ctype == 'float' else 'float would change'} the model by at most " \
-                     f"{deviation:.3g} arcmin on {_CHECK_POINTS} angles"
+                     f"{deviation:.3g} arcmin on {_CHECK_POINTS} angles" + (
+                         " and at the breaks" if _breaks(comp.model.parameters()) else "")
         else:
             change = "float32 cannot hold them"
         how = f"the model's formula in double; constants stored as {ctype} ({change})"
@@ -174,18 +175,39 @@ def _constant_type(comp, constants):
     parameters = comp.model.parameters()
     with np.errstate(over="ignore"):
         rounded = _map_floats(parameters, lambda v: float(np.float32(v)))
+    merged = False
     if _all_finite(rounded):
         form = _form(comp)
-        deviation = max(float(np.max(np.abs(approximate - exact))) for approximate, exact in
-                        zip(_profiles(form, rounded, theta), _profiles(form, parameters, theta)))
+        # a piecewise model is probed at its breaks too, as stored and as float32 moves them: where its pieces
+        # step (an arc's export, encal._core.arcs), a moved break changes the model there by the whole step,
+        # which the grid alone meets only when a break lies on it
+        theta = np.concatenate([theta, np.mod(_breaks(parameters) + _breaks(rounded), 360.0)])
+        try:
+            deviation = max(float(np.max(np.abs(approximate - exact))) for approximate, exact in
+                            zip(_profiles(form, rounded, theta), _profiles(form, parameters, theta)))
+        except ModelFileError:  # float32 merges two breaks (an arc's piece of 1e-9 degree at an end)
+            deviation, merged = np.inf, True
     else:  # a constant beyond float32's range
         deviation = np.inf
     if constants == "float":
+        if merged:
+            raise InputError("expected model constants that float32 holds, got breaks of a piecewise model "
+                             "closer than float32 tells apart; use constants='double'")
         if not np.isfinite(deviation):
             raise InputError("expected model constants within float32's range, got larger "
                              "ones; use constants='double'")
         return "float", deviation
     return ("float", deviation) if deviation <= FLOAT32_BUDGET_ARCMIN else ("double", deviation)
+
+
+def _breaks(parameters):
+    """Every ``breaks_deg`` value in the (nested) parameters of a model, as a list of degrees."""
+    if isinstance(parameters, dict):
+        return [float(v) for v in parameters.get("breaks_deg", [])] + [
+            v for key, item in parameters.items() if key != "breaks_deg" for v in _breaks(item)]
+    if isinstance(parameters, list):
+        return [v for item in parameters if isinstance(item, (dict, list)) for v in _breaks(item)]
+    return []
 
 
 def _check_profiles(comp):

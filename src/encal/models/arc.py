@@ -15,7 +15,7 @@ the two pieces outside the arc, which hold the value of the nearer end (the ``cl
 
 import numpy as np
 
-from .._core.arcs import arc_of, span_of
+from .._core.arcs import RANGE_TOLERANCE_DEG, arc_of, span_of
 from .._core.errors import InputError
 from .._core.parameters import check_number
 from .lut import LookupTableModel
@@ -47,11 +47,32 @@ class ArcModel(LookupTableModel):
 
     def full_turn(self, rule):
         """This model over the whole turn for a periodic export: the same pieces on the arc and, outside it,
-        the nearer end's value (``rule='clamp'``) or zero (``'pass'``: no correction); ``range_deg`` None."""
+        the nearer end's value (``rule='clamp'``) or zero (``'pass'``: no correction); ``range_deg`` None.
+
+        At every angle it gives what :func:`encal._core.arcs.apply_outside_rule` gives (``encal correct
+        --outside``): within :data:`~encal._core.arcs.RANGE_TOLERANCE_DEG` of an end (the end itself, a reading
+        on it rounded) the end's value, as inside; and an angle exactly in the middle of the gap, as far past
+        the end as before the start, the end's (``clamp_to_range``). Both were the other way round: under
+        ``pass`` the end itself, a code when the calibration's readings were, got no correction, and under
+        ``clamp`` the middle of the gap, a code for half such arcs, the start's.
+        """
+        if self.range_deg is None:
+            return self
+        breaks = np.asarray(self.breaks_deg, dtype=float)
         coefficients = np.array(self.coefficients, copy=True)
-        if rule == "pass":
-            coefficients[:, -2:] = 0.0  # the two pieces past the arc's end (see fit_arc)
-        model = ArcModel(self.breaks_deg, coefficients, "cubic", encoder=self.encoder,
+        end_break, middle, turn = breaks[-3], breaks[-2], breaks[-1]
+        arc_breaks, arc_pieces = breaks[:-2], coefficients[:, :-2]  # the arc's own pieces (see fit_arc)
+        end_value, start_value = coefficients[:, -2:-1], coefficients[:, -1:]
+        if rule == "clamp":
+            # the piece from the middle on starts one double later: the middle itself is the end's, as in Python
+            outside = np.hstack([end_value, start_value])
+            breaks = np.concatenate([arc_breaks, [np.nextafter(middle, np.inf), turn]])
+        else:
+            # the end's value over the tolerance past the end and before the start (inside in Python), zero between
+            outside = np.hstack([end_value, np.zeros_like(end_value), start_value])
+            tolerance = RANGE_TOLERANCE_DEG
+            breaks = np.concatenate([arc_breaks, [end_break + tolerance, turn - tolerance, turn]])
+        model = ArcModel(breaks, np.hstack([arc_pieces, outside]), "cubic", encoder=self.encoder,
                          training={**self.training, "outside_rule": rule})
         model.reading_sign = self.reading_sign
         return model
