@@ -32,6 +32,10 @@ MIN_SPEED_RATIO = 1.2
 MAX_LAW_CHI2 = 3.0
 #: Samples per block when the normal equations are accumulated (bounds the memory used).
 CHUNK = 20000
+#: Passes that predict the speed ripple's second-order term from its first and fit the 1/speed^2 law again.
+SECOND_ORDER_PASSES = 2
+#: Arc-minutes per radian.
+ARCMIN_PER_RAD = 10800.0 / np.pi
 #: Groups of consecutive samples of a run, left out one at a time to measure the uncertainty (jackknife).
 GROUPS = 10
 
@@ -276,22 +280,36 @@ def cubic_bspline_design(x, knots):
 
 
 def _separate(estimates, orders, speeds):
-    """Encoder error and speed ripple from runs at several speeds: ``c_i = e + g / speed_i^2`` for every order."""
+    """Encoder error and speed ripple from runs at several speeds: ``c_i = e + g x_i + h(g) x_i^2`` for every order.
+
+    ``x_i`` is (slowest speed / speed_i)^2 and ``g`` the speed ripple at the slowest speed (first order, 1/speed^2);
+    ``h(g)`` is its second-order term (1/speed^4), predicted from ``g`` by :func:`second_order_ripple` and taken
+    off every run before the 1/speed^2 law is fitted again (twice, ``g`` being refined each time).
+    """
     magnitude = np.abs(speeds)
     if magnitude.max() / magnitude.min() < MIN_SPEED_RATIO:
         raise InputError(f"the spins' speeds ({', '.join(f'{s:.4g}' for s in speeds)} rev/s) differ by less than a "
                          f"factor {MIN_SPEED_RATIO:g}; expected speeds far enough apart to separate speed ripple "
                          "(which falls as 1/speed^2) from the encoder error, e.g. a factor 2")
     scale = magnitude.min() ** 2
-    design = np.column_stack([np.ones(speeds.size), scale / magnitude ** 2])
+    slowness = scale / magnitude ** 2
+    design = np.column_stack([np.ones(speeds.size), slowness])
     variance = np.array([max(np.trace(e["covariance"]) / e["covariance"].shape[0], 1e-30) for e in estimates])
     weights = 1.0 / variance
     normal = design.T @ (weights[:, None] * design)
     mixing = np.linalg.solve(normal, design.T * weights)  # (2, runs)
-    vectors = np.stack([e["vector"] for e in estimates])
+    measured = np.stack([e["vector"] for e in estimates])
+    vectors = measured
+    second = np.zeros(orders.size * 2)
+    for _ in range(SECOND_ORDER_PASSES):
+        ripple = mixing[1] @ vectors
+        second, dynamic_spread = second_order_ripple(orders, ripple)
+        vectors = measured - slowness[:, None] ** 2 * second[None, :]
     error = mixing[0] @ vectors
     ripple = mixing[1] @ vectors
     covariance = sum(m ** 2 * e["covariance"] for m, e in zip(mixing[0], estimates))
+    # the prediction's dynamics are not known (see second_order_ripple): the spread is a standard uncertainty
+    covariance = covariance + np.diag((float(mixing[0] @ slowness ** 2) * dynamic_spread) ** 2)
     ripple_rms = [np.sqrt(np.sum(ripple ** 2) / 2) * scale / s ** 2 for s in magnitude]
     law = None
     if speeds.size > 2:  # is the ripple 1/speed^2? chi-square of the runs about the fit, per degree of freedom
@@ -299,3 +317,51 @@ def _separate(estimates, orders, speeds):
         variances = np.stack([np.maximum(np.diag(e["covariance"]), 1e-30) for e in estimates])
         law = float(np.sum(residual ** 2 / variances) / ((speeds.size - 2) * vectors.shape[1]))
     return HarmonicSeries.from_vector(orders, error, covariance), ripple_rms, law
+
+
+def second_order_ripple(orders, ripple_arcmin):
+    """The speed ripple's second-order term (1/speed^4) predicted from its first-order term (1/speed^2).
+
+    The fit sees the ripple as a function of the angle ``theta`` (radians), not of time. For a rotor whose
+    angle is ``w t + r(w t)`` with ``r`` small and periodic (a "kinematic" ripple, sinusoidal in time), what it
+    sees is ``r(theta) - r(theta) r'(theta)`` to second order (``r'`` = dr/dtheta): a ripple ``A cos(k theta)``
+    (A in radians) adds ``(k A^2 / 2) sin(2 k theta)``, and two orders make terms at their sum and difference.
+    A rotor driven by a torque ripple periodic in its angle (``J theta'' = T(theta)``, no damping) instead sees
+    ``r - 3/2 integral(r'^2 - mean(r'^2))`` (from its energy, ``theta'^2 / 2 + V(theta) / J`` constant):
+    ``3 k A^2 / 8`` for one order, and at the difference of two orders a term of other sign and several times
+    the size. The first is returned (the law docs/self-calibration.md states; with two orders of 20 and 8 arcmin
+    at 7 and 14 it removed the known-truth miss at 14 and 21); which the motor follows is not known, so the
+    difference of the two is returned as the prediction's standard uncertainty.
+    Parameters
+    ----------
+    orders : ndarray of shape (m,) of int
+        Harmonic orders of ``ripple_arcmin``, and of the coefficients returned.
+    ripple_arcmin : ndarray of shape (2 m,)
+        First-order ripple ``(cos..., sin...)`` in arc-minutes, at the speed the term is wanted for.
+
+    Returns
+    -------
+    second : ndarray of shape (2 m,)
+        The second-order term's coefficients at ``orders`` in arc-minutes (terms at higher orders are dropped).
+    spread : ndarray of shape (2 m,)
+        Absolute difference of the two predictions' coefficients, arc-minutes.
+    """
+    orders = np.asarray(orders, dtype=int)
+    points = 8 * int(orders.max()) + 8  # products reach twice the highest order: no aliasing onto ``orders``
+    theta = np.arange(points) * (2 * np.pi / points)
+    basis = design_matrix(np.degrees(theta), orders)
+    m = orders.size
+    cos_part, sin_part = ripple_arcmin[:m], ripple_arcmin[m:]
+    value = basis @ ripple_arcmin
+    slope = basis @ np.concatenate([orders * sin_part, -orders * cos_part]) / ARCMIN_PER_RAD  # dr/dtheta
+    kinematic = -value * slope
+    spectrum = np.fft.rfft(slope ** 2)
+    spectrum[0] = 0.0
+    spectrum[1:] /= 1j * np.arange(1, spectrum.size)
+    inertial = -1.5 * np.fft.irfft(spectrum, n=points) * ARCMIN_PER_RAD
+
+    def coefficients(values):
+        return basis.T @ values * (2.0 / points)
+
+    kinematic, inertial = coefficients(kinematic), coefficients(inertial)
+    return kinematic, np.abs(kinematic - inertial)
