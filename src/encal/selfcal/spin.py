@@ -300,7 +300,6 @@ def _separate(estimates, orders, speeds):
     mixing = np.linalg.solve(normal, design.T * weights)  # (2, runs)
     measured = np.stack([e["vector"] for e in estimates])
     vectors = measured
-    second = np.zeros(orders.size * 2)
     for _ in range(SECOND_ORDER_PASSES):
         ripple = mixing[1] @ vectors
         second, dynamic_spread = second_order_ripple(orders, ripple)
@@ -329,9 +328,11 @@ def second_order_ripple(orders, ripple_arcmin):
     A rotor driven by a torque ripple periodic in its angle (``J theta'' = T(theta)``, no damping) instead sees
     ``r - 3/2 integral(r'^2 - mean(r'^2))`` (from its energy, ``theta'^2 / 2 + V(theta) / J`` constant):
     ``3 k A^2 / 8`` for one order, and at the difference of two orders a term of other sign and several times
-    the size. The first is returned (the law docs/self-calibration.md states; with two orders of 20 and 8 arcmin
-    at 7 and 14 it removed the known-truth miss at 14 and 21); which the motor follows is not known, so the
-    difference of the two is returned as the prediction's standard uncertainty.
+    the size. The first is returned (with 20 and 8 arcmin at orders 7 and 14 at the slower of 1 and 3 rev/s it
+    took the known-truth miss at orders 14 and 21 from 4-7 sigma to 0.5-1.2); which the motor follows is not
+    known, so the difference of the two is returned as the prediction's standard uncertainty. See
+    docs/self-calibration.md.
+
     Parameters
     ----------
     orders : ndarray of shape (m,) of int
