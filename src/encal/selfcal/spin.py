@@ -99,6 +99,8 @@ def spin(runs, *, pole_pairs=None, slots=None, max_order=32, ripple_orders=(), k
         ``details`` holds the speeds (rev/s), the RMS speed ripple found at each (arcmin, with two or more
         speeds), the revolutions used, and with three or more speeds the chi-square per degree of freedom
         of the runs about the 1/speed^2 law (``ripple_law_chi2_per_dof``; over 3 it is said not to hold).
+        With two or more speeds the speed ripple's second-order term (1/speed^4) is predicted from the ripple
+        fitted and taken off, its dependence on the motor's dynamics in the stated sigma (:func:`second_order_ripple`).
 
     Raises
     ------
