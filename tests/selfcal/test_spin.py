@@ -197,8 +197,10 @@ def _kinematic_spin(speed, seed, ripple=((7, 20.0, 2.8), (14, 8.0, 5.6)), revolu
 
 
 def test_two_speeds_take_off_the_ripple_second_order_term_at_twice_and_sums_of_its_orders():
-    # before task spin6 the term k A^2/2 (A in rad) at 1 rev/s, a ninth of it left in the error, missed by 0.046
-    # arcmin at order 14, 14 times the stated sigma (0.0032); now 0.002 and 0.006 at orders 14 and 21 (0.2, 0.4 sigma)
+    # A rotor whose angle is prescribed in time, the other edge of the dynamics' spread (the torque form is taken
+    # off). Before 2026-11-28 the term k A^2/2 (A in rad) at 1 rev/s, a ninth of it left in the error, missed by
+    # 0.046 arcmin at order 14, 14 times the stated sigma (0.0032); now 0.013 and 0.015 at orders 14 and 21, 1.4 and
+    # 1.1 sigma: the difference of the two forms is in sigma, so this edge lies within the 2-sigma band
     result = spin([_kinematic_spin(1.0, 0), _kinematic_spin(3.0, 1)], max_order=32)
     series, m = result.series, result.series.orders.size
     truth = {2: 3.0 * np.exp(1j * 1.1)}
@@ -206,7 +208,7 @@ def test_two_speeds_take_off_the_ripple_second_order_term_at_twice_and_sums_of_i
         i = k - 1
         miss = abs(series.cos_arcmin[i] - 1j * series.sin_arcmin[i] - truth.get(k, 0.0))
         sigma = np.sqrt((series.covariance[i, i] + series.covariance[m + i, m + i]) / 2)
-        assert miss < 1.5 * sigma, (k, miss, sigma)
+        assert miss < 2.0 * sigma, (k, miss, sigma)
 
 
 def test_second_order_prediction_matches_a_rotor_driven_by_torque_ripple_within_the_spread():
@@ -233,17 +235,20 @@ def test_second_order_prediction_matches_a_rotor_driven_by_torque_ripple_within_
     predicted, spread = second_order_ripple(orders, coefficients(first))
     for k in (7, 14, 21, 28):
         for i in (k - 1, orders.size + k - 1):
-            assert abs(second[i] - predicted[i]) <= spread[i] * 1.05 + 0.001, (k, second[i], predicted[i], spread[i])
-    # the kinematic rotor's one-order term: k A^2 / 2 at order 2k
-    one, _ = second_order_ripple(orders, coefficients(0.0058 * np.cos(7 * theta) * ARCMIN_PER_RAD))
-    assert np.hypot(one[13], one[32 + 13]) == pytest.approx(7 * 0.0058 ** 2 / 2 * ARCMIN_PER_RAD, rel=1e-6)
+            assert abs(second[i] - predicted[i]) <= 0.05 * spread[i] + 0.001, (k, second[i], predicted[i], spread[i])
+    # taken off is the torque-driven rotor's term, 3 k A^2 / 8 at order 2k for one order; the spread is its
+    # difference from the kinematic rotor's, k A^2 / 2
+    one, spread = second_order_ripple(orders, coefficients(0.0058 * np.cos(7 * theta) * ARCMIN_PER_RAD))
+    assert np.hypot(one[13], one[32 + 13]) == pytest.approx(3 * 7 * 0.0058 ** 2 / 8 * ARCMIN_PER_RAD, rel=1e-6)
+    assert np.hypot(spread[13], spread[32 + 13]) == pytest.approx(7 * 0.0058 ** 2 / 8 * ARCMIN_PER_RAD, rel=1e-6)
 
 
 def test_two_speeds_of_a_rotor_driven_by_torque_ripple_keep_the_difference_order_within_sigma():
     """encal's simulator integrates J theta'' = T(theta): the inertial dynamics, the other edge of the spread.
 
     Torque ripple making 20 and 8 arcmin of angle ripple at orders 7 and 14 at 1 rev/s: the term at 14 - 7 = 7
-    missed by 0.095 arcmin, 4.8 sigma, before task spin6; now 0.11 within a sigma of 0.09 that holds the spread.
+    missed by 0.095 arcmin, 4.8 sigma, before 2026-11-28; the torque form taken off, 0.012 (sigma 0.09, which holds
+    the spread to the other form).
     """
     from encal.selfcal.synthetic.motor import Motor
 
@@ -258,4 +263,4 @@ def test_two_speeds_of_a_rotor_driven_by_torque_ripple_keep_the_difference_order
     truth = np.fft.rfft(truth_at_orders(ENCODER, [7]))[7] * 2 / GRID.size
     miss = abs(series.cos_arcmin[i] - 1j * series.sin_arcmin[i] - truth)
     sigma = np.sqrt((series.covariance[i, i] + series.covariance[m + i, m + i]) / 2)
-    assert miss < 1.5 * sigma, (miss, sigma)
+    assert miss < 0.03 and miss < 0.5 * sigma, (miss, sigma)

@@ -330,10 +330,9 @@ def second_order_ripple(orders, ripple_arcmin):
     A rotor driven by a torque ripple periodic in its angle (``J theta'' = T(theta)``, no damping) instead sees
     ``r - 3/2 integral(r'^2 - mean(r'^2))`` (from its energy, ``theta'^2 / 2 + V(theta) / J`` constant):
     ``3 k A^2 / 8`` for one order, and at the difference of two orders a term of other sign and several times
-    the size. The first is returned (with 20 and 8 arcmin at orders 7 and 14 at the slower of 1 and 3 rev/s it
-    took the known-truth miss at orders 14 and 21 from 4-7 sigma to 0.5-1.2); which the motor follows is not
-    known, so the difference of the two is returned as the prediction's standard uncertainty. See
-    docs/self-calibration.md.
+    the size. The second is returned: it is the physics of a motor spun at a constant current (its torque ripple
+    periodic in the angle), which docs/self-calibration.md asks for; which the motor follows is not known for
+    certain, so the difference of the two is returned as the prediction's standard uncertainty.
 
     Parameters
     ----------
@@ -345,7 +344,8 @@ def second_order_ripple(orders, ripple_arcmin):
     Returns
     -------
     second : ndarray of shape (2 m,)
-        The second-order term's coefficients at ``orders`` in arc-minutes (terms at higher orders are dropped).
+        The torque-driven rotor's second-order term's coefficients at ``orders`` in arc-minutes (terms at higher
+        orders are dropped).
     spread : ndarray of shape (2 m,)
         Absolute difference of the two predictions' coefficients, arc-minutes.
     """
@@ -367,4 +367,4 @@ def second_order_ripple(orders, ripple_arcmin):
         return basis.T @ values * (2.0 / points)
 
     kinematic, inertial = coefficients(kinematic), coefficients(inertial)
-    return kinematic, np.abs(kinematic - inertial)
+    return inertial, np.abs(kinematic - inertial)
