@@ -1,0 +1,178 @@
+"""Mutation fuzzer of session 6's new surfaces (fuzz6): --target-tolerance on bidirectional runs read afresh,
+``encal correct --outside`` on arc models, the fleet store.
+
+Seeded and deterministic. Each case runs ``encal.cli.main`` in this process and is flagged for a traceback, an exit
+status other than 0/1/2, a refusal message of more than one line, a file left after a refusal, or a wrong number
+with exit 0 against a truth built into the input. Usage::
+
+    PYTHONPATH=src OMP_NUM_THREADS=1 python benchmarks/fuzz_session6.py --seed 1 --runs 500 [--surface tol]
+"""
+
+import argparse
+import contextlib
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+import traceback
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+
+def run(argv, stdin_text=None):
+    """(status, stdout, stderr, traceback or None) of ``encal argv`` in this process."""
+    from encal.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    old_stdin = sys.stdin
+    if stdin_text is not None:
+        sys.stdin = io.TextIOWrapper(io.BytesIO(stdin_text.encode()), encoding="utf-8")
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                status = main(list(argv))
+            except SystemExit as exc:
+                status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+            except BaseException:  # noqa: BLE001 - a traceback is a finding
+                return None, out.getvalue(), err.getvalue(), traceback.format_exc()
+    finally:
+        sys.stdin = old_stdin
+    return status, out.getvalue(), err.getvalue(), None
+
+
+# ----------------------------------------------------------------------------------------------- target tolerance
+
+TOLERANCE_TEXTS = ["0", "-1", "nan", "inf", "1e-300", "10", "10.0000001", "1_0", "\uff11", "0x1p-3", " 0.01", "0.01 ",
+                   "1e-6", "5", "+0.01", "-0", "1e308", "", "0.01,", "1e-3"]
+
+
+def bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, shuffle, wrap_turns, sep, crlf):
+    """A bidirectional run read afresh, the true reversal ``reversal_arcmin`` at every target."""
+    targets = start + np.arange(0.0, 360.0, spacing)
+    rows = []
+    for _ in range(repeats):
+        for direction in (1, -1):
+            for target in (targets if direction == 1 else targets[::-1]):
+                reference = target + rng.uniform(-jitter, jitter)
+                error = 2.0 * math.sin(math.radians(target)) + direction * reversal_arcmin / 2
+                rows.append((reference + 360.0 * wrap_turns, reference + error / 60.0, direction))
+    if shuffle:
+        rows = [rows[i] for i in rng.permutation(len(rows))]
+    end = "\r\n" if crlf else "\n"
+    text = sep.join(["reference_deg", "encoder_deg", "direction"]) + end
+    text += "".join(sep.join([f"{r:.9f}", f"{e:.9f}", str(d)]) + end for r, e, d in rows)
+    return text
+
+
+def tolerance_case(rng, folder):
+    spacing = float(rng.choice([1.0, 5.0, 10.0, 12.0, 30.0]))
+    jitter = float(rng.choice([0.0, 1e-7, 1e-4, 1e-3, 0.05]))
+    repeats = int(rng.choice([1, 2, 3, 5]))
+    reversal_arcmin = float(rng.choice([0.0, 0.5, -0.5, 3.0]))
+    start = float(rng.choice([0.0, 0.0005, -0.0005, 359.9995 - 360.0, 2.5]))
+    text = bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, bool(rng.random() < 0.3),
+                              int(rng.choice([0, 0, 1, -1])), str(rng.choice([",", ";", "\t"])), rng.random() < 0.2)
+    calibration = folder / "bi.csv"
+    calibration.write_text(text)
+    model = folder / "m.json"
+    if model.exists():
+        model.unlink()
+    if rng.random() < 0.7:
+        tol_text = f"{float(rng.choice([1e-6, 1e-4, 2e-3, 0.01, 0.1, 0.4, 0.6, 1.0, 3.0, 6.0, 10.0])):g}"
+    else:
+        tol_text = str(rng.choice(TOLERANCE_TEXTS))
+    argv = ["fit", str(calibration), "-o", str(model), "--method", str(rng.choice(["lut", "spectral", "harmonic"]))]
+    if rng.random() < 0.9:
+        argv += [f"--target-tolerance={tol_text}"]
+    if rng.random() < 0.1:
+        argv += ["--reverse"]
+    if rng.random() < 0.1:
+        argv += ["--bidirectional", "mean"]
+    status, out, err, tb = run(argv)
+    findings = []
+    truth = None
+    try:
+        tol = float(tol_text)
+    except ValueError:
+        tol = None
+    if status == 0 and model.exists() and tol is not None and "--target-tolerance" in " ".join(argv):
+        data = json.loads(model.read_text())
+        figures = _find(data, "reversal_value_arcmin")
+        mean_figure = _find(data, "mean_reversal_value_arcmin")
+        sign = -1 if "--reverse" in argv else 1
+        if 2 * jitter <= tol < spacing - 2 * jitter - 1e-9 and figures is not None:
+            truth = abs(reversal_arcmin)
+            if abs(figures - truth) > 1e-3 or abs(mean_figure - sign * reversal_arcmin) > 1e-3:
+                findings.append(f"reversal {figures} / mean {mean_figure}, truth {truth} / {sign * reversal_arcmin}")
+        if tol >= spacing - 2 * jitter - 1e-9 and tol < 360:
+            findings.append(f"tolerance {tol} >= spacing {spacing} accepted (targets joined)")
+        if figures is None:
+            findings.append("no reversal figure recorded with --target-tolerance")
+    return argv, status, out, err, tb, findings, [model]
+
+
+def _find(data, key):
+    if isinstance(data, dict):
+        if key in data:
+            return data[key]
+        for value in data.values():
+            found = _find(value, key)
+            if found is not None:
+                return found
+    return None
+
+
+SURFACES = {"tol": tolerance_case}
+
+
+def check(argv, status, out, err, tb, findings, outputs):
+    flags = list(findings)
+    if tb is not None:
+        flags.append("traceback: " + tb.strip().splitlines()[-1])
+    elif status not in (0, 1, 2):
+        flags.append(f"status {status}")
+    if status in (1, 2):
+        lines = [line for line in err.strip().splitlines() if "warning:" not in line]
+        if status == 1 and len(lines) != 1:
+            flags.append(f"message of {len(lines)} lines: {err.strip()[:300]!r}")
+        for output in outputs:
+            if output.exists():
+                flags.append(f"{output} left after a refusal")
+    return flags
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--surface", choices=sorted(SURFACES), action="append")
+    options = parser.parse_args()
+    rng = np.random.default_rng(options.seed)
+    surfaces = options.surface or sorted(SURFACES)
+    counts = {}
+    total_flags = 0
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = Path(scratch)
+        for index in range(options.runs):
+            surface = surfaces[index % len(surfaces)]
+            argv, status, out, err, tb, findings, outputs = SURFACES[surface](rng, folder)
+            counts[(surface, status)] = counts.get((surface, status), 0) + 1
+            flags = check(argv, status, out, err, tb, findings, outputs)
+            if flags:
+                total_flags += 1
+                print(f"#{index} {surface} status {status}: {' '.join(argv)}")
+                for flag in flags:
+                    print("   ", flag)
+                if err.strip():
+                    print("    stderr:", err.strip().splitlines()[-1][:400])
+    print("runs by (surface, status):", dict(sorted(counts.items(), key=str)))
+    print(f"{options.runs} runs, {total_flags} flagged")
+
+
+if __name__ == "__main__":
+    main()
