@@ -162,7 +162,111 @@ def report_case(rng, folder):
     return argv, status, out, err, tb, findings, [page]
 
 
-SURFACES = {"tol": tolerance_case, "report": report_case}
+_ARC_MODELS = {}
+
+
+def arc_models(folder):
+    """Arc models fitted once: (path, directional) for one direction, both, and a reversed encoder."""
+    if not _ARC_MODELS:
+        reference = np.arange(20.0, 140.0001, 0.5)
+        for name, directions, reverse in (("arc", (1,), False), ("arcbi", (1, -1), False), ("arcrev", (1,), True)):
+            lines = ["reference_deg,encoder_deg" + (",direction" if len(directions) == 2 else "")]
+            for direction in directions:
+                for ref in (reference if direction == 1 else reference[::-1]):
+                    error = 1.5 * math.sin(math.radians(3 * ref + 10)) + 0.2 * direction
+                    encoder = ref + error / 60.0
+                    encoder = -encoder if reverse else encoder
+                    lines.append(f"{ref:.9f},{encoder:.9f}" + (f",{direction}" if len(directions) == 2 else ""))
+            (folder / f"{name}.csv").write_text("\n".join(lines) + "\n")
+            argv = ["fit", str(folder / f"{name}.csv"), "-o", str(folder / f"{name}.json"), "--method", "lut"]
+            status, _, err, tb = run(argv + (["--reverse"] if reverse else []))
+            assert status == 0 and tb is None, err
+            _ARC_MODELS[name] = (folder / f"{name}.json", len(directions) == 2)
+    return _ARC_MODELS
+
+
+ANGLE_FORMS = [lambda t: repr(t), lambda t: f"{t:.12f}", lambda t: f" {t!r} ", lambda t: f"+{t!r}" if math.copysign(1.0, t) > 0 else repr(t),
+               lambda t: f"{t:e}", lambda t: f"{t!r}\t"]
+DIRECTION_FORMS = {1: ["1", "+1", "cw", " 1", "1 "], -1: ["-1", "ccw", " -1"]}
+
+
+def correct_case(rng, folder):
+    """``encal correct --outside`` on arc models, each answer against the standalone runtime's correct_deg."""
+    from encal import runtime
+
+    models = arc_models(folder)
+    name = str(rng.choice(sorted(models)))
+    path, directional = models[name]
+    model = runtime.load(str(path))
+    start, end = model.range_deg
+    readings = []
+    for _ in range(int(rng.integers(1, 12))):
+        kind = rng.integers(0, 6)
+        if kind == 0:
+            base = float(rng.choice([start, end]))
+            theta = base + float(rng.choice([-1, 1])) * float(rng.choice([0.0, 1e-13, 1e-9, 1e-6, 0.01, 1.0]))
+        elif kind == 1:
+            theta = float(rng.uniform(start, end))
+        elif kind == 2:
+            theta = float(rng.uniform(-720, 720))
+        elif kind == 3:
+            theta = float(rng.choice([start, end])) + 360.0 * float(rng.integers(-3, 4))
+        elif kind == 4:
+            theta = float(rng.choice([0.0, -0.0, 360.0, 180.0, 1e9, -1e9]))
+        else:
+            theta = -float(rng.choice([start, end])) if name == "arcrev" else float(rng.uniform(0, 360))
+        readings.append(theta)
+    outside = rng.choice([None, "error", "clamp", "pass"])
+    rows = None
+    option_direction = None
+    if rng.random() < 0.5:
+        rows = [int(rng.choice([1, -1])) for _ in readings]
+        texts = [ANGLE_FORMS[rng.integers(0, 3)](t) for t in readings]
+        lines = ["encoder_deg,direction"] + [f"{text},{rng.choice(DIRECTION_FORMS[d])}" for text, d in zip(texts, rows)]
+    else:
+        texts = [ANGLE_FORMS[rng.integers(0, len(ANGLE_FORMS))](t) for t in readings]
+        lines = texts
+    readings = [float(text) for text in texts]  # the angle the command reads
+    if rng.random() < 0.3:
+        option_direction = int(rng.choice([1, -1]))
+    source = folder / "readings.txt"
+    source.write_text(("\r\n" if rng.random() < 0.2 else "\n").join(lines) + "\n")
+    argv = ["correct", "--exact", str(path), str(source)]
+    if outside is not None:
+        argv += ["--outside", str(outside)]
+    if option_direction is not None:
+        argv += [f"--direction={option_direction:+d}"]
+    status, out, err, tb = run(argv)
+    findings = []
+    answers = out.split()
+    rule = "error" if outside is None else str(outside)
+    expected = []
+    for index, theta in enumerate(readings):
+        direction = option_direction if option_direction is not None else (rows[index] if rows else None)
+        if not directional:
+            direction = None
+        try:
+            expected.append(model.correct_deg(theta, direction, outside=rule))
+        except ValueError:
+            expected.append("refused")
+            break
+    if status == 0:
+        if "refused" in expected:
+            findings.append(f"exit 0 where the runtime refuses: {readings}")
+        elif len(answers) != len(expected):
+            findings.append(f"{len(answers)} answers to {len(expected)} readings")
+        else:
+            for theta, answer, truth in zip(readings, answers, expected):
+                value = float(answer)
+                if not (math.isnan(value) and math.isnan(truth)) and not abs((value - truth + 180) % 360 - 180) < 2e-13:
+                    findings.append(f"reading {theta!r} (rule {rule}): command {answer}, runtime {truth!r}")
+    elif status == 1:
+        if "refused" not in expected and not (option_direction is not None and rows is not None):
+            findings.append(f"refused where the runtime answers every reading: {err.strip()[:200]}")
+    return argv, status, out, err, tb, findings, []
+
+
+SURFACES = {"tol": tolerance_case, "report": report_case, "correct": correct_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
