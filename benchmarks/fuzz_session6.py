@@ -266,7 +266,103 @@ def correct_case(rng, folder):
     return argv, status, out, err, tb, findings, []
 
 
-SURFACES = {"tol": tolerance_case, "report": report_case, "correct": correct_case}
+SERIAL_NAMES = ["SN1", "SN\u00c51", "SNA\u030a1", "sn1", "SN001", " SN2", "SN2 ", "SN\u00e9 3", "SNe\u03013",
+                "x" * 201, "SN\t4", "SN;5", "SN'6", "SN%7", "\u0661\u0662", "SN.8.v2"]
+
+
+def unit_text(amplitude_arcmin, phase):
+    """A full-turn calibration whose error is ``amplitude * sin(theta + phase)`` arc-minutes."""
+    reference = np.arange(0.0, 360.0, 2.0)
+    error = amplitude_arcmin * np.sin(np.radians(reference) + phase)
+    return "reference_deg,encoder_deg\n" + "".join(f"{r:.9f},{r + e / 60:.9f}\n" for r, e in zip(reference, error))
+
+
+def store_case(rng, folder):
+    """``encal fleet fit`` of files with mutated serial names (NFD, spaces, long, copies), then ``encal correct
+    --serial`` of each serial against the unit's known error."""
+    import shutil
+    import unicodedata
+
+    lot = folder / "lot"
+    if lot.exists():
+        shutil.rmtree(lot)
+    lot.mkdir()
+    store = folder / "store.sqlite"
+    if store.exists() and rng.random() < 0.7:
+        store.unlink()
+    names = list(rng.choice(SERIAL_NAMES, size=int(rng.integers(1, 5)), replace=False))
+    truths = {}
+    texts = []
+    for name in names:
+        amplitude, phase = float(rng.uniform(0.5, 3.0)), float(rng.uniform(0, 6.28))
+        text = unit_text(amplitude, phase)
+        if texts and rng.random() < 0.2:
+            text, (amplitude, phase) = texts[-1]  # a copied file
+        texts.append((text, (amplitude, phase)))
+        try:
+            (lot / f"{name}.csv").write_text(text)
+        except OSError:
+            continue
+        truths[name] = (amplitude, phase, text)
+    argv = ["fleet", "fit", str(lot), "--store", str(store), "--jobs", "0", "--method", "spectral"]
+    status, out, err, tb = run(argv)
+    findings = []
+    if tb is not None or status not in (0, 1):
+        return argv, status, out, err, tb, findings, []
+    refused = err.count("error: refused")
+    copies = len({t[2] for t in truths.values()}) < len(truths)
+    if status == 0 and copies and not any("already" in line for line in out.splitlines()):
+        findings.append("a copied calibration under two serials accepted")
+    # each serial fitted now corrects as its unit's known error
+    refused_names = [line for line in err.splitlines() if "error: refused" in line]
+    fitted = {name: truth for name, truth in truths.items()
+              if not any(f"{lot}/{name}.csv:" in line for line in refused_names)}
+    stems = {}
+    for name in fitted:
+        stems.setdefault(unicodedata.normalize("NFC", name).strip(), []).append(name)
+    for name, (amplitude, phase, text) in fitted.items():
+        if len(stems[unicodedata.normalize("NFC", name).strip()]) > 1:
+            continue  # two files of one serial: the later epoch is whichever was stored last
+        if store.exists() and status == 0 and "already stored" in out and " 0 already stored" not in out:
+            continue
+        spelled = unicodedata.normalize(str(rng.choice(["NFC", "NFD"])), name)
+        c_status, c_out, c_err, c_tb = run(["correct", "--exact", "--serial", spelled, "--store", str(store)],
+                                            stdin_text="90\n")
+        if c_tb is not None:
+            findings.append(f"correct --serial {spelled!r}: traceback {c_tb.strip().splitlines()[-1]}")
+        elif c_status == 0:
+            truth = 90.0 - amplitude * math.sin(math.radians(90.0) + phase) / 60.0
+            value = float(c_out.split()[0])
+            if abs(value - truth) > 0.01 / 60:
+                # the same bytes under another serial are that unit's: a copy gives the first's answer, fine
+                findings.append(f"correct --serial {spelled!r}: {value!r}, the unit's truth {truth!r}")
+        elif c_status not in (1, 2):
+            findings.append(f"correct --serial {spelled!r}: status {c_status}")
+        elif c_status == 1 and len(c_err.strip().splitlines()) != 1:
+            findings.append(f"correct --serial {spelled!r}: message of several lines")
+    # a second pass stores nothing new
+    before = _count(store)
+    status2, out2, err2, tb2 = run(argv)
+    if tb2 is not None:
+        findings.append("second pass: traceback " + tb2.strip().splitlines()[-1])
+    elif _count(store) != before:
+        findings.append(f"second pass over the same files stored {_count(store) - before} more records: {out2.strip()}")
+    return argv, status, out, err, tb, findings, []
+
+
+def _count(store):
+    import sqlite3
+
+    if not store.exists():
+        return 0
+    with sqlite3.connect(store) as connection:
+        try:
+            return connection.execute("SELECT COUNT(*) FROM encal_records").fetchone()[0]
+        except sqlite3.OperationalError:
+            return 0
+
+
+SURFACES = {"tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
@@ -277,6 +373,8 @@ def check(argv, status, out, err, tb, findings, outputs):
         flags.append(f"status {status}")
     if status in (1, 2):
         lines = [line for line in err.strip().splitlines() if "warning:" not in line]
+        if argv[0] == "fleet":
+            lines = [line for line in lines if not line.startswith("encal fleet: error: refused ")] or [""]
         if status == 1 and len(lines) != 1:
             flags.append(f"message of {len(lines)} lines: {err.strip()[:300]!r}")
         for output in outputs:
