@@ -74,7 +74,7 @@ def tolerance_case(rng, folder):
     jitter = float(rng.choice([0.0, 1e-7, 1e-4, 1e-3, 0.05]))
     repeats = int(rng.choice([1, 2, 3, 5]))
     reversal_arcmin = float(rng.choice([0.0, 0.5, -0.5, 3.0]))
-    start = float(rng.choice([0.0, 0.0005, -0.0005, 359.9995 - 360.0, 2.5]))
+    start = float(rng.choice([0.0, 0.0005, -0.0005, 359.9995 - 360.0, 2.5, spacing / 2]))
     text = bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, bool(rng.random() < 0.3),
                               int(rng.choice([0, 0, 1, -1])), str(rng.choice([",", ";", "\t"])), rng.random() < 0.2)
     calibration = folder / "bi.csv"
@@ -160,6 +160,46 @@ def report_case(rng, folder):
                 findings.append(f"page: reversal {value} / mean {mean}, truth {abs(reversal_arcmin)} / {reversal_arcmin}"
                                 f" (tolerance {tol}, spacing {spacing}, jitter {jitter})")
     return argv, status, out, err, tb, findings, [page]
+
+
+def iso_case(rng, folder):
+    """``reversal`` of a run read afresh (the library, many cases): targets, approaches and B against the truth
+    whenever the tolerance lies between the reference's scatter and the targets' spacing."""
+    from encal import Calibration
+    from encal._core.errors import EncalError
+    from encal.data.reversal import reversal
+
+    spacing = float(rng.choice([0.5, 1.0, 5.0, 7.5, 10.0, 15.0]))
+    tolerance = float(rng.choice([spacing / 2, spacing / 3, spacing / 10, 1e-3, 0.01, 1e-6]))
+    jitter = float(rng.choice([0.0, 1e-7, 1e-4, tolerance / 4]))
+    first = float(rng.choice([0.0, -tolerance, 360.0 - tolerance, spacing / 2, -jitter, 1e-9, rng.uniform(0, spacing)]))
+    repeats = int(rng.integers(1, 4))
+    target = np.tile(first + np.arange(0.0, 360.0 - 1e-9, spacing), 2 * repeats)
+    direction = np.tile(np.repeat([1, -1], target.size // (2 * repeats)), repeats)
+    reference = target + rng.uniform(-jitter, jitter, target.size) + 360.0 * rng.integers(-1, 2, target.size)
+    b = float(rng.choice([0.0, 0.3, -1.0]))
+    encoder = reference + (np.sin(np.radians(target)) + direction * b / 2) / 60.0
+    argv = [f"reversal spacing={spacing} tolerance={tolerance} jitter={jitter} first={first!r} repeats={repeats}"]
+    findings = []
+    try:
+        analysis = reversal(Calibration(reference, encoder, direction=direction, target_tolerance_deg=tolerance))
+        status = 0
+    except EncalError as exc:
+        status, analysis = 1, None
+        err = str(exc)
+    else:
+        err = ""
+    if 2 * jitter < tolerance < spacing - 2 * jitter:
+        if analysis is None:
+            findings.append(f"refused: {err}")
+        else:
+            n = round(360.0 / spacing)
+            if (analysis.target_deg.size, analysis.min_approaches, analysis.n_unmatched) != (n, repeats, 0):
+                findings.append(f"{analysis.target_deg.size} targets of {n}, min approaches {analysis.min_approaches} "
+                                f"of {repeats}, {analysis.n_unmatched} unmatched")
+            if not np.allclose(analysis.reversal_arcmin, b, atol=1e-6):
+                findings.append(f"B_i {analysis.reversal_arcmin.min()}..{analysis.reversal_arcmin.max()}, truth {b}")
+    return argv, status, "", err, None, findings, []
 
 
 _ARC_MODELS = {}
@@ -362,7 +402,7 @@ def _count(store):
             return 0
 
 
-SURFACES = {"tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
+SURFACES = {"iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
