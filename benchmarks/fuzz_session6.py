@@ -402,7 +402,83 @@ def _count(store):
             return 0
 
 
-SURFACES = {"iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
+def cexport_case(rng, folder):
+    """The C export of a random arc model (bits, ends on or between codes, through 0, reading sign), compiled for
+    every target under clamp and pass: the range test and the corrected angle at the codes near the ends against
+    ``encal correct`` (the harness of tests/models/test_arc.py, on random arcs)."""
+    import shutil
+    import subprocess
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from encal._core.arcs import inside
+    from tests.models.test_arc import arc_on_codes, codes_near_the_ends
+
+    bits = int(rng.choice([8, 10, 12, 14]))
+    codes_n = 1 << bits
+    first = int(rng.integers(0, codes_n))
+    span = int(rng.integers(codes_n // 16, codes_n - 8))
+    last = (first + span) % codes_n
+    between, reading_sign = bool(rng.random() < 0.5), int(rng.choice([1, -1]))
+    argv = [f"cexport bits={bits} first={first} last={last} between={between} reading_sign={reading_sign}"]
+    work = folder / "c"
+    if work.exists():
+        shutil.rmtree(work)
+    work.mkdir()
+    try:
+        model = arc_on_codes(bits, first, last, between, reading_sign=reading_sign)
+    except Exception as exc:  # noqa: BLE001
+        return argv, 1, "", str(exc), None, [], []
+    path = model.save(work / "arc.json")
+    codes = codes_near_the_ends(model, bits)
+    step = 360.0 / codes_n
+    (work / "readings.txt").write_text("".join(f"{float(c * step)!r}\n" for c in codes))
+    flags = inside(np.mod(reading_sign * codes * step, 360.0), model.range_deg).astype(int)
+    sources, calls, expected, findings = [], [], {}, []
+    for rule in ("clamp", "pass"):
+        status, out, err, tb = run(["correct", str(path), str(work / "readings.txt"), "--outside", rule, "--exact"])
+        if status != 0:
+            return argv, status, out, err, tb, [f"correct --outside {rule}: {err.strip()[:200]}"], []
+        expected[rule] = np.array(out.split(), dtype=float)
+        for target, options in (("host", []), ("host", ["--table", "--dtype", "float32"]),
+                                ("cortex-m4f", ["--dtype", "float32"]), ("fixed", ["--dtype", "int16"])):
+            name = f"{target.replace('-', '')}{'_table' if '--table' in options else ''}_{rule}"
+            nodes = [] if target == "host" else ["--nodes", str(codes_n), "--interpolation", "linear"]
+            status, out, err, tb = run(["export", str(path), "--format", "c", "--target", target, "--bits", str(bits),
+                                        "--outside", rule, "--name", name, "-o", str(work / name), *nodes, *options])
+            if status != 0 or tb is not None:
+                return argv, status, out, err, tb, [f"export {target} {options} {rule}: {err.strip()[:300]}"], []
+            sources.append(work / name / f"{name}.c")
+            if target == "fixed":
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
+                             f'{name}_correct_bam32(c << {32 - bits}u) * (360.0 / 4294967296.0));')
+            else:
+                real = "double" if target == "host" else "float"
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), (double){name}_correct_counts(c));')
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range(({real})c * ({real}){step!r}), '
+                             f'(double){name}_correct_deg((float)c * (float){step!r}));')
+    includes = "".join(f'#include "{source.stem}.h"\n' for source in sources)
+    table = ", ".join(f"{c}u" for c in codes)
+    (work / "main.c").write_text(
+        f"#include <stdio.h>\n#include <stdint.h>\n{includes}static const uint32_t codes[] = {{{table}}};\n"
+        f"int main(void) {{ for (unsigned k = 0; k < {codes.size}u; ++k) {{ const uint32_t c = codes[k]; "
+        f"{' '.join(calls)} }} return 0; }}\n")
+    binary = work / "main"
+    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", *(f"-I{s.parent}" for s in sources), str(work / "main.c"),
+                    *map(str, sources), "-lm", "-o", str(binary)], check=True)
+    rows = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split("\n")
+    rows = np.array([row.split() for row in rows if row]).reshape(codes.size, len(calls), 3)
+    for k, call in enumerate(calls):
+        rule = rows[0, k, 0]
+        wrong = np.flatnonzero(rows[:, k, 1].astype(int) != flags)
+        if wrong.size:
+            findings.append(f"{call[:60]}: in_range wrong at codes {codes[wrong][:5]}")
+        gap = np.abs((rows[:, k, 2].astype(float) - expected[rule] + 180.0) % 360.0 - 180.0)
+        if gap.max() >= 1e-4:
+            findings.append(f"{call[:60]}: {gap.max() * 60:.3g} arcmin off encal correct at code {codes[np.argmax(gap)]}")
+    return argv, 0, "", "", None, findings, []
+
+
+SURFACES = {"cexport": cexport_case, "iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
