@@ -478,7 +478,65 @@ def cexport_case(rng, folder):
     return argv, 0, "", "", None, findings, []
 
 
-SURFACES = {"cexport": cexport_case, "iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
+CELL_TOKENS = ["1_0", "\uff11", "\u0661\u0662", "0x1p3", "\u22125", "\u00a01", "1\u00a0", "Infinity", "1e400",
+               "-1e400", "nan", "+-1", "1..0", "1e", "\u200b1", "\ufeff1", "1\x00", "\u00bd", "\U0001d7cf", "1,5",
+               "1 0", "--1", "1e+0", "1.", ".5", "+1", " 1 ", "-0", "10", "\t1"]
+DIRECTION_TOKENS = ["+1", "1.0", "-1.0", "\uff11", "\u22121", "CW", "Ccw", "cw ", "fwd", "0", "2", "1_0", "+ 1", "\u00a01",
+                    "-1e0", "1e0", "01", "-01", "--1"]
+PLAIN = {"1e+0", "1.", ".5", "+1", " 1 ", "-0", "10", "\t1", "1e400", "-1e400"}
+
+
+def _pick(rng, items):
+    """One of ``items`` as it is (``rng.choice`` makes a NumPy string, which drops a trailing NUL)."""
+    return items[int(rng.integers(0, len(items)))]
+
+
+def cells_case(rng, folder):
+    """One cell of a bidirectional calibration, or of ``encal correct``'s input, replaced by an odd token: accepted
+    only when it is a plain decimal (or a direction encal names), and then read as Python's float of it."""
+    text = bidirectional_text(rng, 10.0, 1e-3, 2, 0.5, 0.0, False, 0, ",", False)
+    lines = text.splitlines()
+    row = int(rng.integers(1, len(lines)))
+    cells = lines[row].split(",")
+    column = int(rng.integers(0, 3))
+    token = _pick(rng, DIRECTION_TOKENS if column == 2 else CELL_TOKENS)
+    cells[column] = token
+    lines[row] = ",".join(cells)
+    findings = []
+    if rng.random() < 0.6:
+        calibration = folder / "cells.csv"
+        calibration.write_text("\n".join(lines) + "\n")
+        model = folder / "cells.json"
+        if model.exists():
+            model.unlink()
+        argv = ["fit", str(calibration), "-o", str(model), "--method", "lut", "--target-tolerance", "0.01"]
+        status, out, err, tb = run(argv)
+        outputs = [model]
+    else:
+        model = arc_models(folder)["arcbi"][0]
+        readings = folder / "cells.txt"
+        body = ["encoder_deg,direction"] + [f"{30 + k},{1 if k % 2 else -1}" for k in range(6)]
+        target = int(rng.integers(1, 7))
+        parts = body[target].split(",")
+        column = int(rng.integers(0, 2)) * 2  # 0 the angle, 2 the direction (as in the calibration's numbering)
+        token = _pick(rng, DIRECTION_TOKENS if column == 2 else CELL_TOKENS + ["2", "0", "01"])
+        parts[column // 2] = token
+        body[target] = ",".join(parts)
+        readings.write_text("\n".join(body) + "\n")
+        argv = ["correct", "--exact", str(model), str(readings), "--outside", "pass"]
+        status, out, err, tb = run(argv)
+        outputs = []
+    if status == 0:
+        plain_direction = token.strip(" \t").lower() in {"+1", "1", "-1", "cw", "ccw", "1.0", "-1.0", "1e0", "-1e0"}
+        plain_angle = token in PLAIN or (argv[0] == "correct" and token in {"2", "0", "01", "1"})
+        if not ((column != 2 and plain_angle) or (column == 2 and plain_direction)):
+            findings.append(f"accepted the cell {token!r} (column {column + 1})")
+    if status == 1 and argv[0] == "fit" and token not in PLAIN and not ("line" in err and str(row + 1) in err):
+        findings.append(f"a refusal of {token!r} not naming line {row + 1}: {err.strip()[:200]}")
+    return argv, status, out, err, tb, findings, outputs
+
+
+SURFACES = {"cells": cells_case, "cexport": cexport_case, "iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
