@@ -536,7 +536,81 @@ def cells_case(rng, folder):
     return argv, status, out, err, tb, findings, outputs
 
 
-SURFACES = {"cells": cells_case, "cexport": cexport_case, "iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
+def range_values(rng):
+    a = float(rng.uniform(0, 360))
+    ulp = math.ulp(360.0)
+    choices = [[a, float(rng.uniform(0, 360))], [a, a + 1e-9], [a, a + ulp], [359.9999999, 0.0], [0.0, 359.99999999],
+               [a, max(a - 1e-9, 0.0)], [-0.0, 10.0], [10, 200], [1e-320, 5.0], [10.0, 20.0, 30.0], ["10", 20.0],
+               [10.0, 360.0], None, [360.0 - ulp, 0.0], [5.0, 5.0], [True, 20.0], [], {"start": 1}, [a, a]]
+    return choices[int(rng.integers(0, len(choices)))]
+
+
+def modelfile_case(rng, folder):
+    """An arc model file re-signed with a mutated ``range_deg``: the runtime, the library and ``encal correct``
+    agree on whether it loads and on every corrected angle; ``encal export --format c`` refuses in one line or
+    writes."""
+    from encal import runtime
+    from encal._core.errors import EncalError
+    from encal.deploy import load_model
+
+    name = _pick(rng, ["arc", "arcbi", "arcrev"])
+    document = json.loads(arc_models(folder)[name][0].read_text())
+    document["range_deg"] = range_values(rng)
+    document["sha256"] = runtime.content_sha256(document)
+    path = folder / "mutated.json"
+    path.write_text(json.dumps(document))
+    argv = [f"modelfile {name} range_deg={document['range_deg']!r}"]
+    findings = []
+    try:
+        model = runtime.load(str(path))
+    except ValueError as exc:
+        model, runtime_error = None, str(exc)
+    try:
+        load_model(path)
+        library = True
+    except EncalError:
+        library = False
+    if library != (model is not None):
+        findings.append(f"the library {'loads' if library else 'refuses'} it, the runtime "
+                        f"{'loads' if model is not None else 'refuses'} it")
+    readings = [float(rng.uniform(-10, 370)) for _ in range(5)]
+    if model is not None and model.range_deg is not None:
+        readings += [model.range_deg[0], model.range_deg[1], model.range_deg[0] - 1e-9, model.range_deg[1] + 1e-9]
+    source = folder / "readings.txt"
+    source.write_text("".join(f"{theta!r}\n" for theta in readings))
+    rule = _pick(rng, ["clamp", "pass"])
+    status, out, err, tb = run(["correct", "--exact", str(path), str(source), "--outside", rule])
+    if tb is not None:
+        return argv, status, out, err, tb, findings, []
+    if model is None:
+        if status != 1 or len(err.strip().splitlines()) != 1:
+            findings.append(f"correct of a file the runtime refuses: status {status}, {err.strip()[:200]!r}")
+    elif status != 0:
+        findings.append(f"correct refuses a file the runtime loads: {err.strip()[:200]}")
+    else:
+        for theta, answer in zip(readings, out.split()):
+            truth = model.correct_deg(theta, None, outside=rule)
+            value = float(answer)
+            if not (math.isnan(truth) and math.isnan(value)) and not abs((value - truth + 180) % 360 - 180) < 2e-13:
+                findings.append(f"reading {theta!r} ({rule}): correct {answer}, runtime {truth!r}")
+    out_dir = folder / "cout"
+    if out_dir.exists():
+        import shutil
+        shutil.rmtree(out_dir)
+    e_status, e_out, e_err, e_tb = run(["export", str(path), "--format", "c", "--outside", rule, "--bits", "12",
+                                        "--table", "-o", str(out_dir)])
+    if e_tb is not None:
+        findings.append("export: traceback " + e_tb.strip().splitlines()[-1])
+    elif e_status not in (0, 1, 2) or (e_status == 1 and len(e_err.strip().splitlines()) != 1):
+        findings.append(f"export: status {e_status}, {e_err.strip()[:200]!r}")
+    elif e_status != 0 and out_dir.exists() and any(out_dir.iterdir()):
+        findings.append("export: files left after a refusal")
+    elif e_status == 0 and model is None:
+        findings.append("export wrote a file the runtime refuses")
+    return argv, status, out, err, tb, findings, []
+
+
+SURFACES = {"modelfile": modelfile_case, "cells": cells_case, "cexport": cexport_case, "iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
