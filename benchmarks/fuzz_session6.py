@@ -13,7 +13,6 @@ import contextlib
 import io
 import json
 import math
-import os
 import sys
 import tempfile
 import traceback
@@ -95,7 +94,6 @@ def tolerance_case(rng, folder):
         argv += ["--bidirectional", "mean"]
     status, out, err, tb = run(argv)
     findings = []
-    truth = None
     try:
         tol = float(tol_text)
     except ValueError:
@@ -157,7 +155,8 @@ def report_case(rng, folder):
         else:  # whatever targets matched (by chance under the scatter too), each one's reversal is the truth
             value, mean = float(found.group(1)), float(found.group(2))
             if abs(value - abs(reversal_arcmin)) > 1e-3 or abs(mean - reversal_arcmin) > 1e-3:
-                findings.append(f"page: reversal {value} / mean {mean}, truth {abs(reversal_arcmin)} / {reversal_arcmin}"
+                findings.append(f"page: reversal {value} / mean {mean}, truth {abs(reversal_arcmin)} / "
+                                f"{reversal_arcmin}"
                                 f" (tolerance {tol}, spacing {spacing}, jitter {jitter})")
     return argv, status, out, err, tb, findings, [page]
 
@@ -225,7 +224,8 @@ def arc_models(folder):
     return _ARC_MODELS
 
 
-ANGLE_FORMS = [lambda t: repr(t), lambda t: f"{t:.12f}", lambda t: f" {t!r} ", lambda t: f"+{t!r}" if math.copysign(1.0, t) > 0 else repr(t),
+ANGLE_FORMS = [lambda t: repr(t), lambda t: f"{t:.12f}", lambda t: f" {t!r} ",
+               lambda t: f"+{t!r}" if math.copysign(1.0, t) > 0 else repr(t),
                lambda t: f"{t:e}", lambda t: f"{t!r}\t"]
 DIRECTION_FORMS = {1: ["1", "+1", "cw", " 1", "1 "], -1: ["-1", "ccw", " -1"]}
 
@@ -453,7 +453,8 @@ def cexport_case(rng, folder):
                              f'{name}_correct_bam32(c << {32 - bits}u) * (360.0 / 4294967296.0));')
             else:
                 real = "double" if target == "host" else "float"
-                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), (double){name}_correct_counts(c));')
+                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
+                             f'(double){name}_correct_counts(c));')
                 calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range(({real})c * ({real}){step!r}), '
                              f'(double){name}_correct_deg((float)c * (float){step!r}));')
     includes = "".join(f'#include "{source.stem}.h"\n' for source in sources)
@@ -474,14 +475,16 @@ def cexport_case(rng, folder):
             findings.append(f"{call[:60]}: in_range wrong at codes {codes[wrong][:5]}")
         gap = np.abs((rows[:, k, 2].astype(float) - expected[rule] + 180.0) % 360.0 - 180.0)
         if gap.max() >= 1e-4:
-            findings.append(f"{call[:60]}: {gap.max() * 60:.3g} arcmin off encal correct at code {codes[np.argmax(gap)]}")
+            findings.append(f"{call[:60]}: {gap.max() * 60:.3g} arcmin off encal correct at code "
+                            f"{codes[np.argmax(gap)]}")
     return argv, 0, "", "", None, findings, []
 
 
 CELL_TOKENS = ["1_0", "\uff11", "\u0661\u0662", "0x1p3", "\u22125", "\u00a01", "1\u00a0", "Infinity", "1e400",
                "-1e400", "nan", "+-1", "1..0", "1e", "\u200b1", "\ufeff1", "1\x00", "\u00bd", "\U0001d7cf", "1,5",
                "1 0", "--1", "1e+0", "1.", ".5", "+1", " 1 ", "-0", "10", "\t1"]
-DIRECTION_TOKENS = ["+1", "1.0", "-1.0", "\uff11", "\u22121", "CW", "Ccw", "cw ", "fwd", "0", "2", "1_0", "+ 1", "\u00a01",
+DIRECTION_TOKENS = ["+1", "1.0", "-1.0", "\uff11", "\u22121", "CW", "Ccw", "cw ", "fwd", "0", "2", "1_0", "+ 1",
+                    "\u00a01",
                     "-1e0", "1e0", "01", "-01", "--1"]
 PLAIN = {"1e+0", "1.", ".5", "+1", " 1 ", "-0", "10", "\t1", "1e400", "-1e400"}
 
@@ -563,8 +566,8 @@ def modelfile_case(rng, folder):
     findings = []
     try:
         model = runtime.load(str(path))
-    except ValueError as exc:
-        model, runtime_error = None, str(exc)
+    except ValueError:
+        model = None
     try:
         load_model(path)
         library = True
@@ -610,7 +613,8 @@ def modelfile_case(rng, folder):
     return argv, status, out, err, tb, findings, []
 
 
-SURFACES = {"modelfile": modelfile_case, "cells": cells_case, "cexport": cexport_case, "iso": iso_case, "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
+SURFACES = {"modelfile": modelfile_case, "cells": cells_case, "cexport": cexport_case, "iso": iso_case,
+            "tol": tolerance_case, "report": report_case, "correct": correct_case, "store": store_case}
 
 
 def check(argv, status, out, err, tb, findings, outputs):
