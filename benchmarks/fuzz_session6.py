@@ -50,8 +50,12 @@ TOLERANCE_TEXTS = ["0", "-1", "nan", "inf", "1e-300", "10", "10.0000001", "1_0",
                    "1e-6", "5", "+0.01", "-0", "1e308", "", "0.01,", "1e-3"]
 
 
-def bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, shuffle, wrap_turns, sep, crlf):
-    """A bidirectional run read afresh, the true reversal ``reversal_arcmin`` at every target."""
+UNIT_SCALES = {"deg": 1.0, "rad": math.pi / 180.0, "rev": 1.0 / 360.0}
+
+
+def bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, shuffle, wrap_turns, sep, crlf,
+                       unit="deg"):
+    """A bidirectional run read afresh, the true reversal ``reversal_arcmin`` at every target (angles in ``unit``)."""
     targets = start + np.arange(0.0, 360.0, spacing)
     rows = []
     for _ in range(repeats):
@@ -64,7 +68,8 @@ def bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, sh
         rows = [rows[i] for i in rng.permutation(len(rows))]
     end = "\r\n" if crlf else "\n"
     text = sep.join(["reference_deg", "encoder_deg", "direction"]) + end
-    text += "".join(sep.join([f"{r:.9f}", f"{e:.9f}", str(d)]) + end for r, e, d in rows)
+    scale = UNIT_SCALES[unit]
+    text += "".join(sep.join([repr(float(r * scale)), repr(float(e * scale)), str(d)]) + end for r, e, d in rows)
     return text
 
 
@@ -74,8 +79,10 @@ def tolerance_case(rng, folder):
     repeats = int(rng.choice([1, 2, 3, 5]))
     reversal_arcmin = float(rng.choice([0.0, 0.5, -0.5, 3.0]))
     start = float(rng.choice([0.0, 0.0005, -0.0005, 359.9995 - 360.0, 2.5, spacing / 2]))
+    unit = _pick(rng, ["deg", "deg", "rad", "rev"])
     text = bidirectional_text(rng, spacing, jitter, repeats, reversal_arcmin, start, bool(rng.random() < 0.3),
-                              int(rng.choice([0, 0, 1, -1])), str(rng.choice([",", ";", "\t"])), rng.random() < 0.2)
+                              int(rng.choice([0, 0, 1, -1])), str(rng.choice([",", ";", "\t"])), rng.random() < 0.2,
+                              unit=unit)
     calibration = folder / "bi.csv"
     calibration.write_text(text)
     model = folder / "m.json"
@@ -88,6 +95,8 @@ def tolerance_case(rng, folder):
     argv = ["fit", str(calibration), "-o", str(model), "--method", str(rng.choice(["lut", "spectral", "auto"]))]
     if rng.random() < 0.9:
         argv += [f"--target-tolerance={tol_text}"]
+    if unit != "deg":
+        argv += ["--unit", unit]
     if rng.random() < 0.1:
         argv += ["--reverse"]
     if rng.random() < 0.1:
