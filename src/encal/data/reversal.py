@@ -270,13 +270,12 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
         With ``where``: when one target's angles span more than ``tolerance_deg``.
     """
     angle = wrap360(np.asarray(reference_deg, dtype=float))
-    if angle.size >= 2:
+    if angle.size >= 2 and angle.min() + 360.0 - angle.max() <= tolerance_deg:
         # A target that straddles 0/360 is one group: the circle is cut at its widest gap between neighbours (a
         # fixed cut at 360 - tolerance split a target there, such as 355 deg under a tolerance of 5).
         ordered = np.sort(angle)
-        if ordered[0] + 360.0 - ordered[-1] <= tolerance_deg:
-            widest = int(np.argmax(np.diff(ordered)))
-            angle = np.where(angle > ordered[widest], angle - 360.0, angle)
+        widest = int(np.argmax(np.diff(ordered)))
+        angle = np.where(angle > ordered[widest], angle - 360.0, angle)
     order = np.argsort(angle, kind="stable")
     ordered = angle[order]
     starts = np.r_[True, np.diff(ordered) > tolerance_deg]
