@@ -231,6 +231,14 @@ def test_bad_direction(write_csv):
     assert "line 2, column 3" in message
 
 
+@pytest.mark.parametrize("cell", ["\u00a0-1", "cw\u3000", "\u2003ccw"])
+def test_a_direction_cell_with_a_blank_other_than_a_space_or_tab_is_refused(write_csv, cell):
+    # fuzz6: str.strip() took any Unicode blank for one, where a number's cell allows ASCII spaces and tabs only
+    rows = [f"{r},{r},{cell if r == 30 else ' +1'}\n" for r in range(0, 360, 10)]
+    message = _refused(write_csv("reference_deg,encoder_deg,direction\n" + "".join(rows)), "direction is")
+    assert "line 5, column 3" in message
+
+
 def test_resolution_comment(write_csv):
     cal = read_calibration(write_csv("# resolution_bits: 14\n" + grid_csv()))
     assert cal.resolution_bits == 14

@@ -94,6 +94,24 @@ def afresh_run(scatter_deg=0.002, seed=7):
                             target_tolerance_deg=0.01)
 
 
+@pytest.mark.parametrize("first_target, spacing, tolerance", [(5.0, 10.0, 5.0), (-0.01, 10.0, 0.01), (0.25, 0.5, 0.25)])
+def test_a_target_at_360_less_the_tolerance_is_one_target(first_target, spacing, tolerance):
+    # fuzz6: angles from 360 - tolerance on were taken as below 0, so the approaches to a target there (355 deg under
+    # a tolerance of 5, a reference read afresh within 1e-3 deg) were split in two: 37 targets of 36, one approached
+    # once each way, and R and A left out
+    rng = np.random.default_rng(1)
+    target = np.tile(np.arange(first_target, first_target + 360.0, spacing), 4)
+    direction = np.repeat([1, -1, 1, -1], target.size // 4)
+    reference = target + rng.uniform(-1e-3, 1e-3, target.size)
+    cal = Calibration(reference, reference + (np.sin(np.radians(target)) + 0.25 * direction) / 60.0,
+                      direction=direction, target_tolerance_deg=tolerance)
+    analysis = reversal(cal)
+    assert analysis.target_deg.size == round(360.0 / spacing) and analysis.n_unmatched == 0
+    assert analysis.min_approaches == 2 and analysis.repeatability is not None
+    assert_allclose(analysis.reversal_arcmin, 0.5, atol=1e-9)
+    assert_allclose((analysis.target_deg - first_target + spacing / 2) % spacing - spacing / 2, 0.0, atol=1e-3)
+
+
 def test_a_target_tolerance_matches_a_reference_read_afresh_as_the_set_targets():
     exact, afresh = afresh_run()
     expected, analysis = reversal(exact).as_dict(), reversal(afresh).as_dict()

@@ -121,6 +121,16 @@ def test_a_direction_column_corrects_each_reading_with_its_own_direction(cells):
     assert off == pytest.approx(HYSTERESIS / 2.0, abs=3e-3)
 
 
+@pytest.mark.parametrize("cell", ["\u00a01", "-1\u00a0", "\u3000cw"])
+def test_a_direction_cell_with_a_blank_other_than_a_space_or_tab_is_a_malformed_line(cell):
+    # fuzz6: taken as the direction, where an angle's cell with the same blank is refused
+    model, *_ = _bidirectional_truth()
+    data = f"encoder_deg,direction\n10.0, -1\n11.0,{cell}\n".encode()
+    sink = io.BytesIO()
+    correct_stream(Compensator(model), io.BytesIO(data), sink, skip_bad=True)
+    assert sink.getvalue().split()[1] == b"nan"
+
+
 def test_a_direction_column_and_a_direction_option_are_refused_and_a_bad_direction_is_named():
     from encal._core.errors import InputError
 

@@ -9,6 +9,7 @@ import pytest
 from encal.cli import main
 from encal.fleet import batch
 from encal.fleet.batch import serial_of
+from encal._core.errors import InputError
 from encal.store import open_store
 
 POINTS = 180
@@ -68,6 +69,16 @@ def test_serial_numbers_are_stripped_and_composed_but_case_and_zeros_kept(tmp_pa
     assert serial_of(tmp_path / (unicodedata.normalize("NFD", "SNÅ1") + ".csv")) == unicodedata.normalize("NFC",
                                                                                                           "SNÅ1")
     assert [serial_of(tmp_path / f"{name}.csv") for name in ("sn1", "SN01", "SN1")] == ["sn1", "SN01", "SN1"]
+
+
+@pytest.mark.parametrize("pattern, says", [("(SN)?", "its first group takes no part in the match"),
+                                           ("", "the text it finds is empty"), ("()", "the text it finds is empty")])
+def test_a_serial_pattern_that_finds_no_text_says_so(tmp_path, pattern, says):
+    # fuzz6: the message named a serial number None (an optional group that took no part) or ''
+    with pytest.raises(InputError, match=rf"^{tmp_path}/unit-7\.csv: --serial-pattern .* matches its name 'unit-7', "
+                                         rf"but {says}; expected a pattern that finds the serial number"):
+        serial_of(tmp_path / "unit-7.csv", pattern)
+    assert serial_of(tmp_path / "SN7.csv", "(SN)?") == "SN"
 
 
 def test_a_unit_recalibrated_from_a_mac_is_one_unit_its_newest_model_found(tmp_path, capsys):

@@ -149,6 +149,31 @@ def test_fit_keeps_the_reversal_of_a_direction_column_out_of_the_residual():
     assert model.training["mean_reversal_value_arcmin"] == pytest.approx(REVERSAL_ARCMIN, abs=1e-12)
 
 
+def _afresh(tolerance_deg, jitter_deg=1e-3, spacing_deg=10.0):
+    """A bidirectional run whose reference is read afresh at every approach (within ``jitter_deg`` of the target),
+    a reversal of REVERSAL_ARCMIN at every target, with a target tolerance."""
+    rng = np.random.default_rng(0)
+    target = np.tile(np.arange(0.0, 360.0, spacing_deg), 2)
+    direction = np.repeat([1, -1], target.size // 2)
+    ref = target + rng.uniform(-jitter_deg, jitter_deg, target.size)
+    error = np.sin(np.radians(target)) + direction * REVERSAL_ARCMIN / 2
+    return encal.Calibration(ref, ref + error / 60.0, direction=direction, target_tolerance_deg=tolerance_deg)
+
+
+def test_a_target_tolerance_that_joins_or_matches_no_target_is_refused_in_the_per_direction_fit_too():
+    # fuzz6: the default per-direction fit swallowed the refusal, recorded the tolerance and no reversal, exit 0
+    model = encal.fit(_afresh(0.01), method="fourier", orders=[0, 1])
+    assert model.training["reversal_value_arcmin"] == pytest.approx(REVERSAL_ARCMIN, abs=1e-4)
+    with pytest.raises(encal.CalibrationError, match="span .* as one target"):
+        encal.fit(_afresh(10.0), method="fourier", orders=[0, 1])      # every target joined
+    with pytest.raises(encal.CalibrationError, match="no reference angle was approached in both directions within"):
+        encal.fit(_afresh(1e-6), method="fourier", orders=[0, 1])      # below the reference's scatter
+    # without a tolerance the reversal is left out, as before
+    afresh = _afresh(0.01)
+    untoleranced = encal.Calibration(afresh.reference_deg, afresh.encoder_deg, direction=afresh.direction)
+    assert encal.fit(untoleranced, method="fourier", orders=[0, 1]).training["reversal_value_arcmin"] is None
+
+
 def test_fit_of_the_mean_of_both_directions_on_request():
     model = encal.fit(_bidirectional(), method="fourier", orders=[0, 1], bidirectional="mean")
     assert model.kind == "fourier" and model.training["bidirectional"] == "mean"

@@ -180,6 +180,7 @@ def _make_files(folder):
     _make_fuzz5_files(folder, paths)
     _make_strict6_files(folder, paths)
     _make_store6_files(paths)
+    _make_fuzz6_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1435,6 +1436,41 @@ STORE6_CASES = [
          ("store6_newer.sqlite", "written by a newer encal (layout 99", "upgrade encal")),
 ]
 CASES += STORE6_CASES
+
+
+# ---------------------------------------------------------------- fuzz6: this session's surfaces, mutated
+def _make_fuzz6_files(folder, paths):
+    """A bidirectional run whose reference is read afresh (within 1e-3 deg of targets 10 deg apart; a reversal of
+    0.5 arcmin), and the same with a NO-BREAK SPACE before one direction."""
+    rng = np.random.default_rng(6)
+    target = np.tile(np.arange(0.0, 360.0, 10.0), 2)
+    direction = np.repeat([1, -1], 36)
+    ref = target + rng.uniform(-1e-3, 1e-3, target.size)
+    encoder = ref + (np.sin(np.radians(target)) + 0.25 * direction) / 60.0
+    rows = [f"{r:.9f},{e:.9f},{d:+d}" for r, e, d in zip(ref, encoder, direction)]
+    paths["fuzz6_afresh"] = folder / "fuzz6_afresh.csv"
+    paths["fuzz6_afresh"].write_text("reference_deg,encoder_deg,direction\n" + "\n".join(rows) + "\n",
+                                     encoding="utf-8")
+    rows[3] = rows[3].rsplit(",", 1)[0] + ",\u00a0+1"
+    paths["fuzz6_nbsp_direction"] = folder / "fuzz6_nbsp_direction.csv"
+    paths["fuzz6_nbsp_direction"].write_text("reference_deg,encoder_deg,direction\n" + "\n".join(rows) + "\n",
+                                             encoding="utf-8")
+
+
+FUZZ6_CASES = [
+    # the per-direction fit (the default) swallowed these, recording the tolerance and no reversal, exit 0
+    Case("fuzz6-fit-target-tolerance-joins-targets", ("fit", "{fuzz6_afresh}", "-o", "{out}/m.json",
+                                                      "--target-tolerance", "10"), 1,
+         ("fuzz6_afresh.csv", "within the target tolerance 10 deg", "as one target")),
+    Case("fuzz6-fit-target-tolerance-matches-nothing", ("fit", "{fuzz6_afresh}", "-o", "{out}/m.json",
+                                                        "--target-tolerance", "1e-6"), 1,
+         ("fuzz6_afresh.csv", "no reference angle was approached in both directions within 1e-06 deg")),
+    Case("fuzz6-fit-target-tolerance-accepted", ("fit", "{fuzz6_afresh}", "-o", "{scratch}/fuzz6.json",
+                                                 "--target-tolerance", "0.01", "--method", "lut"), 0),
+    Case("fuzz6-fit-nbsp-before-a-direction", ("fit", "{fuzz6_nbsp_direction}", "-o", "{out}/m.json"), 1,
+         ("fuzz6_nbsp_direction.csv", "line 5, column 3", "direction is")),
+]
+CASES += FUZZ6_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -46,10 +46,27 @@ def model_or_serial(args, parser):
     from ..store import open_store
     from ..store._store import is_url
 
-    if not is_url(args.store) and not Path(args.store).is_file():
-        raise InputError(f"--store {args.store}: no such file; expected a store written by 'encal fleet fit'")
+    if not is_url(args.store):
+        problem = stored_file_problem(Path(args.store))
+        if problem:
+            raise InputError(f"--store {args.store}: {problem}; expected a store written by 'encal fleet fit'")
     with open_store(args.store) as store:
         record = store.latest_model(args.serial)
         model = record.model()
         args.model = f"{record.serial} epoch {record.epoch} in {store.location}"
     return model
+
+
+def stored_file_problem(path):
+    """Why ``path`` cannot be a store to read (a folder, no file, an empty file), or None.
+
+    An empty file is an empty SQLite database to SQLite: opening it would write a store's tables into it, a command
+    that only reads changing its input (fuzz6).
+    """
+    if path.is_dir():
+        return "a folder"
+    if not path.is_file():
+        return "no such file"
+    if path.stat().st_size == 0:
+        return "an empty file"
+    return None

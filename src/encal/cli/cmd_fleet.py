@@ -91,8 +91,12 @@ def _check_store(location, *, must_exist=False, option="--store"):
 
     if is_url(location):
         return
-    if must_exist and not Path(location).exists():
-        raise InputError(f"{option} {location}: no such file; expected a store written by 'encal fleet fit'")
+    if must_exist:
+        from ._serial import stored_file_problem
+
+        problem = stored_file_problem(Path(location))
+        if problem and problem != "a folder":  # a folder: check_paths says so, as for the store fit writes
+            raise InputError(f"{option} {location}: {problem}; expected a store written by 'encal fleet fit'")
     check_paths(outputs=[(option, location)])
 
 

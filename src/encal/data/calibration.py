@@ -550,7 +550,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                             marks[mark] = (number, column + 1, cells[column])
                 _check_decimal_marks(path, marks[","], marks["."])
             if dir_col is not None:
-                cell = cells[dir_col].strip().lower()
+                cell = cells[dir_col].strip(" \t").lower()  # ASCII blanks only, as around a number
                 if cell not in _csv.DIRECTIONS:
                     _fail(path, number, f"direction is {cells[dir_col].strip()!r}, expected +1, -1, cw or ccw",
                           dir_col + 1)

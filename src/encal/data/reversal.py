@@ -243,8 +243,9 @@ def direction_subset(cal, direction):
 def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where=None):
     """The target position of every reading: reference angles within ``tolerance_deg`` of a neighbour are one target.
 
-    Sorted reference angles (wrapped to [0, 360), 360 − tolerance and above taken as just below 0) split where two
-    neighbours are more than ``tolerance_deg`` apart; each group's target is its median angle (the angle itself when
+    Sorted reference angles (wrapped to [0, 360); when the angles on both sides of 0 are within the tolerance, the
+    circle cut at the widest gap between neighbours instead) split where two neighbours are more than
+    ``tolerance_deg`` apart; each group's target is its median angle (the angle itself when
     it was written the same way every time). Rounding to a grid instead would split two readings 1e-9 degree apart
     on either side of a grid line.
 
@@ -269,7 +270,12 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
         With ``where``: when one target's angles span more than ``tolerance_deg``.
     """
     angle = wrap360(np.asarray(reference_deg, dtype=float))
-    angle = np.where(angle >= 360.0 - tolerance_deg, angle - 360.0, angle)
+    if angle.size >= 2 and angle.min() + 360.0 - angle.max() <= tolerance_deg:
+        # A target that straddles 0/360 is one group: the circle is cut at its widest gap between neighbours (a
+        # fixed cut at 360 - tolerance split a target there, such as 355 deg under a tolerance of 5).
+        ordered = np.sort(angle)
+        widest = int(np.argmax(np.diff(ordered)))
+        angle = np.where(angle > ordered[widest], angle - 360.0, angle)
     order = np.argsort(angle, kind="stable")
     ordered = angle[order]
     starts = np.r_[True, np.diff(ordered) > tolerance_deg]

@@ -306,7 +306,7 @@ class _LineParser:
                                     + (" (a decimal comma?)" if len(cells) > self.n_fields else ""))
             field = cells[self.column]
             if self.direction_column is not None:
-                cell = cells[self.direction_column].strip()
+                cell = cells[self.direction_column].strip(" \t")  # ASCII blanks only, as around a number
                 direction = _csv.DIRECTIONS.get(cell.lower())
                 if direction is None:
                     return None, None, _DIRECTION_PROBLEM

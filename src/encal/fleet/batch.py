@@ -86,6 +86,12 @@ def serial_of(path, pattern=None):
                              "pattern that finds the serial number in every file name (its first group, or the whole "
                              "match)")
         found = match.group(1) if match.groups() else match.group(0)
+        if found is None or found == "":
+            # an optional first group that took no part, or a pattern matching the empty text: no serial number
+            what = "its first group takes no part in the match" if found is None else "the text it finds is empty"
+            raise InputError(f"{path}: --serial-pattern {pattern} matches its name {stem!r}, but {what}; expected a "
+                             "pattern that finds the serial number in every file name (its first group, or the whole "
+                             "match)")
     try:
         # the store's form (stripped, NFC): files of one unit are one task, fitted in order, whatever their spelling
         return check_serial(found or "")

@@ -241,16 +241,17 @@ def fit_bidirectional(cal, mode="per-direction", method="auto", *, rng=None, unc
     Model
         ``training`` records ``bidirectional`` (the mode), ``fit_options`` and the calibration's
         ``mean_reversal_value_arcmin`` and ``reversal_value_arcmin`` (None in ``'per-direction'`` mode
-        when no target position was approached both ways), and the calibration's ``target_tolerance_deg`` when it
-        has one.
+        when no target position was approached both ways and the calibration has no ``target_tolerance_deg``), and
+        the calibration's ``target_tolerance_deg`` when it has one.
 
     Raises
     ------
     InputError
         If ``mode`` is unknown.
     CalibrationError
-        If the calibration has fewer than 8 points in a direction, or (``mode='mean'``) no target position
-        approached in both directions (see :func:`~encal.data.reversal.reversal`).
+        If the calibration has fewer than 8 points in a direction, or (``mode='mean'``, or any mode for a
+        calibration with a ``target_tolerance_deg``) no target position approached in both directions or a
+        tolerance that joins targets (see :func:`~encal.data.reversal.reversal`).
 
     Examples
     --------
@@ -316,7 +317,14 @@ def _check_options(method, fit_family, options):
 
 
 def _reversal_or_none(cal):
-    """The reversal analysis, or None when no target position was approached in both directions."""
+    """The reversal analysis, or None when no target position was approached in both directions.
+
+    A calibration given a ``target_tolerance_deg`` asked for its targets: a tolerance that joins neighbouring
+    targets, or matches no target both ways, is refused there as in ``'mean'`` mode and ``encal report`` (it was
+    swallowed, the model file recording the tolerance and no reversal, exit 0).
+    """
+    if cal.target_tolerance_deg is not None:
+        return reversal(cal)
     try:
         return reversal(cal)
     except CalibrationError:
