@@ -416,11 +416,9 @@ def cexport_case(rng, folder):
     every target under clamp and pass: the range test and the corrected angle at the codes near the ends against
     ``encal correct`` (the harness of tests/models/test_arc.py, on random arcs)."""
     import shutil
-    import subprocess
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from encal._core.arcs import inside
-    from tests.models.test_arc import arc_on_codes, codes_near_the_ends
+    from tests.models.test_arc import arc_on_codes, codes_near_the_ends, exports_at_codes
 
     bits = int(rng.choice([8, 10, 12, 14]))
     codes_n = 1 << bits
@@ -439,44 +437,22 @@ def cexport_case(rng, folder):
         return argv, 1, "", str(exc), None, [], []
     path = model.save(work / "arc.json")
     codes = codes_near_the_ends(model, bits)
-    step = 360.0 / codes_n
-    (work / "readings.txt").write_text("".join(f"{float(c * step)!r}\n" for c in codes))
-    flags = inside(np.mod(reading_sign * codes * step, 360.0), model.range_deg).astype(int)
-    sources, calls, expected, findings = [], [], {}, []
-    for rule in ("clamp", "pass"):
-        status, out, err, tb = run(["correct", str(path), str(work / "readings.txt"), "--outside", rule, "--exact"])
-        if status != 0:
-            return argv, status, out, err, tb, [f"correct --outside {rule}: {err.strip()[:200]}"], []
-        expected[rule] = np.array(out.split(), dtype=float)
-        for target, options in (("host", []), ("host", ["--table", "--dtype", "float32"]),
-                                ("cortex-m4f", ["--dtype", "float32"]), ("fixed", ["--dtype", "int16"])):
-            name = f"{target.replace('-', '')}{'_table' if '--table' in options else ''}_{rule}"
-            nodes = [] if target == "host" else ["--nodes", str(codes_n), "--interpolation", "linear"]
-            status, out, err, tb = run(["export", str(path), "--format", "c", "--target", target, "--bits", str(bits),
-                                        "--outside", rule, "--name", name, "-o", str(work / name), *nodes, *options])
-            if status != 0 or tb is not None:
-                return argv, status, out, err, tb, [f"export {target} {options} {rule}: {err.strip()[:300]}"], []
-            sources.append(work / name / f"{name}.c")
-            if target == "fixed":
-                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
-                             f'{name}_correct_bam32(c << {32 - bits}u) * (360.0 / 4294967296.0));')
-            else:
-                real = "double" if target == "host" else "float"
-                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
-                             f'(double){name}_correct_counts(c));')
-                calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range(({real})c * ({real}){step!r}), '
-                             f'(double){name}_correct_deg((float)c * (float){step!r}));')
-    includes = "".join(f'#include "{source.stem}.h"\n' for source in sources)
-    table = ", ".join(f"{c}u" for c in codes)
-    (work / "main.c").write_text(
-        f"#include <stdio.h>\n#include <stdint.h>\n{includes}static const uint32_t codes[] = {{{table}}};\n"
-        f"int main(void) {{ for (unsigned k = 0; k < {codes.size}u; ++k) {{ const uint32_t c = codes[k]; "
-        f"{' '.join(calls)} }} return 0; }}\n")
-    binary = work / "main"
-    subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", *(f"-I{s.parent}" for s in sources), str(work / "main.c"),
-                    *map(str, sources), "-lm", "-o", str(binary)], check=True)
-    rows = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split("\n")
-    rows = np.array([row.split() for row in rows if row]).reshape(codes.size, len(calls), 3)
+
+    class Failed(Exception):
+        pass
+
+    def command(line):
+        status, out, err, tb = run(line)
+        if status != 0 or tb is not None:
+            raise Failed(status, out, err, tb, f"{' '.join(line[:1] + line[2:8])}: {err.strip()[:300]}")
+        return out
+
+    try:
+        flags, expected, calls, rows = exports_at_codes(work, path, model, bits, codes, command)
+    except Failed as failed:
+        status, out, err, tb, finding = failed.args
+        return argv, status, out, err, tb, [finding], []
+    findings = []
     for k, call in enumerate(calls):
         rule = rows[0, k, 0]
         wrong = np.flatnonzero(rows[:, k, 1].astype(int) != flags)

@@ -407,36 +407,32 @@ def test_the_full_turn_model_and_the_dense_table_do_at_every_code_what_encal_cor
         assert np.max(np.abs(wrap180(from_table - expected))) < 1e-6  # float32 arcmin
 
 
-@pytest.mark.parametrize("case, reading_sign", [("12 through 0", 1), ("12 between codes", -1), ("14 on codes", -1),
-                                                ("14 between codes", 1)])
-def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_does(case, reading_sign, tmp_path,
-                                                                                   capsys):
-    # One node per code (the compact targets), so that the rule itself is compared, not a table's interpolation.
-    # in_range_code took floor() of the start: a code just below a start between two codes was inside.
-    import shutil
+def exports_at_codes(work, path, model, bits, codes, command):
+    """Every C target's export of the arc model file ``path`` under both outside rules, compiled with gcc and run at
+    ``codes``, beside what ``encal correct --outside`` says there.
+
+    ``command(argv)`` runs an encal command line and returns its standard output (raising when it fails). Returns
+    the flags Python's range test gives the codes, ``{rule: corrected angles}`` of the command, the C calls made,
+    and the program's rows ``(code, call, [rule, in_range flag, corrected angle])`` as text.
+    """
     import subprocess
 
-    if shutil.which("gcc") is None:
-        pytest.skip("gcc is not installed: the exported C is compiled with it")
-    bits = ARCS_IN_CODES[case][0]
-    model = arc_on_codes(*ARCS_IN_CODES[case], reading_sign=reading_sign)
-    path = model.save(tmp_path / "arc.json")
-    codes = codes_near_the_ends(model, bits)
+    from encal._core.arcs import inside
+
     step = 360.0 / (1 << bits)
-    (tmp_path / "readings.txt").write_text("".join(f"{float(c * step)!r}\n" for c in codes))
-    flags = inside(np.mod(reading_sign * codes * step, 360.0), model.range_deg).astype(int)
+    (work / "readings.txt").write_text("".join(f"{float(c * step)!r}\n" for c in codes))
+    flags = inside(np.mod(model.reading_sign * codes * step, 360.0), model.range_deg).astype(int)
     sources, calls, expected = [], [], {}
     for rule in ("clamp", "pass"):
-        capsys.readouterr()
-        assert main(["correct", str(path), str(tmp_path / "readings.txt"), "--outside", rule, "--exact"]) == 0
-        expected[rule] = np.array(capsys.readouterr().out.split(), dtype=float)
+        out = command(["correct", str(path), str(work / "readings.txt"), "--outside", rule, "--exact"])
+        expected[rule] = np.array(out.split(), dtype=float)
         for target, options in (("host", []), ("host", ["--table", "--dtype", "float32"]),
                                 ("cortex-m4f", ["--dtype", "float32"]), ("fixed", ["--dtype", "int16"])):
             name = f"{target.replace('-', '')}{'_table' if '--table' in options else ''}_{rule}"
             nodes = [] if target == "host" else ["--nodes", str(1 << bits), "--interpolation", "linear"]
-            assert main(["export", str(path), "--format", "c", "--target", target, "--bits", str(bits), "--outside",
-                         rule, "--name", name, "-o", str(tmp_path / name), *nodes, *options]) == 0
-            sources.append(tmp_path / name / f"{name}.c")
+            command(["export", str(path), "--format", "c", "--target", target, "--bits", str(bits), "--outside",
+                     rule, "--name", name, "-o", str(work / name), *nodes, *options])
+            sources.append(work / name / f"{name}.c")
             if target == "fixed":
                 calls.append(f'printf("{rule} %d %.17g\\n", {name}_in_range_code(c), '
                              f'{name}_correct_bam32(c << {32 - bits}u) * (360.0 / 4294967296.0));')
@@ -448,15 +444,39 @@ def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_do
                              f'(double){name}_correct_deg((float)c * (float){step!r}));')
     includes = "".join(f'#include "{source.stem}.h"\n' for source in sources)
     table = ", ".join(f"{c}u" for c in codes)
-    (tmp_path / "main.c").write_text(
+    (work / "main.c").write_text(
         f"#include <stdio.h>\n#include <stdint.h>\n{includes}static const uint32_t codes[] = {{{table}}};\n"
         f"int main(void) {{ for (unsigned k = 0; k < {codes.size}u; ++k) {{ const uint32_t c = codes[k]; "
         f"{' '.join(calls)} }} return 0; }}\n")
-    binary = tmp_path / "main"
+    binary = work / "main"
     subprocess.run(["gcc", "-std=c99", "-Wall", "-Werror", *(f"-I{s.parent}" for s in sources),
-                    str(tmp_path / "main.c"), *map(str, sources), "-lm", "-o", str(binary)], check=True)
+                    str(work / "main.c"), *map(str, sources), "-lm", "-o", str(binary)], check=True)
     rows = subprocess.run([str(binary)], capture_output=True, text=True, check=True).stdout.split("\n")
     rows = np.array([row.split() for row in rows if row]).reshape(codes.size, len(calls), 3)
+    return flags, expected, calls, rows
+
+
+@pytest.mark.parametrize("case, reading_sign", [("12 through 0", 1), ("12 between codes", -1), ("14 on codes", -1),
+                                                ("14 between codes", 1)])
+def test_the_compiled_c_of_every_target_does_near_the_ends_what_encal_correct_does(case, reading_sign, tmp_path,
+                                                                                   capsys):
+    # One node per code (the compact targets), so that the rule itself is compared, not a table's interpolation.
+    # in_range_code took floor() of the start: a code just below a start between two codes was inside.
+    import shutil
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the exported C is compiled with it")
+    bits = ARCS_IN_CODES[case][0]
+    model = arc_on_codes(*ARCS_IN_CODES[case], reading_sign=reading_sign)
+    path = model.save(tmp_path / "arc.json")
+    codes = codes_near_the_ends(model, bits)
+
+    def command(argv):
+        capsys.readouterr()
+        assert main(argv) == 0, argv
+        return capsys.readouterr().out
+
+    flags, expected, calls, rows = exports_at_codes(tmp_path, path, model, bits, codes, command)
     for k, call in enumerate(calls):
         rule = rows[0, k, 0]
         assert np.array_equal(rows[:, k, 1].astype(int), flags), call
