@@ -25,38 +25,16 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
 from encal.models.spectral import fit_spectral  # noqa: E402
 
-#: The profile's orders and their amplitudes (arcmin) and phases (radians).
-PROFILE = ((1, 6.0, 0.3), (2, 3.0, 1.1), (4, 1.5, 2.0), (14, 1.0, 0.7))
-TRUE_ORDERS = (0,) + tuple(order for order, _, _ in PROFILE)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from tests.models.test_spectral import low_harmonics_at_encoder_angles, quantised_sweep  # noqa: E402
 
-
-def profile_arcmin(theta_deg, scale):
-    """The profile at reference angles ``theta_deg`` (degrees), arc-minutes."""
-    r = np.radians(theta_deg)
-    return scale * sum(amplitude * np.cos(order * r - phase) for order, amplitude, phase in PROFILE)
-
-
-def sweep(bits, stops, jitter, scale, seed):
-    """Encoder readings and errors (degrees, arc-minutes) of one sweep."""
-    rng = np.random.default_rng(seed)
-    spacing = 360.0 / stops
-    reference = np.arange(stops) * spacing
-    if jitter:
-        reference = reference + rng.uniform(-0.4, 0.4, stops) * spacing
-    reference = np.mod(reference + rng.uniform(0.0, spacing), 360.0)
-    code = 360.0 / 2**bits
-    reading = np.mod(np.round((reference + profile_arcmin(reference, scale) / 60.0) / code) * code, 360.0)
-    return reading, (np.mod(reading - reference + 180.0, 360.0) - 180.0) * 60.0
-
-
-def truth_at_encoder_angles(encoder_deg, scale):
-    """The profile at encoder angles: the reference angle under each found by fixed-point iteration."""
-    under = encoder_deg.copy()
-    for _ in range(30):
-        under = encoder_deg - profile_arcmin(under, scale) / 60.0
-    return profile_arcmin(under, scale)
+#: The profile's orders (those of ``low_harmonics``), with order 0.
+TRUE_ORDERS = (0, 1, 2, 4, 14)
 
 
 def least_squares_of_true_orders(reading_deg, error_arcmin, at_deg):
@@ -77,11 +55,11 @@ def main():
     print("bits  stops  jitter  scale  seed  false lines  RMS off truth  least squares  ratio  CPU s")
     for bits, stops, jitter, scale, seed in itertools.product((12, 14), (1800, 2400, 3600), (False, True),
                                                               (1.0, 0.3), args.seeds):
-        reading, error = sweep(bits, stops, jitter, scale, seed)
+        reading, error = quantised_sweep(bits, stops, jitter, scale, seed)
         start = time.process_time()
         model = fit_spectral(reading, error)
         cpu = time.process_time() - start
-        truth = truth_at_encoder_angles(grid, scale)
+        truth = low_harmonics_at_encoder_angles(grid, scale)
         off = float(np.sqrt(np.mean((model.predict(grid) - truth) ** 2)))
         least = float(np.sqrt(np.mean((least_squares_of_true_orders(reading, error, grid) - truth) ** 2)))
         false_lines = sorted(set(model.training["lines"]) - set(TRUE_ORDERS))

@@ -275,6 +275,30 @@ def low_harmonics(theta_deg, scale=1.0):
                     + 1.0 * np.cos(14 * r - 0.7))
 
 
+def quantised_sweep(bits, stops, jitter, scale, seed=0):
+    """One reading per stop of a ``bits``-bit encoder with the profile :func:`low_harmonics` times ``scale``, no noise
+    but the rounding to whole codes, the reference exact: stops uniform (or each moved by up to 0.4 of the spacing
+    with ``jitter``) from a random phase. Returns the readings (degrees) and their errors (arc-minutes);
+    benchmarks/bench_quantised_sweeps.py runs 48 of them."""
+    rng = np.random.default_rng(seed)
+    spacing = 360.0 / stops
+    reference = np.arange(stops) * spacing
+    if jitter:
+        reference = reference + rng.uniform(-0.4, 0.4, stops) * spacing
+    reference = np.mod(reference + rng.uniform(0.0, spacing), 360.0)
+    code = 360.0 / 2**bits
+    reading = np.mod(np.round((reference + low_harmonics(reference, scale) / 60.0) / code) * code, 360.0)
+    return reading, (np.mod(reading - reference + 180.0, 360.0) - 180.0) * 60.0
+
+
+def low_harmonics_at_encoder_angles(encoder_deg, scale=1.0):
+    """:func:`low_harmonics` at encoder angles (degrees): the reference angle under each by fixed-point iteration."""
+    under = np.array(encoder_deg, dtype=float)
+    for _ in range(30):
+        under = encoder_deg - low_harmonics(under, scale) / 60.0
+    return low_harmonics(under, scale)
+
+
 @pytest.mark.parametrize("bits, stops, jitter, scale, bound", [
     (12, 3600, False, 1.0, 0.08),  # before: 41 false lines at 459-1023, 0.297 arcmin RMS off the truth
     (12, 3600, True, 1.0, 0.08),   # before: 3 false lines at 490-506, 0.231
@@ -288,23 +312,11 @@ def test_a_dense_noise_free_sweep_of_a_quantised_encoder_gets_no_false_line(bits
     the 4th and higher harmonics were not modelled, and off a grid nothing was: the rounding's bands came out as
     lines. Measured after: no false line; 0.057, 0.064, 0.040 and 0.019 arcmin RMS (a least-squares fit of the
     true orders: 0.051, 0.060, 0.038 and 0.019)."""
-    rng = np.random.default_rng(0)
-    spacing = 360.0 / stops
-    reference = np.arange(stops) * spacing
-    if jitter:
-        reference = reference + rng.uniform(-0.4, 0.4, stops) * spacing
-    reference = np.mod(reference + rng.uniform(0.0, spacing), 360.0)
-    code = 360.0 / 2**bits
-    reading = np.mod(np.round((reference + low_harmonics(reference, scale) / 60.0) / code) * code, 360.0)
-    error = (np.mod(reading - reference + 180.0, 360.0) - 180.0) * 60.0
+    reading, error = quantised_sweep(bits, stops, jitter, scale)
     model = fit_spectral(reading, error)
     assert set(model.training["lines"]) <= {1, 2, 4, 14}
-    # the truth at encoder angles: the reference angle under each, by fixed-point iteration
     encoder = np.arange(0.0, 360.0, 0.05)
-    under = encoder.copy()
-    for _ in range(20):
-        under = encoder - low_harmonics(under, scale) / 60.0
-    assert rms(model.predict(encoder) - low_harmonics(under, scale)) < bound
+    assert rms(model.predict(encoder) - low_harmonics_at_encoder_angles(encoder, scale)) < bound
 
 
 def jittered_power_law(seed, noise_arcmin=0.05):
