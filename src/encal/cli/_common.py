@@ -10,7 +10,8 @@ from .._core.errors import EncalWarning
 from .._core.number_cells import not_plain_note, read_whole
 
 __all__ = ["add_calibration_options", "add_target_tolerance_option", "add_zero_options", "read_calibration_from_args",
-           "positive_int", "print_json", "warnings_as_lines", "check_environment", "output_that_may_close", "activity", "check_paths"]
+           "positive_int", "print_json", "warnings_as_lines", "check_environment", "output_that_may_close", "activity",
+           "check_paths"]
 
 
 def add_calibration_options(parser):
