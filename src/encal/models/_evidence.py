@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..numerics.triangular import lower_triangular_inverse
+
 __all__ = ["Design", "Hyper", "Posterior", "evidence", "fit_hyperparameters", "LINE_THRESHOLD_NATS"]
 
 #: A line is admitted when it raises the log marginal likelihood by more than this.
@@ -220,15 +222,15 @@ def _evidence(design, variances, noise_var, covariance):
         factor = _cholesky(lambda out: _precision(work.fortran_gram, d, sigma2, out), work.buffer)
         z = lapack.dpotrs(factor, u, lower=1)[0]
         logdet = 2.0 * float(np.log(factor.diagonal()).sum())
-        # the factor's own buffer is overwritten by the inverse (it is not needed after this)
+        # B⁻¹ = L⁻ᵀ L⁻¹ (L⁻¹ by blocks: LAPACK's dtrtri, as dpotri calls it, took 60 % of an evaluation)
+        inverse_factor = lower_triangular_inverse(factor)
         if covariance:
-            lower, info = lapack.dpotri(factor, lower=1, overwrite_c=1)
+            lower, info = lapack.dlauum(inverse_factor, lower=1, overwrite_c=1)  # B⁻¹'s lower triangle
             inverse = lower.T.copy()  # C order; its upper triangle (and diagonal) from B⁻¹'s lower triangle
             np.copyto(inverse, lower, where=work.strictly_lower)
             inverse_diagonal = inverse.diagonal().copy()
         else:
-            # B⁻¹ = L⁻ᵀ L⁻¹: its diagonal is the column sums of squares of L⁻¹ (upper triangle zero)
-            inverse_factor, info = lapack.dtrtri(factor, lower=1, overwrite_c=1)
+            # the diagonal of B⁻¹ is the column sums of squares of L⁻¹ (upper triangle zero)
             inverse_diagonal = np.einsum("ij,ij->j", inverse_factor, inverse_factor)
         mean = d * z
         covariance = d[:, None] * inverse * d[None, :] if covariance else None
