@@ -107,8 +107,8 @@ def ratio_without_alternation(train, test, best):
 def main():
     print("# Where auto loses to the best single family on the real files (even rows fitted, odd rows tested)\n")
     print("| file | auto / best | best | MSE difference (arcmin²) | of it: odd rows' mean | odd rows' alternation "
-          "| largest other order | z | z rest | auto / best, the even rows' alternation taken out before both fits | lines N/4 < k < N/2: amplitude at k / at N − k (whole file), "
-          "auto / best without the line, at N − k |")
+          "| largest other order | z | z rest | auto / best, the even rows' alternation taken out before both fits "
+          "| lines N/4 < k < N/2: amplitude at k / at N − k (whole file), auto / best without the line, at N − k |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     edge_better = edge_worse = 0
     alias_lines = lines_seen = 0
