@@ -129,9 +129,11 @@ def main():
         amplitude = 2.0 * np.abs(np.fft.rfft(cal.errors_arcmin)) / len(cal)  # whole file, by full step
         near = [k for k in model.training["lines"] if n_stops / 4 < k < n_stops / 2]
         for k in near:
-            count = by_order.setdefault((n_stops, k), [0, 0])
+            count = by_order.setdefault((n_stops, k), [0, 0, [], []])
             count[0] += 1
             count[1] += bool(amplitude[n_stops - k] > amplitude[k])
+            count[2].append(amplitude[k])
+            count[3].append(amplitude[n_stops - k])
         weights = {
             "as fitted": lambda k: 1.0,
             "at the alias the whole file shows": lambda k: 1.0 if amplitude[k] >= amplitude[n_stops - k] else 0.0,
@@ -157,10 +159,13 @@ def main():
         shift = residual["auto"] - residual[best]  # the best family's prediction at the odd rows minus auto's
         odd_alternation = (-1.0) ** np.arange(len(test))
         whole = encal.fit(cal, method="auto").training["lines"]
+        method, options = METHODS[best]
+        best_model = encal.fit(train, method=method, rng=0 if method in RANDOMISED else None, **options)
+        kept = sorted(int(k) for k in best_model.orders) if method == "fourier" else "-"
         odd_rows.append(f"| {short(row['file'])} | {error[1::2].mean() - error[0::2].mean():+.2f} "
                         f"| {residual['auto'].mean():+.2f} "
                         f"| {np.mean(train.errors_arcmin * (-1.0) ** np.arange(len(train))):+.2f} "
-                        f"| {shift.mean():+.3f} | {np.mean(shift * odd_alternation):+.3f} | {whole} |")
+                        f"| {shift.mean():+.3f} | {np.mean(shift * odd_alternation):+.3f} | {kept} | {whole} |")
 
     print("# Where auto loses to the best single family on the real files (even rows fitted, odd rows tested)\n")
     print("| file | auto / best | best | MSE difference (arcmin²) | of it: odd rows' mean | odd rows' alternation "
@@ -173,14 +178,16 @@ def main():
           "mean((-1)^j e_j), the best family's prediction at the odd rows minus auto's (its mean, its alternation "
           "from one odd row to the next), and the lines of the spectral model fitted on every full step.\n")
     print("| file | odd-step offset | auto's mean residual | even rows' alternation | best − auto: mean "
-          "| alternation | lines, every step fitted |")
-    print("|---|---|---|---|---|---|---|")
+          "| alternation | the best family's orders (a Fourier series) | lines, every step fitted |")
+    print("|---|---|---|---|---|---|---|---|")
     print("\n".join(odd_rows))
 
     print(f"\n- odd rows' mean and alternation, auto against each of the {len(SINGLE)} single families on every "
           f"file: auto's share of the MSE lower in {edge_better}, higher in {edge_worse}")
-    print("- lines with N/4 < k < N/2 (stops N: order, lines, of which larger at N − k in the whole file): "
-          + ", ".join(f"{n}: {k}, {count[0]}, {count[1]}" for (n, k), count in sorted(by_order.items())))
+    print("- lines with N/4 < k < N/2 (stops N: order, lines, of which larger at N − k in the whole file, the whole "
+          "file's amplitude at k and at N − k, arcmin): " + "; ".join(
+              f"{n}: {k}, {count[0]}, {count[1]}, {min(count[2]):.2f}–{max(count[2]):.2f}, "
+              f"{min(count[3]):.2f}–{max(count[3]):.2f}" for (n, k), count in sorted(by_order.items())))
     print("\n| lines with N/4 < k < N/2 | median auto / best single | worst | files within 2 % | files above 2 % |")
     print("|---|---|---|---|---|")
     for variant, by_file in ratios.items():
