@@ -99,3 +99,20 @@ def test_the_known_truth_table_of_the_self_calibration_page_is_what_its_benchmar
     printed = [line for line in result.stdout.splitlines() if line.startswith("| ")]
     assert len(shown) > 10
     assert printed == shown
+
+
+def test_the_bidirectional_pages_examples_run_and_give_its_measured_reversal(tmp_path, monkeypatch):
+    """users7: the page read "enc1_bidirectional.csv", which no command or page made, and used undefined names."""
+    text = (DOCS / "bidirectional.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert "write_calibration" in blocks[0] and "read_calibration" in blocks[1]
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "docs"}
+    for block in blocks[:2]:
+        exec(compile(block, "docs/bidirectional.md", "exec"), namespace)
+    iso = namespace["iso"].as_dict()
+    mean_low, mean_high, value_low, value_high = (abs(_number(x)) for x in re.search(
+        r"`B̄` = (−?[\d.]+) to (−?[\d.]+) LSB.*?`B` = (\d+)–(\d+) LSB", text, flags=re.S).groups())
+    assert mean_low <= -iso["mean_reversal_value_lsb"] <= mean_high  # the page's sign: B̄ negative
+    assert value_low <= iso["reversal_value_lsb"] <= value_high
+    assert namespace["model"].training["bidirectional"] == "mean"
