@@ -145,3 +145,25 @@ def test_the_self_calibration_pages_commands_run_on_the_files_its_block_writes(t
     assert [float(x) for x in said[:3]] == pytest.approx([round(float(x), 2) for x in found], abs=1e-9)
     assert f"--step-zero {said[3]} " in printed
     assert (tmp_path / "moteus.cfg").is_file()
+
+
+def test_the_in_place_pages_commands_run_on_the_files_its_blocks_write(tmp_path, monkeypatch, capsys):
+    """users7: the page's commands read arm.csv, arm_test.csv and joint.csv, which nothing made."""
+    import shlex
+
+    from encal.cli import main
+
+    text = (DOCS / "in-place.md").read_text(encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--encoders", "1", "--out", "sim"]) == 0
+    for marker in ("To try it without a joint, cut", "To try it without a joint, the simulator"):
+        _run_block(_python_block_after("in-place.md", marker), capsys)
+        commands = re.search(re.escape(marker) + r".*?```python\n.*?```.*?```\n(.*?)```", text, flags=re.S).group(1)
+        for line in commands.splitlines():
+            words = shlex.split(line.replace("[", "").replace("]", ""), comments=True)
+            capsys.readouterr()
+            assert main(words[1:]) == 0, f"in-place.md: `{line}` failed: {capsys.readouterr().err}"
+    from encal import load_model
+
+    assert load_model(tmp_path / "arm.json").kind == "arc" and (tmp_path / "arm.html").is_file()
+    assert (tmp_path / "output.json").is_file()
