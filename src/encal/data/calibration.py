@@ -768,9 +768,10 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
         looks_numeric = all(is_number(cell) for cell in names if cell)
         found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
         if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
+            hint = _selfcal_hint(names, missing)
             _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
                               f"reference_deg and encoder_deg, found {found} (name your columns with --ref-col "
-                              f"and --enc-col, their units with --ref-unit and --enc-unit{_selfcal_hint(names, missing)})")
+                              f"and --enc-col, their units with --ref-unit and --enc-unit{hint})")
         _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
                           f"or its number from 1, found {found}")
     if chosen["reference"] == chosen["encoder"]:
