@@ -24,7 +24,8 @@ def main():
     if REAL.is_file():
         model = encal.fit(encal.read_calibration(REAL), method="fourier", n_orders=10)
         models["real AS5047D, 10-term Fourier (14-bit)"] = Compensator(model)
-    print("| model | format | file bytes | round trip max / RMS, arcmin | storage rounding, arcmin | constant left out, arcmin |")
+    print("| model | format | file bytes | round trip max / RMS, arcmin | storage rounding, arcmin "
+          "| constant left out, arcmin |")
     print("|---|---|---|---|---|---|")
     for name, comp in models.items():
         bits = comp.encoder.get("resolution_bits")

@@ -53,7 +53,8 @@ def test_import_round_trips(tmp_path, capsys):
     theta = np.arange(0.0, 360.0, 0.5)
     reread = encal.load_model(tmp_path / "m.json")
     assert np.max(np.abs(reread.predict(theta) - encal.load_model(MODEL).predict(theta))) < 0.05
-    run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "--step-direction", "1", "-o", tmp_path / "k.cfg")
+    run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "0", "--step-direction", "1",
+        "-o", tmp_path / "k.cfg")
     status, out, _ = run(capsys, "import", "klipper", tmp_path / "k.cfg", "-o", tmp_path / "k.csv")
     assert status == 0 and "200 points" in out and len(encal.read_calibration(tmp_path / "k.csv")) == 200
 
@@ -67,7 +68,8 @@ def test_step_zero_is_required_for_the_stepper_firmwares_and_only_for_them(tmp_p
         assert not (tmp_path / "x").exists()
     with pytest.raises(SystemExit) as info:
         run(capsys, "export", MODEL, "--format", "moteus", "--step-zero", "1", "-o", tmp_path / "x")
-    assert info.value.code == 2 and "--step-zero applies to --format klipper or mechaduino, not moteus" in capsys.readouterr().err
+    assert info.value.code == 2
+    assert "--step-zero applies to --format klipper or mechaduino, not moteus" in capsys.readouterr().err
     with pytest.raises(SystemExit) as info:
         run(capsys, "export", MODEL, "--format", "klipper", "--step-zero", "nan", "-o", tmp_path / "x")
     assert info.value.code == 2 and "expected a finite angle in degrees, got 'nan'" in capsys.readouterr().err

@@ -322,8 +322,10 @@ def test_a_huge_header_is_shown_shortened(write_csv):
 
 def test_quoted_fields_are_read_as_csv(write_csv):
     lines = grid_csv().splitlines()
-    rows = [f'"run 1, table A",{row}' if i % 2 else f'"note",{",".join(f"{chr(34)}{c}{chr(34)}" for c in row.split(","))}'
-            for i, row in enumerate(lines[1:])]
+    def quoted(row):
+        return ",".join(f'"{cell}"' for cell in row.split(","))
+
+    rows = [f'"run 1, table A",{row}' if i % 2 else f'"note",{quoted(row)}' for i, row in enumerate(lines[1:])]
     cal = read_calibration(write_csv("note,\"reference_deg\",encoder_deg\n" + "\n".join(rows) + "\n"))
     plain = read_calibration(write_csv(grid_csv(), name="plain.csv"))
     assert np.array_equal(cal.reference_deg, plain.reference_deg)

@@ -153,7 +153,8 @@ def _pattern(values):
 
 
 def _fit(reading, values, orders):
-    """Least-squares Fourier series (with a constant) of ``values`` at ``reading``; coefficients, covariance, residual."""
+    """Least-squares Fourier series (with a constant) of ``values`` at ``reading``: coefficients, covariance and
+    residual."""
     x = np.hstack([np.ones((reading.size, 1)), design_matrix(reading, orders)])
     coefficients = np.linalg.lstsq(x, values, rcond=None)[0]
     residual = values - x @ coefficients
