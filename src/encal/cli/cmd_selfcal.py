@@ -186,8 +186,10 @@ def _steps(args):
     calibrations = [read_calibration_from_args(path, args) for path in args.calibrations]
     result = steps(*calibrations, turn_deg=args.turn, step_shift=args.step_shift, max_order=args.max_order,
                    name=Path(args.calibrations[0]).stem)
-    if args.bits is None and calibrations[0].resolution_bits is not None:
-        args.bits = calibrations[0].resolution_bits
+    if args.bits is None:
+        from ..models.fitting import resolution_bits
+
+        args.bits = resolution_bits(calibrations[0])  # declared, else shown by whole codes (a real Mechaduino's)
     return result
 
 
