@@ -237,7 +237,7 @@ def direction_subset(cal, direction):
     part = cal.subset(keep)
     return Calibration(part.reference_deg, part.encoder_deg, epoch=part.epoch, name=cal.name,
                        resolution_bits=cal.resolution_bits, source=cal.source, metadata=dict(cal.metadata),
-                       reading_sign=cal.reading_sign)
+                       reading_sign=cal.reading_sign, reference_std_arcmin=part.reference_std_arcmin)
 
 
 def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where=None):
@@ -380,6 +380,11 @@ def mean_calibration(cal):
     """
     analysis = reversal(cal)
     reference = analysis.target_deg
+    std = cal.reference_std_arcmin
+    if std is not None:  # at each target, the reference's uncertainty where its readings were taken
+        order = np.argsort(cal.reference_deg, kind="stable")
+        std = np.interp(reference, cal.reference_deg[order], std[order], period=360.0)
     return Calibration(reference, reference + analysis.mean_bidirectional_arcmin / ARCMIN_PER_DEG,
                        name=cal.name, resolution_bits=cal.resolution_bits, source=cal.source,
-                       metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign)
+                       metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign,
+                       reference_std_arcmin=std)

@@ -18,6 +18,7 @@ network and can be mailed alone) and the same figures as PNG files beside it.
 """
 
 import html
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -141,7 +142,11 @@ class EncoderReport:
         if selection is None or selection.table.get("scheme") == "tests":
             return None
         row = selection.chosen_row()
-        return None if row is None else row["cv_rms_arcmin"]
+        if row is None or row["cv_rms_arcmin"] is None:
+            return None
+        std = self.calibration.reference_std_arcmin  # shared by neighbouring points: no fold sees it
+        return row["cv_rms_arcmin"] if std is None else math.hypot(row["cv_rms_arcmin"],
+                                                                    float(np.sqrt(np.mean(np.square(std)))))
 
     def shape(self, cal):
         """A calibration's errors (arcmin), about its own zero offset when the zero is arbitrary."""
