@@ -178,6 +178,17 @@ class ReversalAnalysis:
         return _band_range(np.concatenate([self.mean_forward_arcmin, self.mean_reverse_arcmin]),
                            np.concatenate([self.std_forward_arcmin, self.std_reverse_arcmin]))
 
+    def caption(self):
+        """How many targets the values rest on, the points left out, and the fewest approaches (one line)."""
+        caption = (f"{self.target_deg.size} targets approached both ways, at least {self.min_approaches} "
+                   "time(s) each way (ISO 230-2 asks for 5)")
+        if self.n_unmatched:
+            caption += (f"; {self.n_unmatched} points at reference angles approached one way only (targets match "
+                        f"within {self.target_tolerance_deg:g} degree) are left out")
+        elif self.target_tolerance_deg != TARGET_TOLERANCE_DEG:
+            caption += f"; reference angles within {self.target_tolerance_deg:g} degree are one target"
+        return caption
+
     def as_dict(self):
         """The axis values as JSON-ready data (arc-minutes; LSB too when the resolution is known)."""
         data = {

@@ -624,16 +624,7 @@ def _reversal_section(report):
 
 def _reversal_caption(analysis):
     """How many targets the ISO 230-2 values rest on, the points left out, and the fewest approaches."""
-    from ..data.reversal import TARGET_TOLERANCE_DEG
-
-    caption = (f"{analysis.target_deg.size} targets approached both ways, at least {analysis.min_approaches} "
-               "time(s) each way (ISO 230-2 asks for 5)")
-    if analysis.n_unmatched:
-        caption += (f"; {analysis.n_unmatched} points at reference angles approached one way only (targets match "
-                    f"within {analysis.target_tolerance_deg:g} degree) are left out")
-    elif analysis.target_tolerance_deg != TARGET_TOLERANCE_DEG:
-        caption += f"; reference angles within {analysis.target_tolerance_deg:g} degree are one target"
-    return caption
+    return analysis.caption()
 
 
 def _drift_section(report):
