@@ -200,3 +200,18 @@ def test_a_target_tolerance_joins_readings_taken_afresh(tmp_path, capsys):
                  "--allow-gaps"]) == 0
     iso = json.loads(capsys.readouterr().out)["iso230_2"]
     assert iso["n_targets"] == 12 and iso["n_unmatched"] == 0 and iso["target_tolerance_deg"] == 0.05
+
+
+def test_a_log_of_both_directions_with_no_common_target_is_profiled_and_says_why_there_are_no_iso_values(tmp_path,
+                                                                                                     capsys):
+    from encal import Calibration, write_calibration
+
+    angles = np.arange(0.0, 360.0, 1.0)
+    cal = Calibration(np.r_[angles, angles[::-1] + 0.5], np.r_[angles, angles[::-1] + 0.5] + 0.01,
+                      direction=np.r_[np.ones(360), -np.ones(360)])
+    write_calibration(tmp_path / "log.csv", cal)
+    assert main(["profile", str(tmp_path / "log.csv")]) == 0
+    assert "\nISO 230-2: none (" in capsys.readouterr().out
+    assert main(["profile", str(tmp_path / "log.csv"), "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["iso230_2"] is None and "both directions" in record["iso230_2_note"]

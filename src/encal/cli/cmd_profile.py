@@ -61,26 +61,44 @@ def run(args):
                           "zero": "arbitrary" if arbitrary else "fixed", "zero_offset_arcmin": offset,
                           "zero_note": note, "harmonics": top,
                           **({} if arc is None else {"range_deg": list(arc), "harmonics_note": _arc_note(arc)}),
-                          **({} if axis is None else {"iso230_2": {**axis.as_dict(), "caption": axis.caption()}})}))
+                          **_iso_json(axis)}))
     else:
         print(_report(cal, stats, analysis, top, note, bits, inferred))
-        if axis is not None:
+        if isinstance(axis, str):
+            print(f"\nISO 230-2: none ({axis})")
+        elif axis is not None:
             print("\n" + _iso_text(axis))
     return 0
 
 
 def _iso230_2(cal, bits, progress):
-    """The ISO 230-2 analysis of a calibration with both directions of travel, else None; a calibration whose
-    reference angles match no target both ways is refused (``encal report`` refuses it too)."""
+    """The ISO 230-2 analysis of a calibration with both directions of travel, its reason when none of its
+    reference angles is a target approached both ways (a log of continuous angles), else None. With a
+    ``--target-tolerance`` the user asked for targets: a tolerance that matches none is refused, as by
+    ``encal report``."""
     from dataclasses import replace
 
+    from .._core.errors import CalibrationError
     from ..data.reversal import has_both_directions, reversal
 
     if not has_both_directions(cal):
         return None
     progress.stage("ISO 230-2")
-    analysis = reversal(cal)
+    try:
+        analysis = reversal(cal)
+    except CalibrationError as exc:
+        if cal.target_tolerance_deg is not None:
+            raise
+        return str(exc)
     return analysis if bits is None or analysis.resolution_bits is not None else replace(analysis, resolution_bits=bits)
+
+
+def _iso_json(axis):
+    if axis is None:
+        return {}
+    if isinstance(axis, str):
+        return {"iso230_2": None, "iso230_2_note": axis}
+    return {"iso230_2": {**axis.as_dict(), "caption": axis.caption()}}
 
 
 #: The ISO 230-2 values printed, with their symbols.
