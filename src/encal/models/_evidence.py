@@ -36,7 +36,7 @@ EXPONENT_BOUNDS = (1.0, 8.0)
 #: Prior variance of order 0, in units of the data's mean square: vague.
 _VAGUE = 100.0
 _MAX_ROUNDS = 40
-#: Objective (minus the evidence per reading) reported where the posterior cannot be computed.
+#: Minus the log evidence per reading where the posterior cannot be computed (the objective, in nats, is n times it).
 _FAILED_OBJECTIVE = 1e10
 _LINES_PER_ROUND = 8
 #: A search that ends with lines on more than this fraction of the orders has collapsed (the background
