@@ -879,9 +879,10 @@ def _background_design(n, seed, highest=2000, amplitude=1e-7, exponent=4.0, nois
 @pytest.mark.parametrize("seed", range(6))
 def test_the_optimiser_reaches_the_maximum_of_a_dense_fit(seed):
     # 10^6 readings; the search starts from a background 50 times below the truth (a periodogram's start on a dense
-    # sweep is below the noise). With minus the evidence per reading as the objective, L-BFGS-B's first step (minus
-    # the gradient) was 10^6 times too short, gained less than ftol, and the search stopped where it started:
-    # 0.05 nats below the maximum on seed 0, 1.5-1.7 on seeds 2, 4 and 5. Truth: the best of a grid over (log A, β).
+    # sweep is below the noise). Of minus the evidence per reading, L-BFGS-B's first step (minus the gradient) is
+    # 10^6 times too short; it gained less than ftol and the search stopped where it started, 0.05 nats below the
+    # maximum on seed 0, 1.5-1.7 on seeds 2, 4 and 5, until such a search went on in nats. Truth: the best of a grid
+    # over (log A, β), a lower bound of the maximum.
     design = _background_design(10**6, seed)
     noise_var = 0.01
 

@@ -400,8 +400,8 @@ def _optimise(design, hyper):
     The objective is minus the log evidence per reading. Every variable being bounded, L-BFGS-B's first step
     is minus that gradient, ``n`` times shorter than the gradient in nats: on 10^6 readings it could gain less
     than ``ftol`` and the search stopped at its first iteration, up to 1.6 nats below the maximum
-    (benchmarks/bench_optimiser_gap.py). A search that stops there goes on with the objective in nats (and the
-    same tolerances in nats), whose first step is the gradient's own length.
+    (benchmarks/bench_optimiser_gap.py). A search that stops there goes on with the objective in nats (the same
+    gradient tolerance, ``1e-8 n`` nats), whose first step is the gradient's own length; no other search changes.
     """
     import scipy.optimize
 
