@@ -31,6 +31,14 @@ LINE_THRESHOLD_NATS = 3.0
 NOISE_SLACK_NATS = 1.0
 #: ... when the maximum's noise variance is below this fraction of the periodogram's flat level (a collapse).
 COLLAPSE_FRACTION = 0.25
+#: The noise variance estimated is at least ``exp(-NOISE_FLOOR_NATS)`` (2e-9) of the data's mean square: its standard
+#: deviation 4.5e-5 of the data's RMS, far below any encoder's noise (a 14-bit code's rounding is 4e-3 of a 1-degree
+#: profile's RMS). Below it the evidence of a noise-free series cannot be computed in double precision: at the
+#: former floor (exp(-32)) the posterior precision's condition reached 1e20, its Cholesky factor needed the jitter,
+#: and a series of 16 orders known at 288 of 360 degrees (a cross-validation fold of a self-calibration's output)
+#: was predicted 1e5 to 5e7 arcmin off between its points after 2,000 evaluations; at this floor, within 1e-7
+#: arcmin after 6 (tests/models/test_spectral.py).
+NOISE_FLOOR_NATS = 20.0
 #: Bounds of the background exponent β (the background must decay: safeguard 2).
 EXPONENT_BOUNDS = (1.0, 8.0)
 #: Prior variance of order 0, in units of the data's mean square: vague.
@@ -410,7 +418,7 @@ def _optimise(design, hyper):
     log_scale = math.log(scale)
     bounds = [(log_scale - 40.0, log_scale + 14.0), EXPONENT_BOUNDS]
     if not hyper.noise_fixed:
-        bounds.append((log_scale - 32.0, log_scale + 3.0))
+        bounds.append((log_scale - NOISE_FLOOR_NATS, log_scale + 3.0))
     bounds.extend([(log_scale - 30.0, log_scale + 14.0)] * len(line_orders))
     log_orders = np.log(np.maximum(design.orders, 1).astype(float))
     x0 = np.clip(_pack(hyper, line_orders), [b[0] for b in bounds], [b[1] for b in bounds])
@@ -736,6 +744,7 @@ def _rounds(design, hyper, threshold, progress):
     """
     orders, cos_index, sin_index = _pairs(design)
     seen = set()
+    best_value, best, stalled = -math.inf, None, 0
     for _ in range(_MAX_ROUNDS):
         if progress is not None:
             progress()
@@ -746,12 +755,31 @@ def _rounds(design, hyper, threshold, progress):
             for k in weak:
                 del hyper.lines[k]
                 seen.add(k)
-            hyper = _optimise(design, hyper)
-            continue
-        if not _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
+        elif not _admit(design, hyper, post, orders, cos_index, sin_index, threshold, seen):
             break
         hyper = _optimise(design, hyper)
+        try:
+            value = _penalised_evidence(design, hyper, threshold)
+        except np.linalg.LinAlgError:
+            value = -math.inf
+        if value > best_value:
+            best_value, best, stalled = value, _copied(hyper), 0
+        else:
+            stalled += 1
+            if stalled >= _STALLED_ROUNDS:
+                return best
     return hyper
+
+
+#: The rounds stop when this many in a row have not raised the evidence less the lines' thresholds, and the best
+#: state stands. A fit converges in at most 6 rounds, each better than the last (the 60 real files and the README's
+#: simulated encoders); on a noise-free series (a self-calibration's output, its noise at the bound) lines were
+#: admitted and dropped in turn until the 40th round, 2,400 evaluations of the evidence in one fit.
+_STALLED_ROUNDS = 3
+
+
+def _copied(hyper):
+    return Hyper(hyper.amplitude, hyper.exponent, hyper.noise_var, dict(hyper.lines), hyper.noise_fixed, hyper.flat)
 
 
 def _profile(design, hyper, noise_var):
