@@ -124,3 +124,25 @@ def test_the_spin_second_order_leak_by_order_is_what_bench_selfcal_truth_per_ord
     assert (round(min(above[28][1]), 1), round(max(above[28][1]), 1)) == (float(low), float(high))
     assert [round(v, 1) for v in above[21][1]] == [float(order21)] * int(count21)
     assert above[7][1] == [] and above[14][1] == []
+
+
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real Mechaduino calibrations are not beside the repository")
+def test_the_firmware_formats_table_and_klippers_loss_are_what_bench_firmware_prints():
+    """BENCHMARKS.md's "Firmware formats" table, and the 4.4 arcmin of Klipper's 64 buckets on the real AS5047D
+    profile, whose 50th harmonic is 2.6 arcmin (docs/deployment.md and BENCHMARKS.md; under a second)."""
+    benchmarks_page = (REPO / "BENCHMARKS.md").read_text(encoding="utf-8")
+    section = benchmarks_page.split("### Firmware formats", 1)[1].split("\n### ", 1)[0]
+    shown = [line for line in section.splitlines() if line.startswith("| ")]
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_firmware.py")], check=True,
+                            capture_output=True, text=True, cwd=REPO)
+    printed = [line for line in result.stdout.splitlines() if line.startswith("| ")]
+    assert len(shown) > 10
+    assert printed == shown
+    klipper = next(line for line in printed if line.startswith("| real AS5047D") and "| klipper |" in line)
+    largest = float(klipper.split("|")[4].split("/")[0])
+    order_50 = float(re.search(r"orders by amplitude \(arcmin\) .*\b50: (\S+?),", result.stdout).group(1))
+    deployment = " ".join((DOCS / "deployment.md").read_text(encoding="utf-8").split())
+    assert f"50th-harmonic step pattern ({order_50:.1f} arcmin; {largest:.1f} arcmin max;" in deployment
+    assert f"50th harmonic ({order_50:.1f} arcmin, the command's last line;" in " ".join(section.split())
+    assert f"{largest:.1f} arcmin max;" in section
