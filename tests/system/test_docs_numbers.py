@@ -146,3 +146,51 @@ def test_the_firmware_formats_table_and_klippers_loss_are_what_bench_firmware_pr
     assert f"50th-harmonic step pattern ({order_50:.1f} arcmin; {largest:.1f} arcmin max;" in deployment
     assert f"50th harmonic ({order_50:.1f} arcmin, the command's last line;" in " ".join(section.split())
     assert f"{largest:.1f} arcmin max;" in section
+
+
+def _model_selection_text():
+    return " ".join((DOCS / "model-selection.md").read_text(encoding="utf-8").split())
+
+
+def test_the_limit_of_stops_that_divide_the_codes_is_what_bench_quantised_sweeps_prints():
+    """docs/model-selection.md, "Not fixed: stops that divide the codes": the figures after the change (2 s)."""
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_quantised_sweeps.py"), "--divides-codes"],
+                            check=True, capture_output=True, text=True, cwd=REPO)
+    printed = {(int(m.group(1)), int(m.group(2))): (float(m.group(3)), float(m.group(4)), m.group(5), m.group(6))
+               for m in re.finditer(r"^(\d+)-bit, (\d+) stops: RMS off the truth (\S+) arcmin, least squares of the "
+                                    r"true orders (\S+), lines \[(.*)\] \(false: \[(.*)\]\)$", result.stdout, re.M)}
+    text = _model_selection_text()
+    shown = re.search(r"12-bit, 1,024 stops \S+ → (\S+) arcmin \((\S+); no line at all\), 2,048 stops \S+ → (\S+) "
+                      r"\((\S+)\); 14-bit, 2,048 stops \S+ → (\S+) \((\S+)\), 4,096 stops \S+ → (\S+) \((\S+); "
+                      r"lines at ([\d, ]+), none before\)", text)
+    assert shown, "the limit's figures are not in the page as this test reads them"
+    values = [_number(v) for v in shown.groups()[:8]]
+    cases = [(12, 1024), (12, 2048), (14, 2048), (14, 4096)]
+    for (off, least), case in zip(zip(values[::2], values[1::2]), cases):
+        decimals = len(str(off).split(".")[1]) if off < 1 else 2
+        assert round(printed[case][0], decimals) == off and round(printed[case][1], 2) == round(least, 2), case
+    assert printed[(12, 1024)][2] == ""
+    assert printed[(14, 4096)][3] == shown.group(9)
+
+
+@pytest.mark.slow
+def test_the_48_quantised_sweeps_after_the_change_are_what_bench_quantised_sweeps_prints():
+    """docs/model-selection.md, "A dense noise-free sweep of a quantised encoder": the figures after (20 s CPU)."""
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_quantised_sweeps.py")], check=True,
+                            capture_output=True, text=True, cwd=REPO)
+    summary = {m.group(1): [float(v) for v in m.groups()[1:]] for m in re.finditer(
+        r"^(uniform|jittered) \(24 sweeps\): false lines (\d+), worst RMS off the truth (\S+) arcmin, worst "
+        r"least-squares fit of the true orders (\S+), worst ratio (\S+), largest error off the truth (\S+)$",
+        result.stdout, re.M)}
+    text = _model_selection_text()
+    shown = re.search(r"false lines on the 24 uniform sweeps \d+ → (\d+) \(41 on one\), on the 24 jittered \d+ → (\d+);"
+                      r" the profile's RMS off the truth on a 0\.018° grid, worst, \S+ → (\S+) arcmin on uniform stops "
+                      r"\(largest error \S+ → (\S+)\) and \S+ → (\S+) on jittered ones .*? the worst ratio \S+ → (\S+) "
+                      r".*? and \S+ → (\S+) \(jittered\)", text)
+    assert shown
+    lines_uniform, lines_jittered, off_uniform, largest, off_jittered, ratio_uniform, ratio_jittered = \
+        [float(v) for v in shown.groups()]
+    uniform, jittered = summary["uniform"], summary["jittered"]
+    assert (uniform[0], jittered[0]) == (lines_uniform, lines_jittered)
+    assert (round(uniform[1], 3), round(uniform[4], 2), round(jittered[1], 3)) == (off_uniform, largest, off_jittered)
+    assert (round(uniform[3], 1), round(jittered[3], 1)) == (ratio_uniform, ratio_jittered)
