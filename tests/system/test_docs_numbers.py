@@ -194,3 +194,28 @@ def test_the_48_quantised_sweeps_after_the_change_are_what_bench_quantised_sweep
     assert (uniform[0], jittered[0]) == (lines_uniform, lines_jittered)
     assert (round(uniform[1], 3), round(uniform[4], 2), round(jittered[1], 3)) == (off_uniform, largest, off_jittered)
     assert (round(uniform[3], 1), round(jittered[3], 1)) == (ratio_uniform, ratio_jittered)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real Mechaduino calibrations are not beside the repository")
+def test_the_real_files_coverage_of_readme_and_the_uncertainty_page_is_what_bench_uncertainty_prints():
+    """README.md's 93.6 % / 30 % and docs/uncertainty.md's table of the real AS5047D files (5 s CPU)."""
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_uncertainty.py"), "--real"],
+                            check=True, capture_output=True, text=True, cwd=REPO)
+    printed = {m.group(1): (int(m.group(2)), float(m.group(3)), int(m.group(4)), float(m.group(5)),
+                            float(m.group(6)))
+               for m in re.finditer(r"^(even-odd|repeat): (\d+) files; ±2σ covers median (\S+)% \(mean \S+, (\d+) files at "
+                                    r"90 % or more\); less the mean offset median (\S+)%; test RMS / pred σ median "
+                                    r"(\S+) ", result.stdout, re.M)}
+    readme = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
+    files, covers, _, _, _ = printed["repeat"]
+    assert f"covers a median {covers:.1f} % of the same board's repeat at the same steps ({files} files)" in readme
+    files, covers, _, _, _ = printed["even-odd"]
+    assert f"but {covers:.0f} % of the odd full steps of a table fitted on its even ones ({files} files)" in readme
+    rows = _table_rows("uncertainty.md", "| protocol | files | ±2σ covers (median) |")
+    for row, protocol in zip(rows, ("even-odd", "repeat")):
+        files, covers, at_90, less_offset, ratio = printed[protocol]
+        assert int(row[1]) == files and row[2].startswith(f"{covers:.1f} %"), protocol
+        assert int(row[3]) == at_90 and _number(row[4]) == round(ratio, 2), protocol
+    assert f"({printed['even-odd'][3]:.1f} % less the odd rows' mean offset)" in rows[0][2]
