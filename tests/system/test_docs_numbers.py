@@ -219,3 +219,31 @@ def test_the_real_files_coverage_of_readme_and_the_uncertainty_page_is_what_benc
         assert int(row[1]) == files and row[2].startswith(f"{covers:.1f} %"), protocol
         assert int(row[3]) == at_90 and _number(row[4]) == round(ratio, 2), protocol
     assert f"({printed['even-odd'][3]:.1f} % less the odd rows' mean offset)" in rows[0][2]
+
+
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real Mechaduino calibrations are not beside the repository")
+def test_the_real_repeat_pair_table_of_the_drift_page_is_what_its_command_prints():
+    """docs/drift.md, "A real repeat pair": every cell of the table from the page's own `encal drift` (1 s)."""
+    text = (DOCS / "drift.md").read_text(encoding="utf-8")
+    command = re.search(r"\*\*A real repeat pair\*\*.*?```\n(encal drift .*?)```", text, flags=re.S).group(1)
+    arguments = command.replace("\\\n", " ").split()[2:]
+    result = subprocess.run([sys.executable, "-m", "encal", "drift", *arguments, "--json"], capture_output=True,
+                            text=True, cwd=REPO)
+    assert result.returncode == 0, result.stderr
+    report = __import__("json").loads(result.stdout)
+    rows = _table_rows("drift.md", "| later calibration | offset change |")
+    assert len(rows) == len(report["epochs"]) == 3
+    header = re.search(r"\| residual RMS \(first: (\S+)\) \|", text).group(1)
+    assert _number(header) == round(report["baseline_rms_arcmin"], 3)
+    for row, epoch in zip(rows, report["epochs"]):
+        offset = _number(row[1].split("'")[0].replace("+", ""))
+        assert offset == round(epoch["offset_change_arcmin"], 1), row[0]
+        difference = epoch["difference"]
+        for cell, value in ((row[2], difference["rms_arcmin"]), (row[3], difference["max_abs_arcmin"]),
+                            (row[5], epoch["residual_rms_arcmin"]), (row[6], epoch["expected_rms_arcmin"]),
+                            (row[7], epoch["increase_arcmin"])):
+            decimals = len(cell.split(".")[1])
+            assert _number(cell.replace("+", "")) == round(value, decimals), (row[0], cell, value)
+        assert row[4] == f"{difference['share_within_lsb']:.0%}".replace("%", " %"), row[0]
+        assert row[8] == ("holds" if epoch["holds"] else "does not hold"), row[0]
