@@ -247,3 +247,24 @@ def test_the_real_repeat_pair_table_of_the_drift_page_is_what_its_command_prints
             assert _number(cell.replace("+", "")) == round(value, decimals), (row[0], cell, value)
         assert row[4] == f"{difference['share_within_lsb']:.0%}".replace("%", " %"), row[0]
         assert row[8] == ("holds" if epoch["holds"] else "does not hold"), row[0]
+
+
+@pytest.mark.slow
+def test_the_weakness_of_select_cv_is_what_bench_dense_select_cv_prints():
+    """docs/model-selection.md, "Known weakness of select='cv'": orders kept and errors (11 s CPU)."""
+    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_dense.py"), "--select-cv"], check=True,
+                            capture_output=True, text=True, cwd=REPO)
+    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in result.stdout.splitlines()
+            if re.match(r"\| \d+ \| \d \|", line)]
+    kept = {n: sorted(int(r[2]) for r in rows if r[0] == n) for n in ("180", "500", "2000")}
+    errors = [float(r[3]) for r in rows]
+    true_fit = {n: sorted(float(r[4]) for r in rows if r[0] == n) for n in ("180", "2000")}
+    text = _model_selection_text()
+    shown = (f"it kept {kept['180'][0]}–{kept['180'][1]} orders at 180 points, {kept['500'][0]}–{kept['500'][1]} at "
+             f"500 and {kept['2000'][0]}–{kept['2000'][1]} at 2,000 (seeds 0 and 1), and its model error (RMS against "
+             f"the truth on 7,919 angles) stayed at {min(errors):.2f}–{max(errors):.2f} arcmin, where a fit of the 4 "
+             f"true orders has {true_fit['180'][0]:.3f}–{true_fit['180'][1]:.3f} (180 points) and "
+             f"{true_fit['2000'][0]:.3f}–{true_fit['2000'][1]:.3f} (2,000 points)")
+    assert shown in text
+    orders = re.search(r"a complete 2,000-point grid: \S+ s CPU, (\d+) orders kept", result.stdout).group(1)
+    assert f"makes the curve keep falling to {orders} orders" in text
