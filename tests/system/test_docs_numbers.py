@@ -205,9 +205,9 @@ def test_the_real_files_coverage_of_readme_and_the_uncertainty_page_is_what_benc
                             check=True, capture_output=True, text=True, cwd=REPO)
     printed = {m.group(1): (int(m.group(2)), float(m.group(3)), int(m.group(4)), float(m.group(5)),
                             float(m.group(6)))
-               for m in re.finditer(r"^(even-odd|repeat): (\d+) files; ±2σ covers median (\S+)% \(mean \S+, (\d+) files at "
-                                    r"90 % or more\); less the mean offset median (\S+)%; test RMS / pred σ median "
-                                    r"(\S+) ", result.stdout, re.M)}
+               for m in re.finditer(r"^(even-odd|repeat): (\d+) files; ±2σ covers median (\S+)% \(mean \S+, (\d+) "
+                                    r"files at 90 % or more\); less the mean offset median (\S+)%; test RMS / pred σ "
+                                    r"median (\S+) ", result.stdout, re.M)}
     readme = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
     files, covers, _, _, _ = printed["repeat"]
     assert f"covers a median {covers:.1f} % of the same board's repeat at the same steps ({files} files)" in readme
