@@ -44,6 +44,21 @@ def _run_block(block, capsys):
     return capsys.readouterr().out
 
 
+def _benchmark(script, *arguments):
+    """What ``python benchmarks/SCRIPT ARGUMENTS`` prints, run from the repository."""
+    return subprocess.run([sys.executable, str(REPO / "benchmarks" / script), *arguments], check=True,
+                          capture_output=True, text=True, cwd=REPO).stdout
+
+
+def _assert_tables_printed(section, printed):
+    """The Markdown table rows of ``section`` are those of ``printed``, in order; returns them."""
+    shown = [line for line in section.splitlines() if line.startswith("| ")]
+    rows = [line for line in printed.splitlines() if line.startswith("| ")]
+    assert len(shown) > 10
+    assert rows == shown
+    return rows
+
+
 def test_the_demo_fleet_table_of_the_simulator_page_is_what_its_code_prints(capsys):
     printed = _run_block(_python_block_after("simulator.md", "Reproduce the table:"), capsys)
     computed = {}
@@ -93,12 +108,7 @@ def test_the_real_encoder_table_of_the_statistics_page_is_what_its_code_prints(c
 def test_the_known_truth_table_of_the_self_calibration_page_is_what_its_benchmark_prints():
     text = (DOCS / "self-calibration.md").read_text(encoding="utf-8")
     section = text.split("### Against a truth written outside encal", 1)[1]
-    shown = [line for line in section.splitlines() if line.startswith("| ")]
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_selfcal_truth.py")], check=True,
-                            capture_output=True, text=True, cwd=REPO)
-    printed = [line for line in result.stdout.splitlines() if line.startswith("| ")]
-    assert len(shown) > 10
-    assert printed == shown
+    _assert_tables_printed(section, _benchmark("bench_selfcal_truth.py"))
 
 
 # --- task claims7: figures that had no command ---------------------------------------------------------------------
@@ -111,10 +121,8 @@ def test_the_spin_second_order_leak_by_order_is_what_bench_selfcal_truth_per_ord
     shown = re.search(r"Order 28 \(third- order terms and 14 \+ 14\) still misses by (\S+)–(\S+) σ in (\d+) of (\d+) "
                       r"checks, and order 21 by (\S+) σ in (\d+); orders 7 and 14 stay within 2 σ", text)
     assert shown, "the sentence on the leak at order 28 is not in the page as this test reads it"
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_selfcal_truth.py"), "--per-order"],
-                            check=True, capture_output=True, text=True, cwd=REPO)
     above = {}
-    for line in result.stdout.splitlines():
+    for line in _benchmark("bench_selfcal_truth.py", "--per-order").splitlines():
         match = re.match(r"order (\d+): miss/sigma \S+; above 2 in (\d+) of (\d+) checks(?: \((.*)\))?$", line)
         if match:
             values = [float(v) for v in match.group(4).split(", ")] if match.group(4) else []
@@ -133,15 +141,11 @@ def test_the_firmware_formats_table_and_klippers_loss_are_what_bench_firmware_pr
     profile, whose 50th harmonic is 2.6 arcmin (docs/deployment.md and BENCHMARKS.md; under a second)."""
     benchmarks_page = (REPO / "BENCHMARKS.md").read_text(encoding="utf-8")
     section = benchmarks_page.split("### Firmware formats", 1)[1].split("\n### ", 1)[0]
-    shown = [line for line in section.splitlines() if line.startswith("| ")]
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_firmware.py")], check=True,
-                            capture_output=True, text=True, cwd=REPO)
-    printed = [line for line in result.stdout.splitlines() if line.startswith("| ")]
-    assert len(shown) > 10
-    assert printed == shown
+    printed_text = _benchmark("bench_firmware.py")
+    printed = _assert_tables_printed(section, printed_text)
     klipper = next(line for line in printed if line.startswith("| real AS5047D") and "| klipper |" in line)
     largest = float(klipper.split("|")[4].split("/")[0])
-    order_50 = float(re.search(r"orders by amplitude \(arcmin\) .*\b50: (\S+?),", result.stdout).group(1))
+    order_50 = float(re.search(r"orders by amplitude \(arcmin\) .*\b50: (\S+?),", printed_text).group(1))
     deployment = " ".join((DOCS / "deployment.md").read_text(encoding="utf-8").split())
     assert f"50th-harmonic step pattern ({order_50:.1f} arcmin; {largest:.1f} arcmin max;" in deployment
     assert f"50th harmonic ({order_50:.1f} arcmin, the command's last line;" in " ".join(section.split())
@@ -154,11 +158,10 @@ def _model_selection_text():
 
 def test_the_limit_of_stops_that_divide_the_codes_is_what_bench_quantised_sweeps_prints():
     """docs/model-selection.md, "Not fixed: stops that divide the codes": the figures after the change (2 s)."""
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_quantised_sweeps.py"), "--divides-codes"],
-                            check=True, capture_output=True, text=True, cwd=REPO)
+    output = _benchmark("bench_quantised_sweeps.py", "--divides-codes")
     printed = {(int(m.group(1)), int(m.group(2))): (float(m.group(3)), float(m.group(4)), m.group(5), m.group(6))
                for m in re.finditer(r"^(\d+)-bit, (\d+) stops: RMS off the truth (\S+) arcmin, least squares of the "
-                                    r"true orders (\S+), lines \[(.*)\] \(false: \[(.*)\]\)$", result.stdout, re.M)}
+                                    r"true orders (\S+), lines \[(.*)\] \(false: \[(.*)\]\)$", output, re.M)}
     text = _model_selection_text()
     shown = re.search(r"12-bit, 1,024 stops \S+ → (\S+) arcmin \((\S+); no line at all\), 2,048 stops \S+ → (\S+) "
                       r"\((\S+)\); 14-bit, 2,048 stops \S+ → (\S+) \((\S+)\), 4,096 stops \S+ → (\S+) \((\S+); "
@@ -176,12 +179,10 @@ def test_the_limit_of_stops_that_divide_the_codes_is_what_bench_quantised_sweeps
 @pytest.mark.slow
 def test_the_48_quantised_sweeps_after_the_change_are_what_bench_quantised_sweeps_prints():
     """docs/model-selection.md, "A dense noise-free sweep of a quantised encoder": the figures after (20 s CPU)."""
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_quantised_sweeps.py")], check=True,
-                            capture_output=True, text=True, cwd=REPO)
     summary = {m.group(1): [float(v) for v in m.groups()[1:]] for m in re.finditer(
         r"^(uniform|jittered) \(24 sweeps\): false lines (\d+), worst RMS off the truth (\S+) arcmin, worst "
         r"least-squares fit of the true orders (\S+), worst ratio (\S+), largest error off the truth (\S+)$",
-        result.stdout, re.M)}
+        _benchmark("bench_quantised_sweeps.py"), re.M)}
     text = _model_selection_text()
     shown = re.search(r"false lines on the 24 uniform sweeps \d+ → (\d+) \(41 on one\), on the 24 jittered \d+ → (\d+);"
                       r" the profile's RMS off the truth on a 0\.018° grid, worst, \S+ → (\S+) arcmin on uniform stops "
@@ -201,13 +202,11 @@ def test_the_48_quantised_sweeps_after_the_change_are_what_bench_quantised_sweep
                     reason="the real Mechaduino calibrations are not beside the repository")
 def test_the_real_files_coverage_of_readme_and_the_uncertainty_page_is_what_bench_uncertainty_prints():
     """README.md's 93.6 % / 30 % and docs/uncertainty.md's table of the real AS5047D files (5 s CPU)."""
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_uncertainty.py"), "--real"],
-                            check=True, capture_output=True, text=True, cwd=REPO)
     printed = {m.group(1): (int(m.group(2)), float(m.group(3)), int(m.group(4)), float(m.group(5)),
                             float(m.group(6)))
                for m in re.finditer(r"^(even-odd|repeat): (\d+) files; ±2σ covers median (\S+)% \(mean \S+, (\d+) "
                                     r"files at 90 % or more\); less the mean offset median (\S+)%; test RMS / pred σ "
-                                    r"median (\S+) ", result.stdout, re.M)}
+                                    r"median (\S+) ", _benchmark("bench_uncertainty.py", "--real"), re.M)}
     readme = " ".join((REPO / "README.md").read_text(encoding="utf-8").split())
     files, covers, _, _, _ = printed["repeat"]
     assert f"covers a median {covers:.1f} % of the same board's repeat at the same steps ({files} files)" in readme
@@ -252,9 +251,8 @@ def test_the_real_repeat_pair_table_of_the_drift_page_is_what_its_command_prints
 @pytest.mark.slow
 def test_the_weakness_of_select_cv_is_what_bench_dense_select_cv_prints():
     """docs/model-selection.md, "Known weakness of select='cv'": orders kept and errors (11 s CPU)."""
-    result = subprocess.run([sys.executable, str(REPO / "benchmarks" / "bench_dense.py"), "--select-cv"], check=True,
-                            capture_output=True, text=True, cwd=REPO)
-    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in result.stdout.splitlines()
+    printed = _benchmark("bench_dense.py", "--select-cv")
+    rows = [[cell.strip() for cell in line.strip("|").split("|")] for line in printed.splitlines()
             if re.match(r"\| \d+ \| \d \|", line)]
     kept = {n: sorted(int(r[2]) for r in rows if r[0] == n) for n in ("180", "500", "2000")}
     errors = [float(r[3]) for r in rows]
@@ -266,5 +264,5 @@ def test_the_weakness_of_select_cv_is_what_bench_dense_select_cv_prints():
              f"true orders has {true_fit['180'][0]:.3f}–{true_fit['180'][1]:.3f} (180 points) and "
              f"{true_fit['2000'][0]:.3f}–{true_fit['2000'][1]:.3f} (2,000 points)")
     assert shown in text
-    orders = re.search(r"a complete 2,000-point grid: \S+ s CPU, (\d+) orders kept", result.stdout).group(1)
+    orders = re.search(r"a complete 2,000-point grid: \S+ s CPU, (\d+) orders kept", printed).group(1)
     assert f"makes the curve keep falling to {orders} orders" in text
