@@ -4,6 +4,8 @@ Usage::
 
     python benchmarks/bench_accuracy.py              # 3 seeds, about 2 minutes on 2 cores
     python benchmarks/bench_accuracy.py --seeds 1    # quicker
+    python benchmarks/bench_accuracy.py --cv-choice  # only the cross-validated choice (--folds 5), with and
+                                                     # without stacking, auto's default before 2026-11-24
 
 Every method is fitted to each demo encoder's training run (0:2:358 degrees) and
 evaluated on its test run (1:3:359 degrees, between the training points, read
@@ -57,11 +59,41 @@ def oracle(cal, test_cal, seed):
     return result
 
 
+def cv_choice(seeds):
+    """The cross-validated choice (``folds=5``) with and without stacking: test RMS per encoder (mean over the
+    seeds; its networks depend on them), RMS / floor, and the mean CPU of a fit."""
+    fleet = demo_fleet()
+    print(f"# the cross-validated choice on the demo fleet, seeds 0..{len(seeds) - 1}; load "
+          f"{open('/proc/loadavg').read().split()[0]}\n")
+    print("| choice | " + " | ".join(m.name for m in fleet) + " | CPU per fit, s |")
+    print("|---|" + "---|" * (len(fleet) + 1))
+    chosen = []
+    for label, options in (("with stacking", {}), ("one family (no stack)", {"stack": False})):
+        cells, cpu = [], []
+        for member in fleet:
+            floor = measurement_floor(member.test)
+            tested = []
+            for seed in seeds:
+                model, test_rms, elapsed = fit_and_test(member.train.calibration, member.test.calibration, "auto",
+                                                        {"folds": 5, **options}, seed)
+                tested.append(test_rms)
+                cpu.append(elapsed)
+                chosen.append(f"{label}, {member.name}, seed {seed}: {model.training['selection']['chosen']}")
+            cells.append(f"{np.mean(tested):.4f} ({np.mean(tested) / floor:.2f})")
+        print(f"| {label} | " + " | ".join(cells) + f" | {np.mean(cpu):.2f} |")
+    print("\n" + "\n".join(chosen))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=3, help="number of seeds 0..N-1 (default 3)")
+    parser.add_argument("--cv-choice", action="store_true",
+                        help="only the cross-validated choice (folds=5), with and without stacking")
     args = parser.parse_args()
     seeds = range(args.seeds)
+    if args.cv_choice:
+        cv_choice(seeds)
+        return
 
     fleet = demo_fleet()
     rms = {name: {m.name: [] for m in fleet} for name in METHODS}
