@@ -266,3 +266,16 @@ def test_the_weakness_of_select_cv_is_what_bench_dense_select_cv_prints():
     assert shown in text
     orders = re.search(r"a complete 2,000-point grid: \S+ s CPU, (\d+) orders kept", printed).group(1)
     assert f"makes the curve keep falling to {orders} orders" in text
+
+
+@pytest.mark.slow
+def test_safeguard_1s_repeated_search_is_what_bench_spectral_collapse_prints():
+    """docs/model-selection.md, safeguard 1: 2 of 30 draws collapse without the repeat today (8 s CPU)."""
+    printed = _benchmark("bench_spectral.py", "--collapse")
+    found = re.search(r"lines on more than a third of the orders in (\d+) of (\d+) draws \(seeds [\d, ]+: (\d+)-(\d+) "
+                      r"lines, profile error (\S+)-(\S+) times the repeated search's\)", printed)
+    assert found
+    draws, total, low, high, worse_low, worse_high = found.groups()
+    text = _model_selection_text()
+    assert (f"{draws} of {total} ({low}–{high} lines, {float(worse_low):.2f}–{float(worse_high):.2f} times) since the "
+            "strong orders are taken out one at a time") in text
