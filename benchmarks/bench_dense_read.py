@@ -19,6 +19,9 @@ the ratio holds on a loaded machine; the table gives medians and the median of t
   fits Fourier orders 1 to 16 by projection, each a whole process (CPU time, user + system, wall time, and peak
   resident memory, all from GNU ``/usr/bin/time``), both with one BLAS thread and Python's bytecode kept from the
   warm-up run on (in the temporary folder), as an installed package has it.
+* The same NumPy script that also imports what the spectral fit cannot do without, SciPy's optimiser (L-BFGS-B)
+  and LAPACK (``scipy.optimize``, ``scipy.linalg``), and uses neither: the part of the ratio that is the
+  imports', not the fit's (the "+ SciPy" rows).
 """
 
 import argparse
@@ -45,6 +48,9 @@ for order in range(1, 17):
     coefficients.append(2.0 * np.mean(error * zk.conj()))
 np.save(sys.argv[2], np.asarray(coefficients))
 """
+
+#: The NumPy script with the imports of the spectral fit's SciPy modules (used by encal, not by the script).
+NUMPY_FIT_WITH_SCIPY_IMPORTS = "import scipy.linalg, scipy.optimize\n" + NUMPY_FIT
 
 
 def write_files(folder, rows, seed=0):
@@ -180,20 +186,27 @@ def main():
             print(row(f"{name} file", a, b))
         script = Path(folder) / "numpy_fit.py"
         script.write_text(NUMPY_FIT)
+        with_scipy = Path(folder) / "numpy_fit_scipy_imports.py"
+        with_scipy.write_text(NUMPY_FIT_WITH_SCIPY_IMPORTS)
         env = _process_env(folder)
         print("\n| whole process | encal fit | NumPy script | ratio (min-max) |\n|---|---|---|---|")
         for name, path in files.items():
             encal = [sys.executable, "-m", "encal", "fit", str(path), "-o", str(Path(folder) / "model.json")]
             plain = [sys.executable, str(script), str(path), str(Path(folder) / "coefficients.npy")]
-            run_process(encal, env), run_process(plain, env)
-            results = {"encal": [], "plain": []}
+            imports = [sys.executable, str(with_scipy), str(path), str(Path(folder) / "coefficients.npy")]
+            run_process(encal, env), run_process(plain, env), run_process(imports, env)
+            results = {"encal": [], "plain": [], "imports": []}
             for _ in range(max(1, args.repeats - 2)):
                 results["encal"].append(run_process(encal, env))
                 results["plain"].append(run_process(plain, env))
-            encal_runs, plain_runs = np.array(results["encal"]), np.array(results["plain"])
+                results["imports"].append(run_process(imports, env))
+            encal_runs, plain_runs, import_runs = (np.array(results[key]) for key in ("encal", "plain", "imports"))
             print(row(f"{name}: CPU", encal_runs[:, 0], plain_runs[:, 0]))
             print(row(f"{name}: wall", encal_runs[:, 1], plain_runs[:, 1]))
             print(row(f"{name}: peak memory", encal_runs[:, 2], plain_runs[:, 2], unit="MiB"))
+            print(row(f"{name}: CPU, against the script + SciPy's imports", encal_runs[:, 0], import_runs[:, 0]))
+            print(row(f"{name}: the script + SciPy's imports, CPU, against the script", import_runs[:, 0],
+                      plain_runs[:, 0]))
     print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
 
 

@@ -29,7 +29,8 @@ def main():
         models["real AS5047D, 10-term Fourier (14-bit)"] = Compensator(model)
         amplitudes = np.hypot(model.cos, model.sin)
         largest = ", ".join(f"{k}: {a:.2f}" for k, a in zip(model.orders, amplitudes) if k != 0)
-    print("| model | format | file bytes | round trip max / RMS, arcmin | storage rounding, arcmin | constant left out, arcmin |")
+    print("| model | format | file bytes | round trip max / RMS, arcmin | storage rounding, arcmin "
+          "| constant left out, arcmin |")
     print("|---|---|---|---|---|---|")
     for name, comp in models.items():
         bits = comp.encoder.get("resolution_bits")

@@ -281,7 +281,8 @@ if sys.argv[2] == "floor":
     m, n_hidden = problem.n_samples, problem.hidden
     d, h = rng.standard_normal((m, n_hidden)), np.tanh(rng.standard_normal((m, n_hidden)))
     J = rng.standard_normal((m, problem.n_params))
-    x, W1, w2, v = problem.inputs, rng.standard_normal((n_hidden, 1)), rng.standard_normal(n_hidden), rng.standard_normal(m)
+    x, W1 = problem.inputs, rng.standard_normal((n_hidden, 1))
+    w2, v = rng.standard_normal(n_hidden), rng.standard_normal(m)
     gram = dsyrk(1.0, d.T, trans=1, lower=1) + 1e3 * np.eye(m)
     def epoch():
         dsyrk(1.0, d.T, trans=1, lower=1)
@@ -449,7 +450,8 @@ except ImportError:
 def direct(theta_deg, highest):  # sum_i y_i exp(-i k theta_i), k = 0..highest, exact products in chunks
     theta, out = np.radians(theta_deg), np.zeros(highest + 1, complex)
     for start in range(0, n, 4096):
-        out += np.exp(-1j * np.multiply.outer(np.arange(highest + 1), theta[start:start + 4096])) @ error[start:start + 4096]
+        block = slice(start, start + 4096)
+        out += np.exp(-1j * np.multiply.outer(np.arange(highest + 1), theta[block])) @ error[block]
     return out
 
 def timed(run, repeats=3):
@@ -747,7 +749,8 @@ def section_series(sources, folder, quick):
     labels = ["every order", "squaring", "difference", "planned"]
     print("\n### A Fourier series on 8,192 angles: ns per angle (best of 3 CPU times) and products of each chain\n")
     print("| orders | direct ns | " + " | ".join(f"{label} ns (products)" for label in labels)
-          + " | spectral's evaluator ns" + (" | the evaluator before ns" if before else "") + " | chosen | chosen / direct |")
+          + " | spectral's evaluator ns" + (" | the evaluator before ns" if before else "")
+          + " | chosen | chosen / direct |")
     print("|---|---|" + "---|" * len(labels) + "---|---|---|" + ("---|" if before else ""))
     for name, row in rows.items():
         chosen = row["ns"][{"recurrence": "planned", "taylor": "spectral's evaluator"}.get(row["chosen"], "direct")]

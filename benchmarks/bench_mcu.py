@@ -148,7 +148,8 @@ def measure(comp, target, options, function, result, bits, calls, work):
     flash_of = lambda s: s.get(".text", 0) + s.get(".rodata", 0) + s.get(".data", 0)  # noqa: E731
     added = flash_of(sections(program)) - flash_of(sections(base))
     per_reading = instructions(program) / calls
-    return {"per_reading": per_reading, "flash": flash, "added": added, "ram": ram, "max": summary.get("max_error_arcmin"), "rms": summary.get("rms_error_arcmin"),
+    return {"per_reading": per_reading, "flash": flash, "added": added, "ram": ram,
+            "max": summary.get("max_error_arcmin"), "rms": summary.get("rms_error_arcmin"),
             "what": _what(summary)}
 
 

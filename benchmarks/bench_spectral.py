@@ -92,7 +92,8 @@ def cases(names):
             more = fleet_plus + list(simulate_fleet(8, 11))
             for draw in (0, 1):
                 for i, member in enumerate(more):
-                    yield name, f"{member.name}{'abcdefghijklmnop'[i]}{draw}", _jitter_case(member, 5000 + 100 * draw + i)
+                    label = f"{member.name}{'abcdefghijklmnop'[i]}{draw}"
+                    yield name, label, _jitter_case(member, 5000 + 100 * draw + i)
 
 
 def _truth_function(member):
@@ -382,7 +383,8 @@ def main():
             ideals.append(ideal)
             cells = " | ".join(f"{result[name] / floor:.3f}" for name in names)
             print(f"| {encoder} | {floor:.4f} | {cells} | {best_plain / floor:.3f} | {ratios[-1]:.3f} "
-                  f"| {ratios_noise[-1]:.3f} | {reachable[-1]:.3f} | {to_informed[-1]:.3f} | {coverage:.3f} | {ideal:.3f} |")
+                  f"| {ratios_noise[-1]:.3f} | {reachable[-1]:.3f} | {to_informed[-1]:.3f} | {coverage:.3f} "
+                  f"| {ideal:.3f} |")
         times = {name: np.mean([entry[3][name] for entry in entries]) for name in entries[0][3]}
         print(f"\nauto / best plain: median {np.median(ratios):.3f}, worst {max(ratios):.3f}; with the noise "
               f"supplied: median {np.median(ratios_noise):.3f}, worst {max(ratios_noise):.3f}; "

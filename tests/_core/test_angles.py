@@ -60,7 +60,8 @@ def test_wrap360_is_np_mod_bit_for_bit():
     edges = turns + [np.nextafter(t, side) for t in turns for side in (-np.inf, np.inf)] + [
         0.0, -0.0, -1e-17, 1e-17, 5e-324, -5e-324, -1e-300, 719.9999999999999, -359.99999999999994]
     for angles in (np.array(edges * 3), rng.uniform(0.0, 360.0, 10_000), rng.uniform(-360.0, 720.0, 10_000),
-                   rng.uniform(-1e4, 1e4, 10_000), rng.uniform(-1.0, 1.0, 10_000) * 10.0 ** rng.integers(-300, 12, 10_000),
+                   rng.uniform(-1e4, 1e4, 10_000),
+                   rng.uniform(-1.0, 1.0, 10_000) * 10.0 ** rng.integers(-300, 12, 10_000),
                    rng.uniform(-1e-12, 1e-12, 1000), 360.0 + rng.uniform(-1e-12, 1e-12, 1000),
                    rng.uniform(-2.0**40, 2.0**40, 1000), rng.uniform(-1e300, 1e300, 1000), np.array([-0.0] * 100)):
         expected = np.mod(angles, 360.0)

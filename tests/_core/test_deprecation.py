@@ -42,7 +42,8 @@ MOVED = {
 def test_an_old_path_warns_and_hands_over_the_same_object(old):
     name, new = MOVED[old]
     module = importlib.import_module(old)
-    with pytest.warns(DeprecationWarning, match=rf"{old} is deprecated and will be removed in encal 0.3: import {name} "):
+    with pytest.warns(DeprecationWarning,
+                      match=rf"{old} is deprecated and will be removed in encal 0.3: import {name} "):
         value = getattr(module, name)
     assert value is getattr(importlib.import_module(new), name)
     assert name in dir(module)

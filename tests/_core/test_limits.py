@@ -168,7 +168,8 @@ def documents(tmp_path_factory):
     return {"ann": _fitted(folder, "ann", hidden=3, epochs=5, rng=0), "fourier": _fitted(folder, "fourier")}
 
 
-@pytest.mark.parametrize("kind, case", [("ann", key) for key in ANN_EDITS] + [("fourier", key) for key in FOURIER_EDITS])
+@pytest.mark.parametrize("kind, case",
+                         [("ann", key) for key in ANN_EDITS] + [("fourier", key) for key in FOURIER_EDITS])
 def test_a_resigned_out_of_range_parameter_is_refused(documents, tmp_path, capsys, kind, case):
     edit, field = {**ANN_EDITS, **FOURIER_EDITS}[case]
     path = _edited(tmp_path, documents[kind], edit)

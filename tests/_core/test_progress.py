@@ -124,7 +124,8 @@ def sweep_csv(path, revolutions=5, stops=720):
     rng = np.random.default_rng(0)
     reference = np.tile(np.arange(stops) * 360.0 / stops, revolutions)
     encoder = reference + (2.0 * np.sin(np.radians(reference)) + rng.normal(0.0, 0.1, reference.size)) / 60.0
-    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{r!r},{e!r}\n" for r, e in zip(reference.tolist(), encoder.tolist())))
+    path.write_text("reference_deg,encoder_deg\n"
+                    + "".join(f"{r!r},{e!r}\n" for r, e in zip(reference.tolist(), encoder.tolist())))
     return path
 
 

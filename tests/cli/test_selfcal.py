@@ -131,3 +131,17 @@ def test_sweep_from_a_csv_of_the_commanded_electrical_angle(tmp_path):
     cal = read_calibration(out)
     truth = truth_at_orders(ENCODER, [k for k in range(1, 33) if k % 7], grid=cal.encoder_deg)
     assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)
+
+
+def test_steps_keeps_the_resolution_its_readings_show(tmp_path, capsys):
+    """users7: a real Mechaduino calibration in degrees (whole 14-bit codes, no resolution line) gave a calibration
+    of unknown resolution: `encal fit` asked for --bits and the cortex-m4f export left out its code functions."""
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
+
+    run = simulate_steps(draw_stepper(4), ENCODER, rng=1).calibration
+    path = tmp_path / "a.csv"
+    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{r!r},{e!r}\n" for r, e in
+                                                            zip(run.reference_deg.tolist(), run.encoder_deg.tolist())))
+    assert read_calibration(path).resolution_bits is None
+    assert main(["selfcal", "steps", str(path), "-o", str(tmp_path / "o.csv")]) == 0
+    assert read_calibration(tmp_path / "o.csv").resolution_bits == 14

@@ -322,8 +322,10 @@ def test_a_huge_header_is_shown_shortened(write_csv):
 
 def test_quoted_fields_are_read_as_csv(write_csv):
     lines = grid_csv().splitlines()
-    rows = [f'"run 1, table A",{row}' if i % 2 else f'"note",{",".join(f"{chr(34)}{c}{chr(34)}" for c in row.split(","))}'
-            for i, row in enumerate(lines[1:])]
+    def quoted(row):
+        return ",".join(f'"{cell}"' for cell in row.split(","))
+
+    rows = [f'"run 1, table A",{row}' if i % 2 else f'"note",{quoted(row)}' for i, row in enumerate(lines[1:])]
     cal = read_calibration(write_csv("note,\"reference_deg\",encoder_deg\n" + "\n".join(rows) + "\n"))
     plain = read_calibration(write_csv(grid_csv(), name="plain.csv"))
     assert np.array_equal(cal.reference_deg, plain.reference_deg)
@@ -405,3 +407,17 @@ def test_a_number_only_python_reads_is_refused_in_every_dialect(tmp_path, text, 
     path = tmp_path / "cal.csv"
     path.write_text(text, encoding="utf-8")
     _refused(path, f"{where}: .*{why}")
+
+
+@pytest.mark.parametrize("header, method", [("time_s,encoder_deg,run", "spin"), ("electrical_deg,encoder_deg", "sweep"),
+                                            ("time_s,motor_deg,output_deg", "dual")])
+def test_a_log_without_a_reference_is_pointed_to_the_selfcal_that_reads_it(write_csv, header, method):
+    """users7: a motor user's spin log read by encal profile or fit was told to name its reference column, which a
+    spin has none of; the command that makes it a calibration was not named."""
+    path = write_csv(header + "\n" + "".join(f"{0.01 * i},{i},{i % 3}\n" for i in range(20)))
+    assert f"encal selfcal {method} " in _refused(path, "the header lacks")
+
+
+def test_a_log_with_a_reference_under_another_name_is_not_pointed_to_selfcal(write_csv):
+    path = write_csv("time_s,commanded_rev,measured_rev\n" + "".join(f"{0.01 * i},{i},{i}\n" for i in range(20)))
+    assert "selfcal" not in _refused(path, "the header lacks")

@@ -330,7 +330,8 @@ def test_simplefoc_round_trip(kind, version, nodes):
     assert gap.max() <= out.max_error_arcmin * (1 + 1e-6) + 1e-9
     reread = read_simplefoc(out.text)
     theta = np.arange(0, 360, 0.5)
-    assert np.max(np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))) <= out.max_error_arcmin + 1e-5
+    gap = np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))
+    assert np.max(gap) <= out.max_error_arcmin + 1e-5
 
 
 # -- Klipper: klippy/extras/angle.py ----------------------------------------------------------------------
@@ -548,11 +549,13 @@ def test_tinymovr_round_trip(kind):
     assert table.size == 64 and "int32_t rec_table[64]" in out.text
     angles = np.arange(1 << 13)
     rectified = tinymovr_rectified(table, angles, 13)
-    gap = np.abs((rectified - angles) * (21600 / 8192) + out.offset_arcmin - correction_arcmin(comp, angles * 360 / 8192))
+    gap = np.abs((rectified - angles) * (21600 / 8192) + out.offset_arcmin
+                 - correction_arcmin(comp, angles * 360 / 8192))
     assert gap.max() <= out.max_error_arcmin + 1e-9
     reread = read_tinymovr(out.text, bits=13)
     theta = np.arange(0, 360, 0.5)
-    assert np.max(np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))) <= out.max_error_arcmin + 1e-6
+    gap = np.abs(reread.predict(theta) - out.offset_arcmin - comp.predict(theta))
+    assert np.max(gap) <= out.max_error_arcmin + 1e-6
 
 
 def test_reading_sign_flips_the_correction():

@@ -400,3 +400,20 @@ def test_a_spectral_model_deploys_as_its_fourier_series(tmp_path):
     out = run_c(tmp_path, FLOAT_DRIVER, np.float32)
     truth = Compensator(model).predict(np.arange(N) * (360.0 / N))
     assert np.max(np.abs(out[:, 0].astype(float) * (21600.0 / N) - truth)) <= summary["max_error_arcmin"] + 1e-5
+
+
+def test_the_host_exports_hint_covers_what_cortex_m4f_then_costs():
+    # users7: the host C export said "--target cortex-m4f writes a float32 compact table (21 C operations to correct
+    # a reading in degrees)", the cost of a linear table; the export then chose a cubic B-spline of 46.
+    import re
+
+    from encal.deploy.costs import OPERATIONS
+    from encal.deploy.targets import describe
+
+    model = FourierModel([1, 2, 16], [3.0, 0.5, 0.4], [0.0, 1.0, -2.0], encoder={"resolution_bits": BITS})
+    hint = re.search(r"compact table \((\d+) to (\d+) C operations to correct a reading in degrees",
+                     describe(export_target(model, "host")[1]))
+    assert hint is not None
+    interpolation = export_target(model, "cortex-m4f")[1]["interpolation"]
+    assert interpolation == "cubic"
+    assert int(hint[1]) <= OPERATIONS[("cortex-m4f", "cubic", "correct_deg")] <= int(hint[2])

@@ -267,3 +267,18 @@ def test_a_file_stored_under_its_decomposed_serial_by_an_old_encal_is_skipped_no
     assert "1 already stored, skipped" in capsys.readouterr().out
     with open_store(store) as opened:
         assert [(r.serial, r.epoch) for r in opened.records()] == [(_MULLER, 1)]
+
+
+def test_a_unit_calibrated_over_an_arc_is_told_the_fleet_options_that_fit_it(tmp_path, capsys):
+    """users7: the refusal said "expected the default (the arc family: leave out --method)", but the fleet's default
+    is the spectral model that it refused, and --method was not given."""
+    _write_unit(tmp_path / "SN1.csv", 1.0)
+    lines = (tmp_path / "SN1.csv").read_text(encoding="utf-8").splitlines(keepends=True)
+    (tmp_path / "SN1.csv").write_text("".join(lines[:46]), encoding="utf-8")  # 0 to 88 deg
+    store = tmp_path / "s.sqlite"
+    assert _fit(tmp_path / "SN1.csv", "--store", store) == 1
+    err = capsys.readouterr().err
+    assert "leave out --method" not in err and "--method auto" in err and "--prior-from" in err
+    assert _fit(tmp_path / "SN1.csv", "--store", store, "--method", "auto") == 0  # the option it names fits it
+    with open_store(store) as opened:
+        assert opened.latest("SN1").model().kind == "arc"

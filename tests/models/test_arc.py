@@ -214,7 +214,8 @@ def test_cli_scattered_gaps_are_still_refused(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("export", [["table", "--bits", "12"], ["c"], ["moteus", "--bits", "14"], ["simplefoc"],
-                                    ["tinymovr", "--bits", "14"], ["klipper", "--step-zero", "0", "--step-direction", "1"],
+                                    ["tinymovr", "--bits", "14"],
+                                    ["klipper", "--step-zero", "0", "--step-direction", "1"],
                                     ["mechaduino", "--step-zero", "0"]])
 def test_every_export_refuses_an_arc_model_without_a_rule(arc_model_file, tmp_path, capsys, export):
     out = tmp_path / "out"

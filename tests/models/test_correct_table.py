@@ -80,7 +80,8 @@ def test_lookup_table_model_within_the_bound(interpolation):
 
     rng = np.random.default_rng(4)
     stops = np.arange(0.0, 360.0, 2.0)
-    error = 3.0 * np.sin(np.radians(stops)) + 0.6 * np.sin(np.radians(16 * stops) + 1.0) + rng.normal(0, 0.1, stops.size)
+    error = (3.0 * np.sin(np.radians(stops)) + 0.6 * np.sin(np.radians(16 * stops) + 1.0)
+             + rng.normal(0, 0.1, stops.size))
     model = fit_lut(stops, error, interpolation=interpolation)
     theta = rng.uniform(-360.0, 720.0, TABLE_MIN_ANGLES * 2)
     fast = model.correct(theta, table=True)

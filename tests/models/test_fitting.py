@@ -70,7 +70,8 @@ def test_large_offset_near_180_degrees_is_modelled():
 
 def test_unknown_method_and_wrong_arguments():
     cal = _calibration(harmonic_profile)
-    with pytest.raises(InputError, match="The 'method' parameter of fit must be one of fourier, spectral, lut, hybrid, ann, stack, arc, auto. Got 'spline' instead"):
+    with pytest.raises(InputError, match="The 'method' parameter of fit must be one of fourier, spectral, lut, "
+                                         "hybrid, ann, stack, arc, auto. Got 'spline' instead"):
         encal.fit(cal, method="spline")
     # a deterministic method ignores the seed, as scikit-learn's random_state is ignored where unused
     np.testing.assert_array_equal(encal.fit(cal, method="fourier", rng=1).predict(np.arange(360.0)),

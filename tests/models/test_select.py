@@ -212,8 +212,8 @@ def test_fold_fits_are_told_the_grid_only_for_a_calibration_on_one(monkeypatch):
     monkeypatch.setitem(REGISTERED, "fourier", dataclasses.replace(REGISTERED["fourier"], fit=spy))
     irregular = np.sort(np.random.default_rng(0).uniform(0.0, 360.0, 180))
     fit_auto(GRID, harmonic_profile(GRID), candidates=[Candidate("fourier")], use_grid=True)
-    with pytest.warns(EncalWarning, match=r"use_grid \(--at-steps\) has no effect: the 180 encoder angles do not lie on a "
-                                          "uniform grid"):
+    with pytest.warns(EncalWarning, match=r"use_grid \(--at-steps\) has no effect: the 180 encoder angles do not "
+                                          "lie on a uniform grid"):
         fit_auto(irregular, harmonic_profile(irregular), candidates=[Candidate("fourier")], use_grid=True)
     fit_auto(GRID, harmonic_profile(GRID), candidates=[Candidate("fourier")], use_grid=False)
     assert told == [180] * 5 + [None] + [None] * 12  # 5 folds and the refit, three times

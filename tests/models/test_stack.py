@@ -9,7 +9,8 @@ import pytest
 
 import encal
 from encal.cli import main
-from encal.deploy import Compensator, compile_table, export_c, load_model, model_to_dict, read_model, save_model, write_c
+from encal.deploy import (Compensator, compile_table, export_c, load_model, model_to_dict, read_model, save_model,
+                          write_c)
 from encal import runtime
 from encal.deploy.cexport import FLOAT32_BUDGET_ARCMIN
 from encal._core.errors import InputError, ModelFileError
@@ -450,9 +451,11 @@ def bad_parameters():
         ("zero", lambda p: p.update(weights=[1.0, 0.0]), r"floats > 0", r"weights to be > 0"),
         ("length", lambda p: p.update(weights=[1.0]), r"one weight per member", r"weights to be a list of 2"),
         ("directional member", lambda p: p["members"].append(directional),
-         r"members must be of kind fourier, spectral, lut, hybrid, ann. Got 'directional'", r"members\[2\]\.kind to be one of"),
+         r"members must be of kind fourier, spectral, lut, hybrid, ann. Got 'directional'",
+         r"members\[2\]\.kind to be one of"),
         ("stack member", lambda p: p["members"].__setitem__(0, {"kind": "stack", "parameters": {}}),
-         r"Got 'stack' instead", r"members\[0\]\.kind to be one of ann, arc, fourier, hybrid, lut, spectral, got \"stack\""),
+         r"Got 'stack' instead",
+         r"members\[0\]\.kind to be one of ann, arc, fourier, hybrid, lut, spectral, got \"stack\""),
         ("no weights", lambda p: p.pop("weights"), r"a list 'weights'", r"weights to be a list of 2"),
         ("no members", lambda p: p.update(members=[]), r"non-empty list 'members'", r"members to be a non-empty"),
         ("bad member", lambda p: p["members"][1]["parameters"].pop("sin"), r"fourier model parameters",

@@ -1,4 +1,5 @@
-"""The paper's studies (encal.paper.studies): sweep, algorithm table, SVD pruning, comparison, reproducibility, tables."""
+"""The paper's studies (encal.paper.studies): sweep, algorithm table, SVD pruning, comparison, reproducibility,
+tables."""
 
 import csv
 import io

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from encal.data.calibration import Calibration, read_calibration
+from encal._core.angles import wrap180
 from encal._core.errors import CalibrationError, InputError
 from encal.selfcal.synthetic import draw_magnetic_encoder, draw_stepper, simulate_steps
 from encal.selfcal.steps import step_errors, steps
@@ -158,3 +159,38 @@ def test_a_reversed_encoder_written_and_fitted_corrects_toward_the_truth(tmp_pat
     assert "fit the calibration written with --reverse" in result.summary()
     with pytest.raises(InputError, match="reverse"):
         steps(first, Calibration(second.reference_deg, -second.encoder_deg))  # one reversed, one not
+
+
+def _lookup(export):
+    """The 16384 angles of a Mechaduino export, degrees."""
+    body = export.text[export.text.index("{") + 1:export.text.rindex("}")]
+    return np.array([float(cell) for cell in body.replace("\n", "").split(",")])
+
+
+@pytest.mark.parametrize("reverse", [False, True])
+def test_the_first_calibrations_step_zero_is_stated_in_the_frame_written(tmp_path, reverse):
+    # users7: the calibration written has reference = reading - error/60, whose zero is the encoder's, not the
+    # stepper's. A Mechaduino table exported from it with --step-zero 0 (right for the stepper's own calibration)
+    # was turned by the encoder's zero offset: 49.99 deg, 27.8 full steps, on a real board (its commutation off).
+    import encal
+    from encal.deploy.firmware.mechaduino import export_mechaduino
+
+    k = np.arange(200)
+    shaft = k * 1.8 + 59.3  # the magnet's angle at full step k: the encoder's zero is 59.3 deg from the stepper's
+    reading = shaft + _reversed_error(shaft) / 60
+    counts = np.round(np.mod(-reading if reverse else reading, 360.0) * 16384 / 360) % 16384
+    path = tmp_path / "a.csv"
+    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{r!r},{c * 360 / 16384!r}\n"
+                                                            for r, c in zip((k * 1.8).tolist(), counts.tolist())))
+    first = read_calibration(path, reverse=reverse)
+    result = steps(first)
+    step_zero = result.details["step_zero_deg"]
+    assert step_zero == pytest.approx(59.3, abs=0.005)
+    assert f"--step-zero {step_zero:.4f}" in result.summary()
+    result.write(tmp_path / "cal.csv")
+    assert f"--step-zero {step_zero:.4f}" in (tmp_path / "cal.csv").read_text()
+    selfcal_model = encal.fit(read_calibration(tmp_path / "cal.csv", reverse=reverse))
+    direct_model = encal.fit(first, method="fourier")  # the stepper's own frame: --step-zero 0
+    gap = wrap180(_lookup(export_mechaduino(selfcal_model, step_zero_deg=step_zero))
+                  - _lookup(export_mechaduino(direct_model, step_zero_deg=0.0))) * 60
+    assert np.sqrt(np.mean(gap ** 2)) < 0.5  # arcmin; 3558 with --step-zero 0

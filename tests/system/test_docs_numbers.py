@@ -111,6 +111,74 @@ def test_the_known_truth_table_of_the_self_calibration_page_is_what_its_benchmar
     _assert_tables_printed(section, _benchmark("bench_selfcal_truth.py"))
 
 
+def test_the_bidirectional_pages_examples_run_and_give_its_measured_reversal(tmp_path, monkeypatch):
+    """users7: the page read "enc1_bidirectional.csv", which no command or page made, and used undefined names."""
+    text = (DOCS / "bidirectional.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    assert "write_calibration" in blocks[0] and "read_calibration" in blocks[1]
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "docs"}
+    for block in blocks[:2]:
+        exec(compile(block, "docs/bidirectional.md", "exec"), namespace)
+    iso = namespace["iso"].as_dict()
+    mean_low, mean_high, value_low, value_high = (abs(_number(x)) for x in re.search(
+        r"`B̄` = (−?[\d.]+) to (−?[\d.]+) LSB.*?`B` = (\d+)–(\d+) LSB", text, flags=re.S).groups())
+    assert mean_low <= -iso["mean_reversal_value_lsb"] <= mean_high  # the page's sign: B̄ negative
+    assert value_low <= iso["reversal_value_lsb"] <= value_high
+    assert namespace["model"].training["bidirectional"] == "mean"
+
+
+def test_the_self_calibration_pages_commands_run_on_the_files_its_block_writes(tmp_path, monkeypatch, capsys):
+    """users7: the page's commands read spin.csv and moteus_raw.txt, which nothing made."""
+    import shlex
+    import shutil
+
+    from encal.cli import main
+    from tests._paths import EXAMPLES
+
+    text = (DOCS / "self-calibration.md").read_text(encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(EXAMPLES, tmp_path / "examples", ignore=shutil.ignore_patterns("*.py"))
+    _run_block(_python_block_after("self-calibration.md", "To try them without a motor"), capsys)
+    commands = [shlex.split(line, comments=True) for line in re.search(r"```sh\n(.*?)```", text, flags=re.S)
+                .group(1).splitlines()]
+    steps_command = shlex.split(re.search(r"`(encal selfcal steps examples/[^`]*)`", text).group(1))
+    commands = [steps_command if words[:3] == ["encal", "selfcal", "steps"] else words for words in commands]
+    for words in commands:
+        capsys.readouterr()
+        assert main(words[1:]) == 0, f"self-calibration.md: `{' '.join(words)}` failed: {capsys.readouterr().err}"
+        if words[:3] == ["encal", "selfcal", "steps"]:
+            printed = capsys.readouterr().out
+    said = re.search(r"orders 1, 2 and 4 at ([\d.]+), ([\d.]+) and ([\d.]+) arcmin.*?`--step-zero ([\d.]+)`", text,
+                     flags=re.S).groups()
+    found = [re.search(rf"^\s+{order}\s+([\d.]+)", printed, flags=re.M).group(1) for order in (1, 2, 4)]
+    assert [float(x) for x in said[:3]] == pytest.approx([round(float(x), 2) for x in found], abs=1e-9)
+    assert f"--step-zero {said[3]} " in printed
+    assert (tmp_path / "moteus.cfg").is_file()
+
+
+def test_the_in_place_pages_commands_run_on_the_files_its_blocks_write(tmp_path, monkeypatch, capsys):
+    """users7: the page's commands read arm.csv, arm_test.csv and joint.csv, which nothing made."""
+    import shlex
+
+    from encal.cli import main
+
+    text = (DOCS / "in-place.md").read_text(encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--encoders", "1", "--out", "sim"]) == 0
+    for marker in ("To try it without a joint, cut", "To try it without a joint, the simulator"):
+        _run_block(_python_block_after("in-place.md", marker), capsys)
+        commands = re.search(re.escape(marker) + r".*?```python\n.*?```.*?```\n(.*?)```", text, flags=re.S).group(1)
+        for line in commands.splitlines():
+            words = shlex.split(line.replace("[", "").replace("]", ""), comments=True)
+            capsys.readouterr()
+            assert main(words[1:]) == 0, f"in-place.md: `{line}` failed: {capsys.readouterr().err}"
+    from encal import load_model
+
+    assert load_model(tmp_path / "arm.json").kind == "arc" and (tmp_path / "arm.html").is_file()
+    assert (tmp_path / "output.json").is_file()
+
+
 # --- task claims7: figures that had no command ---------------------------------------------------------------------
 
 

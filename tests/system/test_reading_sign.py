@@ -86,7 +86,8 @@ def test_api_corrects_raw_readings(reversed_model):
 def test_evaluate_reverse_agrees_with_correct(reversed_model, tmp_path, capsys):
     raw = raw_reading(TEST_REF)
     csv = tmp_path / "test.csv"
-    csv.write_text("reference_deg,encoder_deg\n" + "".join(f"{float(r)!r},{float(e)!r}\n" for r, e in zip(TEST_REF, raw)))
+    csv.write_text("reference_deg,encoder_deg\n"
+                   + "".join(f"{float(r)!r},{float(e)!r}\n" for r, e in zip(TEST_REF, raw)))
     assert main(["evaluate", str(reversed_model), str(csv), "--reverse", "--json"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["max_abs_arcmin"] < TOLERANCE_ARCMIN

@@ -74,8 +74,8 @@ def held_out(model, cal, method, options):
     dict or None
         ``rms_arcmin`` (None when not available), ``estimator`` ('posterior', 'auto CV' or
         'interleaved CV'), ``folds`` and ``text`` (the line printed), with the fold figures of a
-        cross-validation (and ``mean_note`` for the model of the mean of both directions); for a directional model ``{'forward': ..., 'reverse': ...}``. None when the
-        CV table of an auto fit is the estimate.
+        cross-validation (and ``mean_note`` for the model of the mean of both directions); for a directional
+        model ``{'forward': ..., 'reverse': ...}``. None when the CV table of an auto fit is the estimate.
     """
     from ..data.reversal import direction_subset, has_both_directions, mean_calibration
 

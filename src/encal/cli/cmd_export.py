@@ -280,7 +280,8 @@ def _export(args):
     _check_combinations(args)
     output = Path(args.output)
     c_files = [f"{args.name}.h", f"{args.name}.c"] if args.format == "c" else []
-    check_paths(inputs=[model_input(args), (getattr(args, "conf", None), "firmware")], outputs=[] if c_files else [("-o", output)],
+    check_paths(inputs=[model_input(args), (getattr(args, "conf", None), "firmware")],
+                outputs=[] if c_files else [("-o", output)],
                 folders=[("-o", output, c_files)] if c_files else [])
     compensator = Compensator(model_or_serial(args, args.export_parser))
     if compensator.model.range_deg is not None or args.outside is not None:

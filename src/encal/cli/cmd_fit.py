@@ -83,7 +83,8 @@ _APPLIES_TO = {
     "hidden": ("ann", "hybrid"), "algorithm": ("ann", "hybrid"), "encoding": ("ann",),
     "epochs": ("ann", "hybrid"), "interpolation": ("lut",), "n_orders": ("fourier", "hybrid"),
     "orders": ("fourier",), "seed": ("ann", "hybrid", "auto"), "folds": ("auto",),
-    "at_steps": ("auto",), "stack": ("auto",), "networks": ("auto",), "noise": ("spectral", "auto"), "repeat": ("spectral", "auto"),
+    "at_steps": ("auto",), "stack": ("auto",), "networks": ("auto",), "noise": ("spectral", "auto"),
+    "repeat": ("spectral", "auto"),
 }
 
 

@@ -65,5 +65,8 @@ def run(args):
         print(f"wrote {args.output}: {len(result)} points{reverse}")
     else:
         result.save(args.output)
-        print(f"wrote {args.output}: the {args.kind} correction as a model file (kind {result.kind})")
+        # The firmwares' tables hold no zero offset (their own calibrations leave it out, and so does encal's
+        # export): scored at a fixed zero, the reference's constant counted as error and a good table as harmful.
+        print(f"wrote {args.output}: the {args.kind} correction as a model file (kind {result.kind}); the table holds "
+              f"no zero offset, so score it about its own zero: encal evaluate {args.output} CAL.csv --zero arbitrary")
     return 0

@@ -41,7 +41,8 @@ def add_arguments(parser):
     sweep = methods.add_parser("sweep", help="open-loop electrical-angle sweep (moteus raw capture)")
     sweep.add_argument("capture", metavar="CAPTURE", help="moteus raw capture (CAL start ... CAL done), or a CSV "
                                                          "with electrical_deg, encoder_deg[, direction]")
-    sweep.add_argument("--pole-pairs", type=size_option("pole_pairs"), metavar="P", required=True, help="motor pole pairs")
+    sweep.add_argument("--pole-pairs", type=size_option("pole_pairs"), metavar="P", required=True,
+                       help="motor pole pairs")
     sweep.add_argument("--slots", type=size_option("slots"), metavar="S",
                        help="also leave out multiples of the slot count (a motor with unequal slots)")
     sweep.add_argument("--skip", type=int_in_range(0), default=4, metavar="N",
@@ -185,8 +186,10 @@ def _steps(args):
     calibrations = [read_calibration_from_args(path, args) for path in args.calibrations]
     result = steps(*calibrations, turn_deg=args.turn, step_shift=args.step_shift, max_order=args.max_order,
                    name=Path(args.calibrations[0]).stem)
-    if args.bits is None and calibrations[0].resolution_bits is not None:
-        args.bits = calibrations[0].resolution_bits
+    if args.bits is None:
+        from ..models.fitting import resolution_bits
+
+        args.bits = resolution_bits(calibrations[0])  # declared, else shown by whole codes (a real Mechaduino's)
     return result
 
 

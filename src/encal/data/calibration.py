@@ -619,6 +619,17 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     return cal
 
 
+def _selfcal_hint(names, missing):
+    """For the header of a log with no reference column, the ``encal selfcal`` method that reads it (or '')."""
+    names = {name.strip().lower() for name in names}
+    if {"motor_deg", "output_deg"} <= names:
+        return "; a log of two encoders of one joint has no reference: encal selfcal dual makes it calibrations"
+    for column, method, log in (("electrical_deg", "sweep", "an electrical-angle sweep"), ("time_s", "spin", "a spin")):
+        if column in names and missing == ["reference_deg"]:
+            return f"; a log of {log} has no reference: encal selfcal {method} makes it a calibration"
+    return ""
+
+
 def _field_count_problem(line, n_fields, n_columns, header_separator=","):
     """Why a row of ``n_fields`` fields does not fit a header of ``n_columns`` columns (a message)."""
     fields = f"{n_fields} field" + ("s" if n_fields != 1 else "")
@@ -757,9 +768,10 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
         looks_numeric = all(is_number(cell) for cell in names if cell)
         found = "a row of numbers" if looks_numeric else f"columns {_shown(', '.join(names), 200)}"
         if (reference_column, encoder_column) == ("reference_deg", "encoder_deg"):
+            hint = _selfcal_hint(names, missing)
             _fail(path, line, f"the header lacks {' and '.join(missing)}; expected a header row naming "
                               f"reference_deg and encoder_deg, found {found} (name your columns with --ref-col "
-                              "and --enc-col, their units with --ref-unit and --enc-unit)")
+                              f"and --enc-col, their units with --ref-unit and --enc-unit{hint})")
         _fail(path, line, f"there is no column {missing[0]!r} in the header; expected the name of a column "
                           f"or its number from 1, found {found}")
     if chosen["reference"] == chosen["encoder"]:

@@ -48,7 +48,8 @@ from .compensator import Compensator
 
 __all__ = ["CompactTable", "compile_compact", "choose_compact", "predict_float32", "predict_fixed",
            "error_lsb_float32", "cubic_terms",
-           "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "CUBIC_FRACTION_BITS", "MIN_NODES", "MAX_NODES",
+           "NODE_DTYPES", "INTERPOLATIONS", "BAM_ARCMIN", "FIXED_FRACTION_BITS", "CUBIC_FRACTION_BITS", "MIN_NODES",
+           "MAX_NODES",
            "default_tolerance_arcmin", "evaluation_bits", "model_on_codes", "check_nodes",
            "MIN_TABLE_BITS", "MAX_EXPORT_ERROR_ARCMIN", "check_table_bits", "check_exportable"]
 

@@ -180,8 +180,9 @@ def describe(summary):
         if summary["form"] == "formula":
             text += ("; the formula costs sines and cosines in double at every reading: for a microcontroller, "
                      "--target cortex-m4f writes a float32 compact table "
-                     f"({OPERATIONS[('cortex-m4f', 'table', 'correct_deg')]} C operations to correct a reading in "
-                     "degrees) and --target fixed one in integers")
+                     f"({OPERATIONS[('cortex-m4f', 'table', 'correct_deg')]} to "
+                     f"{OPERATIONS[('cortex-m4f', 'cubic', 'correct_deg')]} C operations to correct a reading in "
+                     "degrees, linear or cubic B-spline) and --target fixed one in integers")
         return text + (f"; note: {summary['note']}" if summary.get("note") else "")
     bits = summary.get("bits")
     where = f"all {2**evaluation_bits(bits)} codes" if bits else "65536 angles"

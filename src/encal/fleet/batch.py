@@ -164,6 +164,8 @@ def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             cal = read_calibration(path, **read_options)
+            if prior is None and method == "spectral":
+                _refuse_an_arc(cal)
             model = fit(cal, method=method) if prior is None else _fit_under_prior(cal, prior)
             fitted = evaluate(model, cal, zero="auto")
             model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
@@ -188,6 +190,22 @@ def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
     except (OSError, ValueError, ArithmeticError, MemoryError) as exc:  # a file that breaks a fit never stops the batch
         return (str(path), "refused", f"{path}: could not be fitted ({type(exc).__name__}: {exc}); expected a "
                                       "calibration CSV that 'encal fit' accepts")
+
+
+def _refuse_an_arc(cal):
+    """Refuse a calibration over an arc for the spectral model, naming the options of ``encal fleet fit`` that fit it.
+
+    ``encal.fit``'s own sentence names its default, the arc family; the fleet's default is the spectral model.
+    """
+    from .._core.arcs import describe_range
+    from ..models.fitting import calibrated_arc
+
+    arc = calibrated_arc(cal)
+    if arc is not None:
+        raise InputError(f"{cal.source or cal.name}: covers only an arc ({describe_range(list(arc))} of the encoder "
+                         "angle), which does not pin down the spectral model, a periodic one, between its points; "
+                         "expected --method auto (the arc family, its model holding over the arc only) or "
+                         "--prior-from STORE (a model of the whole turn under the fleet prior)")
 
 
 def _fit_under_prior(cal, prior):

@@ -71,8 +71,8 @@ EXTRA_PER_ROUND = 80
 SCAN_ROUNDS = 2
 #: Largest posterior-std grid (points per revolution).
 _STD_GRID_LIMIT = 3600
-#: Largest peak-to-peak stray of the readings from the grid's nodes, in codes, for which a quantised encoder's rounding on a
-#: regular grid is one coherent pattern (see ``_quantisation_orders``).
+#: Largest peak-to-peak stray of the readings from the grid's nodes, in codes, for which a quantised encoder's
+#: rounding on a regular grid is one coherent pattern (see ``_quantisation_orders``).
 COHERENT_SWING_CODES = 4.0
 #: Harmonics of the rounding pattern whose orders (each with this many on either side) carry no line.
 _ROUNDING_HARMONICS = 3

@@ -9,6 +9,8 @@ The spectral model's evidence needs the diagonal of ``B⁻¹ = L⁻ᵀ L⁻¹`` 
 the work is two triangular products (``dtrmm``), recursively, down to blocks small enough for ``dtrtri``.
 """
 
+import functools
+
 import numpy as np
 
 __all__ = ["lower_triangular_inverse"]
@@ -53,10 +55,10 @@ def lower_triangular_inverse(factor):
 def _inverse(factor, blas, lapack):
     n = factor.shape[0]
     if n <= _LEAF:
-        # (dtrtri keeps the strictly upper triangle it is given: zeros, in a small copy)
-        inverse, info = lapack.dtrtri(np.tril(factor), lower=1, overwrite_c=1)
+        inverse, info = lapack.dtrtri(factor, lower=1)
         if info != 0:
             raise np.linalg.LinAlgError("the triangular matrix is singular")
+        np.copyto(inverse, 0.0, where=_strictly_upper(n))  # dtrtri keeps the strictly upper triangle it was given
         return inverse
     half = n // 2
     inverse = np.empty((n, n), order="F")
@@ -66,3 +68,8 @@ def _inverse(factor, blas, lapack):
     below = blas.dtrmm(1.0, inverse[:half, :half], factor[half:, :half], side=1, lower=1)  # C A⁻¹
     inverse[half:, :half] = blas.dtrmm(-1.0, inverse[half:, half:], below, side=0, lower=1, overwrite_b=1)
     return inverse
+
+
+@functools.lru_cache(maxsize=8)
+def _strictly_upper(n):
+    return ~np.tri(n, dtype=bool)

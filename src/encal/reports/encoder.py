@@ -215,7 +215,8 @@ def encoder_report(cal, tests=(), *, method="auto", zero="auto", rng=None, uncer
     shape = remove_offset(errors, offset) if arbitrary else errors
     report = EncoderReport(
         calibration=cal, tests=tests, zero=zero, arbitrary_zero=arbitrary, offset_arcmin=offset,
-        stats=error_stats(errors, zero=mode), harmonics=None if model.range_deg is not None else harmonics(cal.encoder_deg, shape), model=model,
+        stats=error_stats(errors, zero=mode),
+        harmonics=None if model.range_deg is not None else harmonics(cal.encoder_deg, shape), model=model,
         fitted=evaluate(model, cal, zero=mode),
         held_out=[(t.name or f"test {i + 1}", evaluate(model, t, zero=mode)) for i, t in enumerate(tests)],
         resolution_bits=bits, method=method, seed=seed, notes=notes)

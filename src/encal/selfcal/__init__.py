@@ -15,4 +15,5 @@ from .sweep import sweep, sweep_capture
 from .sweep_log import SweepLog, read_sweep_log
 
 __all__ = ["SelfCalibration", "SpinLog", "spin", "motor_ripple_orders", "read_spin_log", "write_spin_log",
-           "sweep", "sweep_capture", "SweepLog", "read_sweep_log", "steps", "step_errors", "MoteusCapture", "read_moteus_capture", "write_moteus_capture"]
+           "sweep", "sweep_capture", "SweepLog", "read_sweep_log", "steps", "step_errors", "MoteusCapture",
+           "read_moteus_capture", "write_moteus_capture"]

@@ -89,6 +89,8 @@ class SelfCalibration:
                             "them; fit with --reverse (error_arcmin is of the negated reading, as --reverse reads it)")
         cal = Calibration(cal.reference_deg, np.mod(self.reading_sign * encoder, 360.0), name=cal.name,
                           resolution_bits=resolution_bits)
+        if "step_zero_deg" in self.details:
+            comments.append(_step_zero_text(self.details["step_zero_deg"]))
         if self.removed_orders:
             comments.append("orders left out (not separable): " + _orders_text(self.removed_orders))
         comments += [f"not separable: {line}" for line in _wrap(self.confounded)]
@@ -139,7 +141,9 @@ class SelfCalibration:
             lines.append(f"{series.orders[i]:>5d}{series.amplitude_arcmin[i]:>18.3f}"
                          f"{2 * series.amplitude_sigma_arcmin[i]:>11.3f}")
         for key, value in self.details.items():
-            if isinstance(value, (str, int, float, np.floating)):
+            if key == "step_zero_deg":
+                lines.append(_step_zero_text(value))
+            elif isinstance(value, (str, int, float, np.floating)):
                 shown = f"{value:.4g}" if isinstance(value, (float, np.floating)) else value
                 lines.append(f"{key.replace('_', ' ')}: {shown}")
         if self.removed_orders:
@@ -149,6 +153,13 @@ class SelfCalibration:
         if self.reading_sign == -1:
             lines.append("the encoder counts against the reference: fit the calibration written with --reverse")
         return "\n".join(lines)
+
+
+def _step_zero_text(step_zero_deg):
+    """The sentence on where the stepper's full step 0 lies in the calibration written (``steps`` only)."""
+    return (f"the stepper's full step 0 (the first calibration's reference 0 deg) is at reference {step_zero_deg:.4f} "
+            f"deg here: export a model of this calibration to mechaduino or klipper with --step-zero "
+            f"{step_zero_deg:.4f} (where the first calibration itself takes 0)")
 
 
 def _orders_text(orders):

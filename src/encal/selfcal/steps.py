@@ -106,6 +106,9 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         the stepper's error at each full step of ``first`` (``stepper_error_arcmin``, arcmin) and its
         standard uncertainty (``stepper_sigma_arcmin``), and the same error modelled as the 4-step
         pattern plus one error per tooth (``stepper_model_arcmin``, ``stepper_model_sigma_arcmin``).
+        ``step_zero_deg`` (degrees) is the reference angle, in the calibration :meth:`SelfCalibration.write`
+        writes, of ``first``'s reference 0 (its full step 0): a Mechaduino or Klipper export of a model fitted
+        to that calibration takes it as ``--step-zero`` where ``first`` itself would take 0.
     """
     if turn_deg is not None:
         turn_deg = check_number(turn_deg, "turn_deg", "steps", note="an angle in degrees, or None")
@@ -118,7 +121,8 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         raise InputError(f"max_order {max_order} is too high for {n} full steps; expected below {n // 2}")
     orders = np.arange(1, max_order + 1)
     if second is None:
-        return replace(_one(reading_a, error_a, orders, name or first.name), reading_sign=first.reading_sign)
+        result = _one(reading_a, error_a, orders, name or first.name)
+        return replace(result, reading_sign=first.reading_sign, details=_with_step_zero(result, reading_a))
     if second.reading_sign != first.reading_sign:
         raise InputError("one calibration was read with reverse (--reverse) and the other without; expected both "
                          "read the same way (the encoder counts the same way in both)")
@@ -126,7 +130,20 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
     if reading_b.size != n:
         raise InputError(f"the calibrations have {n} and {reading_b.size} full steps; expected the same motor")
     result = _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, name or first.name)
-    return replace(result, reading_sign=first.reading_sign)
+    return replace(result, reading_sign=first.reading_sign, details=_with_step_zero(result, reading_a))
+
+
+def _with_step_zero(result, reading_deg):
+    """``result.details`` with ``step_zero_deg``: where the first calibration's reference 0 lies in the one written.
+
+    The calibration written has ``reference = reading - error/60`` with an error of zero mean: its zero is the
+    encoder's, not the stepper's. A firmware table tied to the stepper's phase (Mechaduino, Klipper) needs the
+    stepper's full step 0 in that frame: the circular mean over the steps of ``reading_k - error_k/60 - k*step``.
+    """
+    n = reading_deg.size
+    frame = reading_deg - result.error_arcmin(reading_deg) / ARCMIN_PER_DEG - np.arange(n) * (360.0 / n)
+    step_zero = np.degrees(np.angle(np.mean(np.exp(1j * np.radians(frame))))) % 360.0
+    return {**result.details, "step_zero_deg": float(step_zero)}
 
 
 def _pattern(values):
@@ -136,7 +153,8 @@ def _pattern(values):
 
 
 def _fit(reading, values, orders):
-    """Least-squares Fourier series (with a constant) of ``values`` at ``reading``; coefficients, covariance, residual."""
+    """Least-squares Fourier series (with a constant) of ``values`` at ``reading``: coefficients, covariance and
+    residual."""
     x = np.hstack([np.ones((reading.size, 1)), design_matrix(reading, orders)])
     coefficients = np.linalg.lstsq(x, values, rcond=None)[0]
     residual = values - x @ coefficients
