@@ -347,3 +347,20 @@ def test_safeguard_1s_repeated_search_is_what_bench_spectral_collapse_prints():
     text = _model_selection_text()
     assert (f"{draws} of {total} ({low}–{high} lines, {float(worse_low):.2f}–{float(worse_high):.2f} times) since the "
             "strong orders are taken out one at a time") in text
+
+
+@pytest.mark.slow
+def test_the_known_noise_figures_of_the_uncertainty_page_are_what_bench_uncertainty_prints():
+    """docs/uncertainty.md, "Known noise": the noise estimate and coverage over many seeds (12 s CPU)."""
+    printed = {m.group(1): m.groups()[1:] for m in re.finditer(
+        r"^(fourier|lut): σ_noise / truth over 120 calibrations: mean (\S+), standard deviation (\S+), range "
+        r"(\S+)-(\S+); ±2σ over 200 seeds (\S+) % \(40 blocks of 5: (\S+)-(\S+) %\)$",
+        _benchmark("bench_uncertainty.py", "--known-noise"), re.M)}
+    text = " ".join((DOCS / "uncertainty.md").read_text(encoding="utf-8").split())
+    mean, std, low, high, share, block_low, block_high = printed["fourier"]
+    assert (f"was {mean} × the truth on average for `fourier` (residual estimate; standard deviation {std}, range "
+            f"{low}–{high})") in text
+    mean, std, low, high, lut_share, lut_low, lut_high = printed["lut"]
+    assert f"and {mean} × for `lut` (cross-validated; {std}, {low}–{high})" in text
+    assert (f"was {share} % for `fourier` (40 blocks of 5 seeds: block means {block_low}–{block_high} %) and "
+            f"{lut_share} % for `lut` ({lut_low}–{lut_high} %)") in text
