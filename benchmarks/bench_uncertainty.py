@@ -32,7 +32,8 @@ default stop, to show that the uncertainty holds under either.
 ``--known-noise``: the noise estimate and the ±2σ coverage on a known truth, the construction of
 tests/models/test_uncertainty.py (orders 1, 2, 4 and 15, Gaussian noise of 0.2 arcmin; ``fourier`` with those
 orders, ``lut`` linear): σ_noise over the truth on 120 calibrations of 360 points (seeds 0-119), and the share of
-fresh residuals at 1:2:359 inside ±2σ of a fit on 0:2:358 over 200 seeds, with the means of 40 blocks of 5.
+fresh residuals at 1:2:359 inside ±2σ of a fit on 0:2:358 over 200 seeds, with the means of 40 blocks of 5; then
+a 1:8:1 network on orders 1, 2 and 4 under the paper's and MATLAB's stopping rules over seeds 0-39.
 
 Run:  .venv/bin/python benchmarks/bench_uncertainty.py [--methods fourier lut ann ann-matlab hybrid auto]
       [--n-boot 30] [--encoders 4] [--no-bidirectional]
@@ -148,7 +149,7 @@ def known_noise():
     from pathlib import Path
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from tests.models.test_uncertainty import NOISE, ORDERS, fitted, noisy_calibration
+    from tests.models.test_uncertainty import NOISE, ORDERS, fitted, network_coverage, noisy_calibration
 
     for method, options in (("fourier", {"orders": ORDERS}), ("lut", {})):
         ratios = np.array([fitted(noisy_calibration(np.arange(0.0, 360.0, 1.0), np.random.default_rng(seed)),
@@ -163,6 +164,16 @@ def known_noise():
         print(f"{method}: σ_noise / truth over 120 calibrations: mean {ratios.mean():.3f}, standard deviation "
               f"{ratios.std(ddof=1):.3f}, range {ratios.min():.2f}-{ratios.max():.2f}; ±2σ over 200 seeds "
               f"{100 * np.mean(shares):.1f} % (40 blocks of 5: {100 * blocks.min():.1f}-{100 * blocks.max():.1f} %)")
+    for stop in ("plateau", "matlab"):  # a 1:8:1 network on orders 1, 2 and 4, seeds 0-39 (n_boot 20)
+        results = [network_coverage(stop, seed) for seed in range(40)]
+        noise = np.array([u["noise_std_arcmin"] for u, _ in results])
+        dof = [u["residual_dof"] for u, _ in results if u["noise_estimator"] == "residual"]
+        shares = np.array([share for _, share in results])
+        blocks = np.mean(np.reshape(shares, (5, 8)), axis=1)
+        print(f"ann, {stop} rule: residual estimate on {len(dof)} of 40 (ν {min(dof):.0f}-{max(dof):.0f}); σ_noise "
+              f"mean {noise.mean():.3f}, standard deviation {noise.std(ddof=1):.3f}, range {noise.min():.3f}-"
+              f"{noise.max():.3f}; ±2σ {100 * shares.mean():.1f} % (per seed {100 * shares.std(ddof=1):.1f} %; "
+              f"5 blocks of 8: {100 * blocks.min():.1f}-{100 * blocks.max():.1f} %)")
 
 
 def main():

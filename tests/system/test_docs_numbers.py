@@ -351,11 +351,12 @@ def test_safeguard_1s_repeated_search_is_what_bench_spectral_collapse_prints():
 
 @pytest.mark.slow
 def test_the_known_noise_figures_of_the_uncertainty_page_are_what_bench_uncertainty_prints():
-    """docs/uncertainty.md, "Known noise": the noise estimate and coverage over many seeds (12 s CPU)."""
+    """docs/uncertainty.md, "Known noise" and "Known noise, network": estimates and coverage over many seeds
+    (29 s CPU)."""
+    output = _benchmark("bench_uncertainty.py", "--known-noise")
     printed = {m.group(1): m.groups()[1:] for m in re.finditer(
         r"^(fourier|lut): σ_noise / truth over 120 calibrations: mean (\S+), standard deviation (\S+), range "
-        r"(\S+)-(\S+); ±2σ over 200 seeds (\S+) % \(40 blocks of 5: (\S+)-(\S+) %\)$",
-        _benchmark("bench_uncertainty.py", "--known-noise"), re.M)}
+        r"(\S+)-(\S+); ±2σ over 200 seeds (\S+) % \(40 blocks of 5: (\S+)-(\S+) %\)$", output, re.M)}
     text = " ".join((DOCS / "uncertainty.md").read_text(encoding="utf-8").split())
     mean, std, low, high, share, block_low, block_high = printed["fourier"]
     assert (f"was {mean} × the truth on average for `fourier` (residual estimate; standard deviation {std}, range "
@@ -364,3 +365,15 @@ def test_the_known_noise_figures_of_the_uncertainty_page_are_what_bench_uncertai
     assert f"and {mean} × for `lut` (cross-validated; {std}, {low}–{high})" in text
     assert (f"was {share} % for `fourier` (40 blocks of 5 seeds: block means {block_low}–{block_high} %) and "
             f"{lut_share} % for `lut` ({lut_low}–{lut_high} %)") in text
+    network = {m.group(1): m.groups()[1:] for m in re.finditer(
+        r"^ann, (plateau|matlab) rule: residual estimate on 40 of 40 \(ν (\S+)-(\S+)\); σ_noise mean (\S+), standard "
+        r"deviation (\S+), range (\S+)-(\S+); ±2σ (\S+) % \(per seed (\S+) %; 5 blocks of 8: (\S+)-(\S+) %\)$",
+        output, re.M)}
+    paper, matlab = network["plateau"], network["matlab"]
+    assert f"(`ν` = {min(paper[0], matlab[0])}–{max(paper[1], matlab[1])} of 180)" in text
+    assert (f"`σ_noise` averaged {paper[2]} arcmin with the paper's rule (standard deviation {paper[3]}, range "
+            f"{paper[4]}–{paper[5]}) and {matlab[2]} with MATLAB's rule at 100 epochs ({matlab[3]}, "
+            f"{matlab[4]}–{matlab[5]})") in text
+    assert (f"±2σ covered {paper[6]} % of the test residuals with the paper's rule (per seed {paper[7]} % standard "
+            f"deviation; blocks of 8 seeds {paper[8]}–{paper[9]} %) and {matlab[6]} % with MATLAB's ({matlab[7]} %; "
+            f"{matlab[8]}–{matlab[9]} %)") in text
