@@ -143,6 +143,31 @@ def real_table():
               f"{np.median(ratio):.2f} ({np.min(ratio):.2f}..{np.max(ratio):.2f})")
 
 
+def known_reversal(seeds=120):
+    """docs/bidirectional.md: tests/models/test_directional.py's coverage test over ``seeds`` seeds (a reversal of
+    0.4 arcmin, noise 0.15 arcmin, orders 0-3): the mean reversal value and the ±2σ share of fresh residuals of a
+    per-direction model used with the direction and of a model of the mean, with the means of blocks of 6."""
+    from encal.models.fitting import fit_bidirectional
+    from tests.models.test_directional import ORDERS as DIRECTIONAL_ORDERS, REVERSAL, bidirectional
+
+    shares, reversal = {"per-direction": [], "mean": []}, []
+    for seed in range(seeds):
+        rng = np.random.default_rng(seed)
+        train = bidirectional(np.arange(0.0, 360.0, 2.0), rng=rng, noise=0.15)
+        test = bidirectional(np.arange(1.0, 360.0, 2.0), rng=rng, noise=0.15)
+        for mode in shares:
+            model = fit_bidirectional(train, mode=mode, method="fourier", orders=DIRECTIONAL_ORDERS)
+            shares[mode].append(coverage(add_uncertainty(model, train, rng=seed), test))
+            if mode == "per-direction":
+                reversal.append(model.training["mean_reversal_value_arcmin"])
+    reversal = np.array(reversal)
+    print(f"bidirectional ({seeds} seeds, reversal {REVERSAL} arcmin): mean reversal value {reversal.mean():.4f} "
+          f"(standard error {reversal.std(ddof=1) / np.sqrt(seeds):.4f})"
+          + "".join(f"; ±2σ {mode} {100 * np.mean(v):.1f} % (blocks of 6: "
+                    f"{100 * np.min(np.mean(np.reshape(v, (-1, 6)), axis=1)):.1f}-"
+                    f"{100 * np.max(np.mean(np.reshape(v, (-1, 6)), axis=1)):.1f} %)" for mode, v in shares.items()))
+
+
 def known_noise():
     """docs/uncertainty.md's "Known noise": the tests' construction over many seeds."""
     import sys
@@ -164,6 +189,7 @@ def known_noise():
         print(f"{method}: σ_noise / truth over 120 calibrations: mean {ratios.mean():.3f}, standard deviation "
               f"{ratios.std(ddof=1):.3f}, range {ratios.min():.2f}-{ratios.max():.2f}; ±2σ over 200 seeds "
               f"{100 * np.mean(shares):.1f} % (40 blocks of 5: {100 * blocks.min():.1f}-{100 * blocks.max():.1f} %)")
+    known_reversal()
     for stop in ("plateau", "matlab"):  # a 1:8:1 network on orders 1, 2 and 4, seeds 0-39 (n_boot 20)
         results = [network_coverage(stop, seed) for seed in range(40)]
         noise = np.array([u["noise_std_arcmin"] for u, _ in results])

@@ -351,8 +351,8 @@ def test_safeguard_1s_repeated_search_is_what_bench_spectral_collapse_prints():
 
 @pytest.mark.slow
 def test_the_known_noise_figures_of_the_uncertainty_page_are_what_bench_uncertainty_prints():
-    """docs/uncertainty.md, "Known noise" and "Known noise, network": estimates and coverage over many seeds
-    (29 s CPU)."""
+    """docs/uncertainty.md, "Known noise" and "Known noise, network", docs/bidirectional.md's known reversal: estimates
+    and coverage over many seeds (36 s CPU)."""
     output = _benchmark("bench_uncertainty.py", "--known-noise")
     printed = {m.group(1): m.groups()[1:] for m in re.finditer(
         r"^(fourier|lut): σ_noise / truth over 120 calibrations: mean (\S+), standard deviation (\S+), range "
@@ -369,6 +369,15 @@ def test_the_known_noise_figures_of_the_uncertainty_page_are_what_bench_uncertai
         r"^ann, (plateau|matlab) rule: residual estimate on 40 of 40 \(ν (\S+)-(\S+)\); σ_noise mean (\S+), standard "
         r"deviation (\S+), range (\S+)-(\S+); ±2σ (\S+) % \(per seed (\S+) %; 5 blocks of 8: (\S+)-(\S+) %\)$",
         output, re.M)}
+    reversal = re.search(r"^bidirectional \(120 seeds, reversal 0.4 arcmin\): mean reversal value (\S+) \(standard "
+                         r"error (\S+)\); ±2σ per-direction (\S+) % \(blocks of 6: (\S+)-(\S+) %\); ±2σ mean (\S+) % "
+                         r"\(blocks of 6: (\S+)-(\S+) %\)$", output, re.M).groups()
+    assert abs(float(reversal[0]) - 0.4) <= float(reversal[1])
+    bidirectional = " ".join((DOCS / "bidirectional.md").read_text(encoding="utf-8").split())
+    assert f"re-run 2026-11-28: {reversal[0]} ± {reversal[1]})" in bidirectional
+    assert (f"covers {reversal[2]} % of fresh residuals on average for a per-direction model used with the direction "
+            f"(20 blocks of 6 calibrations; block means {reversal[3]}–{reversal[4]} %) and {reversal[5]} % for a model "
+            f"of the mean ({reversal[6]}–{reversal[7]} %;") in bidirectional
     paper, matlab = network["plateau"], network["matlab"]
     assert f"(`ν` = {min(paper[0], matlab[0])}–{max(paper[1], matlab[1])} of 180)" in text
     assert (f"`σ_noise` averaged {paper[2]} arcmin with the paper's rule (standard deviation {paper[3]}, range "
