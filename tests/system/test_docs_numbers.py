@@ -386,3 +386,24 @@ def test_the_known_noise_figures_of_the_uncertainty_page_are_what_bench_uncertai
     assert (f"±2σ covered {paper[6]} % of the test residuals with the paper's rule (per seed {paper[7]} % standard "
             f"deviation; blocks of 8 seeds {paper[8]}–{paper[9]} %) and {matlab[6]} % with MATLAB's ({matlab[7]} %; "
             f"{matlab[8]}–{matlab[9]} %)") in text
+
+
+@pytest.mark.slow
+def test_the_drift_verdict_on_pure_noise_is_what_bench_drift_prints():
+    """docs/drift.md, "Before 2026-11-28" and "3/sqrt(n)": pure-noise repeats over 200 seeds (11 s CPU)."""
+    output = _benchmark("bench_drift.py")
+    grid = {(int(m.group(1)), m.group(2)): (m.group(3), m.group(4)) for m in re.finditer(
+        r"^(\d+) points, (resolution unknown|\d+ bits): \(rms_k - rms_e\) / rms_e standard deviation (\S+) .*?; do "
+        r"not hold (\S+) %$", output, re.M)}
+    growth = dict(re.findall(r"^180 points, (fourier|auto): the residual on a repeat over the first's own, mean growth "
+                             r"(\d+) %$", output, re.M))
+    table = float(re.search(r"^180 points, lut: .* \((\S+) times the noise\)$", output, re.M).group(1))
+    text = " ".join((DOCS / "drift.md").read_text(encoding="utf-8").split())
+    assert (f"the ten selected harmonics' residual grows by {growth['fourier']} % on a repeat (180 points, noise 0.3 "
+            f"arcmin), a table's from 0 to `sqrt(2) σ`, the default (`auto`) model's by {growth['auto']} %") in text
+    assert table == pytest.approx(np.sqrt(2), rel=0.03)
+    (std_180, alarms_180), (std_720, alarms_720) = grid[(180, "resolution unknown")], grid[(720, "resolution unknown")]
+    assert (f"whose standard deviation measures {std_180} on 180 points and {std_720} on 720 (200 seeds, the "
+            f"ten-harmonic model, noise 0.3 arcmin, resolution unknown); with it {alarms_180} % of pure-noise repeats "
+            f"on 180 points still \"do not hold\" ({alarms_720} % on 720), 0 % when 1 LSB sets the tolerance") in text
+    assert grid[(180, "16 bits")][1] == grid[(180, "12 bits")][1] == "0.0"
