@@ -147,19 +147,14 @@ def known_reversal(seeds=120):
     """docs/bidirectional.md: tests/models/test_directional.py's coverage test over ``seeds`` seeds (a reversal of
     0.4 arcmin, noise 0.15 arcmin, orders 0-3): the mean reversal value and the ±2σ share of fresh residuals of a
     per-direction model used with the direction and of a model of the mean, with the means of blocks of 6."""
-    from encal.models.fitting import fit_bidirectional
-    from tests.models.test_directional import ORDERS as DIRECTIONAL_ORDERS, REVERSAL, bidirectional
+    from tests.models.test_directional import REVERSAL, coverage_of_fresh_bidirectional_readings
 
     shares, reversal = {"per-direction": [], "mean": []}, []
     for seed in range(seeds):
-        rng = np.random.default_rng(seed)
-        train = bidirectional(np.arange(0.0, 360.0, 2.0), rng=rng, noise=0.15)
-        test = bidirectional(np.arange(1.0, 360.0, 2.0), rng=rng, noise=0.15)
-        for mode in shares:
-            model = fit_bidirectional(train, mode=mode, method="fourier", orders=DIRECTIONAL_ORDERS)
-            shares[mode].append(coverage(add_uncertainty(model, train, rng=seed), test))
-            if mode == "per-direction":
-                reversal.append(model.training["mean_reversal_value_arcmin"])
+        seed_shares, seed_reversal = coverage_of_fresh_bidirectional_readings(seed)
+        for mode, share in seed_shares.items():
+            shares[mode].append(share)
+        reversal.append(seed_reversal)
     reversal = np.array(reversal)
     print(f"bidirectional ({seeds} seeds, reversal {REVERSAL} arcmin): mean reversal value {reversal.mean():.4f} "
           f"(standard error {reversal.std(ddof=1) / np.sqrt(seeds):.4f})"
