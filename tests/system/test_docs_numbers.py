@@ -407,3 +407,12 @@ def test_the_drift_verdict_on_pure_noise_is_what_bench_drift_prints():
             f"ten-harmonic model, noise 0.3 arcmin, resolution unknown); with it {alarms_180} % of pure-noise repeats "
             f"on 180 points still \"do not hold\" ({alarms_720} % on 720), 0 % when 1 LSB sets the tolerance") in text
     assert grid[(180, "16 bits")][1] == grid[(180, "12 bits")][1] == "0.0"
+
+
+def test_the_known_truth_table_of_the_statistics_page_is_what_bench_accuracy_prints():
+    """docs/statistics.md, the table under "Measured on a known truth" (1 s)."""
+    rows = _table_rows("statistics.md", "| method | mean | max | orders kept (mean) |")
+    printed = [[cell.strip() for cell in line.strip().strip("|").split("|")]
+               for line in _benchmark("bench_accuracy.py", "--known-truth").splitlines()
+               if line.startswith("| ") and not line.startswith("| method")]
+    assert printed == rows
