@@ -142,3 +142,76 @@ def test_the_zero_offset_is_stated_apart_from_the_shape(write_csv, capsys, offse
     text = capsys.readouterr().out
     assert ("stated apart" in text) == arbitrary
     assert ("zero offset (apart)" in text) == arbitrary
+
+
+# -- both directions of travel: the ISO 230-2 values of the axis (as encal report gives them) ------------------------
+
+def _bidirectional_csv(tmp_path, runs=5):
+    from encal import write_calibration
+    from tests.data.test_reversal import iso_run
+
+    cal, up, down = iso_run(runs=runs)
+    path = tmp_path / "axis.csv"
+    write_calibration(path, cal)
+    return path, up, down
+
+
+def test_a_bidirectional_calibration_gets_its_iso_230_2_values(tmp_path, capsys):
+    path, up, down = _bidirectional_csv(tmp_path)
+    b = up.mean(axis=1) - down.mean(axis=1)
+    s_up = up.std(axis=1, ddof=1)
+    assert main(["profile", str(path), "--json", "--allow-gaps"]) == 0
+    iso = json.loads(capsys.readouterr().out)["iso230_2"]
+    assert iso["reversal_value_arcmin"] == pytest.approx(np.abs(b).max(), abs=1e-9)
+    assert iso["mean_reversal_value_arcmin"] == pytest.approx(b.mean(), abs=1e-9)
+    assert iso["repeatability_forward_arcmin"] == pytest.approx(4 * s_up.max(), abs=1e-9)
+    assert iso["caption"] == "12 targets approached both ways, at least 5 time(s) each way (ISO 230-2 asks for 5)"
+    assert main(["profile", str(path), "--allow-gaps"]) == 0
+    text = capsys.readouterr().out
+    assert ("ISO 230-2, both directions of travel (the statistics above pool them): 12 targets approached both "
+            "ways") in text
+    assert f"reversal value B{np.abs(b).max():>26.3f}" in text
+    assert f"mean reversal value B\u0304{b.mean():>21.3f}" in text  # the bar combines: the columns stay aligned
+
+
+def test_without_repeats_repeatability_and_accuracy_are_said_to_need_them(tmp_path, capsys):
+    path, _, _ = _bidirectional_csv(tmp_path, runs=1)
+    assert main(["profile", str(path), "--allow-gaps"]) == 0
+    text = capsys.readouterr().out
+    assert "repeatability R↑" in text and "(needs 2 approaches each way at every target)" in text
+    assert main(["profile", str(path), "--json", "--allow-gaps"]) == 0
+    assert json.loads(capsys.readouterr().out)["iso230_2"]["accuracy_arcmin"] is None
+
+
+def test_one_direction_has_no_iso_values(write_csv, capsys):
+    assert main(["profile", str(calibration_csv(write_csv)), "--json"]) == 0
+    assert "iso230_2" not in json.loads(capsys.readouterr().out)
+
+
+def test_a_target_tolerance_joins_readings_taken_afresh(tmp_path, capsys):
+    from encal import Calibration, write_calibration
+    from tests.data.test_reversal import iso_run
+
+    cal, _, _ = iso_run()
+    jitter = np.random.default_rng(3).uniform(-0.01, 0.01, len(cal))  # the reference read afresh at every approach
+    moved = Calibration(cal.reference_deg + jitter, cal.encoder_deg + jitter, direction=cal.direction)
+    write_calibration(tmp_path / "afresh.csv", moved)
+    assert main(["profile", str(tmp_path / "afresh.csv"), "--json", "--target-tolerance", "0.05",
+                 "--allow-gaps"]) == 0
+    iso = json.loads(capsys.readouterr().out)["iso230_2"]
+    assert iso["n_targets"] == 12 and iso["n_unmatched"] == 0 and iso["target_tolerance_deg"] == 0.05
+
+
+def test_a_log_of_both_directions_with_no_common_target_is_profiled_and_says_why_there_are_no_iso_values(tmp_path,
+                                                                                                     capsys):
+    from encal import Calibration, write_calibration
+
+    angles = np.arange(0.0, 360.0, 1.0)
+    cal = Calibration(np.r_[angles, angles[::-1] + 0.5], np.r_[angles, angles[::-1] + 0.5] + 0.01,
+                      direction=np.r_[np.ones(360), -np.ones(360)])
+    write_calibration(tmp_path / "log.csv", cal)
+    assert main(["profile", str(tmp_path / "log.csv")]) == 0
+    assert "\nISO 230-2: none (" in capsys.readouterr().out
+    assert main(["profile", str(tmp_path / "log.csv"), "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["iso230_2"] is None and "both directions" in record["iso230_2_note"]

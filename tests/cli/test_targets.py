@@ -96,3 +96,22 @@ def test_a_library_message_about_an_option_names_the_flag_the_user_gave(tmp_path
     text = "The 'bits' parameter of export_c must be an int from 1 to 32. Got 0 instead."
     assert _in_flag_terms(text, args) == text
     assert _in_flag_terms("no such file", args) == "no such file"
+
+
+@pytest.mark.parametrize("interpolation, bits, function", [
+    ("cubic", "14", "error_lsb"), ("cubic", None, "correct_deg"), ("linear", "14", "error_lsb"),
+    ("linear", None, "correct_deg")])
+def test_the_cost_quoted_is_of_a_function_the_export_holds(tmp_path, capsys, interpolation, bits, function):
+    """Without a resolution only the angle functions are exported: the cost quoted is correct_deg's, not that of
+    the code functions left out (it quoted error_lsb's 40 operations for a cubic table it had no code function of)."""
+    from encal.deploy.costs import OPERATIONS
+
+    model = tmp_path / "nobits.json"
+    reference = np.arange(0.0, 360.0, 2.0)
+    encal.fit(encal.Calibration(reference, reference + np.sin(np.radians(reference)) / 60), "fourier",
+              orders=[0, 1]).save(model)
+    status, out, _ = export(capsys, model, "--format", "c", "--target", "cortex-m4f", "-o", tmp_path,
+                            "--interpolation", interpolation, *(["--bits", bits] if bits else []))
+    form = "cubic" if interpolation == "cubic" else "table"
+    assert status == 0 and f", {OPERATIONS[('cortex-m4f', form, function)]} operations per reading" in out
+    assert ("correct_code" in (tmp_path / "encal.c").read_text()) == (bits is not None)

@@ -421,3 +421,65 @@ def test_a_log_without_a_reference_is_pointed_to_the_selfcal_that_reads_it(write
 def test_a_log_with_a_reference_under_another_name_is_not_pointed_to_selfcal(write_csv):
     path = write_csv("time_s,commanded_rev,measured_rev\n" + "".join(f"{0.01 * i},{i},{i}\n" for i in range(20)))
     assert "selfcal" not in _refused(path, "the header lacks")
+
+
+# -- the reference's own uncertainty (a sigma_arcmin column) ---------------------------------------------------------
+
+def _with_sigma(sigma_cells, direction=False):
+    ref = np.arange(0.0, 360.0, 30.0)
+    header = "reference_deg,encoder_deg,sigma_arcmin" + (",direction" if direction else "")
+    rows = [f"{float(r)!r},{float(r) + 0.01!r},{s}" + (",+1" if direction else "") for r, s in zip(ref, sigma_cells)]
+    return "\n".join([header] + rows) + "\n"
+
+
+@pytest.mark.parametrize("careful", [False, True], ids=["plain reader", "line by line"])
+def test_a_sigma_arcmin_column_is_the_references_standard_uncertainty(write_csv, careful):
+    sigma = [0.1 * k for k in range(12)]
+    cal = read_calibration(write_csv(_with_sigma(sigma, direction=careful)))
+    np.testing.assert_array_equal(cal.reference_std_arcmin, sigma)
+    assert not cal.reference_std_arcmin.flags.writeable
+    np.testing.assert_array_equal(cal.subset([1, 3]).reference_std_arcmin, [0.1, 0.30000000000000004])
+    assert read_calibration(write_csv(grid_csv(), name="plain.csv")).reference_std_arcmin is None
+
+
+@pytest.mark.parametrize("cell, why", [("-0.1", "'-0.1'"), ("abc", "'abc'"), ("nan", "'nan'"), ("inf", "'inf'")])
+@pytest.mark.parametrize("careful", [False, True], ids=["plain reader", "line by line"])
+def test_a_bad_sigma_cell_is_named_by_line_and_column(write_csv, cell, why, careful):
+    sigma = ["0.2"] * 12
+    sigma[4] = cell
+    with pytest.raises(CalibrationError, match=rf"cal\.csv, line 6, column 3: sigma_arcmin is {why}, expected the "
+                                               r"reference's "
+                                               r"standard uncertainty, a finite number of arc-minutes >= 0"):
+        read_calibration(write_csv(_with_sigma(sigma, direction=careful)))
+
+
+def test_the_column_is_written_back_and_not_twice(tmp_path):
+    ref = np.arange(0.0, 360.0, 30.0)
+    cal = Calibration(ref, ref, reference_std_arcmin=np.full(12, 0.25))
+    write_calibration(tmp_path / "c.csv", cal, extra_columns={"error_arcmin": np.zeros(12)})
+    assert (tmp_path / "c.csv").read_text().splitlines()[0] == "reference_deg,encoder_deg,error_arcmin,sigma_arcmin"
+    np.testing.assert_array_equal(read_calibration(tmp_path / "c.csv").reference_std_arcmin, np.full(12, 0.25))
+    with pytest.raises(CalibrationError, match="extra column 'sigma_arcmin' is the calibration's "
+                                               "reference_std_arcmin"):
+        write_calibration(tmp_path / "d.csv", cal, extra_columns={"sigma_arcmin": np.zeros(12)})
+    assert not (tmp_path / "d.csv").exists()
+
+
+@pytest.mark.parametrize("std, message", [
+    (np.full(3, 0.1), "must hold one standard uncertainty"),
+    (np.r_[np.full(11, 0.1), -0.1], r"point 12 has -0\.1"),
+    (np.r_[np.nan, np.full(11, 0.1)], "point 1 has nan"),
+])
+def test_a_calibrations_reference_std_is_checked(std, message):
+    with pytest.raises(CalibrationError, match=message):
+        Calibration(np.arange(12.0) * 30, np.arange(12.0) * 30, reference_std_arcmin=std)
+
+
+def test_averaged_repeats_keep_the_largest_reference_std(write_csv):
+    text = "reference_deg,encoder_deg,sigma_arcmin\n" + "".join(
+        f"{float(r)!r},{float(r) + 0.01 * (k + 1)!r},{0.1 * (k + 1)}\n" for k in range(2)
+        for r in np.arange(0.0, 360.0, 30.0))
+    text = text.replace("0.0,0.02,0.2\n", "0.0,0.02,0.2\n30.0,30.03,0.7\n")  # a third reading at 30 deg
+    cal = read_calibration(write_csv(text), duplicates="average")
+    assert len(cal) == 12
+    np.testing.assert_allclose(cal.reference_std_arcmin, np.r_[0.2, 0.7, np.full(10, 0.2)])

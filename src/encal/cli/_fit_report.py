@@ -103,6 +103,30 @@ def held_out_lines(estimate):
 
 
 def _one(model, cal, method, options):
+    return _with_reference_uncertainty(_estimate(model, cal, method, options), cal)
+
+
+def _with_reference_uncertainty(estimate, cal):
+    """``estimate`` including the reference's own uncertainty (:attr:`Calibration.reference_std_arcmin`): a
+    posterior's has it already (:func:`encal.models.uncertainty.with_reference_uncertainty`), and it is said; a
+    cross-validation's gets its RMS in quadrature (no fold can see an error the reference shares with its
+    neighbours)."""
+    std = cal.reference_std_arcmin
+    if estimate is None or std is None or estimate.get("rms_arcmin") is None:
+        return estimate
+    reference = float(np.sqrt(np.mean(np.square(std))))
+    estimate = {**estimate, "reference_std_rms_arcmin": reference}
+    if estimate["estimator"] == "posterior":
+        estimate["text"] += (f", including the reference's own uncertainty (its sigma_arcmin column, RMS "
+                             f"{reference:.3g} arcmin)")
+    else:
+        estimate["rms_arcmin"] = math.hypot(estimate["rms_arcmin"], reference)
+        estimate["text"] += (f"; with the reference's own uncertainty (its sigma_arcmin column, RMS {reference:.3g} "
+                             f"arcmin) in quadrature: RMS {estimate['rms_arcmin']:.4g} arcmin")
+    return estimate
+
+
+def _estimate(model, cal, method, options):
     selection = model.training.get("selection")
     if model.kind in ("spectral", "arc"):  # the posterior of either says it
         expected = model.expected_rms_between_points()

@@ -213,13 +213,20 @@ def _with_repeat(cal, second):
         has, lacks = (cal, second) if cal.direction is not None else (second, cal)
         raise InputError(f"{has.source} has a direction column but {lacks.source} has none; expected both passes "
                          "with the direction of travel of every reading, or neither")
+    if (cal.reference_std_arcmin is None) != (second.reference_std_arcmin is None):
+        has, lacks = (cal, second) if cal.reference_std_arcmin is not None else (second, cal)
+        raise InputError(f"{has.source} has a sigma_arcmin column (its reference's uncertainty) but {lacks.source} "
+                         "has none; expected both passes with it, or neither")
     direction = None if cal.direction is None else np.r_[cal.direction, second.direction]
+    reference_std = None if cal.reference_std_arcmin is None else np.r_[cal.reference_std_arcmin,
+                                                                          second.reference_std_arcmin]
     passes = [np.full(len(c), label) if c.epoch is None else np.char.add(f"{label}/", c.epoch)
               for label, c in (("1", cal), ("2", second))]
     return Calibration(np.r_[cal.reference_deg, second.reference_deg], np.r_[cal.encoder_deg, second.encoder_deg],
                        direction=direction, epoch=np.r_[passes[0], passes[1]], name=cal.name,
                        resolution_bits=cal.resolution_bits or second.resolution_bits, source=cal.source,
-                       reading_sign=cal.reading_sign, target_tolerance_deg=cal.target_tolerance_deg)
+                       reading_sign=cal.reading_sign, target_tolerance_deg=cal.target_tolerance_deg,
+                       reference_std_arcmin=reference_std)
 
 
 def _check_same_stops(cal, second):

@@ -4,6 +4,9 @@ Prints n, MAE, RMS, STD (RMS about the mean), min, max and peak-to-peak of
 the error (encoder - reference) in arc-minutes (and in LSB when the
 encoder's resolution is known), then the harmonic orders of largest
 amplitude of the error as a function of the encoder angle.
+A calibration with readings in both directions of travel (a direction column) also gets the ISO 230-2
+values of its axis (reversal, systematic deviation, repeatability, accuracy), as encal report gives them:
+the statistics pool both directions.
 With --json, prints one JSON object instead.
 """
 
@@ -13,8 +16,9 @@ import numpy as np
 
 from .._core.angles import lsb_arcmin, resolution_of_readings
 from ..analysis.profile import error_stats, harmonics, remove_offset, zero_offset_arcmin, zero_sentence
-from ._common import (activity, add_calibration_options, add_zero_options, check_paths, nonnegative_int,
-                      read_calibration_from_args)
+from ._common import (activity, add_calibration_options, add_target_tolerance_option, add_zero_options, check_paths,
+                      nonnegative_int, read_calibration_from_args)
+
 
 def add_arguments(parser):
     parser.add_argument("calibration", metavar="CAL.csv", help="calibration CSV file")
@@ -22,13 +26,14 @@ def add_arguments(parser):
     parser.add_argument("--top", metavar="N", type=nonnegative_int, default=10,
                         help="list the N harmonic orders of largest amplitude (default 10; 0 lists all)")
     add_zero_options(parser)
+    add_target_tolerance_option(parser)
     add_calibration_options(parser)
 
 
 def run(args):
     check_paths(inputs=[(args.calibration, "calibration")])
     with activity("profile") as progress:
-        cal = read_calibration_from_args(args.calibration, args, progress)
+        cal = read_calibration_from_args(args.calibration, args, progress, targets=True)
         progress.stage("statistics")
         stats = error_stats(cal, zero=args.zero)
         offset = zero_offset_arcmin(cal.errors_arcmin)
@@ -49,15 +54,76 @@ def run(args):
             progress.stage("resolution")
             bits = resolution_of_readings(cal.encoder_deg)
             inferred = bits is not None
+        axis = _iso230_2(cal, bits, progress)
     if args.json:
         print(json.dumps({"name": cal.name, "resolution_bits": bits, "resolution_inferred": inferred,
                           **stats.as_dict(),
                           "zero": "arbitrary" if arbitrary else "fixed", "zero_offset_arcmin": offset,
                           "zero_note": note, "harmonics": top,
-                          **({} if arc is None else {"range_deg": list(arc), "harmonics_note": _arc_note(arc)})}))
+                          **({} if arc is None else {"range_deg": list(arc), "harmonics_note": _arc_note(arc)}),
+                          **_iso_json(axis)}))
     else:
         print(_report(cal, stats, analysis, top, note, bits, inferred))
+        if isinstance(axis, str):
+            print(f"\nISO 230-2: none ({axis})")
+        elif axis is not None:
+            print("\n" + _iso_text(axis))
     return 0
+
+
+def _iso230_2(cal, bits, progress):
+    """The ISO 230-2 analysis of a calibration with both directions of travel, its reason when none of its
+    reference angles is a target approached both ways (a log of continuous angles), else None. With a
+    ``--target-tolerance`` the user asked for targets: a tolerance that matches none is refused, as by
+    ``encal report``."""
+    from dataclasses import replace
+
+    from .._core.errors import CalibrationError
+    from ..data.reversal import has_both_directions, reversal
+
+    if not has_both_directions(cal):
+        return None
+    progress.stage("ISO 230-2")
+    try:
+        analysis = reversal(cal)
+    except CalibrationError as exc:
+        if cal.target_tolerance_deg is not None:
+            raise
+        return str(exc)
+    return analysis if bits is None or analysis.resolution_bits is not None else replace(analysis, resolution_bits=bits)
+
+
+def _iso_json(axis):
+    if axis is None:
+        return {}
+    if isinstance(axis, str):
+        return {"iso230_2": None, "iso230_2_note": axis}
+    return {"iso230_2": {**axis.as_dict(), "caption": axis.caption()}}
+
+
+#: The ISO 230-2 values printed, with their symbols.
+_ISO_ROWS = (("reversal value B", "reversal_value"), ("mean reversal value B̄", "mean_reversal_value"),
+             ("systematic deviation E↑", "systematic_deviation_forward"),
+             ("systematic deviation E↓", "systematic_deviation_reverse"),
+             ("systematic deviation E", "systematic_deviation"),
+             ("mean bidirectional deviation M", "mean_bidirectional_deviation"),
+             ("repeatability R↑", "repeatability_forward"), ("repeatability R↓", "repeatability_reverse"),
+             ("repeatability R", "repeatability"), ("accuracy A↑", "accuracy_forward"),
+             ("accuracy A↓", "accuracy_reverse"), ("accuracy A", "accuracy"))
+
+
+def _iso_text(analysis):
+    lsb = lsb_arcmin(analysis.resolution_bits) if analysis.resolution_bits is not None else None
+    lines = [f"ISO 230-2, both directions of travel (the statistics above pool them): {analysis.caption()}",
+             f"{'value':<32}{'arcmin':>10}" + (f"{'LSB':>10}" if lsb else "")]
+    for label, name in _ISO_ROWS:
+        value = getattr(analysis, name)
+        label = label.ljust(32 + label.count("\u0304"))  # a combining bar takes no column of its own
+        if value is None:  # repeatability and accuracy need two approaches each way at every target
+            lines.append(f"{label}{'-':>10}   (needs 2 approaches each way at every target)")
+        else:
+            lines.append(f"{label}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
+    return "\n".join(lines)
 
 
 def _report(cal, stats, analysis, top, note, bits, inferred):

@@ -52,6 +52,13 @@ class Calibration:
         many degrees of a neighbour are one target position of ISO 230-2 (:func:`encal.data.reversal.reversal`,
         the mean of both directions). Default None: :data:`encal.data.reversal.TARGET_TOLERANCE_DEG`, the
         same angle written twice. From 0 (exclusive) to :data:`MAX_TARGET_TOLERANCE_DEG`.
+    reference_std_arcmin : array-like of shape (n,), optional
+        Standard uncertainty (one sigma, arc-minutes, finite, >= 0) of each point's error that is the
+        reference's own, not noise of the reading: a self-calibration's (``encal selfcal``, its ``sigma_arcmin``
+        column) or a reference's calibration certificate. It is shared by neighbouring points, so a fit cannot
+        average it away: a model fitted to the calibration includes it in its uncertainty
+        (:func:`encal.models.uncertainty.with_reference_uncertainty`). Default None: a reference exact for
+        the purpose.
     """
 
     reference_deg: np.ndarray
@@ -64,6 +71,7 @@ class Calibration:
     metadata: dict = field(default_factory=dict)
     reading_sign: int = 1
     target_tolerance_deg: float | None = None
+    reference_std_arcmin: np.ndarray | None = None
 
     def __post_init__(self):
         ref = np.asarray(self.reference_deg, dtype=float).reshape(-1)
@@ -98,8 +106,11 @@ class Calibration:
             if epoch.shape != ref.shape:
                 raise CalibrationError("epoch must hold one label for every point")
             object.__setattr__(self, "epoch", epoch)
+        if self.reference_std_arcmin is not None:
+            object.__setattr__(self, "reference_std_arcmin", _checked_reference_std(self.reference_std_arcmin,
+                                                                                   ref.shape))
         # Frozen, arrays and all (they are the calibration's own: made above): what a check found stays true.
-        for values in (self.reference_deg, self.encoder_deg, self.direction, self.epoch):
+        for values in (self.reference_deg, self.encoder_deg, self.direction, self.epoch, self.reference_std_arcmin):
             if values is not None:
                 values.flags.writeable = False
 
@@ -139,7 +150,23 @@ class Calibration:
             metadata=dict(self.metadata),
             reading_sign=self.reading_sign,
             target_tolerance_deg=self.target_tolerance_deg,
+            reference_std_arcmin=pick(self.reference_std_arcmin),
         )
+
+
+def _checked_reference_std(values, shape):
+    """``reference_std_arcmin`` as a new float array of ``shape``, or a CalibrationError saying what is wrong."""
+    try:
+        std = np.array(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        std = None
+    if std is None or std.shape != shape:
+        raise CalibrationError("reference_std_arcmin must hold one standard uncertainty (arcmin) for every point")
+    bad = ~np.isfinite(std) | (std < 0)
+    if np.any(bad):
+        raise CalibrationError(f"reference_std_arcmin must be finite numbers of arc-minutes >= 0; point "
+                               f"{int(np.argmax(bad)) + 1} has {float(std[np.argmax(bad)])!r}")
+    return std
 
 
 def _passed(cal):
@@ -374,6 +401,29 @@ def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False)
     return value
 
 
+#: The column of a calibration CSV that holds :attr:`Calibration.reference_std_arcmin` (``encal selfcal`` writes it).
+REFERENCE_STD_COLUMN = "sigma_arcmin"
+
+
+def _parse_std(path, line, column, cell, decimal_comma=False):
+    """The standard uncertainty in a ``sigma_arcmin`` cell: a finite number of arc-minutes >= 0."""
+    text = cell.replace(",", ".") if decimal_comma and "," in cell else cell
+    try:
+        value = read_number(text)
+    except ValueError:
+        value = None
+    if value is None or not np.isfinite(value) or value < 0:
+        why = not_plain_note(text) if value is None else ""
+        _fail(path, line, f"{REFERENCE_STD_COLUMN} is {_shown(cell.strip())!r}, expected the reference's standard "
+                          f"uncertainty, a finite number of arc-minutes >= 0{why}", column)
+    return value
+
+
+def _plain_stds(values):
+    """True if every value is a finite number >= 0 (what :func:`_parse_std` checks)."""
+    return values.size == 0 or bool(np.all(np.isfinite(values)) and values.min() >= 0)
+
+
 def _check_decimal_marks(path, first_comma, first_point):
     """Refuse a file whose numbers use both a decimal comma and a decimal point: its commas may group digits
     (``1,080`` for 1080), and reading them as decimal commas would give wrong numbers.
@@ -515,6 +565,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
     ref_col, enc_col = columns["reference"], columns["encoder"]
     ref_name, enc_name = columns["reference_name"], columns["encoder_name"]
     dir_col, epoch_col = columns.get("direction"), columns.get("epoch")
+    std_col = columns.get("reference_std")
+    reference_std = [] if std_col is not None else None
     table = None
     if head is not None and dir_col is None and epoch_col is None and separator in (",", None):
         first = header_line + 1 if has_header else header_line
@@ -522,7 +574,10 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                              body_start if has_header else header_start, separator, n_columns, progress)
         if table is not None:
             reference, encoder = table[:, ref_col].copy(), table[:, enc_col].copy()
-            if not (_plain_angles(reference, units[0]) and _plain_angles(encoder, units[1])):
+            if std_col is not None:
+                reference_std = table[:, std_col].copy()
+            if not (_plain_angles(reference, units[0]) and _plain_angles(encoder, units[1])
+                    and (std_col is None or _plain_stds(reference_std))):
                 table = None  # the careful reader names the first bad value
     if table is not None:
         del table
@@ -533,6 +588,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
             lines = _csv.split_lines(_decode(path, raw))
             records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
         reference, encoder, direction, epoch = [], [], [], []
+        reference_std = [] if std_col is not None else None
         marks = {",": None, ".": None}  # the first number read with a decimal comma, with a decimal point
         data = records[1:] if has_header else records
         for count, (number, line) in enumerate(data, start=1):
@@ -557,6 +613,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                 direction.append(_csv.DIRECTIONS[cell])
             if epoch_col is not None:
                 epoch.append(cells[epoch_col].strip())
+            if std_col is not None:
+                reference_std.append(_parse_std(path, number, std_col + 1, cells[std_col], decimal_comma))
             if progress is not None and count % _PROGRESS_LINES == 0:
                 progress(count, len(data))
         line_numbers = np.array([number for number, _ in data], dtype=np.int64)
@@ -583,6 +641,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         source=str(path),
         reading_sign=-1 if reverse else 1,
         target_tolerance_deg=target_tolerance_deg,
+        reference_std_arcmin=reference_std,
     )
     rows = cal
     runs = _runs(cal)
@@ -780,6 +839,8 @@ def _header_columns(path, line, names, reference_column="reference_deg", encoder
     for optional in ("direction", "epoch"):
         if optional in columns:
             chosen[optional] = columns[optional]
+    if REFERENCE_STD_COLUMN in columns:
+        chosen["reference_std"] = columns[REFERENCE_STD_COLUMN]
     return chosen, True
 
 
@@ -973,7 +1034,16 @@ def _check_duplicates(path, cal, duplicates, repeated=None, order=None, sorted_r
                        direction=averaged.direction, epoch=averaged.epoch, name=cal.name,
                        resolution_bits=cal.resolution_bits, source=cal.source,
                        metadata={"averaged_duplicates": len(cal) - keep.size}, reading_sign=cal.reading_sign,
-                       target_tolerance_deg=cal.target_tolerance_deg)
+                       target_tolerance_deg=cal.target_tolerance_deg,
+                       # the largest of a stop's: one reference angle's own uncertainty does not average away
+                       reference_std_arcmin=None if cal.reference_std_arcmin is None else _group_largest(
+                           cal.reference_std_arcmin[order], group)[in_file_order])
+
+
+def _group_largest(values, group):
+    """The largest of ``values`` in each run of equal labels of ``group`` (sorted labels 0, 1, ...)."""
+    starts = np.flatnonzero(np.r_[True, group[1:] != group[:-1]])
+    return np.maximum.reduceat(values, starts)
 
 
 #: Reference angles that agree to this many decimals of a degree are one stop (far below any reference's
@@ -1280,7 +1350,9 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
         Destination; its folder must exist.
     cal : Calibration
     extra_columns : dict of str to array-like, optional
-        More columns to write after the standard ones (readers ignore them).
+        More columns to write after the standard ones (readers ignore them, but for ``sigma_arcmin``, which
+        they read as the reference's standard uncertainty). A calibration's ``reference_std_arcmin`` is
+        written after them, as ``sigma_arcmin``.
     comments : sequence of str
         Lines written first, each prefixed with ``# ``.
 
@@ -1300,7 +1372,12 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
         values = list(values)
         if len(values) != len(cal):
             raise CalibrationError(f"extra column {key!r} has {len(values)} values, expected {len(cal)}")
+        if key == REFERENCE_STD_COLUMN and cal.reference_std_arcmin is not None:
+            raise CalibrationError(f"extra column {key!r} is the calibration's reference_std_arcmin, which is "
+                                   "written as that column; expected it once")
         columns[key] = values
+    if cal.reference_std_arcmin is not None:
+        columns[REFERENCE_STD_COLUMN] = cal.reference_std_arcmin
     comments = list(comments)
     if cal.resolution_bits is not None and not any("resolution_bits" in c for c in comments):
         comments.append(f"resolution_bits: {cal.resolution_bits}")

@@ -178,6 +178,17 @@ class ReversalAnalysis:
         return _band_range(np.concatenate([self.mean_forward_arcmin, self.mean_reverse_arcmin]),
                            np.concatenate([self.std_forward_arcmin, self.std_reverse_arcmin]))
 
+    def caption(self):
+        """How many targets the values rest on, the points left out, and the fewest approaches (one line)."""
+        caption = (f"{self.target_deg.size} targets approached both ways, at least {self.min_approaches} "
+                   "time(s) each way (ISO 230-2 asks for 5)")
+        if self.n_unmatched:
+            caption += (f"; {self.n_unmatched} points at reference angles approached one way only (targets match "
+                        f"within {self.target_tolerance_deg:g} degree) are left out")
+        elif self.target_tolerance_deg != TARGET_TOLERANCE_DEG:
+            caption += f"; reference angles within {self.target_tolerance_deg:g} degree are one target"
+        return caption
+
     def as_dict(self):
         """The axis values as JSON-ready data (arc-minutes; LSB too when the resolution is known)."""
         data = {
@@ -237,7 +248,7 @@ def direction_subset(cal, direction):
     part = cal.subset(keep)
     return Calibration(part.reference_deg, part.encoder_deg, epoch=part.epoch, name=cal.name,
                        resolution_bits=cal.resolution_bits, source=cal.source, metadata=dict(cal.metadata),
-                       reading_sign=cal.reading_sign)
+                       reading_sign=cal.reading_sign, reference_std_arcmin=part.reference_std_arcmin)
 
 
 def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where=None):
@@ -380,6 +391,11 @@ def mean_calibration(cal):
     """
     analysis = reversal(cal)
     reference = analysis.target_deg
+    std = cal.reference_std_arcmin
+    if std is not None:  # at each target, the reference's uncertainty where its readings were taken
+        order = np.argsort(cal.reference_deg, kind="stable")
+        std = np.interp(reference, cal.reference_deg[order], std[order], period=360.0)
     return Calibration(reference, reference + analysis.mean_bidirectional_arcmin / ARCMIN_PER_DEG,
                        name=cal.name, resolution_bits=cal.resolution_bits, source=cal.source,
-                       metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign)
+                       metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign,
+                       reference_std_arcmin=std)

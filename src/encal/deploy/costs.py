@@ -6,7 +6,7 @@ arithmetic, conversions and compares. Calls to ``sinf``/``cosf`` are counted apa
 a Cortex-M4F build are measured by ``benchmarks/bench_mcu.py`` (BENCHMARKS.md).
 """
 
-__all__ = ["OPERATIONS", "CALL_OPERATIONS"]
+__all__ = ["OPERATIONS", "CALL_OPERATIONS", "reading_cost_key"]
 
 #: C operations per reading (loads, integer and float arithmetic, conversions, compares; calls
 #: to sinf/cosf counted apart), by target, form ("table": a linearly interpolated compact table;
@@ -28,3 +28,12 @@ OPERATIONS = {
 
 #: Operations a sinf or cosf call is counted as when deployments are compared.
 CALL_OPERATIONS = 50
+
+
+def reading_cost_key(target, bits):
+    """The function whose cost a table's reading is quoted at: the error in LSB of a code (``error_lsb``; in BAM32
+    for ``fixed``), or, when the encoder's resolution is unknown and only the angle functions are exported, the
+    correction of an angle in degrees (``correct_deg``)."""
+    if target == "fixed":
+        return "error_bam32"
+    return "error_lsb" if bits is not None else "correct_deg"

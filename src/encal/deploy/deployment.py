@@ -20,7 +20,7 @@ from .._core.parameters import check_choice, check_number, invalid
 from .compact import (INTERPOLATIONS, MAX_NODES, MIN_NODES, check_exportable, check_table_bits, compile_compact,
                       evaluation_bits, model_on_codes)
 from .compensator import Compensator
-from .costs import CALL_OPERATIONS, OPERATIONS
+from .costs import CALL_OPERATIONS, OPERATIONS, reading_cost_key
 from .series32 import fourier_float32, fourier_terms
 
 __all__ = ["Deployment", "candidates", "choose_deployment", "parse_budget", "COSTS"]
@@ -91,7 +91,7 @@ def candidates(model, *, target="cortex-m4f", bits=None):
     largest = min(MAX_NODES, 2**evaluation_bits(bits))
     dtypes = ("int8", "int16") if target == "fixed" else ("int8", "int16", "float32")
     interpolations = INTERPOLATIONS
-    key = "error_bam32" if target == "fixed" else "error_lsb"
+    key = reading_cost_key(target, bits)
     fixed = target == "fixed"
     found = []
     for interpolation in interpolations:

@@ -42,7 +42,7 @@ from .compact import (BAM_ARCMIN, CUBIC_FRACTION_BITS, FIXED_FRACTION_BITS, INTE
                       MIN_NODES, MIN_TABLE_BITS, NODE_DTYPES, check_exportable, check_nodes, choose_compact,
                       compile_compact, default_tolerance_arcmin, evaluation_bits, model_on_codes)
 from .compensator import Compensator
-from .costs import OPERATIONS
+from .costs import OPERATIONS, reading_cost_key
 from .series32 import fourier_float32, fourier_terms
 
 __all__ = ["TARGETS", "FORMS", "export_target", "write_target", "describe"]
@@ -150,7 +150,7 @@ def export_target(model, target="host", *, prefix="encal", bits=None, form="tabl
                "max_error_arcmin": table.fixed_max_error_arcmin if fixed else table.max_error_arcmin,
                "rms_error_arcmin": table.fixed_rms_error_arcmin if fixed else table.rms_error_arcmin,
                "operations": OPERATIONS[(target, "cubic" if table.interpolation == "cubic" else "table",
-                                         "error_bam32" if fixed else "error_lsb")],
+                                         reading_cost_key(target, bits))],
                "table": table}
     if chosen is not None:
         summary.update(tolerance_met=chosen.get("met", met), **{k: v for k, v in chosen.items()

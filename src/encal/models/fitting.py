@@ -28,7 +28,7 @@ from .._core.parameters import check_bool, check_choice, check_seed, check_type
 from ..analysis.profile import (ARBITRARY_ZERO_ARCMIN, ZERO_MODES, ErrorStats, correction_is_worse, error_stats,
                                 remove_offset, worse_sentence, zero_is_arbitrary, zero_offset_arcmin, zero_sentence)
 from .uncertainty import (add_mean_uncertainty, add_part_uncertainties, estimate_uncertainty, has_posterior,
-                          refit_spec, with_half_reversal)
+                          refit_spec, with_half_reversal, with_reference_uncertainty)
 from .._core.threads import single_blas_thread
 
 __all__ = ["fit", "fit_bidirectional", "evaluate", "Evaluation", "fitter", "calibration_sha256", "resolution_bits"]
@@ -189,6 +189,7 @@ def _fit_one_direction(cal, method, rng, options, *, uncertainty=False):
         refit_method, refit_options = refit_spec(model, method, fit_options)
         model.uncertainty = estimate_uncertainty(model, cal.encoder_deg, cal.errors_arcmin, method=refit_method,
                                                  options=refit_options, rng=rng)
+    model.uncertainty = with_reference_uncertainty(model.uncertainty, cal)
     model.reading_sign = cal.reading_sign
     return model
 

@@ -232,8 +232,11 @@ class SpectralModel(FourierModel):
                         f"({bits}-bit encoder): {_noise_meaning(sigma / quantum, t['noise']['source'])}")
         expected = self.expected_rms_between_points()
         if expected is not None:
+            reference = self.uncertainty.get("reference_std_rms_arcmin")
             text.append(f"held-out estimate (posterior, readings at angles not calibrated): RMS "
-                        f"{expected:.4g} arcmin after correction")
+                        f"{expected:.4g} arcmin after correction" + (
+                            "" if reference is None else f", including the reference's own uncertainty (its "
+                            f"sigma_arcmin column, RMS {reference:.3g} arcmin)"))
         return "\n".join(text)
 
     def __repr__(self):

@@ -80,6 +80,7 @@ __all__ = [
     "refit_spec",
     "has_posterior",
     "with_half_reversal",
+    "with_reference_uncertainty",
     "check_uncertainty",
 ]
 
@@ -202,11 +203,11 @@ def add_uncertainty(model, cal, *, method=None, options=None, n_boot=30, n_folds
     if has_both_directions(cal) or getattr(model, "kind", None) == "directional":
         return _add_bidirectional_uncertainty(model, cal, method=method, options=options, n_boot=n_boot,
                                              n_folds=n_folds, grid_step_deg=grid_step_deg, rng=rng)
-    if has_posterior(model):
-        return model
-    model.uncertainty = estimate_uncertainty(
-        model, cal.encoder_deg, cal.errors_arcmin, method=method, options=options, n_boot=n_boot,
-        n_folds=n_folds, grid_step_deg=grid_step_deg, rng=rng)
+    if not has_posterior(model):
+        model.uncertainty = estimate_uncertainty(
+            model, cal.encoder_deg, cal.errors_arcmin, method=method, options=options, n_boot=n_boot,
+            n_folds=n_folds, grid_step_deg=grid_step_deg, rng=rng)
+    model.uncertainty = with_reference_uncertainty(model.uncertainty, cal)
     return model
 
 
@@ -495,11 +496,11 @@ def add_part_uncertainties(model, sides, *, method, options, rng, **settings):
         The same model.
     """
     for sign, part in ((1, model.forward), (-1, model.reverse)):
-        if has_posterior(part):
-            continue
-        part_method, part_options = refit_spec(part, method or part.training.get("method"), options)
-        part.uncertainty = estimate_uncertainty(part, sides[sign].encoder_deg, sides[sign].errors_arcmin,
-                                                method=part_method, options=part_options, rng=rng, **settings)
+        if not has_posterior(part):
+            part_method, part_options = refit_spec(part, method or part.training.get("method"), options)
+            part.uncertainty = estimate_uncertainty(part, sides[sign].encoder_deg, sides[sign].errors_arcmin,
+                                                    method=part_method, options=part_options, rng=rng, **settings)
+        part.uncertainty = with_reference_uncertainty(part.uncertainty, sides[sign])
     return model
 
 
@@ -511,6 +512,7 @@ def add_mean_uncertainty(model, mean, *, method, options, rng, **settings):
         mean_method, mean_options = refit_spec(model, method or model.training.get("method"), options)
         model.uncertainty = estimate_uncertainty(model, mean.encoder_deg, mean.errors_arcmin, method=mean_method,
                                                  options=mean_options, rng=rng, **settings)
+    model.uncertainty = with_reference_uncertainty(model.uncertainty, mean)
     return model
 
 
@@ -538,6 +540,41 @@ def with_half_reversal(uncertainty, cal):
     half_reversal = math.sqrt(float(np.mean(np.square(reversal(cal).reversal_arcmin))) / 4.0)
     return {**uncertainty, "half_reversal_rms_arcmin": half_reversal,
             "noise_std_arcmin": math.hypot(uncertainty["noise_std_arcmin"], half_reversal)}
+
+
+def with_reference_uncertainty(uncertainty, cal):
+    """``uncertainty`` with the reference's own standard uncertainty of ``cal`` added to ``σ_model`` in quadrature.
+
+    A calibration whose reference is itself estimated (a self-calibration's recovered profile, ``encal
+    selfcal``) or certified to some uncertainty carries it per point (:attr:`Calibration.reference_std_arcmin`).
+    Neighbouring points share it, so no fit averages it away, and a model fitted to the points inherits it
+    whole: ``σ_model(θ)² + σ_ref(θ)²``, ``σ_ref`` interpolated (periodic, linear) from the points' encoder
+    angles to the table's grid. The noise is left as it is (it is a new reading's own). Added once: an
+    uncertainty that records ``reference_std_rms_arcmin`` is returned as it is, and so are None and an
+    uncertainty of a calibration without the column.
+
+    Parameters
+    ----------
+    uncertainty : dict or None
+        A model's stored uncertainty (see the module docstring).
+    cal : Calibration
+        The calibration the model was fitted on.
+
+    Returns
+    -------
+    dict or None
+        A new dict when something was added (``reference_std_rms_arcmin`` records the points' RMS).
+    """
+    std = getattr(cal, "reference_std_arcmin", None)
+    if uncertainty is None or std is None or "reference_std_rms_arcmin" in uncertainty:
+        return uncertainty
+    uncertainty = check_uncertainty(uncertainty)
+    table = np.asarray(uncertainty["model_std_arcmin"], dtype=float)
+    grid = np.arange(table.size) * float(uncertainty["grid_step_deg"])
+    order = np.argsort(cal.encoder_deg, kind="stable")
+    reference_std = np.interp(grid, cal.encoder_deg[order], std[order], period=360.0)
+    return {**uncertainty, "model_std_arcmin": np.hypot(table, reference_std).tolist(),
+            "reference_std_rms_arcmin": float(np.sqrt(np.mean(np.square(std))))}
 
 
 def refit_spec(model, method, options):

@@ -18,6 +18,7 @@ network and can be mailed alone) and the same figures as PNG files beside it.
 """
 
 import html
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -141,7 +142,11 @@ class EncoderReport:
         if selection is None or selection.table.get("scheme") == "tests":
             return None
         row = selection.chosen_row()
-        return None if row is None else row["cv_rms_arcmin"]
+        if row is None or row["cv_rms_arcmin"] is None:
+            return None
+        std = self.calibration.reference_std_arcmin  # shared by neighbouring points: no fold sees it
+        return row["cv_rms_arcmin"] if std is None else math.hypot(row["cv_rms_arcmin"],
+                                                                    float(np.sqrt(np.mean(np.square(std)))))
 
     def shape(self, cal):
         """A calibration's errors (arcmin), about its own zero offset when the zero is arbitrary."""
@@ -619,16 +624,7 @@ def _reversal_section(report):
 
 def _reversal_caption(analysis):
     """How many targets the ISO 230-2 values rest on, the points left out, and the fewest approaches."""
-    from ..data.reversal import TARGET_TOLERANCE_DEG
-
-    caption = (f"{analysis.target_deg.size} targets approached both ways, at least {analysis.min_approaches} "
-               "time(s) each way (ISO 230-2 asks for 5)")
-    if analysis.n_unmatched:
-        caption += (f"; {analysis.n_unmatched} points at reference angles approached one way only (targets match "
-                    f"within {analysis.target_tolerance_deg:g} degree) are left out")
-    elif analysis.target_tolerance_deg != TARGET_TOLERANCE_DEG:
-        caption += f"; reference angles within {analysis.target_tolerance_deg:g} degree are one target"
-    return caption
+    return analysis.caption()
 
 
 def _drift_section(report):

@@ -67,7 +67,8 @@ class SelfCalibration:
         encoder = self.grid(points)
         reference = encoder - self.error_arcmin(encoder) / ARCMIN_PER_DEG
         return Calibration(reference, encoder, name=self.name, reading_sign=self.reading_sign,
-                           metadata={"selfcal": self.method, "removed_orders": list(self.removed_orders)})
+                           metadata={"selfcal": self.method, "removed_orders": list(self.removed_orders)},
+                           reference_std_arcmin=self.sigma_arcmin(encoder))
 
     def write(self, path, points=DEFAULT_POINTS, resolution_bits=None):
         """Write the calibration CSV (atomically) with the columns ``error_arcmin`` and ``sigma_arcmin``.
