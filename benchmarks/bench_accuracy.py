@@ -4,6 +4,9 @@ Usage::
 
     python benchmarks/bench_accuracy.py              # 3 seeds, about 2 minutes on 2 cores
     python benchmarks/bench_accuracy.py --seeds 1    # quicker
+    python benchmarks/bench_accuracy.py --cv-choice  # only the cross-validated choice (--folds 5), with and
+                                                     # without stacking, auto's default before 2026-11-24
+    python benchmarks/bench_accuracy.py --known-truth  # only docs/statistics.md's known-truth table (seconds)
 
 Every method is fitted to each demo encoder's training run (0:2:358 degrees) and
 evaluated on its test run (1:3:359 degrees, between the training points, read
@@ -57,11 +60,73 @@ def oracle(cal, test_cal, seed):
     return result
 
 
+def cv_choice(seeds):
+    """The cross-validated choice (``folds=5``) with and without stacking: test RMS per encoder (mean over the
+    seeds; its networks depend on them), RMS / floor, and the mean CPU of a fit."""
+    fleet = demo_fleet()
+    print(f"# the cross-validated choice on the demo fleet, seeds 0..{len(seeds) - 1}; load "
+          f"{open('/proc/loadavg').read().split()[0]}\n")
+    print("| choice | " + " | ".join(m.name for m in fleet) + " | CPU per fit, s |")
+    print("|---|" + "---|" * (len(fleet) + 1))
+    chosen = []
+    for label, options in (("with stacking", {}), ("one family (no stack)", {"stack": False})):
+        cells, cpu = [], []
+        for member in fleet:
+            floor = measurement_floor(member.test)
+            tested = []
+            for seed in seeds:
+                model, test_rms, elapsed = fit_and_test(member.train.calibration, member.test.calibration, "auto",
+                                                        {"folds": 5, **options}, seed)
+                tested.append(test_rms)
+                cpu.append(elapsed)
+                chosen.append(f"{label}, {member.name}, seed {seed}: {model.training['selection']['chosen']}")
+            cells.append(f"{np.mean(tested):.4f} ({np.mean(tested) / floor:.2f})")
+        print(f"| {label} | " + " | ".join(cells) + f" | {np.mean(cpu):.2f} |")
+    print("\n" + "\n".join(chosen))
+
+
+def known_truth(seeds=range(20)):
+    """docs/statistics.md: six orders and white noise of 0.1 arcmin on 0:2:358 (``noisy_profile`` of
+    tests/models/test_fourier.py), seeds 0-19; RMS of the fitted curve against the truth on 3601 points."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests.models.test_fourier import TRAIN, noisy_profile, series
+
+    from encal.models.fourier import fit_fourier
+    from encal.models.lut import fit_lut
+
+    dense = np.linspace(0.0, 360.0, 3601)
+    methods = {"fourier top 10": (fit_fourier, {}), "fourier cv": (fit_fourier, {"select": "cv"}),
+               "lut linear": (fit_lut, {}), "lut cubic": (fit_lut, {"interpolation": "cubic"})}
+    print("| method | mean | max | orders kept (mean) |")
+    print("|---|---|---|---|")
+    for name, (fit, options) in methods.items():
+        errors, kept = [], []
+        for seed in seeds:
+            orders, cos, sin, noise = noisy_profile(seed)
+            model = fit(TRAIN, series(TRAIN, orders, cos, sin) + noise, **options)  # the angles on the grid
+            errors.append(np.sqrt(np.mean((model.predict(dense) - series(dense, orders, cos, sin)) ** 2)))
+            kept.append(len(model.orders) if fit is fit_fourier else None)
+        orders_kept = f"{np.mean(kept):.3g}" if fit is fit_fourier else "–"
+        print(f"| {name} | {np.mean(errors):.3f} | {np.max(errors):.3f} | {orders_kept} |")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=3, help="number of seeds 0..N-1 (default 3)")
+    parser.add_argument("--cv-choice", action="store_true",
+                        help="only the cross-validated choice (folds=5), with and without stacking")
+    parser.add_argument("--known-truth", action="store_true", help="only docs/statistics.md's known-truth table")
     args = parser.parse_args()
     seeds = range(args.seeds)
+    if args.known_truth:
+        known_truth()
+        return
+    if args.cv_choice:
+        cv_choice(seeds)
+        return
 
     fleet = demo_fleet()
     rms = {name: {m.name: [] for m in fleet} for name in METHODS}

@@ -8,6 +8,7 @@ Usage::
     python benchmarks/bench_spectral.py --scaling          # fit time and memory against n
     python benchmarks/bench_spectral.py --background-bound --cases fleet fleet+ rough
                                     # what a better smooth background could gain (expected errors)
+    python benchmarks/bench_spectral.py --collapse         # safeguard 1's repeated search on 30 draws (seconds)
 
 Cases (each encoder fitted on its training run, 0:2:358 degrees, and tested on its test run,
 1:2:359 degrees, fresh noise):
@@ -298,6 +299,44 @@ def background_bound(names, highest=90):
         print(f"| {case_name} | {encoder} | " + " | ".join(f"{r:.3f}" for r in ratios) + " |")
 
 
+def collapse(draws=30):
+    """Safeguard 1's repeated search (docs/model-selection.md): ``draws`` jittered 72-stop grids of a ν^-2
+    profile, the noise known (``jittered_power_law`` of tests/models/test_spectral.py), fitted with the search
+    as it is and with the repeat switched off (``COLLAPSE_LINE_FRACTION = 1``): the draws whose search ends with
+    lines on more than a third of the orders, and their profile error against the repeated search's."""
+    import sys
+    from pathlib import Path
+
+    from encal.models import _evidence
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests.models.test_spectral import jittered_power_law
+
+    test = np.arange(0.0, 360.0, 0.5)
+    kept = _evidence.COLLAPSE_LINE_FRACTION
+    print("| draw | lines, highest order (no repeat) | profile RMS no repeat / as is | lines as is |")
+    print("|---|---|---|---|")
+    collapsed = []
+    for seed in range(draws):
+        theta, error, truth = jittered_power_law(seed)
+        model = fit_spectral(theta, error, noise_arcmin=0.05)
+        _evidence.COLLAPSE_LINE_FRACTION = 1.0
+        try:
+            plain = fit_spectral(theta, error, noise_arcmin=0.05)
+        finally:
+            _evidence.COLLAPSE_LINE_FRACTION = kept
+        lines, orders = len(plain.training["lines"]), int(plain.training["max_order"])
+        ratio = (np.sqrt(np.mean((plain.predict(test) - truth(test)) ** 2))
+                 / np.sqrt(np.mean((model.predict(test) - truth(test)) ** 2)))
+        if lines > kept * orders:
+            collapsed.append((seed, lines, ratio))
+        print(f"| {seed} | {lines}, {orders} | {ratio:.2f} | {len(model.training['lines'])} |")
+    print(f"\nwithout the repeat, lines on more than a third of the orders in {len(collapsed)} of {draws} draws"
+          + (f" (seeds {', '.join(str(c[0]) for c in collapsed)}: {min(c[1] for c in collapsed)}-"
+             f"{max(c[1] for c in collapsed)} lines, profile error {min(c[2] for c in collapsed):.2f}-"
+             f"{max(c[2] for c in collapsed):.2f} times the repeated search's)" if collapsed else ""))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=["fleet", "fleet+"],
@@ -306,7 +345,12 @@ def main():
     parser.add_argument("--scaling", action="store_true", help="only the fit time against n (and off a regular grid)")
     parser.add_argument("--background-bound", action="store_true",
                         help="only what the best smooth background could gain (uniform-grid cases)")
+    parser.add_argument("--collapse", action="store_true",
+                        help="only safeguard 1's repeated search: 30 jittered draws with and without it")
     args = parser.parse_args()
+    if args.collapse:
+        collapse()
+        return
     if args.background_bound:
         background_bound(args.cases)
         return

@@ -29,9 +29,16 @@ repeats, the change of the profile between runs.
 ``ann-matlab`` is ``ann`` trained by MATLAB's rule (1000 epochs, ``plateau_patience=None``) rather than the
 default stop, to show that the uncertainty holds under either.
 
+``--known-noise``: the noise estimate and the ±2σ coverage on a known truth, the construction of
+tests/models/test_uncertainty.py (orders 1, 2, 4 and 15, Gaussian noise of 0.2 arcmin; ``fourier`` with those
+orders, ``lut`` linear): σ_noise over the truth on 120 calibrations of 360 points (seeds 0-119), and the share of
+fresh residuals at 1:2:359 inside ±2σ of a fit on 0:2:358 over 200 seeds, with the means of 40 blocks of 5; then
+a 1:8:1 network on orders 1, 2 and 4 under the paper's and MATLAB's stopping rules over seeds 0-39.
+
 Run:  .venv/bin/python benchmarks/bench_uncertainty.py [--methods fourier lut ann ann-matlab hybrid auto]
       [--n-boot 30] [--encoders 4] [--no-bidirectional]
       .venv/bin/python benchmarks/bench_uncertainty.py --real
+      .venv/bin/python benchmarks/bench_uncertainty.py --known-noise
 """
 
 import os
@@ -136,6 +143,60 @@ def real_table():
               f"{np.median(ratio):.2f} ({np.min(ratio):.2f}..{np.max(ratio):.2f})")
 
 
+def known_reversal(seeds=120):
+    """docs/bidirectional.md: tests/models/test_directional.py's coverage test over ``seeds`` seeds (a reversal of
+    0.4 arcmin, noise 0.15 arcmin, orders 0-3): the mean reversal value and the ±2σ share of fresh residuals of a
+    per-direction model used with the direction and of a model of the mean, with the means of blocks of 6."""
+    from tests.models.test_directional import REVERSAL, coverage_of_fresh_bidirectional_readings
+
+    shares, reversal = {"per-direction": [], "mean": []}, []
+    for seed in range(seeds):
+        seed_shares, seed_reversal = coverage_of_fresh_bidirectional_readings(seed)
+        for mode, share in seed_shares.items():
+            shares[mode].append(share)
+        reversal.append(seed_reversal)
+    reversal = np.array(reversal)
+    print(f"bidirectional ({seeds} seeds, reversal {REVERSAL} arcmin): mean reversal value {reversal.mean():.4f} "
+          f"(standard error {reversal.std(ddof=1) / np.sqrt(seeds):.4f})"
+          + "".join(f"; ±2σ {mode} {100 * np.mean(v):.1f} % (blocks of 6: "
+                    f"{100 * np.min(np.mean(np.reshape(v, (-1, 6)), axis=1)):.1f}-"
+                    f"{100 * np.max(np.mean(np.reshape(v, (-1, 6)), axis=1)):.1f} %)" for mode, v in shares.items()))
+
+
+def known_noise():
+    """docs/uncertainty.md's "Known noise": the tests' construction over many seeds."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+    from tests.models.test_uncertainty import NOISE, ORDERS, fitted, network_coverage, noisy_calibration
+
+    for method, options in (("fourier", {"orders": ORDERS}), ("lut", {})):
+        ratios = np.array([fitted(noisy_calibration(np.arange(0.0, 360.0, 1.0), np.random.default_rng(seed)),
+                                  method, options, seed).uncertainty["noise_std_arcmin"] / NOISE
+                           for seed in range(120)])
+        shares = []
+        for seed in range(200):
+            rng = np.random.default_rng(100 + seed)
+            model = fitted(noisy_calibration(np.arange(0.0, 360.0, 2.0), rng), method, options, seed)
+            shares.append(coverage(model, noisy_calibration(np.arange(1.0, 360.0, 2.0), rng)))
+        blocks = np.mean(np.reshape(shares, (40, 5)), axis=1)
+        print(f"{method}: σ_noise / truth over 120 calibrations: mean {ratios.mean():.3f}, standard deviation "
+              f"{ratios.std(ddof=1):.3f}, range {ratios.min():.2f}-{ratios.max():.2f}; ±2σ over 200 seeds "
+              f"{100 * np.mean(shares):.1f} % (40 blocks of 5: {100 * blocks.min():.1f}-{100 * blocks.max():.1f} %)")
+    known_reversal()
+    for stop in ("plateau", "matlab"):  # a 1:8:1 network on orders 1, 2 and 4, seeds 0-39 (n_boot 20)
+        results = [network_coverage(stop, seed) for seed in range(40)]
+        noise = np.array([u["noise_std_arcmin"] for u, _ in results])
+        dof = [u["residual_dof"] for u, _ in results if u["noise_estimator"] == "residual"]
+        shares = np.array([share for _, share in results])
+        blocks = np.mean(np.reshape(shares, (5, 8)), axis=1)
+        print(f"ann, {stop} rule: residual estimate on {len(dof)} of 40 (ν {min(dof):.0f}-{max(dof):.0f}); σ_noise "
+              f"mean {noise.mean():.3f}, standard deviation {noise.std(ddof=1):.3f}, range {noise.min():.3f}-"
+              f"{noise.max():.3f}; ±2σ {100 * shares.mean():.1f} % (per seed {100 * shares.std(ddof=1):.1f} %; "
+              f"5 blocks of 8: {100 * blocks.min():.1f}-{100 * blocks.max():.1f} %)")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--methods", nargs="+", default=["fourier", "lut", "ann"])
@@ -144,7 +205,12 @@ def main():
     parser.add_argument("--no-bidirectional", action="store_true", help="skip the second table")
     parser.add_argument("--real", action="store_true",
                         help="auto's posterior on the real AS5047D files instead of the demo fleet")
+    parser.add_argument("--known-noise", action="store_true",
+                        help="only the noise estimate and coverage on the tests' known truth, over many seeds")
     args = parser.parse_args()
+    if args.known_noise:
+        known_noise()
+        return
     if args.real:
         real_table()
         return

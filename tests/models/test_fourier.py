@@ -86,6 +86,16 @@ def test_top_rule_picks_the_per_step_pattern_at_the_nyquist_order():
     assert_allclose(model.predict(steps), error, atol=1e-10)
 
 
+def noisy_profile(seed):
+    """Orders 0, 1, 2, 16, 14 and 48 (cosines at least 0.5 arcmin) and white noise of 0.1 arcmin on :data:`TRAIN`:
+    (orders, cos, sin, noise). benchmarks/bench_accuracy.py --known-truth fits it over seeds 0-19."""
+    rng = np.random.default_rng(seed)
+    orders = [0, 1, 2, 16, 14, 48]
+    cos, sin = random_profile(rng, orders)
+    cos = np.sign(cos) * (0.5 + np.abs(cos))  # amplitudes >= 0.5 arcmin, far above the noise
+    return orders, cos, sin, rng.normal(0.0, 0.1, TRAIN.size)
+
+
 @pytest.mark.parametrize("seed", range(5))
 @pytest.mark.parametrize("select", ["top", "cv"])
 def test_noisy_profile_is_recovered_within_the_noise(seed, select):
@@ -98,11 +108,7 @@ def test_noisy_profile_is_recovered_within_the_noise(seed, select):
     samples. So both errors are bounded by the RMS of the noise drawn,
     whatever the seed.
     """
-    rng = np.random.default_rng(seed)
-    orders = [0, 1, 2, 16, 14, 48]
-    cos, sin = random_profile(rng, orders)
-    cos = np.sign(cos) * (0.5 + np.abs(cos))  # amplitudes >= 0.5 arcmin, far above the noise
-    noise = rng.normal(0.0, 0.1, TRAIN.size)
+    orders, cos, sin, noise = noisy_profile(seed)
     observed = series(TRAIN, orders, cos, sin) + noise
     model = fit_fourier(TRAIN, observed, select=select)
     assert set(orders) <= set(model.orders.tolist())
