@@ -405,8 +405,8 @@ def test_on_a_grid_of_stops_the_series_ends_at_the_nyquist_order_even_with_the_n
 
 def test_lines_started_by_leakage_off_a_grid_are_all_dropped():
     # 180 and 360 stops each moved by up to ±0.2 spacings, the noise known: the periodogram's leakage
-    # from the 3 arcmin order 1 starts dozens of lines; dropped one per round, 8 and 51 false ones stayed
-    # (with order 40 at 0.05 arcmin), and the profile was up to twice as far off.
+    # from the 3 arcmin order 1 starts dozens of lines; dropped one per round, false ones stayed (42 on the
+    # 360 stops with the code of 88c3561, docs/model-selection.md), and the profile was up to twice as far off.
     rng = np.random.default_rng(0)
     test = np.arange(0.0, 360.0, 0.25)
     truth = {1: (3.0, -0.5 * math.pi), 2: (0.9, 0.0), 16: (0.3, -0.5 * math.pi), 40: (0.1, 0.0)}

@@ -579,7 +579,7 @@ def _pursuit(design, orders, cos_index, sin_index, g, candidates, cut, noise_lev
     """The strong orders one at a time, each fitted and taken out of the projections before the next.
 
     Off a uniform grid the columns are correlated: a strong order leaks into every other order's
-    periodogram (3 arcmin at order 1 on 180 stops moved by ±0.2 spacings started 52 lines, and the
+    periodogram (3 arcmin at order 1 on 180 stops moved by ±0.2 spacings started 46 lines, and the
     first optimisation over them took 0.9 of the fit's time). Taken out in turn, the strongest
     first, only the orders still above ``cut`` once the stronger ones are fitted start as lines.
     """
