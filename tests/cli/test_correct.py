@@ -318,3 +318,48 @@ def test_a_short_csv_row_in_a_later_block_names_its_line(tmp_path, capsys):
     status, out, err = correct(capsys, tmp_path / "in.csv")
     assert status == 1 and "line 12347" in err and "2 fields, not 3" in err
     assert len(out.splitlines()) == 12_345
+
+
+# -- readings in other units and columns (a firmware's log of raw counts) --------------------------------------------
+
+@pytest.mark.parametrize("unit, per_degree", [("counts:14", 2**14 / 360), ("counts:12", 2**12 / 360),
+                                              ("rev", 1 / 360), ("rad", np.pi / 180)])
+@pytest.mark.parametrize("layout", ["lines", "csv"])
+def test_readings_in_another_unit_are_corrected_as_their_angle_in_degrees(tmp_path, capsys, compensator, unit,
+                                                                        per_degree, layout):
+    degrees = np.array([0.0, 22.5, 90.0, 181.40625, 359.12109375] * 300)  # every one a whole 12- and 14-bit code
+    readings = degrees * per_degree
+    text = "".join(f"{r!r}\n" for r in readings.tolist())
+    if layout == "csv":
+        text = "time_s,Raw\n" + "".join(f"{i},{r!r}\n" for i, r in enumerate(readings.tolist()))
+    path = tmp_path / "log.txt"
+    path.write_text(text)
+    status, out, err = correct(capsys, path, "--enc-unit", unit, *(["--enc-col", "raw"] if layout == "csv" else []))
+    assert status == 0 and err == ""
+    np.testing.assert_allclose(values(out), compensator.correct(readings / per_degree), rtol=0, atol=1e-11)
+    if unit.startswith("counts"):  # whole codes in degrees exactly: the same answers as the angles themselves
+        assert out.splitlines() == fixed(compensator.correct(degrees))
+
+
+def test_a_bad_reading_names_the_unit_and_the_column(tmp_path, capsys):
+    path = tmp_path / "log.csv"
+    path.write_text("t,raw\n1,4096\n2,4x096\n")
+    status, out, err = correct(capsys, path, "--enc-unit", "counts:14", "--enc-col", "raw")
+    assert status == 1 and len(out.splitlines()) == 1
+    assert "line 3 of " in err and "expected a finite number of counts of a 14-bit encoder in column 2 (raw)" in err
+
+
+def test_counts_beyond_1e9_degrees_are_malformed_and_more_codes_are_not(tmp_path, capsys):
+    path = tmp_path / "log.txt"
+    path.write_text(f"{2**14 * 10**6}\n")  # a million turns of a 14-bit encoder: 3.6e8 degrees
+    assert correct(capsys, path, "--enc-unit", "counts:14")[0] == 0
+    path.write_text("1e8\n")  # 1e8 turns: 3.6e10 degrees
+    status, _, err = correct(capsys, path, "--enc-unit", "rev")
+    assert status == 1 and "within +-1e+09 degrees" in err
+
+
+def test_without_the_column_the_header_is_no_header(tmp_path, capsys):
+    path = tmp_path / "log.csv"
+    path.write_text("t,raw\n1,4096\n")
+    status, _, err = correct(capsys, path, "--enc-unit", "counts:14")
+    assert status == 1 and "line 1 of " in err and "a CSV header with an encoder_deg column first" in err

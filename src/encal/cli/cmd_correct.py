@@ -1,7 +1,8 @@
 """Correct encoder angles with a model file, streaming.
 
 Reads encoder angles in degrees, one per line, or a CSV file whose header names
-an encoder_deg column; blank lines and ``#`` comments are skipped. Writes one
+an encoder_deg column (--enc-col names another; --enc-unit reads radians, turns or
+an encoder's counts, counts:B); blank lines and ``#`` comments are skipped. Writes one
 corrected angle per line, in degrees in [0, 360), with 12 decimals (printf's
 ``%.12f`` of the library's value: within 5e-13 degrees of it); with --exact,
 Python's shortest round-tripping repr (parse it as a double and you get the
@@ -27,6 +28,7 @@ from .._core import signals as _signals
 from ..deploy import Compensator
 from ..deploy.stream import correct_stream
 from .._core.errors import InputError
+from ._common import angle_unit_argument
 from ._serial import add_serial_options, model_input, model_or_serial
 
 
@@ -36,6 +38,11 @@ def add_arguments(parser):
     parser.add_argument("input", metavar="FILE", nargs="?", default="-",
                         help="encoder angles in degrees, one per line, or a CSV with an "
                              "encoder_deg column; '-' (default) reads standard input")
+    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg",
+                        help="the CSV column of the readings (default encoder_deg; any letter case)")
+    parser.add_argument("--enc-unit", metavar="UNIT", type=angle_unit_argument, default="deg",
+                        help="unit of the readings: deg (default), rad, rev or counts:B (codes of a B-bit encoder); "
+                             "the corrected angles are written in degrees")
     parser.add_argument("--skip-bad", action="store_true",
                         help="write 'nan' for a malformed line and go on instead of stopping")
     parser.add_argument("--exact", action="store_true",
@@ -81,11 +88,12 @@ def run(args):
     try:
         if args.input == "-":
             correct_stream(compensator, _CheckedLines(sys.stdin.buffer, "stdin"), sink, skip_bad=args.skip_bad,
-                           direction=args.direction, exact=args.exact)
+                           direction=args.direction, exact=args.exact, column=args.enc_col, unit=args.enc_unit)
         else:
             with open(args.input, "rb") as source, _file_activity(source, args.input) as counted:
                 correct_stream(compensator, _CheckedLines(counted, args.input), sink, skip_bad=args.skip_bad,
-                               name=args.input, direction=args.direction, exact=args.exact)
+                               name=args.input, direction=args.direction, exact=args.exact, column=args.enc_col,
+                               unit=args.enc_unit)
     except BrokenPipeError:
         # The reader went away (`encal correct ... | head`): stop quietly, and keep
         # Python from failing again when it flushes stdout at exit.

@@ -1,7 +1,7 @@
 """Correct a stream of encoder angles, text line by text line, in constant memory.
 
-Input: one angle in degrees per line, or a CSV table whose first data line is a
-header naming an ``encoder_deg`` column (case-insensitive); blank lines and
+Input: one angle in degrees per line (or in another unit: radians, turns, an encoder's counts), or a CSV table
+whose first data line is a header naming an ``encoder_deg`` column (or another, case-insensitive); blank lines and
 lines starting with ``#`` are skipped. Output: one corrected angle per input
 angle, in degrees, written as printf's ``%.12f`` (within 5e-13 degrees of the
 double), or with ``exact=True`` as Python's ``repr`` (the shortest text that
@@ -26,6 +26,7 @@ import numbers
 import numpy as np
 
 from .._core import csv_dialect as _csv
+from .._core.angles import angle_unit
 from .._core.decimal_text import format_fixed, parse_lines
 from .._core.errors import InputError
 from .._core.number_cells import MAX_ABS_DEG, is_plain_number_text, not_plain_note, read_number
@@ -39,6 +40,7 @@ BLOCK_BYTES = 1 << 16
 #: Longest line accepted, in bytes: bounds the memory when no newline comes.
 MAX_LINE_BYTES = 1 << 16
 _HEADER_COLUMN = "encoder_deg"
+_UNIT_WORDS = {"deg": "degrees", "rad": "radians", "rev": "turns"}
 #: The calibration CSV's direction column (values: encal._core.csv_dialect.DIRECTIONS), read for a directional model.
 _DIRECTION_COLUMN = "direction"
 _DIRECTION_PROBLEM = "the direction column"  # (a marker between _value and _error)
@@ -59,7 +61,8 @@ def _reuse_block_memory():
     np.empty(CHUNK_NUMBERS, dtype=float)  # allocated and freed at once, never touched
 
 
-def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None, exact=False):
+def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", direction=None, exact=False,
+                   column=_HEADER_COLUMN, unit="deg"):
     """Read encoder angles from ``source``, write corrected angles to ``sink``.
 
     Parameters
@@ -82,6 +85,12 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     exact : bool, default=False
         Write each corrected angle as Python's ``repr`` (the shortest text that reads back to the same
         double) instead of ``'%.12f'`` (within 5e-13 degrees, about five times faster to write).
+    column : str, default='encoder_deg'
+        The CSV header's column of the readings (any letter case); input of one number per line needs none.
+    unit : str or AngleUnit, default='deg'
+        Unit of the readings: ``'deg'``, ``'rad'``, ``'rev'`` or ``'counts:B'`` (codes of a B-bit encoder); they
+        are converted to degrees before the correction, and the corrected angles are written in degrees. A
+        reading beyond +-1e9 degrees once converted is malformed.
 
     Returns
     -------
@@ -99,12 +108,20 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     check_bool(skip_bad, "skip_bad", caller)
     check_bool(exact, "exact", caller)
     check_type(name, str, "name", caller, "a str")
+    check_type(column, str, "column", caller, "a str naming a CSV column")
+    if not column.strip():
+        raise invalid("column", caller, "the name of a CSV column", column)
+    try:
+        unit = angle_unit(unit)
+    except ValueError as exc:
+        raise InputError(f"The 'unit' parameter of {caller}: {exc}") from None
     if direction is not None and (isinstance(direction, bool) or not isinstance(direction, numbers.Integral)
                                   or direction not in (1, -1)):
         raise invalid("direction", caller, "+1 (forward), -1 (reverse) or None (unknown)", direction)
     _reuse_block_memory()
     model = getattr(compensator, "model", compensator)
-    parser = _LineParser(skip_bad, name, read_direction=getattr(model, "kind", None) == "directional")
+    parser = _LineParser(skip_bad, name, read_direction=getattr(model, "kind", None) == "directional",
+                         column=column, unit=unit)
     read = getattr(source, "read1", source.read)
     write = _format_repr if exact else format_fixed
     pending = b""
@@ -124,6 +141,8 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
                              f"--direction {direction:+d} was given too; expected one of them (drop --direction to "
                              "correct each reading with its own direction)")
         if values.size:
+            if unit.degrees_per_unit != 1.0:
+                values = values * unit.degrees_per_unit
             sink.write(write(_correct(compensator, values, direction if directions is None else directions)))
             sink.flush()
             written += values.size
@@ -162,9 +181,13 @@ class _LineParser:
     and every row of a CSV table with as many fields as its header.
     """
 
-    def __init__(self, skip_bad, name, read_direction=False):
+    def __init__(self, skip_bad, name, read_direction=False, column=_HEADER_COLUMN, unit=None):
         self.skip_bad = skip_bad
         self.name = name
+        self.header_column = column.strip().lower()
+        self.unit = unit if unit is not None else angle_unit("deg")
+        # the largest reading whose angle is within MAX_ABS_DEG degrees
+        self.largest = MAX_ABS_DEG / self.unit.degrees_per_unit
         self.line_number = 0
         self.column = None  # None: no data line seen yet; -1: one angle per line
         self.n_fields = 1  # fields of every row: the header's
@@ -175,7 +198,7 @@ class _LineParser:
         """Angles of ``text`` (bytes: whole lines, or the end of the input), their directions (None without a
         direction column that is read), and the error to raise after writing them (or None)."""
         if self.column is not None and self.direction_column is None and text.endswith(b"\n"):
-            # (at most 6 integer digits: every angle parse_lines reads is within MAX_ABS_DEG)
+            # (at most 6 integer digits: every reading parse_lines reads, in any unit, is within MAX_ABS_DEG degrees)
             values = (parse_lines(np.frombuffer(text, dtype=np.uint8)) if self.column < 0
                       else self._fast_column(text))
             if values is not None:
@@ -241,7 +264,7 @@ class _LineParser:
                                            for row in rows], dtype=int)
         except (ValueError, KeyError, UnicodeDecodeError):
             return None
-        return (values, directions, None) if np.all(np.abs(values) <= MAX_ABS_DEG) else None  # (False for NaN)
+        return (values, directions, None) if np.all(np.abs(values) <= self.largest) else None  # (False for NaN)
 
     def _slow(self, lines):
         values, directions = [], []
@@ -281,8 +304,8 @@ class _LineParser:
             names = _csv.column_names(text)
         except _csv.QuotingError:
             return False
-        if _HEADER_COLUMN in names:
-            self.column = names.index(_HEADER_COLUMN)
+        if self.header_column in names:
+            self.column = names.index(self.header_column)
             self.n_fields = len(names)
             if self.read_direction and _DIRECTION_COLUMN in names:
                 self.direction_column = names.index(_DIRECTION_COLUMN)
@@ -316,18 +339,22 @@ class _LineParser:
             return None, None, not_plain_note(field).removeprefix("; ") or None
         if not np.isfinite(value):
             return None, None, None
-        if abs(value) > MAX_ABS_DEG:
+        if abs(value) > self.largest:
             return None, None, (f"encal reads angles within +-{MAX_ABS_DEG:g} degrees, as in a calibration CSV "
                                 "(beyond, a double keeps less than 1e-5 arcmin of the angle within a turn: a glitch, "
-                                "or counts?)")
+                                "or counts? say so with --enc-unit counts:B)")
         return value, direction, None
 
     def _error(self, text, problem=None):
         shown = text.strip()
         shown = shown if len(shown) <= 60 else shown[:57] + "..."
-        expected = ("an encoder angle in degrees (one number per line, or a CSV header with "
-                    "an encoder_deg column first)" if self.column < 0
-                    else f"a finite number of degrees in column {self.column + 1} (encoder_deg)")
+        words = _UNIT_WORDS.get(self.unit.name, "degrees")
+        if self.unit.name == "counts":
+            words = f"counts of a {self.unit.bits}-bit encoder"
+        what = "an encoder angle in degrees" if self.unit.name == "deg" else f"an encoder reading in {words}"
+        expected = (f"{what} (one number per line, or a CSV header with "
+                    f"an {self.header_column} column first)" if self.column < 0
+                    else f"a finite number of {words} in column {self.column + 1} ({self.header_column})")
         if problem == _DIRECTION_PROBLEM:
             expected, problem = (f"+1, -1, cw or ccw in column {self.direction_column + 1} ({_DIRECTION_COLUMN}), "
                                  "the direction of a reading for a directional model"), None
