@@ -281,3 +281,25 @@ def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
                                                     target_tolerance_deg=0.001)))
     assert joined == (f"{grid.size} targets approached both ways, at least 1 time(s) each way (ISO 230-2 asks for 5); "
                       "reference angles within 0.001 degree are one target")
+
+
+def test_a_bidirectional_verdict_states_the_held_out_estimate_and_the_band():
+    """Without a test calibration a directional model's verdict rested on its training points, with no band (the
+    parts' posteriors were not read); now the parts' estimates, pooled, and the band of a reading whose direction is
+    unknown."""
+    from encal.reports.encoder import verdict
+
+    ref = np.tile(np.arange(0.0, 360.0, 2.0), 2)
+    direction = np.repeat([1, -1], 180)
+    noise = np.random.default_rng(2).normal(0.0, 0.1, ref.size)
+    cal = Calibration(ref, ref + (shape_arcmin(ref) + 0.5 * direction + noise) / 60.0, direction=direction,
+                      name="table")
+    report = encoder_report(cal, rng=0, compare=False)
+    assert report.model.kind == "directional"
+    parts = [part.expected_rms_between_points() for part in (report.model.forward, report.model.reverse)]
+    expected = float(np.sqrt(np.mean(np.square(parts))))
+    line = verdict(report)
+    assert f"about RMS {expected:.3g} arcmin is expected at readings it did not see" in line
+    _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
+    assert f"95 % band for a new reading is ± {1.959963984540054 * float(np.mean(std)):.3g} arcmin" in line
+    assert 0.05 < expected < 0.2  # the noise is 0.1 arcmin

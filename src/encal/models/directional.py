@@ -59,6 +59,20 @@ class DirectionalModel(Model):
     def evaluation_width(self):
         return max(self.forward.evaluation_width, self.reverse.evaluation_width)
 
+    @property
+    def has_uncertainty(self):
+        """Whether both parts carry an uncertainty (then ``predict(..., return_std=True)`` works)."""
+        return self.forward.uncertainty is not None and self.reverse.uncertainty is not None
+
+    def expected_rms_between_points(self):
+        """The parts' posterior estimates of their RMS error at angles not calibrated, pooled (arc-minutes):
+        ``sqrt((f² + r²) / 2)``, a reading's direction known; None unless both parts have one."""
+        expected = [getattr(part, "expected_rms_between_points", lambda: None)() for part in (self.forward,
+                                                                                                self.reverse)]
+        if any(value is None for value in expected):
+            return None
+        return float(np.sqrt(0.5 * (expected[0] ** 2 + expected[1] ** 2)))
+
     def predict(self, theta_enc_deg, return_std=False, direction=None):
         """Predicted error at the given encoder readings.
 

@@ -553,7 +553,7 @@ def verdict(report):
         left = (f"; after correction RMS {report.fitted.after.rms:.3g} arcmin is left on the calibration's own "
                 "points (optimistic: give a test calibration to measure it)")
     band = ""
-    if getattr(report.model, "uncertainty", None) is not None:
+    if getattr(report.model, "uncertainty", None) is not None or getattr(report.model, "has_uncertainty", False):
         from scipy.stats import norm
 
         _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
