@@ -363,3 +363,13 @@ def test_without_the_column_the_header_is_no_header(tmp_path, capsys):
     path.write_text("t,raw\n1,4096\n")
     status, _, err = correct(capsys, path, "--enc-unit", "counts:14")
     assert status == 1 and "line 1 of " in err and "a CSV header with an encoder_deg column first" in err
+
+
+def test_a_dash_after_an_option_is_standard_input(monkeypatch, capsys, compensator):
+    """``encal correct M.json --exact -`` reads standard input (fuzz7: it was 'unrecognized arguments: -', exit 2)."""
+    import io
+
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(b"4096\n"), encoding="utf-8"))
+    status, out, err = correct(capsys, "--enc-unit", "counts:14", "--exact", "-")
+    assert status == 0, err
+    assert values(out) == [compensator.correct(90.0)]

@@ -60,8 +60,8 @@ def add_arguments(parser):
 
 
 def claim_extras(args, extras):
-    """Take a FILE given after an option (``encal correct M.json --skip-bad FILE``)."""
-    if args.input == "-" and len(extras) == 1 and not extras[0].startswith("-"):
+    """Take a FILE given after an option (``encal correct M.json --skip-bad FILE``, or ``-`` for standard input)."""
+    if args.input == "-" and len(extras) == 1 and (extras[0] == "-" or not extras[0].startswith("-")):
         args.input = extras[0]
         return True
     return False

@@ -1,0 +1,318 @@
+"""Mutation fuzzer of session 7's new surfaces (fuzz7): ``encal correct --enc-unit/--enc-col`` (fast and careful
+paths against ``Compensator.correct`` of the readings converted to degrees), the ``sigma_arcmin`` column of a
+calibration CSV (read against its truth, and ``encal fit``'s model file against its own ``--json``).
+
+Seeded and deterministic. Each case runs ``encal.cli.main`` in this process and is flagged for a traceback, an exit
+status other than 0/1/2, a refusal message of more than one line, or a wrong number with exit 0. Usage::
+
+    PYTHONPATH=src OMP_NUM_THREADS=1 python benchmarks/fuzz_session7.py --seed 1 --runs 500 [--surface counts]
+"""
+
+import argparse
+import math
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from fuzz_session6 import check, run
+
+_MODELS = {}
+
+
+def models(folder):
+    """Model files fitted once: 'plain' (Fourier), 'directional' (per-direction)."""
+    if not _MODELS:
+        theta = np.arange(0.0, 360.0, 5.0)
+        err = 3.0 * np.sin(np.radians(theta)) + 1.0 * np.cos(np.radians(2 * theta))
+        lines = ["reference_deg,encoder_deg"] + [f"{float(t)!r},{float(t + e / 60.0)!r}" for t, e in zip(theta, err)]
+        (folder / "plain.csv").write_text("\n".join(lines) + "\n")
+        status, _, err_text, tb = run(["fit", "--method", "fourier", str(folder / "plain.csv"), "-o",
+                                       str(folder / "plain.json")])
+        assert status == 0, (err_text, tb)
+        lines = ["reference_deg,encoder_deg,direction"]
+        for d in (1, -1):
+            lines += [f"{float(t)!r},{float(t + (e + d * 0.5) / 60.0)!r},{d}" for t, e in zip(theta, err)]
+        (folder / "dir.csv").write_text("\n".join(lines) + "\n")
+        status, _, err_text, tb = run(["fit", "--method", "fourier", "--bidirectional", "per-direction",
+                                       str(folder / "dir.csv"), "-o", str(folder / "dir.json")])
+        assert status == 0, (err_text, tb)
+        _MODELS["plain"] = folder / "plain.json"
+        _MODELS["directional"] = folder / "dir.json"
+    return _MODELS
+
+
+UNITS = ["deg", "rad", "rev", "counts:8", "counts:12", "counts:14", "counts:16", "counts:1", "counts:24", "counts:32"]
+
+
+def _reading(rng, unit):
+    if unit.startswith("counts:"):
+        bits = int(unit.split(":")[1])
+        kind = rng.integers(0, 5)
+        if kind == 0:
+            return str(int(rng.integers(0, 2**bits)))
+        if kind == 1:
+            return str(int(rng.integers(-2**bits, 3 * 2**bits)))
+        if kind == 2:
+            return str(int(rng.choice([0, 2**bits - 1, 2**bits, -1, 999999, 1000000, 12345678])))
+        if kind == 3:
+            return f"{rng.integers(0, 2**bits)}.{rng.integers(0, 100)}"
+        return f"{float(rng.integers(0, 2**bits)):e}"
+    scale = {"deg": 360.0, "rad": 2 * math.pi, "rev": 1.0}[unit]
+    kind = rng.integers(0, 3)
+    if kind == 0:
+        return repr(float(rng.uniform(-scale, 2 * scale)))
+    if kind == 1:
+        return f"{rng.uniform(0, scale):.6f}"
+    return repr(float(rng.choice([0.0, -0.0, scale, 999999.5, 1e6])))
+
+
+def counts_case(rng, folder):
+    """``encal correct --enc-unit U [--enc-col NAME]``: every answer against Compensator.correct(reading * scale)."""
+    from encal._core.angles import angle_unit
+    from encal.deploy import Compensator
+
+    paths = models(folder)
+    kind = "directional" if rng.random() < 0.25 else "plain"
+    compensator = Compensator(str(paths[kind]))
+    unit = str(rng.choice(UNITS))
+    scale = angle_unit(unit).degrees_per_unit
+    n = int(rng.choice([1, 3, 50, 2000]))
+    readings = [_reading(rng, unit) for _ in range(n)]
+    column = str(rng.choice(["encoder_deg", "counts", "Raw", "enc"]))
+    layout = rng.integers(0, 4)  # 0: one per line; 1: CSV; 2: CSV with direction; 3: CSV, column quoted
+    directions = [int(rng.choice([1, -1])) for _ in readings]
+    header_name = column if rng.random() < 0.7 else column.upper()
+    if layout == 0:
+        column = "encoder_deg" if rng.random() < 0.5 else column
+        lines = list(readings)
+    elif layout == 1:
+        lines = [f"time_s,{header_name},x"] + [f"{i},{r},7" for i, r in enumerate(readings)]
+    elif layout == 2:
+        lines = [f"{header_name},direction"] + [f"{r},{d}" for r, d in zip(readings, directions)]
+    else:
+        lines = [f'"{header_name}",x'] + [f'"{r}",1' for r in readings]
+    if rng.random() < 0.2 and len(lines) > 2:
+        lines.insert(2, "# a comment")
+    if rng.random() < 0.2 and len(lines) > 3:
+        lines.insert(3, "")
+    text = ("\r\n" if rng.random() < 0.2 else "\n").join(lines) + ("\n" if rng.random() < 0.9 else "")
+    if rng.random() < 0.1:
+        text = "\ufeff" + text
+    exact = rng.random() < 0.5
+    argv = ["correct", str(paths[kind]), "--enc-unit", unit]
+    if layout != 0 or column != "encoder_deg":
+        argv += ["--enc-col", column]
+    if exact:
+        argv.append("--exact")
+    stdin_text = None
+    if rng.random() < 0.3:
+        argv.append("-")
+        stdin_text = text
+    else:
+        source = folder / "readings.csv"
+        source.write_bytes(text.encode())
+        argv.append(str(source))
+    status, out, err, tb = run(argv, stdin_text=stdin_text)
+    findings = []
+    values = np.array([float(r) for r in readings])
+    degrees = values * scale
+    bad = ~(np.abs(degrees) <= 1e9)
+    use_dir = kind == "directional" and layout == 2
+    if status == 0:
+        if bad.any():
+            findings.append(f"exit 0 with a reading beyond 1e9 degrees: {readings[int(np.argmax(bad))]}")
+        answers = out.split()
+        if len(answers) != n:
+            findings.append(f"{len(answers)} answers to {n} readings")
+        else:
+            truth = compensator.correct(degrees, np.array(directions) if use_dir else None)
+            got = np.array([float(a) for a in answers])
+            tol = 0.0 if exact else 6e-13
+            diff = np.abs((got - truth + 180) % 360 - 180)
+            if np.any(diff > tol):
+                i = int(np.argmax(diff))
+                findings.append(f"reading {readings[i]} ({unit}): command {answers[i]}, library {truth[i]!r}")
+    elif status == 1:
+        if not bad.any():
+            findings.append(f"refused plain readings: {err.strip()[:300]}")
+    return argv, status, out, err, tb, findings, []
+
+
+SIGMA_FORMS = [lambda s: repr(s), lambda s: f"{s:.3e}", lambda s: f"+{s!r}", lambda s: f" {s!r} ", lambda s: f"{s:E}"]
+BAD_SIGMAS = ["", "-0.1", "nan", "inf", "-inf", "1_0", "0x1p-3", "abc", "1e400", "\uff11"]
+
+
+def sigma_case(rng, folder):
+    """A calibration with a sigma_arcmin column: the read reference_std_arcmin against the truth, or a refusal."""
+    from encal.data import read_calibration
+
+    spacing = float(rng.choice([1.0, 2.0, 5.0, 10.0]))
+    arc = rng.random() < 0.2
+    theta = np.arange(0.0, 120.0 if arc else 360.0, spacing)
+    n = theta.size
+    sigma = rng.uniform(0.0, 2.0, n) * (rng.random() < 0.8)
+    err = 2.0 * np.sin(np.radians(theta))
+    sep = ";" if rng.random() < 0.3 else ","
+    comma = sep == ";" and rng.random() < 0.5
+    with_dir = rng.random() < 0.25
+    with_epoch = rng.random() < 0.2
+    dup = rng.random() < 0.2
+    names = ["reference_deg", "encoder_deg", "sigma_arcmin"]
+    if rng.random() < 0.2:
+        names = ["Reference_Deg", "ENCODER_DEG", "Sigma_Arcmin"]
+    if with_dir:
+        names.append("direction")
+    if with_epoch:
+        names.append("epoch")
+    order = list(rng.permutation(len(names))) if rng.random() < 0.3 else list(range(len(names)))
+    rows = []
+    truth = []
+    for i, t in enumerate(theta):
+        for d in ((1, -1) if with_dir else (1,)):
+            cells = [repr(float(t)), repr(float(t + err[i] / 60.0)), SIGMA_FORMS[rng.integers(0, 5)](float(sigma[i]))]
+            truth.append(sigma[i])
+            if with_dir:
+                cells.append(str(d))
+            if with_epoch:
+                cells.append("a")
+            rows.append(cells)
+            if dup and i % 7 == 3:
+                extra = list(cells)
+                extra[2] = repr(float(sigma[i] * 2))
+                truth[-1] = sigma[i] * 2  # the largest of a stop's
+                rows.append(extra)
+    bad_cell = None
+    if rng.random() < 0.25:
+        where = int(rng.integers(0, len(rows)))
+        bad_cell = str(rng.choice(BAD_SIGMAS))
+        rows[where][2] = bad_cell
+    if comma:
+        rows = [[c.replace(".", ",") for c in r] for r in rows]
+    text = sep.join(names[j] for j in order) + "\n"
+    text += "".join(sep.join(r[j] for j in order) + "\n" for r in rows)
+    if rng.random() < 0.1:
+        text = text.replace("\n", "\r\n")
+    path = folder / "sigma.csv"
+    path.write_text(text)
+    reverse = rng.random() < 0.2
+    argv = ["read", str(path)] + (["--reverse"] if reverse else [])
+    findings = []
+    tb = None
+    status, out, err_text = 0, "", ""
+    try:
+        cal = read_calibration(path, reverse=reverse)
+    except Exception as exc:  # noqa: BLE001
+        from encal.errors import InputError, CalibrationError
+
+        if isinstance(exc, (InputError, CalibrationError)):
+            status, err_text = 1, str(exc)
+            if bad_cell is None:
+                findings.append(f"refused: {exc}")
+            elif "line" not in str(exc) or "sigma_arcmin" not in str(exc):
+                findings.append(f"message without line/column: {exc}")
+        else:
+            import traceback
+
+            tb = traceback.format_exc()
+            status = None
+    else:
+        if bad_cell is not None and bad_cell not in ("1e400",):
+            findings.append(f"read a bad sigma cell {bad_cell!r}")
+        elif cal.reference_std_arcmin is None:
+            findings.append("no reference_std_arcmin")
+        else:
+            # each read point's sigma against the truth at its reference angle
+            table = {}
+            for t, s in zip(np.repeat(theta, 2 if with_dir else 1), truth):
+                table[round(float(t) % 360, 6)] = max(table.get(round(float(t) % 360, 6), 0.0), s)
+            for ref, s in zip(cal.reference_deg, cal.reference_std_arcmin):
+                key = round(float(ref) % 360, 6)
+                want = table.get(key)
+                if want is None:
+                    key = round(float(-ref) % 360, 6)
+                    want = table.get(key)
+                if want is None or abs(want - s) > 1e-12 * max(1, want):
+                    findings.append(f"sigma at {ref!r}: read {s!r}, file {want!r}")
+                    break
+    return argv, status, out, err_text, tb, findings, []
+
+
+def fit_case(rng, folder):
+    """``encal fit --json`` of a calibration with sigma: the model file loads back and its predicted std includes
+    the reference's (at least the largest nearby sigma... at least the sigma at a calibration point's angle), and
+    the fitted uncertainty at the points is at least the sigma there."""
+    from encal.deploy import Compensator
+
+    spacing = float(rng.choice([2.0, 5.0, 10.0]))
+    theta = np.arange(0.0, 360.0, spacing)
+    sigma = float(rng.choice([0.0, 0.1, 1.0, 5.0]))
+    err = 2.0 * np.sin(np.radians(theta)) + rng.normal(0, 0.05, theta.size)
+    with_dir = rng.random() < 0.3
+    lines = ["reference_deg,encoder_deg,sigma_arcmin" + (",direction" if with_dir else "")]
+    for t, e in zip(theta, err):
+        for d in ((1, -1) if with_dir else (None,)):
+            cell = f"{float(t)!r},{float(t + (e + (0.3 * d if d else 0)) / 60.0)!r},{sigma!r}"
+            lines.append(cell + (f",{d}" if d else ""))
+    path = folder / "fit.csv"
+    path.write_text("\n".join(lines) + "\n")
+    out_path = folder / "fit.json"
+    if out_path.exists():
+        out_path.unlink()
+    method = str(rng.choice(["fourier", "spectral", "lut", "auto"]))
+    argv = ["fit", "--json", "--method", method, str(path), "-o", str(out_path)]
+    if with_dir:
+        argv += ["--bidirectional", str(rng.choice(["mean", "per-direction"]))]
+    status, out, err_text, tb = run(argv)
+    findings = []
+    if status == 0:
+        comp = Compensator(str(out_path))
+        probe = np.linspace(0.5, 359.5, 37)
+        try:
+            _, std = comp.predict(probe, return_std=True)
+        except Exception as exc:  # noqa: BLE001
+            findings.append(f"predict(return_std=True) of the model file: {type(exc).__name__}: {exc}")
+        else:
+            if np.any(std < sigma * (1 - 1e-9)):
+                findings.append(f"model std {float(std.min())!r} below the reference sigma {sigma!r} ({method})")
+    elif status is not None:
+        findings.append(f"refused: {err_text.strip()[:300]}")
+    return argv, status, out, err_text, tb, findings, []
+
+
+SURFACES = {"counts": counts_case, "sigma": sigma_case, "fit": fit_case}
+
+
+def main():
+    import time
+
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--runs", type=int, default=100)
+    parser.add_argument("--surface", choices=sorted(SURFACES), action="append")
+    options = parser.parse_args()
+    rng = np.random.default_rng(options.seed)
+    surfaces = options.surface or sorted(SURFACES)
+    counts = {}
+    total_flags = 0
+    start = time.process_time()
+    with tempfile.TemporaryDirectory() as scratch:
+        folder = Path(scratch)
+        for index in range(options.runs):
+            surface = surfaces[index % len(surfaces)]
+            argv, status, out, err, tb, findings, outputs = SURFACES[surface](rng, folder)
+            counts[(surface, status)] = counts.get((surface, status), 0) + 1
+            flags = check(argv, status, out, err, tb, findings, outputs)
+            if flags:
+                total_flags += 1
+                print(f"#{index} {surface} status {status}: {' '.join(argv)}")
+                for flag in flags:
+                    print("   ", flag)
+                if err.strip():
+                    print("    stderr:", err.strip().splitlines()[-1][:400])
+    print("runs by (surface, status):", dict(sorted(counts.items(), key=str)))
+    print(f"{options.runs} runs, {total_flags} flagged, {time.process_time() - start:.1f} s CPU")
+
+
+if __name__ == "__main__":
+    main()
