@@ -145,7 +145,7 @@ BAD_SIGMAS = ["", "-0.1", "nan", "inf", "-inf", "1_0", "0x1p-3", "abc", "1e400",
 
 def sigma_case(rng, folder):
     """A calibration with a sigma_arcmin column: the read reference_std_arcmin against the truth, or a refusal."""
-    from encal.data import read_calibration
+    from encal.data.calibration import read_calibration
 
     spacing = float(rng.choice([1.0, 2.0, 5.0, 10.0]))
     arc = rng.random() < 0.2
@@ -155,9 +155,11 @@ def sigma_case(rng, folder):
     err = 2.0 * np.sin(np.radians(theta))
     sep = ";" if rng.random() < 0.3 else ","
     comma = sep == ";" and rng.random() < 0.5
+    reverse = rng.random() < 0.2
     with_dir = rng.random() < 0.25
     with_epoch = rng.random() < 0.2
     dup = rng.random() < 0.2
+    average = dup and rng.random() < 0.5
     names = ["reference_deg", "encoder_deg", "sigma_arcmin"]
     if rng.random() < 0.2:
         names = ["Reference_Deg", "ENCODER_DEG", "Sigma_Arcmin"]
@@ -170,8 +172,10 @@ def sigma_case(rng, folder):
     truth = []
     for i, t in enumerate(theta):
         for d in ((1, -1) if with_dir else (1,)):
-            cells = [repr(float(t)), repr(float(t + err[i] / 60.0)), SIGMA_FORMS[rng.integers(0, 5)](float(sigma[i]))]
-            truth.append(sigma[i])
+            encoder = float(t + err[i] / 60.0)
+            cells = [repr(float(t)), repr(-encoder if reverse else encoder),
+                     SIGMA_FORMS[rng.integers(0, 5)](float(sigma[i]))]
+            truth.append(float(cells[2]))
             if with_dir:
                 cells.append(str(d))
             if with_epoch:
@@ -179,8 +183,10 @@ def sigma_case(rng, folder):
             rows.append(cells)
             if dup and i % 7 == 3:
                 extra = list(cells)
-                extra[2] = repr(float(sigma[i] * 2))
-                truth[-1] = sigma[i] * 2  # the largest of a stop's
+                if average:  # another reading of the stop
+                    extra[1] = repr(float(extra[1]) + 1e-4)
+                extra[2] = repr(float(truth[-1] * 2 + 0.01))
+                truth.append(float(extra[2]))
                 rows.append(extra)
     bad_cell = None
     if rng.random() < 0.25:
@@ -195,15 +201,14 @@ def sigma_case(rng, folder):
         text = text.replace("\n", "\r\n")
     path = folder / "sigma.csv"
     path.write_text(text)
-    reverse = rng.random() < 0.2
-    argv = ["read", str(path)] + (["--reverse"] if reverse else [])
+    argv = ["read", str(path)] + (["--reverse"] if reverse else []) + (["--average-duplicates"] if average else [])
     findings = []
     tb = None
     status, out, err_text = 0, "", ""
     try:
-        cal = read_calibration(path, reverse=reverse)
+        cal = read_calibration(path, reverse=reverse, duplicates="average" if average else "refuse")
     except Exception as exc:  # noqa: BLE001
-        from encal.errors import InputError, CalibrationError
+        from encal import CalibrationError, InputError
 
         if isinstance(exc, (InputError, CalibrationError)):
             status, err_text = 1, str(exc)
@@ -222,18 +227,21 @@ def sigma_case(rng, folder):
         elif cal.reference_std_arcmin is None:
             findings.append("no reference_std_arcmin")
         else:
-            # each read point's sigma against the truth at its reference angle
-            table = {}
-            for t, s in zip(np.repeat(theta, 2 if with_dir else 1), truth):
-                table[round(float(t) % 360, 6)] = max(table.get(round(float(t) % 360, 6), 0.0), s)
-            for ref, s in zip(cal.reference_deg, cal.reference_std_arcmin):
-                key = round(float(ref) % 360, 6)
-                want = table.get(key)
-                if want is None:
-                    key = round(float(-ref) % 360, 6)
-                    want = table.get(key)
-                if want is None or abs(want - s) > 1e-12 * max(1, want):
-                    findings.append(f"sigma at {ref!r}: read {s!r}, file {want!r}")
+            # the sigmas read at each reference angle and direction against the file's (a stop's averaged
+            # readings keep the largest of its sigmas)
+            table, read = {}, {}
+            for cells, s in zip(rows, truth):
+                key = (round(float(cells[0].replace(",", ".")) % 360, 6), int(cells[3]) if with_dir else 1)
+                table.setdefault(key, []).append(s)
+            if average:
+                table = {key: [max(values)] for key, values in table.items()}
+            directions = cal.direction if cal.direction is not None else np.ones(len(cal), dtype=int)
+            for ref, d, s in zip(cal.reference_deg, directions, cal.reference_std_arcmin):
+                read.setdefault((round(float(ref) % 360, 6), int(d)), []).append(float(s))
+            for key in sorted(set(table) | set(read)):
+                want, got = sorted(table.get(key, [])), sorted(read.get(key, []))
+                if len(want) != len(got) or not np.allclose(want, got, rtol=1e-12, atol=0):
+                    findings.append(f"sigmas at {key}: read {got!r}, file {want!r}")
                     break
     return argv, status, out, err_text, tb, findings, []
 
