@@ -9,6 +9,7 @@ status other than 0/1/2, a refusal message of more than one line, or a wrong num
 """
 
 import argparse
+import json
 import math
 import tempfile
 from pathlib import Path
@@ -247,42 +248,68 @@ def sigma_case(rng, folder):
 
 
 def fit_case(rng, folder):
-    """``encal fit --json`` of a calibration with sigma: the model file loads back and its predicted std includes
-    the reference's (at least the largest nearby sigma... at least the sigma at a calibration point's angle), and
-    the fitted uncertainty at the points is at least the sigma there."""
+    """``encal fit --json`` of a calibration with a sigma_arcmin column (uniform, or a step, or an arc): the model
+    file's predicted std at the calibrated angles is at least the reference's sigma there, and the library's fit of
+    the same calibration with ``uncertainty=True`` predicts the same std."""
+    from encal import read_calibration
     from encal.deploy import Compensator
+    from encal.models.fitting import fit
 
     spacing = float(rng.choice([2.0, 5.0, 10.0]))
-    theta = np.arange(0.0, 360.0, spacing)
-    sigma = float(rng.choice([0.0, 0.1, 1.0, 5.0]))
+    arc = rng.random() < 0.2
+    theta = np.arange(0.0, 150.0 if arc else 360.0, spacing) + float(rng.choice([0.0, 200.0]))
+    level = float(rng.choice([0.0, 0.1, 1.0, 5.0]))
+    sigma = np.where(theta % 360 < 180, level, float(rng.choice([level, 0.2, 3.0])))
     err = 2.0 * np.sin(np.radians(theta)) + rng.normal(0, 0.05, theta.size)
     with_dir = rng.random() < 0.3
+    reverse = rng.random() < 0.2
     lines = ["reference_deg,encoder_deg,sigma_arcmin" + (",direction" if with_dir else "")]
-    for t, e in zip(theta, err):
+    for t, e, sd in zip(theta, err, sigma):
         for d in ((1, -1) if with_dir else (None,)):
-            cell = f"{float(t)!r},{float(t + (e + (0.3 * d if d else 0)) / 60.0)!r},{sigma!r}"
+            encoder = float(t + (e + (0.3 * d if d else 0)) / 60.0)
+            cell = f"{float(t)!r},{-encoder if reverse else encoder!r},{float(sd)!r}"
             lines.append(cell + (f",{d}" if d else ""))
     path = folder / "fit.csv"
     path.write_text("\n".join(lines) + "\n")
     out_path = folder / "fit.json"
     if out_path.exists():
         out_path.unlink()
-    method = str(rng.choice(["fourier", "spectral", "lut", "auto"]))
+    method = "auto" if arc else str(rng.choice(["spectral", "spectral", "fourier", "auto"]))
     argv = ["fit", "--json", "--method", method, str(path), "-o", str(out_path)]
-    if with_dir:
-        argv += ["--bidirectional", str(rng.choice(["mean", "per-direction"]))]
+    bidirectional = str(rng.choice(["mean", "per-direction"])) if with_dir else None
+    if bidirectional:
+        argv += ["--bidirectional", bidirectional]
+    if reverse:
+        argv.append("--reverse")
     status, out, err_text, tb = run(argv)
     findings = []
     if status == 0:
         comp = Compensator(str(out_path))
-        probe = np.linspace(0.5, 359.5, 37)
+        parts = [comp.model.forward, comp.model.reverse] if comp.model.kind == "directional" else [comp.model]
+        if any(part.uncertainty is None for part in parts):
+            return argv, status, out, err_text, tb, findings, []
+        readings = -theta if reverse else theta  # (the reversal is a few arcmin: at the calibrated angles)
+        where = ~np.isnan(comp.predict(readings))
         try:
-            _, std = comp.predict(probe, return_std=True)
+            _, std = comp.predict(readings, return_std=True)
         except Exception as exc:  # noqa: BLE001
             findings.append(f"predict(return_std=True) of the model file: {type(exc).__name__}: {exc}")
-        else:
-            if np.any(std < sigma * (1 - 1e-9)):
-                findings.append(f"model std {float(std.min())!r} below the reference sigma {sigma!r} ({method})")
+            return argv, status, out, err_text, tb, findings, []
+        # (at a step of sigma, the nearer neighbour's: sigma is interpolated between the points)
+        floor = np.minimum(sigma, np.minimum(np.roll(sigma, 1), np.roll(sigma, -1)))
+        if np.any(std[where] < floor[where] * (1 - 1e-9)):
+            i = int(np.argmax(floor[where] - std[where]))
+            findings.append(f"model std {float(std[where][i])!r} below the reference sigma {float(floor[where][i])!r} "
+                            f"at {float(theta[where][i])!r}")
+        held = json.loads(out).get("held_out") or {}
+        if held.get("rms_arcmin") is not None and held.get("reference_std_rms_arcmin") is None:
+            findings.append("held_out without reference_std_rms_arcmin")
+        if method in ("spectral", "fourier"):
+            cal = read_calibration(path, reverse=reverse)
+            library = fit(cal, method, uncertainty=True, bidirectional=bidirectional)
+            _, again = Compensator(library).predict(readings, return_std=True)
+            if not np.allclose(again[where], std[where], rtol=1e-9, atol=1e-12):
+                findings.append(f"library std {again[where][:3]} != model file's {std[where][:3]}")
     elif status is not None:
         findings.append(f"refused: {err_text.strip()[:300]}")
     return argv, status, out, err_text, tb, findings, []
