@@ -315,7 +315,54 @@ def fit_case(rng, folder):
     return argv, status, out, err_text, tb, findings, []
 
 
-SURFACES = {"counts": counts_case, "sigma": sigma_case, "fit": fit_case}
+def profile_case(rng, folder):
+    """``encal profile --json`` of a two-direction run with a known reversal B (some targets unmatched, one or more
+    approaches, an offset, --zero arbitrary, --reverse, a sigma column): iso230_2's B against the truth, and the
+    repeatability/accuracy given only with two approaches each way at every target."""
+    spacing = float(rng.choice([5.0, 10.0, 15.0]))
+    repeats = int(rng.choice([1, 2, 3]))
+    b = float(rng.choice([0.0, 0.5, -2.0, 3.0]))
+    offset = float(rng.choice([0.0, 30.0]))
+    reverse = rng.random() < 0.2
+    unmatched = rng.random() < 0.3
+    with_sigma = rng.random() < 0.3
+    targets = np.arange(0.0, 360.0, spacing)
+    rows = []
+    for r in range(repeats):
+        for d in (1, -1):
+            for i, t in enumerate(targets if d == 1 else targets[::-1]):
+                ref = float(t) + (spacing / 3 if unmatched and d == -1 and i % 4 == 1 else 0.0)
+                error = 2.0 * math.sin(math.radians(ref)) + d * b / 2 + offset
+                encoder = ref + error / 60.0
+                rows.append((ref, -encoder if reverse else encoder, d))
+    head = "reference_deg,encoder_deg,direction" + (",sigma_arcmin" if with_sigma else "")
+    text = head + "\n" + "".join(f"{r!r},{e!r},{d}" + (",0.5" if with_sigma else "") + "\n" for r, e, d in rows)
+    path = folder / "profile.csv"
+    path.write_text(text)
+    argv = ["profile", "--json", str(path)]
+    if reverse:
+        argv.append("--reverse")
+    if rng.random() < 0.3:
+        argv += ["--zero", "arbitrary"]
+    status, out, err, tb = run(argv)
+    findings = []
+    if status == 0:
+        data = json.loads(out)
+        iso = data.get("iso230_2")
+        if iso is None:
+            findings.append("no iso230_2")
+        else:
+            mean_b = iso.get("mean_reversal_value_arcmin")
+            if mean_b is None or abs(mean_b - b) > 1e-6 or abs(iso.get("reversal_value_arcmin") - abs(b)) > 1e-6:
+                findings.append(f"B {iso.get('reversal_value_arcmin')} / mean {mean_b}, truth {abs(b)} / {b}")
+            if (repeats < 2) != (iso.get("repeatability_arcmin") is None):
+                findings.append(f"repeatability {iso.get('repeatability_arcmin')} with {repeats} approaches")
+    else:
+        findings.append(f"refused: {err.strip()[:300]}")
+    return argv, status, out, err, tb, findings, []
+
+
+SURFACES = {"counts": counts_case, "sigma": sigma_case, "fit": fit_case, "profile": profile_case}
 
 
 def main():
