@@ -80,6 +80,10 @@ def counts_case(rng, folder):
     scale = angle_unit(unit).degrees_per_unit
     n = int(rng.choice([1, 3, 50, 2000]))
     readings = [_reading(rng, unit) for _ in range(n)]
+    garbage = rng.random() < 0.3
+    if garbage:  # a bad cell somewhere: refused naming its line, or 'nan' with --skip-bad
+        readings[int(rng.integers(0, n))] = str(rng.choice(["abc", "1,5", "nan", "inf", "0x10", "1e999", "--1",
+                                                            "\u0661", "1 2"]))
     column = str(rng.choice(["encoder_deg", "counts", "Raw", "enc"]))
     layout = rng.integers(0, 4)  # 0: one per line; 1: CSV; 2: CSV with direction; 3: CSV, column quoted
     directions = [int(rng.choice([1, -1])) for _ in readings]
@@ -93,15 +97,18 @@ def counts_case(rng, folder):
         lines = [f"{header_name},direction"] + [f"{r},{d}" for r, d in zip(readings, directions)]
     else:
         lines = [f'"{header_name}",x'] + [f'"{r}",1' for r in readings]
-    if rng.random() < 0.2 and len(lines) > 2:
-        lines.insert(2, "# a comment")
-    if rng.random() < 0.2 and len(lines) > 3:
-        lines.insert(3, "")
+    first_row = 0 if layout == 0 else 1
+    line_of = [first_row + i + 1 for i in range(n)]  # each reading's line number
+    for where, extra in ((2, "# a comment"), (3, "")):
+        if rng.random() < 0.2 and len(lines) > where:
+            lines.insert(where, extra)
+            line_of = [number + (number > where) for number in line_of]
     text = ("\r\n" if rng.random() < 0.2 else "\n").join(lines) + ("\n" if rng.random() < 0.9 else "")
     if rng.random() < 0.1:
         text = "\ufeff" + text
     exact = rng.random() < 0.5
-    argv = ["correct", str(paths[kind]), "--enc-unit", unit]
+    skip_bad = rng.random() < 0.5
+    argv = ["correct", str(paths[kind]), "--enc-unit", unit] + (["--skip-bad"] if skip_bad else [])
     if layout != 0 or column != "encoder_deg":
         argv += ["--enc-col", column]
     if exact:
@@ -116,9 +123,12 @@ def counts_case(rng, folder):
         argv.append(str(source))
     status, out, err, tb = run(argv, stdin_text=stdin_text)
     findings = []
-    values = np.array([float(r) for r in readings])
+    values = np.array([_number(r) for r in readings])
     degrees = values * scale
     bad = ~(np.abs(degrees) <= 1e9)
+    if skip_bad:
+        degrees = np.where(bad, np.nan, degrees)
+        bad = np.zeros(n, dtype=bool)
     use_dir = kind == "directional" and layout == 2
     if status == 0:
         if bad.any():
@@ -127,17 +137,31 @@ def counts_case(rng, folder):
         if len(answers) != n:
             findings.append(f"{len(answers)} answers to {n} readings")
         else:
-            truth = compensator.correct(degrees, np.array(directions) if use_dir else None)
+            good = np.isfinite(degrees)
+            truth = np.full(n, np.nan)
+            truth[good] = compensator.correct(degrees[good], np.array(directions)[good] if use_dir else None)
             got = np.array([float(a) for a in answers])
             tol = 0.0 if exact else 6e-13
-            diff = np.abs((got - truth + 180) % 360 - 180)
+            diff = np.where(np.isnan(got) & np.isnan(truth), 0.0, np.abs((got - truth + 180) % 360 - 180))
+            diff = np.where(np.isnan(diff), np.inf, diff)
             if np.any(diff > tol):
                 i = int(np.argmax(diff))
                 findings.append(f"reading {readings[i]} ({unit}): command {answers[i]}, library {truth[i]!r}")
     elif status == 1:
         if not bad.any():
             findings.append(f"refused plain readings: {err.strip()[:300]}")
+        elif f"line {line_of[int(np.argmax(bad))]} " not in err:
+            findings.append(f"refusal does not name line {line_of[int(np.argmax(bad))]}: {err.strip()[:300]}")
     return argv, status, out, err, tb, findings, []
+
+
+def _number(text):
+    if not text.isascii():
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
 
 
 SIGMA_FORMS = [lambda s: repr(s), lambda s: f"{s:.3e}", lambda s: f"+{s!r}", lambda s: f" {s!r} ", lambda s: f"{s:E}"]
@@ -362,7 +386,56 @@ def profile_case(rng, folder):
     return argv, status, out, err, tb, findings, []
 
 
-SURFACES = {"counts": counts_case, "sigma": sigma_case, "fit": fit_case, "profile": profile_case}
+def spectral_case(rng, folder):
+    """The spectral model of a noise-free (or nearly) band-limited profile at N points, scaled from 1e-6 to 1e3
+    arcmin, quantised or not: its prediction between the points against the truth (the noise floor at exp(-20) of
+    the mean square), and the posterior finite."""
+    import time
+
+    from encal import Calibration, CalibrationError
+    from encal.models.fitting import fit
+
+    n = int(rng.choice([24, 36, 90, 180, 360]))
+    orders = sorted(set(int(k) for k in rng.integers(1, n // 4, size=int(rng.integers(1, 5)))))
+    scale = float(10.0 ** rng.uniform(-6, 1.5))  # (beyond, the profile folds over: refused)
+    amplitudes = rng.normal(0, 1, (len(orders), 2)) * scale
+    noise = float(rng.choice([0.0, 0.0, 1e-9, 1e-6])) * scale
+    offset = float(rng.choice([0.0, 0.37]))
+    theta = offset + np.arange(n) * (360.0 / n)
+
+    def truth(angle):
+        radians = np.radians(angle)
+        return sum(a * np.cos(k * radians) + b * np.sin(k * radians) for k, (a, b) in zip(orders, amplitudes))
+
+    error = truth(theta) + rng.normal(0, 1, n) * noise
+    cal = Calibration(theta - error / 60.0, theta)
+    argv = [f"spectral n={n} orders={orders} scale={scale:.3g} noise={noise:.3g} offset={offset}"]
+    findings = []
+    start = time.process_time()
+    try:
+        model = fit(cal, "spectral")
+    except CalibrationError as exc:  # a profile of tens of arcmin at a high order folds over: refused
+        return argv, 1, "", str(exc), None, findings, []
+    except Exception as exc:  # noqa: BLE001
+        import traceback
+
+        return argv, None, "", str(exc), traceback.format_exc(), findings, []
+    seconds = time.process_time() - start
+    between = offset + (np.arange(n) + 0.5) * (360.0 / n)
+    miss = np.max(np.abs(model.predict(between) - truth(between)))
+    size = float(np.sqrt(np.mean(truth(theta) ** 2)))
+    if not miss <= 1e-3 * size + 10 * noise:
+        findings.append(f"between the points off by {miss:.3g} arcmin of a profile RMS {size:.3g}")
+    _, std = model.predict(between, return_std=True)
+    if not np.all(np.isfinite(std)):
+        findings.append("a non-finite posterior std")
+    if seconds > 5.0:
+        findings.append(f"{seconds:.1f} s CPU")
+    return argv, 0, "", "", None, findings, []
+
+
+SURFACES = {"counts": counts_case, "sigma": sigma_case, "fit": fit_case, "profile": profile_case,
+            "spectral": spectral_case}
 
 
 def main():
