@@ -328,6 +328,10 @@ def fit_case(rng, folder):
         held = json.loads(out).get("held_out") or {}
         if held.get("rms_arcmin") is not None and held.get("reference_std_rms_arcmin") is None:
             findings.append("held_out without reference_std_rms_arcmin")
+        expected = getattr(comp.model, "expected_rms_between_points", lambda: None)()
+        if held.get("estimator") == "posterior" and expected is not None and not math.isclose(
+                expected, held["rms_arcmin"], rel_tol=1e-12):
+            findings.append(f"--json held_out {held['rms_arcmin']!r}, the model file's posterior {expected!r}")
         if method in ("spectral", "fourier"):
             cal = read_calibration(path, reverse=reverse)
             library = fit(cal, method, uncertainty=True, bidirectional=bidirectional)
