@@ -213,6 +213,9 @@ def sigma_case(rng, folder):
                 extra[2] = repr(float(truth[-1] * 2 + 0.01))
                 truth.append(float(extra[2]))
                 rows.append(extra)
+    if rng.random() < 0.3:  # rows in any order (truth follows its row)
+        shuffled = rng.permutation(len(rows))
+        rows, truth = [rows[i] for i in shuffled], [truth[i] for i in shuffled]
     bad_cell = None
     if rng.random() < 0.25:
         where = int(rng.integers(0, len(rows)))
