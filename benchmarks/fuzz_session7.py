@@ -221,8 +221,16 @@ def sigma_case(rng, folder):
         where = int(rng.integers(0, len(rows)))
         bad_cell = str(rng.choice(BAD_SIGMAS))
         rows[where][2] = bad_cell
-    if comma:
-        rows = [[c.replace(".", ",") for c in r] for r in rows]
+    mixed = sep == ";" and rng.random() < 0.3  # the sigma cells in the other decimal mark: refused
+    sigma_comma = comma != mixed
+    if comma or sigma_comma:
+        rows = [[c.replace(".", ",") if (sigma_comma if k == 2 else comma) else c for k, c in enumerate(r)]
+                for r in rows]
+    if mixed and not (any("." in r[k] or "," in r[k] for r in rows for k in (0, 1))
+                      and any("." in r[2] or "," in r[2] for r in rows)):
+        mixed = False  # (no cell with a mark on one side)
+    if mixed and bad_cell is None:
+        bad_cell = "mixed"
     text = sep.join(names[j] for j in order) + "\n"
     text += "".join(sep.join(r[j] for j in order) + "\n" for r in rows)
     if rng.random() < 0.1:
@@ -242,7 +250,7 @@ def sigma_case(rng, folder):
             status, err_text = 1, str(exc)
             if bad_cell is None:
                 findings.append(f"refused: {exc}")
-            elif "line" not in str(exc) or "sigma_arcmin" not in str(exc):
+            elif "line" not in str(exc) or ("sigma_arcmin" not in str(exc) and "decimal" not in str(exc)):
                 findings.append(f"message without line/column: {exc}")
         else:
             import traceback
