@@ -373,3 +373,15 @@ def test_a_dash_after_an_option_is_standard_input(monkeypatch, capsys, compensat
     status, out, err = correct(capsys, "--enc-unit", "counts:14", "--exact", "-")
     assert status == 0, err
     assert values(out) == [compensator.correct(90.0)]
+
+
+def test_a_blank_column_name_is_a_usage_error_and_a_named_column_reads_well(tmp_path, capsys):
+    """--enc-col '' exited 1 naming correct_stream's 'column' parameter; a header without the named column
+    said 'a CSV header with an raw column' (fuzz7)."""
+    with pytest.raises(SystemExit) as exited:
+        main(["correct", str(MODEL), "--enc-col", " "])
+    assert exited.value.code == 2 and "--enc-col: expected the name of a CSV column" in capsys.readouterr().err
+    path = tmp_path / "log.csv"
+    path.write_text("time_s,encoder_deg\n0,10\n")
+    status, _, err = correct(capsys, "--enc-col", "raw", path)
+    assert status == 1 and "a CSV header with a raw column first" in err

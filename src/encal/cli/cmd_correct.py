@@ -38,7 +38,7 @@ def add_arguments(parser):
     parser.add_argument("input", metavar="FILE", nargs="?", default="-",
                         help="encoder angles in degrees, one per line, or a CSV with an "
                              "encoder_deg column; '-' (default) reads standard input")
-    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg",
+    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg", type=_column_name,
                         help="the CSV column of the readings (default encoder_deg; any letter case)")
     parser.add_argument("--enc-unit", metavar="UNIT", type=angle_unit_argument, default="deg",
                         help="unit of the readings: deg (default), rad, rev or counts:B (codes of a B-bit encoder); "
@@ -57,6 +57,15 @@ def add_arguments(parser):
                         help="a reading outside the range of a model calibrated over an arc: refuse it (default), "
                              "use the correction of the nearer end of the arc (clamp), or leave it uncorrected "
                              "(pass); a full-turn model has no outside")
+
+
+def _column_name(text):
+    """argparse type of --enc-col: a CSV column's name (not blank)."""
+    if not text.strip():
+        import argparse
+
+        raise argparse.ArgumentTypeError(f"expected the name of a CSV column, got {text!r}")
+    return text
 
 
 def claim_extras(args, extras):

@@ -352,8 +352,9 @@ class _LineParser:
         if self.unit.name == "counts":
             words = f"counts of a {self.unit.bits}-bit encoder"
         what = "an encoder angle in degrees" if self.unit.name == "deg" else f"an encoder reading in {words}"
+        article = "an" if self.header_column[:1] in "aeiou" else "a"
         expected = (f"{what} (one number per line, or a CSV header with "
-                    f"an {self.header_column} column first)" if self.column < 0
+                    f"{article} {self.header_column} column first)" if self.column < 0
                     else f"a finite number of {words} in column {self.column + 1} ({self.header_column})")
         if problem == _DIRECTION_PROBLEM:
             expected, problem = (f"+1, -1, cw or ccw in column {self.direction_column + 1} ({_DIRECTION_COLUMN}), "
