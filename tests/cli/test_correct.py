@@ -381,6 +381,9 @@ def test_a_blank_column_name_is_a_usage_error_and_a_named_column_reads_well(tmp_
     with pytest.raises(SystemExit) as exited:
         main(["correct", str(MODEL), "--enc-col", " "])
     assert exited.value.code == 2 and "--enc-col: expected the name of a CSV column" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exited:  # a directional model corrected +1 and -1 as angles, exit 0
+        main(["correct", str(MODEL), "--enc-col", "Direction"])
+    assert exited.value.code == 2 and "--enc-col: expected the column of the readings" in capsys.readouterr().err
     path = tmp_path / "log.csv"
     path.write_text("time_s,encoder_deg\n0,10\n")
     status, _, err = correct(capsys, "--enc-col", "raw", path)

@@ -61,10 +61,13 @@ def add_arguments(parser):
 
 def _column_name(text):
     """argparse type of --enc-col: a CSV column's name (not blank)."""
-    if not text.strip():
-        import argparse
+    import argparse
 
+    if not text.strip():
         raise argparse.ArgumentTypeError(f"expected the name of a CSV column, got {text!r}")
+    if text.strip().lower() == "direction":  # read as readings, +1 and -1 were corrected as 1 and -1 degrees
+        raise argparse.ArgumentTypeError("expected the column of the readings; 'direction' is the direction of "
+                                         "travel of each reading, which a directional model reads by itself")
     return text
 
 

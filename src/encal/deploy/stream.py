@@ -109,8 +109,9 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     check_bool(exact, "exact", caller)
     check_type(name, str, "name", caller, "a str")
     check_type(column, str, "column", caller, "a str naming a CSV column")
-    if not column.strip():
-        raise invalid("column", caller, "the name of a CSV column", column)
+    if not column.strip() or column.strip().lower() == _DIRECTION_COLUMN:
+        raise invalid("column", caller, "the name of the CSV column of the readings (not the direction column)",
+                      column)
     try:
         unit = angle_unit(unit)
     except ValueError as exc:
