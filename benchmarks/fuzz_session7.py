@@ -5,7 +5,14 @@ calibration CSV (read against its truth, and ``encal fit``'s model file against 
 Seeded and deterministic. Each case runs ``encal.cli.main`` in this process and is flagged for a traceback, an exit
 status other than 0/1/2, a refusal message of more than one line, or a wrong number with exit 0. Usage::
 
-    PYTHONPATH=src OMP_NUM_THREADS=1 python benchmarks/fuzz_session7.py --seed 1 --runs 500 [--surface counts]
+    PYTHONPATH=src OMP_NUM_THREADS=1 python benchmarks/fuzz_session7.py --seed 1 --runs 3500 [--surface counts]
+
+Surfaces: counts (encal correct --enc-unit/--enc-col, fast and careful paths, stdin, CRLF, BOM, quoted cells,
+--skip-bad, a directional model's direction column), sigma (the sigma_arcmin column: signs, blanks, exponents,
+decimal commas and the other decimal mark, direction and epoch columns, duplicated stops, --reverse, arcs,
+shuffled rows), fit (encal fit --json and its model file), profile (ISO 230-2 of two-direction runs), spectral (the
+noise floor on noise-free band-limited profiles). 3,500 runs (700 a surface) take 35 s CPU (37 s wall at load ~1,
+2026-11-28); main at b370b78 flagged 46 of them, all fixed on branch fuzz7.
 """
 
 import argparse
