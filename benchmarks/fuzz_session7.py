@@ -12,7 +12,8 @@ Surfaces: counts (encal correct --enc-unit/--enc-col, fast and careful paths, st
 decimal commas and the other decimal mark, direction and epoch columns, duplicated stops, --reverse, arcs,
 shuffled rows), fit (encal fit --json and its model file), profile (ISO 230-2 of two-direction runs), spectral (the
 noise floor on noise-free band-limited profiles). 3,500 runs (700 a surface) take 35 s CPU (37 s wall at load ~1,
-2026-11-28); main at b370b78 flagged 46 of them, all fixed on branch fuzz7.
+2026-11-28); on main at b370b78, 46 flagged (a sigma cell in the other decimal mark read with exit 0) and 206
+counts runs ended with status 2 (a "-" after an option), none on branch fuzz7.
 """
 
 import argparse
