@@ -363,3 +363,28 @@ def test_without_the_column_the_header_is_no_header(tmp_path, capsys):
     path.write_text("t,raw\n1,4096\n")
     status, _, err = correct(capsys, path, "--enc-unit", "counts:14")
     assert status == 1 and "line 1 of " in err and "a CSV header with an encoder_deg column first" in err
+
+
+def test_a_dash_after_an_option_is_standard_input(monkeypatch, capsys, compensator):
+    """``encal correct M.json --exact -`` reads standard input (fuzz7: it was 'unrecognized arguments: -', exit 2)."""
+    import io
+
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(b"4096\n"), encoding="utf-8"))
+    status, out, err = correct(capsys, "--enc-unit", "counts:14", "--exact", "-")
+    assert status == 0, err
+    assert values(out) == [compensator.correct(90.0)]
+
+
+def test_a_blank_column_name_is_a_usage_error_and_a_named_column_reads_well(tmp_path, capsys):
+    """--enc-col '' exited 1 naming correct_stream's 'column' parameter; a header without the named column
+    said 'a CSV header with an raw column' (fuzz7)."""
+    with pytest.raises(SystemExit) as exited:
+        main(["correct", str(MODEL), "--enc-col", " "])
+    assert exited.value.code == 2 and "--enc-col: expected the name of a CSV column" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exited:  # a directional model corrected +1 and -1 as angles, exit 0
+        main(["correct", str(MODEL), "--enc-col", "Direction"])
+    assert exited.value.code == 2 and "--enc-col: expected the column of the readings" in capsys.readouterr().err
+    path = tmp_path / "log.csv"
+    path.write_text("time_s,encoder_deg\n0,10\n")
+    status, _, err = correct(capsys, "--enc-col", "raw", path)
+    assert status == 1 and "a CSV header with a raw column first" in err

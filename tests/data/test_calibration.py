@@ -483,3 +483,20 @@ def test_averaged_repeats_keep_the_largest_reference_std(write_csv):
     cal = read_calibration(write_csv(text), duplicates="average")
     assert len(cal) == 12
     np.testing.assert_allclose(cal.reference_std_arcmin, np.r_[0.2, 0.7, np.full(10, 0.2)])
+
+
+@pytest.mark.parametrize("angle_mark, sigma_cell, refused", [
+    (".", "1,080", "'1,080' has a comma"),  # read as 1.08 arcmin beside angles written with a point (fuzz7)
+    (",", "0.5", "line 2 writes '0.5' with a decimal point"),
+    (",", "0,5", None),
+])
+def test_a_sigma_cell_with_the_other_decimal_mark_is_refused(write_csv, angle_mark, sigma_cell, refused):
+    """A semicolon file's sigma_arcmin cells count in its one decimal mark, as its angles do: '1,080' beside
+    angles with a decimal point may group digits (1080 arcmin), and was read as 1.08 arcmin with exit 0."""
+    rows = [f"{r:.1f};{r + 0.01:.2f}".replace(".", angle_mark) + f";{sigma_cell}" for r in np.arange(0.0, 360.0, 30.0)]
+    path = write_csv("reference_deg;encoder_deg;sigma_arcmin\n" + "\n".join(rows) + "\n")
+    if refused is None:
+        np.testing.assert_array_equal(read_calibration(path).reference_std_arcmin, np.full(12, 0.5))
+    else:
+        with pytest.raises(CalibrationError, match=rf"line 2, column \d: .*{refused}"):
+            read_calibration(path)

@@ -157,3 +157,19 @@ def test_a_calibration_refuses_a_target_tolerance_out_of_range(tolerance):
 def test_a_subset_keeps_the_target_tolerance():
     _, afresh = afresh_run()
     assert afresh.subset(np.arange(20)).target_tolerance_deg == 0.01
+
+
+@pytest.mark.parametrize("forward_first", [True, False])
+def test_the_mean_of_both_directions_keeps_the_larger_reference_std_at_a_target(forward_first):
+    """mean_calibration took the sigma of whichever direction np.interp's sort put last at a shared reference angle
+    (1.0 of 2.0 and 1.0 with the forward pass first in the file); it is the larger (fuzz7)."""
+    from encal.data.reversal import mean_calibration
+
+    target = np.arange(0.0, 360.0, 10.0)
+    passes = [(1, 2.0), (-1, 1.0)] if forward_first else [(-1, 1.0), (1, 2.0)]
+    reference = np.concatenate([target for _ in passes])
+    direction = np.concatenate([np.full(target.size, d) for d, _ in passes])
+    std = np.concatenate([np.full(target.size, s) for _, s in passes])
+    encoder = reference + (np.sin(np.radians(reference)) + 0.2 * direction) / 60.0
+    mean = mean_calibration(Calibration(reference, encoder, direction=direction, reference_std_arcmin=std))
+    assert_allclose(mean.reference_std_arcmin, 2.0)

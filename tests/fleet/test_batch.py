@@ -282,3 +282,49 @@ def test_a_unit_calibrated_over_an_arc_is_told_the_fleet_options_that_fit_it(tmp
     assert _fit(tmp_path / "SN1.csv", "--store", store, "--method", "auto") == 0  # the option it names fits it
     with open_store(store) as opened:
         assert opened.latest("SN1").model().kind == "arc"
+
+
+# -- fuzz7: a selfcal output's sigma_arcmin (the reference's own uncertainty) reaches the fleet's figures ----------
+
+def _write_selfcal_unit(path, sigma_arcmin, seed=0):
+    """A unit's calibration as ``encal selfcal`` writes it: with a sigma_arcmin column (uniform here)."""
+    reference = np.arange(POINTS) * (360.0 / POINTS)
+    error = (1.0 + 0.1 * seed) * np.cos(np.radians(reference)) + 0.3 * np.sin(np.radians(3 * reference))
+    error = error + np.random.default_rng(seed).normal(0.0, 0.01, POINTS)
+    encoder = (reference + error / 60.0) % 360.0
+    path.write_text("reference_deg,encoder_deg,sigma_arcmin\n" + "".join(
+        f"{r:.6f},{e:.6f},{sigma_arcmin!r}\n" for r, e in zip(reference, encoder)), encoding="utf-8")
+
+
+def test_a_unit_fitted_under_the_fleet_prior_keeps_its_references_uncertainty(tmp_path):
+    """--prior-from of selfcal outputs (sigma 1.5 arcmin) stored a held-out 0.009 arcmin and a model file whose
+    predicted std left the reference's uncertainty out; encal fit of the same file states 1.5."""
+    fleet, new = tmp_path / "fleet", tmp_path / "new"
+    fleet.mkdir()
+    new.mkdir()
+    for k in range(6):
+        _write_unit(fleet / f"SN{k:03d}.csv", 1.0 + 0.1 * k, seed=k)
+    _write_selfcal_unit(new / "SN100.csv", 1.5, seed=7)
+    assert _fit(fleet, "--store", tmp_path / "fleet.sqlite") == 0
+    assert _fit(new, "--store", tmp_path / "new.sqlite", "--prior-from", tmp_path / "fleet.sqlite") == 0
+    with open_store(tmp_path / "new.sqlite") as opened:
+        (record,) = opened.latest_records()
+    assert 1.5 <= record.held_out_arcmin <= 1.51
+    model = record.model()
+    assert model.uncertainty["reference_std_rms_arcmin"] == pytest.approx(1.5)
+    _, std = model.predict(np.arange(0.0, 360.0, 7.0), return_std=True)
+    assert np.all(std >= 1.5)
+
+
+def test_a_cross_validated_held_out_figure_gets_the_references_uncertainty_in_quadrature():
+    """A model auto chose by cross-validation (no posterior): its CV figure cannot see the reference's shared
+    error, so the fleet's held-out figure adds its RMS in quadrature, as encal fit's --json does."""
+    from encal import Calibration
+    from encal.models.fourier import FourierModel
+
+    model = FourierModel([0], [0.0], [0.0])
+    model.training = {"selection": {"chosen": "fourier", "table": [{"label": "fourier", "cv_rms_arcmin": 0.3}]}}
+    angles = np.arange(0.0, 360.0, 10.0)
+    cal = Calibration(angles, angles, reference_std_arcmin=np.full(angles.size, 0.4))
+    assert batch._held_out(model, cal) == pytest.approx(0.5)
+    assert batch._held_out(model, Calibration(angles, angles)) == pytest.approx(0.3)

@@ -115,3 +115,15 @@ def test_a_selfcal_file_read_back_carries_its_sigma(tmp_path):
     in_memory = result.calibration()
     np.testing.assert_allclose(in_memory.reference_std_arcmin, result.sigma_arcmin(in_memory.encoder_deg))
     assert encal.fit(cal).expected_rms_between_points() >= (1 - 1e-9) * np.sqrt(np.mean(cal.reference_std_arcmin**2))
+
+
+def test_readings_of_one_angle_give_it_their_largest_reference_std():
+    """Two points read at one encoder angle (repeats kept): the table takes the larger sigma there, not whichever
+    np.interp's sort put last (0.1 of 0.1 and 3.0 here; fuzz7)."""
+    encoder = np.r_[np.arange(0.0, 360.0, 10.0), 90.0]
+    std = np.r_[np.full(36, 0.1), 0.1]
+    std[9] = 3.0  # the first reading at 90 deg; the repeat at 90 deg says 0.1
+    cal = Calibration(encoder, encoder, reference_std_arcmin=std)
+    uncertainty = {"method": "given", "grid_step_deg": 1.0, "model_std_arcmin": [0.0] * 360, "noise_std_arcmin": 0.0}
+    table = np.array(with_reference_uncertainty(uncertainty, cal)["model_std_arcmin"])
+    assert table[90] == pytest.approx(3.0) and table[85] == pytest.approx(1.55)

@@ -38,7 +38,7 @@ def add_arguments(parser):
     parser.add_argument("input", metavar="FILE", nargs="?", default="-",
                         help="encoder angles in degrees, one per line, or a CSV with an "
                              "encoder_deg column; '-' (default) reads standard input")
-    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg",
+    parser.add_argument("--enc-col", metavar="NAME", default="encoder_deg", type=_column_name,
                         help="the CSV column of the readings (default encoder_deg; any letter case)")
     parser.add_argument("--enc-unit", metavar="UNIT", type=angle_unit_argument, default="deg",
                         help="unit of the readings: deg (default), rad, rev or counts:B (codes of a B-bit encoder); "
@@ -59,9 +59,21 @@ def add_arguments(parser):
                              "(pass); a full-turn model has no outside")
 
 
+def _column_name(text):
+    """argparse type of --enc-col: a CSV column's name (not blank)."""
+    import argparse
+
+    if not text.strip():
+        raise argparse.ArgumentTypeError(f"expected the name of a CSV column, got {text!r}")
+    if text.strip().lower() == "direction":  # read as readings, +1 and -1 were corrected as 1 and -1 degrees
+        raise argparse.ArgumentTypeError("expected the column of the readings; 'direction' is the direction of "
+                                         "travel of each reading, which a directional model reads by itself")
+    return text
+
+
 def claim_extras(args, extras):
-    """Take a FILE given after an option (``encal correct M.json --skip-bad FILE``)."""
-    if args.input == "-" and len(extras) == 1 and not extras[0].startswith("-"):
+    """Take a FILE given after an option (``encal correct M.json --skip-bad FILE``, or ``-`` for standard input)."""
+    if args.input == "-" and len(extras) == 1 and (extras[0] == "-" or not extras[0].startswith("-")):
         args.input = extras[0]
         return True
     return False

@@ -600,7 +600,8 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
             encoder.append(_parse_float(path, number, enc_col + 1, enc_name, cells[enc_col], units[1],
                                         decimal_comma))
             if decimal_comma and (marks[","] is None or marks["."] is None):
-                for column in (ref_col, enc_col):
+                # (the sigma column too: '1,080' beside angles written with a point may group digits)
+                for column in (ref_col, enc_col) + (() if std_col is None else (std_col,)):
                     for mark in ",.":
                         if marks[mark] is None and mark in cells[column]:
                             marks[mark] = (number, column + 1, cells[column])

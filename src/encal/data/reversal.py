@@ -393,9 +393,21 @@ def mean_calibration(cal):
     reference = analysis.target_deg
     std = cal.reference_std_arcmin
     if std is not None:  # at each target, the reference's uncertainty where its readings were taken
-        order = np.argsort(cal.reference_deg, kind="stable")
-        std = np.interp(reference, cal.reference_deg[order], std[order], period=360.0)
+        # (the largest of the readings at one reference angle, whichever direction: np.interp would take
+        # whichever its sort put last)
+        angles, largest = largest_per_angle(cal.reference_deg, std)
+        std = np.interp(reference, angles, largest, period=360.0)
     return Calibration(reference, reference + analysis.mean_bidirectional_arcmin / ARCMIN_PER_DEG,
                        name=cal.name, resolution_bits=cal.resolution_bits, source=cal.source,
                        metadata={**cal.metadata, "bidirectional": "mean"}, reading_sign=cal.reading_sign,
                        reference_std_arcmin=std)
+
+
+def largest_per_angle(angle_deg, values):
+    """The distinct angles of ``angle_deg`` (wrapped to [0, 360)) and the largest of ``values`` at each: what
+    ``np.interp(..., period=360)`` of a per-point uncertainty needs (at angles read twice it takes whichever of
+    the values its sort puts last)."""
+    angles, group = np.unique(wrap360(np.asarray(angle_deg, dtype=float)), return_inverse=True)
+    largest = np.full(angles.size, -np.inf)
+    np.maximum.at(largest, group.reshape(-1), values)
+    return angles, largest

@@ -109,8 +109,9 @@ def correct_stream(compensator, source, sink, *, skip_bad=False, name="stdin", d
     check_bool(exact, "exact", caller)
     check_type(name, str, "name", caller, "a str")
     check_type(column, str, "column", caller, "a str naming a CSV column")
-    if not column.strip():
-        raise invalid("column", caller, "the name of a CSV column", column)
+    if not column.strip() or column.strip().lower() == _DIRECTION_COLUMN:
+        raise invalid("column", caller, "the name of the CSV column of the readings (not the direction column)",
+                      column)
     try:
         unit = angle_unit(unit)
     except ValueError as exc:
@@ -352,8 +353,9 @@ class _LineParser:
         if self.unit.name == "counts":
             words = f"counts of a {self.unit.bits}-bit encoder"
         what = "an encoder angle in degrees" if self.unit.name == "deg" else f"an encoder reading in {words}"
+        article = "an" if self.header_column[:1] in "aeiou" else "a"
         expected = (f"{what} (one number per line, or a CSV header with "
-                    f"an {self.header_column} column first)" if self.column < 0
+                    f"{article} {self.header_column} column first)" if self.column < 0
                     else f"a finite number of {words} in column {self.column + 1} ({self.header_column})")
         if problem == _DIRECTION_PROBLEM:
             expected, problem = (f"+1, -1, cw or ccw in column {self.direction_column + 1} ({_DIRECTION_COLUMN}), "

@@ -10,6 +10,7 @@ and the SHA-256 of its bytes).
 
 import glob
 import hashlib
+import math
 import os
 import re
 import time
@@ -172,7 +173,7 @@ def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
             model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
             model.training["serial"] = serial
             text = dumps(model_to_dict(model))
-        held_out = _held_out(model)
+        held_out = _held_out(model, cal)
         raw = Path(path).read_bytes()
         try:
             calibration_text = raw.decode("utf-8")
@@ -217,26 +218,34 @@ def _fit_under_prior(cal, prior):
     if has_both_directions(cal):
         raise InputError(f"{cal.source}: has readings in both directions of travel; the fleet prior fits one "
                          "profile (fit it without --prior-from, which gives one model per direction)")
+    from ..models.uncertainty import with_reference_uncertainty
+
     model = fit_with_prior(cal.encoder_deg, cal.errors_arcmin, prior)
+    # a selfcal output's sigma_arcmin: the reference's own uncertainty, which no prior averages away
+    model.uncertainty = with_reference_uncertainty(model.uncertainty, cal)
     model.encoder = {"name": cal.name, "resolution_bits": resolution_bits(cal)}
     model.training = {"method": "spectral", **model.training, "n_points": len(cal)}
     model.reading_sign = cal.reading_sign
     return model
 
 
-def _held_out(model):
+def _held_out(model, cal=None):
     """The fit's estimate of its RMS error at readings it did not see (arcmin), or None.
 
-    A spectral model's posterior gives it; a model auto chose by cross-validation, the chosen row's CV figure.
-    The training RMS is never used in its place: a lookup table's is 0.
+    A spectral model's posterior gives it; a model auto chose by cross-validation, the chosen row's CV figure,
+    with the reference's own uncertainty of ``cal`` (its ``sigma_arcmin`` column) in quadrature, as ``encal fit``
+    states it: no fold sees an error the reference shares with its neighbours (a posterior has it already). The
+    training RMS is never used in its place: a lookup table's is 0.
     """
     expected = getattr(model, "expected_rms_between_points", None)
     if callable(expected) and expected() is not None:
         return float(expected())
     selection = model.training.get("selection") or {}
+    std = None if cal is None else cal.reference_std_arcmin
+    reference = 0.0 if std is None else math.sqrt(math.fsum(float(v) ** 2 for v in std) / len(std))
     for row in selection.get("table") or ():
         if row.get("label") == selection.get("chosen") and row.get("cv_rms_arcmin") is not None:
-            return float(row["cv_rms_arcmin"])
+            return math.hypot(float(row["cv_rms_arcmin"]), reference)
     return None
 
 

@@ -60,7 +60,8 @@ import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, model_input, wrap180, wrap360
 from ..analysis.profile import distinct_angles
-from ..data.reversal import direction_subset, has_both_directions, mean_calibration, require_directions, reversal
+from ..data.reversal import (direction_subset, has_both_directions, largest_per_angle, mean_calibration,
+                             require_directions, reversal)
 from ..data.calibration import Calibration
 from .._core.errors import InputError
 from .._core.parameters import check_int, check_number
@@ -571,8 +572,8 @@ def with_reference_uncertainty(uncertainty, cal):
     uncertainty = check_uncertainty(uncertainty)
     table = np.asarray(uncertainty["model_std_arcmin"], dtype=float)
     grid = np.arange(table.size) * float(uncertainty["grid_step_deg"])
-    order = np.argsort(cal.encoder_deg, kind="stable")
-    reference_std = np.interp(grid, cal.encoder_deg[order], std[order], period=360.0)
+    angles, largest = largest_per_angle(cal.encoder_deg, std)  # (readings of one angle: the largest)
+    reference_std = np.interp(grid, angles, largest, period=360.0)
     return {**uncertainty, "model_std_arcmin": np.hypot(table, reference_std).tolist(),
             "reference_std_rms_arcmin": float(np.sqrt(np.mean(np.square(std))))}
 
