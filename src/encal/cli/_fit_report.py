@@ -103,10 +103,10 @@ def held_out_lines(estimate):
 
 
 def _one(model, cal, method, options):
-    return _with_reference_uncertainty(_estimate(model, cal, method, options), cal)
+    return _with_reference_uncertainty(_estimate(model, cal, method, options), cal, model.uncertainty)
 
 
-def _with_reference_uncertainty(estimate, cal):
+def _with_reference_uncertainty(estimate, cal, model_uncertainty=None):
     """``estimate`` including the reference's own uncertainty (:attr:`Calibration.reference_std_arcmin`): a
     posterior's has it already (:func:`encal.models.uncertainty.with_reference_uncertainty`), and it is said; a
     cross-validation's gets its RMS in quadrature (no fold can see an error the reference shares with its
@@ -116,7 +116,9 @@ def _with_reference_uncertainty(estimate, cal):
         return estimate
     reference = float(np.sqrt(np.mean(np.square(std))))
     estimate = {**estimate, "reference_std_rms_arcmin": reference}
-    if estimate["estimator"] == "posterior":
+    if estimate["estimator"] == "posterior":  # averaged over the posterior's grid, as its estimate is
+        reference = (model_uncertainty or {}).get("reference_std_rms_arcmin", reference)
+        estimate["reference_std_rms_arcmin"] = reference
         estimate["text"] += (f", including the reference's own uncertainty (its sigma_arcmin column, RMS "
                              f"{reference:.3g} arcmin)")
     else:

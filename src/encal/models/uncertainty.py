@@ -564,7 +564,8 @@ def with_reference_uncertainty(uncertainty, cal):
     Returns
     -------
     dict or None
-        A new dict when something was added (``reference_std_rms_arcmin`` records the points' RMS).
+        A new dict when something was added (``reference_std_rms_arcmin`` records its RMS over the table's grid,
+        the average a posterior's held-out estimate takes).
     """
     std = getattr(cal, "reference_std_arcmin", None)
     if uncertainty is None or std is None or "reference_std_rms_arcmin" in uncertainty:
@@ -575,7 +576,7 @@ def with_reference_uncertainty(uncertainty, cal):
     angles, largest = largest_per_angle(cal.encoder_deg, std)  # (readings of one angle: the largest)
     reference_std = np.interp(grid, angles, largest, period=360.0)
     return {**uncertainty, "model_std_arcmin": np.hypot(table, reference_std).tolist(),
-            "reference_std_rms_arcmin": float(np.sqrt(np.mean(np.square(std))))}
+            "reference_std_rms_arcmin": float(np.sqrt(np.mean(np.square(reference_std))))}
 
 
 def refit_spec(model, method, options):
