@@ -620,21 +620,32 @@ def check(argv, status, out, err, tb, findings, outputs):
     return flags
 
 
-def main():
+def main(table=None):
+    """The command line of a fuzzer whose cases are ``table`` (surface name -> case function; default this file's):
+    ``--seed``, ``--runs``, ``--surface`` (repeatable)."""
+    import time
+
+    table = SURFACES if table is None else table
     parser = argparse.ArgumentParser()
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--runs", type=int, default=100)
-    parser.add_argument("--surface", choices=sorted(SURFACES), action="append")
+    parser.add_argument("--surface", choices=sorted(table), action="append")
     options = parser.parse_args()
-    rng = np.random.default_rng(options.seed)
-    surfaces = options.surface or sorted(SURFACES)
+    start = time.process_time()
+    total_flags = drive(table, options.surface or sorted(table), options.runs, np.random.default_rng(options.seed))
+    print(f"{options.runs} runs, {total_flags} flagged, {time.process_time() - start:.1f} s CPU of this process")
+
+
+def drive(table, surfaces, runs, rng):
+    """Run ``runs`` cases, the surfaces of ``table`` in turn, each checked by :func:`check`; print every flagged
+    case and the count of runs by surface and status; return how many were flagged."""
     counts = {}
     total_flags = 0
     with tempfile.TemporaryDirectory() as scratch:
         folder = Path(scratch)
-        for index in range(options.runs):
+        for index in range(runs):
             surface = surfaces[index % len(surfaces)]
-            argv, status, out, err, tb, findings, outputs = SURFACES[surface](rng, folder)
+            argv, status, out, err, tb, findings, outputs = table[surface](rng, folder)
             counts[(surface, status)] = counts.get((surface, status), 0) + 1
             flags = check(argv, status, out, err, tb, findings, outputs)
             if flags:
@@ -645,7 +656,7 @@ def main():
                 if err.strip():
                     print("    stderr:", err.strip().splitlines()[-1][:400])
     print("runs by (surface, status):", dict(sorted(counts.items(), key=str)))
-    print(f"{options.runs} runs, {total_flags} flagged")
+    return total_flags
 
 
 if __name__ == "__main__":

@@ -16,15 +16,13 @@ noise floor on noise-free band-limited profiles). 3,500 runs (700 a surface) tak
 counts runs ended with status 2 (a "-" after an option), none on branch fuzz7.
 """
 
-import argparse
 import json
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
-from fuzz_session6 import check, run
+from fuzz_session6 import main as fuzz_main
+from fuzz_session6 import run
 
 _MODELS = {}
 
@@ -462,34 +460,7 @@ SURFACES = {"counts": counts_case, "sigma": sigma_case, "fit": fit_case, "profil
 
 
 def main():
-    import time
-
-    parser = argparse.ArgumentParser()
-    parser.add_argument("--seed", type=int, default=1)
-    parser.add_argument("--runs", type=int, default=100)
-    parser.add_argument("--surface", choices=sorted(SURFACES), action="append")
-    options = parser.parse_args()
-    rng = np.random.default_rng(options.seed)
-    surfaces = options.surface or sorted(SURFACES)
-    counts = {}
-    total_flags = 0
-    start = time.process_time()
-    with tempfile.TemporaryDirectory() as scratch:
-        folder = Path(scratch)
-        for index in range(options.runs):
-            surface = surfaces[index % len(surfaces)]
-            argv, status, out, err, tb, findings, outputs = SURFACES[surface](rng, folder)
-            counts[(surface, status)] = counts.get((surface, status), 0) + 1
-            flags = check(argv, status, out, err, tb, findings, outputs)
-            if flags:
-                total_flags += 1
-                print(f"#{index} {surface} status {status}: {' '.join(argv)}")
-                for flag in flags:
-                    print("   ", flag)
-                if err.strip():
-                    print("    stderr:", err.strip().splitlines()[-1][:400])
-    print("runs by (surface, status):", dict(sorted(counts.items(), key=str)))
-    print(f"{options.runs} runs, {total_flags} flagged, {time.process_time() - start:.1f} s CPU")
+    fuzz_main(SURFACES)
 
 
 if __name__ == "__main__":
