@@ -173,3 +173,21 @@ def test_the_mean_of_both_directions_keeps_the_larger_reference_std_at_a_target(
     encoder = reference + (np.sin(np.radians(reference)) + 0.2 * direction) / 60.0
     mean = mean_calibration(Calibration(reference, encoder, direction=direction, reference_std_arcmin=std))
     assert_allclose(mean.reference_std_arcmin, 2.0)
+
+
+def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
+    # Reference angles read at every stop (not set exactly) rarely coincide: the ISO 230-2 values then rest on a
+    # few chance matches, and the caption (encal report's, encal profile's) says so instead of a bare target count.
+    rng = np.random.default_rng(0)
+    grid = np.arange(0.0, 360.0, 5.0)
+    reference = np.concatenate([grid, grid, grid + rng.uniform(1e-4, 3e-4, grid.size)])
+    direction = np.repeat([1, -1, -1], grid.size)
+    cal = Calibration(reference, reference + 0.1 * direction / 60.0, direction=direction)
+    caption = reversal(cal).caption()
+    assert caption.startswith(f"{grid.size} targets approached both ways, at least 1 time(s) each way")
+    assert f"; {grid.size} points at reference angles approached one way only" in caption
+    # with a target tolerance above the scatter the afresh readings join their targets, and the caption says so
+    joined = reversal(Calibration(reference, reference + 0.1 * direction / 60.0, direction=direction,
+                                  target_tolerance_deg=0.001)).caption()
+    assert joined == (f"{grid.size} targets approached both ways, at least 1 time(s) each way (ISO 230-2 asks for 5); "
+                      "reference angles within 0.001 degree are one target")

@@ -263,26 +263,6 @@ def test_the_page_opens_with_a_verdict_on_the_data_it_rests_on(tmp_path, capsys)
     assert page.index('class="verdict"') < page.index("<h2>Summary</h2>")
 
 
-def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
-    # Reference angles read at every stop (not set exactly) rarely coincide: the ISO 230-2 values then rest on a
-    # few chance matches, and the report says so instead of a bare target count.
-    from encal.data.reversal import reversal
-    from encal.reports.encoder import _reversal_caption
-    rng = np.random.default_rng(0)
-    grid = np.arange(0.0, 360.0, 5.0)
-    reference = np.concatenate([grid, grid, grid + rng.uniform(1e-4, 3e-4, grid.size)])
-    direction = np.repeat([1, -1, -1], grid.size)
-    cal = Calibration(reference, reference + 0.1 * direction / 60.0, direction=direction)
-    caption = _reversal_caption(reversal(cal))
-    assert caption.startswith(f"{grid.size} targets approached both ways, at least 1 time(s) each way")
-    assert f"; {grid.size} points at reference angles approached one way only" in caption
-    # with a target tolerance above the scatter the afresh readings join their targets, and the caption says so
-    joined = _reversal_caption(reversal(Calibration(reference, reference + 0.1 * direction / 60.0, direction=direction,
-                                                    target_tolerance_deg=0.001)))
-    assert joined == (f"{grid.size} targets approached both ways, at least 1 time(s) each way (ISO 230-2 asks for 5); "
-                      "reference angles within 0.001 degree are one target")
-
-
 def test_a_bidirectional_verdict_states_the_held_out_estimate_and_the_band():
     """Without a test calibration a directional model's verdict rested on its training points, with no band (the
     parts' posteriors were not read); now the parts' estimates, pooled, and the band of a reading whose direction is

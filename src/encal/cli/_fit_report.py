@@ -111,10 +111,11 @@ def _with_reference_uncertainty(estimate, cal, model_uncertainty=None):
     posterior's has it already (:func:`encal.models.uncertainty.with_reference_uncertainty`), and it is said; a
     cross-validation's gets its RMS in quadrature (no fold can see an error the reference shares with its
     neighbours)."""
-    std = cal.reference_std_arcmin
-    if estimate is None or std is None or estimate.get("rms_arcmin") is None:
+    from ..models.uncertainty import reference_std_rms, with_reference_rms
+
+    reference = reference_std_rms(cal)
+    if estimate is None or reference is None or estimate.get("rms_arcmin") is None:
         return estimate
-    reference = float(np.sqrt(np.mean(np.square(std))))
     estimate = {**estimate, "reference_std_rms_arcmin": reference}
     if estimate["estimator"] == "posterior":  # averaged over the posterior's grid, as its estimate is
         reference = (model_uncertainty or {}).get("reference_std_rms_arcmin", reference)
@@ -122,7 +123,7 @@ def _with_reference_uncertainty(estimate, cal, model_uncertainty=None):
         estimate["text"] += (f", including the reference's own uncertainty (its sigma_arcmin column, RMS "
                              f"{reference:.3g} arcmin)")
     else:
-        estimate["rms_arcmin"] = math.hypot(estimate["rms_arcmin"], reference)
+        estimate["rms_arcmin"] = with_reference_rms(estimate["rms_arcmin"], cal)
         estimate["text"] += (f"; with the reference's own uncertainty (its sigma_arcmin column, RMS {reference:.3g} "
                              f"arcmin) in quadrature: RMS {estimate['rms_arcmin']:.4g} arcmin")
     return estimate

@@ -10,7 +10,6 @@ and the SHA-256 of its bytes).
 
 import glob
 import hashlib
-import math
 import os
 import re
 import time
@@ -240,12 +239,12 @@ def _held_out(model, cal=None):
     expected = getattr(model, "expected_rms_between_points", None)
     if callable(expected) and expected() is not None:
         return float(expected())
+    from ..models.uncertainty import with_reference_rms
+
     selection = model.training.get("selection") or {}
-    std = None if cal is None else cal.reference_std_arcmin
-    reference = 0.0 if std is None else math.sqrt(math.fsum(float(v) ** 2 for v in std) / len(std))
     for row in selection.get("table") or ():
         if row.get("label") == selection.get("chosen") and row.get("cv_rms_arcmin") is not None:
-            return math.hypot(float(row["cv_rms_arcmin"]), reference)
+            return with_reference_rms(float(row["cv_rms_arcmin"]), cal)
     return None
 
 

@@ -82,6 +82,8 @@ __all__ = [
     "has_posterior",
     "with_half_reversal",
     "with_reference_uncertainty",
+    "reference_std_rms",
+    "with_reference_rms",
     "check_uncertainty",
 ]
 
@@ -577,6 +579,21 @@ def with_reference_uncertainty(uncertainty, cal):
     reference_std = np.interp(grid, angles, largest, period=360.0)
     return {**uncertainty, "model_std_arcmin": np.hypot(table, reference_std).tolist(),
             "reference_std_rms_arcmin": float(np.sqrt(np.mean(np.square(reference_std))))}
+
+
+def reference_std_rms(cal):
+    """RMS (arcmin) over the points of ``cal``'s own reference uncertainty (:attr:`Calibration.reference_std_arcmin`),
+    or None without it."""
+    std = getattr(cal, "reference_std_arcmin", None)
+    return None if std is None else float(np.sqrt(np.mean(np.square(std))))
+
+
+def with_reference_rms(rms_arcmin, cal):
+    """A cross-validated RMS (arcmin) with ``cal``'s reference uncertainty in quadrature: no fold sees an error the
+    reference shares with its neighbours. ``rms_arcmin`` as it is without the column (a posterior's estimate has it
+    already: :func:`with_reference_uncertainty`)."""
+    reference = reference_std_rms(cal)
+    return rms_arcmin if reference is None or rms_arcmin is None else math.hypot(rms_arcmin, reference)
 
 
 def refit_spec(model, method, options):

@@ -18,7 +18,6 @@ network and can be mailed alone) and the same figures as PNG files beside it.
 """
 
 import html
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -142,11 +141,9 @@ class EncoderReport:
         if selection is None or selection.table.get("scheme") == "tests":
             return None
         row = selection.chosen_row()
-        if row is None or row["cv_rms_arcmin"] is None:
-            return None
-        std = self.calibration.reference_std_arcmin  # shared by neighbouring points: no fold sees it
-        return row["cv_rms_arcmin"] if std is None else math.hypot(row["cv_rms_arcmin"],
-                                                                    float(np.sqrt(np.mean(np.square(std)))))
+        from ..models.uncertainty import with_reference_rms
+
+        return None if row is None else with_reference_rms(row["cv_rms_arcmin"], self.calibration)
 
     def shape(self, cal):
         """A calibration's errors (arcmin), about its own zero offset when the zero is arbitrary."""
@@ -619,12 +616,7 @@ def _reversal_section(report):
     heading = "mean deviation (arcmin)" + (" about the zero offset" if report.arbitrary_zero else "")
     return (_html.table(["direction", "points", heading], directions, "Points per direction")
             + _html.table(["ISO 230-2 value", "arcmin"], rows,
-                          _reversal_caption(analysis)))
-
-
-def _reversal_caption(analysis):
-    """How many targets the ISO 230-2 values rest on, the points left out, and the fewest approaches."""
-    return analysis.caption()
+                          analysis.caption()))
 
 
 def _drift_section(report):
