@@ -35,10 +35,9 @@ COLLAPSE_FRACTION = 0.25
 #: deviation 4.5e-5 of the data's RMS, far below any encoder's noise (benchmarks/bench_noise_floor.py: the real
 #: files' noise variances are 4e5 times it or more). Below it the evidence of a noise-free series cannot be
 #: computed in double precision: at the former floor (exp(-32)) the posterior precision's condition reached 1e20,
-#: its Cholesky factor needed the jitter,
-#: and a series of 16 orders known at 288 of 360 degrees (a cross-validation fold of a self-calibration's output)
-#: was predicted 1e5 to 5e7 arcmin off between its points after 2,000 evaluations; at this floor, within 1e-7
-#: arcmin after 6 (tests/models/test_spectral.py).
+#: its Cholesky factor needed the jitter, and a series of 16 orders known at 288 of 360 degrees (a cross-validation
+#: fold of a self-calibration's output) was predicted 1e5 to 5e7 arcmin off between its points after 2,000
+#: evaluations; at this floor, within 1e-7 arcmin after 6 (tests/models/test_spectral.py).
 NOISE_FLOOR_NATS = 20.0
 #: Bounds of the background exponent β (the background must decay: safeguard 2).
 EXPONENT_BOUNDS = (1.0, 8.0)
