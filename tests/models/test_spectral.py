@@ -721,6 +721,9 @@ def test_cli_blind_fit_states_the_prior_and_sigma_against_the_quantisation(tmp_p
     (4.05, "blind", "well above the quantisation: reading noise, or structure finer"),
     (0.6, "repeated readings", "below the quantisation alone: the scatter of the repeated readings leaves out"),
     (0.6, "supplied", "below the quantisation alone: the noise given leaves out"),
+    # blind below the rounding: readings smoother than whole codes (a self-calibration's output, 0.016)
+    (0.016, "blind", "below the quantisation: these readings vary less than whole codes would make them"),
+    (0.85, "blind", "consistent with the encoder's quantisation alone"),
 ])
 def test_the_noise_verdict_says_what_the_ratio_to_the_quantisation_allows(ratio, source, start):
     meaning = spectral._noise_meaning(ratio, source)

@@ -255,6 +255,11 @@ def _ranges(orders):
     return ", ".join(f"{first}-{last}" if last > first else f"{first}" for first, last in runs)
 
 
+#: Blind, a noise below this fraction of the quantisation's (``1/1.2``, the mirror of the band called consistent
+#: with it) is of readings smoother than whole codes: a self-calibration's output of a 14-bit encoder gave 0.016.
+_SMOOTHER_THAN_CODES = 1.0 / 1.2
+
+
 def _noise_meaning(ratio, source):
     """What the noise's ratio to the quantisation noise says, in a sentence.
 
@@ -265,12 +270,17 @@ def _noise_meaning(ratio, source):
     dominates. Between, both contribute and the sentence gives the other part, ``sqrt(ratio**2 - 1)``
     times ``q``. Below 1, with the noise supplied or from repeats (blind, the noise is kept at ``q`` or
     above when the readings show the resolution): a reading's rounding is the same each time the
-    encoder stops at one angle, so repeats barely differ and miss it.
+    encoder stops at one angle, so repeats barely differ and miss it. Blind and well below 1 (a resolution
+    declared that the readings do not show): the readings are smoother than whole codes.
     """
     if ratio < 1.0 and source != "blind":
         measured = "the noise given" if source == "supplied" else "the scatter of the repeated readings"
         return (f"below the quantisation alone: {measured} leaves out the rounding to whole codes, which is the "
                 "same at every reading of one angle, and a reading at any other angle carries it (LSB/sqrt(12))")
+    if ratio < _SMOOTHER_THAN_CODES:  # blind: the noise is floored at q only when the readings show their codes
+        return ("below the quantisation: these readings vary less than whole codes would make them (averages, "
+                "or a self-calibration's smoothed output), so sigma is not a new reading's noise, which carries "
+                "the rounding to whole codes (LSB/sqrt(12)) as well")
     if ratio < 1.2:
         return "consistent with the encoder's quantisation alone; little finer is left to calibrate"
     if ratio < 2.0:
