@@ -142,6 +142,14 @@ def test_a_tolerance_that_joins_neighbouring_targets_or_splits_one_is_refused():
         reversal(dense)
 
 
+@pytest.mark.parametrize("first, second", [(10.0, 10.01), (100.0, 100.01), (0.29, 0.3), (300.0, 300.01),
+                                           (359.995, 0.005)])
+def test_angles_written_exactly_the_tolerance_apart_are_one_target_all_round_the_circle(first, second):
+    # metrology8: "within DEG" held where the double of the difference fell below DEG (10.01 - 10) and not where it
+    # fell above (100.01 - 100 = 0.010000000000005): the edge of --target-tolerance moved round the circle
+    assert np.unique(target_positions(np.array([first, second]), 0.01)).size == 1
+    assert np.unique(target_positions(np.array([first, second + 1e-7]), 0.01)).size == 2
+
 def test_the_target_is_the_median_and_exactly_an_angle_written_the_same_way():
     target = target_positions(np.array([10.001, 9.999, 10.0, 0.1 + 0.2, 0.1 + 0.2, 0.1 + 0.2]), 0.01)
     assert_allclose(target[:3], 10.0, atol=1e-12)

@@ -38,6 +38,9 @@ MODES = ("per-direction", "mean")
 
 #: Reference angles closer than this (degrees) are the same target position.
 TARGET_TOLERANCE_DEG = 1e-6
+#: Slack (degrees) on a target tolerance: angles written a tolerance apart (100 and 100.01 under 0.01) differ by
+#: it give or take a double's rounding (100.01 - 100 = 0.010000000000005), and are one target all round the circle.
+_TOLERANCE_SLACK_DEG = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -265,7 +268,8 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
     reference_deg : ndarray
         Reference angles (degrees).
     tolerance_deg : float
-        Largest gap (degrees) between neighbouring angles of one target.
+        Largest gap (degrees) between neighbouring angles of one target: a gap of exactly the tolerance (to
+        1e-9 degree) joins them.
     where : str, optional
         The calibration's file or name. When given, a group whose angles span more than ``tolerance_deg`` (its
         neighbours each within the tolerance, so that neighbouring targets were joined) is refused, naming it.
@@ -281,7 +285,8 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
         With ``where``: when one target's angles span more than ``tolerance_deg``.
     """
     angle = wrap360(np.asarray(reference_deg, dtype=float))
-    if angle.size >= 2 and angle.min() + 360.0 - angle.max() <= tolerance_deg:
+    limit = tolerance_deg + _TOLERANCE_SLACK_DEG
+    if angle.size >= 2 and angle.min() + 360.0 - angle.max() <= limit:
         # A target that straddles 0/360 is one group: the circle is cut at its widest gap between neighbours (a
         # fixed cut at 360 - tolerance split a target there, such as 355 deg under a tolerance of 5).
         ordered = np.sort(angle)
@@ -289,12 +294,12 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
         angle = np.where(angle > ordered[widest], angle - 360.0, angle)
     order = np.argsort(angle, kind="stable")
     ordered = angle[order]
-    starts = np.r_[True, np.diff(ordered) > tolerance_deg]
+    starts = np.r_[True, np.diff(ordered) > limit]
     first = np.flatnonzero(starts)
     last = np.r_[first[1:], ordered.size] - 1
     if where is not None:
         span = ordered[last] - ordered[first]
-        if np.any(span > tolerance_deg):
+        if np.any(span > limit):
             worst = int(np.argmax(span))
             joined = "all the reference angles" if first.size == 1 else (
                 f"the reference angles from {wrap360(ordered[first[worst]]):.6g} to "
