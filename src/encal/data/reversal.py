@@ -307,7 +307,8 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
             raise CalibrationError(
                 f"{where}: {joined}, each within the target tolerance {tolerance_deg:g} deg of a neighbour, span "
                 f"{span[worst]:.3g} deg as one target; expected the approaches to one target within the tolerance "
-                "of each other (give a target tolerance below the spacing of the targets)")
+                "of each other (give a target tolerance above the scatter of one target's angles and below the "
+                "spacing of the targets)")
     # the median of each group (sorted): exact for an angle written the same way every time
     median = 0.5 * (ordered[first + (last - first) // 2] + ordered[first + (last - first + 1) // 2])
     target = np.empty_like(angle)
