@@ -199,3 +199,19 @@ def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
                                   target_tolerance_deg=0.001)).caption()
     assert joined == (f"{grid.size} targets approached both ways, at least 1 time(s) each way (ISO 230-2 asks for 5); "
                       "reference angles within 0.001 degree are one target")
+
+
+def test_which_way_the_points_labelled_up_turned_is_told_and_labels_opposite_to_the_standard_are_named():
+    # metrology8: ISO 230-2's ↑ is the positive direction; a direction column whose +1 ran towards decreasing
+    # angles (cw/ccw mapped the other way round) gave every ↑ figure as the ↓ one and B̄ of the wrong sign, unsaid
+    cal, _, _ = iso_run()
+    analysis = reversal(cal)
+    assert analysis.forward_travel == 1 and analysis.as_dict()["forward_travel"] == "increasing reference angle"
+    swapped = reversal(Calibration(cal.reference_deg, cal.encoder_deg, direction=-cal.direction))
+    assert swapped.forward_travel == -1 and swapped.as_dict()["forward_travel"] == "decreasing reference angle"
+    assert swapped.mean_reversal_value == pytest.approx(-analysis.mean_reversal_value, abs=1e-12)
+    assert "the points labelled +1 (↑) turned towards decreasing reference angles" in swapped.caption()
+    assert "decreasing" not in analysis.caption()
+    order = np.lexsort((cal.reference_deg, cal.direction))  # sorted by angle within each direction: untold
+    ordered = reversal(cal.subset(order))
+    assert ordered.forward_travel == 0 and ordered.as_dict()["forward_travel"] is None

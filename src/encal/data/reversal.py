@@ -31,6 +31,7 @@ __all__ = [
     "direction_subset",
     "require_directions",
     "has_both_directions",
+    "forward_travel",
 ]
 
 #: How :func:`encal.models.fitting.fit_bidirectional` treats the two directions.
@@ -68,6 +69,11 @@ class ReversalAnalysis:
     target_tolerance_deg : float
         Reference angles within this many degrees of a neighbour were taken as one target (see
         :func:`target_positions`).
+    forward_travel : int
+        Which way the points labelled +1 (``↑``) moved from target to target, in the order given: +1 towards
+        increasing reference angles (ISO 230-2's positive direction), -1 towards decreasing ones while the
+        points labelled -1 moved towards increasing (the labels are the opposite of the standard's ``↑`` and
+        ``↓``), 0 when the order does not tell (see :func:`forward_travel`).
     """
 
     target_deg: np.ndarray
@@ -80,6 +86,7 @@ class ReversalAnalysis:
     n_unmatched: int = 0
     resolution_bits: int | None = None
     target_tolerance_deg: float = TARGET_TOLERANCE_DEG
+    forward_travel: int = 0
 
     @property
     def reversal_arcmin(self):
@@ -190,6 +197,10 @@ class ReversalAnalysis:
                         f"within {self.target_tolerance_deg:g} degree) are left out")
         elif self.target_tolerance_deg != TARGET_TOLERANCE_DEG:
             caption += f"; reference angles within {self.target_tolerance_deg:g} degree are one target"
+        if self.forward_travel == -1:
+            caption += ("; the points labelled +1 (↑) turned towards decreasing reference angles and those labelled "
+                        "-1 towards increasing: ISO 230-2's ↑ is the positive direction, so its ↑ figures are the ↓ "
+                        "here and B_i, B̄ change sign (swap the labels of the direction column for the standard's)")
         return caption
 
     def as_dict(self):
@@ -211,6 +222,8 @@ class ReversalAnalysis:
             "accuracy_arcmin": self.accuracy,
             "min_approaches": self.min_approaches,
             "target_tolerance_deg": self.target_tolerance_deg,
+            "forward_travel": {1: "increasing reference angle", -1: "decreasing reference angle"}.get(
+                self.forward_travel),
         }
         if self.resolution_bits is not None:
             lsb = lsb_arcmin(self.resolution_bits)
@@ -316,6 +329,38 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
     return wrap360(target)
 
 
+def forward_travel(reference_deg, direction):
+    """Which way the points labelled +1 moved between targets, in the order given: ISO 230-2's ``↑`` is the
+    positive direction of the axis, here the reference angle's increase.
+
+    Each direction's steps between consecutive points of that direction (wrapped to ±180 degrees; steps of
+    0, repeats at one target, and of more than 90 degrees, the return to the start of a pass, left out) are
+    counted; the labels are taken as the standard's when most +1 steps increase and most -1 steps decrease,
+    as its opposite when the other way round.
+
+    Parameters
+    ----------
+    reference_deg : ndarray
+        Reference angles (degrees), in the order the points were taken.
+    direction : ndarray of {+1, -1}
+        Each point's label.
+
+    Returns
+    -------
+    int
+        +1 (the +1 points turned towards increasing angles, the -1 points towards decreasing), -1 (the
+        opposite), 0 (the order does not tell: sorted data, or a sense that differs from the labels' pairing).
+    """
+    senses = []
+    for sign in (1, -1):
+        steps = np.diff(np.asarray(reference_deg, dtype=float)[direction == sign])
+        steps = (steps + 180.0) % 360.0 - 180.0
+        steps = steps[(steps != 0.0) & (np.abs(steps) <= 90.0)]
+        up, down = int(np.count_nonzero(steps > 0)), int(np.count_nonzero(steps < 0))
+        senses.append(0 if up == down else (1 if up > down else -1))
+    return senses[0] if senses[0] == -senses[1] else 0
+
+
 def reversal(cal):
     """Reversal (hysteresis) error of a bidirectional calibration, as ISO 230-2:2014 evaluates it.
 
@@ -378,6 +423,7 @@ def reversal(cal):
         std_forward_arcmin=up[3][up_index], std_reverse_arcmin=down[3][down_index],
         n_unmatched=unmatched, resolution_bits=cal.resolution_bits,
         target_tolerance_deg=TARGET_TOLERANCE_DEG if tolerance is None else tolerance,
+        forward_travel=forward_travel(cal.reference_deg, cal.direction),
     )
 
 
