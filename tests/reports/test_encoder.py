@@ -283,3 +283,21 @@ def test_a_bidirectional_verdict_states_the_held_out_estimate_and_the_band():
     _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
     assert f"95 % band for a new reading is ± {1.959963984540054 * float(np.mean(std)):.3g} arcmin" in line
     assert 0.05 < expected < 0.2  # the noise is 0.1 arcmin
+
+
+def test_the_band_of_a_smoothed_calibration_with_its_sigma_is_not_said_to_be_for_a_new_reading():
+    """metrology8: a self-calibration's output (a smoothed curve with its sigma_arcmin) has no reading noise in its
+    points, so the band is the profile's alone; it was called "for a new reading" and covered 25 % of new readings
+    of an encoder with 2 arcmin of noise (benchmarks/bench_report_band.py, 50 spins)."""
+    from encal.reports.encoder import verdict
+
+    grid = np.arange(0.0, 360.0, 1.0)
+    smooth = Calibration(grid - shape_arcmin(grid) / 60.0, grid, reference_std_arcmin=np.full(grid.size, 0.3),
+                         name="selfcal")
+    line = verdict(encoder_report(smooth, rng=0, compare=False))
+    assert "the model's 95 % band for the encoder's error is ±" in line and "not for a new reading" in line
+    assert "a new reading's own noise comes on top of both figures" in line
+    noisy = Calibration(smooth.reference_deg, smooth.encoder_deg + np.random.default_rng(0).normal(0, 0.3, grid.size)
+                        / 60.0, reference_std_arcmin=np.full(grid.size, 0.05), name="certified")
+    line = verdict(encoder_report(noisy, rng=0, compare=False))
+    assert "the model's 95 % band for a new reading is ±" in line and "not for a new reading" not in line
