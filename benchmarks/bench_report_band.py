@@ -21,8 +21,9 @@ lies inside that band, at the calibration's own angles (fresh noise) and between
   mean is removed: a spin cannot tell the reading's zero.
 
 Each row: encoders, points per encoder, the pooled share inside the band, the range and the 10th percentile of
-the per-encoder shares, and the RMS of (new reading − prediction) over the RMS of the predicted ``std``
-(1 when the band is the right width for Gaussian residuals). The binomial standard deviation of a pooled share
+the per-encoder shares, the RMS of (new reading − prediction) over the RMS of the predicted ``std``
+(1 when the band is the right width for Gaussian residuals), and for the resolver on the table the RMS over the
+encoders of the new readings' noise (measured minus noise-free error) and of the model's ``σ_noise``. The binomial standard deviation of a pooled share
 of 95 % over ``n`` points is ``sqrt(0.95 · 0.05 / n)``, but the points of one encoder share its model's error,
 so the per-encoder range says more.
 
@@ -53,18 +54,29 @@ class Tally:
 
     def __init__(self):
         self.shares, self.points, self.residual_sq, self.std_sq = [], 0, 0.0, 0.0
+        self.floors, self.noises = [], []
 
-    def add(self, residual, std):
+    def add(self, residual, std, floor=None, noise=None):
+        """One encoder's residuals and predicted std (arcmin); ``floor`` the RMS of its new readings' noise (measured
+        minus noise-free error), ``noise`` the model's ``σ_noise``, when known."""
         self.shares.append(float(np.mean(np.abs(residual) <= Z95 * std)))
         self.points = residual.size
         self.residual_sq += float(np.sum(residual**2))
         self.std_sq += float(np.sum(std**2))
+        if floor is not None:
+            self.floors.append(floor)
+        if noise is not None:
+            self.noises.append(noise)
 
     def row(self, label):
         shares = np.array(self.shares)
         return (f"| {label} | {shares.size} | {self.points} | {100 * shares.mean():.1f} % | "
                 f"{100 * shares.min():.1f}–{100 * shares.max():.1f} % | {100 * np.percentile(shares, 10):.1f} % | "
-                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} |")
+                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} | {_rms(self.floors)} | {_rms(self.noises)} |")
+
+
+def _rms(values):
+    return f"{np.sqrt(np.mean(np.square(values))):.3f}" if values else "–"
 
 
 def default_case(seeds):
@@ -74,9 +86,11 @@ def default_case(seeds):
         model = encal.fit(calibration_run(encoder, TRAINING_GRID_DEG, rng=1).calibration, method="auto", rng=seed,
                           uncertainty=True)
         for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (between, TEST_GRID_DEG, 3)):
-            run = calibration_run(encoder, grid, rng=rng).calibration
+            simulated = calibration_run(encoder, grid, rng=rng)
+            run = simulated.calibration
             mean, std = model.predict(run.encoder_deg, return_std=True)
-            tally.add(run.errors_arcmin - mean, std)
+            floor = float(np.sqrt(np.mean((run.errors_arcmin - simulated.noise_free_error_arcmin) ** 2)))
+            tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"])
     return [("default (auto), at the points", at), ("default (auto), between", between)]
 
 
@@ -143,8 +157,8 @@ def main():
     args = parser.parse_args()
     seeds = range(args.encoders)
     print("| case | encoders | points each | inside ±1.96σ (pooled) | per encoder | 10th percentile | "
-          "RMS residual / RMS σ |")
-    print("|---|---:|---:|---:|---|---:|---:|")
+          "RMS residual / RMS σ | new readings' noise (RMS) | σ_noise (RMS) |")
+    print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
     for case in args.cases:
         start = time.process_time()
         for label, tally in CASES[case](seeds):
