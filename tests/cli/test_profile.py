@@ -298,10 +298,11 @@ def test_the_hand_figures_are_the_standards_formulas():
 
 
 def printed_iso_rows(text):
-    """The ISO 230-2 rows encal profile prints: label -> value (arcmin, as printed)."""
-    rows = text.split("\nISO 230-2, both directions of travel", 1)[1].splitlines()[2:]
-    return {line[:32 + line.count("\u0304")].rstrip(): float(line[32 + line.count("\u0304"):].split()[0])
-            for line in rows if line.strip()}
+    """The ISO 230-2 rows encal profile prints: label -> (arcmin, arcsec), as printed."""
+    lines = text.split("\nISO 230-2, both directions of travel", 1)[1].splitlines()
+    assert lines[1].split() == ["value", "arcmin", "arcsec"]
+    return {line[:32 + line.count("\u0304")].rstrip(): tuple(map(float, line[32 + line.count("\u0304"):].split()[:2]))
+            for line in lines[2:] if line.strip()}
 
 
 @pytest.mark.parametrize("jitter_deg, tolerance", [(0.0, None), (0.004, "0.01"), (0.0, "10")])
@@ -319,11 +320,26 @@ def test_every_iso_230_2_figure_printed_and_in_json_is_the_standards_on_a_hand_m
     assert (iso["n_targets"], iso["n_unmatched"], iso["min_approaches"]) == (4, 1, 2)
     assert "1 points at reference angles approached one way only" in iso["caption"]
     assert iso["forward_travel"] == "increasing reference angle"  # ↑ is +1, ascending in the file as in ISO's ↑
+    from statistics import mean, stdev
+
+    for row in iso["targets"]:  # each target's x̄↑_i, x̄↓_i, s↑_i, s↓_i, B_i, x̄_i
+        target = min(HAND_DOWN, key=lambda t: abs((row["target_deg"] - t + 180.0) % 360.0 - 180.0))
+        up, down = HAND_UP[target], HAND_DOWN[target]
+        assert abs((row["target_deg"] - target + 180.0) % 360.0 - 180.0) <= jitter_deg
+        assert (row["n_forward"], row["n_reverse"]) == (len(up), len(down))
+        expected = {"mean_forward_arcmin": mean(up), "mean_reverse_arcmin": mean(down), "std_forward_arcmin": stdev(up),
+                    "std_reverse_arcmin": stdev(down), "reversal_arcmin": mean(up) - mean(down),
+                    "mean_bidirectional_arcmin": (mean(up) + mean(down)) / 2}
+        for key, value in expected.items():
+            assert row[key] == pytest.approx(value, abs=1e-9), (target, key)
+    assert sorted(round(row["target_deg"]) % 360 for row in iso["targets"]) == sorted(HAND_DOWN)
     assert main(["profile", str(path), "--allow-gaps", "--keep-duplicates", *option]) == 0
     printed = printed_iso_rows(capsys.readouterr().out)
     assert set(printed) == set(HAND_LABELS.values())
     for key, label in HAND_LABELS.items():
-        assert printed[label] == pytest.approx(HAND_FIGURES[key], abs=0.0005), label  # printed to 0.001 arcmin
+        arcmin, arcsec = printed[label]
+        assert arcmin == pytest.approx(HAND_FIGURES[key], abs=0.0005), label  # printed to 0.001 arcmin
+        assert arcsec == pytest.approx(60 * HAND_FIGURES[key], abs=0.005), label  # and to 0.01 arcsec
 
 
 def test_a_target_tolerance_below_the_scatter_of_the_hand_made_log_is_refused_and_out_of_range_is_a_usage_error(

@@ -301,3 +301,23 @@ def test_the_band_of_a_smoothed_calibration_with_its_sigma_is_not_said_to_be_for
                         / 60.0, reference_std_arcmin=np.full(grid.size, 0.05), name="certified")
     line = verdict(encoder_report(noisy, rng=0, compare=False))
     assert "the model's 95 % band for a new reading is ±" in line and "not for a new reading" not in line
+
+
+def test_the_iso_230_2_table_of_the_page_is_the_standards_on_a_hand_made_log(tmp_path, capsys):
+    """metrology8: every ISO 230-2 figure of the page, in arcmin and in the standard's arcsec, against the
+    formulas worked by hand (tests/cli/test_profile.py)."""
+    from tests.cli.test_profile import HAND_FIGURES, hand_log
+
+    out = tmp_path / "hand.html"
+    assert main(["report", str(hand_log(tmp_path)), "-o", str(out), "--allow-gaps", "--keep-duplicates",
+                 "--method", "fourier", "--no-uncertainty", "--no-comparison"]) == 0
+    capsys.readouterr()
+    page = out.read_text(encoding="utf-8")
+    assert "<th>ISO 230-2 value</th><th>arcmin</th><th>arcsec</th>" in page
+    for key, value in HAND_FIGURES.items():
+        label = key.replace("_", " ")
+        cells = re.search(rf"<td class=\"text\">{label}</td><td class=\"num\">([-0-9.e]+)</td>"
+                          rf"<td class=\"num\">([-0-9.e]+)</td>", page)
+        assert cells is not None, label
+        assert float(cells.group(1)) == pytest.approx(value, rel=5e-4), label  # 4 significant digits
+        assert float(cells.group(2)) == pytest.approx(60 * value, rel=5e-4), label

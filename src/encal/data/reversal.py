@@ -232,6 +232,23 @@ class ReversalAnalysis:
         return data
 
 
+    def per_target(self):
+        """Each target's values as JSON-ready data: ``target_deg``, ``n_forward``, ``n_reverse`` and, in arcmin,
+        ``x̄↑_i``, ``x̄↓_i``, ``s↑_i``, ``s↓_i`` (None with one approach), ``B_i`` and ``x̄_i``: the table and
+        plot an ISO 230-2 report gives besides the axis values."""
+        def number(value):
+            return None if not np.isfinite(value) else float(value)
+
+        return [{"target_deg": float(target), "n_forward": int(up_n), "n_reverse": int(down_n),
+                 "mean_forward_arcmin": float(up_mean), "mean_reverse_arcmin": float(down_mean),
+                 "std_forward_arcmin": number(up_std), "std_reverse_arcmin": number(down_std),
+                 "reversal_arcmin": float(up_mean - down_mean),
+                 "mean_bidirectional_arcmin": float((up_mean + down_mean) / 2)}
+                for target, up_n, down_n, up_mean, down_mean, up_std, down_std in zip(
+                    self.target_deg, self.n_forward, self.n_reverse, self.mean_forward_arcmin,
+                    self.mean_reverse_arcmin, self.std_forward_arcmin, self.std_reverse_arcmin)]
+
+
 def _band_range(mean, std):
     """``max(mean + 2 std) − min(mean − 2 std)``: the range an accuracy of positioning spans (arcmin)."""
     return float(np.max(mean + 2 * std) - np.min(mean - 2 * std))

@@ -636,15 +636,16 @@ def _held_out_tables(report):
 
 def _reversal_section(report):
     analysis = report.reversal
-    rows = [[key.replace("_arcmin", "").replace("_", " "), _f(value)] for key, value in analysis.as_dict().items()
-            if key.endswith("_arcmin")]
+    # arc-seconds too: ISO 230-2 states a rotary axis' values in them
+    rows = [[key.replace("_arcmin", "").replace("_", " "), _f(value), _f(None if value is None else 60.0 * value)]
+            for key, value in analysis.as_dict().items() if key.endswith("_arcmin")]
     offset = report.offset_arcmin if report.arbitrary_zero else 0.0
     mean = lambda values: _f(float(np.mean(remove_offset(values, offset))))  # noqa: E731
     directions = [["forward (+1)", str(int(analysis.n_forward.sum())), mean(analysis.mean_forward_arcmin)],
                   ["reverse (-1)", str(int(analysis.n_reverse.sum())), mean(analysis.mean_reverse_arcmin)]]
     heading = "mean deviation (arcmin)" + (" about the zero offset" if report.arbitrary_zero else "")
     return (_html.table(["direction", "points", heading], directions, "Points per direction")
-            + _html.table(["ISO 230-2 value", "arcmin"], rows,
+            + _html.table(["ISO 230-2 value", "arcmin", "arcsec"], rows,
                           analysis.caption()))
 
 
