@@ -300,9 +300,11 @@ def test_the_hand_figures_are_the_standards_formulas():
 def printed_iso_rows(text):
     """The ISO 230-2 rows encal profile prints: label -> (arcmin, arcsec), as printed."""
     lines = text.split("\nISO 230-2, both directions of travel", 1)[1].splitlines()
-    assert lines[1].split() == ["value", "arcmin", "arcsec"]
+    assert lines[1] == ("(deviation x = encoder − reference, the negative of a machine test's actual − target: B_i and "
+                        "B̄ have the opposite sign, the other values the same)")
+    assert lines[2].split() == ["value", "arcmin", "arcsec"]
     return {line[:32 + line.count("\u0304")].rstrip(): tuple(map(float, line[32 + line.count("\u0304"):].split()[:2]))
-            for line in lines[2:] if line.strip()}
+            for line in lines[3:] if line.strip()}
 
 
 @pytest.mark.parametrize("jitter_deg, tolerance", [(0.0, None), (0.004, "0.01"), (0.0, "10")])
@@ -320,6 +322,7 @@ def test_every_iso_230_2_figure_printed_and_in_json_is_the_standards_on_a_hand_m
     assert (iso["n_targets"], iso["n_unmatched"], iso["min_approaches"]) == (4, 1, 2)
     assert "1 points at reference angles approached one way only" in iso["caption"]
     assert iso["forward_travel"] == "increasing reference angle"  # ↑ is +1, ascending in the file as in ISO's ↑
+    assert iso["deviation"] == "encoder - reference"  # B̄ > 0: the encoder reads more approached ↑ than ↓
     from statistics import mean, stdev
 
     for row in iso["targets"]:  # each target's x̄↑_i, x̄↓_i, s↑_i, s↓_i, B_i, x̄_i

@@ -115,8 +115,10 @@ _ISO_ROWS = (("reversal value B", "reversal_value"), ("mean reversal value B̄",
 def _iso_text(analysis):
     lsb = lsb_arcmin(analysis.resolution_bits) if analysis.resolution_bits is not None else None
     # arc-seconds too: ISO 230-2 states a rotary axis' values in them, and 0.01 arcsec is finer than 0.001 arcmin
+    from ..data.reversal import DEVIATION_SIGN_NOTE
+
     lines = [f"ISO 230-2, both directions of travel (the statistics above pool them): {analysis.caption()}",
-             f"{'value':<32}{'arcmin':>10}{'arcsec':>10}" + (f"{'LSB':>10}" if lsb else "")]
+             f"({DEVIATION_SIGN_NOTE})", f"{'value':<32}{'arcmin':>10}{'arcsec':>10}" + (f"{'LSB':>10}" if lsb else "")]
     for label, name in _ISO_ROWS:
         value = getattr(analysis, name)
         label = label.ljust(32 + label.count("\u0304"))  # a combining bar takes no column of its own

@@ -39,6 +39,10 @@ MODES = ("per-direction", "mean")
 
 #: Reference angles closer than this (degrees) are the same target position.
 TARGET_TOLERANCE_DEG = 1e-6
+#: How the deviations are taken, for every statement of the ISO 230-2 values (docs/bidirectional.md, "Sign").
+DEVIATION_SIGN_NOTE = ("deviation x = encoder − reference, the negative of a machine test's actual − target: B_i and B̄ "
+                       "have the opposite sign, the other values the same")
+
 #: Slack (degrees) on a target tolerance: angles written a tolerance apart (100 and 100.01 under 0.01) differ by
 #: it give or take a double's rounding (100.01 - 100 = 0.010000000000005), and are one target all round the circle.
 _TOLERANCE_SLACK_DEG = 1e-9
@@ -224,6 +228,7 @@ class ReversalAnalysis:
             "target_tolerance_deg": self.target_tolerance_deg,
             "forward_travel": {1: "increasing reference angle", -1: "decreasing reference angle"}.get(
                 self.forward_travel),
+            "deviation": "encoder - reference",
         }
         if self.resolution_bits is not None:
             lsb = lsb_arcmin(self.resolution_bits)

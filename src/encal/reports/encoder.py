@@ -635,6 +635,8 @@ def _held_out_tables(report):
 
 
 def _reversal_section(report):
+    from ..data.reversal import DEVIATION_SIGN_NOTE
+
     analysis = report.reversal
     # arc-seconds too: ISO 230-2 states a rotary axis' values in them
     rows = [[key.replace("_arcmin", "").replace("_", " "), _f(value), _f(None if value is None else 60.0 * value)]
@@ -646,7 +648,7 @@ def _reversal_section(report):
     heading = "mean deviation (arcmin)" + (" about the zero offset" if report.arbitrary_zero else "")
     return (_html.table(["direction", "points", heading], directions, "Points per direction")
             + _html.table(["ISO 230-2 value", "arcmin", "arcsec"], rows,
-                          analysis.caption()))
+                          f"{analysis.caption()} ({DEVIATION_SIGN_NOTE})"))
 
 
 def _drift_section(report):
