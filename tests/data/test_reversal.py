@@ -6,7 +6,7 @@ from numpy.testing import assert_allclose
 
 from encal import Calibration, CalibrationError
 
-from encal.data.reversal import reversal, target_positions
+from encal.data.reversal import mean_calibration, reversal, target_positions
 
 #: Irregular target positions over a turn (ISO 230-2 spaces them irregularly), degrees.
 TARGETS = np.array([0.0, 27.5, 61.0, 90.0, 118.25, 152.0, 180.0, 209.75, 241.0, 270.0, 296.5, 331.0])
@@ -215,3 +215,19 @@ def test_which_way_the_points_labelled_up_turned_is_told_and_labels_opposite_to_
     order = np.lexsort((cal.reference_deg, cal.direction))  # sorted by angle within each direction: untold
     ordered = reversal(cal.subset(order))
     assert ordered.forward_travel == 0 and ordered.as_dict()["forward_travel"] is None
+
+
+def test_the_mean_of_both_directions_is_the_mean_bidirectional_deviation_worked_by_hand():
+    """metrology8: ``--bidirectional mean`` fits x̄_i = (x̄↑_i + x̄↓_i) / 2 (ISO 230-2), here 1.0, 1.95, -1.05 and 0.4
+    arcmin at 0, 90, 180 and 270 deg of the hand-made log (45 deg, approached ↑ only, left out)."""
+    from tests.cli.test_profile import HAND_DOWN, HAND_UP
+
+    reference, encoder, direction = [], [], []
+    for table, sign in ((HAND_UP, 1), (HAND_DOWN, -1)):
+        for target, deviations in table.items():
+            reference += [float(target)] * len(deviations)
+            encoder += [target + x / 60.0 for x in deviations]
+            direction += [sign] * len(deviations)
+    mean = mean_calibration(Calibration(np.array(reference), np.array(encoder), direction=np.array(direction)))
+    assert_allclose(mean.reference_deg, [0.0, 90.0, 180.0, 270.0])
+    assert_allclose(mean.errors_arcmin, [1.0, 1.95, -1.05, 0.4], atol=1e-9)
