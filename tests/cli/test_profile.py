@@ -320,7 +320,7 @@ def test_every_iso_230_2_figure_printed_and_in_json_is_the_standards_on_a_hand_m
     for key, value in HAND_FIGURES.items():
         assert iso[f"{key}_arcmin"] == pytest.approx(value, abs=1e-9), key
     assert (iso["n_targets"], iso["n_unmatched"], iso["min_approaches"]) == (4, 1, 2)
-    assert "1 points at reference angles approached one way only" in iso["caption"]
+    assert "; 1 point at reference angles approached one way only (targets match" in iso["caption"]
     assert iso["forward_travel"] == "increasing reference angle"  # ↑ is +1, ascending in the file as in ISO's ↑
     assert iso["deviation"] == "encoder - reference"  # B̄ > 0: the encoder reads more approached ↑ than ↓
     from statistics import mean, stdev

@@ -197,8 +197,9 @@ class ReversalAnalysis:
         caption = (f"{self.target_deg.size} targets approached both ways, at least {self.min_approaches} "
                    "time(s) each way (ISO 230-2 asks for 5)")
         if self.n_unmatched:
-            caption += (f"; {self.n_unmatched} points at reference angles approached one way only (targets match "
-                        f"within {self.target_tolerance_deg:g} degree) are left out")
+            points, are = ("point", "is") if self.n_unmatched == 1 else ("points", "are")
+            caption += (f"; {self.n_unmatched} {points} at reference angles approached one way only (targets match "
+                        f"within {self.target_tolerance_deg:g} degree) {are} left out")
         elif self.target_tolerance_deg != TARGET_TOLERANCE_DEG:
             caption += f"; reference angles within {self.target_tolerance_deg:g} degree are one target"
         if self.forward_travel == -1:
