@@ -294,9 +294,14 @@ def test_the_band_of_a_smoothed_calibration_with_its_sigma_is_not_said_to_be_for
     grid = np.arange(0.0, 360.0, 1.0)
     smooth = Calibration(grid - shape_arcmin(grid) / 60.0, grid, reference_std_arcmin=np.full(grid.size, 0.3),
                          name="selfcal")
-    line = verdict(encoder_report(smooth, rng=0, compare=False))
+    report = encoder_report(smooth, rng=0, compare=False)
+    line = verdict(report)
     assert "the model's 95 % band for the encoder's error is ±" in line and "not for a new reading" in line
     assert "a new reading's own noise comes on top of both figures" in line
+    from encal.reports.encoder import _profile_figure
+
+    labels = [artist.get_label() for artist in _profile_figure(report).axes[0].collections]
+    assert "95 % band of the encoder's error" in labels and "95 % band of a new reading" not in labels
     noisy = Calibration(smooth.reference_deg, smooth.encoder_deg + np.random.default_rng(0).normal(0, 0.3, grid.size)
                         / 60.0, reference_std_arcmin=np.full(grid.size, 0.05), name="certified")
     line = verdict(encoder_report(noisy, rng=0, compare=False))

@@ -372,7 +372,8 @@ def _profile_figure(report):
     cal = report.calibration
     offset = report.offset_arcmin if report.arbitrary_zero else 0.0
     plot_model(report.model, data=(cal.encoder_deg, cal.errors_arcmin), ax=ax, offset_arcmin=offset,
-               title=f"{report.name}: error profile and {report.model.kind} model")
+               title=f"{report.name}: error profile and {report.model.kind} model",
+               band_of="a new reading" if _smoothed_calibration(report.model) is None else "the encoder's error")
     for index, (label, evaluation) in enumerate(report.held_out):
         # each test about its own zero offset: a motor calibrated again starts elsewhere
         own = evaluation.before.offset if evaluation.arbitrary_zero else 0.0
