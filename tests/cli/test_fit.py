@@ -384,3 +384,16 @@ def test_fit_gives_back_what_the_reading_freed_before_fitting(train_and_test, tm
     monkeypatch.setattr(fitting, "fit", lambda *args, **kwargs: events.append("fit") or plain_fit(*args, **kwargs))
     assert main(["fit", str(train_and_test[0]), "-o", str(tmp_path / "m.json"), "--method", "fourier"]) == 0
     assert events == ["released", "fit"]
+
+
+def test_the_model_file_records_the_iso_230_2_reversal_of_a_hand_made_log(tmp_path, capsys):
+    """metrology8: B and B̄ the model file records (training), against the standard's formulas worked by hand."""
+    from tests.cli.test_profile import HAND_FIGURES, hand_log
+
+    out = tmp_path / "hand.json"
+    assert main(["fit", str(hand_log(tmp_path)), "-o", str(out), "--allow-gaps", "--keep-duplicates",
+                 "--method", "fourier"]) == 0
+    capsys.readouterr()
+    training = json.loads(out.read_text())["training"]
+    assert training["reversal_value_arcmin"] == pytest.approx(HAND_FIGURES["reversal_value"], abs=1e-9)
+    assert training["mean_reversal_value_arcmin"] == pytest.approx(HAND_FIGURES["mean_reversal_value"], abs=1e-9)

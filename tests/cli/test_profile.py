@@ -215,3 +215,145 @@ def test_a_log_of_both_directions_with_no_common_target_is_profiled_and_says_why
     assert main(["profile", str(tmp_path / "log.csv"), "--json"]) == 0
     record = json.loads(capsys.readouterr().out)
     assert record["iso230_2"] is None and "both directions" in record["iso230_2_note"]
+
+
+# -- metrology8: every ISO 230-2 figure of a small hand-made log, against the standard's formulas worked by hand -----
+
+#: Deviations x = θ_enc − θ_ref (arcmin) of each approach, by target (deg) and direction (↑ = +1, ↓ = −1): unequal
+#: repeats (4 ↑ at 270, 2 ↓ at 0 and 180) and a target (45) approached ↑ only.
+HAND_UP = {0: [1.0, 1.2, 1.4], 45: [0.3], 90: [2.0, 2.4, 2.2], 180: [-1.0, -0.6, -0.8], 270: [0.5, 0.5, 0.5, 0.9]}
+HAND_DOWN = {0: [0.6, 1.0], 90: [1.5, 1.7, 1.9], 180: [-1.5, -1.1], 270: [0.0, 0.4, 0.2]}
+ROOT_008 = 0.08 ** 0.5  # s↓ at 0 and 180: two approaches 0.4 apart, sqrt(2 · 0.2² / (2 − 1))
+#: ISO 230-2:2014 clause 3 worked by hand on HAND_UP/HAND_DOWN (45 deg left out: not approached ↓).
+#: x̄↑ = 1.2, 2.2, −0.8, 0.6 and s↑ = 0.2 at every target; x̄↓ = 0.8, 1.7, −1.3, 0.2 and s↓ = ROOT_008, 0.2,
+#: ROOT_008, 0.2; B_i = 0.4, 0.5, 0.5, 0.4; x̄_i = 1.0, 1.95, −1.05, 0.4.
+HAND_FIGURES = {
+    "reversal_value": 0.5,                                    # B = max |B_i|
+    "mean_reversal_value": 0.45,                              # B̄ = mean B_i
+    "systematic_deviation_forward": 2.2 - -0.8,               # E↑ = max x̄↑_i − min x̄↑_i
+    "systematic_deviation_reverse": 1.7 - -1.3,               # E↓
+    "systematic_deviation": 2.2 - -1.3,                       # E = max(x̄↑_i, x̄↓_i) − min(x̄↑_i, x̄↓_i)
+    "mean_bidirectional_deviation": 1.95 - -1.05,             # M = max x̄_i − min x̄_i
+    "repeatability_forward": 4 * 0.2,                         # R↑ = max 4 s↑_i
+    "repeatability_reverse": 4 * ROOT_008,                    # R↓
+    "repeatability": 2 * 0.2 + 2 * ROOT_008 + 0.5,            # R = max_i max(2 s↑_i + 2 s↓_i + |B_i|, 4 s↑_i, 4 s↓_i)
+    "accuracy_forward": (2.2 + 0.4) - (-0.8 - 0.4),           # A↑ = max(x̄↑_i + 2 s↑_i) − min(x̄↑_i − 2 s↑_i)
+    "accuracy_reverse": (1.7 + 0.4) - (-1.3 - 2 * ROOT_008),  # A↓
+    "accuracy": (2.2 + 0.4) - (-1.3 - 2 * ROOT_008),          # A over both directions
+}
+#: The labels encal profile prints for the figures.
+HAND_LABELS = {"reversal_value": "reversal value B", "mean_reversal_value": "mean reversal value B\u0304",
+               "systematic_deviation_forward": "systematic deviation E↑",
+               "systematic_deviation_reverse": "systematic deviation E↓",
+               "systematic_deviation": "systematic deviation E", "mean_bidirectional_deviation":
+               "mean bidirectional deviation M", "repeatability_forward": "repeatability R↑",
+               "repeatability_reverse": "repeatability R↓", "repeatability": "repeatability R",
+               "accuracy_forward": "accuracy A↑", "accuracy_reverse": "accuracy A↓", "accuracy": "accuracy A"}
+
+
+def iso_by_definition(up, down):
+    """ISO 230-2:2014 clause 3, computed here from the deviations with plain Python (none of encal's helpers)."""
+    from statistics import mean, stdev
+
+    common = sorted(set(up) & set(down))
+    m_up, m_down = [mean(up[t]) for t in common], [mean(down[t]) for t in common]
+    s_up, s_down = [stdev(up[t]) for t in common], [stdev(down[t]) for t in common]
+    b = [u - d for u, d in zip(m_up, m_down)]
+    bidirectional = [(u + d) / 2 for u, d in zip(m_up, m_down)]
+    return {
+        "reversal_value": max(abs(v) for v in b), "mean_reversal_value": mean(b),
+        "systematic_deviation_forward": max(m_up) - min(m_up),
+        "systematic_deviation_reverse": max(m_down) - min(m_down),
+        "systematic_deviation": max(m_up + m_down) - min(m_up + m_down),
+        "mean_bidirectional_deviation": max(bidirectional) - min(bidirectional),
+        "repeatability_forward": max(4 * s for s in s_up), "repeatability_reverse": max(4 * s for s in s_down),
+        "repeatability": max(max(2 * su + 2 * sd + abs(bi), 4 * su, 4 * sd) for su, sd, bi in zip(s_up, s_down, b)),
+        "accuracy_forward": max(x + 2 * s for x, s in zip(m_up, s_up)) - min(x - 2 * s for x, s in zip(m_up, s_up)),
+        "accuracy_reverse": (max(x + 2 * s for x, s in zip(m_down, s_down))
+                             - min(x - 2 * s for x, s in zip(m_down, s_down))),
+        "accuracy": (max(x + 2 * s for x, s in zip(m_up + m_down, s_up + s_down))
+                     - min(x - 2 * s for x, s in zip(m_up + m_down, s_up + s_down))),
+    }
+
+
+def hand_log(tmp_path, jitter_deg=0.0):
+    """HAND_UP/HAND_DOWN as an ISO linear cycle: each pass ↑ over the targets ascending, then ↓ descending.
+    ``jitter_deg`` moves the reference (and the encoder with it) by up to that much, a different amount each row."""
+    lines = ["reference_deg,encoder_deg,direction"]
+    for run in range(4):
+        for table, sign, order in ((HAND_UP, "+1", sorted), (HAND_DOWN, "-1", lambda t: sorted(t, reverse=True))):
+            for target in order(table):
+                if run < len(table[target]):
+                    shift = jitter_deg * ((len(lines) * 7) % 9 - 4) / 4
+                    lines.append(f"{target + shift:.12f},{target + shift + table[target][run] / 60:.12f},{sign}")
+    path = tmp_path / "hand.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_the_hand_figures_are_the_standards_formulas():
+    by_definition = iso_by_definition(HAND_UP, HAND_DOWN)
+    for key, value in HAND_FIGURES.items():
+        assert by_definition[key] == pytest.approx(value, abs=1e-12), key
+
+
+def printed_iso_rows(text):
+    """The ISO 230-2 rows encal profile prints: label -> (arcmin, arcsec), as printed."""
+    lines = text.split("\nISO 230-2, both directions of travel", 1)[1].splitlines()
+    assert lines[1] == ("(deviation x = encoder − reference, the negative of a machine test's actual − target: B_i and "
+                        "B̄ have the opposite sign, the other values the same)")
+    assert lines[2].split() == ["value", "arcmin", "arcsec"]
+    return {line[:32 + line.count("\u0304")].rstrip(): tuple(map(float, line[32 + line.count("\u0304"):].split()[:2]))
+            for line in lines[3:] if line.strip()}
+
+
+@pytest.mark.parametrize("jitter_deg, tolerance", [(0.0, None), (0.004, "0.01"), (0.0, "10")])
+def test_every_iso_230_2_figure_printed_and_in_json_is_the_standards_on_a_hand_made_log(tmp_path, capsys, jitter_deg,
+                                                                                         tolerance):
+    path = hand_log(tmp_path, jitter_deg)
+    option = [] if tolerance is None else ["--target-tolerance", tolerance]
+    # unequal repeats per target are repeated approaches, kept with --keep-duplicates (refused without, naming it)
+    assert main(["profile", str(path), "--allow-gaps", *option]) == 1
+    assert "--keep-duplicates" in capsys.readouterr().err
+    assert main(["profile", str(path), "--allow-gaps", "--keep-duplicates", "--json", *option]) == 0
+    iso = json.loads(capsys.readouterr().out)["iso230_2"]
+    for key, value in HAND_FIGURES.items():
+        assert iso[f"{key}_arcmin"] == pytest.approx(value, abs=1e-9), key
+    assert (iso["n_targets"], iso["n_unmatched"], iso["min_approaches"]) == (4, 1, 2)
+    assert "; 1 point at reference angles approached one way only (targets match" in iso["caption"]
+    assert iso["forward_travel"] == "increasing reference angle"  # ↑ is +1, ascending in the file as in ISO's ↑
+    assert iso["deviation"] == "encoder - reference"  # B̄ > 0: the encoder reads more approached ↑ than ↓
+    from statistics import mean, stdev
+
+    for row in iso["targets"]:  # each target's x̄↑_i, x̄↓_i, s↑_i, s↓_i, B_i, x̄_i
+        target = min(HAND_DOWN, key=lambda t: abs((row["target_deg"] - t + 180.0) % 360.0 - 180.0))
+        up, down = HAND_UP[target], HAND_DOWN[target]
+        assert abs((row["target_deg"] - target + 180.0) % 360.0 - 180.0) <= jitter_deg
+        assert (row["n_forward"], row["n_reverse"]) == (len(up), len(down))
+        expected = {"mean_forward_arcmin": mean(up), "mean_reverse_arcmin": mean(down), "std_forward_arcmin": stdev(up),
+                    "std_reverse_arcmin": stdev(down), "reversal_arcmin": mean(up) - mean(down),
+                    "mean_bidirectional_arcmin": (mean(up) + mean(down)) / 2}
+        for key, value in expected.items():
+            assert row[key] == pytest.approx(value, abs=1e-9), (target, key)
+    assert sorted(round(row["target_deg"]) % 360 for row in iso["targets"]) == sorted(HAND_DOWN)
+    assert main(["profile", str(path), "--allow-gaps", "--keep-duplicates", *option]) == 0
+    printed = printed_iso_rows(capsys.readouterr().out)
+    assert set(printed) == set(HAND_LABELS.values())
+    for key, label in HAND_LABELS.items():
+        arcmin, arcsec = printed[label]
+        assert arcmin == pytest.approx(HAND_FIGURES[key], abs=0.0005), label  # printed to 0.001 arcmin
+        assert arcsec == pytest.approx(60 * HAND_FIGURES[key], abs=0.005), label  # and to 0.01 arcsec
+
+
+def test_a_target_tolerance_below_the_scatter_of_the_hand_made_log_is_refused_and_out_of_range_is_a_usage_error(
+        tmp_path, capsys):
+    path = hand_log(tmp_path, 0.004)
+    assert main(["profile", str(path), "--allow-gaps", "--keep-duplicates", "--target-tolerance", "0.001"]) == 1
+    assert ("span 0.003 deg as one target; expected the approaches to one target within the tolerance of each other "
+            "(give a target tolerance above the scatter of one target's angles and below the spacing of the targets)"
+            ) in capsys.readouterr().err
+    for bad in ("0", "-0.01", "10.5", "nan"):
+        with pytest.raises(SystemExit) as exit_:
+            main(["profile", str(path), "--allow-gaps", "--keep-duplicates", "--target-tolerance", bad])
+        assert exit_.value.code == 2
+        assert "expected degrees greater than 0 and at most 10" in capsys.readouterr().err

@@ -6,7 +6,7 @@ from numpy.testing import assert_allclose
 
 from encal import Calibration, CalibrationError
 
-from encal.data.reversal import reversal, target_positions
+from encal.data.reversal import mean_calibration, reversal, target_positions
 
 #: Irregular target positions over a turn (ISO 230-2 spaces them irregularly), degrees.
 TARGETS = np.array([0.0, 27.5, 61.0, 90.0, 118.25, 152.0, 180.0, 209.75, 241.0, 270.0, 296.5, 331.0])
@@ -142,6 +142,14 @@ def test_a_tolerance_that_joins_neighbouring_targets_or_splits_one_is_refused():
         reversal(dense)
 
 
+@pytest.mark.parametrize("first, second", [(10.0, 10.01), (100.0, 100.01), (0.29, 0.3), (300.0, 300.01),
+                                           (359.995, 0.005)])
+def test_angles_written_exactly_the_tolerance_apart_are_one_target_all_round_the_circle(first, second):
+    # metrology8: "within DEG" held where the double of the difference fell below DEG (10.01 - 10) and not where it
+    # fell above (100.01 - 100 = 0.010000000000005): the edge of --target-tolerance moved round the circle
+    assert np.unique(target_positions(np.array([first, second]), 0.01)).size == 1
+    assert np.unique(target_positions(np.array([first, second + 1e-7]), 0.01)).size == 2
+
 def test_the_target_is_the_median_and_exactly_an_angle_written_the_same_way():
     target = target_positions(np.array([10.001, 9.999, 10.0, 0.1 + 0.2, 0.1 + 0.2, 0.1 + 0.2]), 0.01)
     assert_allclose(target[:3], 10.0, atol=1e-12)
@@ -191,3 +199,35 @@ def test_the_reversal_caption_says_how_few_points_the_iso_values_rest_on():
                                   target_tolerance_deg=0.001)).caption()
     assert joined == (f"{grid.size} targets approached both ways, at least 1 time(s) each way (ISO 230-2 asks for 5); "
                       "reference angles within 0.001 degree are one target")
+
+
+def test_which_way_the_points_labelled_up_turned_is_told_and_labels_opposite_to_the_standard_are_named():
+    # metrology8: ISO 230-2's ↑ is the positive direction; a direction column whose +1 ran towards decreasing
+    # angles (cw/ccw mapped the other way round) gave every ↑ figure as the ↓ one and B̄ of the wrong sign, unsaid
+    cal, _, _ = iso_run()
+    analysis = reversal(cal)
+    assert analysis.forward_travel == 1 and analysis.as_dict()["forward_travel"] == "increasing reference angle"
+    swapped = reversal(Calibration(cal.reference_deg, cal.encoder_deg, direction=-cal.direction))
+    assert swapped.forward_travel == -1 and swapped.as_dict()["forward_travel"] == "decreasing reference angle"
+    assert swapped.mean_reversal_value == pytest.approx(-analysis.mean_reversal_value, abs=1e-12)
+    assert "the points labelled +1 (↑) turned towards decreasing reference angles" in swapped.caption()
+    assert "decreasing" not in analysis.caption()
+    order = np.lexsort((cal.reference_deg, cal.direction))  # sorted by angle within each direction: untold
+    ordered = reversal(cal.subset(order))
+    assert ordered.forward_travel == 0 and ordered.as_dict()["forward_travel"] is None
+
+
+def test_the_mean_of_both_directions_is_the_mean_bidirectional_deviation_worked_by_hand():
+    """metrology8: ``--bidirectional mean`` fits x̄_i = (x̄↑_i + x̄↓_i) / 2 (ISO 230-2), here 1.0, 1.95, -1.05 and 0.4
+    arcmin at 0, 90, 180 and 270 deg of the hand-made log (45 deg, approached ↑ only, left out)."""
+    from tests.cli.test_profile import HAND_DOWN, HAND_UP
+
+    reference, encoder, direction = [], [], []
+    for table, sign in ((HAND_UP, 1), (HAND_DOWN, -1)):
+        for target, deviations in table.items():
+            reference += [float(target)] * len(deviations)
+            encoder += [target + x / 60.0 for x in deviations]
+            direction += [sign] * len(deviations)
+    mean = mean_calibration(Calibration(np.array(reference), np.array(encoder), direction=np.array(direction)))
+    assert_allclose(mean.reference_deg, [0.0, 90.0, 180.0, 270.0])
+    assert_allclose(mean.errors_arcmin, [1.0, 1.95, -1.05, 0.4], atol=1e-9)

@@ -228,3 +228,23 @@ def test_a_floor_and_the_rms_in_a_legend_carry_their_unit(runs):
                                      floor_arcmin=1.32)
     labels = ax.get_legend_handles_labels()[1]
     assert "± 1.32 arcmin" in labels and all("arcmin" in label for label in labels)
+
+
+def test_a_directional_models_band_is_drawn_as_its_verdict_states_it():
+    """metrology8: a per-direction model keeps its uncertainty in its parts, so the report's profile figure drew no
+    band for it while the page's first line stated one."""
+    import encal
+
+    direction = np.repeat([1, -1], GRID.size)
+    reference = np.r_[GRID, GRID[::-1]]
+    error = profile(reference) + 0.2 * direction + np.random.default_rng(1).normal(0, 0.05, reference.size)
+    model = encal.fit(Calibration(reference, reference + error / 60.0, direction=direction), method="fourier",
+                      uncertainty=True, rng=0)
+    assert model.kind == "directional" and model.uncertainty is None and model.has_uncertainty
+    ax = plots.plot_model(model)
+    bands = [artist for artist in ax.collections if artist.get_label() == "95 % band of a new reading"]
+    assert len(bands) == 1
+    grid = np.linspace(0.0, 360.0, 1441)
+    mean, std = model.predict(grid, return_std=True)  # direction unknown: half the reversal included
+    edge = bands[0].get_paths()[0].vertices[:, 1]
+    assert edge.max() == pytest.approx(np.max(mean + 1.959963984540054 * std), abs=1e-9)

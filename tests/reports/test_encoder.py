@@ -283,3 +283,46 @@ def test_a_bidirectional_verdict_states_the_held_out_estimate_and_the_band():
     _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
     assert f"95 % band for a new reading is ± {1.959963984540054 * float(np.mean(std)):.3g} arcmin" in line
     assert 0.05 < expected < 0.2  # the noise is 0.1 arcmin
+
+
+def test_the_band_of_a_smoothed_calibration_with_its_sigma_is_not_said_to_be_for_a_new_reading():
+    """metrology8: a self-calibration's output (a smoothed curve with its sigma_arcmin) has no reading noise in its
+    points, so the band is the profile's alone; it was called "for a new reading" and covered 25 % of new readings
+    of an encoder with 2 arcmin of noise (benchmarks/bench_report_band.py, 50 spins)."""
+    from encal.reports.encoder import verdict
+
+    grid = np.arange(0.0, 360.0, 1.0)
+    smooth = Calibration(grid - shape_arcmin(grid) / 60.0, grid, reference_std_arcmin=np.full(grid.size, 0.3),
+                         name="selfcal")
+    report = encoder_report(smooth, rng=0, compare=False)
+    line = verdict(report)
+    assert "the model's 95 % band for the encoder's error is ±" in line and "not for a new reading" in line
+    assert "a new reading's own noise comes on top of both figures" in line
+    from encal.reports.encoder import _profile_figure
+
+    labels = [artist.get_label() for artist in _profile_figure(report).axes[0].collections]
+    assert "95 % band of the encoder's error" in labels and "95 % band of a new reading" not in labels
+    noisy = Calibration(smooth.reference_deg, smooth.encoder_deg + np.random.default_rng(0).normal(0, 0.3, grid.size)
+                        / 60.0, reference_std_arcmin=np.full(grid.size, 0.05), name="certified")
+    line = verdict(encoder_report(noisy, rng=0, compare=False))
+    assert "the model's 95 % band for a new reading is ±" in line and "not for a new reading" not in line
+
+
+def test_the_iso_230_2_table_of_the_page_is_the_standards_on_a_hand_made_log(tmp_path, capsys):
+    """metrology8: every ISO 230-2 figure of the page, in arcmin and in the standard's arcsec, against the
+    formulas worked by hand (tests/cli/test_profile.py)."""
+    from tests.cli.test_profile import HAND_FIGURES, hand_log
+
+    out = tmp_path / "hand.html"
+    assert main(["report", str(hand_log(tmp_path)), "-o", str(out), "--allow-gaps", "--keep-duplicates",
+                 "--method", "fourier", "--no-uncertainty", "--no-comparison"]) == 0
+    capsys.readouterr()
+    page = out.read_text(encoding="utf-8")
+    assert "<th>ISO 230-2 value</th><th>arcmin</th><th>arcsec</th>" in page
+    for key, value in HAND_FIGURES.items():
+        label = key.replace("_", " ")
+        cells = re.search(rf"<td class=\"text\">{label}</td><td class=\"num\">([-0-9.e]+)</td>"
+                          rf"<td class=\"num\">([-0-9.e]+)</td>", page)
+        assert cells is not None, label
+        assert float(cells.group(1)) == pytest.approx(value, rel=5e-4), label  # 4 significant digits
+        assert float(cells.group(2)) == pytest.approx(60 * value, rel=5e-4), label

@@ -181,6 +181,7 @@ def _make_files(folder):
     _make_strict6_files(folder, paths)
     _make_store6_files(paths)
     _make_fuzz6_files(folder, paths)
+    _make_metrology8_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1471,6 +1472,30 @@ FUZZ6_CASES = [
          ("fuzz6_nbsp_direction.csv", "line 5, column 3", "direction is")),
 ]
 CASES += FUZZ6_CASES
+
+
+# ---------------------------------------------------------------- metrology8: ISO 230-2's sense of ↑ and its targets
+def _make_metrology8_files(folder, paths):
+    """An ISO linear cycle (up over targets 10 deg apart, then down, twice) whose direction column calls the pass up
+    'ccw' (-1) and the pass down 'cw' (+1): labels opposite to the standard's ↑ (the positive direction)."""
+    target = np.arange(0.0, 360.0, 10.0)
+    rows = []
+    for _ in range(2):
+        for angles, label, sign in ((target, "ccw", -1), (target[::-1], "cw", 1)):
+            encoder = angles + (np.sin(np.radians(angles)) + 0.25 * sign) / 60.0
+            rows += [f"{float(a)!r},{float(e)!r},{label}" for a, e in zip(angles, encoder)]
+    paths["metrology8_swapped"] = folder / "metrology8_swapped.csv"
+    paths["metrology8_swapped"].write_text("reference_deg,encoder_deg,direction\n" + "\n".join(rows) + "\n",
+                                           encoding="utf-8")
+
+
+METROLOGY8_CASES = [
+    Case("metrology8-profile-labels-opposite-to-iso-up", ("profile", "{metrology8_swapped}"), 0,
+         prints=("turned towards decreasing reference angles", "swap the labels of the direction column")),
+    Case("metrology8-profile-tolerance-joins-targets", ("profile", "{fuzz6_afresh}", "--target-tolerance", "10"), 1,
+         ("fuzz6_afresh.csv", "as one target", "above the scatter of one target's angles and below the spacing")),
+]
+CASES += METROLOGY8_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 

@@ -98,7 +98,7 @@ def _iso_json(axis):
         return {}
     if isinstance(axis, str):
         return {"iso230_2": None, "iso230_2_note": axis}
-    return {"iso230_2": {**axis.as_dict(), "caption": axis.caption()}}
+    return {"iso230_2": {**axis.as_dict(), "caption": axis.caption(), "targets": axis.per_target()}}
 
 
 #: The ISO 230-2 values printed, with their symbols.
@@ -114,15 +114,18 @@ _ISO_ROWS = (("reversal value B", "reversal_value"), ("mean reversal value B̄",
 
 def _iso_text(analysis):
     lsb = lsb_arcmin(analysis.resolution_bits) if analysis.resolution_bits is not None else None
+    # arc-seconds too: ISO 230-2 states a rotary axis' values in them, and 0.01 arcsec is finer than 0.001 arcmin
+    from ..data.reversal import DEVIATION_SIGN_NOTE
+
     lines = [f"ISO 230-2, both directions of travel (the statistics above pool them): {analysis.caption()}",
-             f"{'value':<32}{'arcmin':>10}" + (f"{'LSB':>10}" if lsb else "")]
+             f"({DEVIATION_SIGN_NOTE})", f"{'value':<32}{'arcmin':>10}{'arcsec':>10}" + (f"{'LSB':>10}" if lsb else "")]
     for label, name in _ISO_ROWS:
         value = getattr(analysis, name)
         label = label.ljust(32 + label.count("\u0304"))  # a combining bar takes no column of its own
         if value is None:  # repeatability and accuracy need two approaches each way at every target
             lines.append(f"{label}{'-':>10}   (needs 2 approaches each way at every target)")
         else:
-            lines.append(f"{label}{value:>10.3f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
+            lines.append(f"{label}{value:>10.3f}{value * 60.0:>10.2f}" + (f"{value / lsb:>10.2f}" if lsb else ""))
     return "\n".join(lines)
 
 

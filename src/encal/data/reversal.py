@@ -31,6 +31,7 @@ __all__ = [
     "direction_subset",
     "require_directions",
     "has_both_directions",
+    "forward_travel",
 ]
 
 #: How :func:`encal.models.fitting.fit_bidirectional` treats the two directions.
@@ -38,6 +39,13 @@ MODES = ("per-direction", "mean")
 
 #: Reference angles closer than this (degrees) are the same target position.
 TARGET_TOLERANCE_DEG = 1e-6
+#: How the deviations are taken, for every statement of the ISO 230-2 values (docs/bidirectional.md, "Sign").
+DEVIATION_SIGN_NOTE = ("deviation x = encoder − reference, the negative of a machine test's actual − target: B_i and B̄ "
+                       "have the opposite sign, the other values the same")
+
+#: Slack (degrees) on a target tolerance: angles written a tolerance apart (100 and 100.01 under 0.01) differ by
+#: it give or take a double's rounding (100.01 - 100 = 0.010000000000005), and are one target all round the circle.
+_TOLERANCE_SLACK_DEG = 1e-9
 
 
 @dataclass(frozen=True, eq=False)
@@ -65,6 +73,11 @@ class ReversalAnalysis:
     target_tolerance_deg : float
         Reference angles within this many degrees of a neighbour were taken as one target (see
         :func:`target_positions`).
+    forward_travel : int
+        Which way the points labelled +1 (``↑``) moved from target to target, in the order given: +1 towards
+        increasing reference angles (ISO 230-2's positive direction), -1 towards decreasing ones while the
+        points labelled -1 moved towards increasing (the labels are the opposite of the standard's ``↑`` and
+        ``↓``), 0 when the order does not tell (see :func:`forward_travel`).
     """
 
     target_deg: np.ndarray
@@ -77,6 +90,7 @@ class ReversalAnalysis:
     n_unmatched: int = 0
     resolution_bits: int | None = None
     target_tolerance_deg: float = TARGET_TOLERANCE_DEG
+    forward_travel: int = 0
 
     @property
     def reversal_arcmin(self):
@@ -183,10 +197,15 @@ class ReversalAnalysis:
         caption = (f"{self.target_deg.size} targets approached both ways, at least {self.min_approaches} "
                    "time(s) each way (ISO 230-2 asks for 5)")
         if self.n_unmatched:
-            caption += (f"; {self.n_unmatched} points at reference angles approached one way only (targets match "
-                        f"within {self.target_tolerance_deg:g} degree) are left out")
+            points, are = ("point", "is") if self.n_unmatched == 1 else ("points", "are")
+            caption += (f"; {self.n_unmatched} {points} at reference angles approached one way only (targets match "
+                        f"within {self.target_tolerance_deg:g} degree) {are} left out")
         elif self.target_tolerance_deg != TARGET_TOLERANCE_DEG:
             caption += f"; reference angles within {self.target_tolerance_deg:g} degree are one target"
+        if self.forward_travel == -1:
+            caption += ("; the points labelled +1 (↑) turned towards decreasing reference angles and those labelled "
+                        "-1 towards increasing: ISO 230-2's ↑ is the positive direction, so its ↑ figures are the ↓ "
+                        "here and B_i, B̄ change sign (swap the labels of the direction column for the standard's)")
         return caption
 
     def as_dict(self):
@@ -208,12 +227,32 @@ class ReversalAnalysis:
             "accuracy_arcmin": self.accuracy,
             "min_approaches": self.min_approaches,
             "target_tolerance_deg": self.target_tolerance_deg,
+            "forward_travel": {1: "increasing reference angle", -1: "decreasing reference angle"}.get(
+                self.forward_travel),
+            "deviation": "encoder - reference",
         }
         if self.resolution_bits is not None:
             lsb = lsb_arcmin(self.resolution_bits)
             data["reversal_value_lsb"] = self.reversal_value / lsb
             data["mean_reversal_value_lsb"] = self.mean_reversal_value / lsb
         return data
+
+
+    def per_target(self):
+        """Each target's values as JSON-ready data: ``target_deg``, ``n_forward``, ``n_reverse`` and, in arcmin,
+        ``x̄↑_i``, ``x̄↓_i``, ``s↑_i``, ``s↓_i`` (None with one approach), ``B_i`` and ``x̄_i``: the table and
+        plot an ISO 230-2 report gives besides the axis values."""
+        def number(value):
+            return None if not np.isfinite(value) else float(value)
+
+        return [{"target_deg": float(target), "n_forward": int(up_n), "n_reverse": int(down_n),
+                 "mean_forward_arcmin": float(up_mean), "mean_reverse_arcmin": float(down_mean),
+                 "std_forward_arcmin": number(up_std), "std_reverse_arcmin": number(down_std),
+                 "reversal_arcmin": float(up_mean - down_mean),
+                 "mean_bidirectional_arcmin": float((up_mean + down_mean) / 2)}
+                for target, up_n, down_n, up_mean, down_mean, up_std, down_std in zip(
+                    self.target_deg, self.n_forward, self.n_reverse, self.mean_forward_arcmin,
+                    self.mean_reverse_arcmin, self.std_forward_arcmin, self.std_reverse_arcmin)]
 
 
 def _band_range(mean, std):
@@ -265,7 +304,8 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
     reference_deg : ndarray
         Reference angles (degrees).
     tolerance_deg : float
-        Largest gap (degrees) between neighbouring angles of one target.
+        Largest gap (degrees) between neighbouring angles of one target: a gap of exactly the tolerance (to
+        1e-9 degree) joins them.
     where : str, optional
         The calibration's file or name. When given, a group whose angles span more than ``tolerance_deg`` (its
         neighbours each within the tolerance, so that neighbouring targets were joined) is refused, naming it.
@@ -281,7 +321,8 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
         With ``where``: when one target's angles span more than ``tolerance_deg``.
     """
     angle = wrap360(np.asarray(reference_deg, dtype=float))
-    if angle.size >= 2 and angle.min() + 360.0 - angle.max() <= tolerance_deg:
+    limit = tolerance_deg + _TOLERANCE_SLACK_DEG
+    if angle.size >= 2 and angle.min() + 360.0 - angle.max() <= limit:
         # A target that straddles 0/360 is one group: the circle is cut at its widest gap between neighbours (a
         # fixed cut at 360 - tolerance split a target there, such as 355 deg under a tolerance of 5).
         ordered = np.sort(angle)
@@ -289,12 +330,12 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
         angle = np.where(angle > ordered[widest], angle - 360.0, angle)
     order = np.argsort(angle, kind="stable")
     ordered = angle[order]
-    starts = np.r_[True, np.diff(ordered) > tolerance_deg]
+    starts = np.r_[True, np.diff(ordered) > limit]
     first = np.flatnonzero(starts)
     last = np.r_[first[1:], ordered.size] - 1
     if where is not None:
         span = ordered[last] - ordered[first]
-        if np.any(span > tolerance_deg):
+        if np.any(span > limit):
             worst = int(np.argmax(span))
             joined = "all the reference angles" if first.size == 1 else (
                 f"the reference angles from {wrap360(ordered[first[worst]]):.6g} to "
@@ -302,12 +343,45 @@ def target_positions(reference_deg, tolerance_deg=TARGET_TOLERANCE_DEG, *, where
             raise CalibrationError(
                 f"{where}: {joined}, each within the target tolerance {tolerance_deg:g} deg of a neighbour, span "
                 f"{span[worst]:.3g} deg as one target; expected the approaches to one target within the tolerance "
-                "of each other (give a target tolerance below the spacing of the targets)")
+                "of each other (give a target tolerance above the scatter of one target's angles and below the "
+                "spacing of the targets)")
     # the median of each group (sorted): exact for an angle written the same way every time
     median = 0.5 * (ordered[first + (last - first) // 2] + ordered[first + (last - first + 1) // 2])
     target = np.empty_like(angle)
     target[order] = median[np.cumsum(starts) - 1]
     return wrap360(target)
+
+
+def forward_travel(reference_deg, direction):
+    """Which way the points labelled +1 moved between targets, in the order given: ISO 230-2's ``↑`` is the
+    positive direction of the axis, here the reference angle's increase.
+
+    Each direction's steps between consecutive points of that direction (wrapped to ±180 degrees; steps of
+    0, repeats at one target, and of more than 90 degrees, the return to the start of a pass, left out) are
+    counted; the labels are taken as the standard's when most +1 steps increase and most -1 steps decrease,
+    as its opposite when the other way round.
+
+    Parameters
+    ----------
+    reference_deg : ndarray
+        Reference angles (degrees), in the order the points were taken.
+    direction : ndarray of {+1, -1}
+        Each point's label.
+
+    Returns
+    -------
+    int
+        +1 (the +1 points turned towards increasing angles, the -1 points towards decreasing), -1 (the
+        opposite), 0 (the order does not tell: sorted data, or a sense that differs from the labels' pairing).
+    """
+    senses = []
+    for sign in (1, -1):
+        steps = np.diff(np.asarray(reference_deg, dtype=float)[direction == sign])
+        steps = (steps + 180.0) % 360.0 - 180.0
+        steps = steps[(steps != 0.0) & (np.abs(steps) <= 90.0)]
+        up, down = int(np.count_nonzero(steps > 0)), int(np.count_nonzero(steps < 0))
+        senses.append(0 if up == down else (1 if up > down else -1))
+    return senses[0] if senses[0] == -senses[1] else 0
 
 
 def reversal(cal):
@@ -372,6 +446,7 @@ def reversal(cal):
         std_forward_arcmin=up[3][up_index], std_reverse_arcmin=down[3][down_index],
         n_unmatched=unmatched, resolution_bits=cal.resolution_bits,
         target_tolerance_deg=TARGET_TOLERANCE_DEG if tolerance is None else tolerance,
+        forward_travel=forward_travel(cal.reference_deg, cal.direction),
     )
 
 

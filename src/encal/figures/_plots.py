@@ -290,7 +290,7 @@ def plot_error_stats(stats, ax=None):
     return ax
 
 
-def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_arcmin=0.0):
+def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_arcmin=0.0, band_of="a new reading"):
     """A model's predicted error against the encoder angle, with its uncertainty band when it has one.
 
     Parameters
@@ -306,6 +306,8 @@ def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_a
     offset_arcmin : float, default=0.0
         A zero offset subtracted from the curve and the points (an arbitrary zero, stated apart), so
         the figure shows the shape.
+    band_of : str, default='a new reading'
+        What the band covers, for its legend ("the encoder's error" when the model holds no reading noise).
 
     Returns
     -------
@@ -319,12 +321,14 @@ def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_a
     if data is not None:
         theta, error = (np.asarray(a, dtype=float) for a in data)
         draw_points(ax, theta, shift(error), colour=_TRAIN_COLOUR, label="calibration")
-    if getattr(model, "uncertainty", None) is not None:
+    # a directional model keeps its uncertainty in its parts (has_uncertainty): its band is that of a reading whose
+    # direction is unknown, as the report's verdict states it
+    if getattr(model, "uncertainty", None) is not None or getattr(model, "has_uncertainty", False):
         mean, std = model.predict(grid, return_std=True)
         mean = shift(mean)
         z = float(norm.ppf(0.5 + coverage / 2))
         ax.fill_between(grid, mean - z * std, mean + z * std, color=_TEST_COLOUR, alpha=0.3, lw=0,
-                        label=f"{100 * coverage:.0f} % band of a new reading")
+                        label=f"{100 * coverage:.0f} % band of {band_of}")
     else:
         mean = shift(model.predict(grid))
     ax.plot(grid, mean, "-", lw=1.2, color=_CURVE_COLOUR, label=f"{model.kind} model")

@@ -1,0 +1,170 @@
+"""Does the 95 % band ``encal report`` prints cover what it claims? Measured on simulated encoders with known truth.
+
+``encal report`` fits the model ``encal fit`` makes (``method='auto'`` with its uncertainty) and states "the
+model's 95 % band for a new reading", ``± 1.96 std(θ)`` with ``std`` from ``model.predict(θ, return_std=True)``
+(drawn in its profile figure too). For 50 encoders per case, this counts the share of new readings whose error
+lies inside that band, at the calibration's own angles (fresh noise) and between them:
+
+- ``default``: a simulated resolver (``encal.simulate.draw_encoder(seed)``) calibrated on the table over
+  0:2:358 (``calibration_run``), new readings of a second run over 0:2:358 ("at the points") and of a run over
+  1:2:359 ("between"), both forward as the calibration;
+- ``directional``: the same encoders run forward over 0:2:358, one degree past the end and back (the
+  converter's 1-LSB hysteresis makes the reversal): a per-direction model, new readings of a fresh run of the
+  same kind over 0:2:358 and over 1:2:359, with the direction given to the model ("known") and without, as
+  the report's verdict and figure evaluate it ("unknown");
+- ``selfcal``: a magnetic encoder (``draw_magnetic_encoder(seed)``, 14 bits, 2 arcmin reading noise) spun on a
+  simulated motor (``make_motor(rng=seed)``) at 1 and 3 rev/s, 20 revolutions each, self-calibrated by
+  ``encal.selfcal.spin``; the model fitted to its calibration (360 points, its ``sigma_arcmin`` as the
+  reference's uncertainty) against the true error at readings 0:1:359 ("at the points") and 0.5:1:359.5
+  ("between"), noise-free (the profile, which the band of a self-calibration holds) and as new readings
+  (the encoder read afresh at 2000 random rotor angles: with their noise and the 14-bit rounding). The truth's
+  mean is removed: a spin cannot tell the reading's zero.
+
+Each row: encoders, points per encoder, the pooled share inside the band, the range and the 10th percentile of
+the per-encoder shares, the RMS of (new reading − prediction) over the RMS of the predicted ``std``
+(1 when the band is the right width for Gaussian residuals), and for the resolver on the table the RMS over
+the encoders of the new readings' noise (measured minus noise-free error) and of the model's ``σ_noise``. The
+binomial standard deviation of a pooled share of 95 % over ``n`` points is ``sqrt(0.95 · 0.05 / n)``, but the
+points of one encoder share its model's error, so the per-encoder range says more.
+
+Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_report_band.py [--encoders 50] [--cases default
+      directional selfcal]      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
+"""
+
+import os
+
+for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+from scipy.stats import norm  # noqa: E402
+
+import encal  # noqa: E402
+from encal.simulate import TEST_GRID_DEG, TRAINING_GRID_DEG, calibration_run, draw_encoder  # noqa: E402
+
+#: The report's band: ± this many standard deviations (``scipy.stats.norm.ppf(0.975)``, as the verdict computes it).
+Z95 = float(norm.ppf(0.975))
+
+
+class Tally:
+    """Per-encoder shares inside the band and the residuals over the predicted std, for one row."""
+
+    def __init__(self):
+        self.shares, self.points, self.residual_sq, self.std_sq = [], 0, 0.0, 0.0
+        self.floors, self.noises = [], []
+
+    def add(self, residual, std, floor=None, noise=None):
+        """One encoder's residuals and predicted std (arcmin); ``floor`` the RMS of its new readings' noise (measured
+        minus noise-free error), ``noise`` the model's ``σ_noise``, when known."""
+        self.shares.append(float(np.mean(np.abs(residual) <= Z95 * std)))
+        self.points = residual.size
+        self.residual_sq += float(np.sum(residual**2))
+        self.std_sq += float(np.sum(std**2))
+        if floor is not None:
+            self.floors.append(floor)
+        if noise is not None:
+            self.noises.append(noise)
+
+    def row(self, label):
+        shares = np.array(self.shares)
+        return (f"| {label} | {shares.size} | {self.points} | {100 * shares.mean():.1f} % | "
+                f"{100 * shares.min():.1f}–{100 * shares.max():.1f} % | {100 * np.percentile(shares, 10):.1f} % | "
+                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} | {_rms(self.floors)} | {_rms(self.noises)} |")
+
+
+def _rms(values):
+    return f"{np.sqrt(np.mean(np.square(values))):.3f}" if values else "–"
+
+
+def default_case(seeds):
+    at, between = Tally(), Tally()
+    for seed in seeds:
+        encoder = draw_encoder(seed)
+        model = encal.fit(calibration_run(encoder, TRAINING_GRID_DEG, rng=1).calibration, method="auto", rng=seed,
+                          uncertainty=True)
+        for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (between, TEST_GRID_DEG, 3)):
+            simulated = calibration_run(encoder, grid, rng=rng)
+            run = simulated.calibration
+            mean, std = model.predict(run.encoder_deg, return_std=True)
+            floor = float(np.sqrt(np.mean((run.errors_arcmin - simulated.noise_free_error_arcmin) ** 2)))
+            tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"])
+    return [("default (auto), at the points", at), ("default (auto), between", between)]
+
+
+def bidirectional_run(encoder, grid, rng):
+    """Forward over ``grid``, one degree past its end, back over it (the turning point left out)."""
+    visits = np.concatenate([grid, [grid[-1] + 1.0], grid[::-1]])
+    run = calibration_run(encoder, visits, rng=rng).calibration
+    keep = np.arange(visits.size) != grid.size
+    direction = np.where(np.arange(visits.size) < grid.size, 1, -1)[keep]
+    return encal.Calibration(run.reference_deg[keep], run.encoder_deg[keep], direction=direction,
+                             resolution_bits=run.resolution_bits, name=run.name)
+
+
+def directional_case(seeds):
+    tallies = {(where, known): Tally() for where in ("at the points", "between") for known in (True, False)}
+    for seed in seeds:
+        encoder = draw_encoder(seed)
+        model = encal.fit(bidirectional_run(encoder, TRAINING_GRID_DEG, 1), method="auto", rng=seed,
+                          uncertainty=True)
+        for where, grid, rng in (("at the points", TRAINING_GRID_DEG, 2), ("between", TEST_GRID_DEG, 3)):
+            run = bidirectional_run(encoder, grid, rng)
+            for known in (True, False):
+                mean, std = model.predict(run.encoder_deg, direction=run.direction if known else None,
+                                          return_std=True)
+                tallies[where, known].add(run.errors_arcmin - mean, std)
+    return [(f"directional, {where}, direction {'known' if known else 'unknown (the report)'}", tally)
+            for (where, known), tally in tallies.items()]
+
+
+def selfcal_case(seeds):
+    from encal.selfcal import SpinLog, spin
+    from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin
+
+    tallies = {key: Tally() for key in ("profile at", "profile between", "new readings")}
+    for seed in seeds:
+        motor, encoder = make_motor(rng=seed), draw_magnetic_encoder(seed)
+        runs = [simulate_spin(motor, encoder, speed, revolutions=20, rng=10 * seed + j)
+                for j, speed in enumerate((1.0, 3.0))]
+        result = spin([SpinLog(run.time_s, run.encoder_deg) for run in runs])
+        model = encal.fit(result.calibration(), method="auto", rng=seed, uncertainty=True)
+        fine = np.arange(0.0, 360.0, 0.5)
+        zero = float(np.mean(encoder.error_at_reading(fine)))
+        for key, reading in (("profile at", fine[::2]), ("profile between", fine[1::2])):
+            mean, std = model.predict(reading, return_std=True)
+            tallies[key].add(encoder.error_at_reading(reading) - zero - mean, std)
+        rng = np.random.default_rng(1000 + seed)
+        rotor = rng.uniform(0.0, 360.0, 2000)
+        reading = encoder.read(rotor, rng)
+        mean, std = model.predict(reading, return_std=True)
+        error = ((reading - rotor + 180.0) % 360.0 - 180.0) * 60.0 - zero
+        tallies["new readings"].add(error - mean, std)
+    return [("selfcal (spin), the profile at the points", tallies["profile at"]),
+            ("selfcal (spin), the profile between", tallies["profile between"]),
+            ("selfcal (spin), new readings (2 arcmin noise, 14 bits)", tallies["new readings"])]
+
+
+CASES = {"default": default_case, "directional": directional_case, "selfcal": selfcal_case}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--encoders", type=int, default=50, help="encoders per case (seeds 0..N-1; default 50)")
+    parser.add_argument("--cases", nargs="+", choices=tuple(CASES), default=list(CASES))
+    args = parser.parse_args()
+    seeds = range(args.encoders)
+    print("| case | encoders | points each | inside ±1.96σ (pooled) | per encoder | 10th percentile | "
+          "RMS residual / RMS σ | new readings' noise (RMS) | σ_noise (RMS) |")
+    print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
+    for case in args.cases:
+        start = time.process_time()
+        for label, tally in CASES[case](seeds):
+            print(tally.row(label), flush=True)
+        print(f"<!-- {case}: {time.process_time() - start:.0f} s CPU -->", flush=True)
+
+
+if __name__ == "__main__":
+    main()
