@@ -237,7 +237,6 @@ class ReversalAnalysis:
             data["mean_reversal_value_lsb"] = self.mean_reversal_value / lsb
         return data
 
-
     def per_target(self):
         """Each target's values as JSON-ready data: ``target_deg``, ``n_forward``, ``n_reverse`` and, in arcmin,
         ``x̄↑_i``, ``x̄↓_i``, ``s↑_i``, ``s↓_i`` (None with one approach), ``B_i`` and ``x̄_i``: the table and
