@@ -237,6 +237,29 @@ def test_the_sidebands_of_the_rounding_pattern_get_no_line(monkeypatch):
     assert false_lines_and_error()[0] >= 20
 
 
+@pytest.mark.parametrize("ratio, shows_codes, start", [
+    # blind, a resolution declared that the readings do not show: smoother than whole codes (a self-calibration)
+    (0.001, False, "below the quantisation: these readings vary less than whole codes would make them"),
+    (0.85, False, "consistent with the encoder's quantisation alone"),
+    # readings in whole codes: a smooth profile's rounding over a few codes left a flat level of 0.80 of it
+    (0.80, True, "consistent with the encoder's quantisation alone"),
+])
+def test_a_blind_noise_below_the_quantisation_says_whether_the_readings_are_whole_codes(ratio, shows_codes, start):
+    assert spectral._noise_meaning(ratio, "blind", shows_codes).startswith(start)
+
+
+def test_fit_of_a_self_calibration_output_says_its_noise_is_not_a_new_readings(tmp_path, capsys):
+    from encal.cli import main
+
+    grid = np.arange(360) * 1.0
+    error = 2.0 * np.sin(np.radians(3 * grid))  # a smoothed curve: no noise, readings not whole codes
+    path = write_run(tmp_path / "s.csv", grid, error)
+    path.write_text("# resolution_bits: 14\n" + path.read_text())
+    assert main(["fit", str(path), "-o", str(tmp_path / "m.json")]) == 0
+    out = capsys.readouterr().out
+    assert "(14-bit encoder): below the quantisation: these readings vary less than whole codes" in out
+
+
 def test_the_rounding_of_a_profile_over_many_codes_is_noise():
     theta, error = read_12_bit(GRID, 0, scale=8.0)  # about 11 codes from peak to peak
     model = fit_spectral(theta, error)
@@ -721,9 +744,6 @@ def test_cli_blind_fit_states_the_prior_and_sigma_against_the_quantisation(tmp_p
     (4.05, "blind", "well above the quantisation: reading noise, or structure finer"),
     (0.6, "repeated readings", "below the quantisation alone: the scatter of the repeated readings leaves out"),
     (0.6, "supplied", "below the quantisation alone: the noise given leaves out"),
-    # blind below the rounding: readings smoother than whole codes (a self-calibration's output, 0.016)
-    (0.016, "blind", "below the quantisation: these readings vary less than whole codes would make them"),
-    (0.85, "blind", "consistent with the encoder's quantisation alone"),
 ])
 def test_the_noise_verdict_says_what_the_ratio_to_the_quantisation_allows(ratio, source, start):
     meaning = spectral._noise_meaning(ratio, source)

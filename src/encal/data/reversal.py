@@ -40,8 +40,8 @@ MODES = ("per-direction", "mean")
 #: Reference angles closer than this (degrees) are the same target position.
 TARGET_TOLERANCE_DEG = 1e-6
 #: How the deviations are taken, for every statement of the ISO 230-2 values (docs/bidirectional.md, "Sign").
-DEVIATION_SIGN_NOTE = ("deviation x = encoder − reference, the negative of a machine test's actual − target: B_i and B̄ "
-                       "have the opposite sign, the other values the same")
+DEVIATION_SIGN_NOTE = ("deviation x = encoder − reference, the negative of a machine test's actual − target: B_i and "
+                       "B̄ have the opposite sign, the other values the same")
 
 #: Slack (degrees) on a target tolerance: angles written a tolerance apart (100 and 100.01 under 0.01) differ by
 #: it give or take a double's rounding (100.01 - 100 = 0.010000000000005), and are one target all round the circle.

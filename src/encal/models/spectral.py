@@ -229,7 +229,8 @@ class SpectralModel(FourierModel):
         if bits:
             quantum = 21600.0 / 2**bits / math.sqrt(12.0)
             text.append(f"sigma / (LSB/sqrt(12)) = {sigma:.4g} / {quantum:.4g} = {sigma / quantum:.2f} "
-                        f"({bits}-bit encoder): {_noise_meaning(sigma / quantum, t['noise']['source'])}")
+                        f"({bits}-bit encoder): "
+                        f"{_noise_meaning(sigma / quantum, t['noise']['source'], 'readings_resolution_bits' in t)}")
         expected = self.expected_rms_between_points()
         if expected is not None:
             reference = self.uncertainty.get("reference_std_rms_arcmin")
@@ -256,11 +257,13 @@ def _ranges(orders):
 
 
 #: Blind, a noise below this fraction of the quantisation's (``1/1.2``, the mirror of the band called consistent
-#: with it) is of readings smoother than whole codes: a self-calibration's output of a 14-bit encoder gave 0.016.
+#: with it), of readings that are not whole codes of the resolution declared, is of readings smoother than whole
+#: codes: a self-calibration's output of a 14-bit encoder gave 0.001. (Readings in whole codes can show a flat level
+#: of 0.8 of it: the rounding of a smooth profile over a few codes is not white.)
 _SMOOTHER_THAN_CODES = 1.0 / 1.2
 
 
-def _noise_meaning(ratio, source):
+def _noise_meaning(ratio, source, shows_codes=True):
     """What the noise's ratio to the quantisation noise says, in a sentence.
 
     Independent noises add in variance: a reading noise ``s`` on top of the rounding to whole codes
@@ -270,14 +273,14 @@ def _noise_meaning(ratio, source):
     dominates. Between, both contribute and the sentence gives the other part, ``sqrt(ratio**2 - 1)``
     times ``q``. Below 1, with the noise supplied or from repeats (blind, the noise is kept at ``q`` or
     above when the readings show the resolution): a reading's rounding is the same each time the
-    encoder stops at one angle, so repeats barely differ and miss it. Blind and well below 1 (a resolution
-    declared that the readings do not show): the readings are smoother than whole codes.
+    encoder stops at one angle, so repeats barely differ and miss it. Blind and well below 1 with a resolution
+    declared that the readings do not show (``shows_codes`` False): the readings are smoother than whole codes.
     """
     if ratio < 1.0 and source != "blind":
         measured = "the noise given" if source == "supplied" else "the scatter of the repeated readings"
         return (f"below the quantisation alone: {measured} leaves out the rounding to whole codes, which is the "
                 "same at every reading of one angle, and a reading at any other angle carries it (LSB/sqrt(12))")
-    if ratio < _SMOOTHER_THAN_CODES:  # blind: the noise is floored at q only when the readings show their codes
+    if ratio < _SMOOTHER_THAN_CODES and not shows_codes:
         return ("below the quantisation: these readings vary less than whole codes would make them (averages, "
                 "or a self-calibration's smoothed output), so sigma is not a new reading's noise, which carries "
                 "the rounding to whole codes (LSB/sqrt(12)) as well")
