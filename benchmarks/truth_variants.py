@@ -1,0 +1,531 @@
+"""Known truth through every harmless form of one calibration (task truth8).
+
+A simulated encoder has a known error profile (a sum of harmonics, fixed seeds) and Gaussian reading noise. The
+same calibration is written in many equivalent forms (rows shuffled, reversed, sorted by encoder angle or starting
+at another angle; angles in [0, 360), (-180, 180], several turns, radians, turns, counts; columns swapped, extra
+columns, CRLF, a BOM, comments, trailing blank lines, scientific notation, semicolons with decimal commas, tabs,
+blanks; repeats in blocks or interleaved; a direction column as +1/-1 or cw/ccw; 12- and 14-bit codes as degrees or
+counts), and the real command line (``encal.cli.main`` in this process) runs on each:
+
+- ``encal fit --reproducible`` (the default method, auto, and ``--method lut``), then ``encal correct`` of dense
+  noise-free readings: the corrected angles must agree with the plain form's (same numbers: within
+  ``SAME_ARCMIN``) and with the truth (the reference angle of each reading: RMS within the case's tolerance);
+- ``encal evaluate --json`` of the model on a test calibration written in the same form, ``encal profile --json``
+  of the form itself: every statistic and the harmonics as the plain form's;
+- the model file's resolution as the truth's (a table is exported for it).
+
+Then the exports: ``encal export --format c`` (host, cortex-m4f, fixed; compiled with gcc and run on every code),
+``--format table``, and each firmware format through its own run-time code (the harnesses of
+``tests/deploy/firmware_own``), on the codes of a 14-bit encoder: the corrected error against the truth must be the
+one ``encal correct`` gives, within the resolution the export states.
+
+Usage::
+
+    PYTHONPATH=src OMP_NUM_THREADS=1 python benchmarks/truth_variants.py [--only NAME,...] [--no-export]
+
+Prints one Markdown table row per case and exits 1 if any case disagrees.
+"""
+
+import argparse
+import contextlib
+import io
+import json
+import math
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import traceback
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+# the encoder's error at a reference angle: (order, amplitude arcmin, phase rad); a zero offset of 3 arcmin
+HARMONICS = ((1, 12.0, 0.3), (2, 5.0, 1.1), (3, 2.0, 2.0), (4, 1.5, -0.4), (7, 0.8, 0.9), (16, 0.5, 0.2))
+OFFSET_ARCMIN = 3.0
+NOISE_ARCMIN = 0.05
+REVERSAL_ARCMIN = 1.2  # a bidirectional encoder reads this much more going forward than going back
+SAME_ARCMIN = 1e-6  # the same numbers read in another form: the corrected angles within this
+TRUTH_RMS_ARCMIN = 0.06  # corrected dense readings against the truth, noise 0.05 arcmin on a 1-degree grid
+TRUTH_MAX_ARCMIN = 0.2
+STAT_KEYS = ("n", "mae_arcmin", "rms_arcmin", "max_abs_arcmin", "min_arcmin", "max_arcmin")
+
+
+def truth_error(reference_deg, direction=None):
+    """The encoder's error at a reference angle, arc-minutes (``direction`` +1/-1: half the reversal added)."""
+    theta = np.radians(reference_deg)
+    error = OFFSET_ARCMIN + sum(a * np.cos(k * theta + p) for k, a, p in HARMONICS)
+    if direction is not None:
+        error = error + np.asarray(direction) * REVERSAL_ARCMIN / 2
+    return error
+
+
+def wrap_arcmin(delta_deg):
+    return ((np.asarray(delta_deg) + 180.0) % 360.0 - 180.0) * 60.0
+
+
+def run(argv, stdin_text=None):
+    """(status, stdout, stderr) of ``encal argv`` in this process; a traceback is returned as stderr, status None."""
+    from encal.cli import main
+
+    out, err = io.StringIO(), io.StringIO()
+    old_stdin = sys.stdin
+    if stdin_text is not None:
+        sys.stdin = io.TextIOWrapper(io.BytesIO(stdin_text.encode()), encoding="utf-8")
+    try:
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                status = main([str(a) for a in argv])
+            except SystemExit as exc:
+                status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
+            except BaseException:  # noqa: BLE001 - a traceback is a finding
+                return None, out.getvalue(), traceback.format_exc()
+    finally:
+        sys.stdin = old_stdin
+    return status, out.getvalue(), err.getvalue()
+
+
+# ------------------------------------------------------------------------------------------------- the data
+
+
+@dataclass
+class Rows:
+    """One calibration as numbers: reference and encoder angles (degrees), optional direction and extra columns."""
+
+    reference: np.ndarray
+    encoder: np.ndarray
+    direction: np.ndarray = None
+    bits: int = None  # the encoder's resolution when its readings are whole codes
+
+
+def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=None, noise=NOISE_ARCMIN):
+    """A calibration of the truth's encoder at ``start + k * step`` degrees, ``passes`` times (each direction)."""
+    rng = np.random.default_rng(seed)
+    grid = start + np.arange(0.0, 360.0, step)
+    references, directions = [], []
+    for _ in range(passes):
+        for direction in ((1, -1) if bidirectional else (None,)):
+            references.append(grid if direction != -1 else grid[::-1])
+            directions.append(np.full(grid.size, direction if direction else 0))
+    reference = np.concatenate(references)
+    direction = np.concatenate(directions) if bidirectional else None
+    encoder = reference + (truth_error(reference, direction) + rng.normal(0.0, noise, reference.size)) / 60.0
+    if bits:
+        lsb = 360.0 / 2**bits
+        encoder = np.round(encoder / lsb) * lsb
+    return Rows(reference % 360.0, encoder % 360.0, direction, bits)
+
+
+@dataclass
+class Form:
+    """How one calibration is written: every field a harmless change of the plain form."""
+
+    order: str = "as-is"  # as-is, shuffled, reversed, by-encoder, rotated, interleaved
+    ref_wrap: str = "0-360"  # 0-360, pm180, turns (k*360 added row by row), plus720
+    enc_wrap: str = "0-360"
+    unit: str = "deg"  # both columns: deg, rad, rev
+    ref_unit: str = None
+    enc_unit: str = None  # also counts:B
+    number: str = "repr"  # repr, fixed10, sci, plus
+    separator: str = ","
+    decimal_comma: bool = False
+    header: tuple = ("reference_deg", "encoder_deg")  # the names in the file's column order
+    swap: bool = False
+    extra: bool = False  # an index column before and a temperature column after
+    quoted: bool = False
+    line_end: str = "\n"
+    bom: bool = False
+    comments: bool = False  # comment lines at the top and among the rows
+    trailing_blank: bool = False
+    direction_words: bool = False  # cw/ccw instead of +1/-1
+    bits_comment: bool = False
+    options: tuple = ()  # command-line options this form needs (fit, evaluate, profile)
+
+
+UNIT_SCALE = {"deg": 1.0, "rad": math.pi / 180.0, "rev": 1.0 / 360.0}
+
+
+def _convert(values_deg, unit, bits):
+    if unit.startswith("counts:"):
+        b = int(unit.split(":")[1])
+        return values_deg / (360.0 / 2**b)
+    return values_deg * UNIT_SCALE[unit]
+
+
+def _wrap(values, how, rng):
+    if how == "keep":  # angles already unwrapped as they are to be written (a sweep of several turns)
+        return values
+    if how == "0-360":
+        return values % 360.0
+    if how == "pm180":
+        return 180.0 - (180.0 - values) % 360.0  # (-180, 180]
+    if how == "turns":
+        return values % 360.0 + 360.0 * rng.integers(-3, 4, values.size)
+    if how == "plus720":
+        return values % 360.0 + 720.0
+    raise ValueError(how)
+
+
+def _number(value, how, decimal_comma):
+    if how == "repr":
+        text = repr(float(value))
+    elif how.startswith("fixed"):
+        text = f"{value:.{int(how[5:])}f}"
+    elif how == "sci":
+        text = f"{value:.16e}"
+    elif how == "plus":
+        text = ("+" if value >= 0 else "") + repr(float(value))
+    elif how == "int":
+        text = str(int(round(value)))
+    else:
+        raise ValueError(how)
+    return text.replace(".", ",") if decimal_comma else text
+
+
+def write(rows, form, path, seed=7):
+    """Write ``rows`` in ``form`` to ``path``."""
+    rng = np.random.default_rng(seed)
+    n = rows.reference.size
+    index = np.arange(n)
+    if form.order == "shuffled":
+        index = rng.permutation(n)
+    elif form.order == "reversed":
+        index = index[::-1]
+    elif form.order == "by-encoder":
+        index = np.argsort(rows.encoder, kind="stable")
+    elif form.order == "rotated":
+        index = np.roll(index, -int(n * 0.381))
+    elif form.order == "interleaved":  # passes in blocks become each angle's readings in a row
+        passes = n // np.unique(rows.reference).size
+        index = index.reshape(passes, -1).T.ravel()
+    ref_unit = form.ref_unit or form.unit
+    enc_unit = form.enc_unit or form.unit
+    reference = _convert(_wrap(rows.reference, form.ref_wrap, rng), ref_unit, rows.bits)
+    encoder = _convert(_wrap(rows.encoder, form.enc_wrap, rng), enc_unit, rows.bits)
+    enc_number = "int" if enc_unit.startswith("counts:") and rows.bits else form.number
+    columns = [("ref", form.header[0]), ("enc", form.header[1])]
+    if form.swap:
+        columns.reverse()
+    if rows.direction is not None:
+        columns.append(("dir", "direction"))
+    if form.extra:
+        columns = [("idx", "index")] + columns + [("temp", "temperature_c")]
+    sep = form.separator
+
+    def cell(text):
+        return f'"{text}"' if form.quoted else text
+
+    lines = []
+    if form.comments:
+        lines += ["# calibration of a simulated encoder", "# written by truth_variants.py"]
+    if form.bits_comment and rows.bits:
+        lines.append(f"# resolution_bits: {rows.bits}")
+    lines.append(sep.join(cell(name) for _, name in columns))
+    for position, i in enumerate(index):
+        if form.comments and position == n // 2:
+            lines.append("# half way")
+        cells = []
+        for key, _ in columns:
+            if key == "ref":
+                cells.append(_number(reference[i], form.number, form.decimal_comma))
+            elif key == "enc":
+                cells.append(_number(encoder[i], enc_number, form.decimal_comma))
+            elif key == "dir":
+                d = int(rows.direction[i])
+                cells.append(("cw" if d > 0 else "ccw") if form.direction_words else f"{d:+d}")
+            elif key == "idx":
+                cells.append(str(position))
+            else:
+                cells.append(_number(21.5 + 0.01 * position, "fixed10", form.decimal_comma))
+        lines.append(sep.join(cell(c) for c in cells))
+    text = form.line_end.join(lines) + form.line_end
+    if form.trailing_blank:
+        text += form.line_end * 3
+    data = text.encode("utf-8")
+    if form.bom:
+        data = b"\xef\xbb\xbf" + data
+    Path(path).write_bytes(data)
+
+
+def unit_options(form):
+    options = []
+    if form.unit != "deg":
+        options += ["--unit", form.unit]
+    if form.ref_unit:
+        options += ["--ref-unit", form.ref_unit]
+    if form.enc_unit:
+        options += ["--enc-unit", form.enc_unit]
+    if form.swap or form.header != ("reference_deg", "encoder_deg"):
+        if form.header[0].lower() != "reference_deg":
+            options += ["--ref-col", form.header[0]]
+        if form.header[1].lower() != "encoder_deg":
+            options += ["--enc-col", form.header[1]]
+    return options + list(form.options)
+
+
+# ------------------------------------------------------------------------------------------------- the cases
+
+
+@dataclass
+class Case:
+    name: str
+    group: str  # cases of one group hold the same numbers: they must agree with the group's first case
+    train: Rows
+    test: Rows
+    form: Form = field(default_factory=Form)
+    truth_rms: float = TRUTH_RMS_ARCMIN
+    truth_max: float = TRUTH_MAX_ARCMIN
+    same: float = SAME_ARCMIN
+    bits_optional: bool = False  # the written digits no longer hold whole codes: an unknown resolution is right
+    refused: str = None  # the form is documented as refused, with a message holding this text
+
+
+def cases():
+    plain = simulate(1), simulate(2, start=0.5)
+    two_passes = simulate(3, passes=2), simulate(4, start=0.5)
+    bidirectional = simulate(5, bidirectional=True), simulate(6, start=0.5, bidirectional=True)
+    bits14 = simulate(8, bits=14), simulate(9, start=0.5, bits=14)
+    bits12 = simulate(10, bits=12), simulate(11, start=0.5, bits=12)
+    out = []
+
+    def add(name, group, data, tolerance=None, bits_optional=False, refused=None, **form):
+        rms, peak = tolerance or (TRUTH_RMS_ARCMIN, TRUTH_MAX_ARCMIN)
+        out.append(Case(name, group, data[0], data[1], Form(**form), rms, peak, bits_optional=bits_optional,
+                        refused=refused))
+
+    add("plain", "plain", plain)
+    add("rows shuffled", "plain", plain, order="shuffled")
+    add("rows reversed", "plain", plain, order="reversed")
+    add("rows sorted by encoder", "plain", plain, order="by-encoder")
+    add("file starting at 137 deg", "plain", plain, order="rotated")
+    add("both (-180, 180]", "plain", plain, ref_wrap="pm180", enc_wrap="pm180")
+    add("encoder (-180, 180]", "plain", plain, enc_wrap="pm180")
+    add("both +720 deg", "plain", plain, ref_wrap="plus720", enc_wrap="plus720")
+    add("turns added row by row", "plain", plain, ref_wrap="turns", enc_wrap="turns")
+    add("radians --unit rad", "plain", plain, unit="rad")
+    add("radians (-pi, pi] --unit rad", "plain", plain, unit="rad", ref_wrap="pm180", enc_wrap="pm180")
+    add("turns --unit rev", "plain", plain, unit="rev")
+    add("reference rad, encoder deg", "plain", plain, ref_unit="rad", enc_unit="deg")
+    add("encoder counts:24 (fractional)", "plain", plain, enc_unit="counts:24")
+    add("columns swapped", "plain", plain, swap=True)
+    add("header in capitals", "plain", plain, header=("REFERENCE_DEG", "Encoder_Deg"))
+    add("other names --ref-col/--enc-col", "plain", plain, header=("table", "sensor"))
+    add("extra columns", "plain", plain, extra=True)
+    add("quoted cells", "plain", plain, quoted=True)
+    add("CRLF", "plain", plain, line_end="\r\n")
+    add("CR", "plain", plain, line_end="\r")
+    add("UTF-8 BOM", "plain", plain, bom=True)
+    add("comment lines", "plain", plain, comments=True)
+    add("trailing blank lines", "plain", plain, trailing_blank=True)
+    add("scientific notation", "plain", plain, number="sci")
+    add("plus signs", "plain", plain, number="plus")
+    add("semicolons, decimal comma", "plain", plain, separator=";", decimal_comma=True)
+    add("tabs, decimal comma", "plain", plain, separator="\t", decimal_comma=True, quoted=True)
+    add("tabs, decimal point", "plain", plain, separator="\t", quoted=True)
+    add("blanks", "plain", plain, separator="   ")
+    add("all at once", "plain", plain, order="shuffled", ref_wrap="turns", enc_wrap="pm180", swap=True, extra=True,
+        line_end="\r\n", bom=True, comments=True, trailing_blank=True, number="sci", separator=";",
+        decimal_comma=True)
+    add("fixed 10 decimals", "plain 10 decimals", plain, number="fixed10")
+    add("fixed 10 decimals, CRLF, shuffled", "plain 10 decimals", plain, number="fixed10", order="shuffled",
+        line_end="\r\n")
+
+    add("two passes in blocks", "two passes", two_passes)
+    add("two passes interleaved", "two passes", two_passes, order="interleaved")
+    add("two passes shuffled", "two passes", two_passes, order="shuffled", refused="use --keep-duplicates")
+    add("two passes shuffled --keep-duplicates", "two passes", two_passes, order="shuffled",
+        options=("--keep-duplicates",))
+    add("two passes reversed", "two passes", two_passes, order="reversed")
+    add("two passes, several turns", "two passes", two_passes, ref_wrap="turns", enc_wrap="turns")
+    add("two passes as a 2-turn sweep", "two passes", two_passes, ref_wrap="sweep", enc_wrap="sweep")
+
+    add("bidirectional +1/-1", "bidirectional", bidirectional)
+    add("bidirectional cw/ccw", "bidirectional", bidirectional, direction_words=True)
+    add("bidirectional shuffled", "bidirectional", bidirectional, order="shuffled")
+    add("bidirectional (-180, 180], rad", "bidirectional", bidirectional, ref_wrap="pm180", enc_wrap="pm180",
+        unit="rad")
+    add("bidirectional semicolons", "bidirectional", bidirectional, separator=";", decimal_comma=True,
+        line_end="\r\n")
+
+    lsb14, lsb12 = 21600 / 2**14, 21600 / 2**12
+    tol14 = (lsb14 / math.sqrt(12), 2 * lsb14)
+    tol12 = (lsb12 / math.sqrt(12), 2 * lsb12)
+    add("14-bit codes in degrees", "14-bit", bits14, tol14)
+    add("14-bit, resolution comment", "14-bit", bits14, tol14, bits_comment=True)
+    add("14-bit codes as counts:14", "14-bit", bits14, tol14, enc_unit="counts:14")
+    add("14-bit counts, shuffled, CRLF", "14-bit", bits14, tol14, enc_unit="counts:14", order="shuffled",
+        line_end="\r\n")
+    add("14-bit degrees (-180, 180]", "14-bit", bits14, tol14, ref_wrap="pm180", enc_wrap="pm180")
+    add("14-bit degrees to 6 decimals", "14-bit 6 decimals", bits14, tol14, number="fixed6")
+    add("14-bit degrees to 6 decimals, shuffled", "14-bit 6 decimals", bits14, tol14, number="fixed6",
+        order="shuffled")
+    add("14-bit degrees to 4 decimals", "14-bit 4 decimals", bits14, tol14, number="fixed4", bits_optional=True)
+    add("12-bit codes in degrees", "12-bit", bits12, tol12)
+    add("12-bit degrees to 4 decimals", "12-bit 4 decimals", bits12, tol12, number="fixed4", bits_optional=True)
+    add("12-bit degrees to 3 decimals", "12-bit 3 decimals", bits12, tol12, number="fixed3", bits_optional=True)
+    add("12-bit codes as counts:12", "12-bit", bits12, tol12, enc_unit="counts:12")
+    add("12-bit, resolution comment, blanks", "12-bit", bits12, tol12, bits_comment=True, separator=" ")
+    add("12-bit degrees as turns", "12-bit", bits12, tol12, unit="rev")
+    return out
+
+
+def _sweep(case):
+    """A two-pass calibration written as one sweep of two turns (reference and encoder unwrapped)."""
+    turn = np.repeat([0.0, 360.0], case.train.reference.size // 2)
+    return turn
+
+
+# ------------------------------------------------------------------------------------------------- running
+
+
+def dense_readings():
+    """Noise-free readings of the truth's encoder at 0.25-degree steps of the reference; the reference angles."""
+    reference = np.arange(0.125, 360.0, 0.25)
+    return (reference + truth_error(reference) / 60.0) % 360.0, reference
+
+
+def corrected(model, readings, direction=None):
+    argv = ["correct", model, "-"] + (["--direction", f"{direction:+d}"] if direction else [])
+    status, out, err = run(argv, "".join(f"{x!r}\n" for x in readings.tolist()))
+    if status != 0:
+        raise RuntimeError(f"encal {' '.join(map(str, argv))}: status {status}: {err.strip()[-300:]}")
+    return np.array(out.split(), dtype=float)
+
+
+def model_bits(model):
+    return json.loads(Path(model).read_text())["encoder"].get("resolution_bits")
+
+
+def outcome(case, folder):
+    """The case's figures: a dict, or a refusal string."""
+    stem = "".join(c if c.isalnum() else "_" for c in case.name)
+    train, test = folder / f"{stem}_train.csv", folder / f"{stem}_test.csv"
+    rows_train, rows_test = case.train, case.test
+    form = case.form
+    if form.ref_wrap == "sweep":  # the passes' angles unwrapped into successive turns
+        turn = _sweep(case)
+        rows_train = Rows(rows_train.reference + turn, rows_train.encoder + turn, rows_train.direction, rows_train.bits)
+        form = Form(**{**form.__dict__, "ref_wrap": "keep", "enc_wrap": "keep"})
+    write(rows_train, form, train)
+    write(rows_test, form, test)
+    options = unit_options(case.form)
+    result = {"options": " ".join(options)}
+    readings, reference = dense_readings()
+    for method in ("auto", "lut"):
+        model = folder / f"{method}.json"
+        model.unlink(missing_ok=True)
+        status, out, err = run(["fit", train, "-o", model, "--method", method, "--reproducible"] + options)
+        if status != 0:
+            return f"fit --method {method}: status {status}: {err.strip().splitlines()[-1] if err.strip() else ''}"
+        directions = (1, -1) if case.train.direction is not None else (None,)
+        angles = {}
+        for d in directions:
+            dense = readings if d is None else (reference + truth_error(reference, d) / 60.0) % 360.0
+            angles[d] = corrected(model, dense, d)
+            gap = wrap_arcmin(angles[d] - reference)
+            result[f"{method} truth rms {d}"] = float(np.sqrt(np.mean(gap**2)))
+            result[f"{method} truth max {d}"] = float(np.max(np.abs(gap)))
+        result[f"{method} corrected"] = angles
+        result[f"{method} bits"] = model_bits(model)
+        if method == "auto":
+            status, out, err = run(["evaluate", model, test, "--json"] + options)
+            if status != 0:
+                return f"evaluate: status {status}: {err.strip()[-200:]}"
+            result["evaluate"] = json.loads(out)
+    status, out, err = run(["profile", train, "--json"] + options)
+    if status != 0:
+        return f"profile: status {status}: {err.strip()[-200:]}"
+    result["profile"] = json.loads(out)
+    return result
+
+
+def _shown(message):
+    """A refusal in a table cell: its sentence without the temporary folder."""
+    return re.sub(r"\S*/(?=\w+\.(csv|json))", "", message).replace("|", "/")
+
+
+def _stat_gap(a, b):
+    return max(abs(a[k] - b[k]) for k in STAT_KEYS)
+
+
+def compare(case, result, first):
+    """(agrees?, text of the largest gaps) of a case's result against its group's first result and the truth."""
+    notes, ok = [], True
+    truth_rms = max(v for k, v in result.items() if "truth rms" in k)
+    truth_max = max(v for k, v in result.items() if "truth max" in k)
+    if truth_rms > case.truth_rms or truth_max > case.truth_max:
+        ok = False
+        notes.append("TRUTH")
+    expected_bits = case.train.bits
+    enc_unit = case.form.enc_unit or case.form.unit
+    if expected_bits is None and enc_unit.startswith("counts:"):  # the user says the readings are B-bit counts
+        expected_bits = int(enc_unit.split(":")[1])
+    for method in ("auto", "lut"):
+        if result[f"{method} bits"] != expected_bits and not (case.bits_optional and result[f"{method} bits"] is None):
+            ok = False
+            notes.append(f"{method} bits {result[f'{method} bits']} (truth {expected_bits})")
+    same = 0.0
+    if first is not None:
+        for method in ("auto", "lut"):
+            for d, angles in result[f"{method} corrected"].items():
+                same = max(same, float(np.max(np.abs(wrap_arcmin(angles - first[f"{method} corrected"][d])))))
+        same = max(same, _stat_gap(result["evaluate"], first["evaluate"]),
+                   _stat_gap(result["evaluate"]["before"], first["evaluate"]["before"]),
+                   _stat_gap(result["profile"], first["profile"]))
+        for mine, theirs in zip(result["profile"]["harmonics"][:6], first["profile"]["harmonics"][:6]):
+            if mine["order"] != theirs["order"]:
+                same = math.inf
+            same = max(same, abs(mine["amplitude_arcmin"] - theirs["amplitude_arcmin"]))
+        if same > case.same:
+            ok = False
+            notes.append("DIFFERS")
+    return ok, truth_rms, truth_max, same, ", ".join(notes)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", help="comma-separated case names (substrings)")
+    parser.add_argument("--no-export", action="store_true", help="leave out the exports' part")
+    args = parser.parse_args(argv)
+    selected = cases()
+    if args.only:
+        keys = args.only.split(",")
+        selected = [c for c in selected if any(k in c.name for k in keys)]
+    failures = 0
+    firsts = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        print("| case | group | options | auto / lut bits | truth RMS / max, arcmin | largest gap to the group's "
+              "first, arcmin | agrees |")
+        print("|---|---|---|---|---|---|---|")
+        for case in selected:
+            result = outcome(case, folder)
+            if isinstance(result, str):
+                ok = case.refused is not None and case.refused in result
+                failures += not ok
+                print(f"| {case.name} | {case.group} | | | refused: {_shown(result)} | | "
+                      f"{'yes (documented)' if ok else 'NO'} |")
+                continue
+            if case.refused:
+                failures += 1
+                print(f"| {case.name} | {case.group} | | | accepted, expected a refusal | | NO |")
+                continue
+            first = firsts.setdefault(case.group, result)
+            ok, rms, peak, same, notes = compare(case, result, None if first is result else first)
+            failures += not ok
+            gap = "(first)" if first is result else f"{same:.2g}"
+            print(f"| {case.name} | {case.group} | {result['options']} | {result['auto bits']} / "
+                  f"{result['lut bits']} | {rms:.3g} / {peak:.3g} | {gap} | {'yes' if ok else 'NO ' + notes} |",
+                  flush=True)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
