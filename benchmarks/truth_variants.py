@@ -103,9 +103,10 @@ class Rows:
     encoder: np.ndarray
     direction: np.ndarray = None
     bits: int = None  # the encoder's resolution when its readings are whole codes
+    zero_deg: float = 0.0  # the encoder's zero against the reference's (a motor's arbitrary zero)
 
 
-def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=None, noise=NOISE_ARCMIN):
+def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=None, noise=NOISE_ARCMIN, zero_deg=0.0):
     """A calibration of the truth's encoder at ``start + k * step`` degrees, ``passes`` times (each direction)."""
     rng = np.random.default_rng(seed)
     grid = start + np.arange(0.0, 360.0, step)
@@ -116,11 +117,11 @@ def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=N
             directions.append(np.full(grid.size, direction if direction else 0))
     reference = np.concatenate(references)
     direction = np.concatenate(directions) if bidirectional else None
-    encoder = reference + (truth_error(reference, direction) + rng.normal(0.0, noise, reference.size)) / 60.0
+    encoder = reference + zero_deg + (truth_error(reference, direction) + rng.normal(0.0, noise, reference.size)) / 60.0
     if bits:
         lsb = 360.0 / 2**bits
         encoder = np.round(encoder / lsb) * lsb
-    return Rows(reference % 360.0, encoder % 360.0, direction, bits)
+    return Rows(reference % 360.0, encoder % 360.0, direction, bits, zero_deg)
 
 
 @dataclass
@@ -146,6 +147,9 @@ class Form:
     trailing_blank: bool = False
     direction_words: bool = False  # cw/ccw instead of +1/-1
     bits_comment: bool = False
+    reverse: bool = False  # the encoder mounted to count against the reference: readings negated, --reverse
+    one_direction_column: bool = False  # a direction column that says +1 on every row
+    epoch_column: bool = False  # an epoch column with one label
     options: tuple = ()  # command-line options this form needs (fit, evaluate, profile)
 
 
@@ -208,13 +212,15 @@ def write(rows, form, path, seed=7):
     ref_unit = form.ref_unit or form.unit
     enc_unit = form.enc_unit or form.unit
     reference = _convert(_wrap(rows.reference, form.ref_wrap, rng), ref_unit, rows.bits)
-    encoder = _convert(_wrap(rows.encoder, form.enc_wrap, rng), enc_unit, rows.bits)
+    encoder = _convert(_wrap(-rows.encoder if form.reverse else rows.encoder, form.enc_wrap, rng), enc_unit, rows.bits)
     enc_number = "int" if enc_unit.startswith("counts:") and rows.bits else form.number
     columns = [("ref", form.header[0]), ("enc", form.header[1])]
     if form.swap:
         columns.reverse()
-    if rows.direction is not None:
+    if rows.direction is not None or form.one_direction_column:
         columns.append(("dir", "direction"))
+    if form.epoch_column:
+        columns.append(("epoch", "epoch"))
     if form.extra:
         columns = [("idx", "index")] + columns + [("temp", "temperature_c")]
     sep = form.separator
@@ -238,8 +244,10 @@ def write(rows, form, path, seed=7):
             elif key == "enc":
                 cells.append(_number(encoder[i], enc_number, form.decimal_comma))
             elif key == "dir":
-                d = int(rows.direction[i])
+                d = 1 if rows.direction is None else int(rows.direction[i])
                 cells.append(("cw" if d > 0 else "ccw") if form.direction_words else f"{d:+d}")
+            elif key == "epoch":
+                cells.append("2026-11-28 run A")
             elif key == "idx":
                 cells.append(str(position))
             else:
@@ -267,6 +275,8 @@ def unit_options(form):
             options += ["--ref-col", form.header[0]]
         if form.header[1].lower() != "encoder_deg":
             options += ["--enc-col", form.header[1]]
+    if form.reverse:
+        options.append("--reverse")
     return options + list(form.options)
 
 
@@ -291,6 +301,8 @@ def cases():
     plain = simulate(1), simulate(2, start=0.5)
     two_passes = simulate(3, passes=2), simulate(4, start=0.5)
     bidirectional = simulate(5, bidirectional=True), simulate(6, start=0.5, bidirectional=True)
+    motor = simulate(12, zero_deg=97.3), simulate(13, start=0.5, zero_deg=97.3)
+    half_turn = simulate(14, zero_deg=179.99), simulate(15, start=0.5, zero_deg=179.99)
     bits14 = simulate(8, bits=14), simulate(9, start=0.5, bits=14)
     bits12 = simulate(10, bits=12), simulate(11, start=0.5, bits=12)
     out = []
@@ -333,6 +345,20 @@ def cases():
     add("all at once", "plain", plain, order="shuffled", ref_wrap="turns", enc_wrap="pm180", swap=True, extra=True,
         line_end="\r\n", bom=True, comments=True, trailing_blank=True, number="sci", separator=";",
         decimal_comma=True)
+    add("a direction column, +1 throughout", "plain", plain, one_direction_column=True)
+    add("an epoch column, one label", "plain", plain, epoch_column=True)
+    add("encoder counting back, --reverse", "plain", plain, reverse=True)
+    add("encoder counting back, (-180, 180], rad", "plain", plain, reverse=True, unit="rad", ref_wrap="pm180",
+        enc_wrap="pm180")
+    add("encoder zero at 97.3 deg", "zero 97.3", motor)
+    add("zero 97.3, shuffled, (-180, 180]", "zero 97.3", motor, order="shuffled", ref_wrap="pm180", enc_wrap="pm180")
+    add("zero 97.3, --zero arbitrary", "zero 97.3", motor, options=("--zero", "arbitrary"))
+    add("zero 97.3, counting back", "zero 97.3", motor, reverse=True)
+    add("zero 97.3, turns", "zero 97.3", motor, unit="rev", ref_wrap="turns", enc_wrap="turns")
+    add("encoder zero at 179.99 deg", "zero 179.99", half_turn)
+    add("zero 179.99, (-180, 180]", "zero 179.99", half_turn, ref_wrap="pm180", enc_wrap="pm180")
+    add("zero 179.99, by encoder, rad", "zero 179.99", half_turn, order="by-encoder", unit="rad")
+    add("zero 179.99, counting back", "zero 179.99", half_turn, reverse=True)
     add("fixed 10 decimals", "plain 10 decimals", plain, number="fixed10")
     add("fixed 10 decimals, CRLF, shuffled", "plain 10 decimals", plain, number="fixed10", order="shuffled",
         line_end="\r\n")
@@ -385,10 +411,10 @@ def _sweep(case):
 # ------------------------------------------------------------------------------------------------- running
 
 
-def dense_readings():
+def dense_readings(zero_deg=0.0, direction=None, sign=1):
     """Noise-free readings of the truth's encoder at 0.25-degree steps of the reference; the reference angles."""
     reference = np.arange(0.125, 360.0, 0.25)
-    return (reference + truth_error(reference) / 60.0) % 360.0, reference
+    return (sign * (reference + zero_deg + truth_error(reference, direction) / 60.0)) % 360.0, reference
 
 
 def corrected(model, readings, direction=None):
@@ -417,7 +443,7 @@ def outcome(case, folder):
     write(rows_test, form, test)
     options = unit_options(case.form)
     result = {"options": " ".join(options)}
-    readings, reference = dense_readings()
+    sign = -1 if case.form.reverse else 1
     for method in ("auto", "lut"):
         model = folder / f"{method}.json"
         model.unlink(missing_ok=True)
@@ -427,7 +453,7 @@ def outcome(case, folder):
         directions = (1, -1) if case.train.direction is not None else (None,)
         angles = {}
         for d in directions:
-            dense = readings if d is None else (reference + truth_error(reference, d) / 60.0) % 360.0
+            dense, reference = dense_readings(case.train.zero_deg, d, sign)
             angles[d] = corrected(model, dense, d)
             gap = wrap_arcmin(angles[d] - reference)
             result[f"{method} truth rms {d}"] = float(np.sqrt(np.mean(gap**2)))
@@ -488,6 +514,117 @@ def compare(case, result, first):
             notes.append("DIFFERS")
     return ok, truth_rms, truth_max, same, ", ".join(notes)
 
+# ------------------------------------------------------------------------------------------------- the exports
+
+EXPORT_BITS = 14
+C_DRIVER = r"""
+#include <stdio.h>
+#include <stdint.h>
+#include "encal.h"
+int main(void) {
+    for (uint32_t code = 0; code < (1u << ENCAL_BITS); code++) {
+#ifdef FIXED
+        printf("%.17g\n", (double)encal_correct_code(code) * 360.0 / (double)(1u << ENCAL_BITS));
+#else
+        printf("%.17g\n", (double)encal_correct_counts(code));
+#endif
+    }
+    return 0;
+}
+"""
+# what each export states as its distance from the model (the number in its output that the pattern's group holds),
+# and what
+# its result adds: the float32 rounding of a returned angle (2^-16 degree below 512), half a code for a code
+EXPORTS = {
+    "table (int16)": (["--format", "table"], r"deviation from the model (\S+) arcmin", 0.0),
+    "table float32": (["--format", "table", "--dtype", "float32"], r"deviation from the model (\S+) arcmin", 0.0),
+    "C host formula": (["--format", "c"], r"by at most (\S+) arcmin", 60 * 2.0**-16),
+    "C host table": (["--format", "c", "--table"], r"(\S+) arcmin from the model at the codes", 60 * 2.0**-16),
+    "C cortex-m4f": (["--format", "c", "--target", "cortex-m4f"], r"codes: max (\S+),", 60 * 2.0**-16),
+    "C fixed (codes)": (["--format", "c", "--target", "fixed"], r"codes: max (\S+),",
+                        21600.0 / 2**EXPORT_BITS / 2),
+}
+
+
+def reference_of(readings_deg, rows, sign):
+    """The reference angle at which the truth's encoder (no noise, not quantised) reads ``readings_deg``."""
+    target = sign * np.asarray(readings_deg, dtype=float) - rows.zero_deg
+    reference = target.copy()
+    for _ in range(60):  # reference + error(reference) / 60 = target: a contraction (the error's slope << 60)
+        reference = target - truth_error(reference) / 60.0
+    return reference % 360.0
+
+
+def _stated(text, pattern):
+    match = re.search(pattern, text)
+    return float(match.group(1)) if match else math.nan
+
+
+def _table_angles(path):
+    """Corrected angle of every code from a dense table file, read as docs/deployment.md describes it."""
+    data = Path(path).read_bytes()
+    version, bits, dtype, header = np.frombuffer(data[8:10], "<u2")[0], data[10], data[11], \
+        int(np.frombuffer(data[12:16], "<u4")[0])
+    scale = float(np.frombuffer(data[24:32], "<f8")[0])
+    sign = int(np.frombuffer(data[80:81], "<i1")[0]) if version == 2 else 1
+    table = np.frombuffer(data[header:], "<i2" if dtype == 1 else "<f4").astype(float)
+    codes = np.arange(2**bits)
+    return (sign * codes * 360.0 / 2**bits - table * scale / 60.0) % 360.0
+
+
+def _c_angles(folder, fixed):
+    if shutil.which("gcc") is None:
+        raise RuntimeError("gcc not found")
+    (folder / "main.c").write_text(C_DRIVER)
+    binary = folder / "main"
+    subprocess.run(["gcc", "-std=c99", "-O1", "-I", str(folder), *(["-DFIXED"] if fixed else []),
+                    str(folder / "main.c"), str(folder / "encal.c"), "-lm", "-o", str(binary)], check=True)
+    out = subprocess.run([str(binary)], check=True, capture_output=True, text=True).stdout
+    return np.array(out.split(), dtype=float)
+
+
+def export_rows(folder):
+    """One row per (model, export): the export's corrected angles on every code against encal correct's and the
+    truth's."""
+    bits14 = simulate(8, bits=EXPORT_BITS)
+    motor = simulate(16, bits=EXPORT_BITS, zero_deg=97.3)
+    models = [("14-bit, auto", bits14, Form(), "auto"),
+              ("14-bit counting back, auto", bits14, Form(reverse=True), "auto"),
+              ("14-bit zero 97.3, lut", motor, Form(enc_unit=f"counts:{EXPORT_BITS}", order="shuffled"), "lut")]
+    codes = np.arange(2**EXPORT_BITS)
+    readings = codes * 360.0 / 2**EXPORT_BITS
+    rows = []
+    for label, data, form, method in models:
+        sign = -1 if form.reverse else 1
+        calibration, model = folder / "export_cal.csv", folder / "export_model.json"
+        write(data, form, calibration)
+        model.unlink(missing_ok=True)
+        status, out, err = run(["fit", calibration, "-o", model, "--method", method, "--reproducible"]
+                               + unit_options(form))
+        if status != 0:
+            rows.append((label, "fit", f"refused: {_shown(err.strip())}", False))
+            continue
+        reference = corrected(model, readings)
+        truth = reference_of(readings, data, sign)
+        truth_gap = wrap_arcmin(reference - truth)
+        for name, (options, words, adds) in EXPORTS.items():
+            target = folder / ("export_out" if "C " in name else "export_out.tab")
+            shutil.rmtree(target, ignore_errors=True) if target.is_dir() else target.unlink(missing_ok=True)
+            status, out, err = run(["export", model, "-o", target] + options)
+            if status != 0:
+                rows.append((label, name, f"refused: {_shown(err.strip())}", False))
+                continue
+            angles = _table_angles(target) if "table" in name and "C " not in name else _c_angles(target,
+                                                                                                  "fixed" in name)
+            stated = _stated(out, words)
+            gap = wrap_arcmin(angles - reference)
+            bound = stated + adds + 1e-6
+            ok = bool(np.max(np.abs(gap)) <= bound)
+            exported_truth = wrap_arcmin(angles - truth)
+            rows.append((label, name, f"{np.max(np.abs(gap)):.3g} (stated {stated:.3g} + {adds:.2g}) | "
+                         f"{np.sqrt(np.mean(truth_gap**2)):.3g} / {np.sqrt(np.mean(exported_truth**2)):.3g}", ok))
+    return rows
+
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -524,6 +661,14 @@ def main(argv=None):
             print(f"| {case.name} | {case.group} | {result['options']} | {result['auto bits']} / "
                   f"{result['lut bits']} | {rms:.3g} / {peak:.3g} | {gap} | {'yes' if ok else 'NO ' + notes} |",
                   flush=True)
+        if not args.no_export:
+            print()
+            print(f"| model | export | largest gap to encal correct on every {EXPORT_BITS}-bit code, arcmin | "
+                  "RMS against the truth, encal correct / the export, arcmin | agrees |")
+            print("|---|---|---|---|---|")
+            for label, name, text, ok in export_rows(folder):
+                failures += not ok
+                print(f"| {label} | {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
     return 1 if failures else 0
 
 
