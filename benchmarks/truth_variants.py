@@ -379,6 +379,8 @@ def cases():
         unit="rad")
     add("bidirectional semicolons", "bidirectional", bidirectional, separator=";", decimal_comma=True,
         line_end="\r\n")
+    add("bidirectional, counting back", "bidirectional", bidirectional, reverse=True)
+    add("bidirectional, turns added", "bidirectional", bidirectional, ref_wrap="turns", enc_wrap="turns", unit="rev")
 
     lsb14, lsb12 = 21600 / 2**14, 21600 / 2**12
     tol14 = (lsb14 / math.sqrt(12), 2 * lsb14)
@@ -393,6 +395,13 @@ def cases():
     add("14-bit degrees to 6 decimals, shuffled", "14-bit 6 decimals", bits14, tol14, number="fixed6",
         order="shuffled")
     add("14-bit degrees to 4 decimals", "14-bit 4 decimals", bits14, tol14, number="fixed4", bits_optional=True)
+    add("14-bit codes in radians", "14-bit", bits14, tol14, unit="rad")
+    add("14-bit radians (-pi, pi], shuffled", "14-bit", bits14, tol14, unit="rad", ref_wrap="pm180", enc_wrap="pm180",
+        order="shuffled")
+    add("14-bit signed counts (-8192, 8192]", "14-bit", bits14, tol14, enc_unit="counts:14", enc_wrap="pm180")
+    add("14-bit counts, reference in turns", "14-bit", bits14, tol14, ref_unit="rev", enc_unit="counts:14")
+    add("14-bit counts counting back", "14-bit", bits14, tol14, enc_unit="counts:14", reverse=True)
+    add("14-bit degrees counting back", "14-bit", bits14, tol14, reverse=True)
     add("12-bit codes in degrees", "12-bit", bits12, tol12)
     add("12-bit degrees to 4 decimals", "12-bit 4 decimals", bits12, tol12, number="fixed4", bits_optional=True)
     add("12-bit degrees to 3 decimals", "12-bit 3 decimals", bits12, tol12, number="fixed3", bits_optional=True)
@@ -509,6 +518,8 @@ def compare(case, result, first):
             if mine["order"] != theirs["order"]:
                 same = math.inf
             same = max(same, abs(mine["amplitude_arcmin"] - theirs["amplitude_arcmin"]))
+        if result["profile"].get("resolution_bits") != first["profile"].get("resolution_bits"):
+            same = math.inf  # profile reads another resolution from the same codes
         if same > case.same:
             ok = False
             notes.append("DIFFERS")
@@ -544,6 +555,36 @@ EXPORTS = {
     "C fixed (codes)": (["--format", "c", "--target", "fixed"], r"codes: max (\S+),",
                         21600.0 / 2**EXPORT_BITS / 2),
 }
+
+
+# firmware formats, applied by the firmware's own run-time code (tests/deploy/firmware_own): the angle it holds is
+# the reading's corrected angle in the reading's sense, less the constant the export says it left out
+FIRMWARES = {
+    "moteus": ["--format", "moteus"],
+    "simplefoc 1.0.9": ["--format", "simplefoc", "--firmware-version", "1.0.9"],
+    "tinymovr": ["--format", "tinymovr"],
+}
+FIRMWARE_STATED = r"within max (\S+), RMS"
+FIRMWARE_CONSTANT = r"a constant (\S+) arcmin"
+
+
+def firmware_angles(name, text):
+    """Degrees, in the reading's sense, that the firmware's own code holds at every 14-bit code; or a reason."""
+    from tests.deploy.firmware_own import moteus, simplefoc, tinymovr
+
+    module = {"moteus": moteus, "simplefoc 1.0.9": simplefoc, "tinymovr": tinymovr}[name]
+    reason = module.unavailable()
+    if reason:
+        return reason
+    codes = np.arange(2**EXPORT_BITS)
+    if name == "moteus":
+        table, scale = moteus._table_and_scale(moteus.device_commands(text), 0)
+        _, compensated = moteus.firmware_correction(table, scale, EXPORT_BITS, 1, 0)
+        return compensated * 360.0 / 2**EXPORT_BITS
+    if name == "tinymovr":
+        return tinymovr.rectified(tinymovr.table_values(text), EXPORT_BITS, codes) * 360.0 / 2**EXPORT_BITS
+    angles = simplefoc.firmware_angles("1.0.9", simplefoc.lut_values(text, "1.0.9"), EXPORT_BITS)
+    return np.degrees(angles.astype(float))
 
 
 def reference_of(readings_deg, rows, sign):
@@ -623,6 +664,79 @@ def export_rows(folder):
             exported_truth = wrap_arcmin(angles - truth)
             rows.append((label, name, f"{np.max(np.abs(gap)):.3g} (stated {stated:.3g} + {adds:.2g}) | "
                          f"{np.sqrt(np.mean(truth_gap**2)):.3g} / {np.sqrt(np.mean(exported_truth**2)):.3g}", ok))
+        for name, options in FIRMWARES.items():
+            target = folder / "firmware_out.txt"
+            target.unlink(missing_ok=True)
+            status, out, err = run(["export", model, "-o", target, "--bits", EXPORT_BITS] + options)
+            if status != 0:
+                rows.append((label, name, f"refused: {_shown(err.strip())}", False))
+                continue
+            angles = firmware_angles(name, target.read_text())
+            if isinstance(angles, str):
+                rows.append((label, name, f"skipped: {angles}", True))
+                continue
+            stated, constant = _stated(out, FIRMWARE_STATED), _stated(out, FIRMWARE_CONSTANT)
+            constant = 0.0 if math.isnan(constant) else constant
+            gap = wrap_arcmin(angles - sign * reference) + constant
+            exported_truth = wrap_arcmin(angles - sign * truth) + constant
+            ok = bool(np.max(np.abs(gap)) <= stated + 1e-3)
+            rows.append((label, name, f"{np.max(np.abs(gap)):.3g} (stated {stated:.3g}; constant left out "
+                         f"{constant:.4g}) | {np.sqrt(np.mean(truth_gap**2)):.3g} / "
+                         f"{np.sqrt(np.mean(exported_truth**2)):.3g}", ok))
+    return rows
+
+
+# ------------------------------------------------------------------------------------------------- encal correct's input
+
+def _lines(values, how):
+    return "".join(_number(v, how, False) + "\n" for v in values)
+
+
+def correct_forms():
+    """(name, input text, options) of one set of readings in equivalent forms of ``encal correct``'s input."""
+    readings, _ = dense_readings()
+    rng = np.random.default_rng(3)
+    pm180 = 180.0 - (180.0 - readings) % 360.0
+    csv = "".join(f"{i},{v!r},21.5\r\n" for i, v in enumerate(readings.tolist()))
+    swapped = "".join(f'"{v!r}",{i}\n' for i, v in enumerate(readings.tolist()))
+    return [
+        ("one reading a line", _lines(readings, "repr"), []),
+        ("a UTF-8 BOM", "\ufeff" + _lines(readings, "repr"), []),
+        ("CR line ends", _lines(readings, "repr").replace("\n", "\r"), []),
+        ("CSV with a BOM", "\ufeffencoder_deg\n" + _lines(readings, "repr"), []),
+        ("(-180, 180]", _lines(pm180, "repr"), []),
+        ("turns added", _lines(readings + 360.0 * rng.integers(-3, 4, readings.size), "repr"), []),
+        ("scientific notation", _lines(readings, "sci"), []),
+        ("plus signs, CRLF", _lines(readings, "plus").replace("\n", "\r\n"), []),
+        ("comments and blank lines", "# readings\n\n" + _lines(readings, "repr") + "\n\n", []),
+        ("CSV, extra columns, CRLF", "index,encoder_deg,temperature_c\r\n" + csv, []),
+        ("CSV, quoted, columns swapped", 'Encoder_Deg,"index"\n' + swapped, []),
+        ("CSV, another name", "index,sensor,temperature_c\n" + csv.replace("\r\n", "\n"), ["--enc-col", "sensor"]),
+        ("radians", _lines(np.radians(readings), "repr"), ["--enc-unit", "rad"]),
+        ("radians (-pi, pi]", _lines(np.radians(pm180), "repr"), ["--enc-unit", "rad"]),
+        ("turns", _lines(readings / 360.0, "repr"), ["--enc-unit", "rev"]),
+        ("counts:24 (fractional)", _lines(readings / 360.0 * 2**24, "repr"), ["--enc-unit", "counts:24"]),
+    ]
+
+
+def correct_rows(folder):
+    """One row per form of ``encal correct``'s input: its answers against the first form's."""
+    calibration, model = folder / "correct_cal.csv", folder / "correct_model.json"
+    write(simulate(1), Form(), calibration)
+    model.unlink(missing_ok=True)
+    status, _, err = run(["fit", calibration, "-o", model, "--reproducible"])
+    if status != 0:
+        return [("fit", f"refused: {_shown(err.strip())}", False)]
+    rows, first = [], None
+    for name, text, options in correct_forms():
+        status, out, err = run(["correct", model, "-"] + options, text)
+        if status != 0:
+            rows.append((name, f"refused: {_shown(err.strip())}", False))
+            continue
+        angles = np.array(out.split(), dtype=float)
+        first = angles if first is None else first
+        gap = float(np.max(np.abs(wrap_arcmin(angles - first)))) if angles.size == first.size else math.inf
+        rows.append((name, f"{gap:.2g}", gap <= SAME_ARCMIN))
     return rows
 
 
@@ -661,6 +775,12 @@ def main(argv=None):
             print(f"| {case.name} | {case.group} | {result['options']} | {result['auto bits']} / "
                   f"{result['lut bits']} | {rms:.3g} / {peak:.3g} | {gap} | {'yes' if ok else 'NO ' + notes} |",
                   flush=True)
+        print()
+        print("| encal correct's input | largest gap to the first form's answers, arcmin | agrees |")
+        print("|---|---|---|")
+        for name, text, ok in correct_rows(folder):
+            failures += not ok
+            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
         if not args.no_export:
             print()
             print(f"| model | export | largest gap to encal correct on every {EXPORT_BITS}-bit code, arcmin | "
