@@ -58,6 +58,18 @@ REVERSAL_ARCMIN = 1.2  # a bidirectional encoder reads this much more going forw
 SAME_ARCMIN = 1e-6  # the same numbers read in another form: the corrected angles within this
 TRUTH_RMS_ARCMIN = 0.06  # corrected dense readings against the truth, noise 0.05 arcmin on a 1-degree grid
 TRUTH_MAX_ARCMIN = 0.2
+# the fits run on every form: a label and its options (the first one's model is also evaluated)
+FITS = {
+    "auto": ["--method", "auto"],
+    "lut": ["--method", "lut"],
+    "auto --folds 5": ["--method", "auto", "--folds", "5", "--seed", "0"],
+    "ann 1:8:1": ["--method", "ann", "--hidden", "8", "--seed", "0", "--epochs", "200"],
+    "fourier": ["--method", "fourier", "--n-orders", "8"],
+    "hybrid": ["--method", "hybrid", "--seed", "0"],
+}
+# a looser truth for a fit that cannot follow the profile: a 1:8:1 network of 200 epochs misses part of the 16th
+# harmonic (0.27 arcmin RMS, 0.77 at most, in every form)
+FIT_TRUTH = {"ann 1:8:1": (0.4, 1.2)}
 STAT_KEYS = ("n", "mae_arcmin", "rms_arcmin", "max_abs_arcmin", "min_arcmin", "max_arcmin")
 
 
@@ -297,6 +309,7 @@ class Case:
     truth_rms: float = TRUTH_RMS_ARCMIN
     truth_max: float = TRUTH_MAX_ARCMIN
     same: float = SAME_ARCMIN
+    fits: tuple = ("auto", "lut")
     bits_optional: bool = False  # the written digits no longer hold whole codes: an unknown resolution is right
     refused: str = None  # the form is documented as refused, with a message holding this text
 
@@ -311,10 +324,10 @@ def cases():
     bits12 = simulate(10, bits=12), simulate(11, start=0.5, bits=12)
     out = []
 
-    def add(name, group, data, tolerance=None, bits_optional=False, refused=None, **form):
+    def add(name, group, data, tolerance=None, bits_optional=False, refused=None, fits=("auto", "lut"), **form):
         rms, peak = tolerance or (TRUTH_RMS_ARCMIN, TRUTH_MAX_ARCMIN)
-        out.append(Case(name, group, data[0], data[1], Form(**form), rms, peak, bits_optional=bits_optional,
-                        refused=refused))
+        out.append(Case(name, group, data[0], data[1], Form(**form), rms, peak, fits=fits,
+                        bits_optional=bits_optional, refused=refused))
 
     add("plain", "plain", plain)
     add("rows shuffled", "plain", plain, order="shuffled")
@@ -363,6 +376,12 @@ def cases():
     add("zero 179.99, (-180, 180]", "zero 179.99", half_turn, ref_wrap="pm180", enc_wrap="pm180")
     add("zero 179.99, by encoder, rad", "zero 179.99", half_turn, order="by-encoder", unit="rad")
     add("zero 179.99, counting back", "zero 179.99", half_turn, reverse=True)
+    others = ("auto --folds 5", "ann 1:8:1", "fourier", "hybrid")
+    add("other fits", "other fits", plain, fits=others)
+    add("other fits, rows shuffled", "other fits", plain, fits=others, order="shuffled")
+    add("other fits, rows reversed", "other fits", plain, fits=others, order="reversed")
+    add("other fits, (-180, 180], radians", "other fits", plain, fits=others, ref_wrap="pm180", enc_wrap="pm180",
+        unit="rad")
     add("fixed 10 decimals", "plain 10 decimals", plain, number="fixed10")
     add("fixed 10 decimals, CRLF, shuffled", "plain 10 decimals", plain, number="fixed10", order="shuffled",
         line_end="\r\n")
@@ -457,10 +476,10 @@ def outcome(case, folder):
     options = unit_options(case.form)
     result = {"options": " ".join(options)}
     sign = -1 if case.form.reverse else 1
-    for method in ("auto", "lut"):
-        model = folder / f"{method}.json"
+    for method in case.fits:
+        model = folder / "model.json"
         model.unlink(missing_ok=True)
-        status, out, err = run(["fit", train, "-o", model, "--method", method, "--reproducible"] + options)
+        status, out, err = run(["fit", train, "-o", model, "--reproducible"] + FITS[method] + options)
         if status != 0:
             return f"fit --method {method}: status {status}: {err.strip().splitlines()[-1] if err.strip() else ''}"
         directions = (1, -1) if case.train.direction is not None else (None,)
@@ -473,7 +492,7 @@ def outcome(case, folder):
             result[f"{method} truth max {d}"] = float(np.max(np.abs(gap)))
         result[f"{method} corrected"] = angles
         result[f"{method} bits"] = model_bits(model)
-        if method == "auto":
+        if method == case.fits[0]:
             status, out, err = run(["evaluate", model, test, "--json"] + options)
             if status != 0:
                 return f"evaluate: status {status}: {err.strip()[-200:]}"
@@ -499,22 +518,26 @@ def compare(case, result, first):
     notes, ok = [], True
     truth_rms = max(v for k, v in result.items() if "truth rms" in k)
     truth_max = max(v for k, v in result.items() if "truth max" in k)
-    if truth_rms > case.truth_rms or truth_max > case.truth_max:
-        ok = False
-        notes.append("TRUTH")
+    for fit in case.fits:
+        rms_bound, max_bound = FIT_TRUTH.get(fit, (case.truth_rms, case.truth_max))
+        for key, value in result.items():
+            if key.startswith(f"{fit} truth rms") and value > rms_bound or \
+                    key.startswith(f"{fit} truth max") and value > max_bound:
+                ok = False
+                notes.append(f"TRUTH {fit}")
     expected_bits = case.train.bits
     enc_unit = case.form.enc_unit or case.form.unit
     if expected_bits is None and enc_unit.startswith("counts:"):  # the user says the readings are B-bit counts
         expected_bits = int(enc_unit.split(":")[1])
     result["profile bits"] = result["profile"].get("resolution_bits")
-    for what in ("auto", "lut", "profile"):
+    for what in case.fits + ("profile",):
         bits = result[f"{what} bits"]
         if bits != expected_bits and not (case.bits_optional and bits is None):
             ok = False
             notes.append(f"{what} bits {bits} (truth {expected_bits})")
     same = 0.0
     if first is not None:
-        for method in ("auto", "lut"):
+        for method in case.fits:
             for d, angles in result[f"{method} corrected"].items():
                 same = max(same, float(np.max(np.abs(wrap_arcmin(angles - first[f"{method} corrected"][d])))))
         same = max(same, _stat_gap(result["evaluate"], first["evaluate"]),
@@ -811,27 +834,28 @@ def main(argv=None):
     firsts = {}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        print("| case | group | options | auto / lut bits | truth RMS / max, arcmin | largest gap to the group's "
+        print("| case | group | fits | options | bits recorded | truth RMS / max, arcmin | largest gap to the group's "
               "first, arcmin | agrees |")
-        print("|---|---|---|---|---|---|---|")
+        print("|---|---|---|---|---|---|---|---|")
         for case in selected:
             result = outcome(case, folder)
             if isinstance(result, str):
                 ok = case.refused is not None and case.refused in result
                 failures += not ok
-                print(f"| {case.name} | {case.group} | | | refused: {_shown(result)} | | "
+                print(f"| {case.name} | {case.group} | | | | refused: {_shown(result)} | | "
                       f"{'yes (documented)' if ok else 'NO'} |")
                 continue
             if case.refused:
                 failures += 1
-                print(f"| {case.name} | {case.group} | | | accepted, expected a refusal | | NO |")
+                print(f"| {case.name} | {case.group} | | | | accepted, expected a refusal | | NO |")
                 continue
             first = firsts.setdefault(case.group, result)
             ok, rms, peak, same, notes = compare(case, result, None if first is result else first)
             failures += not ok
             gap = "(first)" if first is result else f"{same:.2g}"
-            print(f"| {case.name} | {case.group} | {result['options']} | {result['auto bits']} / "
-                  f"{result['lut bits']} | {rms:.3g} / {peak:.3g} | {gap} | {'yes' if ok else 'NO ' + notes} |",
+            bits = " / ".join(str(result[f"{fit} bits"]) for fit in case.fits)
+            print(f"| {case.name} | {case.group} | {', '.join(case.fits)} | {result['options']} | {bits} | "
+                  f"{rms:.3g} / {peak:.3g} | {gap} | {'yes' if ok else 'NO ' + notes} |",
                   flush=True)
         print()
         print("| encal correct's input | largest gap to the first form's answers, arcmin | agrees |")
