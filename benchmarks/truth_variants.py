@@ -140,6 +140,17 @@ def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=N
     return Rows(reference % 360.0, encoder % 360.0, direction, bits, zero_deg)
 
 
+def simulate_sweep(seed, *, turns=3, n=6007, reference_bits=17, bits=14, noise=NOISE_ARCMIN):
+    """A continuous log of ``turns`` turns of the encoder (``bits`` bits) against a ``reference_bits``-bit reference,
+    unwrapped; ``n`` readings, a step that does not divide the turn (every reference code is read once)."""
+    rng = np.random.default_rng(seed)
+    shaft = np.linspace(0.0, 360.0 * turns, n, endpoint=False) + 0.05
+    reference_lsb, lsb = 360.0 / 2**reference_bits, 360.0 / 2**bits
+    reference = np.round(shaft / reference_lsb) * reference_lsb
+    encoder = np.round((shaft + (truth_error(shaft) + rng.normal(0.0, noise, n)) / 60.0) / lsb) * lsb
+    return Rows(reference, encoder, None, bits)
+
+
 @dataclass
 class Form:
     """How one calibration is written: every field a harmless change of the plain form."""
@@ -431,6 +442,20 @@ def cases():
     add("12-bit codes as counts:12", "12-bit", bits12, tol12, enc_unit="counts:12")
     add("12-bit, resolution comment, blanks", "12-bit", bits12, tol12, bits_comment=True, separator=" ")
     add("12-bit degrees as turns", "12-bit", bits12, tol12, unit="rev")
+    sweep = simulate_sweep(17), bits14[1]
+    keep = dict(ref_wrap="keep", enc_wrap="keep")
+    add("sweep of 3 turns, unwrapped", "sweep", sweep, tol14, **keep)
+    add("sweep wrapped to [0, 360)", "sweep", sweep, tol14)
+    add("sweep, encoder wrapped, reference not", "sweep", sweep, tol14, ref_wrap="keep")
+    add("sweep, reference counts:17 unwrapped", "sweep", sweep, tol14, ref_unit="counts:17", **keep)
+    add("sweep, both in counts", "sweep", sweep, tol14, ref_unit="counts:17", enc_unit="counts:14", ref_wrap="keep")
+    add("sweep, semicolons, decimal comma", "sweep", sweep, tol14, separator=";", decimal_comma=True, **keep)
+    add("sweep, an epoch column", "sweep", sweep, tol14, epoch_column=True, **keep)
+    add("sweep, comments, CRLF, BOM", "sweep", sweep, tol14, comments=True, line_end="\r\n", bom=True, **keep)
+    add("sweep, (-180, 180], radians", "sweep", sweep, tol14, ref_wrap="pm180", enc_wrap="pm180", unit="rad")
+    add("sweep shuffled", "sweep", sweep, tol14, order="shuffled")
+    add("sweep reversed", "sweep", sweep, tol14, order="reversed", **keep)
+    add("sweep sorted by encoder", "sweep", sweep, tol14, order="by-encoder")
     return out
 
 
