@@ -123,12 +123,15 @@ class Rows:
     direction: np.ndarray = None
     bits: int = None  # the encoder's resolution when its readings are whole codes
     zero_deg: float = 0.0  # the encoder's zero against the reference's (a motor's arbitrary zero)
+    arc: tuple = None  # (start, span) degrees of a calibration over one arc
 
 
-def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=None, noise=NOISE_ARCMIN, zero_deg=0.0):
-    """A calibration of the truth's encoder at ``start + k * step`` degrees, ``passes`` times (each direction)."""
+def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=None, noise=NOISE_ARCMIN, zero_deg=0.0,
+             span=None):
+    """A calibration of the truth's encoder at ``start + k * step`` degrees, ``passes`` times (each direction); over
+    the whole turn, or over the arc of ``span`` degrees from ``start`` (both ends included)."""
     rng = np.random.default_rng(seed)
-    grid = start + np.arange(0.0, 360.0, step)
+    grid = start + (np.arange(0.0, 360.0, step) if span is None else np.arange(0.0, span + step / 2, step))
     references, directions = [], []
     for _ in range(passes):
         for direction in ((1, -1) if bidirectional else (None,)):
@@ -140,7 +143,7 @@ def simulate(seed, *, start=0.0, step=1.0, passes=1, bidirectional=False, bits=N
     if bits:
         lsb = 360.0 / 2**bits
         encoder = np.round(encoder / lsb) * lsb
-    return Rows(reference % 360.0, encoder % 360.0, direction, bits, zero_deg)
+    return Rows(reference % 360.0, encoder % 360.0, direction, bits, zero_deg, None if span is None else (start, span))
 
 
 def simulate_sweep(seed, *, turns=3, n=6007, reference_bits=17, bits=14, noise=NOISE_ARCMIN):
@@ -179,7 +182,8 @@ class Form:
     bits_comment: bool = False
     reverse: bool = False  # the encoder mounted to count against the reference: readings negated, --reverse
     one_direction_column: bool = False  # a direction column that says +1 on every row
-    epoch_column: bool = False  # an epoch column with one label
+    epoch_column: bool = False  # an epoch column with one label (two when the rows are two passes)
+    epoch_labels: tuple = ("2026-11-28 run A", "2026-11-28 run B")
     options: tuple = ()  # command-line options this form needs (fit, evaluate, profile)
 
 
@@ -277,7 +281,8 @@ def write(rows, form, path, seed=7):
                 d = 1 if rows.direction is None else int(rows.direction[i])
                 cells.append(("cw" if d > 0 else "ccw") if form.direction_words else f"{d:+d}")
             elif key == "epoch":
-                cells.append("2026-11-28 run A")
+                passes = n // np.unique(np.round(rows.reference, 9)).size
+                cells.append(form.epoch_labels[int(i) * passes // n if passes == 2 else 0])
             elif key == "idx":
                 cells.append(str(position))
             else:
@@ -423,6 +428,11 @@ def cases():
     add("two passes reversed", "two passes", two_passes, order="reversed")
     add("two passes, several turns", "two passes", two_passes, ref_wrap="turns", enc_wrap="turns")
     add("two passes as a 2-turn sweep", "two passes", two_passes, ref_wrap="sweep", enc_wrap="sweep")
+    add("two epochs in blocks", "two epochs", two_passes, epoch_column=True)
+    add("two epochs interleaved", "two epochs", two_passes, epoch_column=True, order="interleaved")
+    add("two epochs shuffled", "two epochs", two_passes, epoch_column=True, order="shuffled")
+    add("two epochs labelled 1 and 2, radians", "two epochs", two_passes, epoch_column=True, epoch_labels=("1", "2"),
+        unit="rad", ref_wrap="pm180", enc_wrap="pm180")
 
     add("bidirectional +1/-1", "bidirectional", bidirectional)
     add("bidirectional cw/ccw", "bidirectional", bidirectional, direction_words=True)
@@ -474,6 +484,15 @@ def cases():
     add("sweep shuffled", "sweep", sweep, tol14, order="shuffled")
     add("sweep reversed", "sweep", sweep, tol14, order="reversed", **keep)
     add("sweep sorted by encoder", "sweep", sweep, tol14, order="by-encoder")
+    arc = simulate(20, start=-60.0, span=120.0), simulate(21, start=-59.5, span=119.0)
+    add("arc -60 to 60 deg in [0, 360)", "arc", arc)
+    add("arc in (-180, 180]", "arc", arc, ref_wrap="pm180", enc_wrap="pm180")
+    add("arc, reference (-180, 180], encoder [0, 360)", "arc", arc, ref_wrap="pm180")
+    add("arc, turns added", "arc", arc, ref_wrap="turns", enc_wrap="turns")
+    add("arc shuffled, radians", "arc", arc, order="shuffled", unit="rad")
+    add("arc reversed, (-pi, pi]", "arc", arc, order="reversed", unit="rad", ref_wrap="pm180", enc_wrap="pm180")
+    add("arc counting back", "arc", arc, reverse=True)
+    add("arc +720", "arc", arc, ref_wrap="plus720", enc_wrap="plus720")
     return out
 
 
@@ -486,9 +505,11 @@ def _sweep(case):
 # ------------------------------------------------------------------------------------------------- running
 
 
-def dense_readings(zero_deg=0.0, direction=None, sign=1):
-    """Noise-free readings of the truth's encoder at 0.25-degree steps of the reference; the reference angles."""
-    reference = np.arange(0.125, 360.0, 0.25)
+def dense_readings(zero_deg=0.0, direction=None, sign=1, arc=None):
+    """Noise-free readings of the truth's encoder at 0.25-degree steps of the reference (over the turn, or within
+    the arc ``(start, span)`` half a degree from its ends); the reference angles."""
+    reference = np.arange(0.125, 360.0, 0.25) if arc is None else np.arange(arc[0] + 0.5, arc[0] + arc[1] - 0.5,
+                                                                            0.25) % 360.0
     return (sign * (reference + zero_deg + truth_error(reference, direction) / 60.0)) % 360.0, reference
 
 
@@ -528,7 +549,7 @@ def outcome(case, folder):
         directions = (1, -1) if case.train.direction is not None else (None,)
         angles = {}
         for d in directions:
-            dense, reference = dense_readings(case.train.zero_deg, d, sign)
+            dense, reference = dense_readings(case.train.zero_deg, d, sign, case.train.arc)
             angles[d] = corrected(model, dense, d)
             gap = wrap_arcmin(angles[d] - reference)
             result[f"{method} truth rms {d}"] = float(np.sqrt(np.mean(gap**2)))
@@ -586,7 +607,9 @@ def compare(case, result, first):
         same = max(same, _stat_gap(result["evaluate"], first["evaluate"]),
                    _stat_gap(result["evaluate"]["before"], first["evaluate"]["before"]),
                    _stat_gap(result["profile"], first["profile"]))
-        for mine, theirs in zip(result["profile"]["harmonics"][:6], first["profile"]["harmonics"][:6]):
+        if (result["profile"]["harmonics"] is None) != (first["profile"]["harmonics"] is None):
+            same = math.inf  # an arc has no harmonics: both or neither
+        for mine, theirs in zip(result["profile"]["harmonics"] or [], (first["profile"]["harmonics"] or [])[:6]):
             if mine["order"] != theirs["order"]:
                 same = math.inf
             same = max(same, abs(mine["amplitude_arcmin"] - theirs["amplitude_arcmin"]))
