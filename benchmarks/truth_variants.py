@@ -180,6 +180,9 @@ class Form:
     trailing_blank: bool = False
     direction_words: bool = False  # cw/ccw instead of +1/-1
     bits_comment: bool = False
+    padded: bool = False  # blanks around every cell, as printf("%12.6f, ...") writes
+    mixed_line_ends: bool = False  # CRLF and LF alternating
+    no_final_line_end: bool = False
     reverse: bool = False  # the encoder mounted to count against the reference: readings negated, --reverse
     one_direction_column: bool = False  # a direction column that says +1 on every row
     epoch_column: bool = False  # an epoch column with one label (two when the rows are two passes)
@@ -260,7 +263,8 @@ def write(rows, form, path, seed=7):
     sep = form.separator
 
     def cell(text):
-        return f'"{text}"' if form.quoted else text
+        text = f'"{text}"' if form.quoted else text
+        return f"  {text} " if form.padded else text
 
     lines = []
     if form.comments:
@@ -288,7 +292,10 @@ def write(rows, form, path, seed=7):
             else:
                 cells.append(_number(21.5 + 0.01 * position, "fixed10", form.decimal_comma))
         lines.append(sep.join(cell(c) for c in cells))
-    text = form.line_end.join(lines) + form.line_end
+    if form.mixed_line_ends:
+        text = "".join(line + ("\r\n" if k % 2 else "\n") for k, line in enumerate(lines))
+    else:
+        text = form.line_end.join(lines) + ("" if form.no_final_line_end else form.line_end)
     if form.trailing_blank:
         text += form.line_end * 3
     data = text.encode("utf-8")
@@ -373,6 +380,11 @@ def cases():
     add("comment lines", "plain", plain, comments=True)
     add("trailing blank lines", "plain", plain, trailing_blank=True)
     add("scientific notation", "plain", plain, number="sci")
+    add("blanks around cells", "plain", plain, padded=True)
+    add("blanks around quoted cells, semicolons", "plain", plain, padded=True, quoted=True, separator=";",
+        decimal_comma=True)
+    add("CRLF and LF mixed", "plain", plain, mixed_line_ends=True)
+    add("no line end after the last row", "plain", plain, no_final_line_end=True)
     add("plus signs", "plain", plain, number="plus")
     add("semicolons, decimal comma", "plain", plain, separator=";", decimal_comma=True)
     add("tabs, decimal comma", "plain", plain, separator="\t", decimal_comma=True, quoted=True)

@@ -1,6 +1,6 @@
 """Known truth through harmless forms of one calibration (task truth8; ``benchmarks/truth_variants.py``).
 
-The benchmark writes one simulated calibration, whose error profile is known, in 60 equivalent forms and runs
+The benchmark writes one simulated calibration, whose error profile is known, in about 100 equivalent forms and runs
 ``encal fit``, ``correct``, ``evaluate`` and ``profile`` on each, then the exports on every code; all of it agreed
 when it was written (its table is in BENCHMARKS.md). These tests keep a few forms of each kind, so that a change of
 a reader that makes one form read other numbers is seen in the suite: the corrected angles of dense noise-free
@@ -29,9 +29,14 @@ KEPT = {
     "two passes": ["two passes interleaved", "two passes as a 2-turn sweep"],
     "bidirectional": ["bidirectional cw/ccw", "bidirectional shuffled"],
     "14-bit": ["14-bit signed counts (-8192, 8192]", "14-bit radians (-pi, pi], shuffled"],
+    # its lookup table moved by 0.27 arcmin before the bins of a dense table took a code a hair below its edge as
+    # the edge's (tests/models/test_lut.py)
+    "sweep": ["sweep, (-180, 180], radians"],
+    "arc": ["arc in (-180, 180]"],
 }
 FIRSTS = {"plain": "plain", "two passes": "two passes in blocks", "bidirectional": "bidirectional +1/-1",
-          "14-bit": "14-bit codes in degrees"}
+          "14-bit": "14-bit codes in degrees", "sweep": "sweep of 3 turns, unwrapped",
+          "arc": "arc -60 to 60 deg in [0, 360)"}
 
 
 @pytest.fixture(scope="module")
