@@ -196,7 +196,9 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=
         Most table entries. A dense sweep with more distinct angles is averaged in
         ``max_entries`` equal bins of encoder angle (each entry the mean angle and mean error
         of its readings): a table of 50,000 breaks through noisy readings follows their noise
-        and costs firmware memory for nothing. None keeps every distinct angle.
+        and costs firmware memory for nothing. An angle within 1e-9° below a bin's edge is the
+        edge's (the edges fall on codes, which a unit's conversion can give back a hair low).
+        None keeps every distinct angle.
 
     Returns
     -------
