@@ -14,8 +14,10 @@ counts), and the real command line (``encal.cli.main`` in this process) runs on 
   of the form itself: every statistic and the harmonics as the plain form's;
 - the model file's resolution as the truth's (a table is exported for it).
 
-The same for ``encal correct``'s own input (a reading a line, a CSV column, units, line ends, a BOM) and for ``encal
-selfcal steps`` on the README's stepper (rows shuffled, columns swapped, radians, counts as degrees). Then the
+The same for ``encal correct``'s own input (a reading a line, a CSV column, units, line ends, a BOM), for ``encal
+selfcal steps`` on the README's stepper (rows shuffled, columns swapped, radians, counts as degrees) and for ``encal
+selfcal spin`` on a spin log of the truth's encoder (unwrapped, wrapped, radians, counts; its calibration also
+against the truth, less the orders one speed cannot see). Then the
 exports: ``encal export --format c`` (host, cortex-m4f, fixed; compiled with gcc and run on every code),
 ``--format table``, and moteus, SimpleFOC 1.0.9 and Tinymovr through their own run-time code (the harnesses of
 ``tests/deploy/firmware_own``; Klipper and Mechaduino, in the stepper's frame, are checked against a known truth in
@@ -918,6 +920,80 @@ def steps_rows(folder):
     return rows
 
 
+# ---------------------------------------------------------------------------------------------- encal selfcal spin
+
+
+SPIN_TRUTH = (0.1, 0.3)  # arcmin, RMS and max of the written errors against the truth (0.5 arcmin of noise, 14 bits)
+
+
+def spin_log(seconds=8.0, rate_hz=2000.0, bits=14, seed=5):
+    """A spin of a 7-pole-pair motor (a slowly rising speed, a ripple of 20 arcmin at order 7) read by the truth's
+    encoder (``bits`` bits, 0.5 arcmin of noise): time (s) and the unwrapped reading (degrees)."""
+    rng = np.random.default_rng(seed)
+    time = np.arange(0.0, seconds, 1.0 / rate_hz)
+    nominal = 360.0 * 5.0 * time * (1 + 0.001 * time) + 33.0
+    rotor = nominal + 20.0 / 60.0 * np.cos(np.radians(7 * nominal) + 2.8)
+    reading = rotor + (truth_error(rotor) + rng.normal(0.0, 0.5, time.size)) / 60.0
+    step = 360.0 / 2**bits
+    return time, np.unwrap(np.round(np.mod(reading, 360.0) / step) * step, period=360.0)
+
+
+def spin_forms():
+    """(name, text, options) of one spin log in equivalent forms."""
+    time, reading = spin_log()
+    codes = np.round(np.mod(reading, 360.0) / (360.0 / 2**14)).astype(int)
+
+    def table(header, columns, end="\n"):
+        return end.join([header] + [",".join(cells) for cells in zip(*columns)]) + end
+
+    t = [repr(float(x)) for x in time]
+    return [
+        ("unwrapped degrees", table("time_s,encoder_deg", [t, [repr(float(x)) for x in reading]]), []),
+        ("wrapped to [0, 360)", table("time_s,encoder_deg", [t, [repr(float(x)) for x in reading % 360.0]]), []),
+        ("(-180, 180], CRLF, BOM", "\ufeff" + table("time_s,encoder_deg", [t, [repr(float(x)) for x in
+                                                                              180.0 - (180.0 - reading) % 360.0]],
+                                                   "\r\n"), []),
+        ("columns swapped, extra column, comments", "# a spin at 5 rev/s\n" + table(
+            "encoder_deg,time_s,current_a", [[repr(float(x)) for x in reading], t, ["0.5"] * time.size]), []),
+        ("radians", table("time_s,encoder_deg", [t, [repr(float(x)) for x in np.radians(reading)]]),
+         ["--enc-unit", "rad"]),
+        ("counts:14", table("time_s,counts", [t, [str(c) for c in codes]]), ["--enc-col", "counts", "--enc-unit",
+                                                                              "counts:14"]),
+        ("scientific notation", table(
+            "time_s,encoder_deg", [[f"{x:.16e}" for x in time], [f"{x:.16e}" for x in reading]]), []),
+    ]
+
+
+def spin_rows(folder):
+    """One row per form of ``encal selfcal spin``'s log: the written calibration against the first form's."""
+    import encal
+
+    rows, first = [], None
+    for name, text, options in spin_forms():
+        source, output = folder / "spin_in.csv", folder / "spin_out.csv"
+        source.write_text(text, newline="")
+        output.unlink(missing_ok=True)
+        status, out, err = run(["selfcal", "spin", source, "--pole-pairs", "7", "--bits", "14", "-o", output]
+                               + options)
+        if status != 0:
+            rows.append((name, f"refused: {_shown(err.strip())}", False))
+            continue
+        cal = encal.read_calibration(output)
+        order = np.argsort(cal.reference_deg)
+        errors = cal.errors_arcmin[order]
+        first = errors if first is None else first
+        gap = float(np.max(np.abs(errors - first))) if errors.size == first.size else math.inf
+        # the truth without the orders one speed cannot see (multiples of the pole pairs) and without its mean
+        # (the rotor's zero is arbitrary)
+        theta = np.radians(cal.reference_deg[order])
+        truth = sum(a * np.cos(k * theta + p) for k, a, p in HARMONICS if k % 7)
+        miss = (errors - errors.mean()) - (truth - truth.mean())
+        rms, largest = float(np.sqrt(np.mean(miss**2))), float(np.max(np.abs(miss)))
+        rows.append((name, f"{gap:.2g} | {rms:.3g} / {largest:.3g}",
+                     gap <= SAME_ARCMIN and rms <= SPIN_TRUTH[0] and largest <= SPIN_TRUTH[1]))
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", help="comma-separated case names (substrings)")
@@ -964,6 +1040,13 @@ def main(argv=None):
         print("| encal selfcal steps input | largest gap of the written errors to the first form's, arcmin | agrees |")
         print("|---|---|---|")
         for name, text, ok in steps_rows(folder):
+            failures += not ok
+            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
+        print()
+        print("| encal selfcal spin log | largest gap of the written errors to the first form's, arcmin | against the "
+              "truth without orders 7k and its mean: RMS / max, arcmin | agrees |")
+        print("|---|---|---|---|")
+        for name, text, ok in spin_rows(folder):
             failures += not ok
             print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
         if not args.no_export:
