@@ -71,6 +71,7 @@ FITS = {
     "ann 1:8:1": ["--method", "ann", "--hidden", "8", "--seed", "0", "--epochs", "200"],
     "fourier": ["--method", "fourier", "--n-orders", "8"],
     "hybrid": ["--method", "hybrid", "--seed", "0"],
+    "auto, mean of both directions": ["--method", "auto", "--bidirectional", "mean"],
 }
 # a looser truth for a fit that cannot follow the profile: a 1:8:1 network of 200 epochs misses part of the 16th
 # harmonic (0.27 arcmin RMS, 0.77 at most, in every form)
@@ -449,6 +450,12 @@ def cases():
         unit="rad", ref_wrap="pm180", enc_wrap="pm180")
 
     add("bidirectional +1/-1", "bidirectional", bidirectional)
+    mean = ("auto, mean of both directions",)
+    add("bidirectional, the mean of both directions", "bidirectional mean", bidirectional, fits=mean)
+    add("bidirectional mean, cw/ccw, shuffled", "bidirectional mean", bidirectional, fits=mean, direction_words=True,
+        order="shuffled")
+    add("bidirectional mean, counting back, rad", "bidirectional mean", bidirectional, fits=mean, reverse=True,
+        unit="rad")
     add("bidirectional cw/ccw", "bidirectional", bidirectional, direction_words=True)
     add("bidirectional shuffled", "bidirectional", bidirectional, order="shuffled")
     add("bidirectional (-180, 180], rad", "bidirectional", bidirectional, ref_wrap="pm180", enc_wrap="pm180",
@@ -560,7 +567,7 @@ def outcome(case, folder):
         status, out, err = run(["fit", train, "-o", model, "--reproducible"] + FITS[method] + options)
         if status != 0:
             return f"fit --method {method}: status {status}: {err.strip().splitlines()[-1] if err.strip() else ''}"
-        directions = (1, -1) if case.train.direction is not None else (None,)
+        directions = (1, -1) if case.train.direction is not None and "mean" not in FITS[method] else (None,)
         angles = {}
         for d in directions:
             dense, reference = dense_readings(case.train.zero_deg, d, sign, case.train.arc)
