@@ -484,6 +484,8 @@ def cases():
     add("14-bit signed counts (-8192, 8192]", "14-bit", bits14, tol14, enc_unit="counts:14", enc_wrap="pm180")
     add("14-bit counts, reference in turns", "14-bit", bits14, tol14, ref_unit="rev", enc_unit="counts:14")
     add("14-bit counts counting back", "14-bit", bits14, tol14, enc_unit="counts:14", reverse=True)
+    add("14-bit counts, turns added row by row", "14-bit", bits14, tol14, enc_unit="counts:14", ref_wrap="turns",
+        enc_wrap="turns")
     add("14-bit degrees counting back", "14-bit", bits14, tol14, reverse=True)
     add("12-bit codes in degrees", "12-bit", bits12, tol12)
     add("12-bit degrees to 4 decimals", "12-bit 4 decimals", bits12, tol12, number="fixed4", bits_optional=True)
@@ -498,6 +500,10 @@ def cases():
     add("sweep, encoder wrapped, reference not", "sweep", sweep, tol14, ref_wrap="keep")
     add("sweep, reference counts:17 unwrapped", "sweep", sweep, tol14, ref_unit="counts:17", **keep)
     add("sweep, both in counts", "sweep", sweep, tol14, ref_unit="counts:17", enc_unit="counts:14", ref_wrap="keep")
+    add("sweep, multi-turn counters (both unwrapped counts)", "sweep", sweep, tol14, ref_unit="counts:17",
+        enc_unit="counts:14", **keep)
+    add("sweep, reference counts wrapped, encoder counts unwrapped", "sweep", sweep, tol14, ref_unit="counts:17",
+        enc_unit="counts:14", ref_wrap="0-360", enc_wrap="keep")
     add("sweep, semicolons, decimal comma", "sweep", sweep, tol14, separator=";", decimal_comma=True, **keep)
     add("sweep, an epoch column", "sweep", sweep, tol14, epoch_column=True, **keep)
     add("sweep, comments, CRLF, BOM", "sweep", sweep, tol14, comments=True, line_end="\r\n", bom=True, **keep)
@@ -850,6 +856,8 @@ def correct_forms():
         ("radians (-pi, pi]", _lines(np.radians(pm180), "repr"), ["--enc-unit", "rad"]),
         ("turns", _lines(readings / 360.0, "repr"), ["--enc-unit", "rev"]),
         ("counts:24 (fractional)", _lines(readings / 360.0 * 2**24, "repr"), ["--enc-unit", "counts:24"]),
+        ("counts:24, a multi-turn counter", _lines((readings / 360.0 + rng.integers(-3, 4, readings.size)) * 2**24,
+                                                  "repr"), ["--enc-unit", "counts:24"]),
     ]
 
 
