@@ -676,7 +676,18 @@ EXPORTS = {
     "C cortex-m4f": (["--format", "c", "--target", "cortex-m4f"], r"codes: max (\S+),", 60 * 2.0**-16),
     "C fixed (codes)": (["--format", "c", "--target", "fixed"], r"codes: max (\S+),",
                         21600.0 / 2**EXPORT_BITS / 2),
+    "C cortex-m4f formula": (["--format", "c", "--target", "cortex-m4f", "--form", "formula"], r"codes: max (\S+),",
+                             60 * 2.0**-16),
+    "C cortex-m4f, 64 float32 nodes, linear": (["--format", "c", "--target", "cortex-m4f", "--nodes", "64",
+                                                "--interpolation", "linear", "--dtype", "float32"],
+                                               r"codes: max (\S+),", 60 * 2.0**-16),
+    "C cortex-m4f, 128 int8 nodes": (["--format", "c", "--target", "cortex-m4f", "--nodes", "128", "--dtype", "int8"],
+                                     r"codes: max (\S+),", 60 * 2.0**-16),
+    "C fixed, 256 int8 nodes (codes)": (["--format", "c", "--target", "fixed", "--nodes", "256", "--dtype", "int8"],
+                                        r"codes: max (\S+),", 21600.0 / 2**EXPORT_BITS / 2),
 }
+# the exports only some kinds of model have: --form formula is a Fourier series itself
+EXPORT_KINDS = {"C cortex-m4f formula": ("spectral", "fourier")}
 
 
 # firmware formats, applied by the firmware's own run-time code (tests/deploy/firmware_own): the angle it holds is
@@ -776,7 +787,10 @@ def export_rows(folder):
         reference = corrected(model, readings)
         truth = reference_of(readings, data, sign)
         truth_gap = wrap_arcmin(reference - truth)
+        kind = json.loads(model.read_text())["kind"]
         for name, (options, words, adds) in EXPORTS.items():
+            if name in EXPORT_KINDS and kind not in EXPORT_KINDS[name]:
+                continue
             target = folder / ("export_out" if "C " in name else "export_out.tab")
             shutil.rmtree(target, ignore_errors=True) if target.is_dir() else target.unlink(missing_ok=True)
             status, out, err = run(["export", model, "-o", target] + options)
