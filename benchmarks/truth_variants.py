@@ -511,6 +511,18 @@ def cases():
     add("sweep shuffled", "sweep", sweep, tol14, order="shuffled")
     add("sweep reversed", "sweep", sweep, tol14, order="reversed", **keep)
     add("sweep sorted by encoder", "sweep", sweep, tol14, order="by-encoder")
+    for path in REAL_FILES:  # real AS5047D calibrations (no truth: only the forms' agreement)
+        real = read_real(path)
+        if real is None:
+            continue
+        label = f"real {path.stem.split('_')[1]}"
+        unknown = (math.inf, math.inf)
+        add(f"{label}, its 14-bit codes in degrees", label, real, unknown)
+        add(f"{label}, shuffled, (-180, 180]", label, real, unknown, order="shuffled", ref_wrap="pm180",
+            enc_wrap="pm180")
+        add(f"{label}, radians, semicolons", label, real, unknown, unit="rad", separator=";", decimal_comma=True)
+        add(f"{label}, encoder counts:14, reversed", label, real, unknown, enc_unit="counts:14", order="reversed")
+        add(f"{label}, sorted by encoder, counting back", label, real, unknown, order="by-encoder", reverse=True)
     arc = simulate(20, start=-60.0, span=120.0), simulate(21, start=-59.5, span=119.0)
     add("arc -60 to 60 deg in [0, 360)", "arc", arc)
     add("arc in (-180, 180]", "arc", arc, ref_wrap="pm180", enc_wrap="pm180")
@@ -521,6 +533,25 @@ def cases():
     add("arc counting back", "arc", arc, reverse=True)
     add("arc +720", "arc", arc, ref_wrap="plus720", enc_wrap="plus720")
     return out
+
+
+REAL = ROOT.parent / "shared" / "data" / "real" / "mechaduino"
+REAL_FILES = [REAL / name for name in ("mech_cejosey_2019-01-01_f7b12b5a.csv",
+                                       "mech_charlesblouin_2020-10-17_a0185230.csv",
+                                       "mech_deezmaker_2017-06-14_999aedda.csv")]
+
+
+def read_real(path):
+    """(calibration rows, the same as its test) of a real calibration file, or None when it is absent. A real
+    file has no held-out half here: the test is the file itself."""
+    if not path.exists():
+        return None
+    table = np.loadtxt(path, delimiter=",", skiprows=1)
+    lsb = 360.0 / 2**14
+    codes = np.round(table[:, 1] / lsb)
+    bits = 14 if np.max(np.abs(table[:, 1] - codes * lsb)) < 1e-6 else None
+    rows = Rows(table[:, 0], codes * lsb if bits else table[:, 1], None, bits)
+    return rows, rows
 
 
 def _sweep(case):
@@ -1056,8 +1087,9 @@ def main(argv=None):
             failures += not ok
             gap = "(first)" if first is result else f"{same:.2g}"
             bits = " / ".join(str(result[f"{fit} bits"]) for fit in case.fits)
+            truth = "no truth" if math.isinf(case.truth_rms) else f"{rms:.3g} / {peak:.3g}"
             print(f"| {case.name} | {case.group} | {', '.join(case.fits)} | {result['options']} | {bits} | "
-                  f"{rms:.3g} / {peak:.3g} | {gap} | {'yes' if ok else 'NO ' + notes} |",
+                  f"{truth} | {gap} | {'yes' if ok else 'NO ' + notes} |",
                   flush=True)
         print()
         print("| encal correct's input | largest gap to the first form's answers, arcmin | agrees |")
