@@ -518,6 +518,7 @@ def cases():
         label = f"real {path.stem.split('_')[1]}"
         unknown = (math.inf, math.inf)
         add(f"{label}, its 14-bit codes in degrees", label, real, unknown)
+        add(f"{label}, 8 decimals as in the file", label, real, unknown, number="fixed8")
         add(f"{label}, shuffled, (-180, 180]", label, real, unknown, order="shuffled", ref_wrap="pm180",
             enc_wrap="pm180")
         add(f"{label}, radians, semicolons", label, real, unknown, unit="rad", separator=";", decimal_comma=True)
