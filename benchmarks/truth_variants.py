@@ -72,6 +72,7 @@ FITS = {
     "fourier": ["--method", "fourier", "--n-orders", "8"],
     "hybrid": ["--method", "hybrid", "--seed", "0"],
     "auto, mean of both directions": ["--method", "auto", "--bidirectional", "mean"],
+    "lut cubic": ["--method", "lut", "--interpolation", "cubic"],
 }
 # a looser truth for a fit that cannot follow the profile: a 1:8:1 network of 200 epochs misses part of the 16th
 # harmonic (0.27 arcmin RMS, 0.77 at most, in every form)
@@ -496,6 +497,14 @@ def cases():
     sweep = simulate_sweep(17), bits14[1]
     keep = dict(ref_wrap="keep", enc_wrap="keep")
     add("sweep of 3 turns, unwrapped", "sweep", sweep, tol14, **keep)
+    cubic = ("auto", "lut", "lut cubic")
+    add("sweep, cubic table", "sweep cubic", sweep, tol14, fits=cubic, **keep)
+    add("sweep, cubic table, (-180, 180], radians", "sweep cubic", sweep, tol14, fits=cubic, ref_wrap="pm180",
+        enc_wrap="pm180", unit="rad")
+    add("sweep, cubic table, shuffled", "sweep cubic", sweep, tol14, fits=cubic, order="shuffled")
+    add("14-bit, cubic table", "14-bit cubic", bits14, tol14, fits=cubic)
+    add("14-bit, cubic table, radians (-pi, pi]", "14-bit cubic", bits14, tol14, fits=cubic, unit="rad",
+        ref_wrap="pm180", enc_wrap="pm180")
     add("sweep wrapped to [0, 360)", "sweep", sweep, tol14)
     add("sweep, encoder wrapped, reference not", "sweep", sweep, tol14, ref_wrap="keep")
     add("sweep, reference counts:17 unwrapped", "sweep", sweep, tol14, ref_unit="counts:17", **keep)
