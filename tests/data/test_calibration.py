@@ -508,6 +508,7 @@ def test_passes_in_random_order_are_refused_saying_the_order_the_pattern_needs(w
     reference = np.tile(GRID, 2)[np.random.default_rng(2).permutation(2 * GRID.size)]
     path = write_csv(_rows(reference, _noisy(reference)))
     message = _refused(path, "appears more than once with different readings")
-    assert "or the same number at every angle, each stop's readings in a row or the stops in the same order in every pass" in message
+    assert ("or the same number at every angle, each stop's readings in a row or the stops in the same order in every "
+            "pass") in message
     assert "use --keep-duplicates" in message
     assert len(read_calibration(path, duplicates="keep")) == reference.size
