@@ -17,7 +17,7 @@ counts), and the real command line (``encal.cli.main`` in this process) runs on 
 The same for ``encal correct``'s own input (a reading a line, a CSV column, units, line ends, a BOM), for ``encal
 selfcal steps`` on the README's stepper (rows shuffled, columns swapped, radians, counts as degrees) and for ``encal
 selfcal spin`` on a spin log of the truth's encoder (unwrapped, wrapped, radians, counts; its calibration also
-against the truth, less the orders one speed cannot see). Then the
+against the truth, less the orders one speed cannot see) and for the second pass of ``encal fit --repeat``. Then the
 exports: ``encal export --format c`` (host, cortex-m4f, fixed; compiled with gcc and run on every code),
 ``--format table``, and moteus, SimpleFOC 1.0.9 and Tinymovr through their own run-time code (the harnesses of
 ``tests/deploy/firmware_own``; Klipper and Mechaduino, in the stepper's frame, are checked against a known truth in
@@ -1064,6 +1064,40 @@ def spin_rows(folder):
     return rows
 
 
+# ---------------------------------------------------------------------------------------------- encal fit --repeat
+
+
+def repeat_rows(folder):
+    """One row per form of the second pass given with ``encal fit --repeat`` (the first pass plain): the corrected
+    dense readings against the plain second pass's and the truth."""
+    first_pass, second_pass = simulate(21), simulate(22)
+    calibration, repeat, model = folder / "repeat_a.csv", folder / "repeat_b.csv", folder / "repeat_model.json"
+    write(first_pass, Form(), calibration)
+    forms = [("plain", Form()), ("shuffled", Form(order="shuffled")), ("reversed", Form(order="reversed")),
+             ("starting at 137 deg", Form(order="rotated")), ("(-180, 180]", Form(ref_wrap="pm180", enc_wrap="pm180")),
+             ("turns added", Form(ref_wrap="turns", enc_wrap="turns")),
+             ("by encoder, CRLF, semicolons", Form(order="by-encoder", line_end="\r\n", separator=";",
+                                                   decimal_comma=True))]
+    dense, reference = dense_readings()
+    rows, first = [], None
+    for name, form in forms:
+        write(second_pass, form, repeat, seed=9)
+        model.unlink(missing_ok=True)
+        status, _, err = run(["fit", calibration, "--repeat", repeat, "-o", model, "--method", "spectral",
+                              "--reproducible"])
+        if status != 0:
+            rows.append((name, f"refused: {_shown(err.strip())}", False))
+            continue
+        angles = corrected(model, dense)
+        first = angles if first is None else first
+        gap = float(np.max(np.abs(wrap_arcmin(angles - first))))
+        miss = wrap_arcmin(angles - reference)
+        rms, largest = float(np.sqrt(np.mean(miss**2))), float(np.max(np.abs(miss)))
+        rows.append((name, f"{gap:.2g} | {rms:.3g} / {largest:.3g}",
+                     gap <= SAME_ARCMIN and rms <= TRUTH_RMS_ARCMIN and largest <= TRUTH_MAX_ARCMIN))
+    return rows
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", help="comma-separated case names (substrings)")
@@ -1118,6 +1152,13 @@ def main(argv=None):
               "truth without orders 7k and its mean: RMS / max, arcmin | agrees |")
         print("|---|---|---|---|")
         for name, text, ok in spin_rows(folder):
+            failures += not ok
+            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
+        print()
+        print("| encal fit --repeat: the second pass | largest gap to the plain pass's model, arcmin | against the "
+              "truth: RMS / max, arcmin | agrees |")
+        print("|---|---|---|---|")
+        for name, text, ok in repeat_rows(folder):
             failures += not ok
             print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
         if not args.no_export:

@@ -85,3 +85,8 @@ def test_selfcal_spin_writes_the_same_calibration_from_every_form_and_the_truth(
     the orders one speed cannot see."""
     rows = tv.spin_rows(tmp_path)
     assert all(ok for _, _, ok in rows), rows
+
+
+def test_fit_repeat_reads_the_second_pass_in_every_form(tmp_path):
+    rows = tv.repeat_rows(tmp_path)
+    assert all(ok for _, _, ok in rows), rows
