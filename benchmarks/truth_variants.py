@@ -19,9 +19,9 @@ selfcal steps`` on the README's stepper (rows shuffled, columns swapped, radians
 selfcal spin`` on a spin log of the truth's encoder (unwrapped, wrapped, radians, counts; its calibration also
 against the truth, less the orders one speed cannot see) and for the second pass of ``encal fit --repeat``. Then the
 exports: ``encal export --format c`` (host, cortex-m4f, fixed; compiled with gcc and run on every code),
-``--format table``, and moteus, SimpleFOC 1.0.9 and Tinymovr through their own run-time code (the harnesses of
-``tests/deploy/firmware_own``; Klipper and Mechaduino, in the stepper's frame, are checked against a known truth in
-its ``test_known_truth.py``), on the codes of a 14-bit encoder: the corrected error against the truth must be the
+``--format table``, and moteus, SimpleFOC 1.0.9, Tinymovr, Klipper and Mechaduino through their own run-time code
+(the harnesses of ``tests/deploy/firmware_own``; Klipper and Mechaduino in the stepper's frame, step 0 at the
+reference's 0 degree), on the codes of a 14-bit encoder: the corrected error against the truth must be the
 one ``encal correct`` gives, within the resolution the export states.
 
 Usage::
@@ -737,22 +737,37 @@ FIRMWARES = {
     "moteus": ["--format", "moteus"],
     "simplefoc 1.0.9": ["--format", "simplefoc", "--firmware-version", "1.0.9"],
     "tinymovr": ["--format", "tinymovr"],
+    # the stepper's frame: full step 0 at the reference's 0 degree, its positive steps raising the reference angle
+    "klipper": ["--format", "klipper", "--step-zero", "0", "--step-direction", "1"],
+    "mechaduino": ["--format", "mechaduino", "--step-zero", "0"],
 }
 FIRMWARE_STATED = r"within max (\S+), RMS"
+FULL_STEPS = 200  # Klipper's stepper (tests/deploy/firmware_own/klipper.py)
 # a stated figure is printed to 3 significant digits (1.97 for 1.9724): within half a unit of its last digit
 STATED_DIGITS = 1.005
 FIRMWARE_CONSTANT = r"a constant (\S+) arcmin"
 
 
 def firmware_angles(name, text):
-    """Degrees, in the reading's sense, that the firmware's own code holds at every 14-bit code; or a reason."""
-    from tests.deploy.firmware_own import moteus, simplefoc, tinymovr
+    """Degrees that the firmware's own code holds at every 14-bit code (in the reading's sense; Klipper's in the
+    stepper's, modulo 4 full steps); or a reason it cannot run here."""
+    from tests.deploy.firmware_own import klipper, mechaduino, moteus, simplefoc, tinymovr
 
-    module = {"moteus": moteus, "simplefoc 1.0.9": simplefoc, "tinymovr": tinymovr}[name]
+    module = {"moteus": moteus, "simplefoc 1.0.9": simplefoc, "tinymovr": tinymovr, "klipper": klipper,
+              "mechaduino": mechaduino}[name]
     reason = module.unavailable()
     if reason:
         return reason
     codes = np.arange(2**EXPORT_BITS)
+    if name == "klipper":
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "printer.cfg"
+            path.write_text(klipper.printer_cfg(text))
+            calibration, _ = klipper.load_klipper(path)
+        sixteen_bit = codes.astype(np.int64) << (16 - EXPORT_BITS)
+        return (klipper.klipper_positions(calibration, sixteen_bit) + calibration.angle_phase_offset) * (360.0 / 65536)
+    if name == "mechaduino":  # Controller.cpp: y = lookup[readEncoder()], from full step 0
+        return mechaduino.read_lookup(text).astype(float)
     if name == "moteus":
         table, scale = moteus._table_and_scale(moteus.device_commands(text), 0)
         _, compensated = moteus.firmware_correction(table, scale, EXPORT_BITS, 1, 0)
@@ -871,8 +886,16 @@ def export_rows(folder):
                 continue
             stated, constant = _stated(out, FIRMWARE_STATED), _stated(out, FIRMWARE_CONSTANT)
             constant = 0.0 if math.isnan(constant) else constant
-            gap = wrap_arcmin(angles - sign * reference) + constant
-            exported_truth = wrap_arcmin(angles - sign * truth) + constant
+            if name == "klipper":  # the stepper's angle from step 0, modulo the 4 full steps of its phase
+                period = 4 * 360.0 / FULL_STEPS
+
+                def wrapped(delta_deg):
+                    return ((delta_deg + period / 2) % period - period / 2) * 60.0
+
+                gap, exported_truth = wrapped(angles - reference), wrapped(angles - truth)
+            else:
+                gap = wrap_arcmin(angles - sign * reference) + constant
+                exported_truth = wrap_arcmin(angles - sign * truth) + constant
             ok = bool(np.max(np.abs(gap)) <= stated * STATED_DIGITS + 1e-5)
             rows.append((label, name, f"{np.max(np.abs(gap)):.3g} (stated {stated:.3g}; constant left out "
                          f"{constant:.4g}) | {np.sqrt(np.mean(truth_gap**2)):.3g} / "
