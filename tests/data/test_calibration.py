@@ -500,3 +500,15 @@ def test_a_sigma_cell_with_the_other_decimal_mark_is_refused(write_csv, angle_ma
     else:
         with pytest.raises(CalibrationError, match=rf"line 2, column \d: .*{refused}"):
             read_calibration(path)
+
+
+def test_passes_in_random_order_are_refused_saying_the_order_the_pattern_needs(write_csv):
+    """Two passes shuffled together have the same number of readings at every stop, which the message asked for,
+    and were still refused (truth8): it now says that the readings must come in a row or in passes."""
+    reference = np.tile(GRID, 2)[np.random.default_rng(2).permutation(2 * GRID.size)]
+    path = write_csv(_rows(reference, _noisy(reference)))
+    message = _refused(path, "appears more than once with different readings")
+    assert ("or the same number at every angle, each stop's readings in a row or the stops in the same order in every "
+            "pass") in message
+    assert "use --keep-duplicates" in message
+    assert len(read_calibration(path, duplicates="keep")) == reference.size

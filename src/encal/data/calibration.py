@@ -1025,8 +1025,9 @@ def _check_duplicates(path, cal, duplicates, repeated=None, order=None, sorted_r
             f"{path}: reference angle {cal.reference_deg[index]:g} deg appears more than once with "
             f"different readings ({cal.encoder_deg[first]:g} and {cal.encoder_deg[index]:g} deg, data rows "
             f"{first + 1} and {index + 1}); expected one reading per reference angle, or the same number at "
-            "every angle (use --keep-duplicates to keep them as repeated readings of one stop, "
-            "--average-duplicates to average them)")
+            "every angle, each stop's readings in a row or the stops in the same order in every pass (use "
+            "--keep-duplicates to keep them as repeated readings of one stop, --average-duplicates to average "
+            "them)")
     mean_offset = np.bincount(group, weights=offsets) / np.bincount(group)
     in_file_order = np.argsort(first)
     keep = first[in_file_order]

@@ -11,7 +11,7 @@ import numpy as np
 
 from .._core.errors import InputError, ModelFileError
 from .._core.parameters import check_choice
-from ..analysis.profile import distinct_angles, profile_arrays
+from ..analysis.profile import ANGLE_TOLERANCE_DEG, distinct_angles, profile_arrays
 from .base import Model
 
 __all__ = ["LookupTableModel", "fit_lut"]
@@ -196,7 +196,9 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=
         Most table entries. A dense sweep with more distinct angles is averaged in
         ``max_entries`` equal bins of encoder angle (each entry the mean angle and mean error
         of its readings): a table of 50,000 breaks through noisy readings follows their noise
-        and costs firmware memory for nothing. None keeps every distinct angle.
+        and costs firmware memory for nothing. An angle within 1e-9° below a bin's edge is the
+        edge's (the edges fall on codes, which a unit's conversion can give back a hair low).
+        None keeps every distinct angle.
 
     Returns
     -------
@@ -225,9 +227,15 @@ def fit_lut(theta_enc_deg, error_arcmin, *, interpolation="linear", max_entries=
     binned_from = None
     if max_entries is not None and angles.size > max_entries:
         binned_from = int(angles.size)
-        group = np.minimum((theta * (max_entries / 360.0)).astype(int), max_entries - 1)
+        # An angle within ANGLE_TOLERANCE_DEG below a bin's edge is the edge's, as distinct_angles makes them one
+        # angle: the edges fall on codes (every 4th of a 14-bit encoder), which a file in radians or in (-180, 180]
+        # gives back a hair below, and the bin below took them (the table moved by the readings' scatter).
+        position = (theta + ANGLE_TOLERANCE_DEG) * (max_entries / 360.0)
+        wraps = position >= max_entries  # a hair below 360: the angle 0's bin
+        group = np.where(wraps, 0, np.minimum(position.astype(int), max_entries - 1))
         _, group = np.unique(group, return_inverse=True)
-        angles = np.bincount(group, weights=theta) / np.bincount(group)
+        angles = np.maximum(np.bincount(group, weights=np.where(wraps, theta - 360.0, theta)) / np.bincount(group),
+                            0.0)
     counts = np.bincount(group)
     values = np.bincount(group, weights=error) / counts
     if interpolation == "cubic":
