@@ -512,3 +512,23 @@ def test_passes_in_random_order_are_refused_saying_the_order_the_pattern_needs(w
             "pass") in message
     assert "use --keep-duplicates" in message
     assert len(read_calibration(path, duplicates="keep")) == reference.size
+
+
+@pytest.mark.parametrize("forward, reverse", [("1.0", "-1.0"), ("+1.", "-1e0"),
+                                              ("1.000000000000000000e+00", "-1.000000000000000000e+00")])
+def test_a_direction_written_as_a_float_of_one_is_read(tmp_path, forward, reverse):
+    # NumPy's savetxt writes a float column so; it was refused ("direction is '1.0', expected +1, -1, cw or ccw")
+    angles = np.repeat(np.arange(12) * 30.0, 2)
+    rows = "\n".join(f"{a},{a + 0.01},{forward if i % 2 == 0 else reverse}" for i, a in enumerate(angles))
+    path = tmp_path / "run.csv"
+    path.write_text("reference_deg,encoder_deg,direction\n" + rows + "\n")
+    assert list(read_calibration(path).direction) == [1, -1] * 12
+
+
+@pytest.mark.parametrize("cell", ["0.5", "2", "1.5e0", "0", "nan"])
+def test_a_direction_number_other_than_one_is_refused(tmp_path, cell):
+    path = tmp_path / "run.csv"
+    rows = "\n".join(f"{a},{a + 0.01},-1" for a in np.arange(1, 12) * 30.0)
+    path.write_text(f"reference_deg,encoder_deg,direction\n0,0.01,{cell}\n{rows}\n")
+    with pytest.raises(CalibrationError, match=r"line 2, column 3: direction is .*expected \+1, -1, cw or ccw"):
+        read_calibration(path)

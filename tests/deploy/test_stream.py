@@ -99,7 +99,7 @@ def _bidirectional_truth():
     return model, truth, sign, reading
 
 
-@pytest.mark.parametrize("cells", [("+1", "-1"), ("cw", "CCW"), ('"1"', '"-1"')])
+@pytest.mark.parametrize("cells", [("+1", "-1"), ("cw", "CCW"), ('"1"', '"-1"'), ("1.0", "-1.000000e+00")])
 def test_a_direction_column_corrects_each_reading_with_its_own_direction(cells):
     """It was ignored: every reading got the mean of the two directions, 0.75 arcmin (half the hysteresis) off
     the truth, with exit 0."""

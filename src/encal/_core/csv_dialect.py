@@ -22,11 +22,32 @@ spaces), so a file written by encal reads back with the same fields.
 import re
 
 __all__ = ["split_lines", "is_skipped", "fields", "column_names", "repeated_names", "is_number", "quote", "join",
-           "QuotingError", "DIRECTIONS"]
+           "QuotingError", "DIRECTIONS", "direction_of"]
 
 #: The values of a ``direction`` column (lower case, without surrounding spaces) and the direction of travel each
 #: means: +1 forward, -1 reverse.
 DIRECTIONS = {"+1": 1, "1": 1, "-1": -1, "cw": 1, "ccw": -1, "+": 1, "-": -1}
+#: A direction written as a number in ASCII (``1.0``, ``-1.000000e+00``, as NumPy's ``savetxt`` writes a float
+#: column): read as one when it is exactly +1 or -1.
+_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?")
+
+
+def direction_of(cell):
+    """The direction of travel a ``direction`` cell means: +1, -1, or None when it means neither.
+
+    ``cell`` is the cell without surrounding blanks, any case: one of :data:`DIRECTIONS`, or a number that is
+    exactly +1 or -1 (``1.0``, ``-1e0``).
+
+    Examples
+    --------
+    >>> [direction_of(cell) for cell in ("+1", "CCW", "1.0", "-1.000000000000000000e+00", "0.5", "2")]
+    [1, -1, 1, -1, None, None]
+    """
+    known = DIRECTIONS.get(cell.lower())
+    if known is not None or not _NUMBER.fullmatch(cell):
+        return known
+    value = float(cell)
+    return int(value) if value in (1.0, -1.0) else None
 
 _LINE_END = re.compile(r"\r\n|\r|\n")
 _NEEDS_QUOTES = re.compile(r'[",\r\n]|^\s|\s$')

@@ -607,11 +607,11 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
                             marks[mark] = (number, column + 1, cells[column])
                 _check_decimal_marks(path, marks[","], marks["."])
             if dir_col is not None:
-                cell = cells[dir_col].strip(" \t").lower()  # ASCII blanks only, as around a number
-                if cell not in _csv.DIRECTIONS:
+                sense = _csv.direction_of(cells[dir_col].strip(" \t"))  # ASCII blanks only, as around a number
+                if sense is None:
                     _fail(path, number, f"direction is {cells[dir_col].strip()!r}, expected +1, -1, cw or ccw",
                           dir_col + 1)
-                direction.append(_csv.DIRECTIONS[cell])
+                direction.append(sense)
             if epoch_col is not None:
                 epoch.append(cells[epoch_col].strip())
             if std_col is not None:

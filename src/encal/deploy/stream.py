@@ -263,7 +263,7 @@ class _LineParser:
                 if self.direction_column is not None:
                     directions = np.array([_csv.DIRECTIONS[row[self.direction_column].strip().lower().decode("ascii")]
                                            for row in rows], dtype=int)
-        except (ValueError, KeyError, UnicodeDecodeError):
+        except (ValueError, KeyError, UnicodeDecodeError):  # (the careful reader reads '1.0' and says what is not)
             return None
         return (values, directions, None) if np.all(np.abs(values) <= self.largest) else None  # (False for NaN)
 
@@ -331,7 +331,7 @@ class _LineParser:
             field = cells[self.column]
             if self.direction_column is not None:
                 cell = cells[self.direction_column].strip(" \t")  # ASCII blanks only, as around a number
-                direction = _csv.DIRECTIONS.get(cell.lower())
+                direction = _csv.direction_of(cell)
                 if direction is None:
                     return None, None, _DIRECTION_PROBLEM
         try:
