@@ -328,3 +328,71 @@ def test_a_cross_validated_held_out_figure_gets_the_references_uncertainty_in_qu
     cal = Calibration(angles, angles, reference_std_arcmin=np.full(angles.size, 0.4))
     assert batch._held_out(model, cal) == pytest.approx(0.5)
     assert batch._held_out(model, Calibration(angles, angles)) == pytest.approx(0.3)
+
+
+def _report_text(page):
+    """The report page's text, tags dropped and spaces collapsed."""
+    import html
+    import re
+
+    text = re.sub(r"<(style|script).*?</\1>", "", page.read_text(encoding="utf-8"), flags=re.S)
+    return html.unescape(re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", text)))
+
+
+def test_each_grade_is_shown_with_the_thresholds_it_was_given_by(tmp_path, capsys):
+    """fleet8: a lot graded by loose thresholds, then half of it recalibrated under tight ones. The report counted
+    every 'A' and 'B' together with no limit; each grade now counts under the thresholds its record was given by."""
+    (tmp_path / "lot").mkdir()
+    (tmp_path / "again").mkdir()
+    for k in (1, 2, 3, 4):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", 1.0, seed=k)
+        if k <= 2:
+            _write_unit(tmp_path / "again" / f"SN{k}.csv", 1.0, seed=10 + k)
+    store = tmp_path / "s.sqlite"
+    assert _fit(tmp_path / "lot", "--store", store, "--grades", "A=0.5arcmin,B=1arcmin") == 0
+    assert _fit(tmp_path / "again", "--store", store, "--grades", "A=0.001arcmin,B=0.1arcmin") == 0
+    with open_store(store) as opened:
+        latest = {r.serial: r for r in opened.latest_records()}
+    assert [latest[s].grade for s in ("SN1", "SN2", "SN3", "SN4")] == ["B", "B", "A", "A"]  # held-out ~0.01 arcmin
+    assert latest["SN1"].grade_limits() == [("A", 0.001), ("B", 0.1)]
+    assert latest["SN3"].grade_limits() == [("A", 0.5), ("B", 1.0)]
+    page = tmp_path / "fleet.html"
+    assert main(["fleet", "report", "--store", str(store), "-o", str(page)]) == 0
+    text = _report_text(page)
+    assert "graded by 2 different sets of thresholds" in text
+    assert "B <= 0.001667 deg (0.1 arcmin) A <= 0.001, B <= 0.1 arcmin 2 50.0%" in text
+    assert "A <= 0.008333 deg (0.5 arcmin) A <= 0.5, B <= 1 arcmin 2 50.0%" in text
+    assert "B (<= 0.1 arcmin)" in text and "A (<= 0.5 arcmin)" in text
+    # graded again by one set, each unit's grade follows its own held-out estimate
+    assert main(["fleet", "report", "--store", str(store), "-o", str(page), "--grades", "A=0.5arcmin"]) == 0
+    text = _report_text(page)
+    assert "A <= 0.008333 deg (0.5 arcmin) this report's --grades 4 100.0%" in text and "different sets" not in text
+
+
+def test_the_drift_verdict_tells_a_unit_that_changed_from_one_that_did_not(tmp_path, capsys):
+    """fleet8: the store holds models, not readings; a later epoch whose profile moved by more than the two models'
+    uncertainties combined (3 times) is 'moved'. SN1 is calibrated again unchanged (fresh noise), SN2's first order
+    grew by 0.1 arcmin (ten times the noise), SN3 is calibrated once."""
+    for folder, amplitudes in (("one", (1.0, 2.0, 3.0)), ("two", (1.0, 2.1))):
+        (tmp_path / folder).mkdir()
+        for k, amplitude in enumerate(amplitudes, start=1):
+            _write_unit(tmp_path / folder / f"SN{k}.csv", amplitude, seed=k + 10 * len(folder) * len(amplitudes))
+    store = tmp_path / "s.sqlite"
+    assert _fit(tmp_path / "one", "--store", store) == 0
+    assert _fit(tmp_path / "two", "--store", store) == 0
+    from encal.fleet.statistics import DRIFT_MOVED, drift_table
+
+    with open_store(store) as opened:
+        rows = {row["serial"]: row for row in drift_table(opened.records())}
+    assert sorted(rows) == ["SN1", "SN2"]
+    assert [rows[s]["verdict"] for s in ("SN1", "SN2")] == ["within", "moved"]
+    assert all(row["basis"] == "posterior" for row in rows.values())
+    assert rows["SN1"]["drift_arcmin"][-1] < rows["SN1"]["uncertainty_arcmin"] * 1.5  # near 1 when unchanged
+    assert rows["SN2"]["drift_arcmin"][-1] == pytest.approx(0.1 / np.sqrt(2), rel=0.1)
+    assert rows["SN2"]["drift_arcmin"][-1] > 3 * DRIFT_MOVED * rows["SN2"]["uncertainty_arcmin"]
+    assert rows["SN2"]["largest_order"] == 1
+    page = tmp_path / "fleet.html"
+    assert main(["fleet", "report", "--store", str(store), "-o", str(page)]) == 0
+    text = _report_text(page)
+    assert "1 of 2 units moved, 1 within the uncertainty" in text
+    assert " SN2 2 0.07" in text and "moved 1 0.1" in text

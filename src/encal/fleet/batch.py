@@ -171,6 +171,8 @@ def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
             model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
             model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
             model.training["serial"] = serial
+            if grades:  # the thresholds the record's grade is given by, kept with it (Record.grade_limits)
+                model.training["grades_arcmin"] = [[name, float(limit)] for name, limit in grades]
             text = dumps(model_to_dict(model))
         held_out = _held_out(model, cal)
         raw = Path(path).read_bytes()

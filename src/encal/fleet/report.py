@@ -7,7 +7,7 @@ import numpy as np
 from .._core import html as _html
 from .._core.atomic import atomic_write
 from .._version import __version__
-from .statistics import STANDS_OUT, drift_table, fleet_statistics
+from .statistics import DRIFT_MOVED, STANDS_OUT, drift_table, fleet_statistics
 
 __all__ = ["write_fleet_report", "fleet_report_html", "MAX_UNIT_ROWS"]
 
@@ -19,26 +19,79 @@ def _number(value, digits=4):
     return "-" if value is None else f"{value:.{digits}g}"
 
 
+def _limits_text(limits):
+    """``A <= 0.5 arcmin, B <= 1 arcmin``: a set of thresholds as the report states it (arc-minutes)."""
+    return ", ".join(f"{name} <= {limit:.4g}" for name, limit in limits) + " arcmin"
+
+
+def _limit_of(name, limits, short=False):
+    """The held-out RMS a grade of ``limits`` stands for: ``<= 0.02 deg (1.2 arcmin)`` (``short``: ``<= 1.2
+    arcmin``), ``> ...`` for the grade of a unit that meets none."""
+    from ..store import GRADE_NONE
+
+    sign, limit = (">", max(limit for _, limit in limits)) if name == GRADE_NONE else ("<=", dict(limits)[name])
+    return f"{sign} {limit:.4g} arcmin" if short else f"{sign} {limit / 60:.4g} deg ({limit:.4g} arcmin)"
+
+
+def _stored_grade(record):
+    """``(grade, thresholds)`` of a record as stored; the thresholds None when the record does not hold them (or
+    they do not name its grade)."""
+    from ..store import GRADE_NONE
+
+    if record.grade is None:
+        return None, None
+    limits = record.grade_limits()
+    if limits is None or record.grade not in [name for name, _ in limits] + [GRADE_NONE]:
+        return record.grade, None
+    return record.grade, tuple(limits)
+
+
 def _grades_table(latest, grades):
+    """The grades table, and each unit's grade as its row in the units' table shows it.
+
+    With ``grades`` every unit is graded again by them. Without, each unit's stored grade is counted with the
+    thresholds it was given by (:meth:`Record.grade_limits <encal.store.Record.grade_limits>`): units graded by
+    different thresholds (two lots, or two epochs, fitted with different ``--grades``) are counted apart, never
+    under one limit, and the units' table gives each grade its limit; a grade whose thresholds the record does not
+    hold is said to be so.
+    """
     from ..store import GRADE_NONE, grade_of
 
     if grades is not None:
-        for_unit = [grade_of(r.held_out_arcmin, grades) for r in latest]
-        limits = {name: limit for name, limit in grades}
-        names = [name for name, _ in grades] + [GRADE_NONE]
+        by_unit = [(grade_of(r.held_out_arcmin, grades), tuple(grades)) for r in latest]
+        limit_sets = [tuple(grades)]
     else:
-        for_unit = [r.grade for r in latest]
-        limits = {}
-        names = sorted({g for g in for_unit if g is not None})
-    counts = {name: for_unit.count(name) for name in names}
-    if not names:
-        return for_unit, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
-                                         "to this report (--grades A=0.02,B=0.05).", "note")
-    rows = [[name, "-" if name not in limits else f"<= {limits[name] / 60:.4g} deg ({limits[name]:.4g} arcmin)",
-             str(counts[name]), f"{100 * counts[name] / len(latest):.1f}%"] for name in names]
-    table = _html.table(["grade", "held-out RMS", "units", "share"], rows,
-                        caption="Grades (the latest epoch of each unit)")
-    return for_unit, table
+        by_unit = [_stored_grade(r) for r in latest]
+        limit_sets = sorted({limits for grade, limits in by_unit if grade is not None},
+                            key=lambda limits: (limits is None, limits or ()))
+    keys = []
+    for limits in limit_sets:
+        keys += [(name, limits) for name in ([name for name, _ in limits] + [GRADE_NONE] if limits is not None else
+                                             sorted({g for g, its in by_unit if its is None and g is not None}))]
+    several = grades is None and len(limit_sets) > 1
+    shown = [grade if not several or limits is None else f"{grade} ({_limit_of(grade, limits, short=True)})"
+             for grade, limits in by_unit]
+    if not keys:
+        return shown, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
+                                      "to this report (--grades A=0.02,B=0.05).", "note")
+    counts = {key: by_unit.count(key) for key in keys}
+    rows = [[name, "not recorded" if limits is None else _limit_of(name, limits),
+             "this report's --grades" if grades is not None else
+             "not recorded (fitted by an encal that did not keep them)" if limits is None else _limits_text(limits),
+             str(counts[name, limits]), f"{100 * counts[name, limits] / len(latest):.1f}%"] for name, limits in keys]
+    ungraded = sum(grade is None for grade, _ in by_unit)
+    if ungraded:
+        rows.append(["-", "-", "none: fitted without --grades" if grades is None else "none: no held-out estimate",
+                     str(ungraded), f"{100 * ungraded / len(latest):.1f}%"])
+    table = _html.table(["grade", "held-out RMS", "graded by", "units", "share"], rows,
+                        caption="Grades (the latest epoch of each unit)", numeric=[False, False, False, True, True])
+    if several:
+        table = _html.paragraph(
+            f"The units' latest records were graded by {len(limit_sets)} different sets of thresholds (lots or "
+            "epochs fitted with different --grades): each grade is counted with the thresholds it was given by, and "
+            "the units' table gives each grade its limit. 'encal fleet report --grades ...' grades every unit again "
+            "by one set.", "note") + table
+    return shown, table
 
 
 def _figures(stats, drift):
@@ -104,6 +157,22 @@ def _figures(stats, drift):
     return [_html.figure(name, png, caption) for name, png, caption in figures]
 
 
+_VERDICTS = {"moved": "moved", "within": "within its uncertainty", None: "no verdict"}
+
+
+def _drift_rule(drift):
+    """The sentence that says how the drift table's verdicts are reached (the store holds models, not readings)."""
+    counts = {verdict: sum(row["verdict"] == verdict for row in drift) for verdict in _VERDICTS}
+    return (f"{counts['moved']} of {len(drift)} units moved, {counts['within']} within the uncertainty"
+            + (f", {counts[None]} without a verdict" if counts[None] else "") + ". "
+            f"The store holds each epoch's model, not its readings: a unit's profile moved when its RMS change from "
+            f"the first to the last epoch exceeds {DRIFT_MOVED:g} times the two models' uncertainties combined, "
+            "sqrt(u_first^2 + u_last^2), u each model's standard uncertainty of its profile (RMS over the turn; the "
+            "held-out estimate, which holds a new reading's noise too, where a model holds no uncertainty). "
+            "No verdict: a model without either figure, or one of an arc. 'encal drift FIRST.csv LATER.csv' "
+            "on the calibrations (each record keeps its CSV) tests it against the readings.")
+
+
 def fleet_report_html(records, *, grades=None, store_name="the store"):
     """The fleet report page, and a one-line summary.
 
@@ -161,12 +230,16 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     parts.append("<h2>Drift across epochs</h2>")
     if drift:
         parts.append(figures[3])
+        parts.append(_html.paragraph(_drift_rule(drift), "note"))
         parts.append(_html.table(
-            ["serial", "epochs", "drift at the last epoch (arcmin)", "order that moved most", "its change (arcmin)"],
-            [[row["serial"], str(len(row["epochs"])), _number(row["drift_arcmin"][-1], 3), str(row["largest_order"]),
+            ["serial", "epochs", "drift at the last epoch (arcmin)", "uncertainty of the change (arcmin)", "verdict",
+             "order that moved most", "its change (arcmin)"],
+            [[row["serial"], str(len(row["epochs"])), _number(row["drift_arcmin"][-1], 3),
+              _number(row["uncertainty_arcmin"], 3) + ("" if row["basis"] != "held-out" else " (held-out)"),
+              _VERDICTS[row["verdict"]], "-" if row["largest_order"] is None else str(row["largest_order"]),
               _number(row["largest_change_arcmin"], 3)] for row in drift[:200]],
             caption="Units calibrated more than once (at most 200 shown)",
-            numeric=[False, True, True, True, True]))
+            numeric=[False, True, True, True, False, True, True]))
     else:
         parts.append(_html.paragraph("No unit was calibrated more than once.", "note"))
     parts.append("<h2>Units</h2>")

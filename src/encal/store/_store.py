@@ -107,7 +107,7 @@ class Record:
     held_out_arcmin : float or None
         The fit's estimate of its RMS error at readings it did not see (arc-minutes).
     grade : str or None
-        The grade by the thresholds in force when it was written.
+        The grade by the thresholds in force when it was written (:meth:`grade_limits` gives them).
     id : int or None
         The row's number in the store (in the order written).
     """
@@ -142,6 +142,27 @@ class Record:
         except ValueError as exc:
             raise ModelFileError(f"{where}: is not JSON ({exc}); expected a model file") from None
         return model_from_dict(document, source=where)
+
+    def grade_limits(self):
+        """The thresholds :attr:`grade` was given by: ``[(name, largest held-out RMS in arc-minutes), ...]`` by
+        increasing limit, as :func:`parse_grades` gives them, or None when the record holds none (fitted without
+        ``--grades``, or by an encal that did not record them).
+
+        ``encal fleet fit --grades`` records them in the model file's training metadata (``grades_arcmin``), which
+        the model's checksum covers, so that a grade is never read against thresholds it was not computed with.
+        """
+        import json
+
+        try:
+            limits = json.loads(self.model_json).get("training", {}).get("grades_arcmin")
+        except (ValueError, AttributeError):
+            return None
+        if not isinstance(limits, list) or not limits:
+            return None
+        try:
+            return [(str(name), float(limit)) for name, limit in limits]
+        except (TypeError, ValueError):
+            return None
 
 
 def default_store_path(data_dir):
