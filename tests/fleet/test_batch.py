@@ -396,3 +396,53 @@ def test_the_drift_verdict_tells_a_unit_that_changed_from_one_that_did_not(tmp_p
     text = _report_text(page)
     assert "1 of 2 units moved, 1 within the uncertainty" in text
     assert " SN2 2 0.07" in text and "moved 1 0.1" in text
+
+
+def _write_arc(path, amplitude_arcmin, seed, stop_deg=90.0):
+    """:func:`_write_unit`'s profile over 0 to ``stop_deg`` only (a partial calibration)."""
+    reference = np.arange(0.0, stop_deg, 2.0)
+    error = amplitude_arcmin * np.cos(np.radians(reference)) + 0.3 * np.sin(np.radians(3 * reference))
+    encoder = reference + (error + np.random.default_rng(seed).normal(0.0, 0.01, reference.size)) / 60.0
+    path.write_text("reference_deg,encoder_deg\n" + "".join(f"{r:.6f},{e:.7f}\n" for r, e in zip(reference, encoder)),
+                    encoding="utf-8")
+
+
+def test_a_unit_is_never_fitted_under_a_prior_learned_from_itself(tmp_path, capsys):
+    """fleet8: --prior-from a store holding the unit's own earlier calibration put that calibration in the unit's
+    prior (6 units where 5 are others), drawing its new model toward its old profile. SN3's quarter turn under the
+    store of SN1..SN6 is now the model under the store of the five others, to the last digit."""
+    from encal.fleet.prior import StorePrior, fleet_prior
+
+    (tmp_path / "lot").mkdir()
+    for k in range(1, 7):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", 0.5 * k, seed=k)
+    everyone, others = tmp_path / "all.sqlite", tmp_path / "others.sqlite"
+    assert _fit(tmp_path / "lot", "--store", everyone) == 0
+    assert _fit(*[tmp_path / "lot" / f"SN{k}.csv" for k in (1, 2, 4, 5, 6)], "--store", others) == 0
+    (tmp_path / "again").mkdir()
+    _write_arc(tmp_path / "again" / "SN3.csv", 1.5, seed=33)
+    models = {}
+    for prior_store in (everyone, others):
+        store = tmp_path / f"new-{prior_store.stem}.sqlite"
+        assert _fit(tmp_path / "again", "--store", store, "--prior-from", prior_store, "--allow-gaps") == 0
+        with open_store(store) as opened:
+            models[prior_store.stem] = opened.latest("SN3").model()
+    assert models["all"].training["fleet_prior"]["units"] == 5
+    grid = np.arange(0.0, 360.0, 0.5)
+    assert np.array_equal(models["all"].predict(grid), models["others"].predict(grid))
+    # the prior of a unit not in the store is the whole store's, as fleet_prior learns it
+    with open_store(everyone) as opened:
+        records = opened.latest_records()
+    whole = fleet_prior([r.model() for r in records])
+    assert StorePrior(records).for_unit("SN9").as_dict() == whole.as_dict()
+    # its own bytes under another serial are left out too
+    assert StorePrior(records).for_unit("SN9", [records[0].source_sha256]).units == 5
+    # five units, one of them the unit itself: four others are too few for a prior; the unit is refused, alone
+    (tmp_path / "five").mkdir()
+    for k in (1, 3):  # SN3 is not in the store of five
+        _write_arc(tmp_path / "five" / f"SN{k}.csv", 0.5 * k, seed=50 + k)
+    capsys.readouterr()
+    assert _fit(tmp_path / "five", "--store", tmp_path / "five.sqlite", "--prior-from", others, "--allow-gaps") == 1
+    out, err = capsys.readouterr()
+    assert "1 of 2 files fitted" in out and "1 refused" in out
+    assert err.count("\n") == 1 and "SN1.csv: the fleet prior without SN1's own records holds 4 units" in err

@@ -38,8 +38,8 @@ def add_arguments(parser):
                      help="the model (default spectral, the empirical-Bayes Fourier model; auto as 'encal fit' "
                           "chooses): both state the held-out estimate the grades go by")
     fit.add_argument("--prior-from", metavar="DB",
-                     help="fit each unit under the fleet prior learned from the latest record of every unit in this "
-                          "store (it may be --store): for partial calibrations, a quarter turn or every 4th stop "
+                     help="fit each unit under the fleet prior learned from the latest record of every other unit in "
+                          "this store (it may be --store): for partial calibrations, a quarter turn or every 4th stop "
                           "(spectral; docs/production.md, 'A fleet prior')")
     fit.add_argument("--serial-pattern", metavar="REGEX",
                      help="find the serial number in the file name's stem with this regular expression (its "
@@ -134,11 +134,11 @@ def _fit(args):
     _check_store(location)
     prior = None
     if args.prior_from is not None:
-        from ..fleet.prior import fleet_prior
+        from ..fleet.prior import StorePrior
 
         _check_store(args.prior_from, must_exist=True, option="--prior-from")
         with open_store(args.prior_from) as source:
-            prior = fleet_prior([record.model() for record in source.latest_records()])
+            prior = StorePrior(source.latest_records())  # each unit under the prior of the others
 
     def refused(path, sentence):
         clear_line()

@@ -270,8 +270,10 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         A regular expression that finds the serial number in a file's stem (see :func:`serial_of`).
     read_options : dict, optional
         Keywords of :func:`encal.data.calibration.read_calibration` (columns, units, duplicates, ...).
-    prior : encal.fleet.prior.FleetPrior, optional
-        Fit every unit under this fleet prior instead of ``method`` (partial calibrations).
+    prior : encal.fleet.prior.FleetPrior or encal.fleet.prior.StorePrior, optional
+        Fit every unit under this fleet prior instead of ``method`` (partial calibrations); a ``StorePrior`` fits
+        each unit under the prior of the store's other units (a unit whose prior would hold fewer than
+        :data:`~encal.fleet.prior.MIN_UNITS` is refused).
     jobs : int, optional
         Worker processes; default the machine's cores; 0 fits in this process.
     progress : callable, optional
@@ -318,10 +320,20 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         units.setdefault(serial, []).append((str(path), sha256))
     for files in units.values():
         files.sort(key=lambda file: _natural_key(file[0]))  # a unit's epochs in the order of its files' names
-    tasks = [(serial, files, method, list(grades), dict(read_options or {}), prior)
-             for serial, files in units.items()]
-    if progress and len(paths) - sum(len(files) for files in units.values()):
-        progress(len(paths) - sum(len(files) for files in units.values()))  # skipped or refused already
+    tasks = []
+    for serial, files in units.items():
+        unit_prior = prior
+        if hasattr(prior, "for_unit"):  # a StorePrior: the prior of the other units, never one learned from this one
+            try:
+                unit_prior = prior.for_unit(serial, [sha256 for _, sha256 in files])
+            except InputError as exc:
+                for path, _ in files:
+                    refuse(path, f"{path}: {exc}")
+                continue
+        tasks.append((serial, files, method, list(grades), dict(read_options or {}), unit_prior))
+    queued = sum(len(task[1]) for task in tasks)
+    if progress and len(paths) - queued:
+        progress(len(paths) - queued)  # skipped or refused already
     if jobs is None:
         jobs = os.cpu_count() or 1
     jobs = min(jobs, len(tasks))
