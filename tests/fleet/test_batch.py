@@ -446,3 +446,24 @@ def test_a_unit_is_never_fitted_under_a_prior_learned_from_itself(tmp_path, caps
     out, err = capsys.readouterr()
     assert "1 of 2 files fitted" in out and "1 refused" in out
     assert err.count("\n") == 1 and "SN1.csv: the fleet prior without SN1's own records holds 4 units" in err
+
+
+def test_a_unit_calibrated_over_an_arc_is_counted_graded_and_listed_by_the_report(tmp_path, capsys):
+    """fleet8: the store held 4 graded units, the report said '3 units' and counted 3 grades: the unit over an arc
+    (left out of the fleet's statistics, rightly) was left out of the grades and the units' table too, unsaid."""
+    (tmp_path / "lot").mkdir()
+    for k in (1, 2, 3):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", k, seed=k)
+    _write_arc(tmp_path / "SN4.csv", 1.0, seed=4, stop_deg=180.0)
+    store = tmp_path / "s.sqlite"
+    assert _fit(tmp_path / "lot", "--store", store, "--grades", "A=0.5arcmin") == 0
+    assert _fit(tmp_path / "SN4.csv", "--store", store, "--grades", "A=0.5arcmin", "--method", "auto",
+                "--allow-gaps") == 0
+    page = tmp_path / "fleet.html"
+    capsys.readouterr()
+    assert main(["fleet", "report", "--store", str(store), "-o", str(page)]) == 0
+    assert "4 units (1 over an arc, not scored), 0 stand out" in capsys.readouterr().out
+    text = _report_text(page)
+    assert "4 units (1 calibrated over an arc, left out of the fleet's profile, spread and scores" in text
+    assert "A <= 0.008333 deg (0.5 arcmin) A <= 0.5 arcmin 4 100.0%" in text
+    assert " SN4 1 - 90 " in text and "- (an arc)" in text

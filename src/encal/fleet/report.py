@@ -7,7 +7,7 @@ import numpy as np
 from .._core import html as _html
 from .._core.atomic import atomic_write
 from .._version import __version__
-from .statistics import DRIFT_MOVED, STANDS_OUT, drift_table, fleet_statistics
+from .statistics import DRIFT_MOVED, STANDS_OUT, drift_table, fleet_statistics, latest_per_serial
 
 __all__ = ["write_fleet_report", "fleet_report_html", "MAX_UNIT_ROWS"]
 
@@ -192,13 +192,19 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     """
     stats = fleet_statistics(records)
     drift = drift_table(records)
-    latest = stats.records
-    unit_grades, grades_part = _grades_table(latest, grades)
+    latest = stats.records  # calibrated over the whole turn: the statistics' units
+    every = latest_per_serial(records)  # every unit: its grade and its row (a model of an arc has no score)
+    arcs = len(every) - len(latest)
+    score_of = {record.serial: score for record, score in zip(latest, stats.overall_scores)}
+    unit_grades, grades_part = _grades_table(every, grades)
     standing = stats.standing_out()
-    after = np.array([r.rms_after_arcmin for r in latest if r.rms_after_arcmin is not None])
-    held = np.array([r.held_out_arcmin for r in latest if r.held_out_arcmin is not None])
+    after = np.array([r.rms_after_arcmin for r in every if r.rms_after_arcmin is not None])
+    held = np.array([r.held_out_arcmin for r in every if r.held_out_arcmin is not None])
     parts = [f"<h1>Fleet report</h1>",
-             _html.paragraph(f"{len(latest)} units, {len(records)} records in {store_name}; written "
+             _html.paragraph(f"{len(every)} units"
+                             + (f" ({arcs} calibrated over an arc, left out of the fleet's profile, spread and scores: "
+                                "a model of an arc holds on its arc only)" if arcs else "")
+                             + f", {len(records)} records in {store_name}; written "
                              f"{datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')} by encal "
                              f"{__version__}.", "meta")]
     verdict = (f"{len(standing)} of {len(latest)} units stand out (overall robust score > {STANDS_OUT:g}). "
@@ -243,18 +249,21 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     else:
         parts.append(_html.paragraph("No unit was calibrated more than once.", "note"))
     parts.append("<h2>Units</h2>")
-    shown = range(len(latest)) if len(latest) <= MAX_UNIT_ROWS else [i for i, *_ in standing]
-    if len(latest) > MAX_UNIT_ROWS:
-        parts.append(_html.paragraph(f"{len(latest)} units: those that stand out are listed; 'encal fleet' keeps "
+    standing_serials = {latest[i].serial for i, *_ in standing}
+    shown = [i for i, record in enumerate(every) if len(every) <= MAX_UNIT_ROWS or record.serial in standing_serials]
+    if len(every) > MAX_UNIT_ROWS:
+        parts.append(_html.paragraph(f"{len(every)} units: those that stand out are listed; 'encal fleet' keeps "
                                      "every record in the store.", "note"))
     parts.append(_html.table(
         ["serial", "epoch", "station", "points", "RMS before", "RMS after", "held-out", "grade", "score"],
-        [[latest[i].serial, str(latest[i].epoch), latest[i].station or "-", str(latest[i].n_points or "-"),
-          _number(latest[i].rms_before_arcmin), _number(latest[i].rms_after_arcmin),
-          _number(latest[i].held_out_arcmin), unit_grades[i] or "-", _number(stats.overall_scores[i], 3)]
+        [[every[i].serial, str(every[i].epoch), every[i].station or "-", str(every[i].n_points or "-"),
+          _number(every[i].rms_before_arcmin), _number(every[i].rms_after_arcmin),
+          _number(every[i].held_out_arcmin), unit_grades[i] or "-",
+          _number(score_of[every[i].serial], 3) if every[i].serial in score_of else "- (an arc)"]
          for i in shown], caption="The latest record of each unit (arcmin)",
         numeric=[False, True, False, True, True, True, True, False, True]))
-    summary = (f"{len(latest)} units, {len(standing)} stand out, {len(drift)} calibrated more than once")
+    summary = (f"{len(every)} units" + (f" ({arcs} over an arc, not scored)" if arcs else "")
+               + f", {len(standing)} stand out, {len(drift)} calibrated more than once")
     return _html.page("encal fleet report", parts), summary
 
 
