@@ -467,3 +467,27 @@ def test_a_unit_calibrated_over_an_arc_is_counted_graded_and_listed_by_the_repor
     assert "4 units (1 calibrated over an arc, left out of the fleet's profile, spread and scores" in text
     assert "A <= 0.008333 deg (0.5 arcmin) A <= 0.5 arcmin 4 100.0%" in text
     assert " SN4 1 - 90 " in text and "- (an arc)" in text
+
+
+def test_a_resumed_batch_never_stores_a_units_earlier_file_as_its_latest(tmp_path, capsys):
+    """fleet8: SN7_run9 refused (a bad line), SN7_run10 stored; run9 mended and the batch run again stored run9 as
+    epoch 2, the unit's latest, so that 'export --serial SN7' gave the older calibration's model. It is refused in one
+    line; fitted alone, on purpose, it is stored as the newest."""
+    (tmp_path / "lot").mkdir()
+    _write_unit(tmp_path / "lot" / "SN7_run10.csv", 2.0, seed=10)
+    (tmp_path / "lot" / "SN7_run9.csv").write_text("reference_deg,encoder_deg\n0,0\nx,1\n", encoding="utf-8")
+    store = tmp_path / "s.sqlite"
+    pattern = ("--serial-pattern", r"^(SN\d+)_")
+    assert _fit(tmp_path / "lot", "--store", store, *pattern) == 1
+    _write_unit(tmp_path / "lot" / "SN7_run9.csv", 1.0, seed=9)
+    capsys.readouterr()
+    assert _fit(tmp_path / "lot", "--store", store, *pattern) == 1
+    out, err = capsys.readouterr()
+    assert "0 of 2 files fitted" in out and "1 already stored" in out and err.count("\n") == 1
+    assert "SN7_run9.csv: its name puts it before" in err and "SN7_run10.csv, stored already" in err
+    with open_store(store) as opened:
+        assert [r.source_name for r in opened.history("SN7")] == ["SN7_run10.csv"]
+        assert _first_order_arcmin(opened.latest("SN7")) == pytest.approx(2.0, abs=0.01)
+    assert _fit(tmp_path / "lot" / "SN7_run9.csv", "--store", store, *pattern) == 0
+    with open_store(store) as opened:
+        assert [r.source_name for r in opened.history("SN7")] == ["SN7_run10.csv", "SN7_run9.csv"]

@@ -306,9 +306,12 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             refuse(path, str(exc) if isinstance(exc, InputError) else f"{path}: cannot be read ({exc.strerror or exc})")
     owners = _owners_of_bytes(known, stored)
     units = {}
+    stored_last = {}  # per serial, the file of this batch stored already that its name puts last
     for path, serial, sha256 in known:
         if (serial, sha256) in stored:
             result.skipped.append(Path(path))
+            if serial not in stored_last or _natural_key(path) > _natural_key(stored_last[serial]):
+                stored_last[serial] = path
             continue
         others = sorted(owners[sha256] - {serial})
         if others:
@@ -318,8 +321,22 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             refuse(path, _copied(path, serial, others, where))
             continue
         units.setdefault(serial, []).append((str(path), sha256))
-    for files in units.values():
+    for serial, files in list(units.items()):
         files.sort(key=lambda file: _natural_key(file[0]))  # a unit's epochs in the order of its files' names
+        if serial in stored_last:
+            # a file its name puts before one stored already (a resumed batch whose earlier file was refused, then
+            # mended) would be stored after it, as the unit's latest calibration: the older model exported as its
+            # newest. Epochs are given in the order written, and a record is never changed.
+            last = stored_last[serial]
+            early = [file for file in files if _natural_key(file[0]) < _natural_key(last)]
+            for path, _ in early:
+                refuse(path, f"{path}: its name puts it before {last}, stored already as a calibration of {serial}; "
+                             f"stored now it would be {serial}'s latest epoch, after {Path(last).name}; expected a "
+                             "unit's calibrations stored in the order of their names (fit it alone to store it as "
+                             "the unit's newest)")
+            files[:] = [file for file in files if file not in early]
+            if not files:
+                del units[serial]
     tasks = []
     for serial, files in units.items():
         unit_prior = prior
