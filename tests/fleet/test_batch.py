@@ -2,6 +2,7 @@
 record holding another unit's model, an older one, or none is seen (fleet5's audit of the production line)."""
 
 import unicodedata
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -491,3 +492,15 @@ def test_a_resumed_batch_never_stores_a_units_earlier_file_as_its_latest(tmp_pat
     assert _fit(tmp_path / "lot" / "SN7_run9.csv", "--store", store, *pattern) == 0
     with open_store(store) as opened:
         assert [r.source_name for r in opened.history("SN7")] == ["SN7_run10.csv", "SN7_run9.csv"]
+
+
+def test_a_file_named_twice_is_fitted_and_counted_once(tmp_path, capsys, monkeypatch):
+    """fleet8: 'lot', '/abs/lot/SN1.csv' and 'lot/../lot/SN2.csv' said '3 of 5 files fitted; 2 already stored':
+    two files counted twice and fitted twice (the store, rightly, kept one record of each)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "lot").mkdir()
+    for k in (1, 2, 3):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", k, seed=k)
+    assert _fit("lot", tmp_path / "lot" / "SN1.csv", "lot/../lot/SN2.csv", "--store", "s.sqlite") == 0
+    assert "3 of 3 files fitted into s.sqlite (3 records in all); 0 already stored" in capsys.readouterr().out
+    assert batch.find_calibrations(["lot/SN3.csv", "lot"])[2] == Path("lot/SN3.csv")  # as first given

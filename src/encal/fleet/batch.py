@@ -36,14 +36,15 @@ def find_calibrations(sources):
     Returns
     -------
     list of Path
-        Sorted, each once.
+        Sorted, each file once however it was named (``lot/SN1.csv``, ``/abs/lot/SN1.csv``, ``lot/../lot/SN1.csv``
+        or a link to it: the first spelling given), so that a file is never fitted or counted twice.
 
     Raises
     ------
     InputError
         When a source matches no file.
     """
-    found = set()
+    found = {}  # the file (resolved) -> the path as first given
     for source in sources:
         text = str(source)
         path = Path(text)
@@ -62,8 +63,9 @@ def find_calibrations(sources):
         if not matches:
             raise InputError(f"{what}; expected a folder of calibration CSVs, a glob pattern such as 'lot7/*.csv' "
                              "(quoted), or files")
-        found.update(matches)
-    return sorted(found)
+        for match in matches:
+            found.setdefault(match.resolve(), match)
+    return sorted(found.values())
 
 
 def serial_of(path, pattern=None):
