@@ -504,3 +504,40 @@ def test_a_file_named_twice_is_fitted_and_counted_once(tmp_path, capsys, monkeyp
     assert _fit("lot", tmp_path / "lot" / "SN1.csv", "lot/../lot/SN2.csv", "--store", "s.sqlite") == 0
     assert "3 of 3 files fitted into s.sqlite (3 records in all); 0 already stored" in capsys.readouterr().out
     assert batch.find_calibrations(["lot/SN3.csv", "lot"])[2] == Path("lot/SN3.csv")  # as first given
+
+
+def test_a_store_that_takes_no_write_stops_the_batch_in_one_sentence(tmp_path, capsys, monkeypatch):
+    """fleet8: another program holding the store's write lock past the wait ended the batch in a traceback (twice:
+    the closing flush tried again). It stops in one sentence, exit 1; the groups written before stay whole, and the
+    same command run again fits the rest."""
+    import sqlite3
+
+    from encal.store import _store
+
+    monkeypatch.setattr(_store, "LOCK_TIMEOUT_S", 0.2)
+    monkeypatch.setattr(batch, "FLUSH_RECORDS", 2)
+    (tmp_path / "lot").mkdir()
+    for k in range(1, 6):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", k, seed=k)
+    store = tmp_path / "s.sqlite"
+    holder = []
+    fit_unit = batch.fit_unit
+
+    def fit_and_lock(task):
+        if task[0] == "SN3":  # after the first group (SN1, SN2) was written
+            holder.append(sqlite3.connect(store, isolation_level=None))
+            holder[0].execute("BEGIN IMMEDIATE")
+        return fit_unit(task)
+
+    monkeypatch.setattr(batch, "fit_unit", fit_and_lock)
+    assert _fit(tmp_path / "lot", "--store", store) == 1
+    out, err = capsys.readouterr()
+    assert out == "" and "Traceback" not in err and err.count("\n") == 1
+    assert err.startswith(f"encal fleet: error: --store {store}: could not be written (database is locked; ")
+    assert "2 records of it written before, 2 fitted and not written" in err
+    holder[0].execute("ROLLBACK")
+    monkeypatch.setattr(batch, "fit_unit", fit_unit)
+    with open_store(store) as opened:
+        assert [r.serial for r in opened.records()] == ["SN1", "SN2"]
+    assert _fit(tmp_path / "lot", "--store", store) == 0
+    assert "3 of 5 files fitted" in capsys.readouterr().out

@@ -289,7 +289,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     -------
     BatchResult
     """
-    from ..store import CopiedCalibrationError
+    from ..store import CopiedCalibrationError, StoreWriteError
 
     paths = list(paths)
     result = BatchResult()
@@ -365,6 +365,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         """``store.add_many``, or record by record when one of them is refused (the others are kept)."""
         try:
             return store.add_many(records, skip_stored=True)
+        except StoreWriteError:
+            raise  # the store takes no write at all: no record of the group would be taken alone either
         except InputError:
             pass
         added = []
@@ -382,7 +384,16 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
 
     def flush():
         if waiting:
-            for path, record in zip(waiting_paths, add_each(waiting, waiting_paths)):
+            try:
+                added = add_each(waiting, waiting_paths)
+            except StoreWriteError as exc:
+                unwritten = len(waiting)
+                waiting.clear()  # not tried again when the batch stops
+                waiting_paths.clear()
+                raise StoreWriteError(f"{exc}; the batch stopped, {len(result.fitted)} records of it written before, "
+                                      f"{unwritten} fitted and not written: the same command run again fits what is "
+                                      "missing") from None
+            for path, record in zip(waiting_paths, added):
                 if record is False:
                     continue
                 if record is None:  # another batch stored the same file meanwhile

@@ -13,7 +13,7 @@ from .._version import __version__
 from .._core.errors import InputError
 
 __all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
-           "grade_of", "GRADE_NONE", "CopiedCalibrationError"]
+           "grade_of", "GRADE_NONE", "CopiedCalibrationError", "StoreWriteError"]
 
 #: The store's file name when the user names none: next to the calibrations.
 DEFAULT_STORE_NAME = "encal-store.sqlite"
@@ -72,6 +72,11 @@ class CopiedCalibrationError(InputError):
         super().__init__(f"the calibration of {serial} (SHA-256 {source_sha256[:12]}...) is stored under "
                          f"{', '.join(self.others)} already; expected each unit's own calibration (a copied or "
                          f"misnamed file?), not the same bytes under a second serial number")
+
+
+class StoreWriteError(InputError):
+    """The store could not take a write at all (locked by another program past :data:`LOCK_TIMEOUT_S`, a full disk,
+    a lost connection): nothing of the call is written, and no other record would be either, so a batch stops."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -615,13 +620,29 @@ class _SQLiteStore(Store):
             return self.connection.cursor()
 
         def __exit__(self, kind, value, traceback):
-            self.connection.execute("COMMIT" if kind is None else "ROLLBACK")
+            if kind is not None:
+                self.connection.execute("ROLLBACK")
+                return False
+            try:
+                self.connection.execute("COMMIT")
+            except Exception:
+                if self.connection.in_transaction:  # a commit that failed (a full disk): nothing of it stays
+                    self.connection.execute("ROLLBACK")
+                raise
             return False
 
     def _transaction(self):
         return self._Transaction(self._connection)
 
     def _insert(self, rows, skip_stored=False):
+        try:
+            return self._insert_rows(rows, skip_stored)
+        except self._sqlite.Error as exc:
+            raise StoreWriteError(f"--store {self.location}: could not be written ({exc}; nothing of this group of "
+                                  f"{len(rows)} records was written); expected the store free of other writers within "
+                                  f"{LOCK_TIMEOUT_S:g} s, on a disk with room") from None
+
+    def _insert_rows(self, rows, skip_stored):
         names = ", ".join(_NAMES)
         marks = ", ".join("?" for _ in _NAMES)
         placed = []
@@ -707,6 +728,15 @@ class _PostgresStore(Store):
                        "encal_records_never_changed")
 
     def _insert(self, rows, skip_stored=False):
+        try:
+            return self._insert_rows(rows, skip_stored)
+        except self._psycopg.OperationalError as exc:  # the server gone, a lost connection, a full disk
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise StoreWriteError(f"--store {self.location}: could not be written ({first}; nothing of this group "
+                                  f"of {len(rows)} records was written); expected a reachable PostgreSQL server with "
+                                  "room in its database") from None
+
+    def _insert_rows(self, rows, skip_stored):
         names = ", ".join(_NAMES)
         marks = ", ".join("%s" for _ in _NAMES)
         placed = []
