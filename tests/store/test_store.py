@@ -447,3 +447,23 @@ def test_the_copy_check_is_a_lookup_in_an_index(location, layout):
             plan = store._query("EXPLAIN QUERY PLAN SELECT DISTINCT serial FROM encal_records WHERE source_sha256 = ? "
                                 "AND serial <> ?", ("ab", "SN1"))
             assert any("USING INDEX encal_records_source" in row[-1] for row in plan), plan
+
+
+def test_another_programs_database_is_refused_and_left_as_it_was(tmp_path):
+    """fleet8: 'encal fleet report --store app.sqlite' (a command that only reads) wrote the store's tables and
+    triggers into another program's SQLite database and put it in WAL mode, then said it held 0 units."""
+    import sqlite3
+
+    foreign = tmp_path / "app.sqlite"
+    with sqlite3.connect(foreign) as connection:
+        connection.execute("CREATE TABLE parts (id INTEGER)")
+    connection.close()
+    before = foreign.read_bytes()
+    with pytest.raises(InputError, match=r"app.sqlite: is an SQLite database of other tables \(parts\), not a "
+                                         r"calibration store; expected a store written by 'encal fleet fit'"):
+        open_store(foreign)
+    assert foreign.read_bytes() == before and not (tmp_path / "app.sqlite-wal").exists()
+    with open_store(tmp_path / "s.sqlite") as store:  # a new file, and then a store, are opened as before
+        store.add("SN1", '{"x": 1}')
+    with open_store(tmp_path / "s.sqlite") as store:
+        assert store.count() == 1

@@ -181,6 +181,7 @@ def _make_files(folder):
     _make_strict6_files(folder, paths)
     _make_store6_files(paths)
     _make_fuzz6_files(folder, paths)
+    _make_fleet8_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
@@ -1052,6 +1053,31 @@ ISSUE32_CASES = [
                                      "table", "-o", "{out}/t.bin"), 2),
 ]
 CASES += ISSUE32_CASES
+
+
+# ---------------------------------------------------------------- fleet8: the production line against known truth
+def _make_fleet8_files(folder, paths):
+    """Another program's SQLite database, which a store's reader must leave as it is (no tables, no WAL mode)."""
+    import sqlite3
+
+    paths["foreign_db"] = folder / "foreign.sqlite"
+    with sqlite3.connect(paths["foreign_db"]) as connection:
+        connection.execute("CREATE TABLE parts (id INTEGER)")
+    connection.close()
+
+
+FLEET8_CASES = [
+    Case("fleet-report-foreign-database", ("fleet", "report", "--store", "{foreign_db}", "-o", "{out}/f.html"), 1,
+         ("foreign.sqlite", "database of other tables (parts)", "not a calibration store")),
+    Case("fleet-fit-into-foreign-database", ("fleet", "fit", "{train}", "--store", "{foreign_db}", "--jobs", "0"), 1,
+         ("database of other tables (parts)",)),
+    Case("fleet-fit-prior-from-foreign-database", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite",
+                                                   "--prior-from", "{foreign_db}", "--jobs", "0"), 1,
+         ("database of other tables (parts)",)),
+    Case("export-serial-foreign-database", ("export", "--serial", "SN1", "--store", "{foreign_db}", "--format",
+                                            "table", "-o", "{out}/t.bin"), 1, ("database of other tables",)),
+]
+CASES += FLEET8_CASES
 
 # ---------------------------------------------------------------- issue 25: plausibility
 

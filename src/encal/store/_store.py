@@ -552,6 +552,7 @@ class _SQLiteStore(Store):
         try:
             # isolation_level=None: the transactions are the explicit BEGIN IMMEDIATE ... COMMIT below
             self._connection = sqlite3.connect(path, timeout=LOCK_TIMEOUT_S, isolation_level=None)
+            self._refuse_another_database(path)
             self._write_ahead_log()
             self._create()
         except sqlite3.DatabaseError as exc:
@@ -561,6 +562,16 @@ class _SQLiteStore(Store):
         except InputError:
             self.close()
             raise
+
+    def _refuse_another_database(self, path):
+        """Refuse an SQLite database that holds tables and no store: opening it would write the store's tables into
+        it and put it in WAL mode, even for a command that only reads (a report, ``export --serial``)."""
+        tables = sorted(row[0] for row in self._connection.execute("SELECT name FROM sqlite_master WHERE type = "
+                                                                   "'table' AND name NOT LIKE 'sqlite%'"))
+        if tables and "encal_records" not in tables:
+            shown = ", ".join(tables[:3]) + (", ..." if len(tables) > 3 else "")
+            raise InputError(f"--store {path}: is an SQLite database of other tables ({shown}), not a calibration "
+                             "store; expected a store written by 'encal fleet fit', or the path of a new file")
 
     def _write_ahead_log(self):
         """Put the file in WAL mode, waiting for other openers as long as for a writer.
