@@ -541,3 +541,27 @@ def test_a_store_that_takes_no_write_stops_the_batch_in_one_sentence(tmp_path, c
         assert [r.serial for r in opened.records()] == ["SN1", "SN2"]
     assert _fit(tmp_path / "lot", "--store", store) == 0
     assert "3 of 5 files fitted" in capsys.readouterr().out
+
+
+def test_a_worker_killed_mid_batch_stops_it_in_one_sentence_its_units_so_far_stored(tmp_path, capsys, monkeypatch):
+    """fleet8: a worker process killed (the out-of-memory killer, a crash in a library) ended the batch in a
+    traceback (BrokenProcessPool). It stops in one sentence, exit 1, with what was written before kept whole."""
+    (tmp_path / "killer.py").write_text(
+        "import os, signal\nfrom encal.fleet import batch\nfit_unit = batch.fit_unit\n\n\n"
+        "def fit_or_die(task):\n    if task[0] == 'SN4':\n        os.kill(os.getpid(), signal.SIGKILL)\n"
+        "    return fit_unit(task)\n", encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))  # the spawned worker imports the module from there
+    import killer
+
+    monkeypatch.setattr(batch, "fit_unit", killer.fit_or_die)
+    monkeypatch.setattr(batch, "FLUSH_RECORDS", 1)
+    (tmp_path / "lot").mkdir()
+    for k in range(1, 6):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", k, seed=k)
+    store = tmp_path / "s.sqlite"
+    assert main(["fleet", "fit", str(tmp_path / "lot"), "--store", str(store), "--jobs", "1"]) == 1
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err and err.count("\n") == 1
+    assert "a worker process ended abruptly while fitting" in err and "3 records of it written" in err
+    with open_store(store) as opened:
+        assert [r.serial for r in opened.records()] == ["SN1", "SN2", "SN3"]

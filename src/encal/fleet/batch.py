@@ -8,6 +8,7 @@ units it finished before it stops, and a new run skips them (a file is known by 
 and the SHA-256 of its bytes).
 """
 
+import concurrent.futures.process
 import glob
 import hashlib
 import os
@@ -426,6 +427,11 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
                 write(fit_unit(task))
         else:
             _run_pool(tasks, jobs, write)
+    except concurrent.futures.process.BrokenProcessPool:
+        flush()
+        raise EncalError(f"a worker process ended abruptly while fitting (killed, out of memory?); the batch stopped, "
+                         f"{len(result.fitted)} records of it written: the same command run again fits what is "
+                         "missing (--jobs 0 fits in this process, and says what stops it)") from None
     finally:
         flush()  # an interrupted batch keeps every unit it finished
     return result
@@ -457,18 +463,24 @@ def _run_pool(tasks, jobs, write):
 
     with Workers(jobs) as workers:
         executor = workers.executor()
-        pending = set()
+        unwritten = set()
+
+        def write_done(done):
+            # the units that finished first: a pool whose worker died fails every unit not finished, and a unit
+            # finished before it must still be written whatever the order of the set
+            for future in sorted(done, key=lambda future: future.exception() is not None):
+                unwritten.discard(future)
+                write(future.result())
+
         try:
             # a bounded window of submitted units: memory stays flat on a lot of 10^5 files
             for task in tasks:
-                pending.add(executor.submit(fit_unit, task))
-                if len(pending) >= 4 * jobs:
-                    done, pending = concurrent.futures.wait(pending, return_when="FIRST_COMPLETED")
-                    for future in done:
-                        write(future.result())
-            for future in concurrent.futures.as_completed(pending):
-                write(future.result())
+                unwritten.add(executor.submit(fit_unit, task))
+                if len(unwritten) >= 4 * jobs:
+                    write_done(concurrent.futures.wait(unwritten, return_when="FIRST_COMPLETED")[0])
+            while unwritten:
+                write_done(concurrent.futures.wait(unwritten, return_when="FIRST_COMPLETED")[0])
         except BaseException:
-            for future in pending:
+            for future in unwritten:
                 future.cancel()
             raise
