@@ -565,3 +565,37 @@ def test_a_worker_killed_mid_batch_stops_it_in_one_sentence_its_units_so_far_sto
     assert "a worker process ended abruptly while fitting" in err and "3 records of it written" in err
     with open_store(store) as opened:
         assert [r.serial for r in opened.records()] == ["SN1", "SN2", "SN3"]
+
+
+def test_a_folders_csv_files_are_found_whatever_the_case_of_their_extension(tmp_path, capsys):
+    """fleet8: SN2.CSV (a Windows station's name) in the folder was left out: '1 of 1 files fitted', exit 0."""
+    (tmp_path / "lot").mkdir()
+    _write_unit(tmp_path / "lot" / "SN1.csv", 1.0, seed=1)
+    _write_unit(tmp_path / "lot" / "SN2.CSV", 2.0, seed=2)
+    (tmp_path / "lot" / "notes.txt").write_text("not a calibration", encoding="utf-8")
+    assert _fit(tmp_path / "lot", "--store", tmp_path / "s.sqlite") == 0
+    assert "2 of 2 files fitted" in capsys.readouterr().out
+    with open_store(tmp_path / "s.sqlite") as opened:
+        assert _first_order_arcmin(opened.latest("SN2")) == pytest.approx(2.0, abs=0.01)
+
+
+def test_two_files_of_one_serial_without_a_pattern_are_said_on_stderr(tmp_path, capsys):
+    """fleet8: 'lots/**/*.csv' holding lot7/SN1.csv and lot8/SN1.csv stored the second as SN1's epoch 2, its latest,
+    unsaid: a recalibration or two units whose serial numbers collide. The batch says so in one warning line."""
+    for lot, amplitude in (("lot7", 1.0), ("lot8", 2.0)):
+        (tmp_path / lot).mkdir()
+        _write_unit(tmp_path / lot / "SN1.csv", amplitude, seed=int(amplitude))
+    _write_unit(tmp_path / "lot7" / "SN2.csv", 3.0, seed=3)
+    assert _fit(tmp_path / "lot7", tmp_path / "lot8", "--store", tmp_path / "s.sqlite") == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"encal fleet: warning: {tmp_path / 'lot8' / 'SN1.csv'}: 2 files")
+    assert "serial number SN1" in err and "each is stored as a new epoch of SN1, in that order, the last its" in err
+    with open_store(tmp_path / "s.sqlite") as opened:
+        assert [r.epoch for r in opened.history("SN1")] == [1, 2]
+        assert _first_order_arcmin(opened.latest("SN1")) == pytest.approx(2.0, abs=0.01)
+    # with --serial-pattern several files of a unit are meant: no warning
+    (tmp_path / "runs").mkdir()
+    for run in (1, 2):
+        _write_unit(tmp_path / "runs" / f"SN5_run{run}.csv", run, seed=50 + run)
+    assert _fit(tmp_path / "runs", "--store", tmp_path / "s.sqlite", "--serial-pattern", r"(SN\d+)_") == 0
+    assert capsys.readouterr().err == ""

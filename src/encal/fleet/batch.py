@@ -32,7 +32,7 @@ FLUSH_S = 2.0
 
 
 def find_calibrations(sources):
-    """The calibration files named by ``sources``: folders (their ``*.csv``), glob patterns or files.
+    """The calibration files named by ``sources``: folders (their ``*.csv``, ``*.CSV``, ...), glob patterns or files.
 
     Returns
     -------
@@ -50,7 +50,8 @@ def find_calibrations(sources):
         text = str(source)
         path = Path(text)
         if path.is_dir():
-            matches = [p for p in path.glob("*.csv") if p.is_file()]
+            # *.csv in any case: SN7.CSV from a Windows station is a calibration too (it was left out, unsaid)
+            matches = [p for p in path.iterdir() if p.suffix.lower() == ".csv" and p.is_file()]
             what = f"{text} is a folder with no *.csv file"
         elif glob.has_magic(text):
             matches = [Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file()]
@@ -340,6 +341,14 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             files[:] = [file for file in files if file not in early]
             if not files:
                 del units[serial]
+        if serial_pattern is None and len(files) > 1 and on_warning:
+            # without --serial-pattern, one stem in two folders: a unit recalibrated, or two units whose serial
+            # numbers collide (two lines, two lots); which cannot be told, and the last becomes the unit's model
+            names = ", ".join(path for path, _ in files[:3]) + (", ..." if len(files) > 3 else "")
+            on_warning(Path(files[-1][0]), f"{len(files)} files of this batch have the serial number {serial} "
+                                           f"({names}): each is stored as a new epoch of {serial}, in that order, "
+                                           "the last its latest (two units whose serial numbers collide would share "
+                                           "one history)")
     tasks = []
     for serial, files in units.items():
         unit_prior = prior
