@@ -32,8 +32,8 @@ GRID_POINTS = 360
 #: Highest harmonic order compared across units.
 ORDERS = 40
 #: A unit's profile *moved* when its RMS change exceeds this many times the two epochs' profile uncertainties
-#: combined (``sqrt(u_first² + u_last²)``). Unchanged repeats give a ratio near 1 (0.73 to 1.02 over 20 units of
-#: ``encal.simulate``, each calibrated twice with fresh noise; 0.94 to 1.13 in ``tests/fleet/test_fleet.py``).
+#: combined (``sqrt(u_first² + u_last²)``). Unchanged repeats give a ratio near 1: 0.73 to 1.02 over 20 units of
+#: ``encal.simulate``, each calibrated twice with fresh noise (``python benchmarks/bench_fleet_drift_verdict.py``).
 DRIFT_MOVED = 3.0
 #: 1.4826 MAD estimates the standard deviation of a normal sample.
 _MAD_TO_STD = 1.4826
