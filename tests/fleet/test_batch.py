@@ -11,7 +11,7 @@ from encal.cli import main
 from encal.fleet import batch
 from encal.fleet.batch import serial_of
 from encal._core.errors import InputError
-from encal.store import open_store
+from encal.store import grade_of, open_store
 
 POINTS = 180
 
@@ -361,13 +361,13 @@ def test_each_grade_is_shown_with_the_thresholds_it_was_given_by(tmp_path, capsy
     assert main(["fleet", "report", "--store", str(store), "-o", str(page)]) == 0
     text = _report_text(page)
     assert "graded by 2 different sets of thresholds" in text
-    assert "B <= 0.001667 deg (0.1 arcmin) A <= 0.001, B <= 0.1 arcmin 2 50.0%" in text
-    assert "A <= 0.008333 deg (0.5 arcmin) A <= 0.5, B <= 1 arcmin 2 50.0%" in text
+    assert "B <= 0.1 arcmin (0.001667 deg) A <= 0.001, B <= 0.1 arcmin 2 50.0%" in text
+    assert "A <= 0.5 arcmin (0.008333 deg) A <= 0.5, B <= 1 arcmin 2 50.0%" in text
     assert "B (<= 0.1 arcmin)" in text and "A (<= 0.5 arcmin)" in text
     # graded again by one set, each unit's grade follows its own held-out estimate
     assert main(["fleet", "report", "--store", str(store), "-o", str(page), "--grades", "A=0.5arcmin"]) == 0
     text = _report_text(page)
-    assert "A <= 0.008333 deg (0.5 arcmin) this report's --grades 4 100.0%" in text and "different sets" not in text
+    assert "A <= 0.5 arcmin (0.008333 deg) this report's --grades 4 100.0%" in text and "different sets" not in text
 
 
 def test_the_drift_verdict_tells_a_unit_that_changed_from_one_that_did_not(tmp_path, capsys):
@@ -466,7 +466,7 @@ def test_a_unit_calibrated_over_an_arc_is_counted_graded_and_listed_by_the_repor
     assert "4 units (1 over an arc, not scored), 0 stand out" in capsys.readouterr().out
     text = _report_text(page)
     assert "4 units (1 calibrated over an arc, left out of the fleet's profile, spread and scores" in text
-    assert "A <= 0.008333 deg (0.5 arcmin) A <= 0.5 arcmin 4 100.0%" in text
+    assert "A <= 0.5 arcmin (0.008333 deg) A <= 0.5 arcmin 4 100.0%" in text
     assert " SN4 1 - 90 " in text and "- (an arc)" in text
 
 
@@ -625,3 +625,22 @@ def test_a_fleet_prior_never_learns_from_units_fitted_under_a_fleet_prior(tmp_pa
         assert learned.units == 6 and learned.as_dict() == six.as_dict()
     with pytest.raises(InputError, match=r"got 3 \(3 of 6 calibrated over an arc or fitted under a fleet prior"):
         fleet_prior([r.model() for r in records[3:]])
+
+
+def test_a_held_out_estimate_is_never_shown_on_the_other_side_of_its_grades_limit(tmp_path):
+    """fleet8: a unit graded B for a held-out estimate of 0.50004 arcmin (A <= 0.5) was shown '0.5' beside 'B', and a
+    limit given as 1.23456 arcmin was shown 1.235. The estimate now has the digits that put it on its side."""
+    from encal.store import parse_grades
+    from tests.fleet.test_fleet import _fourier_json
+
+    grades = parse_grades("A=0.5arcmin,B=1.23456arcmin")
+    with open_store(tmp_path / "s.sqlite") as store:
+        for k, held_out in enumerate((0.50004, 0.2, 0.3, 1.2345599)):
+            store.add(f"SN{k}", _fourier_json([0, 1 + 0.1 * k, 0], [0, 0, 0.5]), held_out_arcmin=held_out,
+                      grade=grade_of(held_out, grades))
+    page = tmp_path / "fleet.html"
+    assert main(["fleet", "report", "--store", str(tmp_path / "s.sqlite"), "-o", str(page), "--grades",
+                 "A=0.5arcmin,B=1.23456arcmin"]) == 0
+    text = _report_text(page)
+    assert " 0.50004 B " in text and " 0.2 A " in text and " 1.23456 B " in text
+    assert "B <= 1.23456 arcmin (0.02058 deg)" in text

@@ -19,18 +19,35 @@ def _number(value, digits=4):
     return "-" if value is None else f"{value:.{digits}g}"
 
 
+def _exact(value):
+    """A threshold as given (``1.2``, not ``1.2000000000000002`` nor ``1.235`` for ``1.23456``)."""
+    return format(value, ".10g")
+
+
+def _against(value, limits):
+    """``value`` (arc-minutes) with as many digits as it takes to fall on the same side of every limit as it does:
+    a held-out estimate of 0.50004 beside a limit of 0.5 is shown 0.50004, never 0.5 graded B."""
+    if value is None:
+        return "-"
+    for digits in range(4, 11):
+        text = f"{value:.{digits}g}"
+        if all((float(text) <= limit) == (value <= limit) for _, limit in limits or ()):
+            return text
+    return repr(value)
+
+
 def _limits_text(limits):
     """``A <= 0.5 arcmin, B <= 1 arcmin``: a set of thresholds as the report states it (arc-minutes)."""
-    return ", ".join(f"{name} <= {limit:.4g}" for name, limit in limits) + " arcmin"
+    return ", ".join(f"{name} <= {_exact(limit)}" for name, limit in limits) + " arcmin"
 
 
 def _limit_of(name, limits, short=False):
-    """The held-out RMS a grade of ``limits`` stands for: ``<= 0.02 deg (1.2 arcmin)`` (``short``: ``<= 1.2
-    arcmin``), ``> ...`` for the grade of a unit that meets none."""
+    """The held-out RMS a grade of ``limits`` stands for: ``<= 1.2 arcmin (0.02 deg)`` (``short``: ``<= 1.2
+    arcmin``), ``> ...`` for the grade of a unit that meets none; arc-minutes exact, as the held-out column."""
     from ..store import GRADE_NONE
 
     sign, limit = (">", max(limit for _, limit in limits)) if name == GRADE_NONE else ("<=", dict(limits)[name])
-    return f"{sign} {limit:.4g} arcmin" if short else f"{sign} {limit / 60:.4g} deg ({limit:.4g} arcmin)"
+    return f"{sign} {_exact(limit)} arcmin" + ("" if short else f" ({limit / 60:.4g} deg)")
 
 
 def _stored_grade(record):
@@ -47,7 +64,8 @@ def _stored_grade(record):
 
 
 def _grades_table(latest, grades):
-    """The grades table, and each unit's grade as its row in the units' table shows it.
+    """Each unit's grade as its row in the units' table shows it, the thresholds it was given by (or None), and the
+    grades table.
 
     With ``grades`` every unit is graded again by them. Without, each unit's stored grade is counted with the
     thresholds it was given by (:meth:`Record.grade_limits <encal.store.Record.grade_limits>`): units graded by
@@ -71,8 +89,9 @@ def _grades_table(latest, grades):
     several = grades is None and len(limit_sets) > 1
     shown = [grade if not several or limits is None else f"{grade} ({_limit_of(grade, limits, short=True)})"
              for grade, limits in by_unit]
+    unit_limits = [limits for _, limits in by_unit]
     if not keys:
-        return shown, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
+        return shown, unit_limits, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
                                       "to this report (--grades A=0.02,B=0.05).", "note")
     counts = {key: by_unit.count(key) for key in keys}
     rows = [[name, "not recorded" if limits is None else _limit_of(name, limits),
@@ -91,7 +110,7 @@ def _grades_table(latest, grades):
             "epochs fitted with different --grades): each grade is counted with the thresholds it was given by, and "
             "the units' table gives each grade its limit. 'encal fleet report --grades ...' grades every unit again "
             "by one set.", "note") + table
-    return shown, table
+    return shown, unit_limits, table
 
 
 def _figures(stats, drift):
@@ -196,7 +215,7 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     every = latest_per_serial(records)  # every unit: its grade and its row (a model of an arc has no score)
     arcs = len(every) - len(latest)
     score_of = {record.serial: score for record, score in zip(latest, stats.overall_scores)}
-    unit_grades, grades_part = _grades_table(every, grades)
+    unit_grades, unit_limits, grades_part = _grades_table(every, grades)
     standing = stats.standing_out()
     after = np.array([r.rms_after_arcmin for r in every if r.rms_after_arcmin is not None])
     held = np.array([r.held_out_arcmin for r in every if r.held_out_arcmin is not None])
@@ -258,7 +277,7 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
         ["serial", "epoch", "station", "points", "RMS before", "RMS after", "held-out", "grade", "score"],
         [[every[i].serial, str(every[i].epoch), every[i].station or "-", str(every[i].n_points or "-"),
           _number(every[i].rms_before_arcmin), _number(every[i].rms_after_arcmin),
-          _number(every[i].held_out_arcmin), unit_grades[i] or "-",
+          _against(every[i].held_out_arcmin, unit_limits[i]), unit_grades[i] or "-",
           _number(score_of[every[i].serial], 3) if every[i].serial in score_of else "- (an arc)"]
          for i in shown], caption="The latest record of each unit (arcmin)",
         numeric=[False, True, False, True, True, True, True, False, True]))
