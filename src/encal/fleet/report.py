@@ -91,8 +91,8 @@ def _grades_table(latest, grades):
              for grade, limits in by_unit]
     unit_limits = [limits for _, limits in by_unit]
     if not keys:
-        return shown, unit_limits, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
-                                      "to this report (--grades A=0.02,B=0.05).", "note")
+        return shown, unit_limits, _html.paragraph("No grades: the units were fitted without --grades, and none are "
+                                                   "given to this report (--grades A=0.02,B=0.05).", "note")
     counts = {key: by_unit.count(key) for key in keys}
     rows = [[name, "not recorded" if limits is None else _limit_of(name, limits),
              "this report's --grades" if grades is not None else
