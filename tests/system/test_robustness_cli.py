@@ -1057,13 +1057,19 @@ CASES += ISSUE32_CASES
 
 # ---------------------------------------------------------------- fleet8: the production line against known truth
 def _make_fleet8_files(folder, paths):
-    """Another program's SQLite database, which a store's reader must leave as it is (no tables, no WAL mode)."""
+    """Another program's SQLite database, which a store's reader must leave as it is (no tables, no WAL mode), and a
+    store of one unit."""
     import sqlite3
+
+    from encal.store import open_store
 
     paths["foreign_db"] = folder / "foreign.sqlite"
     with sqlite3.connect(paths["foreign_db"]) as connection:
         connection.execute("CREATE TABLE parts (id INTEGER)")
     connection.close()
+    paths["fleet8_store"] = folder / "fleet8.sqlite"  # one unit, SN1: an output must never be written over it
+    with open_store(paths["fleet8_store"]) as store:
+        store.add("SN1", paths["model"].read_text(encoding="utf-8"))
 
 
 FLEET8_CASES = [
@@ -1076,6 +1082,11 @@ FLEET8_CASES = [
          ("database of other tables (parts)",)),
     Case("export-serial-foreign-database", ("export", "--serial", "SN1", "--store", "{foreign_db}", "--format",
                                             "table", "-o", "{out}/t.bin"), 1, ("database of other tables",)),
+    Case("fleet-report-output-is-the-store", ("fleet", "report", "--store", "{fleet8_store}", "-o",
+                                              "{fleet8_store}"), 1, ("is the same file as the calibration store",)),
+    Case("export-serial-output-is-the-store", ("export", "--serial", "SN1", "--store", "{fleet8_store}", "--format",
+                                               "table", "--bits", "12", "-o", "{fleet8_store}"), 1,
+         ("is the same file as the calibration store",)),
 ]
 CASES += FLEET8_CASES
 

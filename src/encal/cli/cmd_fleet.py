@@ -172,8 +172,11 @@ def _report(args):
     from ..store import open_store, parse_grades
 
     grades = parse_grades(args.grades) if args.grades is not None else None
+    from ..store._store import is_url
+
     _check_store(args.store, must_exist=True)
-    check_paths(outputs=[("-o", args.output)])
+    # the page never written over the store (-o s.sqlite replaced every record with the page, exit 0)
+    check_paths(inputs=[(None if is_url(args.store) else args.store, "store")], outputs=[("-o", args.output)])
     with open_store(args.store) as store, activity("fleet report") as progress:
         progress.stage("reading the store")
         records = store.records()
