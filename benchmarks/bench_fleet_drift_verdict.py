@@ -12,6 +12,10 @@ the two profiles (zero offsets removed, 360 angles), ``u`` each posterior's ``σ
 :func:`encal.fleet.statistics.drift_table` computes them; and the same ratio for the simulator's own second epoch
 (``epoch2``: a drifted mount and resolver). The verdict calls a unit *moved* above
 :data:`encal.fleet.statistics.DRIFT_MOVED`.
+
+Then the production lot of ``benchmarks/_fleet_lots.py`` (units 0-19 of seed 3202): each unit calibrated twice over
+the training grid with fresh noise, the odd units remounted between the two (a new eccentricity, N_c(0, 0.5'),
+drawn from seed ``[9, i]``): the ratio of each, and the change of its first order's amplitude.
 """
 
 import argparse
@@ -21,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "src"))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from encal.fleet.statistics import DRIFT_MOVED  # noqa: E402
 from encal.models.fitting import fit  # noqa: E402
@@ -42,6 +47,36 @@ def _ratio(first, later):
     return change / np.hypot(_uncertainty(first), _uncertainty(later))
 
 
+def _production(units=20):
+    import _fleet_lots as lots
+    import _physics_world as world
+
+    from encal.data.calibration import Calibration
+
+    design = lots._design()
+
+    def calibrated(parameters, seed):
+        case = world._case(lambda t, q=parameters: lots._unit_angle(q, t), lots.TRAIN_GRID_DEG, lots.TEST_GRID_DEG,
+                           world._RESOLVER_BITS, parameters["noise_lsb"], np.random.default_rng(seed))
+        return fit(Calibration(lots.TRAIN_GRID_DEG, np.asarray(case["theta"], dtype=float)), method="spectral")
+
+    for remounted in (False, True):
+        ratios = []
+        for i in range(remounted, units, 2):
+            parameters = lots._unit_parameters(design, np.random.default_rng([3202, i]))
+            first = calibrated(parameters, [3202, i, 1])
+            if remounted:
+                parameters = {**parameters, "eccentricity": world._complex_normal(np.random.default_rng([9, i]),
+                                                                                  0.5 / lots.ARCMIN_PER_RAD)}
+            later = calibrated(parameters, [3202, i, 2])
+            order_1 = abs(np.fft.rfft(_profile(later) - _profile(first))[1]) * 2 / 360
+            ratios.append(_ratio(first, later))
+            print(f"production unit {i}{' remounted' if remounted else ''}: {ratios[-1]:.2f} (first order changed "
+                  f"by {order_1:.3f} arcmin)")
+        print(f"production lot, {'remounted' if remounted else 'unchanged'}: {min(ratios):.2f} to {max(ratios):.2f}, "
+              f"{sum(r > DRIFT_MOVED for r in ratios)} of {len(ratios)} moved")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--units", type=int, default=20)
@@ -55,6 +90,7 @@ def main():
         print(f"{member.name}: unchanged repeat {repeats[-1]:.2f}, epoch2 {epochs[-1]:.2f}")
     print(f"unchanged repeats: {min(repeats):.2f} to {max(repeats):.2f} (median {np.median(repeats):.2f}); epoch2: "
           f"{min(epochs):.2f} to {max(epochs):.2f}; 'moved' above {DRIFT_MOVED:g}")
+    _production()
 
 
 if __name__ == "__main__":

@@ -176,20 +176,29 @@ def _figures(stats, drift):
     return [_html.figure(name, png, caption) for name, png, caption in figures]
 
 
-_VERDICTS = {"moved": "moved", "within": "within its uncertainty", None: "no verdict"}
+_VERDICTS = {"moved": "moved", "within": "not shown to move", None: "no verdict"}
+
+
+def _ratio(row):
+    """A drift row's change over its uncertainty, or None."""
+    if row["uncertainty_arcmin"] is None or not row["uncertainty_arcmin"]:
+        return None
+    return row["drift_arcmin"][-1] / row["uncertainty_arcmin"]
 
 
 def _drift_rule(drift):
     """The sentence that says how the drift table's verdicts are reached (the store holds models, not readings)."""
     counts = {verdict: sum(row["verdict"] == verdict for row in drift) for verdict in _VERDICTS}
-    return (f"{counts['moved']} of {len(drift)} units moved, {counts['within']} within the uncertainty"
+    return (f"{counts['moved']} of {len(drift)} units moved, {counts['within']} not shown to move"
             + (f", {counts[None]} without a verdict" if counts[None] else "") + ". "
             f"The store holds each epoch's model, not its readings: a unit's profile moved when its RMS change from "
             f"the first to the last epoch exceeds {DRIFT_MOVED:g} times the two models' uncertainties combined, "
             "sqrt(u_first^2 + u_last^2), u each model's standard uncertainty of its profile (RMS over the turn; the "
             "held-out estimate, which holds a new reading's noise too, where a model holds no uncertainty). "
-            "No verdict: a model without either figure, or one of an arc. 'encal drift FIRST.csv LATER.csv' "
-            "on the calibrations (each record keeps its CSV) tests it against the readings.")
+            f"Below {DRIFT_MOVED:g} times a change is not shown to be real (unchanged units calibrated twice come "
+            "out near 1); the units are listed by that ratio, the largest first. No verdict: a model without either "
+            "figure, or one of an arc. 'encal drift FIRST.csv LATER.csv' on the calibrations (each record keeps its "
+            "CSV) tests it against the readings.")
 
 
 def fleet_report_html(records, *, grades=None, store_name="the store"):
@@ -256,15 +265,18 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     if drift:
         parts.append(figures[3])
         parts.append(_html.paragraph(_drift_rule(drift), "note"))
+        # the most moved first, so that a large fleet's 200 rows hold every unit that moved
+        ranked = sorted(drift, key=lambda row: (_ratio(row) is None, -(_ratio(row) or 0.0), row["serial"]))
         parts.append(_html.table(
-            ["serial", "epochs", "drift at the last epoch (arcmin)", "uncertainty of the change (arcmin)", "verdict",
-             "order that moved most", "its change (arcmin)"],
+            ["serial", "epochs", "drift at the last epoch (arcmin)", "uncertainty of the change (arcmin)",
+             "drift / uncertainty", "verdict", "order that moved most", "its change (arcmin)"],
             [[row["serial"], str(len(row["epochs"])), _number(row["drift_arcmin"][-1], 3),
               _number(row["uncertainty_arcmin"], 3) + ("" if row["basis"] != "held-out" else " (held-out)"),
-              _VERDICTS[row["verdict"]], "-" if row["largest_order"] is None else str(row["largest_order"]),
-              _number(row["largest_change_arcmin"], 3)] for row in drift[:200]],
-            caption="Units calibrated more than once (at most 200 shown)",
-            numeric=[False, True, True, True, False, True, True]))
+              _number(_ratio(row), 3), _VERDICTS[row["verdict"]],
+              "-" if row["largest_order"] is None else str(row["largest_order"]),
+              _number(row["largest_change_arcmin"], 3)] for row in ranked[:200]],
+            caption="Units calibrated more than once, the most moved first (at most 200 shown)",
+            numeric=[False, True, True, True, True, False, True, True]))
     else:
         parts.append(_html.paragraph("No unit was calibrated more than once.", "note"))
     parts.append("<h2>Units</h2>")
