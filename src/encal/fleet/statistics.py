@@ -230,8 +230,8 @@ def drift_table(records, points=GRID_POINTS):
         and ``largest_change_arcmin`` (the order whose harmonic moved most from the first to the last epoch),
         ``uncertainty_arcmin`` (``sqrt(u_first² + u_last²)``, or None), ``basis`` (``'posterior'`` when both
         models hold their uncertainty, ``'held-out'`` when either is the held-out estimate, or None) and ``verdict``
-        (``'moved'``, ``'within'`` :data:`DRIFT_MOVED` times the uncertainty, not shown to move, or None without an uncertainty for both epochs or with a
-        model of an arc, whose profile over the turn is not known).
+        (``'moved'``; ``'within'`` :data:`DRIFT_MOVED` times the uncertainty, not shown to move; or None without
+        an uncertainty for both epochs or with a model of an arc, whose profile over the turn is not known).
     """
     by_serial = {}
     for record in records:
