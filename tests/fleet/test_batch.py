@@ -469,6 +469,13 @@ def test_a_unit_calibrated_over_an_arc_is_counted_graded_and_listed_by_the_repor
     assert "4 units (1 calibrated over an arc, left out of the fleet's profile, spread and scores" in text
     assert "A <= 0.5 arcmin (0.008333 deg) A <= 0.5 arcmin 4 100.0%" in text
     assert " SN4 1 - 90 " in text and "- (an arc)" in text
+    # too few units over the whole turn for statistics: the refusal counts the unit over an arc too
+    small = tmp_path / "small.sqlite"
+    assert _fit(tmp_path / "lot" / "SN1.csv", "--store", small) == 0
+    assert _fit(tmp_path / "SN4.csv", "--store", small, "--method", "auto", "--allow-gaps") == 0
+    capsys.readouterr()
+    assert main(["fleet", "report", "--store", str(small), "-o", str(page)]) == 1
+    assert "holds 1 unit(s) calibrated over the whole turn (and 1 over an arc only" in capsys.readouterr().err
 
 
 def test_a_resumed_batch_never_stores_a_units_earlier_file_as_its_latest(tmp_path, capsys):

@@ -170,10 +170,13 @@ def fleet_statistics(records, *, orders=ORDERS, points=GRID_POINTS):
         With fewer than 3 units (a median and a MAD need a few).
     """
     # a unit calibrated over an arc has no profile over the whole turn to compare (its model is NaN outside)
-    latest = [record for record in latest_per_serial(records) if record.model().range_deg is None]
+    every = latest_per_serial(records)
+    latest = [record for record in every if record.model().range_deg is None]
     if len(latest) < 3:
-        raise InputError(f"the store holds {len(latest)} unit(s) calibrated over the whole turn; expected 3 or more "
-                         "for fleet statistics (a median and its spread)")
+        arcs = len(every) - len(latest)
+        raise InputError(f"the store holds {len(latest)} unit(s) calibrated over the whole turn"
+                         + (f" (and {arcs} over an arc only, whose models hold on their arc)" if arcs else "")
+                         + "; expected 3 or more over the whole turn for fleet statistics (a median and its spread)")
     grid, profiles = unit_profiles(latest, points)
     coefficients = harmonics(profiles, orders)
     amplitudes = np.abs(coefficients)
