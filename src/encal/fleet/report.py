@@ -172,7 +172,7 @@ def _figures(stats, drift):
                 ax.legend(fontsize="small")
             figures.append(("fleet-drift", figure_png(fig),
                             "Drift: how far each re-calibrated unit's profile moved from its first epoch (RMS, "
-                            "zero offset removed; at most 20 units drawn)."))
+                            "zero offset removed; the 20 units that moved most, against their uncertainty, drawn)."))
     return [_html.figure(name, png, caption) for name, png, caption in figures]
 
 
@@ -219,7 +219,8 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
         The HTML document and a summary sentence.
     """
     stats = fleet_statistics(records)
-    drift = drift_table(records)
+    # the most moved (against its uncertainty) first: the figure's 20 units and the table's 200 rows hold them
+    drift = sorted(drift_table(records), key=lambda row: (_ratio(row) is None, -(_ratio(row) or 0.0), row["serial"]))
     latest = stats.records  # calibrated over the whole turn: the statistics' units
     every = latest_per_serial(records)  # every unit: its grade and its row (a model of an arc has no score)
     arcs = len(every) - len(latest)
@@ -265,8 +266,6 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     if drift:
         parts.append(figures[3])
         parts.append(_html.paragraph(_drift_rule(drift), "note"))
-        # the most moved first, so that a large fleet's 200 rows hold every unit that moved
-        ranked = sorted(drift, key=lambda row: (_ratio(row) is None, -(_ratio(row) or 0.0), row["serial"]))
         parts.append(_html.table(
             ["serial", "epochs", "drift at the last epoch (arcmin)", "uncertainty of the change (arcmin)",
              "drift / uncertainty", "verdict", "order that moved most", "its change (arcmin)"],
@@ -274,7 +273,7 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
               _number(row["uncertainty_arcmin"], 3) + ("" if row["basis"] != "held-out" else " (held-out)"),
               _number(_ratio(row), 3), _VERDICTS[row["verdict"]],
               "-" if row["largest_order"] is None else str(row["largest_order"]),
-              _number(row["largest_change_arcmin"], 3)] for row in ranked[:200]],
+              _number(row["largest_change_arcmin"], 3)] for row in drift[:200]],
             caption="Units calibrated more than once, the most moved first (at most 200 shown)",
             numeric=[False, True, True, True, True, False, True, True]))
     else:
