@@ -137,7 +137,7 @@ def _fit(args):
         from ..fleet.prior import StorePrior
 
         _check_store(args.prior_from, must_exist=True, option="--prior-from")
-        with open_store(args.prior_from) as source:
+        with open_store(args.prior_from, option="--prior-from") as source:
             prior = StorePrior(source.latest_records())  # each unit under the prior of the others
 
     def refused(path, sentence):

@@ -180,7 +180,7 @@ def is_url(location):
     return str(location).startswith(("postgresql://", "postgres://"))
 
 
-def open_store(location):
+def open_store(location, *, option="--store"):
     """Open (and create when new) the store at ``location``.
 
     Parameters
@@ -188,6 +188,8 @@ def open_store(location):
     location : str or os.PathLike
         The path of an SQLite file (created when missing; its folder must exist), or a PostgreSQL URL
         ``postgresql://user:password@host:port/database`` (needs ``psycopg``: ``pip install encal[postgres]``).
+    option : str, default='--store'
+        The command-line option that named the store, as its messages name it (``--prior-from``).
 
     Returns
     -------
@@ -200,8 +202,8 @@ def open_store(location):
         driver is not installed, in one sentence.
     """
     if is_url(location):
-        return _PostgresStore(str(location))
-    return _SQLiteStore(Path(location))
+        return _PostgresStore(str(location), option)
+    return _SQLiteStore(Path(location), option)
 
 
 def check_serial(serial):
@@ -247,6 +249,8 @@ class Store(abc.ABC):
     """
 
     location = None
+    #: The command-line option that named the store, as messages name it.
+    option = "--store"
     _placeholder = "?"
 
     # --- what a back end provides (SQLite and PostgreSQL below) -----------------------------------
@@ -388,7 +392,8 @@ class Store(abc.ABC):
         cursor.execute("SELECT value FROM encal_store WHERE key = 'schema_version'")
         version = int(cursor.fetchone()[0])
         if version > SCHEMA_VERSION:
-            raise InputError(f"--store {self.location}: written by a newer encal (layout {version}, this encal reads "
+            raise InputError(f"{self.option} {self.location}: "
+                             f"written by a newer encal (layout {version}, this encal reads "
                              f"{SCHEMA_VERSION}); expected a store this encal reads (upgrade encal)")
         if version < SCHEMA_VERSION:
             self._convert(cursor, version)
@@ -537,16 +542,18 @@ class Store(abc.ABC):
 class _SQLiteStore(Store):
     """A store in an SQLite file (WAL mode: readers never wait for the writer)."""
 
-    def __init__(self, path):
+    def __init__(self, path, option="--store"):
         import sqlite3
 
-        self.location = str(path)
+        self.location, self.option = str(path), option
         folder = path.parent if str(path.parent) else Path(".")
         if path.is_dir():
-            raise InputError(f"--store {path}: is a folder; expected the path of an SQLite file (created when new) "
+            raise InputError(f"{self.option} {path}: "
+                             "is a folder; expected the path of an SQLite file (created when new) "
                              "or a postgresql:// URL")
         if not folder.is_dir():
-            raise InputError(f"--store {path}: the folder {folder} does not exist; expected the path of a file in an "
+            raise InputError(f"{self.option} {path}: "
+                             f"the folder {folder} does not exist; expected the path of a file in an "
                              "existing folder")
         self._sqlite = sqlite3
         try:
@@ -557,7 +564,8 @@ class _SQLiteStore(Store):
             self._create()
         except sqlite3.DatabaseError as exc:
             self.close()
-            raise InputError(f"--store {path}: cannot be used as a store ({exc}); expected an SQLite file written "
+            raise InputError(f"{self.option} {path}: "
+                             f"cannot be used as a store ({exc}); expected an SQLite file written "
                              "by encal, or the path of a new one") from None
         except InputError:
             self.close()
@@ -570,7 +578,8 @@ class _SQLiteStore(Store):
                                                                    "'table' AND name NOT LIKE 'sqlite%'"))
         if tables and "encal_records" not in tables:
             shown = ", ".join(tables[:3]) + (", ..." if len(tables) > 3 else "")
-            raise InputError(f"--store {path}: is an SQLite database of other tables ({shown}), not a calibration "
+            raise InputError(f"{self.option} {path}: "
+                             f"is an SQLite database of other tables ({shown}), not a calibration "
                              "store; expected a store written by 'encal fleet fit', or the path of a new file")
 
     def _write_ahead_log(self):
@@ -649,7 +658,8 @@ class _SQLiteStore(Store):
         try:
             return self._insert_rows(rows, skip_stored)
         except self._sqlite.Error as exc:
-            raise StoreWriteError(f"--store {self.location}: could not be written ({exc}; nothing of this group of "
+            raise StoreWriteError(f"{self.option} {self.location}: "
+                                  f"could not be written ({exc}; nothing of this group of "
                                   f"{len(rows)} records was written); expected the store free of other writers within "
                                   f"{LOCK_TIMEOUT_S:g} s, on a disk with room") from None
 
@@ -679,12 +689,13 @@ class _PostgresStore(Store):
 
     _placeholder = "%s"
 
-    def __init__(self, url):
-        self.location = _without_password(url)
+    def __init__(self, url, option="--store"):
+        self.location, self.option = _without_password(url), option
         try:
             import psycopg
         except ImportError:
-            raise InputError(f"--store {self.location}: a PostgreSQL store needs the psycopg driver, which is not "
+            raise InputError(f"{self.option} {self.location}: "
+                             "a PostgreSQL store needs the psycopg driver, which is not "
                              "installed; expected it installed (pip install 'encal[postgres]') or an SQLite file "
                              "path") from None
         self._psycopg = psycopg
@@ -694,7 +705,8 @@ class _PostgresStore(Store):
         except psycopg.Error as exc:
             self.close()
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise InputError(f"--store {self.location}: cannot be used as a store ({first}); expected a reachable "
+            raise InputError(f"{self.option} {self.location}: "
+                             f"cannot be used as a store ({first}); expected a reachable "
                              "PostgreSQL server and a database the user may create tables in") from None
         except InputError:
             self.close()
@@ -725,7 +737,8 @@ class _PostgresStore(Store):
         try:
             super()._convert(cursor, version)
         except self._psycopg.errors.InsufficientPrivilege as exc:
-            raise InputError(f"--store {self.location}: is of layout {version}, which its first opening converts to "
+            raise InputError(f"{self.option} {self.location}: "
+                             f"is of layout {version}, which its first opening converts to "
                              f"layout {SCHEMA_VERSION} (serial numbers composed), and this user may not "
                              f"({str(exc).strip().splitlines()[0]}); expected encal run once as the owner of the "
                              "store's tables") from None
@@ -743,7 +756,8 @@ class _PostgresStore(Store):
             return self._insert_rows(rows, skip_stored)
         except self._psycopg.OperationalError as exc:  # the server gone, a lost connection, a full disk
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise StoreWriteError(f"--store {self.location}: could not be written ({first}; nothing of this group "
+            raise StoreWriteError(f"{self.option} {self.location}: "
+                                  f"could not be written ({first}; nothing of this group "
                                   f"of {len(rows)} records was written); expected a reachable PostgreSQL server with "
                                   "room in its database") from None
 
