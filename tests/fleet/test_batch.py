@@ -652,3 +652,7 @@ def test_a_held_out_estimate_is_never_shown_on_the_other_side_of_its_grades_limi
     text = _report_text(page)
     assert " 0.50004 B " in text and " 0.2 A " in text and " 1.23456 B " in text
     assert "B <= 1.23456 arcmin (0.02058 deg)" in text
+    # graded without its thresholds recorded (an older encal, or Store.add without them): said, never a limit
+    assert main(["fleet", "report", "--store", str(tmp_path / "s.sqlite"), "-o", str(page)]) == 0
+    text = _report_text(page)
+    assert "A not recorded not recorded (fitted by an encal that did not keep them) 2 50.0%" in text
