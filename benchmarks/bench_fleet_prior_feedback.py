@@ -13,6 +13,10 @@ turn, are then fitted under the prior learned from (a) the 20 units fitted alone
 learned before fleet8 (every latest record of the store). Printed: the prior's variance at orders 1-5, and the
 median over units 60-79 of the true RMS error of the model (zero offsets removed) and of the held-out estimate the
 model claims (``expected_rms_between_points``, what a unit is graded by).
+
+Then what leaving one unit out of a large store's prior changes, and costs (``LEAVE_ONE_OUT_UNITS``): fleets of 1001 and
+10,001 units of Gaussian harmonics (60 orders, seed 0), the prior of all against the prior without one unit (20 units
+each): the largest change of an order's mean (in its spread) and of its variance; and the CPU time of one such prior.
 """
 
 import sys
@@ -69,5 +73,26 @@ def main():
               f"60-79 median true error {true:.3f} arcmin, median held-out estimate claimed {claimed:.3f} arcmin")
 
 
+def leave_one_out():
+    import time
+
+    rng = np.random.default_rng(0)
+    for units in (1001, 10001):
+        coefficients = rng.normal(size=(units, 60)) + 1j * rng.normal(size=(units, 60))
+        noises = np.full(units, 0.1)
+        whole = _prior_of(coefficients, noises)
+        moved_mean = moved_variance = 0.0
+        start = time.process_time()
+        for left_out in rng.choice(units, 20, replace=False):
+            keep = np.arange(units) != left_out
+            other = _prior_of(coefficients[keep], noises[keep])
+            moved_mean = max(moved_mean, np.max(np.abs(other.mean_cos - whole.mean_cos) / np.sqrt(whole.variance)))
+            moved_variance = max(moved_variance, np.max(np.abs(other.variance / whole.variance - 1.0)))
+        cost = (time.process_time() - start) / 20
+        print(f"{units} units: one left out moved an order's mean by at most {100 * moved_mean:.3f} % of its spread, "
+              f"its variance by {100 * moved_variance:.2f} %; {1000 * cost:.0f} ms of CPU a prior")
+
+
 if __name__ == "__main__":
     main()
+    leave_one_out()

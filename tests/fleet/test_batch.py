@@ -409,7 +409,7 @@ def _write_arc(path, amplitude_arcmin, seed, stop_deg=90.0):
                     encoding="utf-8")
 
 
-def test_a_unit_is_never_fitted_under_a_prior_learned_from_itself(tmp_path, capsys):
+def test_a_unit_is_never_fitted_under_a_prior_learned_from_itself(tmp_path, capsys, monkeypatch):
     """fleet8: --prior-from a store holding the unit's own earlier calibration put that calibration in the unit's
     prior (6 units where 5 are others), drawing its new model toward its old profile. SN3's quarter turn under the
     store of SN1..SN6 is now the model under the store of the five others, to the last digit."""
@@ -439,6 +439,12 @@ def test_a_unit_is_never_fitted_under_a_prior_learned_from_itself(tmp_path, caps
     assert StorePrior(records).for_unit("SN9").as_dict() == whole.as_dict()
     # its own bytes under another serial are left out too
     assert StorePrior(records).for_unit("SN9", [records[0].source_sha256]).units == 5
+    # a store of more than LEAVE_ONE_OUT_UNITS: the whole store's prior, which one unit barely moves
+    from encal.fleet import prior as prior_module
+
+    with monkeypatch.context() as patched:
+        patched.setattr(prior_module, "LEAVE_ONE_OUT_UNITS", 5)
+        assert StorePrior(records).for_unit("SN3").as_dict() == whole.as_dict()
     # five units, one of them the unit itself: four others are too few for a prior; the unit is refused, alone
     (tmp_path / "five").mkdir()
     for k in (1, 3):  # SN3 is not in the store of five
