@@ -137,8 +137,13 @@ def _fit(args):
         from ..fleet.prior import StorePrior
 
         _check_store(args.prior_from, must_exist=True, option="--prior-from")
+        from .._core.errors import InputError
+
         with open_store(args.prior_from, option="--prior-from") as source:
-            prior = StorePrior(source.latest_records())  # each unit under the prior of the others
+            try:
+                prior = StorePrior(source.latest_records())  # each unit under the prior of the others
+            except InputError as exc:  # too few units: the store named
+                raise InputError(f"--prior-from {source.location}: {exc}") from None
 
     def refused(path, sentence):
         clear_line()
