@@ -662,3 +662,20 @@ def test_a_held_out_estimate_is_never_shown_on_the_other_side_of_its_grades_limi
     assert main(["fleet", "report", "--store", str(tmp_path / "s.sqlite"), "-o", str(page)]) == 0
     text = _report_text(page)
     assert "A not recorded not recorded (fitted by an encal that did not keep them) 2 50.0%" in text
+
+
+def test_a_glob_that_matches_the_store_leaves_it_out(tmp_path, capsys, monkeypatch):
+    """fleet8: 'encal fleet fit "lot/*"' run a second time matched lot/encal-store.sqlite (and its -wal), refused it as a
+    calibration, and ended with status 1 on every run."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "lot").mkdir()
+    for k in (1, 2):
+        _write_unit(tmp_path / "lot" / f"SN{k}.csv", k, seed=k)
+    assert _fit("lot/*") == 0
+    (tmp_path / "lot" / "encal-store.sqlite-wal").write_bytes(b"\0")  # as a writer beside it would leave it
+    capsys.readouterr()
+    assert _fit("lot/*") == 0
+    out, err = capsys.readouterr()
+    assert "0 of 2 files fitted" in out and "2 already stored" in out and err == ""
+    assert _fit("lot/encal-store.sqlite") == 1
+    assert "names only the store lot/encal-store.sqlite and its files" in capsys.readouterr().err

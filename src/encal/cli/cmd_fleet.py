@@ -100,6 +100,24 @@ def _check_store(location, *, must_exist=False, option="--store"):
     check_paths(outputs=[(option, location)])
 
 
+def _without_the_store(paths, location, sources):
+    """``paths`` without the store's own files (``'lot7/*'`` matches ``lot7/encal-store.sqlite`` and its ``-wal`` once
+    a batch has written it: each run refused it as a calibration, exit status 1)."""
+    import os
+
+    from .._core.errors import InputError
+    from ..store._store import is_url
+
+    if is_url(location):
+        return paths
+    own = {os.path.realpath(f"{location}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")}
+    kept = [path for path in paths if os.path.realpath(path) not in own]
+    if not kept:
+        raise InputError(f"{' '.join(map(str, sources))} names only the store {location} and its files; expected "
+                         "calibration CSVs")
+    return kept
+
+
 def run(args):
     if args.fleet_command == "fit":
         return _fit(args)
@@ -132,6 +150,7 @@ def _fit(args):
     paths = find_calibrations(args.sources)
     location = _store_location(args, paths)
     _check_store(location)
+    paths = _without_the_store(paths, location, args.sources)
     prior = None
     if args.prior_from is not None:
         from ..fleet.prior import StorePrior
