@@ -665,8 +665,8 @@ def test_a_held_out_estimate_is_never_shown_on_the_other_side_of_its_grades_limi
 
 
 def test_a_glob_that_matches_the_store_leaves_it_out(tmp_path, capsys, monkeypatch):
-    """fleet8: 'encal fleet fit "lot/*"' run a second time matched lot/encal-store.sqlite (and its -wal), refused it as a
-    calibration, and ended with status 1 on every run."""
+    """fleet8: 'encal fleet fit "lot/*"' run a second time matched lot/encal-store.sqlite (and its -wal), refused it as
+    a calibration, and ended with status 1 on every run."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "lot").mkdir()
     for k in (1, 2):
