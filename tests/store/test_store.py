@@ -6,6 +6,7 @@ Every test runs against SQLite, and against a real PostgreSQL server when ENCAL_
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -467,3 +468,39 @@ def test_another_programs_database_is_refused_and_left_as_it_was(tmp_path):
         store.add("SN1", '{"x": 1}')
     with open_store(tmp_path / "s.sqlite") as store:
         assert store.count() == 1
+
+
+def test_a_write_the_store_cannot_take_is_one_sentence_and_writes_nothing(location, monkeypatch):
+    """fleet8: SQLite locked by another writer past the wait, or a PostgreSQL connection lost, surfaced as the driver's
+    exception (a traceback in 'encal fleet fit'); it is StoreWriteError, an InputError, with nothing of the call
+    written."""
+    from encal.store import StoreWriteError
+    from encal.store import _store
+
+    monkeypatch.setattr(_store, "LOCK_TIMEOUT_S", 0.2)
+    with open_store(location) as store:
+        store.add("SN-1", _model_json("a"))
+        if location.startswith("postgresql"):
+            import psycopg
+
+            with store._connection.cursor() as cursor:
+                cursor.execute("SELECT pg_backend_pid()")
+                pid = cursor.fetchone()[0]
+            store._connection.commit()
+            with psycopg.connect(location, autocommit=True) as other:
+                other.execute("SELECT pg_terminate_backend(%s)", (pid,))
+            says = "could not be written"
+        else:
+            import sqlite3
+
+            holder = sqlite3.connect(location, isolation_level=None)
+            holder.execute("BEGIN IMMEDIATE")
+            says = "could not be written (database is locked; nothing of this group of 2 records was written)"
+        with pytest.raises(StoreWriteError, match=re.escape(says)):
+            store.add_many([{"serial": "SN-2", "model_json": _model_json("b")},
+                            {"serial": "SN-3", "model_json": _model_json("c")}])
+        if not location.startswith("postgresql"):
+            holder.execute("ROLLBACK")
+            holder.close()
+    with open_store(location) as again:
+        assert [r.serial for r in again.records()] == ["SN-1"]
