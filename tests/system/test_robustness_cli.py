@@ -181,11 +181,11 @@ def _make_files(folder):
     _make_strict6_files(folder, paths)
     _make_store6_files(paths)
     _make_fuzz6_files(folder, paths)
-    _make_fleet8_files(folder, paths)
     arc = np.arange(45.0, 315.0, 1.0)  # an arc of 269 deg: the outside attack's case
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
                                            arc), encoding="utf-8")
+    _make_fleet8_files(folder, paths)
     return {key: str(path) for key, path in paths.items()}
 
 
