@@ -29,3 +29,31 @@ def test_a_folder_as_the_store_to_read_is_named_a_folder(tmp_path, capsys):
     assert main(["export", "--serial", "SN1", "--store", str(tmp_path), "--format", "table", "--bits", "12", "-o",
                  str(tmp_path / "t.bin")]) == 1
     assert f"--store {tmp_path}: a folder; expected a store written by 'encal fleet fit'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv", [
+    ["fleet", "report", "--store", "{store}", "-o", "{output}"],
+    ["export", "--serial", "SN1", "--store", "{store}", "--format", "table", "--bits", "12", "-o", "{output}"],
+    ["export", "--serial", "SN1", "--store", "{store}", "--format", "c", "--name", "s", "-o", "{folder}"],
+])
+@pytest.mark.parametrize("output", ["s.sqlite", "./s.sqlite", "link.html"])
+def test_an_output_is_never_written_over_the_store(tmp_path, capsys, monkeypatch, argv, output):
+    """fleet8: 'encal fleet report --store s.sqlite -o s.sqlite' replaced every record of the store with the page
+    (exit 0), and 'export --serial' with its table; by another path or through a link as well."""
+    from encal.models.fourier import FourierModel
+    from encal.models.modelfile import dumps, model_to_dict
+    from encal.store import open_store
+
+    monkeypatch.chdir(tmp_path)
+    store = tmp_path / ("s.h" if "c" in argv else "s.sqlite")
+    with open_store(store) as opened:
+        for serial in ("SN1", "SN2", "SN3"):
+            opened.add(serial, dumps(model_to_dict(FourierModel([0, 1], [0.0, 1.0], [0.0, 0.5]))))
+    (tmp_path / "link.html").symlink_to(store)
+    before = store.read_bytes()
+    names = {"store": store.name, "output": store.name if output == "s.sqlite" else output, "folder": "."}
+    if output == "./s.sqlite":
+        names["output"] = f"./{store.name}"
+    assert main([part.format(**names) for part in argv]) == 1
+    assert "is the same file as the calibration store" in capsys.readouterr().err
+    assert store.read_bytes() == before

@@ -62,6 +62,8 @@ def test_drift_names_the_order_that_moved(tmp_path):
     assert rows[0]["largest_order"] == 3
     assert rows[0]["largest_change_arcmin"] == pytest.approx(0.5, rel=1e-6)
     assert rows[0]["drift_arcmin"] == [0.0, pytest.approx(0.5 / np.sqrt(2), rel=1e-6)]
+    # models without an uncertainty, records without a held-out estimate: nothing to weigh the change against
+    assert (rows[0]["verdict"], rows[0]["uncertainty_arcmin"]) == (None, None)
 
 
 @pytest.fixture(scope="module")

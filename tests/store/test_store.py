@@ -6,6 +6,7 @@ Every test runs against SQLite, and against a real PostgreSQL server when ENCAL_
 
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -447,3 +448,59 @@ def test_the_copy_check_is_a_lookup_in_an_index(location, layout):
             plan = store._query("EXPLAIN QUERY PLAN SELECT DISTINCT serial FROM encal_records WHERE source_sha256 = ? "
                                 "AND serial <> ?", ("ab", "SN1"))
             assert any("USING INDEX encal_records_source" in row[-1] for row in plan), plan
+
+
+def test_another_programs_database_is_refused_and_left_as_it_was(tmp_path):
+    """fleet8: 'encal fleet report --store app.sqlite' (a command that only reads) wrote the store's tables and
+    triggers into another program's SQLite database and put it in WAL mode, then said it held 0 units."""
+    import sqlite3
+
+    foreign = tmp_path / "app.sqlite"
+    with sqlite3.connect(foreign) as connection:
+        connection.execute("CREATE TABLE parts (id INTEGER)")
+    connection.close()
+    before = foreign.read_bytes()
+    with pytest.raises(InputError, match=r"app.sqlite: is an SQLite database of other tables \(parts\), not a "
+                                         r"calibration store; expected a store written by 'encal fleet fit'"):
+        open_store(foreign)
+    assert foreign.read_bytes() == before and not (tmp_path / "app.sqlite-wal").exists()
+    with open_store(tmp_path / "s.sqlite") as store:  # a new file, and then a store, are opened as before
+        store.add("SN1", '{"x": 1}')
+    with open_store(tmp_path / "s.sqlite") as store:
+        assert store.count() == 1
+
+
+def test_a_write_the_store_cannot_take_is_one_sentence_and_writes_nothing(location, monkeypatch):
+    """fleet8: SQLite locked by another writer past the wait, or a PostgreSQL connection lost, surfaced as the driver's
+    exception (a traceback in 'encal fleet fit'); it is StoreWriteError, an InputError, with nothing of the call
+    written."""
+    from encal.store import StoreWriteError
+    from encal.store import _store
+
+    monkeypatch.setattr(_store, "LOCK_TIMEOUT_S", 0.2)
+    with open_store(location) as store:
+        store.add("SN-1", _model_json("a"))
+        if location.startswith("postgresql"):
+            import psycopg
+
+            with store._connection.cursor() as cursor:
+                cursor.execute("SELECT pg_backend_pid()")
+                pid = cursor.fetchone()[0]
+            store._connection.commit()
+            with psycopg.connect(location, autocommit=True) as other:
+                other.execute("SELECT pg_terminate_backend(%s)", (pid,))
+            says = "could not be written"
+        else:
+            import sqlite3
+
+            holder = sqlite3.connect(location, isolation_level=None)
+            holder.execute("BEGIN IMMEDIATE")
+            says = "could not be written (database is locked; nothing of this group of 2 records was written)"
+        with pytest.raises(StoreWriteError, match=re.escape(says)):
+            store.add_many([{"serial": "SN-2", "model_json": _model_json("b")},
+                            {"serial": "SN-3", "model_json": _model_json("c")}])
+        if not location.startswith("postgresql"):
+            holder.execute("ROLLBACK")
+            holder.close()
+    with open_store(location) as again:
+        assert [r.serial for r in again.records()] == ["SN-1"]

@@ -186,6 +186,7 @@ def _make_files(folder):
     paths["arc_only"] = folder / "arc_only.csv"
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
                                            arc), encoding="utf-8")
+    _make_fleet8_files(folder, paths)
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -1053,6 +1054,48 @@ ISSUE32_CASES = [
                                      "table", "-o", "{out}/t.bin"), 2),
 ]
 CASES += ISSUE32_CASES
+
+
+# ---------------------------------------------------------------- fleet8: the production line against known truth
+def _make_fleet8_files(folder, paths):
+    """Another program's SQLite database, which a store's reader must leave as it is (no tables, no WAL mode), and a
+    store of one unit."""
+    import sqlite3
+
+    from encal.store import open_store
+
+    paths["foreign_db"] = folder / "foreign.sqlite"
+    with sqlite3.connect(paths["foreign_db"]) as connection:
+        connection.execute("CREATE TABLE parts (id INTEGER)")
+    connection.close()
+    paths["fleet8_store"] = folder / "fleet8.sqlite"  # one unit, SN1: an output must never be written over it
+    with open_store(paths["fleet8_store"]) as store:
+        store.add("SN1", paths["model"].read_text(encoding="utf-8"))
+
+
+FLEET8_CASES = [
+    Case("fleet-report-foreign-database", ("fleet", "report", "--store", "{foreign_db}", "-o", "{out}/f.html"), 1,
+         ("foreign.sqlite", "database of other tables (parts)", "not a calibration store")),
+    Case("fleet-fit-into-foreign-database", ("fleet", "fit", "{train}", "--store", "{foreign_db}", "--jobs", "0"), 1,
+         ("database of other tables (parts)",)),
+    Case("fleet-fit-prior-from-foreign-database", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite",
+                                                   "--prior-from", "{foreign_db}", "--jobs", "0"), 1,
+         ("--prior-from", "database of other tables (parts)",)),
+    Case("fleet-fit-prior-from-a-model-file", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite",
+                                               "--prior-from", "{model}", "--jobs", "0"), 1,
+         ("--prior-from", "cannot be used as a store")),
+    Case("export-serial-foreign-database", ("export", "--serial", "SN1", "--store", "{foreign_db}", "--format",
+                                            "table", "-o", "{out}/t.bin"), 1, ("database of other tables",)),
+    Case("fleet-fit-prior-from-one-unit", ("fleet", "fit", "{train}", "--store", "{out}/fleet.sqlite", "--prior-from",
+                                           "{fleet8_store}", "--jobs", "0"), 1,
+         ("--prior-from", "fleet8.sqlite: a fleet prior needs 5 or more units", "got 1")),
+    Case("fleet-report-output-is-the-store", ("fleet", "report", "--store", "{fleet8_store}", "-o",
+                                              "{fleet8_store}"), 1, ("is the same file as the calibration store",)),
+    Case("export-serial-output-is-the-store", ("export", "--serial", "SN1", "--store", "{fleet8_store}", "--format",
+                                               "table", "--bits", "12", "-o", "{fleet8_store}"), 1,
+         ("is the same file as the calibration store",)),
+]
+CASES += FLEET8_CASES
 
 # ---------------------------------------------------------------- issue 25: plausibility
 

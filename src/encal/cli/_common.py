@@ -289,6 +289,7 @@ INPUT_KINDS = {
     "firmware": ("the firmware's file", "firmware's file"),
     "capture": ("a capture or log", "input capture"),
     "angles": ("a file of encoder angles", "input"),
+    "store": ("a calibration store written by 'encal fleet fit'", "calibration store"),
 }
 
 

@@ -17,8 +17,17 @@ def add_serial_options(parser):
 
 
 def model_input(args):
-    """The ``(path, 'model')`` entry of ``check_paths`` inputs: the model file, or nothing with --serial."""
-    return (None if args.serial is not None else args.model, "model")
+    """The ``check_paths`` inputs entry of the model: ``(path, 'model')``, or with --serial the store's file, so that an
+    output is never written over it (``export --serial S --store s.sqlite -o s.sqlite`` replaced the store with the
+    table, exit 0); a missing store is said by :func:`model_or_serial`, and a PostgreSQL URL is no file."""
+    if args.serial is None:
+        return (args.model, "model")
+    from pathlib import Path
+
+    from ..store._store import is_url
+
+    store = getattr(args, "store", None)
+    return (store if store is not None and not is_url(store) and Path(store).is_file() else None, "store")
 
 
 def model_or_serial(args, parser):

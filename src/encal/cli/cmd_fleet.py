@@ -38,8 +38,8 @@ def add_arguments(parser):
                      help="the model (default spectral, the empirical-Bayes Fourier model; auto as 'encal fit' "
                           "chooses): both state the held-out estimate the grades go by")
     fit.add_argument("--prior-from", metavar="DB",
-                     help="fit each unit under the fleet prior learned from the latest record of every unit in this "
-                          "store (it may be --store): for partial calibrations, a quarter turn or every 4th stop "
+                     help="fit each unit under the fleet prior learned from the latest record of every other unit in "
+                          "this store (it may be --store): for partial calibrations, a quarter turn or every 4th stop "
                           "(spectral; docs/production.md, 'A fleet prior')")
     fit.add_argument("--serial-pattern", metavar="REGEX",
                      help="find the serial number in the file name's stem with this regular expression (its "
@@ -100,6 +100,24 @@ def _check_store(location, *, must_exist=False, option="--store"):
     check_paths(outputs=[(option, location)])
 
 
+def _without_the_store(paths, location, sources):
+    """``paths`` without the store's own files (``'lot7/*'`` matches ``lot7/encal-store.sqlite`` and its ``-wal`` once
+    a batch has written it: each run refused it as a calibration, exit status 1)."""
+    import os
+
+    from .._core.errors import InputError
+    from ..store._store import is_url
+
+    if is_url(location):
+        return paths
+    own = {os.path.realpath(f"{location}{suffix}") for suffix in ("", "-wal", "-shm", "-journal")}
+    kept = [path for path in paths if os.path.realpath(path) not in own]
+    if not kept:
+        raise InputError(f"{' '.join(map(str, sources))} names only the store {location} and its files; expected "
+                         "calibration CSVs")
+    return kept
+
+
 def run(args):
     if args.fleet_command == "fit":
         return _fit(args)
@@ -132,13 +150,19 @@ def _fit(args):
     paths = find_calibrations(args.sources)
     location = _store_location(args, paths)
     _check_store(location)
+    paths = _without_the_store(paths, location, args.sources)
     prior = None
     if args.prior_from is not None:
-        from ..fleet.prior import fleet_prior
+        from ..fleet.prior import StorePrior
 
         _check_store(args.prior_from, must_exist=True, option="--prior-from")
-        with open_store(args.prior_from) as source:
-            prior = fleet_prior([record.model() for record in source.latest_records()])
+        from .._core.errors import InputError
+
+        with open_store(args.prior_from, option="--prior-from") as source:
+            try:
+                prior = StorePrior(source.latest_records())  # each unit under the prior of the others
+            except InputError as exc:  # too few units: the store named
+                raise InputError(f"--prior-from {source.location}: {exc}") from None
 
     def refused(path, sentence):
         clear_line()
@@ -172,8 +196,11 @@ def _report(args):
     from ..store import open_store, parse_grades
 
     grades = parse_grades(args.grades) if args.grades is not None else None
+    from ..store._store import is_url
+
     _check_store(args.store, must_exist=True)
-    check_paths(outputs=[("-o", args.output)])
+    # the page never written over the store (-o s.sqlite replaced every record with the page, exit 0)
+    check_paths(inputs=[(None if is_url(args.store) else args.store, "store")], outputs=[("-o", args.output)])
     with open_store(args.store) as store, activity("fleet report") as progress:
         progress.stage("reading the store")
         records = store.records()

@@ -8,6 +8,7 @@ units it finished before it stops, and a new run skips them (a file is known by 
 and the SHA-256 of its bytes).
 """
 
+import concurrent.futures.process
 import glob
 import hashlib
 import os
@@ -31,24 +32,26 @@ FLUSH_S = 2.0
 
 
 def find_calibrations(sources):
-    """The calibration files named by ``sources``: folders (their ``*.csv``), glob patterns or files.
+    """The calibration files named by ``sources``: folders (their ``*.csv``, ``*.CSV``, ...), glob patterns or files.
 
     Returns
     -------
     list of Path
-        Sorted, each once.
+        Sorted, each file once however it was named (``lot/SN1.csv``, ``/abs/lot/SN1.csv``, ``lot/../lot/SN1.csv``
+        or a link to it: the first spelling given), so that a file is never fitted or counted twice.
 
     Raises
     ------
     InputError
         When a source matches no file.
     """
-    found = set()
+    found = {}  # the file (resolved) -> the path as first given
     for source in sources:
         text = str(source)
         path = Path(text)
         if path.is_dir():
-            matches = [p for p in path.glob("*.csv") if p.is_file()]
+            # *.csv in any case: SN7.CSV from a Windows station is a calibration too (it was left out, unsaid)
+            matches = [p for p in path.iterdir() if p.suffix.lower() == ".csv" and p.is_file()]
             what = f"{text} is a folder with no *.csv file"
         elif glob.has_magic(text):
             matches = [Path(p) for p in glob.glob(text, recursive=True) if Path(p).is_file()]
@@ -62,8 +65,9 @@ def find_calibrations(sources):
         if not matches:
             raise InputError(f"{what}; expected a folder of calibration CSVs, a glob pattern such as 'lot7/*.csv' "
                              "(quoted), or files")
-        found.update(matches)
-    return sorted(found)
+        for match in matches:
+            found.setdefault(match.resolve(), match)
+    return sorted(found.values())
 
 
 def serial_of(path, pattern=None):
@@ -171,6 +175,8 @@ def _fit_file(serial, path, sha256, method, grades, read_options, prior=None):
             model.training["zero"] = "arbitrary" if fitted.arbitrary_zero else "fixed"
             model.training["zero_offset_arcmin"] = fitted.before.offset if fitted.arbitrary_zero else None
             model.training["serial"] = serial
+            if grades:  # the thresholds the record's grade is given by, kept with it (Record.grade_limits)
+                model.training["grades_arcmin"] = [[name, float(limit)] for name, limit in grades]
             text = dumps(model_to_dict(model))
         held_out = _held_out(model, cal)
         raw = Path(path).read_bytes()
@@ -268,8 +274,10 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         A regular expression that finds the serial number in a file's stem (see :func:`serial_of`).
     read_options : dict, optional
         Keywords of :func:`encal.data.calibration.read_calibration` (columns, units, duplicates, ...).
-    prior : encal.fleet.prior.FleetPrior, optional
-        Fit every unit under this fleet prior instead of ``method`` (partial calibrations).
+    prior : encal.fleet.prior.FleetPrior or encal.fleet.prior.StorePrior, optional
+        Fit every unit under this fleet prior instead of ``method`` (partial calibrations); a ``StorePrior`` fits
+        each unit under the prior of the store's other units (a unit whose prior would hold fewer than
+        :data:`~encal.fleet.prior.MIN_UNITS` is refused).
     jobs : int, optional
         Worker processes; default the machine's cores; 0 fits in this process.
     progress : callable, optional
@@ -283,7 +291,7 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
     -------
     BatchResult
     """
-    from ..store import CopiedCalibrationError
+    from ..store import CopiedCalibrationError, StoreWriteError
 
     paths = list(paths)
     result = BatchResult()
@@ -302,9 +310,12 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             refuse(path, str(exc) if isinstance(exc, InputError) else f"{path}: cannot be read ({exc.strerror or exc})")
     owners = _owners_of_bytes(known, stored)
     units = {}
+    stored_last = {}  # per serial, the file of this batch stored already that its name puts last
     for path, serial, sha256 in known:
         if (serial, sha256) in stored:
             result.skipped.append(Path(path))
+            if serial not in stored_last or _natural_key(path) > _natural_key(stored_last[serial]):
+                stored_last[serial] = path
             continue
         others = sorted(owners[sha256] - {serial})
         if others:
@@ -314,12 +325,44 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
             refuse(path, _copied(path, serial, others, where))
             continue
         units.setdefault(serial, []).append((str(path), sha256))
-    for files in units.values():
+    for serial, files in list(units.items()):
         files.sort(key=lambda file: _natural_key(file[0]))  # a unit's epochs in the order of its files' names
-    tasks = [(serial, files, method, list(grades), dict(read_options or {}), prior)
-             for serial, files in units.items()]
-    if progress and len(paths) - sum(len(files) for files in units.values()):
-        progress(len(paths) - sum(len(files) for files in units.values()))  # skipped or refused already
+        if serial in stored_last:
+            # a file its name puts before one stored already (a resumed batch whose earlier file was refused, then
+            # mended) would be stored after it, as the unit's latest calibration: the older model exported as its
+            # newest. Epochs are given in the order written, and a record is never changed.
+            last = stored_last[serial]
+            early = [file for file in files if _natural_key(file[0]) < _natural_key(last)]
+            for path, _ in early:
+                refuse(path, f"{path}: its name puts it before {last}, stored already as a calibration of {serial}; "
+                             f"stored now it would be {serial}'s latest epoch, after {Path(last).name}; expected a "
+                             "unit's calibrations stored in the order of their names (fit it alone to store it as "
+                             "the unit's newest)")
+            files[:] = [file for file in files if file not in early]
+            if not files:
+                del units[serial]
+        if serial_pattern is None and len(files) > 1 and on_warning:
+            # without --serial-pattern, one stem in two folders: a unit recalibrated, or two units whose serial
+            # numbers collide (two lines, two lots); which cannot be told, and the last becomes the unit's model
+            names = ", ".join(path for path, _ in files[:3]) + (", ..." if len(files) > 3 else "")
+            on_warning(Path(files[-1][0]), f"{len(files)} files of this batch have the serial number {serial} "
+                                           f"({names}): each is stored as a new epoch of {serial}, in that order, "
+                                           "the last its latest (two units whose serial numbers collide would share "
+                                           "one history)")
+    tasks = []
+    for serial, files in units.items():
+        unit_prior = prior
+        if hasattr(prior, "for_unit"):  # a StorePrior: the prior of the other units, never one learned from this one
+            try:
+                unit_prior = prior.for_unit(serial, [sha256 for _, sha256 in files])
+            except InputError as exc:
+                for path, _ in files:
+                    refuse(path, f"{path}: {exc}")
+                continue
+        tasks.append((serial, files, method, list(grades), dict(read_options or {}), unit_prior))
+    queued = sum(len(task[1]) for task in tasks)
+    if progress and len(paths) - queued:
+        progress(len(paths) - queued)  # skipped or refused already
     if jobs is None:
         jobs = os.cpu_count() or 1
     jobs = min(jobs, len(tasks))
@@ -332,6 +375,8 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
         """``store.add_many``, or record by record when one of them is refused (the others are kept)."""
         try:
             return store.add_many(records, skip_stored=True)
+        except StoreWriteError:
+            raise  # the store takes no write at all: no record of the group would be taken alone either
         except InputError:
             pass
         added = []
@@ -349,7 +394,16 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
 
     def flush():
         if waiting:
-            for path, record in zip(waiting_paths, add_each(waiting, waiting_paths)):
+            try:
+                added = add_each(waiting, waiting_paths)
+            except StoreWriteError as exc:
+                unwritten = len(waiting)
+                waiting.clear()  # not tried again when the batch stops
+                waiting_paths.clear()
+                raise StoreWriteError(f"{exc}; the batch stopped, {len(result.fitted)} records of it written before, "
+                                      f"{unwritten} fitted and not written: the same command run again fits what is "
+                                      "missing") from None
+            for path, record in zip(waiting_paths, added):
                 if record is False:
                     continue
                 if record is None:  # another batch stored the same file meanwhile
@@ -382,6 +436,11 @@ def fit_batch(paths, store, *, method="spectral", grades=(), station=None, seria
                 write(fit_unit(task))
         else:
             _run_pool(tasks, jobs, write)
+    except concurrent.futures.process.BrokenProcessPool:
+        flush()
+        raise EncalError(f"a worker process ended abruptly while fitting (killed, out of memory?); the batch stopped, "
+                         f"{len(result.fitted)} records of it written: the same command run again fits what is "
+                         "missing (--jobs 0 fits in this process, and says what stops it)") from None
     finally:
         flush()  # an interrupted batch keeps every unit it finished
     return result
@@ -413,18 +472,24 @@ def _run_pool(tasks, jobs, write):
 
     with Workers(jobs) as workers:
         executor = workers.executor()
-        pending = set()
+        unwritten = set()
+
+        def write_done(done):
+            # the units that finished first: a pool whose worker died fails every unit not finished, and a unit
+            # finished before it must still be written whatever the order of the set
+            for future in sorted(done, key=lambda future: future.exception() is not None):
+                unwritten.discard(future)
+                write(future.result())
+
         try:
             # a bounded window of submitted units: memory stays flat on a lot of 10^5 files
             for task in tasks:
-                pending.add(executor.submit(fit_unit, task))
-                if len(pending) >= 4 * jobs:
-                    done, pending = concurrent.futures.wait(pending, return_when="FIRST_COMPLETED")
-                    for future in done:
-                        write(future.result())
-            for future in concurrent.futures.as_completed(pending):
-                write(future.result())
+                unwritten.add(executor.submit(fit_unit, task))
+                if len(unwritten) >= 4 * jobs:
+                    write_done(concurrent.futures.wait(unwritten, return_when="FIRST_COMPLETED")[0])
+            while unwritten:
+                write_done(concurrent.futures.wait(unwritten, return_when="FIRST_COMPLETED")[0])
         except BaseException:
-            for future in pending:
+            for future in unwritten:
                 future.cancel()
             raise

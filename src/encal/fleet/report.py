@@ -7,7 +7,7 @@ import numpy as np
 from .._core import html as _html
 from .._core.atomic import atomic_write
 from .._version import __version__
-from .statistics import STANDS_OUT, drift_table, fleet_statistics
+from .statistics import DRIFT_MOVED, STANDS_OUT, drift_table, fleet_statistics, latest_per_serial
 
 __all__ = ["write_fleet_report", "fleet_report_html", "MAX_UNIT_ROWS"]
 
@@ -19,26 +19,98 @@ def _number(value, digits=4):
     return "-" if value is None else f"{value:.{digits}g}"
 
 
+def _exact(value):
+    """A threshold as given (``1.2``, not ``1.2000000000000002`` nor ``1.235`` for ``1.23456``)."""
+    return format(value, ".10g")
+
+
+def _against(value, limits):
+    """``value`` (arc-minutes) with as many digits as it takes to fall on the same side of every limit as it does:
+    a held-out estimate of 0.50004 beside a limit of 0.5 is shown 0.50004, never 0.5 graded B."""
+    if value is None:
+        return "-"
+    for digits in range(4, 11):
+        text = f"{value:.{digits}g}"
+        if all((float(text) <= limit) == (value <= limit) for _, limit in limits or ()):
+            return text
+    return repr(value)
+
+
+def _limits_text(limits):
+    """``A <= 0.5 arcmin, B <= 1 arcmin``: a set of thresholds as the report states it (arc-minutes)."""
+    return ", ".join(f"{name} <= {_exact(limit)}" for name, limit in limits) + " arcmin"
+
+
+def _limit_of(name, limits, short=False):
+    """The held-out RMS a grade of ``limits`` stands for: ``<= 1.2 arcmin (0.02 deg)`` (``short``: ``<= 1.2
+    arcmin``), ``> ...`` for the grade of a unit that meets none; arc-minutes exact, as the held-out column."""
+    from ..store import GRADE_NONE
+
+    sign, limit = (">", max(limit for _, limit in limits)) if name == GRADE_NONE else ("<=", dict(limits)[name])
+    return f"{sign} {_exact(limit)} arcmin" + ("" if short else f" ({limit / 60:.4g} deg)")
+
+
+def _stored_grade(record):
+    """``(grade, thresholds)`` of a record as stored; the thresholds None when the record does not hold them (or
+    they do not name its grade)."""
+    from ..store import GRADE_NONE
+
+    if record.grade is None:
+        return None, None
+    limits = record.grade_limits()
+    if limits is None or record.grade not in [name for name, _ in limits] + [GRADE_NONE]:
+        return record.grade, None
+    return record.grade, tuple(limits)
+
+
 def _grades_table(latest, grades):
+    """Each unit's grade as its row in the units' table shows it, the thresholds it was given by (or None), and the
+    grades table.
+
+    With ``grades`` every unit is graded again by them. Without, each unit's stored grade is counted with the
+    thresholds it was given by (:meth:`Record.grade_limits <encal.store.Record.grade_limits>`): units graded by
+    different thresholds (two lots, or two epochs, fitted with different ``--grades``) are counted apart, never
+    under one limit, and the units' table gives each grade its limit; a grade whose thresholds the record does not
+    hold is said to be so.
+    """
     from ..store import GRADE_NONE, grade_of
 
     if grades is not None:
-        for_unit = [grade_of(r.held_out_arcmin, grades) for r in latest]
-        limits = {name: limit for name, limit in grades}
-        names = [name for name, _ in grades] + [GRADE_NONE]
+        by_unit = [(grade_of(r.held_out_arcmin, grades), tuple(grades)) for r in latest]
+        limit_sets = [tuple(grades)]
     else:
-        for_unit = [r.grade for r in latest]
-        limits = {}
-        names = sorted({g for g in for_unit if g is not None})
-    counts = {name: for_unit.count(name) for name in names}
-    if not names:
-        return for_unit, _html.paragraph("No grades: the units were fitted without --grades, and none are given "
-                                         "to this report (--grades A=0.02,B=0.05).", "note")
-    rows = [[name, "-" if name not in limits else f"<= {limits[name] / 60:.4g} deg ({limits[name]:.4g} arcmin)",
-             str(counts[name]), f"{100 * counts[name] / len(latest):.1f}%"] for name in names]
-    table = _html.table(["grade", "held-out RMS", "units", "share"], rows,
-                        caption="Grades (the latest epoch of each unit)")
-    return for_unit, table
+        by_unit = [_stored_grade(r) for r in latest]
+        limit_sets = sorted({limits for grade, limits in by_unit if grade is not None},
+                            key=lambda limits: (limits is None, limits or ()))
+    keys = []
+    for limits in limit_sets:
+        keys += [(name, limits) for name in ([name for name, _ in limits] + [GRADE_NONE] if limits is not None else
+                                             sorted({g for g, its in by_unit if its is None and g is not None}))]
+    several = grades is None and len(limit_sets) > 1
+    shown = [grade if not several or limits is None else f"{grade} ({_limit_of(grade, limits, short=True)})"
+             for grade, limits in by_unit]
+    unit_limits = [limits for _, limits in by_unit]
+    if not keys:
+        return shown, unit_limits, _html.paragraph("No grades: the units were fitted without --grades, and none are "
+                                                   "given to this report (--grades A=0.02,B=0.05).", "note")
+    counts = {key: by_unit.count(key) for key in keys}
+    rows = [[name, "not recorded" if limits is None else _limit_of(name, limits),
+             "this report's --grades" if grades is not None else
+             "not recorded (fitted by an encal that did not keep them)" if limits is None else _limits_text(limits),
+             str(counts[name, limits]), f"{100 * counts[name, limits] / len(latest):.1f}%"] for name, limits in keys]
+    ungraded = sum(grade is None for grade, _ in by_unit)
+    if ungraded:
+        rows.append(["-", "-", "none: fitted without --grades" if grades is None else "none: no held-out estimate",
+                     str(ungraded), f"{100 * ungraded / len(latest):.1f}%"])
+    table = _html.table(["grade", "held-out RMS", "graded by", "units", "share"], rows,
+                        caption="Grades (the latest epoch of each unit)", numeric=[False, False, False, True, True])
+    if several:
+        table = _html.paragraph(
+            f"The units' latest records were graded by {len(limit_sets)} different sets of thresholds (lots or "
+            "epochs fitted with different --grades): each grade is counted with the thresholds it was given by, and "
+            "the units' table gives each grade its limit. 'encal fleet report --grades ...' grades every unit again "
+            "by one set.", "note") + table
+    return shown, unit_limits, table
 
 
 def _figures(stats, drift):
@@ -100,8 +172,33 @@ def _figures(stats, drift):
                 ax.legend(fontsize="small")
             figures.append(("fleet-drift", figure_png(fig),
                             "Drift: how far each re-calibrated unit's profile moved from its first epoch (RMS, "
-                            "zero offset removed; at most 20 units drawn)."))
+                            "zero offset removed; the 20 units that moved most, against their uncertainty, drawn)."))
     return [_html.figure(name, png, caption) for name, png, caption in figures]
+
+
+_VERDICTS = {"moved": "moved", "within": "not shown to move", None: "no verdict"}
+
+
+def _ratio(row):
+    """A drift row's change over its uncertainty, or None."""
+    if row["uncertainty_arcmin"] is None or not row["uncertainty_arcmin"]:
+        return None
+    return row["drift_arcmin"][-1] / row["uncertainty_arcmin"]
+
+
+def _drift_rule(drift):
+    """The sentence that says how the drift table's verdicts are reached (the store holds models, not readings)."""
+    counts = {verdict: sum(row["verdict"] == verdict for row in drift) for verdict in _VERDICTS}
+    return (f"{counts['moved']} of {len(drift)} units moved, {counts['within']} not shown to move"
+            + (f", {counts[None]} without a verdict" if counts[None] else "") + ". "
+            f"The store holds each epoch's model, not its readings: a unit's profile moved when its RMS change from "
+            f"the first to the last epoch exceeds {DRIFT_MOVED:g} times the two models' uncertainties combined, "
+            "sqrt(u_first^2 + u_last^2), u each model's standard uncertainty of its profile (RMS over the turn; the "
+            "held-out estimate, which holds a new reading's noise too, where a model holds no uncertainty). "
+            f"Below {DRIFT_MOVED:g} times a change is not shown to be real (unchanged units calibrated twice come "
+            "out near 1); the units are listed by that ratio, the largest first. No verdict: a model without either "
+            "figure, or one of an arc. 'encal drift FIRST.csv LATER.csv' on the calibrations (each record keeps its "
+            "CSV) tests it against the readings.")
 
 
 def fleet_report_html(records, *, grades=None, store_name="the store"):
@@ -122,14 +219,21 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
         The HTML document and a summary sentence.
     """
     stats = fleet_statistics(records)
-    drift = drift_table(records)
-    latest = stats.records
-    unit_grades, grades_part = _grades_table(latest, grades)
+    # the most moved (against its uncertainty) first: the figure's 20 units and the table's 200 rows hold them
+    drift = sorted(drift_table(records), key=lambda row: (_ratio(row) is None, -(_ratio(row) or 0.0), row["serial"]))
+    latest = stats.records  # calibrated over the whole turn: the statistics' units
+    every = latest_per_serial(records)  # every unit: its grade and its row (a model of an arc has no score)
+    arcs = len(every) - len(latest)
+    score_of = {record.serial: score for record, score in zip(latest, stats.overall_scores)}
+    unit_grades, unit_limits, grades_part = _grades_table(every, grades)
     standing = stats.standing_out()
-    after = np.array([r.rms_after_arcmin for r in latest if r.rms_after_arcmin is not None])
-    held = np.array([r.held_out_arcmin for r in latest if r.held_out_arcmin is not None])
+    after = np.array([r.rms_after_arcmin for r in every if r.rms_after_arcmin is not None])
+    held = np.array([r.held_out_arcmin for r in every if r.held_out_arcmin is not None])
     parts = [f"<h1>Fleet report</h1>",
-             _html.paragraph(f"{len(latest)} units, {len(records)} records in {store_name}; written "
+             _html.paragraph(f"{len(every)} units"
+                             + (f" ({arcs} calibrated over an arc, left out of the fleet's profile, spread and scores: "
+                                "a model of an arc holds on its arc only)" if arcs else "")
+                             + f", {len(records)} records in {store_name}; written "
                              f"{datetime.datetime.now(datetime.UTC).isoformat(timespec='seconds')} by encal "
                              f"{__version__}.", "meta")]
     verdict = (f"{len(standing)} of {len(latest)} units stand out (overall robust score > {STANDS_OUT:g}). "
@@ -161,27 +265,35 @@ def fleet_report_html(records, *, grades=None, store_name="the store"):
     parts.append("<h2>Drift across epochs</h2>")
     if drift:
         parts.append(figures[3])
+        parts.append(_html.paragraph(_drift_rule(drift), "note"))
         parts.append(_html.table(
-            ["serial", "epochs", "drift at the last epoch (arcmin)", "order that moved most", "its change (arcmin)"],
-            [[row["serial"], str(len(row["epochs"])), _number(row["drift_arcmin"][-1], 3), str(row["largest_order"]),
+            ["serial", "epochs", "drift at the last epoch (arcmin)", "uncertainty of the change (arcmin)",
+             "drift / uncertainty", "verdict", "order that moved most", "its change (arcmin)"],
+            [[row["serial"], str(len(row["epochs"])), _number(row["drift_arcmin"][-1], 3),
+              _number(row["uncertainty_arcmin"], 3) + ("" if row["basis"] != "held-out" else " (held-out)"),
+              _number(_ratio(row), 3), _VERDICTS[row["verdict"]],
+              "-" if row["largest_order"] is None else str(row["largest_order"]),
               _number(row["largest_change_arcmin"], 3)] for row in drift[:200]],
-            caption="Units calibrated more than once (at most 200 shown)",
-            numeric=[False, True, True, True, True]))
+            caption="Units calibrated more than once, the most moved first (at most 200 shown)",
+            numeric=[False, True, True, True, True, False, True, True]))
     else:
         parts.append(_html.paragraph("No unit was calibrated more than once.", "note"))
     parts.append("<h2>Units</h2>")
-    shown = range(len(latest)) if len(latest) <= MAX_UNIT_ROWS else [i for i, *_ in standing]
-    if len(latest) > MAX_UNIT_ROWS:
-        parts.append(_html.paragraph(f"{len(latest)} units: those that stand out are listed; 'encal fleet' keeps "
+    standing_serials = {latest[i].serial for i, *_ in standing}
+    shown = [i for i, record in enumerate(every) if len(every) <= MAX_UNIT_ROWS or record.serial in standing_serials]
+    if len(every) > MAX_UNIT_ROWS:
+        parts.append(_html.paragraph(f"{len(every)} units: those that stand out are listed; 'encal fleet' keeps "
                                      "every record in the store.", "note"))
     parts.append(_html.table(
         ["serial", "epoch", "station", "points", "RMS before", "RMS after", "held-out", "grade", "score"],
-        [[latest[i].serial, str(latest[i].epoch), latest[i].station or "-", str(latest[i].n_points or "-"),
-          _number(latest[i].rms_before_arcmin), _number(latest[i].rms_after_arcmin),
-          _number(latest[i].held_out_arcmin), unit_grades[i] or "-", _number(stats.overall_scores[i], 3)]
+        [[every[i].serial, str(every[i].epoch), every[i].station or "-", str(every[i].n_points or "-"),
+          _number(every[i].rms_before_arcmin), _number(every[i].rms_after_arcmin),
+          _against(every[i].held_out_arcmin, unit_limits[i]), unit_grades[i] or "-",
+          _number(score_of[every[i].serial], 3) if every[i].serial in score_of else "- (an arc)"]
          for i in shown], caption="The latest record of each unit (arcmin)",
         numeric=[False, True, False, True, True, True, True, False, True]))
-    summary = (f"{len(latest)} units, {len(standing)} stand out, {len(drift)} calibrated more than once")
+    summary = (f"{len(every)} units" + (f" ({arcs} over an arc, not scored)" if arcs else "")
+               + f", {len(standing)} stand out, {len(drift)} calibrated more than once")
     return _html.page("encal fleet report", parts), summary
 
 

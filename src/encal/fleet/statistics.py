@@ -23,7 +23,7 @@ import numpy as np
 from .._core.errors import InputError
 
 __all__ = ["FleetStatistics", "fleet_statistics", "robust_scores", "unit_profiles", "drift_table", "STANDS_OUT",
-           "GRID_POINTS", "ORDERS"]
+           "GRID_POINTS", "ORDERS", "DRIFT_MOVED", "profile_uncertainty"]
 
 #: Robust score above which a unit stands out (Iglewicz and Hoaglin's cut for the modified z-score).
 STANDS_OUT = 3.5
@@ -31,6 +31,10 @@ STANDS_OUT = 3.5
 GRID_POINTS = 360
 #: Highest harmonic order compared across units.
 ORDERS = 40
+#: A unit's profile *moved* when its RMS change exceeds this many times the two epochs' profile uncertainties
+#: combined (``sqrt(u_first² + u_last²)``). Unchanged repeats give a ratio near 1: 0.73 to 1.02 over 20 units of
+#: ``encal.simulate``, each calibrated twice with fresh noise (``python benchmarks/bench_fleet_drift_verdict.py``).
+DRIFT_MOVED = 3.0
 #: 1.4826 MAD estimates the standard deviation of a normal sample.
 _MAD_TO_STD = 1.4826
 
@@ -166,10 +170,13 @@ def fleet_statistics(records, *, orders=ORDERS, points=GRID_POINTS):
         With fewer than 3 units (a median and a MAD need a few).
     """
     # a unit calibrated over an arc has no profile over the whole turn to compare (its model is NaN outside)
-    latest = [record for record in latest_per_serial(records) if record.model().range_deg is None]
+    every = latest_per_serial(records)
+    latest = [record for record in every if record.model().range_deg is None]
     if len(latest) < 3:
-        raise InputError(f"the store holds {len(latest)} unit(s) calibrated over the whole turn; expected 3 or more "
-                         "for fleet statistics (a median and its spread)")
+        arcs = len(every) - len(latest)
+        raise InputError(f"the store holds {len(latest)} unit(s) calibrated over the whole turn"
+                         + (f" (and {arcs} over an arc only, whose models hold on their arc)" if arcs else "")
+                         + "; expected 3 or more over the whole turn for fleet statistics (a median and its spread)")
     grid, profiles = unit_profiles(latest, points)
     coefficients = harmonics(profiles, orders)
     amplitudes = np.abs(coefficients)
@@ -187,15 +194,47 @@ def fleet_statistics(records, *, orders=ORDERS, points=GRID_POINTS):
         distance_arcmin=distance, overall_scores=robust_scores(distance ** (2.0 / 3.0)))
 
 
+def profile_uncertainty(record, model=None):
+    """The standard uncertainty of a record's profile, RMS over the turn (arc-minutes), and what it comes from.
+
+    The model's own uncertainty (``σ_model(θ)``, the spectral posterior's or a bootstrap's, without a new reading's
+    noise) when the model file holds it; otherwise the record's held-out estimate, which holds a new reading's noise
+    as well and so overstates the profile's uncertainty (a change found larger than it is larger than the
+    uncertainty still); None when the record has neither.
+
+    Returns
+    -------
+    (float, str) or (None, None)
+        The uncertainty and its basis, ``'posterior'`` (the model's table) or ``'held-out'``.
+    """
+    model = record.model() if model is None else model
+    table = (getattr(model, "uncertainty", None) or {}).get("model_std_arcmin")
+    if table is not None and len(table):
+        return float(np.sqrt(np.mean(np.square(np.asarray(table, dtype=float))))), "posterior"
+    if record.held_out_arcmin is not None:
+        return float(record.held_out_arcmin), "held-out"
+    return None, None
+
+
 def drift_table(records, points=GRID_POINTS):
-    """How the profile of each unit calibrated more than once moved from its first epoch.
+    """How the profile of each unit calibrated more than once moved from its first epoch, and whether that is more
+    than the two calibrations' uncertainty.
+
+    The store holds each epoch's model, not its raw data, so the verdict compares the change with what the models
+    say of their own uncertainty (:func:`profile_uncertainty`): the profile *moved* when the RMS change from the
+    first to the last epoch exceeds :data:`DRIFT_MOVED` times ``sqrt(u_first² + u_last²)``, the RMS change two
+    independent calibrations of an unchanged unit would show.
 
     Returns
     -------
     list of dict
         One per serial with 2 or more epochs: ``serial``, ``epochs`` (their numbers), ``drift_arcmin`` (RMS
         of each epoch's profile minus the first's, zero offset removed; 0 for the first), ``largest_order``
-        and ``largest_change_arcmin`` (the order whose harmonic moved most from the first to the last epoch).
+        and ``largest_change_arcmin`` (the order whose harmonic moved most from the first to the last epoch),
+        ``uncertainty_arcmin`` (``sqrt(u_first² + u_last²)``, or None), ``basis`` (``'posterior'`` when both
+        models hold their uncertainty, ``'held-out'`` when either is the held-out estimate, or None) and ``verdict``
+        (``'moved'``; ``'within'`` :data:`DRIFT_MOVED` times the uncertainty, not shown to move; or None without
+        an uncertainty for both epochs or with a model of an arc, whose profile over the turn is not known).
     """
     by_serial = {}
     for record in records:
@@ -207,9 +246,17 @@ def drift_table(records, points=GRID_POINTS):
             continue
         _, profiles = unit_profiles(history, points)
         change = profiles - profiles[0]
+        drift = [float(math.sqrt(np.mean(c**2))) for c in change]
         moved = np.abs(harmonics(profiles[-1] - profiles[0]))
-        largest = int(np.argmax(moved))
-        rows.append({"serial": serial, "epochs": [record.epoch for record in history],
-                     "drift_arcmin": [float(math.sqrt(np.mean(c**2))) for c in change],
-                     "largest_order": largest + 1, "largest_change_arcmin": float(moved[largest])})
+        largest = int(np.argmax(moved)) if np.all(np.isfinite(moved)) else None
+        (first, first_basis), (last, last_basis) = profile_uncertainty(history[0]), profile_uncertainty(history[-1])
+        uncertainty = basis = verdict = None
+        if first is not None and last is not None and math.isfinite(drift[-1]):
+            uncertainty = float(math.hypot(first, last))
+            basis = "posterior" if first_basis == last_basis == "posterior" else "held-out"
+            verdict = "moved" if drift[-1] > DRIFT_MOVED * uncertainty else "within"
+        rows.append({"serial": serial, "epochs": [record.epoch for record in history], "drift_arcmin": drift,
+                     "largest_order": None if largest is None else largest + 1,
+                     "largest_change_arcmin": None if largest is None else float(moved[largest]),
+                     "uncertainty_arcmin": uncertainty, "basis": basis, "verdict": verdict})
     return rows

@@ -20,8 +20,8 @@ its serial numbers are put in Unicode's composed form (NFC), two spellings of on
 ``encal_serials_composed_duplicates``.
 """
 
-from ._store import (DEFAULT_STORE_NAME, GRADE_NONE, CopiedCalibrationError, Record, Store, default_store_path,
-                     grade_of, open_store, parse_grades)
+from ._store import (DEFAULT_STORE_NAME, GRADE_NONE, CopiedCalibrationError, Record, Store, StoreWriteError,
+                     default_store_path, grade_of, open_store, parse_grades)
 
 __all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
-           "grade_of", "GRADE_NONE", "CopiedCalibrationError"]
+           "grade_of", "GRADE_NONE", "CopiedCalibrationError", "StoreWriteError"]

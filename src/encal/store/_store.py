@@ -13,7 +13,7 @@ from .._version import __version__
 from .._core.errors import InputError
 
 __all__ = ["Store", "Record", "open_store", "default_store_path", "DEFAULT_STORE_NAME", "parse_grades",
-           "grade_of", "GRADE_NONE", "CopiedCalibrationError"]
+           "grade_of", "GRADE_NONE", "CopiedCalibrationError", "StoreWriteError"]
 
 #: The store's file name when the user names none: next to the calibrations.
 DEFAULT_STORE_NAME = "encal-store.sqlite"
@@ -74,6 +74,11 @@ class CopiedCalibrationError(InputError):
                          f"misnamed file?), not the same bytes under a second serial number")
 
 
+class StoreWriteError(InputError):
+    """The store could not take a write at all (locked by another program past :data:`LOCK_TIMEOUT_S`, a full disk,
+    a lost connection): nothing of the call is written, and no other record would be either, so a batch stops."""
+
+
 @dataclasses.dataclass(frozen=True)
 class Record:
     """One calibration of one unit, as stored.
@@ -107,7 +112,7 @@ class Record:
     held_out_arcmin : float or None
         The fit's estimate of its RMS error at readings it did not see (arc-minutes).
     grade : str or None
-        The grade by the thresholds in force when it was written.
+        The grade by the thresholds in force when it was written (:meth:`grade_limits` gives them).
     id : int or None
         The row's number in the store (in the order written).
     """
@@ -143,6 +148,27 @@ class Record:
             raise ModelFileError(f"{where}: is not JSON ({exc}); expected a model file") from None
         return model_from_dict(document, source=where)
 
+    def grade_limits(self):
+        """The thresholds :attr:`grade` was given by: ``[(name, largest held-out RMS in arc-minutes), ...]`` by
+        increasing limit, as :func:`parse_grades` gives them, or None when the record holds none (fitted without
+        ``--grades``, or by an encal that did not record them).
+
+        ``encal fleet fit --grades`` records them in the model file's training metadata (``grades_arcmin``), which
+        the model's checksum covers, so that a grade is never read against thresholds it was not computed with.
+        """
+        import json
+
+        try:
+            limits = json.loads(self.model_json).get("training", {}).get("grades_arcmin")
+        except (ValueError, AttributeError):
+            return None
+        if not isinstance(limits, list) or not limits:
+            return None
+        try:
+            return [(str(name), float(limit)) for name, limit in limits]
+        except (TypeError, ValueError):
+            return None
+
 
 def default_store_path(data_dir):
     """The default store of calibrations in ``data_dir``: ``data_dir/encal-store.sqlite``."""
@@ -154,7 +180,7 @@ def is_url(location):
     return str(location).startswith(("postgresql://", "postgres://"))
 
 
-def open_store(location):
+def open_store(location, *, option="--store"):
     """Open (and create when new) the store at ``location``.
 
     Parameters
@@ -162,6 +188,8 @@ def open_store(location):
     location : str or os.PathLike
         The path of an SQLite file (created when missing; its folder must exist), or a PostgreSQL URL
         ``postgresql://user:password@host:port/database`` (needs ``psycopg``: ``pip install encal[postgres]``).
+    option : str, default='--store'
+        The command-line option that named the store, as its messages name it (``--prior-from``).
 
     Returns
     -------
@@ -174,8 +202,8 @@ def open_store(location):
         driver is not installed, in one sentence.
     """
     if is_url(location):
-        return _PostgresStore(str(location))
-    return _SQLiteStore(Path(location))
+        return _PostgresStore(str(location), option)
+    return _SQLiteStore(Path(location), option)
 
 
 def check_serial(serial):
@@ -221,6 +249,8 @@ class Store(abc.ABC):
     """
 
     location = None
+    #: The command-line option that named the store, as messages name it.
+    option = "--store"
     _placeholder = "?"
 
     # --- what a back end provides (SQLite and PostgreSQL below) -----------------------------------
@@ -362,7 +392,8 @@ class Store(abc.ABC):
         cursor.execute("SELECT value FROM encal_store WHERE key = 'schema_version'")
         version = int(cursor.fetchone()[0])
         if version > SCHEMA_VERSION:
-            raise InputError(f"--store {self.location}: written by a newer encal (layout {version}, this encal reads "
+            raise InputError(f"{self.option} {self.location}: "
+                             f"written by a newer encal (layout {version}, this encal reads "
                              f"{SCHEMA_VERSION}); expected a store this encal reads (upgrade encal)")
         if version < SCHEMA_VERSION:
             self._convert(cursor, version)
@@ -511,30 +542,45 @@ class Store(abc.ABC):
 class _SQLiteStore(Store):
     """A store in an SQLite file (WAL mode: readers never wait for the writer)."""
 
-    def __init__(self, path):
+    def __init__(self, path, option="--store"):
         import sqlite3
 
-        self.location = str(path)
+        self.location, self.option = str(path), option
         folder = path.parent if str(path.parent) else Path(".")
         if path.is_dir():
-            raise InputError(f"--store {path}: is a folder; expected the path of an SQLite file (created when new) "
+            raise InputError(f"{self.option} {path}: "
+                             "is a folder; expected the path of an SQLite file (created when new) "
                              "or a postgresql:// URL")
         if not folder.is_dir():
-            raise InputError(f"--store {path}: the folder {folder} does not exist; expected the path of a file in an "
+            raise InputError(f"{self.option} {path}: "
+                             f"the folder {folder} does not exist; expected the path of a file in an "
                              "existing folder")
         self._sqlite = sqlite3
         try:
             # isolation_level=None: the transactions are the explicit BEGIN IMMEDIATE ... COMMIT below
             self._connection = sqlite3.connect(path, timeout=LOCK_TIMEOUT_S, isolation_level=None)
+            self._refuse_another_database(path)
             self._write_ahead_log()
             self._create()
         except sqlite3.DatabaseError as exc:
             self.close()
-            raise InputError(f"--store {path}: cannot be used as a store ({exc}); expected an SQLite file written "
+            raise InputError(f"{self.option} {path}: "
+                             f"cannot be used as a store ({exc}); expected an SQLite file written "
                              "by encal, or the path of a new one") from None
         except InputError:
             self.close()
             raise
+
+    def _refuse_another_database(self, path):
+        """Refuse an SQLite database that holds tables and no store: opening it would write the store's tables into
+        it and put it in WAL mode, even for a command that only reads (a report, ``export --serial``)."""
+        tables = sorted(row[0] for row in self._connection.execute("SELECT name FROM sqlite_master WHERE type = "
+                                                                   "'table' AND name NOT LIKE 'sqlite%'"))
+        if tables and "encal_records" not in tables:
+            shown = ", ".join(tables[:3]) + (", ..." if len(tables) > 3 else "")
+            raise InputError(f"{self.option} {path}: "
+                             f"is an SQLite database of other tables ({shown}), not a calibration "
+                             "store; expected a store written by 'encal fleet fit', or the path of a new file")
 
     def _write_ahead_log(self):
         """Put the file in WAL mode, waiting for other openers as long as for a writer.
@@ -594,13 +640,30 @@ class _SQLiteStore(Store):
             return self.connection.cursor()
 
         def __exit__(self, kind, value, traceback):
-            self.connection.execute("COMMIT" if kind is None else "ROLLBACK")
+            if kind is not None:
+                self.connection.execute("ROLLBACK")
+                return False
+            try:
+                self.connection.execute("COMMIT")
+            except Exception:
+                if self.connection.in_transaction:  # a commit that failed (a full disk): nothing of it stays
+                    self.connection.execute("ROLLBACK")
+                raise
             return False
 
     def _transaction(self):
         return self._Transaction(self._connection)
 
     def _insert(self, rows, skip_stored=False):
+        try:
+            return self._insert_rows(rows, skip_stored)
+        except self._sqlite.Error as exc:
+            raise StoreWriteError(f"{self.option} {self.location}: "
+                                  f"could not be written ({exc}; nothing of this group of "
+                                  f"{len(rows)} records was written); expected the store free of other writers within "
+                                  f"{LOCK_TIMEOUT_S:g} s, on a disk with room") from None
+
+    def _insert_rows(self, rows, skip_stored):
         names = ", ".join(_NAMES)
         marks = ", ".join("?" for _ in _NAMES)
         placed = []
@@ -626,12 +689,13 @@ class _PostgresStore(Store):
 
     _placeholder = "%s"
 
-    def __init__(self, url):
-        self.location = _without_password(url)
+    def __init__(self, url, option="--store"):
+        self.location, self.option = _without_password(url), option
         try:
             import psycopg
         except ImportError:
-            raise InputError(f"--store {self.location}: a PostgreSQL store needs the psycopg driver, which is not "
+            raise InputError(f"{self.option} {self.location}: "
+                             "a PostgreSQL store needs the psycopg driver, which is not "
                              "installed; expected it installed (pip install 'encal[postgres]') or an SQLite file "
                              "path") from None
         self._psycopg = psycopg
@@ -641,7 +705,8 @@ class _PostgresStore(Store):
         except psycopg.Error as exc:
             self.close()
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise InputError(f"--store {self.location}: cannot be used as a store ({first}); expected a reachable "
+            raise InputError(f"{self.option} {self.location}: "
+                             f"cannot be used as a store ({first}); expected a reachable "
                              "PostgreSQL server and a database the user may create tables in") from None
         except InputError:
             self.close()
@@ -672,7 +737,8 @@ class _PostgresStore(Store):
         try:
             super()._convert(cursor, version)
         except self._psycopg.errors.InsufficientPrivilege as exc:
-            raise InputError(f"--store {self.location}: is of layout {version}, which its first opening converts to "
+            raise InputError(f"{self.option} {self.location}: "
+                             f"is of layout {version}, which its first opening converts to "
                              f"layout {SCHEMA_VERSION} (serial numbers composed), and this user may not "
                              f"({str(exc).strip().splitlines()[0]}); expected encal run once as the owner of the "
                              "store's tables") from None
@@ -686,6 +752,16 @@ class _PostgresStore(Store):
                        "encal_records_never_changed")
 
     def _insert(self, rows, skip_stored=False):
+        try:
+            return self._insert_rows(rows, skip_stored)
+        except self._psycopg.OperationalError as exc:  # the server gone, a lost connection, a full disk
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise StoreWriteError(f"{self.option} {self.location}: "
+                                  f"could not be written ({first}; nothing of this group "
+                                  f"of {len(rows)} records was written); expected a reachable PostgreSQL server with "
+                                  "room in its database") from None
+
+    def _insert_rows(self, rows, skip_stored):
         names = ", ".join(_NAMES)
         marks = ", ".join("%s" for _ in _NAMES)
         placed = []
