@@ -148,34 +148,38 @@ def projected_lbfgs(fun, x0, lower, upper, memory=10, ftol=1e-13, gtol=1e-8, max
 
 def line_search(fun, x, f, g, direction, lower, upper, first, tries=20):
     """A step along ``direction``, projected onto the box, with sufficient decrease (1e-3) and curvature (0.9):
-    ``(x, f, g)`` there, or None. The step starts at 1 and grows fourfold while the slope stays steep, up to the
-    first bound (not at all on the ``first`` iteration: L-BFGS-B's largest first step is 1), and is then narrowed
-    by halves between the last step too short and the first too long (quadratic backtracking before any was short).
+    ``(x, f, g)`` there, or None.
+
+    The step starts at 1. While the slope stays steep it grows to where the secant of the slope vanishes (4 to 100
+    times the step), up to the first bound (not at all on the ``first`` iteration: L-BFGS-B's first step is at most
+    1); past a step with too little decrease it shrinks to the minimum of the quadratic through the last steep
+    point's value and slope and that step's value (within 0.1 to 0.5 of the interval).
     """
     with np.errstate(divide="ignore", invalid="ignore"):
-        to_bound = np.where(direction > 0, (upper - x) / direction, np.where(direction < 0, (lower - x) / direction,
-                                                                             np.inf))
+        to_bound = np.where(direction > 0, (upper - x) / direction,
+                            np.where(direction < 0, (lower - x) / direction, np.inf))
     largest = 1.0 if first else max(float(np.min(to_bound, initial=np.inf)), 1.0)
-    step, short, long = 1.0, None, np.inf
+    base = (0.0, f, float(g @ direction))  # the last step with enough decrease: its step, value and slope
+    step, long, short = 1.0, None, None
     for _ in range(tries):
-        trial = np.clip(x + step * direction, lower, upper)
+        trial = np.clip(x + step * direction, lower, upper)  # clipped only at the step ``largest``
         f_trial, g_trial = fun(trial)
-        slope = g @ (trial - x)
-        if not (np.isfinite(f_trial) and f_trial <= f + 1e-3 * slope):
-            long = step
-        elif step >= largest or g_trial @ (trial - x) >= 0.9 * slope:
+        if not (np.isfinite(f_trial) and f_trial <= f + 1e-3 * (g @ (trial - x))):
+            long = (step, f_trial)
+        elif step >= largest or g_trial @ direction >= 0.9 * (g @ direction):
             return trial, f_trial, g_trial
         else:
-            short = (step, trial, f_trial, g_trial)
-        if long == np.inf:
-            step = min(4.0 * step, largest)
-        elif short is not None:
-            step = 0.5 * (short[0] + long)
+            previous, base, short = base, (step, f_trial, float(g_trial @ direction)), (trial, f_trial, g_trial)
+        if long is None:
+            (s0, _, d0), d1 = previous, base[2]
+            guess = step + (step - s0) * d1 / (d0 - d1) if d1 > d0 else np.inf
+            step = min(max(guess, 4.0 * step), 100.0 * step, largest)
         else:
-            curvature = 2.0 * (f_trial - f - slope)
-            guess = -slope * step / curvature if curvature > 0 and np.isfinite(curvature) else 0.5 * step
-            step = min(max(guess, 0.1 * step), 0.5 * step)
-    return short[1:] if short is not None else None
+            (s0, f0, d0), width = base, long[0] - base[0]
+            curvature = 2.0 * (long[1] - f0 - d0 * width)
+            guess = s0 - d0 * width**2 / curvature if np.isfinite(curvature) and curvature > 0 else s0 + 0.5 * width
+            step = min(max(guess, s0 + 0.1 * width), s0 + 0.5 * width)
+    return short
 
 
 def optimise(design, hyper):
@@ -237,17 +241,25 @@ class scipy_free:
 
 
 class Counts:
-    """Computations of the evidence (``_evidence._evidence``) and evaluations of the optimiser's objective."""
+    """Computations of the evidence (``_evidence._evidence``), the CPU seconds in them, and evaluations of the
+    optimiser's objective."""
 
     def __init__(self):
+        import time
+
         from encal.models import _evidence
 
         self.evidence = self.objective = 0
+        self.seconds = 0.0
         self.module, self.originals = _evidence, (_evidence._evidence, _evidence._objective)
 
         def evidence(*args, **kwargs):
             self.evidence += 1
-            return self.originals[0](*args, **kwargs)
+            start = time.process_time()
+            try:
+                return self.originals[0](*args, **kwargs)
+            finally:
+                self.seconds += time.process_time() - start
 
         def objective(*args, **kwargs):
             self.objective += 1
@@ -287,7 +299,8 @@ def child(mode, argv, count=False):
     counts = Counts() if count else None
     status = main(argv)
     if counts is not None:
-        print(f"counts evidence {counts.evidence} objective {counts.objective}", file=sys.stderr)
+        print(f"counts evidence {counts.evidence} objective {counts.objective} seconds {counts.seconds:.3f}",
+              file=sys.stderr)
     if mode == "scipy-free" and "scipy" in sys.modules:
         print(f"SciPy was imported:\n{watch.stack}", file=sys.stderr)
         raise SystemExit(3)
@@ -370,16 +383,25 @@ def simulated_cases(count):
                (test.calibration.encoder_deg, test.noise_free_error_arcmin))
 
 
-def spread(values):
-    values = np.abs(np.asarray([v for v in values if v is not None], dtype=float))
-    return f"worst {np.max(values):.2g}, median {np.median(values):.2g}" if values.size else "none"
+def spread(values, names=None):
+    """``worst`` (largest in magnitude, with its sign and, given ``names``, its case) and the median magnitude."""
+    values = np.asarray(values, dtype=float)
+    names = list(names) if names is not None else [None] * values.size
+    known = np.flatnonzero(np.isfinite(values))
+    if not known.size:
+        return "none"
+    worst = known[np.argmax(np.abs(values[known]))]
+    where = f" ({names[worst]})" if names[worst] else ""
+    return f"worst {values[worst]:+.2g}{where}, median |.| {np.median(np.abs(values[known])):.2g}"
 
 
 def print_differences(label, results, held_out="held-out RMS"):
     """One line per group: profiles, evidence, lines, evaluations, held-out RMS and RMS off the truth."""
     print(f"\n{label}: {len(results)} fits")
-    print(f"- profile, max |difference| at 3,600 angles (arcmin): {spread(r['profile'] for r in results)}")
-    print(f"- log evidence, SciPy-free minus SciPy (nats): {spread(r['evidence'] for r in results)}"
+    names = [r["name"] for r in results]
+    print(f"- profile, max |difference| at 3,600 angles (arcmin): {spread([r['profile'] for r in results], names)}")
+    evidence = [np.nan if r["evidence"] is None else r["evidence"] for r in results]
+    print(f"- log evidence, SciPy-free minus SciPy (nats): {spread(evidence, names)}"
           f"; SciPy-free higher in {sum(1 for r in results if (r['evidence'] or 0) > 0)}")
     different = [r for r in results if not r["same_lines"]]
     print(f"- the same lines in {len(results) - len(different)} of {len(results)}"
@@ -393,8 +415,9 @@ def print_differences(label, results, held_out="held-out RMS"):
         pairs = np.array([r[key] for r in results if key in r])
         if pairs.size:
             relative = pairs[:, 1] / pairs[:, 0] - 1.0
+            cases = [r["name"] for r in results if key in r]
             print(f"- {what} (arcmin): SciPy median {np.median(pairs[:, 0]):.4g}, SciPy-free "
-                  f"{np.median(pairs[:, 1]):.4g}; relative difference {spread(relative)} "
+                  f"{np.median(pairs[:, 1]):.4g}; relative difference {spread(relative, cases)} "
                   f"(SciPy-free lower in {int(np.sum(relative < 0))}, higher in {int(np.sum(relative > 0))})")
 
 
@@ -420,8 +443,8 @@ def numerics_lines():
             if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
                     and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
                 skip.update(range(body[0].lineno, body[0].end_lineno + 1))
-        count += sum(1 for number in range(node.lineno, node.end_lineno + 1)
-                     if number not in skip and lines[number - 1].strip() and not lines[number - 1].strip().startswith("#"))
+        code = [lines[number - 1].strip() for number in range(node.lineno, node.end_lineno + 1) if number not in skip]
+        count += sum(1 for line in code if line and not line.startswith("#"))
     return count
 
 
@@ -488,18 +511,20 @@ def main():
                 if process.returncode != 0:
                     raise SystemExit(f"the {mode} child failed: {process.stderr.strip()[-2000:]}")
                 line = next(x for x in process.stderr.splitlines() if x.startswith("counts "))
-                counts[key] = line.split()[2], line.split()[4]
+                counts[key] = line.split()[2], line.split()[4], float(line.split()[6])
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 first, second = encal.load_model(models["scipy"]), encal.load_model(models["free"])
             (evidence_a, lines_a, _), (evidence_b, lines_b, _) = model_summary(first), model_summary(second)
             dense.append((name, counts, profile_difference(first, second), evidence_b - evidence_a,
                           lines_a == lines_b, lines_a, lines_b))
-        print("\n| dense file | evidence computations (objective evaluations), SciPy | SciPy-free | "
+        print("\n| dense file | evidence computations (objective evaluations; CPU in the computations), SciPy | "
+              "SciPy-free | "
               "profile max |diff|, arcmin | log evidence, free - SciPy, nats | same lines |\n|---|---|---|---|---|---|")
         for name, counts, profile, evidence, same, lines_a, lines_b in dense:
-            print(f"| {name} | {counts['scipy'][0]} ({counts['scipy'][1]}) | {counts['free'][0]} "
-                  f"({counts['free'][1]}) | {profile:.2g} | {evidence:+.3g} | "
+            print(f"| {name} | {counts['scipy'][0]} ({counts['scipy'][1]}; {counts['scipy'][2]:.2f} s) | "
+                  f"{counts['free'][0]} ({counts['free'][1]}; {counts['free'][2]:.2f} s) | {profile:.2g} | "
+                  f"{evidence:+.3g} | "
                   f"{'yes' if same else f'no: {lines_a} / {lines_b}'} |")
     if args.real:
         full, held_out = [], []
