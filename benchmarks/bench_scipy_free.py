@@ -10,10 +10,20 @@ Usage::
 The spectral fit needs SciPy for L-BFGS-B (``scipy.optimize.minimize`` in ``encal.models._evidence._optimise``)
 and LAPACK/BLAS (``_evidence._lapack``: ``dpotrf``, ``dpotrs``, ``dlauum``; ``encal.numerics.triangular``:
 ``dtrmm``, ``dtrtri``; ``encal._core.threads._blas`` imports ``scipy.linalg`` for threadpoolctl). This script
-defines NumPy-only stand-ins for them (section "stand-ins" below: Cholesky by ``np.linalg.cholesky`` with the jitter
-rule of ``_evidence._cholesky``; the triangular inverse and solves by halves with ``@``, leaves by ``np.linalg``;
-a projected L-BFGS with a backtracking line search, the bounds, ``ftol``/``gtol`` tests and two passes of
-``_optimise``), patches them into encal's modules (:func:`scipy_free`) and measures, without changing encal:
+defines NumPy-only stand-ins for them (section "stand-ins" below), patches them into encal's modules
+(:class:`scipy_free`) and measures, without changing encal:
+
+* the Cholesky factor by ``np.linalg.cholesky``, with the jitter rule of ``_evidence._cholesky``;
+* the triangular inverse by halves with ``@`` (leaves of at most 64 rows by ``np.linalg.inv``); the solve of
+  ``dpotrs`` as two products with that inverse, kept for ``_evidence._evidence``'s call of the inverse that
+  follows; ``dlauum`` as ``np.dot(Xᵀ, X)``;
+* a projected L-BFGS (two-loop recursion over the variables not held at a bound, a line search on the path
+  projected onto the box with sufficient decrease and curvature, growing the step by the secant of the slope and
+  shrinking it by quadratic interpolation) with L-BFGS-B's ``ftol``/``gtol`` tests, first step (minus the
+  gradient) and memory, in ``_optimise``'s bounds, start and two passes (per reading, then in nats when the first
+  stops at its first iteration). It is not L-BFGS-B: no generalised Cauchy point, no subspace minimisation, a
+  simpler line search than More and Thuente's; its searches end elsewhere on the evidence's flat ridges;
+* ``threads._blas`` without ``import scipy.linalg`` (threadpoolctl sees NumPy's OpenBLAS only).
 
 1. Whole processes, paired and interleaved as ``benchmarks/bench_dense_read.py`` (CPU user + system from GNU
    ``/usr/bin/time``, one BLAS thread, bytecode kept in the temporary folder from the warm-up run on): ``encal fit``
@@ -22,16 +32,21 @@ a projected L-BFGS with a backtracking line search, the bounds, ``ftol``/``gtol`
    ``sys.modules`` at its end) and bench_dense_read's NumPy script, on its two ``--rows``-row files (a 5-revolution
    sweep and uniformly random angles; ``--files`` picks them). ``--repeats`` pairs after one warm-up each; medians
    and the median (min-max) of the pair ratios. Then, in one untimed run of each child, the evaluations of the
-   evidence (computations, not the results kept for a repeated point) and of the optimiser's objective.
-2. How the fits differ: the model files of (1) (max |difference| of the profiles at 3,600 angles in arcmin, log
-   evidence, the lines chosen); the first ``--real`` real AS5047D calibrations of shared/data/real/mechaduino
-   (``--data``; read as ``benchmarks/bench_real_data.py`` does), each fitted both ways in this process
-   (``encal.fit(..., method='auto')`` as ``encal fit`` does) on all its rows (profile, evidence, lines) and on its
-   even rows (held-out RMS on its odd rows); and ``--simulated`` resolvers of ``encal.simulate`` (seeds 0, 1, ...,
-   180 stops on the 2-degree grid each moved by up to ±0.3 of a step, fixed seeds), the same plus the RMS off the
-   noise-free error at the test grid's angles.
+   evidence (computations, not the results kept for a repeated point, and the CPU seconds in them) and of the
+   optimiser's objective.
+2. How the fits differ: the model files of (1) (max |difference| of the profiles at 3,600 angles in arcmin and in
+   units of the posterior standard deviation of the profile, log evidence, the lines chosen); the first ``--real``
+   real AS5047D calibrations of shared/data/real/mechaduino (``--data``; read as ``benchmarks/bench_real_data.py``
+   does), each fitted both ways in this process (``encal.fit(..., method='auto')`` as ``encal fit`` does) on all its
+   rows (profile, evidence, lines) and on its even rows (held-out RMS on its odd rows); and ``--simulated``
+   resolvers of ``encal.simulate`` (seeds 0, 1, ..., 180 stops on the 2-degree grid each moved by up to ±0.3 of a
+   step, fixed seeds), the same, with the RMS off a second run's readings and off the noise-free error at the test
+   grid's angles.
 
-The whole run takes about 3 minutes on the shared 2-core machine with the defaults.
+Options: ``--rows`` rows of each dense file; ``--repeats`` timed pairs; ``--files`` which dense files (``sweep``,
+``random``, both comma-separated, or ``none``); ``--real`` how many real files (0: none); ``--simulated`` how many
+simulated encoders (0: none); ``--data`` the folder of the real files (index.csv and the CSV files). With the
+defaults the run takes about 2 minutes of wall time on the shared 2-core machine (105 s at load average 2-3).
 """
 
 import math
@@ -42,7 +57,7 @@ import numpy as np
 
 # -- stand-ins: NumPy only --------------------------------------------------------------------------------------
 
-#: Blocks of at most this many rows are inverted or solved by ``np.linalg`` itself (as encal's ``_LEAF``).
+#: Blocks of at most this many rows are inverted by ``np.linalg.inv`` (as encal's ``_LEAF`` by ``dtrtri``).
 LEAF = 64
 
 
@@ -321,8 +336,16 @@ def child_command(mode, arguments, count=False):
 
 
 def profile_difference(first, second, angles=np.arange(3600) * 0.1):
-    """Largest |difference| of two models' profiles at ``angles`` (3,600 over the circle), arcmin."""
-    return float(np.max(np.abs(first.predict(angles) - second.predict(angles))))
+    """Largest |difference| of two models' profiles at ``angles`` (3,600 over the circle), arcmin, and the largest in
+    units of the first's posterior standard deviation of the profile there (NaN without one)."""
+    from encal import EncalError
+
+    difference = np.abs(first.predict(angles) - second.predict(angles))
+    try:
+        std = first.predict(angles, return_std=True, include_noise=False)[1]
+    except (TypeError, EncalError):
+        std = np.full(angles.shape, np.nan)
+    return float(np.max(difference)), float(np.max(difference / std))
 
 
 def model_summary(model):
@@ -342,7 +365,8 @@ def compare_fits(cal, rng_seed=0, test=None, truth=None):
         without = encal.fit(cal, rng=rng_seed)
         counts_free.close()
     (evidence_a, lines_a, kind_a), (evidence_b, lines_b, kind_b) = model_summary(with_scipy), model_summary(without)
-    result = {"profile": profile_difference(with_scipy, without), "same_kind": kind_a == kind_b,
+    profile, in_std = profile_difference(with_scipy, without)
+    result = {"profile": profile, "in_std": in_std, "same_kind": kind_a == kind_b,
               "evidence": (evidence_b - evidence_a) if evidence_a is not None and evidence_b is not None else None,
               "same_lines": lines_a == lines_b, "lines": (lines_a, lines_b),
               "counts": (counts.evidence, counts.objective, counts_free.evidence, counts_free.objective)}
@@ -400,6 +424,8 @@ def print_differences(label, results, held_out="held-out RMS"):
     print(f"\n{label}: {len(results)} fits")
     names = [r["name"] for r in results]
     print(f"- profile, max |difference| at 3,600 angles (arcmin): {spread([r['profile'] for r in results], names)}")
+    print(f"- the same in units of the posterior std of the profile (SciPy's fit): "
+          f"{spread([r['in_std'] for r in results], names)}")
     evidence = [np.nan if r["evidence"] is None else r["evidence"] for r in results]
     print(f"- log evidence, SciPy-free minus SciPy (nats): {spread(evidence, names)}"
           f"; SciPy-free higher in {sum(1 for r in results if (r['evidence'] or 0) > 0)}")
@@ -516,14 +542,15 @@ def main():
                 warnings.simplefilter("ignore")
                 first, second = encal.load_model(models["scipy"]), encal.load_model(models["free"])
             (evidence_a, lines_a, _), (evidence_b, lines_b, _) = model_summary(first), model_summary(second)
-            dense.append((name, counts, profile_difference(first, second), evidence_b - evidence_a,
+            dense.append((name, counts, *profile_difference(first, second), evidence_b - evidence_a,
                           lines_a == lines_b, lines_a, lines_b))
         print("\n| dense file | evidence computations (objective evaluations; CPU in the computations), SciPy | "
-              "SciPy-free | "
-              "profile max |diff|, arcmin | log evidence, free - SciPy, nats | same lines |\n|---|---|---|---|---|---|")
-        for name, counts, profile, evidence, same, lines_a, lines_b in dense:
+              "SciPy-free | profile max |diff|, arcmin (in posterior stds) | log evidence, free - SciPy, nats | "
+              "same lines |\n|---|---|---|---|---|---|")
+        for name, counts, profile, in_std, evidence, same, lines_a, lines_b in dense:
             print(f"| {name} | {counts['scipy'][0]} ({counts['scipy'][1]}; {counts['scipy'][2]:.2f} s) | "
-                  f"{counts['free'][0]} ({counts['free'][1]}; {counts['free'][2]:.2f} s) | {profile:.2g} | "
+                  f"{counts['free'][0]} ({counts['free'][1]}; {counts['free'][2]:.2f} s) | {profile:.2g} "
+                  f"({in_std:.2g} std) | "
                   f"{evidence:+.3g} | "
                   f"{'yes' if same else f'no: {lines_a} / {lines_b}'} |")
     if args.real:
