@@ -232,7 +232,11 @@ def blas_controller():
 
 
 class scipy_free:
-    """Context manager (and, entered for good, the child's set-up): the stand-ins patched into encal's modules."""
+    """Context manager (and, entered for good, the child's set-up): the stand-ins patched into encal's modules;
+    with ``optimiser_only``, :func:`optimise` alone (SciPy's LAPACK kept)."""
+
+    def __init__(self, optimiser_only=False):
+        self.optimiser_only = optimiser_only
 
     def __enter__(self):
         from encal._core import threads
@@ -242,11 +246,12 @@ class scipy_free:
         self.saved = [(module, name, getattr(module, name)) for module, name in (
             (_evidence, "_lapack"), (_evidence, "_cholesky"), (_evidence, "_optimise"),
             (_evidence, "lower_triangular_inverse"), (triangular, "lower_triangular_inverse"), (threads, "_blas"))]
-        _evidence._lapack = NumpyLapack
-        _evidence._cholesky = cholesky
         _evidence._optimise = optimise
-        _evidence.lower_triangular_inverse = triangular.lower_triangular_inverse = inverse_of
-        threads._blas = blas_controller
+        if not self.optimiser_only:
+            _evidence._lapack = NumpyLapack
+            _evidence._cholesky = cholesky
+            _evidence.lower_triangular_inverse = triangular.lower_triangular_inverse = inverse_of
+            threads._blas = blas_controller
         return self
 
     def __exit__(self, *exc):
@@ -291,8 +296,11 @@ class _ScipyWatch:
 
     stack = None
 
+    def __init__(self, watched="scipy"):
+        self.watched = watched
+
     def find_spec(self, name, path=None, target=None):
-        if self.stack is None and name.partition(".")[0] == "scipy":
+        if self.stack is None and name.startswith(self.watched):
             import traceback
 
             self.stack = "".join(traceback.format_stack(limit=14)[:-1])
@@ -300,24 +308,28 @@ class _ScipyWatch:
 
 
 def child(mode, argv, count=False):
-    """``encal fit`` as the command line runs it (``argv`` its arguments), ``mode`` 'scipy-free' or 'scipy'.
+    """``encal fit`` as the command line runs it (``argv`` its arguments); ``mode`` 'scipy' (as it is),
+    'scipy-free' or 'no-optimize' (the hand-written optimiser, SciPy's LAPACK kept).
 
-    SciPy-free, the stand-ins are patched in before anything imports SciPy, and the process fails naming the
-    importer if SciPy is in ``sys.modules`` at its end. With ``count``, the evaluation counts go to stderr.
+    The stand-ins are patched in before anything imports SciPy, and the process fails naming the importer if
+    SciPy (SciPy's optimiser for 'no-optimize') is in ``sys.modules`` at its end. With ``count``, the evaluation
+    counts go to stderr.
     """
-    watch = _ScipyWatch()
-    sys.meta_path.insert(0, watch)
+    forbidden = {"scipy-free": "scipy", "no-optimize": "scipy.optimize"}.get(mode)
+    if forbidden:
+        watch = _ScipyWatch(forbidden)
+        sys.meta_path.insert(0, watch)
     from encal.cli import main
 
-    if mode == "scipy-free":
-        scipy_free().__enter__()
+    if forbidden:
+        scipy_free(optimiser_only=mode == "no-optimize").__enter__()
     counts = Counts() if count else None
     status = main(argv)
     if counts is not None:
         print(f"counts evidence {counts.evidence} objective {counts.objective} seconds {counts.seconds:.3f}",
               file=sys.stderr)
-    if mode == "scipy-free" and "scipy" in sys.modules:
-        print(f"SciPy was imported:\n{watch.stack}", file=sys.stderr)
+    if forbidden and forbidden in sys.modules:
+        print(f"{forbidden} was imported:\n{watch.stack}", file=sys.stderr)
         raise SystemExit(3)
     raise SystemExit(status)
 
@@ -447,6 +459,35 @@ def print_differences(label, results, held_out="held-out RMS"):
                   f"(SciPy-free lower in {int(np.sum(relative < 0))}, higher in {int(np.sum(relative > 0))})")
 
 
+#: The ``encal fit`` processes measured: child mode -> label.
+VARIANTS = {"scipy": "encal fit as it is", "scipy-free": "encal fit SciPy-free",
+            "no-optimize": "encal fit, the hand-written optimiser, SciPy's LAPACK"}
+#: The imports measured alone (``python -c``).
+IMPORTS = {"NumPy": "import numpy", "NumPy, scipy.linalg": "import numpy, scipy.linalg",
+           "NumPy, scipy.linalg, scipy.optimize": "import numpy, scipy.linalg, scipy.optimize"}
+
+
+def ratio(a, b):
+    """The median (min-max) of the pair ratios ``a / b``."""
+    r = a / b
+    return f"**{np.median(r):.2f}x** ({np.min(r):.2f}-{np.max(r):.2f})"
+
+
+def print_imports(env, repeats, run_process):
+    """CPU seconds of processes that only import (:data:`IMPORTS`), paired and interleaved after a warm-up."""
+    commands = {label: [sys.executable, "-c", code] for label, code in IMPORTS.items()}
+    for command in commands.values():
+        run_process(command, env)
+    cpu = {label: [] for label in commands}
+    for _ in range(max(repeats, 5)):
+        for label, command in commands.items():
+            cpu[label].append(run_process(command, env)[0])
+    cpu = {label: np.array(value) for label, value in cpu.items()}
+    print("\n| a process that imports | CPU, median | minus NumPy's alone |\n|---|---|---|")
+    for label, times in cpu.items():
+        print(f"| {label} | {np.median(times):.3f} s | {np.median(times - cpu['NumPy']):+.3f} s |")
+
+
 STAND_INS = ("triangular_inverse", "inverse_of", "cholesky", "NumpyLapack", "projected_lbfgs", "line_search",
              "optimise",
              "blas_controller")
@@ -498,7 +539,6 @@ def main():
     print(f"rows {args.rows}, {args.repeats} pairs each, load average {os.getloadavg()[0]:.1f} "
           f"on {os.cpu_count()} cores")
     started = time.process_time()
-    table = []
     with tempfile.TemporaryDirectory() as folder:
         files = {name: path for name, path in write_files(folder, args.rows).items()
                  if name in args.files.split(",")}
@@ -506,13 +546,16 @@ def main():
         with open(script, "w") as handle:
             handle.write(NUMPY_FIT)
         env = _process_env(folder)
-        dense = []
-        print("\n| whole process, CPU | encal fit | encal fit SciPy-free | NumPy script | as it is / script | "
-              "SciPy-free / script | SciPy-free / as it is |\n|---|---|---|---|---|---|---|")
+        print_imports(env, args.repeats, run_process)
+        print("\n| file | whole process | CPU, median | / the NumPy script | / encal fit as it is | evidence "
+              "computations (objective evaluations; CPU in the computations) | profile max abs diff. from as it is, "
+              "arcmin (in posterior stds) | log evidence minus as it is's, nats | the same lines |\n"
+              "|---|---|---|---|---|---|---|---|---|")
         for name, path in files.items():
-            models = {key: os.path.join(folder, f"{name}-{key}.json") for key in ("scipy", "free")}
+            models = {key: os.path.join(folder, f"{name}-{key}.json") for key in VARIANTS}
             commands = {"scipy": [sys.executable, "-m", "encal", "fit", path, "-o", models["scipy"]],
-                        "free": child_command("scipy-free", ["fit", path, "-o", models["free"]]),
+                        **{key: child_command(key, ["fit", path, "-o", models[key]]) for key in VARIANTS if
+                           key != "scipy"},
                         "plain": [sys.executable, script, path, os.path.join(folder, "coefficients.npy")]}
             for command in commands.values():  # warm-up: bytecode
                 run_process(command, env)
@@ -521,38 +564,27 @@ def main():
                 for key, command in commands.items():
                     cpu[key].append(run_process(command, env)[0])
             cpu = {key: np.array(value) for key, value in cpu.items()}
-
-            def ratio(a, b):
-                r = cpu[a] / cpu[b]
-                return f"**{np.median(r):.2f}x** ({np.min(r):.2f}-{np.max(r):.2f})"
-
-            print(f"| {name} | {np.median(cpu['scipy']):.3f} s | {np.median(cpu['free']):.3f} s | "
-                  f"{np.median(cpu['plain']):.3f} s | {ratio('scipy', 'plain')} | {ratio('free', 'plain')} | "
-                  f"{ratio('free', 'scipy')} |")
-            table.append((name, cpu))
-            counts = {}
-            for key, mode in (("scipy", "scipy"), ("free", "scipy-free")):
-                process = subprocess.run(child_command(mode, ["fit", path, "-o", os.path.join(folder, "c.json")],
-                                                       count=True), env=env, capture_output=True, text=True)
-                if process.returncode != 0:
-                    raise SystemExit(f"the {mode} child failed: {process.stderr.strip()[-2000:]}")
-                line = next(x for x in process.stderr.splitlines() if x.startswith("counts "))
-                counts[key] = line.split()[2], line.split()[4], float(line.split()[6])
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                first, second = encal.load_model(models["scipy"]), encal.load_model(models["free"])
-            (evidence_a, lines_a, _), (evidence_b, lines_b, _) = model_summary(first), model_summary(second)
-            dense.append((name, counts, *profile_difference(first, second), evidence_b - evidence_a,
-                          lines_a == lines_b, lines_a, lines_b))
-        print("\n| dense file | evidence computations (objective evaluations; CPU in the computations), SciPy | "
-              "SciPy-free | profile max |diff|, arcmin (in posterior stds) | log evidence, free - SciPy, nats | "
-              "same lines |\n|---|---|---|---|---|---|")
-        for name, counts, profile, in_std, evidence, same, lines_a, lines_b in dense:
-            print(f"| {name} | {counts['scipy'][0]} ({counts['scipy'][1]}; {counts['scipy'][2]:.2f} s) | "
-                  f"{counts['free'][0]} ({counts['free'][1]}; {counts['free'][2]:.2f} s) | {profile:.2g} "
-                  f"({in_std:.2g} std) | "
-                  f"{evidence:+.3g} | "
-                  f"{'yes' if same else f'no: {lines_a} / {lines_b}'} |")
+                fitted = {key: encal.load_model(models[key]) for key in VARIANTS}
+            for key, label in (*VARIANTS.items(), ("plain", "the NumPy script")):
+                cells = [f"{np.median(cpu[key]):.3f} s", ratio(cpu[key], cpu["plain"]), ratio(cpu[key], cpu["scipy"])]
+                if key in VARIANTS:
+                    process = subprocess.run(child_command(key, ["fit", path, "-o", os.path.join(folder, "c.json")],
+                                                           count=True), env=env, capture_output=True, text=True)
+                    if process.returncode != 0:
+                        raise SystemExit(f"the {key} child failed: {process.stderr.strip()[-2000:]}")
+                    words = next(x for x in process.stderr.splitlines() if x.startswith("counts ")).split()
+                    cells.append(f"{words[2]} ({words[4]}; {float(words[6]):.2f} s)")
+                if key in VARIANTS and key != "scipy":
+                    (evidence_a, lines_a, _), (evidence_b, lines_b, _) = (model_summary(fitted["scipy"]),
+                                                                          model_summary(fitted[key]))
+                    profile, in_std = profile_difference(fitted["scipy"], fitted[key])
+                    cells += [f"{profile:.2g} ({in_std:.2g})", f"{evidence_b - evidence_a:+.3g}",
+                              "yes" if lines_a == lines_b else f"no: {lines_a} / {lines_b}"]
+                else:
+                    cells += [""] * (4 if key == "plain" else 3)
+                print(f"| {name} | {label} | " + " | ".join(cells) + " |")
     if args.real:
         full, held_out = [], []
         with warnings.catch_warnings():
