@@ -26,27 +26,30 @@ defines NumPy-only stand-ins for them (section "stand-ins" below), patches them 
 * ``threads._blas`` without ``import scipy.linalg`` (threadpoolctl sees NumPy's OpenBLAS only).
 
 1. Whole processes, paired and interleaved as ``benchmarks/bench_dense_read.py`` (CPU user + system from GNU
-   ``/usr/bin/time``, one BLAS thread, bytecode kept in the temporary folder from the warm-up run on): ``encal fit``
-   as it is (``python -m encal fit FILE -o MODEL``), ``encal fit`` SciPy-free (the same command line from a child
-   that patches the stand-ins in before anything imports SciPy, and fails, naming the importer, if SciPy is in
-   ``sys.modules`` at its end) and bench_dense_read's NumPy script, on its two ``--rows``-row files (a 5-revolution
-   sweep and uniformly random angles; ``--files`` picks them). ``--repeats`` pairs after one warm-up each; medians
-   and the median (min-max) of the pair ratios. Then, in one untimed run of each child, the evaluations of the
-   evidence (computations, not the results kept for a repeated point, and the CPU seconds in them) and of the
-   optimiser's objective.
-2. How the fits differ: the model files of (1) (max |difference| of the profiles at 3,600 angles in arcmin and in
-   units of the posterior standard deviation of the profile, log evidence, the lines chosen); the first ``--real``
-   real AS5047D calibrations of shared/data/real/mechaduino (``--data``; read as ``benchmarks/bench_real_data.py``
-   does), each fitted both ways in this process (``encal.fit(..., method='auto')`` as ``encal fit`` does) on all its
-   rows (profile, evidence, lines) and on its even rows (held-out RMS on its odd rows); and ``--simulated``
-   resolvers of ``encal.simulate`` (seeds 0, 1, ..., 180 stops on the 2-degree grid each moved by up to ±0.3 of a
-   step, fixed seeds), the same, with the RMS off a second run's readings and off the noise-free error at the test
-   grid's angles.
+   ``/usr/bin/time``, one BLAS thread, bytecode kept in the temporary folder from the warm-up run on). First
+   processes that only import NumPy, then also ``scipy.linalg``, then also ``scipy.optimize``. Then, on
+   bench_dense_read's two ``--rows``-row files (a 5-revolution sweep and uniformly random angles; ``--files`` picks
+   them): ``encal fit`` as it is (``python -m encal fit FILE -o MODEL``); ``encal fit`` SciPy-free (the same command
+   line from a child that patches every stand-in in before anything imports SciPy, and fails, naming the importer,
+   if SciPy is in ``sys.modules`` at its end); ``encal fit`` with the hand-written optimiser alone, SciPy's LAPACK
+   kept (the child fails if ``scipy.optimize`` was imported); and bench_dense_read's NumPy script. ``--repeats``
+   rounds after one warm-up each; medians and the median (min-max) of the pair ratios. For each ``encal fit``, in
+   one untimed run, the evaluations of the evidence (computations, not the results kept for a repeated point, and
+   the CPU seconds in them) and of the optimiser's objective, and how its model file differs from the one of ``encal
+   fit`` as it is (max |difference| of the profiles at 3,600 angles in arcmin and in units of the posterior standard
+   deviation of the profile, log evidence, the lines chosen).
+2. How the fits differ, in this process: the first ``--real`` real AS5047D calibrations of
+   shared/data/real/mechaduino (``--data``; read as ``benchmarks/bench_real_data.py`` does), each fitted with SciPy
+   and SciPy-free (``encal.fit(..., method='auto')`` as ``encal fit`` does) on all its rows (profile, evidence,
+   lines) and on its even rows (held-out RMS on its odd rows); and ``--simulated`` resolvers of ``encal.simulate``
+   (seeds 0, 1, ..., 180 stops on the 2-degree grid each moved by up to ±0.3 of a step, fixed seeds), the same, with
+   the RMS off a second run's readings and off the noise-free error at the test grid's angles.
 
 Options: ``--rows`` rows of each dense file; ``--repeats`` timed pairs; ``--files`` which dense files (``sweep``,
-``random``, both comma-separated, or ``none``); ``--real`` how many real files (0: none); ``--simulated`` how many
-simulated encoders (0: none); ``--data`` the folder of the real files (index.csv and the CSV files). With the
-defaults the run takes about 2 minutes of wall time on the shared 2-core machine (105 s at load average 2-3).
+``random``, both comma-separated, or ``none``); ``--real`` how many real files (0: none; none either without the
+data folder); ``--simulated`` how many simulated encoders (0: none); ``--data`` the folder of the real files
+(index.csv and the CSV files). With the defaults the run takes about 1.5 minutes of wall time on the shared 2-core
+machine (85 s at load average 1.5).
 """
 
 import math
@@ -436,8 +439,10 @@ def print_differences(label, results, held_out="held-out RMS"):
     print(f"\n{label}: {len(results)} fits")
     names = [r["name"] for r in results]
     print(f"- profile, max |difference| at 3,600 angles (arcmin): {spread([r['profile'] for r in results], names)}")
+    worst = max(results, key=lambda r: r["profile"])
     print(f"- the same in units of the posterior std of the profile (SciPy's fit): "
-          f"{spread([r['in_std'] for r in results], names)}")
+          f"{spread([r['in_std'] for r in results], names)}; at the largest difference ({worst['name']}) the log "
+          f"evidence differs by {worst['evidence']:+.3g} nats")
     evidence = [np.nan if r["evidence"] is None else r["evidence"] for r in results]
     print(f"- log evidence, SciPy-free minus SciPy (nats): {spread(evidence, names)}"
           f"; SciPy-free higher in {sum(1 for r in results if (r['evidence'] or 0) > 0)}")
@@ -494,13 +499,13 @@ STAND_INS = ("triangular_inverse", "inverse_of", "cholesky", "NumpyLapack", "pro
 
 
 def numerics_lines():
-    """Lines of code of the stand-ins (:data:`STAND_INS`): neither docstrings nor comments nor blank lines."""
+    """Lines of code of each stand-in (:data:`STAND_INS`): neither docstrings nor comments nor blank lines."""
     import ast
 
     with open(__file__, encoding="utf-8") as handle:
         source = handle.read()
     lines = source.splitlines()
-    count = 0
+    counts = {}
     for node in ast.parse(source).body:
         if getattr(node, "name", None) not in STAND_INS:
             continue
@@ -511,8 +516,8 @@ def numerics_lines():
                     and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
                 skip.update(range(body[0].lineno, body[0].end_lineno + 1))
         code = [lines[number - 1].strip() for number in range(node.lineno, node.end_lineno + 1) if number not in skip]
-        count += sum(1 for line in code if line and not line.startswith("#"))
-    return count
+        counts[node.name] = sum(1 for line in code if line and not line.startswith("#"))
+    return counts
 
 
 def main():
@@ -585,7 +590,9 @@ def main():
                 else:
                     cells += [""] * (4 if key == "plain" else 3)
                 print(f"| {name} | {label} | " + " | ".join(cells) + " |")
-    if args.real:
+    if args.real and not os.path.exists(os.path.join(args.data, "index.csv")):
+        print(f"\nno real files: {args.data} has no index.csv (pass --data)")
+    elif args.real:
         full, held_out = [], []
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -606,8 +613,9 @@ def main():
                 simulated.append({"name": name, **compare_fits(cal, test=test, truth=truth)})
         print_differences("simulated resolvers, 180 jittered stops", simulated,
                           "RMS off a second run's readings at the test grid's angles")
-    print(f"\nthe stand-ins: {numerics_lines()} lines of code ({', '.join(STAND_INS)}), docstrings, comments and "
-          "blank lines aside")
+    counts = numerics_lines()
+    print(f"\nthe stand-ins: {sum(counts.values())} lines of code, docstrings, comments and blank lines aside ("
+          + ", ".join(f"{name} {count}" for name, count in counts.items()) + ")")
     print(f"\nthis process's CPU {time.process_time() - started:.0f} s; load average at the end "
           f"{os.getloadavg()[0]:.1f}")
 
