@@ -33,8 +33,6 @@ refused (repeats in random order, without ``--keep-duplicates``) agrees when it 
 """
 
 import argparse
-import contextlib
-import io
 import json
 import math
 import re
@@ -42,8 +40,6 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import traceback
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -51,6 +47,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from fuzz_session6 import run as run_with_traceback  # noqa: E402
 
 # the encoder's error at a reference angle: (order, amplitude arcmin, phase rad); a zero offset of 3 arcmin
 HARMONICS = ((1, 12.0, 0.3), (2, 5.0, 1.1), (3, 2.0, 2.0), (4, 1.5, -0.4), (7, 0.8, 0.9), (16, 0.5, 0.2))
@@ -95,24 +94,8 @@ def wrap_arcmin(delta_deg):
 
 def run(argv, stdin_text=None):
     """(status, stdout, stderr) of ``encal argv`` in this process; a traceback is returned as stderr, status None."""
-    from encal.cli import main
-
-    out, err = io.StringIO(), io.StringIO()
-    old_stdin = sys.stdin
-    if stdin_text is not None:
-        sys.stdin = io.TextIOWrapper(io.BytesIO(stdin_text.encode()), encoding="utf-8")
-    try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            try:
-                status = main([str(a) for a in argv])
-            except SystemExit as exc:
-                status = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 1)
-            except BaseException:  # noqa: BLE001 - a traceback is a finding
-                return None, out.getvalue(), traceback.format_exc()
-    finally:
-        sys.stdin = old_stdin
-    return status, out.getvalue(), err.getvalue()
+    status, out, err, trace = run_with_traceback([str(a) for a in argv], stdin_text)
+    return status, out, err if trace is None else trace
 
 
 # ------------------------------------------------------------------------------------------------- the data
@@ -1158,40 +1141,22 @@ def main(argv=None):
             print(f"| {case.name} | {case.group} | {', '.join(case.fits)} | {result['options']} | {bits} | "
                   f"{truth} | {gap} | {'yes' if ok else 'NO ' + notes} |",
                   flush=True)
-        print()
-        print("| encal correct's input | largest gap to the first form's answers, arcmin | agrees |")
-        print("|---|---|---|")
-        for name, text, ok in correct_rows(folder):
-            failures += not ok
-            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
-        print()
-        print("| encal selfcal steps input | largest gap of the written errors to the first form's, arcmin | agrees |")
-        print("|---|---|---|")
-        for name, text, ok in steps_rows(folder):
-            failures += not ok
-            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
-        print()
-        print("| encal selfcal spin log | largest gap of the written errors to the first form's, arcmin | against the "
-              "truth without orders 7k and its mean: RMS / max, arcmin | agrees |")
-        print("|---|---|---|---|")
-        for name, text, ok in spin_rows(folder):
-            failures += not ok
-            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
-        print()
-        print("| encal fit --repeat: the second pass | largest gap to the plain pass's model, arcmin | against the "
-              "truth: RMS / max, arcmin | agrees |")
-        print("|---|---|---|---|")
-        for name, text, ok in repeat_rows(folder):
-            failures += not ok
-            print(f"| {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
+        tables = [
+            ("encal correct's input | largest gap to the first form's answers, arcmin", correct_rows),
+            ("encal selfcal steps input | largest gap of the written errors to the first form's, arcmin", steps_rows),
+            ("encal selfcal spin log | largest gap of the written errors to the first form's, arcmin | against the "
+             "truth without orders 7k and its mean: RMS / max, arcmin", spin_rows),
+            ("encal fit --repeat: the second pass | largest gap to the plain pass's model, arcmin | against the "
+             "truth: RMS / max, arcmin", repeat_rows),
+        ]
         if not args.no_export:
-            print()
-            print(f"| model | export | largest gap to encal correct on every {EXPORT_BITS}-bit code, arcmin | "
-                  "RMS against the truth, encal correct / the export, arcmin | agrees |")
-            print("|---|---|---|---|---|")
-            for label, name, text, ok in export_rows(folder):
+            tables.append((f"model | export | largest gap to encal correct on every {EXPORT_BITS}-bit code, arcmin | "
+                           "RMS against the truth, encal correct / the export, arcmin", export_rows))
+        for header, rows in tables:
+            print(f"\n| {header} | agrees |\n" + "|---" * (header.count("|") + 2) + "|")
+            for *cells, ok in rows(folder):
                 failures += not ok
-                print(f"| {label} | {name} | {text} | {'yes' if ok else 'NO'} |", flush=True)
+                print(f"| {' | '.join(cells)} | {'yes' if ok else 'NO'} |", flush=True)
     return 1 if failures else 0
 
 
