@@ -974,24 +974,36 @@ def steps_forms():
     ]
 
 
-def steps_rows(folder):
-    """One row per form of ``encal selfcal steps``'s input: the written calibration against the first form's."""
+def _selfcal_outputs(folder, forms, command):
+    """``(name, calibration or None, refusal)`` of ``encal selfcal COMMAND`` on each form (its input written to
+    ``folder``), the calibration it wrote sorted by reference angle."""
     import encal
 
-    rows, first = [], None
-    for name, text, options in steps_forms():
-        source, output = folder / "steps_in.csv", folder / "steps_out.csv"
+    for name, text, options in forms:
+        source, output = folder / "selfcal_in.csv", folder / "selfcal_out.csv"
         source.write_text(text, newline="")
         output.unlink(missing_ok=True)
-        status, out, err = run(["selfcal", "steps", source, "-o", output] + options)
+        status, out, err = run(["selfcal", *command[:1], source, "-o", output, *command[1:], *options])
         if status != 0:
-            rows.append((name, f"refused: {_shown(err.strip())}", False))
+            yield name, None, f"refused: {_shown(err.strip())}"
             continue
         cal = encal.read_calibration(output)
-        order = np.argsort(cal.reference_deg)
-        errors = cal.errors_arcmin[order]
-        first = errors if first is None else first
-        gap = float(np.max(np.abs(errors - first))) if errors.size == first.size else math.inf
+        yield name, cal.subset(np.argsort(cal.reference_deg)), None
+
+
+def _gap(errors, first):
+    return float(np.max(np.abs(errors - first))) if errors.size == first.size else math.inf
+
+
+def steps_rows(folder):
+    """One row per form of ``encal selfcal steps``'s input: the written calibration against the first form's."""
+    rows, first = [], None
+    for name, cal, refusal in _selfcal_outputs(folder, steps_forms(), ["steps"]):
+        if cal is None:
+            rows.append((name, refusal, False))
+            continue
+        first = cal.errors_arcmin if first is None else first
+        gap = _gap(cal.errors_arcmin, first)
         rows.append((name, f"{gap:.2g}", gap <= SAME_ARCMIN))
     return rows
 
@@ -1042,26 +1054,17 @@ def spin_forms():
 
 def spin_rows(folder):
     """One row per form of ``encal selfcal spin``'s log: the written calibration against the first form's."""
-    import encal
-
     rows, first = [], None
-    for name, text, options in spin_forms():
-        source, output = folder / "spin_in.csv", folder / "spin_out.csv"
-        source.write_text(text, newline="")
-        output.unlink(missing_ok=True)
-        status, out, err = run(["selfcal", "spin", source, "--pole-pairs", "7", "--bits", "14", "-o", output]
-                               + options)
-        if status != 0:
-            rows.append((name, f"refused: {_shown(err.strip())}", False))
+    for name, cal, refusal in _selfcal_outputs(folder, spin_forms(), ["spin", "--pole-pairs", "7", "--bits", "14"]):
+        if cal is None:
+            rows.append((name, refusal, False))
             continue
-        cal = encal.read_calibration(output)
-        order = np.argsort(cal.reference_deg)
-        errors = cal.errors_arcmin[order]
+        errors = cal.errors_arcmin
         first = errors if first is None else first
-        gap = float(np.max(np.abs(errors - first))) if errors.size == first.size else math.inf
+        gap = _gap(errors, first)
         # the truth without the orders one speed cannot see (multiples of the pole pairs) and without its mean
         # (the rotor's zero is arbitrary)
-        theta = np.radians(cal.reference_deg[order])
+        theta = np.radians(cal.reference_deg)
         truth = sum(a * np.cos(k * theta + p) for k, a, p in HARMONICS if k % 7)
         miss = (errors - errors.mean()) - (truth - truth.mean())
         rms, largest = float(np.sqrt(np.mean(miss**2))), float(np.max(np.abs(miss)))
