@@ -14,6 +14,7 @@ lies inside that band, at the calibration's own angles (fresh noise) and between
   the report's verdict and figure evaluate it ("unknown");
 - ``unrounded``: the default case without the readings' rounding to 16-bit codes: each encoder's noise-free error
   plus Gaussian noise of 0.138 arcmin RMS (the simulator's floor), which is the same at every angle;
+  ``unrounded-known`` the same with that noise given to the fit (``noise_arcmin``);
 - ``selfcal``: a magnetic encoder (``draw_magnetic_encoder(seed)``, 14 bits, 2 arcmin reading noise) spun on a
   simulated motor (``make_motor(rng=seed)``) at 1 and 3 rev/s, 20 revolutions each, self-calibrated by
   ``encal.selfcal.spin``; the model fitted to its calibration (360 points, its ``sigma_arcmin`` as the
@@ -27,13 +28,14 @@ the spread over the angles of the rounded noise's standard deviation (:func:`ang
 
 Each row: encoders, points per encoder, the pooled share inside the band, the range and the 10th percentile of
 the per-encoder shares, the RMS of (new reading − prediction) over the RMS of the predicted ``std``
-(1 when the band is the right width for Gaussian residuals), and for the resolver on the table the RMS over
+(1 when the band is the right width for Gaussian residuals), the same for the profile alone (noise-free error −
+prediction over the ``std`` without the noise, ``include_noise=False``) where the benchmark knows it, and for the resolver on the table the RMS over
 the encoders of the new readings' noise (measured minus noise-free error) and of the model's ``σ_noise``. The
 binomial standard deviation of a pooled share of 95 % over ``n`` points is ``sqrt(0.95 · 0.05 / n)``, but the
 points of one encoder share its model's error, so the per-encoder range says more.
 
 Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_report_band.py [--encoders 50] [--cases default
-      unrounded directional selfcal]      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
+      unrounded unrounded-known directional selfcal]      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
 """
 
 import os
@@ -60,10 +62,12 @@ class Tally:
     def __init__(self):
         self.shares, self.points, self.residual_sq, self.std_sq = [], 0, 0.0, 0.0
         self.floors, self.noises = [], []
+        self.miss_sq = self.profile_sq = 0.0
 
-    def add(self, residual, std, floor=None, noise=None):
+    def add(self, residual, std, floor=None, noise=None, profile=None):
         """One encoder's residuals and predicted std (arcmin); ``floor`` the RMS of its new readings' noise (measured
-        minus noise-free error), ``noise`` the model's ``σ_noise``, when known."""
+        minus noise-free error), ``noise`` the model's ``σ_noise``, ``profile`` the pair (noise-free error minus
+        prediction, the profile's own std without the noise), when known."""
         self.shares.append(float(np.mean(np.abs(residual) <= Z95 * std)))
         self.points = residual.size
         self.residual_sq += float(np.sum(residual**2))
@@ -72,12 +76,17 @@ class Tally:
             self.floors.append(floor)
         if noise is not None:
             self.noises.append(noise)
+        if profile is not None:
+            self.miss_sq += float(np.sum(profile[0] ** 2))
+            self.profile_sq += float(np.sum(profile[1] ** 2))
 
     def row(self, label):
         shares = np.array(self.shares)
         return (f"| {label} | {shares.size} | {self.points} | {100 * shares.mean():.1f} % | "
                 f"{100 * shares.min():.1f}–{100 * shares.max():.1f} % | {100 * np.percentile(shares, 10):.1f} % | "
-                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} | {_rms(self.floors)} | {_rms(self.noises)} |")
+                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} | "
+                f"{f'{np.sqrt(self.miss_sq / self.profile_sq):.2f}' if self.profile_sq else '–'} | "
+                f"{_rms(self.floors)} | {_rms(self.noises)} |")
 
 
 def _rms(values):
@@ -104,8 +113,10 @@ def default_case(seeds):
             simulated = calibration_run(encoder, grid, rng=noise_rng(seed, rng))
             run = simulated.calibration
             mean, std = model.predict(run.encoder_deg, return_std=True)
+            profile_std = model.predict(run.encoder_deg, return_std=True, include_noise=False)[1]
             floor = float(np.sqrt(np.mean((run.errors_arcmin - simulated.noise_free_error_arcmin) ** 2)))
-            tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"])
+            tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"],
+                      (simulated.noise_free_error_arcmin - mean, profile_std))
     return [("default (auto), at the points", at), ("default (auto), between", between)]
 
 
@@ -113,7 +124,7 @@ def default_case(seeds):
 FLOOR_ARCMIN = 0.138
 
 
-def unrounded_case(seeds):
+def unrounded_case(seeds, noise_known=False):
     """The default case's encoders and grids, their noise-free error plus Gaussian noise of the same size, unrounded.
 
     What is left of the default case without the readings' rounding to whole codes: the noise of a reading is then
@@ -126,13 +137,20 @@ def unrounded_case(seeds):
         truth = calibration_run(encoder, TRAINING_GRID_DEG, rng=noise_rng(seed, 1)).noise_free_error_arcmin
         error = truth + draw.normal(0.0, FLOOR_ARCMIN, truth.size)
         model = encal.fit(encal.Calibration(TRAINING_GRID_DEG, TRAINING_GRID_DEG + error / 60.0), method="auto",
-                          rng=seed, uncertainty=True)
+                          rng=seed, uncertainty=True, **({"noise_arcmin": FLOOR_ARCMIN} if noise_known else {}))
         for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (between, TEST_GRID_DEG, 3)):
             truth = calibration_run(encoder, grid, rng=noise_rng(seed, rng)).noise_free_error_arcmin
             error = truth + draw.normal(0.0, FLOOR_ARCMIN, truth.size)
             mean, std = model.predict(grid + error / 60.0, return_std=True)
-            tally.add(error - mean, std)
-    return [("unrounded (Gaussian noise), at the points", at), ("unrounded (Gaussian noise), between", between)]
+            profile_std = model.predict(grid + error / 60.0, return_std=True, include_noise=False)[1]
+            tally.add(error - mean, std, profile=(truth - mean, profile_std))
+    label = "unrounded (Gaussian noise" + (", σ given to the fit)" if noise_known else ")")
+    return [(f"{label}, at the points", at), (f"{label}, between", between)]
+
+
+def unrounded_known_case(seeds):
+    """:func:`unrounded_case` with the noise's 0.138 arcmin given to the fit (``noise_arcmin``)."""
+    return unrounded_case(seeds, noise_known=True)
 
 
 def angle_noise_spread(seed=0, runs=200):
@@ -198,8 +216,8 @@ def selfcal_case(seeds):
             ("selfcal (spin), new readings (2 arcmin noise, 14 bits)", tallies["new readings"])]
 
 
-CASES = {"default": default_case, "unrounded": unrounded_case, "directional": directional_case,
-         "selfcal": selfcal_case}
+CASES = {"default": default_case, "unrounded": unrounded_case, "unrounded-known": unrounded_known_case,
+         "directional": directional_case, "selfcal": selfcal_case}
 
 
 def main():
@@ -209,8 +227,8 @@ def main():
     args = parser.parse_args()
     seeds = range(args.encoders)
     print("| case | encoders | points each | inside ±1.96σ (pooled) | per encoder | 10th percentile | "
-          "RMS residual / RMS σ | new readings' noise (RMS) | σ_noise (RMS) |")
-    print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
+          "RMS residual / RMS σ | profile: RMS miss / RMS σ | new readings' noise (RMS) | σ_noise (RMS) |")
+    print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|")
     for case in args.cases:
         start = time.process_time()
         for label, tally in CASES[case](seeds):
