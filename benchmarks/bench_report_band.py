@@ -29,13 +29,15 @@ the spread over the angles of the rounded noise's standard deviation (:func:`ang
 Each row: encoders, points per encoder, the pooled share inside the band, the range and the 10th percentile of
 the per-encoder shares, the RMS of (new reading − prediction) over the RMS of the predicted ``std``
 (1 when the band is the right width for Gaussian residuals), the same for the profile alone (noise-free error −
-prediction over the ``std`` without the noise, ``include_noise=False``) where the benchmark knows it, and for the resolver on the table the RMS over
-the encoders of the new readings' noise (measured minus noise-free error) and of the model's ``σ_noise``. The
-binomial standard deviation of a pooled share of 95 % over ``n`` points is ``sqrt(0.95 · 0.05 / n)``, but the
-points of one encoder share its model's error, so the per-encoder range says more.
+prediction over the ``std`` without the noise, ``include_noise=False``) where the benchmark knows it, and for the
+resolver on the table the RMS over the encoders of the new readings' noise (measured minus noise-free error) and
+of the model's ``σ_noise``. The binomial standard deviation of a pooled share of 95 % over ``n`` points is
+``sqrt(0.95 · 0.05 / n)``, but the points of one encoder share its model's error, so the per-encoder range says
+more.
 
 Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_report_band.py [--encoders 50] [--cases default
-      unrounded unrounded-known directional selfcal]      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
+      unrounded unrounded-known directional selfcal]
+      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
 """
 
 import os
