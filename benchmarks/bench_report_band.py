@@ -6,8 +6,9 @@ model's 95 % band for a new reading", ``± 1.96 std(θ)`` with ``std`` from ``mo
 lies inside that band, at the calibration's own angles (fresh noise) and between them:
 
 - ``default``: a simulated resolver (``encal.simulate.draw_encoder(seed)``) calibrated on the table over
-  0:2:358 (``calibration_run``), new readings of a second run over 0:2:358 ("at the points") and of a run over
-  1:2:359 ("between"), both forward as the calibration;
+  0:2:358 (``calibration_run``), new readings of a second run over 0:2:358 ("at the points"), of a run over
+  those angles each moved by a random part of one LSB (0–0.33 arcmin: the same profile, another place in the
+  code) and of a run over 1:2:359 ("between"), all forward as the calibration;
 - ``directional``: the same encoders run forward over 0:2:358, one degree past the end and back (the
   converter's 1-LSB hysteresis makes the reversal): a per-direction model, new readings of a fresh run of the
   same kind over 0:2:358 and over 1:2:359, with the direction given to the model ("known") and without, as
@@ -105,13 +106,19 @@ def noise_rng(seed, run):
     return np.random.default_rng([seed, run])
 
 
+#: One LSB of the simulated 16-bit converter, degrees.
+LSB_DEG = 360.0 / 2**16
+
+
 def default_case(seeds):
-    at, between = Tally(), Tally()
+    at, moved, between = Tally(), Tally(), Tally()
     for seed in seeds:
         encoder = draw_encoder(seed)
         model = encal.fit(calibration_run(encoder, TRAINING_GRID_DEG, rng=noise_rng(seed, 1)).calibration,
                           method="auto", rng=seed, uncertainty=True)
-        for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (between, TEST_GRID_DEG, 3)):
+        # the calibration's angles, each moved by a random part of an LSB: another place in its code, the same profile
+        nudged = TRAINING_GRID_DEG + noise_rng(seed, 5).uniform(0.0, LSB_DEG, TRAINING_GRID_DEG.size)
+        for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (moved, nudged, 2), (between, TEST_GRID_DEG, 3)):
             simulated = calibration_run(encoder, grid, rng=noise_rng(seed, rng))
             run = simulated.calibration
             mean, std = model.predict(run.encoder_deg, return_std=True)
@@ -119,7 +126,8 @@ def default_case(seeds):
             floor = float(np.sqrt(np.mean((run.errors_arcmin - simulated.noise_free_error_arcmin) ** 2)))
             tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"],
                       (simulated.noise_free_error_arcmin - mean, profile_std))
-    return [("default (auto), at the points", at), ("default (auto), between", between)]
+    return [("default (auto), at the points", at),
+            ("default (auto), at the points moved by U(0, 1) LSB", moved), ("default (auto), between", between)]
 
 
 #: The noise of the unrounded case, arc-minutes RMS: the simulator's floor, ``sqrt(0.30² + 1/12)`` LSB of 16 bits.

@@ -434,7 +434,7 @@ def test_bench_report_band_draws_each_encoders_own_noise(monkeypatch):
 
     def recording_run(encoder, angles_deg, rng=None, **options):
         probe = copy.deepcopy(rng) if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
-        runs.append((len(angles_deg), float(angles_deg[1]), probe.random()))
+        runs.append((len(angles_deg), round(float(angles_deg[1])), probe.random()))
         return real_run(encoder, angles_deg, rng=rng, **options)
 
     real_run = bench.calibration_run
