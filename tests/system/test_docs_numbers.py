@@ -446,3 +446,22 @@ def test_bench_report_band_draws_each_encoders_own_noise(monkeypatch):
         first, second = runs[:len(runs) // 2], runs[len(runs) // 2:]
         assert [run[:2] for run in first] == [run[:2] for run in second]  # the same runs, encoder by encoder
         assert all(a[2] != b[2] for a, b in zip(first, second))
+
+
+@pytest.mark.slow
+def test_the_report_band_table_is_what_bench_report_band_prints():
+    """band8: docs/uncertainty.md, "The report's 95 % band": the rows of the resolver on the table and of the
+    per-direction model, as bench_report_band.py prints them for 50 encoders (about 15 s CPU; the self-calibration's
+    rows, 70 s, are left to the benchmark)."""
+    cases = ["default", "unrounded", "unrounded-known", "directional"]
+    printed = [line.strip().strip("|").split("|") for line in _benchmark(
+        "bench_report_band.py", "--cases", *cases).splitlines() if line.startswith("| ") and "encoders" not in line]
+    shown = [row for row in _table_rows("uncertainty.md", "| case | points per encoder | inside ±1.96σ")
+             if not row[0].startswith("self-calibration")]
+
+    def numbers(cells):
+        return [float(value) for cell in cells for value in re.findall(r"\d+(?:\.\d+)?", cell)]
+
+    assert len(printed) == len(shown) == 11
+    for mine, page in zip(printed, shown):
+        assert numbers(mine[2:8]) == numbers(page[1:7]), page[0]
