@@ -6,12 +6,16 @@ model's 95 % band for a new reading", ``± 1.96 std(θ)`` with ``std`` from ``mo
 lies inside that band, at the calibration's own angles (fresh noise) and between them:
 
 - ``default``: a simulated resolver (``encal.simulate.draw_encoder(seed)``) calibrated on the table over
-  0:2:358 (``calibration_run``), new readings of a second run over 0:2:358 ("at the points") and of a run over
-  1:2:359 ("between"), both forward as the calibration;
+  0:2:358 (``calibration_run``), new readings of a second run over 0:2:358 ("at the points"), of a run over
+  those angles each moved by a random part of one LSB (0–0.33 arcmin: the same profile, another place in the
+  code) and of a run over 1:2:359 ("between"), all forward as the calibration;
 - ``directional``: the same encoders run forward over 0:2:358, one degree past the end and back (the
   converter's 1-LSB hysteresis makes the reversal): a per-direction model, new readings of a fresh run of the
   same kind over 0:2:358 and over 1:2:359, with the direction given to the model ("known") and without, as
   the report's verdict and figure evaluate it ("unknown");
+- ``unrounded``: the default case without the readings' rounding to 16-bit codes: each encoder's noise-free error
+  plus Gaussian noise of 0.138 arcmin RMS (the simulator's floor), which is the same at every angle;
+  ``unrounded-known`` the same with that noise given to the fit (``noise_arcmin``);
 - ``selfcal``: a magnetic encoder (``draw_magnetic_encoder(seed)``, 14 bits, 2 arcmin reading noise) spun on a
   simulated motor (``make_motor(rng=seed)``) at 1 and 3 rev/s, 20 revolutions each, self-calibrated by
   ``encal.selfcal.spin``; the model fitted to its calibration (360 points, its ``sigma_arcmin`` as the
@@ -20,15 +24,21 @@ lies inside that band, at the calibration's own angles (fresh noise) and between
   (the encoder read afresh at 2000 random rotor angles: with their noise and the 14-bit rounding). The truth's
   mean is removed: a spin cannot tell the reading's zero.
 
+Every run of every encoder draws its own noise (:func:`noise_rng`). After the default case, an HTML comment gives
+the spread over the angles of the rounded noise's standard deviation (:func:`angle_noise_spread`).
+
 Each row: encoders, points per encoder, the pooled share inside the band, the range and the 10th percentile of
 the per-encoder shares, the RMS of (new reading − prediction) over the RMS of the predicted ``std``
-(1 when the band is the right width for Gaussian residuals), and for the resolver on the table the RMS over
-the encoders of the new readings' noise (measured minus noise-free error) and of the model's ``σ_noise``. The
-binomial standard deviation of a pooled share of 95 % over ``n`` points is ``sqrt(0.95 · 0.05 / n)``, but the
-points of one encoder share its model's error, so the per-encoder range says more.
+(1 when the band is the right width for Gaussian residuals), the same for the profile alone (noise-free error −
+prediction over the ``std`` without the noise, ``include_noise=False``) where the benchmark knows it, and for the
+resolver on the table the RMS over the encoders of the new readings' noise (measured minus noise-free error) and
+of the model's ``σ_noise``. The binomial standard deviation of a pooled share of 95 % over ``n`` points is
+``sqrt(0.95 · 0.05 / n)``, but the points of one encoder share its model's error, so the per-encoder range says
+more.
 
 Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_report_band.py [--encoders 50] [--cases default
-      directional selfcal]      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
+      unrounded unrounded-known directional selfcal]
+      (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
 """
 
 import os
@@ -55,10 +65,12 @@ class Tally:
     def __init__(self):
         self.shares, self.points, self.residual_sq, self.std_sq = [], 0, 0.0, 0.0
         self.floors, self.noises = [], []
+        self.miss_sq = self.profile_sq = 0.0
 
-    def add(self, residual, std, floor=None, noise=None):
+    def add(self, residual, std, floor=None, noise=None, profile=None):
         """One encoder's residuals and predicted std (arcmin); ``floor`` the RMS of its new readings' noise (measured
-        minus noise-free error), ``noise`` the model's ``σ_noise``, when known."""
+        minus noise-free error), ``noise`` the model's ``σ_noise``, ``profile`` the pair (noise-free error minus
+        prediction, the profile's own std without the noise), when known."""
         self.shares.append(float(np.mean(np.abs(residual) <= Z95 * std)))
         self.points = residual.size
         self.residual_sq += float(np.sum(residual**2))
@@ -67,31 +79,98 @@ class Tally:
             self.floors.append(floor)
         if noise is not None:
             self.noises.append(noise)
+        if profile is not None:
+            self.miss_sq += float(np.sum(profile[0] ** 2))
+            self.profile_sq += float(np.sum(profile[1] ** 2))
 
     def row(self, label):
         shares = np.array(self.shares)
         return (f"| {label} | {shares.size} | {self.points} | {100 * shares.mean():.1f} % | "
                 f"{100 * shares.min():.1f}–{100 * shares.max():.1f} % | {100 * np.percentile(shares, 10):.1f} % | "
-                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} | {_rms(self.floors)} | {_rms(self.noises)} |")
+                f"{np.sqrt(self.residual_sq / self.std_sq):.2f} | "
+                f"{f'{np.sqrt(self.miss_sq / self.profile_sq):.2f}' if self.profile_sq else '–'} | "
+                f"{_rms(self.floors)} | {_rms(self.noises)} |")
 
 
 def _rms(values):
     return f"{np.sqrt(np.mean(np.square(values))):.3f}" if values else "–"
 
 
+def noise_rng(seed, run):
+    """The noise of run ``run`` (1 the calibration, 2 at the points, 3 between) of encoder ``seed``: its own draw.
+
+    One seed per run for every encoder (``rng=1``, ``2``, ``3``, until band8) gave all 50 encoders the same draws of
+    the table's and the converter's noise, so a row measured one noise realisation 50 times: the directional rows'
+    RMS residual / RMS σ read 1.04-1.05 that way, and 1.02 with a draw per encoder, as the default model's.
+    """
+    return np.random.default_rng([seed, run])
+
+
+#: One LSB of the simulated 16-bit converter, degrees.
+LSB_DEG = 360.0 / 2**16
+
+
 def default_case(seeds):
-    at, between = Tally(), Tally()
+    at, moved, between = Tally(), Tally(), Tally()
     for seed in seeds:
         encoder = draw_encoder(seed)
-        model = encal.fit(calibration_run(encoder, TRAINING_GRID_DEG, rng=1).calibration, method="auto", rng=seed,
-                          uncertainty=True)
-        for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (between, TEST_GRID_DEG, 3)):
-            simulated = calibration_run(encoder, grid, rng=rng)
+        model = encal.fit(calibration_run(encoder, TRAINING_GRID_DEG, rng=noise_rng(seed, 1)).calibration,
+                          method="auto", rng=seed, uncertainty=True)
+        # the calibration's angles, each moved by a random part of an LSB: another place in its code, the same profile
+        nudged = TRAINING_GRID_DEG + noise_rng(seed, 5).uniform(0.0, LSB_DEG, TRAINING_GRID_DEG.size)
+        for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (moved, nudged, 2), (between, TEST_GRID_DEG, 3)):
+            simulated = calibration_run(encoder, grid, rng=noise_rng(seed, rng))
             run = simulated.calibration
             mean, std = model.predict(run.encoder_deg, return_std=True)
+            profile_std = model.predict(run.encoder_deg, return_std=True, include_noise=False)[1]
             floor = float(np.sqrt(np.mean((run.errors_arcmin - simulated.noise_free_error_arcmin) ** 2)))
-            tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"])
-    return [("default (auto), at the points", at), ("default (auto), between", between)]
+            tally.add(run.errors_arcmin - mean, std, floor, model.uncertainty["noise_std_arcmin"],
+                      (simulated.noise_free_error_arcmin - mean, profile_std))
+    return [("default (auto), at the points", at),
+            ("default (auto), at the points moved by U(0, 1) LSB", moved), ("default (auto), between", between)]
+
+
+#: The noise of the unrounded case, arc-minutes RMS: the simulator's floor, ``sqrt(0.30² + 1/12)`` LSB of 16 bits.
+FLOOR_ARCMIN = 0.138
+
+
+def unrounded_case(seeds, noise_known=False):
+    """The default case's encoders and grids, their noise-free error plus Gaussian noise of the same size, unrounded.
+
+    What is left of the default case without the readings' rounding to whole codes: the noise of a reading is then
+    the same at every angle. Rounded, it is not: a reading's noise is ``floor(x + noise) - x`` in LSB, whose spread
+    depends on where ``x`` lies in its code, the same in every run at that angle (see :func:`angle_noise_spread`).
+    """
+    at, between = Tally(), Tally()
+    for seed in seeds:
+        encoder, draw = draw_encoder(seed), noise_rng(seed, 4)
+        truth = calibration_run(encoder, TRAINING_GRID_DEG, rng=noise_rng(seed, 1)).noise_free_error_arcmin
+        error = truth + draw.normal(0.0, FLOOR_ARCMIN, truth.size)
+        model = encal.fit(encal.Calibration(TRAINING_GRID_DEG, TRAINING_GRID_DEG + error / 60.0), method="auto",
+                          rng=seed, uncertainty=True, **({"noise_arcmin": FLOOR_ARCMIN} if noise_known else {}))
+        for tally, grid, rng in ((at, TRAINING_GRID_DEG, 2), (between, TEST_GRID_DEG, 3)):
+            truth = calibration_run(encoder, grid, rng=noise_rng(seed, rng)).noise_free_error_arcmin
+            error = truth + draw.normal(0.0, FLOOR_ARCMIN, truth.size)
+            mean, std = model.predict(grid + error / 60.0, return_std=True)
+            profile_std = model.predict(grid + error / 60.0, return_std=True, include_noise=False)[1]
+            tally.add(error - mean, std, profile=(truth - mean, profile_std))
+    label = "unrounded (Gaussian noise" + (", σ given to the fit)" if noise_known else ")")
+    return [(f"{label}, at the points", at), (f"{label}, between", between)]
+
+
+def unrounded_known_case(seeds):
+    """:func:`unrounded_case` with the noise's 0.138 arcmin given to the fit (``noise_arcmin``)."""
+    return unrounded_case(seeds, noise_known=True)
+
+
+def angle_noise_spread(seed=0, runs=200):
+    """Percentiles (0, 10, 50, 90, 100) of the standard deviation, over ``runs`` runs, of the noise (measured minus
+    noise-free error, arc-minutes) at each angle of the calibration's grid, for encoder ``seed``."""
+    encoder = draw_encoder(seed)
+    noise = np.array([simulated.calibration.errors_arcmin - simulated.noise_free_error_arcmin
+                      for simulated in (calibration_run(encoder, TRAINING_GRID_DEG, rng=noise_rng(seed, 10 + run))
+                                        for run in range(runs))])
+    return np.percentile(noise.std(axis=0), [0, 10, 50, 90, 100])
 
 
 def bidirectional_run(encoder, grid, rng):
@@ -108,10 +187,10 @@ def directional_case(seeds):
     tallies = {(where, known): Tally() for where in ("at the points", "between") for known in (True, False)}
     for seed in seeds:
         encoder = draw_encoder(seed)
-        model = encal.fit(bidirectional_run(encoder, TRAINING_GRID_DEG, 1), method="auto", rng=seed,
-                          uncertainty=True)
+        model = encal.fit(bidirectional_run(encoder, TRAINING_GRID_DEG, noise_rng(seed, 1)), method="auto",
+                          rng=seed, uncertainty=True)
         for where, grid, rng in (("at the points", TRAINING_GRID_DEG, 2), ("between", TEST_GRID_DEG, 3)):
-            run = bidirectional_run(encoder, grid, rng)
+            run = bidirectional_run(encoder, grid, noise_rng(seed, rng))
             for known in (True, False):
                 mean, std = model.predict(run.encoder_deg, direction=run.direction if known else None,
                                           return_std=True)
@@ -147,7 +226,8 @@ def selfcal_case(seeds):
             ("selfcal (spin), new readings (2 arcmin noise, 14 bits)", tallies["new readings"])]
 
 
-CASES = {"default": default_case, "directional": directional_case, "selfcal": selfcal_case}
+CASES = {"default": default_case, "unrounded": unrounded_case, "unrounded-known": unrounded_known_case,
+         "directional": directional_case, "selfcal": selfcal_case}
 
 
 def main():
@@ -157,13 +237,17 @@ def main():
     args = parser.parse_args()
     seeds = range(args.encoders)
     print("| case | encoders | points each | inside ±1.96σ (pooled) | per encoder | 10th percentile | "
-          "RMS residual / RMS σ | new readings' noise (RMS) | σ_noise (RMS) |")
-    print("|---|---:|---:|---:|---|---:|---:|---:|---:|")
+          "RMS residual / RMS σ | profile: RMS miss / RMS σ | new readings' noise (RMS) | σ_noise (RMS) |")
+    print("|---|---:|---:|---:|---|---:|---:|---:|---:|---:|")
     for case in args.cases:
         start = time.process_time()
         for label, tally in CASES[case](seeds):
             print(tally.row(label), flush=True)
         print(f"<!-- {case}: {time.process_time() - start:.0f} s CPU -->", flush=True)
+    if "default" in args.cases:
+        spread = ", ".join(f"{value:.3f}" for value in angle_noise_spread())
+        print(f"<!-- encoder 0, the noise's std at each angle of 0:2:358 over 200 runs, percentiles 0/10/50/90/100: "
+              f"{spread} arcmin -->")
 
 
 if __name__ == "__main__":
