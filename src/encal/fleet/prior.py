@@ -56,6 +56,11 @@ _SCALE_RANGE = 30.0
 #: lot's points is 1.89x its full calibration with 1, 2.12x with 2, which holds its order 48, about twice the
 #: variance of its alias, order 3).
 ALIAS_RATIO = 1.0
+#: Smallest spread of the log of a unit's scale in a fleet prior's hyperprior: units that all look alike in the fleet
+#: still leave a new unit's scale uncertain by this much (about the sampling spread of a scale from 60 orders).
+_MIN_LOG_SCALE_STD = 0.1
+#: Points of the grid over the log of a unit's scale that the posterior is averaged over.
+_SCALE_POINTS = 41
 #: Median absolute deviation to standard deviation, for a normal distribution.
 _MAD_TO_STD = 1.4826
 
@@ -102,6 +107,8 @@ class FleetPrior:
     variance_cos: np.ndarray | None = None
     variance_sin: np.ndarray | None = None
     covariance_cos_sin: np.ndarray | None = None
+    log_scale_mean: float | None = None
+    log_scale_std: float | None = None
 
     def blocks(self):
         """``(var_cos, var_sin, cov_cos_sin)``, each of shape (K,), arcmin²: the prior's 2x2 block at each order."""
@@ -119,7 +126,9 @@ class FleetPrior:
                 "mean_sin": [float(v) for v in self.mean_sin], "variance": [float(v) for v in self.variance],
                 "variance_cos": [float(v) for v in cos], "variance_sin": [float(v) for v in sin],
                 "covariance_cos_sin": [float(v) for v in cross],
-                "noise_std_arcmin": float(self.noise_std_arcmin), "units": int(self.units)}
+                "noise_std_arcmin": float(self.noise_std_arcmin), "units": int(self.units),
+                "log_scale_mean": None if self.log_scale_mean is None else float(self.log_scale_mean),
+                "log_scale_std": None if self.log_scale_std is None else float(self.log_scale_std)}
 
 
 def _robust_variance(values):
@@ -214,8 +223,24 @@ def _prior_of(coefficients, noises):
     var_cos, var_sin, cross = _robust_block(coefficients.real, coefficients.imag)
     known = noises[np.isfinite(noises)]
     noise = float(np.median(known)) if known.size else 0.1
+    log_scales = np.log(_unit_scales(coefficients, mean, var_cos, var_sin, cross))
+    centre = float(np.median(log_scales))
+    spread = max(_MAD_TO_STD * float(np.median(np.abs(log_scales - centre))), _MIN_LOG_SCALE_STD)
     return FleetPrior(np.arange(1, coefficients.shape[1] + 1), mean.real.copy(), mean.imag.copy(),
-                      0.5 * (var_cos + var_sin), max(noise, 1e-6), len(coefficients), var_cos, var_sin, cross)
+                      0.5 * (var_cos + var_sin), max(noise, 1e-6), len(coefficients), var_cos, var_sin, cross,
+                      centre, spread)
+
+
+def _unit_scales(coefficients, mean, var_cos, var_sin, cross):
+    """Each unit's scale of the fleet's spread: the mean over orders of its squared Mahalanobis distance per part.
+
+    The maximum-likelihood ``s`` of a unit's coefficients under the prior covariance ``s`` times the fleet's: 1 on
+    average for units of a Gaussian fleet, more where the fleet's tails are heavier than its robust spread says.
+    """
+    cos, sin = coefficients.real - mean.real, coefficients.imag - mean.imag
+    determinant = var_cos * var_sin - cross**2
+    distance = (var_sin * cos**2 - 2.0 * cross * cos * sin + var_cos * sin**2) / determinant
+    return np.maximum(np.mean(distance, axis=1) / 2.0, 1e-12)
 
 
 class StorePrior:
@@ -388,25 +413,40 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     precision, log_det = _prior_precision(var_cos, var_sin, cross)
     spread = 2 * orders.size  # coefficients whose prior the unit's scale multiplies (all but the flat offset)
 
-    # type-II maximum likelihood over the noise σ (unless known) and the unit's scale s of the fleet's spread
-    # (a unit may be louder or quieter than the fleet: its prior covariance is s times the fleet's)
+    # the noise σ by type-II maximum likelihood (unless known); the unit's scale s of the fleet's spread (a unit may be
+    # louder or quieter than the fleet: its prior covariance is s times the fleet's) drawn from the fleet's own
+    # spread of scales (its hyperprior) and averaged over: a quarter turn pins s down poorly, and its single best
+    # value shrank the band where the data say nothing
     def posterior(log_sigma, log_scale):
         scaled = precision * math.exp(-log_scale)
         scaled[0, 0] = precision[0, 0]
         return _posterior(gram, projected, residual_square, error.size, scaled, log_det + spread * log_scale,
                           math.exp(2 * log_sigma))
 
+    if prior.log_scale_mean is None:
+        scale_low, scale_high = -math.log(_SCALE_RANGE), math.log(_SCALE_RANGE)
+
+        def hyperprior(log_scale):
+            return 0.0
+    else:
+        centre, width = float(prior.log_scale_mean), float(prior.log_scale_std)
+        scale_low = max(centre - 4.0 * width, -math.log(_SCALE_RANGE))
+        scale_high = min(centre + 4.0 * width, math.log(_SCALE_RANGE))
+
+        def hyperprior(log_scale):
+            return -0.5 * ((log_scale - centre) / width) ** 2
+
     def evidence(log_sigma, log_scale):
-        return posterior(log_sigma, log_scale)[2]
+        return posterior(log_sigma, log_scale)[2] + hyperprior(log_scale)
 
     if noise_arcmin is not None:
         sigmas = np.array([math.log(float(noise_arcmin))])
         source = "supplied"
     else:
-        centre = math.log(prior.noise_std_arcmin)
-        sigmas = centre + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 21)
+        centre_sigma = math.log(prior.noise_std_arcmin)
+        sigmas = centre_sigma + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 21)
         source = "marginal likelihood under the fleet prior"
-    scales = np.linspace(-math.log(_SCALE_RANGE), math.log(_SCALE_RANGE), 13)
+    scales = np.linspace(scale_low, scale_high, 13) if scale_high > scale_low else np.array([scale_low])
     values = np.array([[evidence(g, c) for c in scales] for g in sigmas])
     best_sigma, best_scale = np.unravel_index(int(np.argmax(values)), values.shape)
     log_sigma, log_scale = float(sigmas[best_sigma]), float(scales[best_scale])
@@ -414,10 +454,26 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         if sigmas.size > 1:
             log_sigma = _golden(lambda g: evidence(g, log_scale), log_sigma - (sigmas[1] - sigmas[0]),
                                 log_sigma + (sigmas[1] - sigmas[0]))
-        log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
-                            log_scale + (scales[1] - scales[0]))
+        if scales.size > 1:
+            log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
+                                log_scale + (scales[1] - scales[0]))
     noise_var = math.exp(2 * log_sigma)
-    shift, cholesky, log_evidence = posterior(log_sigma, log_scale)
+    # the posterior averaged over the scale (its weights: evidence times hyperprior, on a grid)
+    grid = _design(np.arange(360) * 1.0, orders)
+    averaged = np.linspace(scale_low, scale_high, _SCALE_POINTS) if scale_high > scale_low else np.array([scale_low])
+    weights = np.array([evidence(log_sigma, c) for c in averaged])
+    weights = np.exp(weights - weights.max())
+    weights /= weights.sum()
+    shift, second, log_evidence = np.zeros(prior_mean.size), np.zeros(grid.shape[0]), posterior(log_sigma,
+                                                                                               log_scale)[2]
+    for weight, value in zip(weights, averaged):
+        if weight < 1e-6:
+            continue
+        shift_at, cholesky, _ = posterior(log_sigma, value)
+        at_grid = grid @ shift_at
+        shift += weight * shift_at
+        second += weight * (np.sum(np.linalg.solve(cholesky, grid.T) ** 2, axis=0) + at_grid**2)
+    variance = np.maximum(second - (grid @ shift) ** 2, 0.0)  # the law of total variance over the scale
     mean = prior_mean + shift
     all_orders = np.r_[0, orders]
     cos = np.r_[mean[0], mean[1:orders.size + 1]]
@@ -433,10 +489,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         "stops": int(np.unique(np.round(theta, 9)).size),
     }
     model = SpectralModel(all_orders, cos, sin, training=training)
-    points = 360
-    grid = _design(np.arange(points) * (360.0 / points), orders)
-    variance = np.sum(np.linalg.solve(cholesky, grid.T) ** 2, axis=0)  # g A^-1 g' at each angle, A = L L'
-    model.uncertainty = {"method": "posterior", "grid_step_deg": 360.0 / points,
+    model.uncertainty = {"method": "posterior", "grid_step_deg": 1.0,
                          "model_std_arcmin": [float(v) for v in np.sqrt(variance)],
                          "noise_std_arcmin": math.sqrt(noise_var)}
     return model
