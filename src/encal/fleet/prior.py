@@ -236,11 +236,16 @@ def _unit_scales(coefficients, mean, var_cos, var_sin, cross):
 
     The maximum-likelihood ``s`` of a unit's coefficients under the prior covariance ``s`` times the fleet's: 1 on
     average for units of a Gaussian fleet, more where the fleet's tails are heavier than its robust spread says.
+    Orders where the fleet does not spread (at :data:`_MIN_VARIANCE`) say nothing of a unit's loudness and are left
+    out; with none left every scale is 1.
     """
+    spreads = (var_cos > _MIN_VARIANCE) | (var_sin > _MIN_VARIANCE)
+    if not np.any(spreads):
+        return np.ones(coefficients.shape[0])
     cos, sin = coefficients.real - mean.real, coefficients.imag - mean.imag
     determinant = var_cos * var_sin - cross**2
     distance = (var_sin * cos**2 - 2.0 * cross * cos * sin + var_cos * sin**2) / determinant
-    return np.maximum(np.mean(distance, axis=1) / 2.0, 1e-12)
+    return np.maximum(np.mean(distance[:, spreads], axis=1) / 2.0, 1e-12)
 
 
 class StorePrior:
@@ -369,6 +374,26 @@ def _held_orders(theta_deg, orders, variance):
     return held
 
 
+def _held_variance(grid, gram, cholesky, noise_var, held, blocks, scale):
+    """Variance (arcmin², at each row of ``grid``) of the error that the orders held at the fleet's mean leave.
+
+    A held order is not fitted, but the unit's own coefficients there depart from the fleet's mean by its spread
+    (``blocks``, the prior's 2x2 blocks of the held orders, times the unit's ``scale``); those departures reach the
+    fit through the orders they alias onto, and the model's error between the stops is the linear map
+    ``grid A⁻¹ X'X_held / σ² - grid_held`` of them (``A = L L'`` the posterior precision). Without it the band
+    claimed the posterior of orders that take, at the stops, harmonics they do not have between them.
+    """
+    if not np.any(held):
+        return 0.0
+    count = held.size
+    columns = np.r_[1 + np.flatnonzero(held), 1 + count + np.flatnonzero(held)]
+    reach = np.linalg.solve(cholesky.T, np.linalg.solve(cholesky, gram[:, columns])) / noise_var
+    effect = grid @ reach - grid[:, columns]  # (points, 2H): cos parts, then sin parts
+    var_cos, var_sin, cross = (scale * np.asarray(b, dtype=float) for b in blocks)
+    first, other = effect[:, :var_cos.size], effect[:, var_cos.size:]
+    return np.sum(first**2 * var_cos + 2.0 * first * other * cross + other**2 * var_sin, axis=1)
+
+
 @single_blas_thread
 def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     """Fit one unit under a fleet prior: the posterior mean of its coefficients.
@@ -404,6 +429,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     orders = np.asarray(prior.orders)
     var_cos, var_sin, cross = prior.blocks()
     held = _held_orders(theta, orders, 0.5 * (var_cos + var_sin))
+    held_blocks = var_cos[held], var_sin[held], cross[held]
     var_cos, var_sin = np.where(held, _MIN_VARIANCE, var_cos), np.where(held, _MIN_VARIANCE, var_sin)
     cross = np.where(held, 0.0, cross)
     design = _design(theta, orders)
@@ -472,7 +498,8 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         shift_at, cholesky, _ = posterior(log_sigma, value)
         at_grid = grid @ shift_at
         shift += weight * shift_at
-        second += weight * (np.sum(np.linalg.solve(cholesky, grid.T) ** 2, axis=0) + at_grid**2)
+        second += weight * (np.sum(np.linalg.solve(cholesky, grid.T) ** 2, axis=0) + at_grid**2
+                            + _held_variance(grid, gram, cholesky, noise_var, held, held_blocks, math.exp(value)))
     variance = np.maximum(second - (grid @ shift) ** 2, 0.0)  # the law of total variance over the scale
     mean = prior_mean + shift
     all_orders = np.r_[0, orders]
