@@ -59,8 +59,11 @@ ALIAS_RATIO = 1.0
 #: Smallest spread of the log of a unit's scale in a fleet prior's hyperprior: units that all look alike in the fleet
 #: still leave a new unit's scale uncertain by this much (about the sampling spread of a scale from 60 orders).
 _MIN_LOG_SCALE_STD = 0.1
-#: Points of the grid over the log of a unit's scale that the posterior is averaged over.
-_SCALE_POINTS = 41
+#: Points of the grid over the log of a unit's scale (from 1/_SCALE_RANGE to _SCALE_RANGE) that the posterior is
+#: averaged over: 0.057 apart.
+_SCALE_POINTS = 121
+#: Degrees of freedom of the Student's t hyperprior on the log of a unit's scale.
+_SCALE_DOF = 3.0
 #: Median absolute deviation to standard deviation, for a normal distribution.
 _MAD_TO_STD = 1.4826
 
@@ -449,18 +452,13 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         return _posterior(gram, projected, residual_square, error.size, scaled, log_det + spread * log_scale,
                           math.exp(2 * log_sigma))
 
-    if prior.log_scale_mean is None:
-        scale_low, scale_high = -math.log(_SCALE_RANGE), math.log(_SCALE_RANGE)
+    scale_low, scale_high = -math.log(_SCALE_RANGE), math.log(_SCALE_RANGE)
 
-        def hyperprior(log_scale):
+    def hyperprior(log_scale):  # Student's t on the log scale: a unit far louder than the fleet is fitted as loud
+        if prior.log_scale_mean is None:
             return 0.0
-    else:
-        centre, width = float(prior.log_scale_mean), float(prior.log_scale_std)
-        scale_low = max(centre - 4.0 * width, -math.log(_SCALE_RANGE))
-        scale_high = min(centre + 4.0 * width, math.log(_SCALE_RANGE))
-
-        def hyperprior(log_scale):
-            return -0.5 * ((log_scale - centre) / width) ** 2
+        standard = (log_scale - float(prior.log_scale_mean)) / float(prior.log_scale_std)
+        return -0.5 * (_SCALE_DOF + 1.0) * math.log1p(standard**2 / _SCALE_DOF)
 
     def evidence(log_sigma, log_scale):
         return posterior(log_sigma, log_scale)[2] + hyperprior(log_scale)
@@ -472,7 +470,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         centre_sigma = math.log(prior.noise_std_arcmin)
         sigmas = centre_sigma + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 21)
         source = "marginal likelihood under the fleet prior"
-    scales = np.linspace(scale_low, scale_high, 13) if scale_high > scale_low else np.array([scale_low])
+    scales = np.linspace(scale_low, scale_high, 13)
     values = np.array([[evidence(g, c) for c in scales] for g in sigmas])
     best_sigma, best_scale = np.unravel_index(int(np.argmax(values)), values.shape)
     log_sigma, log_scale = float(sigmas[best_sigma]), float(scales[best_scale])
@@ -480,18 +478,17 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         if sigmas.size > 1:
             log_sigma = _golden(lambda g: evidence(g, log_scale), log_sigma - (sigmas[1] - sigmas[0]),
                                 log_sigma + (sigmas[1] - sigmas[0]))
-        if scales.size > 1:
-            log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
-                                log_scale + (scales[1] - scales[0]))
+        log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
+                            log_scale + (scales[1] - scales[0]))
     noise_var = math.exp(2 * log_sigma)
     # the posterior averaged over the scale (its weights: evidence times hyperprior, on a grid)
     grid = _design(np.arange(360) * 1.0, orders)
-    averaged = np.linspace(scale_low, scale_high, _SCALE_POINTS) if scale_high > scale_low else np.array([scale_low])
+    averaged = np.linspace(scale_low, scale_high, _SCALE_POINTS)
     weights = np.array([evidence(log_sigma, c) for c in averaged])
     weights = np.exp(weights - weights.max())
     weights /= weights.sum()
-    shift, second, log_evidence = np.zeros(prior_mean.size), np.zeros(grid.shape[0]), posterior(log_sigma,
-                                                                                               log_scale)[2]
+    shift, second = np.zeros(prior_mean.size), np.zeros(grid.shape[0])
+    log_evidence = posterior(log_sigma, log_scale)[2]
     for weight, value in zip(weights, averaged):
         if weight < 1e-6:
             continue
