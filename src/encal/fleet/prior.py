@@ -11,14 +11,18 @@ kind is then the fleet's mean profile plus what its own readings show, and a few
 partial sweep, suffice where the unit alone needs a full turn.
 
 :func:`fit_with_prior` is the posterior of a new unit under the fleet prior (Gaussian linear
-regression, closed form), the noise ``σ`` and a scale of the fleet's spread for this unit chosen by
-their marginal likelihood (type-II maximum likelihood, as the spectral model chooses its own), the
-zero offset under a flat prior (a motor's zero is arbitrary). It returns a
+regression, closed form), the noise ``σ`` chosen by its marginal likelihood (type-II maximum likelihood, as the
+spectral model chooses its own), the zero offset under a flat prior (a motor's zero is arbitrary). A unit may be
+louder or quieter than the fleet: its prior covariance is a scale ``s`` times the fleet's, ``s`` drawn from how
+loud the fleet's own units are against the fleet's robust spread (a heavy-tailed hyperprior learned with the
+prior) and averaged over, so that the posterior standard deviation, and the held-out estimate a unit is graded by,
+hold what a partial calibration leaves unknown of ``s``. It returns a
 :class:`~encal.models.spectral.SpectralModel`: the same model file, the same posterior standard deviation,
 read and evaluated as every spectral model is.
 
-``benchmarks/bench_fleet_prior.py`` measures it leave-one-out on the 60 real Mechaduino boards and on
-simulated lots (docs/production.md, "A fleet prior").
+``benchmarks/bench_fleet_prior.py`` measures its accuracy leave-one-out on the 60 real Mechaduino boards and on
+simulated lots, ``benchmarks/bench_fleet_prior_claim.py`` what its units claim against their truth
+(docs/production.md, "A fleet prior").
 """
 
 import math
@@ -414,8 +418,10 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     Returns
     -------
     SpectralModel
-        With its posterior standard deviation (``uncertainty``) and ``training['prior']`` saying it is
-        the fleet's.
+        With its posterior standard deviation (``uncertainty``: averaged over the unit's scale of the fleet's
+        spread, and holding what the orders held at the fleet's mean leave between the stops) and
+        ``training['prior']`` saying it is the fleet's; ``training['fleet_prior']['spread_scale']`` is the scale's
+        most probable value.
 
     Raises
     ------
