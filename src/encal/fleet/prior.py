@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from .._core.errors import InputError
 from .._core.threads import single_blas_thread
@@ -343,8 +344,8 @@ def _posterior(gram, projected, residual_square, n, prior_precision, prior_log_d
     """
     precision = prior_precision + gram / noise_var
     cholesky = np.linalg.cholesky(precision)
-    solved = np.linalg.solve(cholesky, projected / noise_var)
-    shift = np.linalg.solve(cholesky.T, solved)
+    solved = solve_triangular(cholesky, projected / noise_var, lower=True)
+    shift = solve_triangular(cholesky, solved, lower=True, trans="T")
     log_det = 2.0 * np.sum(np.log(np.diag(cholesky))) + prior_log_det + n * math.log(noise_var)
     quadratic = residual_square / noise_var - solved @ solved
     log_evidence = -0.5 * (quadratic + log_det + n * math.log(2.0 * math.pi))
@@ -394,7 +395,8 @@ def _held_variance(grid, gram, cholesky, noise_var, held, blocks, scale):
         return 0.0
     count = held.size
     columns = np.r_[1 + np.flatnonzero(held), 1 + count + np.flatnonzero(held)]
-    reach = np.linalg.solve(cholesky.T, np.linalg.solve(cholesky, gram[:, columns])) / noise_var
+    reach = solve_triangular(cholesky, solve_triangular(cholesky, gram[:, columns], lower=True), lower=True,
+                             trans="T") / noise_var
     effect = grid @ reach - grid[:, columns]  # (points, 2H): cos parts, then sin parts
     var_cos, var_sin, cross = (scale * np.asarray(b, dtype=float) for b in blocks)
     first, other = effect[:, :var_cos.size], effect[:, var_cos.size:]
@@ -501,7 +503,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         shift_at, cholesky, _ = posterior(log_sigma, value)
         at_grid = grid @ shift_at
         shift += weight * shift_at
-        second += weight * (np.sum(np.linalg.solve(cholesky, grid.T) ** 2, axis=0) + at_grid**2
+        second += weight * (np.sum(solve_triangular(cholesky, grid.T, lower=True) ** 2, axis=0) + at_grid**2
                             + _held_variance(grid, gram, cholesky, noise_var, held, held_blocks, math.exp(value)))
     variance = np.maximum(second - (grid @ shift) ** 2, 0.0)  # the law of total variance over the scale
     mean = prior_mean + shift
