@@ -200,8 +200,8 @@ def _learns(model):
     A unit fitted under the prior (a quarter turn) is drawn to the fleet's mean by it: learned from again, it narrows
     the fleet's spread, and every later unit's held-out estimate (what it is graded by) claims too little. A store of
     20 units calibrated in full and 40 fitted from a quarter turn under their prior halved the variance of orders 1
-    and 2; 20 new units' median held-out estimate under it was 1.12 arcmin, their true error 1.66 (1.70 and 1.54
-    under the prior of the 20 alone).
+    and 2; 20 new units' median held-out estimate under it was 1.20 arcmin, their true error 1.68 (1.91 and 1.53
+    under the prior of the 20 alone; ``benchmarks/bench_fleet_prior_feedback.py``).
     """
     return model.range_deg is None and not (getattr(model, "training", None) or {}).get("fleet_prior")
 
