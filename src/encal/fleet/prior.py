@@ -11,20 +11,25 @@ kind is then the fleet's mean profile plus what its own readings show, and a few
 partial sweep, suffice where the unit alone needs a full turn.
 
 :func:`fit_with_prior` is the posterior of a new unit under the fleet prior (Gaussian linear
-regression, closed form), the noise ``σ`` and a scale of the fleet's spread for this unit chosen by
-their marginal likelihood (type-II maximum likelihood, as the spectral model chooses its own), the
-zero offset under a flat prior (a motor's zero is arbitrary). It returns a
+regression, closed form), the noise ``σ`` chosen by its marginal likelihood (type-II maximum likelihood, as the
+spectral model chooses its own), the zero offset under a flat prior (a motor's zero is arbitrary). A unit may be
+louder or quieter than the fleet: its prior covariance is a scale ``s`` times the fleet's, ``s`` drawn from how
+loud the fleet's own units are against the fleet's robust spread (a heavy-tailed hyperprior learned with the
+prior) and averaged over, so that the posterior standard deviation, and the held-out estimate a unit is graded by,
+hold what a partial calibration leaves unknown of ``s``. It returns a
 :class:`~encal.models.spectral.SpectralModel`: the same model file, the same posterior standard deviation,
 read and evaluated as every spectral model is.
 
-``benchmarks/bench_fleet_prior.py`` measures it leave-one-out on the 60 real Mechaduino boards and on
-simulated lots (docs/production.md, "A fleet prior").
+``benchmarks/bench_fleet_prior.py`` measures its accuracy leave-one-out on the 60 real Mechaduino boards and on
+simulated lots, ``benchmarks/bench_fleet_prior_claim.py`` what its units claim against their truth
+(docs/production.md, "A fleet prior").
 """
 
 import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import solve_triangular
 
 from .._core.errors import InputError
 from .._core.threads import single_blas_thread
@@ -56,6 +61,14 @@ _SCALE_RANGE = 30.0
 #: lot's points is 1.89x its full calibration with 1, 2.12x with 2, which holds its order 48, about twice the
 #: variance of its alias, order 3).
 ALIAS_RATIO = 1.0
+#: Smallest spread of the log of a unit's scale in a fleet prior's hyperprior: units that all look alike in the fleet
+#: still leave a new unit's scale uncertain by this much (about the sampling spread of a scale from 60 orders).
+_MIN_LOG_SCALE_STD = 0.1
+#: Points of the grid over the log of a unit's scale (from 1/_SCALE_RANGE to _SCALE_RANGE) that the posterior is
+#: averaged over: 0.057 apart.
+_SCALE_POINTS = 121
+#: Degrees of freedom of the Student's t hyperprior on the log of a unit's scale.
+_SCALE_DOF = 3.0
 #: Median absolute deviation to standard deviation, for a normal distribution.
 _MAD_TO_STD = 1.4826
 
@@ -102,6 +115,8 @@ class FleetPrior:
     variance_cos: np.ndarray | None = None
     variance_sin: np.ndarray | None = None
     covariance_cos_sin: np.ndarray | None = None
+    log_scale_mean: float | None = None
+    log_scale_std: float | None = None
 
     def blocks(self):
         """``(var_cos, var_sin, cov_cos_sin)``, each of shape (K,), arcmin²: the prior's 2x2 block at each order."""
@@ -119,7 +134,9 @@ class FleetPrior:
                 "mean_sin": [float(v) for v in self.mean_sin], "variance": [float(v) for v in self.variance],
                 "variance_cos": [float(v) for v in cos], "variance_sin": [float(v) for v in sin],
                 "covariance_cos_sin": [float(v) for v in cross],
-                "noise_std_arcmin": float(self.noise_std_arcmin), "units": int(self.units)}
+                "noise_std_arcmin": float(self.noise_std_arcmin), "units": int(self.units),
+                "log_scale_mean": None if self.log_scale_mean is None else float(self.log_scale_mean),
+                "log_scale_std": None if self.log_scale_std is None else float(self.log_scale_std)}
 
 
 def _robust_variance(values):
@@ -183,8 +200,8 @@ def _learns(model):
     A unit fitted under the prior (a quarter turn) is drawn to the fleet's mean by it: learned from again, it narrows
     the fleet's spread, and every later unit's held-out estimate (what it is graded by) claims too little. A store of
     20 units calibrated in full and 40 fitted from a quarter turn under their prior halved the variance of orders 1
-    and 2; 20 new units' median held-out estimate under it was 1.12 arcmin, their true error 1.66 (1.70 and 1.54
-    under the prior of the 20 alone).
+    and 2; 20 new units' median held-out estimate under it was 1.20 arcmin, their true error 1.68 (1.91 and 1.53
+    under the prior of the 20 alone; ``benchmarks/bench_fleet_prior_feedback.py``).
     """
     return model.range_deg is None and not (getattr(model, "training", None) or {}).get("fleet_prior")
 
@@ -214,8 +231,29 @@ def _prior_of(coefficients, noises):
     var_cos, var_sin, cross = _robust_block(coefficients.real, coefficients.imag)
     known = noises[np.isfinite(noises)]
     noise = float(np.median(known)) if known.size else 0.1
+    log_scales = np.log(_unit_scales(coefficients, mean, var_cos, var_sin, cross))
+    centre = float(np.median(log_scales))
+    spread = max(_MAD_TO_STD * float(np.median(np.abs(log_scales - centre))), _MIN_LOG_SCALE_STD)
     return FleetPrior(np.arange(1, coefficients.shape[1] + 1), mean.real.copy(), mean.imag.copy(),
-                      0.5 * (var_cos + var_sin), max(noise, 1e-6), len(coefficients), var_cos, var_sin, cross)
+                      0.5 * (var_cos + var_sin), max(noise, 1e-6), len(coefficients), var_cos, var_sin, cross,
+                      centre, spread)
+
+
+def _unit_scales(coefficients, mean, var_cos, var_sin, cross):
+    """Each unit's scale of the fleet's spread: the mean over orders of its squared Mahalanobis distance per part.
+
+    The maximum-likelihood ``s`` of a unit's coefficients under the prior covariance ``s`` times the fleet's: 1 on
+    average for units of a Gaussian fleet, more where the fleet's tails are heavier than its robust spread says.
+    Orders where the fleet does not spread (at :data:`_MIN_VARIANCE`) say nothing of a unit's loudness and are left
+    out; with none left every scale is 1.
+    """
+    spreads = (var_cos > _MIN_VARIANCE) | (var_sin > _MIN_VARIANCE)
+    if not np.any(spreads):
+        return np.ones(coefficients.shape[0])
+    cos, sin = coefficients.real - mean.real, coefficients.imag - mean.imag
+    determinant = var_cos * var_sin - cross**2
+    distance = (var_sin * cos**2 - 2.0 * cross * cos * sin + var_cos * sin**2) / determinant
+    return np.maximum(np.mean(distance[:, spreads], axis=1) / 2.0, 1e-12)
 
 
 class StorePrior:
@@ -306,8 +344,8 @@ def _posterior(gram, projected, residual_square, n, prior_precision, prior_log_d
     """
     precision = prior_precision + gram / noise_var
     cholesky = np.linalg.cholesky(precision)
-    solved = np.linalg.solve(cholesky, projected / noise_var)
-    shift = np.linalg.solve(cholesky.T, solved)
+    solved = solve_triangular(cholesky, projected / noise_var, lower=True)
+    shift = solve_triangular(cholesky, solved, lower=True, trans="T")
     log_det = 2.0 * np.sum(np.log(np.diag(cholesky))) + prior_log_det + n * math.log(noise_var)
     quadratic = residual_square / noise_var - solved @ solved
     log_evidence = -0.5 * (quadratic + log_det + n * math.log(2.0 * math.pi))
@@ -344,6 +382,27 @@ def _held_orders(theta_deg, orders, variance):
     return held
 
 
+def _held_variance(grid, gram, cholesky, noise_var, held, blocks, scale):
+    """Variance (arcmin², at each row of ``grid``) of the error that the orders held at the fleet's mean leave.
+
+    A held order is not fitted, but the unit's own coefficients there depart from the fleet's mean by its spread
+    (``blocks``, the prior's 2x2 blocks of the held orders, times the unit's ``scale``); those departures reach the
+    fit through the orders they alias onto, and the model's error between the stops is the linear map
+    ``grid A⁻¹ X'X_held / σ² - grid_held`` of them (``A = L L'`` the posterior precision). Without it the band
+    claimed the posterior of orders that take, at the stops, harmonics they do not have between them.
+    """
+    if not np.any(held):
+        return 0.0
+    count = held.size
+    columns = np.r_[1 + np.flatnonzero(held), 1 + count + np.flatnonzero(held)]
+    reach = solve_triangular(cholesky, solve_triangular(cholesky, gram[:, columns], lower=True), lower=True,
+                             trans="T") / noise_var
+    effect = grid @ reach - grid[:, columns]  # (points, 2H): cos parts, then sin parts
+    var_cos, var_sin, cross = (scale * np.asarray(b, dtype=float) for b in blocks)
+    first, other = effect[:, :var_cos.size], effect[:, var_cos.size:]
+    return np.sum(first**2 * var_cos + 2.0 * first * other * cross + other**2 * var_sin, axis=1)
+
+
 @single_blas_thread
 def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     """Fit one unit under a fleet prior: the posterior mean of its coefficients.
@@ -361,8 +420,10 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     Returns
     -------
     SpectralModel
-        With its posterior standard deviation (``uncertainty``) and ``training['prior']`` saying it is
-        the fleet's.
+        With its posterior standard deviation (``uncertainty``: averaged over the unit's scale of the fleet's
+        spread, and holding what the orders held at the fleet's mean leave between the stops) and
+        ``training['prior']`` saying it is the fleet's; ``training['fleet_prior']['spread_scale']`` is the scale's
+        most probable value.
 
     Raises
     ------
@@ -379,6 +440,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     orders = np.asarray(prior.orders)
     var_cos, var_sin, cross = prior.blocks()
     held = _held_orders(theta, orders, 0.5 * (var_cos + var_sin))
+    held_blocks = var_cos[held], var_sin[held], cross[held]
     var_cos, var_sin = np.where(held, _MIN_VARIANCE, var_cos), np.where(held, _MIN_VARIANCE, var_sin)
     cross = np.where(held, 0.0, cross)
     design = _design(theta, orders)
@@ -388,25 +450,35 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     precision, log_det = _prior_precision(var_cos, var_sin, cross)
     spread = 2 * orders.size  # coefficients whose prior the unit's scale multiplies (all but the flat offset)
 
-    # type-II maximum likelihood over the noise σ (unless known) and the unit's scale s of the fleet's spread
-    # (a unit may be louder or quieter than the fleet: its prior covariance is s times the fleet's)
+    # the noise σ by type-II maximum likelihood (unless known); the unit's scale s of the fleet's spread (a unit may be
+    # louder or quieter than the fleet: its prior covariance is s times the fleet's) drawn from the fleet's own
+    # spread of scales (its hyperprior) and averaged over: a quarter turn pins s down poorly, and its single best
+    # value shrank the band where the data say nothing
     def posterior(log_sigma, log_scale):
         scaled = precision * math.exp(-log_scale)
         scaled[0, 0] = precision[0, 0]
         return _posterior(gram, projected, residual_square, error.size, scaled, log_det + spread * log_scale,
                           math.exp(2 * log_sigma))
 
+    scale_low, scale_high = -math.log(_SCALE_RANGE), math.log(_SCALE_RANGE)
+
+    def hyperprior(log_scale):  # Student's t on the log scale: a unit far louder than the fleet is fitted as loud
+        if prior.log_scale_mean is None:
+            return 0.0
+        standard = (log_scale - float(prior.log_scale_mean)) / float(prior.log_scale_std)
+        return -0.5 * (_SCALE_DOF + 1.0) * math.log1p(standard**2 / _SCALE_DOF)
+
     def evidence(log_sigma, log_scale):
-        return posterior(log_sigma, log_scale)[2]
+        return posterior(log_sigma, log_scale)[2] + hyperprior(log_scale)
 
     if noise_arcmin is not None:
         sigmas = np.array([math.log(float(noise_arcmin))])
         source = "supplied"
     else:
-        centre = math.log(prior.noise_std_arcmin)
-        sigmas = centre + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 21)
+        centre_sigma = math.log(prior.noise_std_arcmin)
+        sigmas = centre_sigma + np.linspace(-math.log(_NOISE_RANGE), math.log(_NOISE_RANGE), 21)
         source = "marginal likelihood under the fleet prior"
-    scales = np.linspace(-math.log(_SCALE_RANGE), math.log(_SCALE_RANGE), 13)
+    scales = np.linspace(scale_low, scale_high, 13)
     values = np.array([[evidence(g, c) for c in scales] for g in sigmas])
     best_sigma, best_scale = np.unravel_index(int(np.argmax(values)), values.shape)
     log_sigma, log_scale = float(sigmas[best_sigma]), float(scales[best_scale])
@@ -417,7 +489,23 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
                             log_scale + (scales[1] - scales[0]))
     noise_var = math.exp(2 * log_sigma)
-    shift, cholesky, log_evidence = posterior(log_sigma, log_scale)
+    # the posterior averaged over the scale (its weights: evidence times hyperprior, on a grid)
+    grid = _design(np.arange(360) * 1.0, orders)
+    averaged = np.linspace(scale_low, scale_high, _SCALE_POINTS)
+    weights = np.array([evidence(log_sigma, c) for c in averaged])
+    weights = np.exp(weights - weights.max())
+    weights /= weights.sum()
+    shift, second = np.zeros(prior_mean.size), np.zeros(grid.shape[0])
+    log_evidence = posterior(log_sigma, log_scale)[2]
+    for weight, value in zip(weights, averaged):
+        if weight < 1e-6:
+            continue
+        shift_at, cholesky, _ = posterior(log_sigma, value)
+        at_grid = grid @ shift_at
+        shift += weight * shift_at
+        second += weight * (np.sum(solve_triangular(cholesky, grid.T, lower=True) ** 2, axis=0) + at_grid**2
+                            + _held_variance(grid, gram, cholesky, noise_var, held, held_blocks, math.exp(value)))
+    variance = np.maximum(second - (grid @ shift) ** 2, 0.0)  # the law of total variance over the scale
     mean = prior_mean + shift
     all_orders = np.r_[0, orders]
     cos = np.r_[mean[0], mean[1:orders.size + 1]]
@@ -433,10 +521,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         "stops": int(np.unique(np.round(theta, 9)).size),
     }
     model = SpectralModel(all_orders, cos, sin, training=training)
-    points = 360
-    grid = _design(np.arange(points) * (360.0 / points), orders)
-    variance = np.sum(np.linalg.solve(cholesky, grid.T) ** 2, axis=0)  # g A^-1 g' at each angle, A = L L'
-    model.uncertainty = {"method": "posterior", "grid_step_deg": 360.0 / points,
+    model.uncertainty = {"method": "posterior", "grid_step_deg": 1.0,
                          "model_std_arcmin": [float(v) for v in np.sqrt(variance)],
                          "noise_std_arcmin": math.sqrt(noise_var)}
     return model
