@@ -70,6 +70,17 @@ def _real_units():
     return []
 
 
+def real_boards(limit):
+    """``(units, full)`` of the first ``limit`` real boards: each a dict of its encoder angles (``theta``), errors
+    (``y``) and reference angles, and its spectral fit of every stop; None when the data set is not here (said)."""
+    calibrations = _real_units()[:limit]
+    if not calibrations:
+        print("\n(real boards: the Mechaduino data set is not here; left out)")
+        return None
+    units = [{"theta": c.encoder_deg, "y": c.errors_arcmin, "reference": c.reference_deg} for c in calibrations]
+    return units, [fit_spectral(u["theta"], u["y"]) for u in units]
+
+
 def _fourier_design(theta_deg, orders):
     angles = np.radians(np.asarray(theta_deg, dtype=float))[:, None] * np.arange(1, orders + 1)
     return np.hstack([np.cos(angles), np.sin(angles)])
@@ -186,12 +197,9 @@ def main():
                _leave_one_out(units, full, against_truth, truth), "full calibration")
         _print_what_bounds(truth, float(np.median([u["sigma"] for u in units])) ** 2)
     if args.real:
-        calibrations = _real_units()[:args.real]
-        if not calibrations:
-            print("\n(real boards: the Mechaduino data set is not here; left out)")
-        else:
-            units = [{"theta": c.encoder_deg, "y": c.errors_arcmin, "reference": c.reference_deg} for c in calibrations]
-            full = [fit_spectral(u["theta"], u["y"]) for u in units]
+        boards = real_boards(args.real)
+        if boards is not None:
+            units, full = boards
 
             def against_readings(index, predict, left_out):
                 unit = units[index]

@@ -36,7 +36,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 
 import _fleet_lots  # noqa: E402
-from bench_fleet_prior import PARTS, _real_units  # noqa: E402
+from bench_fleet_prior import PARTS, real_boards  # noqa: E402
 from encal.fleet.prior import _unit_harmonics, _unit_scales, fit_with_prior, fleet_prior  # noqa: E402
 from encal.models.spectral import fit_spectral  # noqa: E402
 
@@ -102,12 +102,9 @@ def main():
         full = [fit_spectral(u["theta"], u["y"]) for u in units]
         _print(f"Lot '{lot}' ({len(units)} units): truth at the test angles", _rows(units, full, _against_truth), units)
     if args.real:
-        calibrations = _real_units()[:args.real]
-        if not calibrations:
-            print("\n(real boards: the Mechaduino data set is not here; left out)")
-        else:
-            units = [{"theta": c.encoder_deg, "y": c.errors_arcmin, "reference": c.reference_deg} for c in calibrations]
-            full = [fit_spectral(u["theta"], u["y"]) for u in units]
+        boards = real_boards(args.real)
+        if boards is not None:
+            units, full = boards
             _print(f"Real Mechaduino boards ({len(units)}): the readings at the stops left out (noise included)",
                    _rows(units, full, _against_readings), units, true_noise=False)
     print(f"\n{time.process_time() - start:.0f} s of CPU")
