@@ -56,6 +56,15 @@ def test_refusals_are_one_sentence():
         dual(motor, output, 0.0)
 
 
+@pytest.mark.parametrize("ratio", [1.0, -1.0])
+def test_a_ratio_of_one_is_refused_as_it_cannot_tell_the_two_encoders_apart(ratio):
+    # arc8: both shafts at one speed, every order meets its namesake; fitted anyway, the motor profile came out
+    # 0.03 arcmin RMS (truth 12) with a +-2 sigma of 0.5 arcmin at order 1, and exit 0.
+    motor, output, _ = simulate_dual(ratio, seed=3, output_turns=1.5, samples_per_motor_turn=120)
+    with pytest.raises(InputError, match="every motor order up to 30 meets an order of the other shaft"):
+        dual(motor, output, ratio)
+
+
 def test_cli_dual_writes_both_calibrations(tmp_path, capsys):
     motor, output, _ = simulate_dual(6.0, seed=5, output_turns=1.5, samples_per_motor_turn=360)
     log = tmp_path / "joint.csv"

@@ -158,6 +158,7 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
         raise InputError(f"the gear ratio {ratio:g} says the output turns {'with' if ratio > 0 else 'against'} the "
                          f"motor, but in the log it turns {'with' if ratio_sign > 0 else 'against'} it; expected "
                          f"--ratio {-ratio:g}")
+    _refuse_all_confounded(ratio, int(motor_orders), int(output_orders), turns)
     residual = (output_u - motor_u / ratio) * ARCMIN_PER_DEG
     k_out = np.arange(1, int(output_orders) + 1)
     k_mot = np.arange(1, int(motor_orders) + 1)
@@ -215,6 +216,22 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     fitted = design @ mean
     return DualCalibration(motor_result, output_result, ratio, ratio_estimated, pairs,
                            float(np.sqrt(np.mean((residual - fitted) ** 2))), turns)
+
+
+def _refuse_all_confounded(ratio, motor_orders, output_orders, output_turns):
+    """Refuse a log in which every order of one shaft meets an order of the other (a ratio of 1: both shafts at
+    one speed). The log then holds only the two errors' difference; fitted anyway (arc8), the evidence gave the
+    whole error to one encoder and a prior so tight that its +-2 sigma (0.5 arcmin) hid a 12 arcmin miss."""
+    k_mot, k_out = np.arange(1, motor_orders + 1), np.arange(1, output_orders + 1)
+    pairs = confounded_pairs(ratio, k_mot, k_out, output_turns)
+    for shaft, orders, side in (("motor", k_mot, 0), ("output", k_out, 1)):
+        if {int(k) for k in orders} <= {pair[side] for pair in pairs}:
+            raise InputError(
+                f"with the gear ratio {ratio:g} over {output_turns:.3g} output turns every {shaft} order up to "
+                f"{orders[-1]} meets an order of the other shaft (the same function of time), so the log holds "
+                "only the difference of the two encoders' errors and cannot tell them apart; expected a gear "
+                "ratio farther from 1 in size, or a longer log (two encoders on one shaft: calibrate each "
+                "against a reference with encal fit)")
 
 
 def _ratio_from_slope(ratio, slope):
