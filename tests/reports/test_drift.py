@@ -337,3 +337,37 @@ def test_calibrations_that_declare_different_resolutions_are_judged_by_the_fines
     later = calibration(GRID, profile(GRID) + np.sin(np.radians(3 * GRID)), 41, noise=0.1, resolution_bits=16)
     report = compare_calibrations([first, later])
     assert report.resolution_bits == 16 and not report.holds
+
+
+# ---------------------------------------------------------------- arcs (task arc8)
+
+
+@pytest.mark.filterwarnings("ignore:.*lie outside the model's calibrated range")
+@pytest.mark.parametrize("first_span, later_span", [((30.0, 150.0), (100.0, 200.0)), ((0.0, 360.0), (100.0, 200.0)),
+                                                    ((300.0, 420.0), (340.0, 400.0))])
+def test_calibrations_over_different_arcs_are_compared_where_both_have_readings(first_span, later_span):
+    # An unchanged encoder: the first's profile was interpolated across its gap and each offset was a mean over
+    # other positions (difference 1.23 arcmin RMS, offset change -1.01 and +0.69 arcmin, now within the noise).
+    # The third pair straddles 0 degrees.
+    runs = [calibration(np.mod(np.arange(*span, 0.25), 360.0), profile(np.arange(*span, 0.25)), rng=seed, noise=0.02)
+            for seed, span in enumerate((first_span, later_span))]
+    epoch = compare_calibrations(runs, method="lut").epochs[0]
+    assert abs(epoch.offset_change_arcmin) < 0.01
+    assert np.sqrt(np.mean(epoch.difference_arcmin**2)) < 0.05
+    assert not epoch.interpolated
+
+
+@pytest.mark.filterwarnings("ignore:.*lie outside the model's calibrated range")
+def test_a_change_over_the_common_arc_is_still_seen():
+    theta = np.arange(30.0, 150.0, 0.25)
+    later = np.arange(100.0, 200.0, 0.25)
+    runs = [calibration(theta, profile(theta)), calibration(later, profile(later) + 0.5)]
+    epoch = compare_calibrations(runs, method="lut", offset="keep").epochs[0]
+    assert epoch.offset_change_arcmin == pytest.approx(0.5, abs=1e-6)
+    assert_allclose(epoch.difference_arcmin, 0.5, atol=1e-6)
+
+
+def test_arcs_with_no_common_position_are_refused():
+    first, later = np.arange(30.0, 90.0, 0.5), np.arange(200.0, 260.0, 0.5)
+    with pytest.raises(encal.CalibrationError, match="fewer than two readings of each lie where both have readings"):
+        compare_calibrations([calibration(first, profile(first)), calibration(later, profile(later))], method="lut")

@@ -301,6 +301,36 @@ def infer_resolution_bits(cal, *, max_bits=24):
     return resolution_of_readings(cal.encoder_deg, max_bits=max_bits)
 
 
+def _common_coverage(first, later):
+    """The two calibrations cut to the positions both cover, when either covers an arc only (None when both
+    cover the full turn). A later calibration reaching past the first's arc was compared with the first's
+    profile interpolated across its gap, and each offset was a mean over different positions: an unchanged
+    encoder calibrated over 100-200 deg against 30-150 deg showed a difference of 1.23 arcmin RMS and an offset
+    change of -1.01 arcmin (arc8).
+
+    Raises
+    ------
+    CalibrationError
+        When the two cover no common position.
+    """
+    from .._core.arcs import arc_of, describe_range, inside
+    from .._core.errors import CalibrationError
+    from ..models.arc import MAX_GAP_DEG
+
+    arcs = [arc_of(cal.reference_deg, MAX_GAP_DEG) for cal in (first, later)]
+    if arcs[0] is None and arcs[1] is None:
+        return None
+    keep_first = inside(first.reference_deg, arcs[1]) & inside(first.reference_deg, arcs[0])
+    keep_later = inside(later.reference_deg, arcs[0]) & inside(later.reference_deg, arcs[1])
+    if keep_first.sum() < 2 or keep_later.sum() < 2:
+        where = later.source or later.name or "a later calibration"
+        covers = [describe_range(arc) if arc is not None else "the full turn" for arc in arcs]
+        raise CalibrationError(f"{where} covers {covers[1]} and the first calibration {covers[0]}: fewer than two "
+                               "readings of each lie where both have readings; expected calibrations of one "
+                               "encoder over overlapping positions")
+    return first.subset(keep_first), later.subset(keep_later)
+
+
 def _profile(cal, offset, base_offset_arcmin):
     """Positions (deg, in the first calibration's zero) and errors (arcmin) of a calibration."""
     error = cal.errors_arcmin
@@ -586,13 +616,19 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
     base_angle, base_error = _profile(first, offset, base_offset)
     epochs = []
     for name, cal in zip(names[1:], runs[1:]):
-        cal_offset = circular_mean_offset_arcmin(cal)
-        angle, error = _profile(cal, offset, base_offset)
-        expected, matched = match_profile(base_angle, base_error, angle)
+        base_offset_here, base_angle_here, base_error_here, compared = base_offset, base_angle, base_error, cal
+        common = _common_coverage(first, cal)
+        if common is not None:  # arcs (arc8): compared where both calibrations have readings, never across a gap
+            first_common, compared = common
+            base_offset_here = circular_mean_offset_arcmin(first_common)
+            base_angle_here, base_error_here = _profile(first_common, offset, base_offset_here)
+        cal_offset = circular_mean_offset_arcmin(compared)
+        angle, error = _profile(compared, offset, base_offset_here)
+        expected, matched = match_profile(base_angle_here, base_error_here, angle)
         interpolated = bool(not np.all(matched))
         difference = error - expected
         residual = _residual_rms(model, cal, offset)
-        epoch_noise = _pair_noise_arcmin(noise, cal, angle, difference)
+        epoch_noise = _pair_noise_arcmin(noise, compared, angle, difference)
         epoch_expected = expected_repeat_rms_arcmin(baseline, epoch_noise, 0.0)
         increase = residual - epoch_expected  # holds: set below, against the tolerance
         epochs.append(EpochDrift(
@@ -600,7 +636,7 @@ def compare_calibrations(cals, *, tolerance_arcmin=None, model=None, method="fou
             angle_deg=angle,
             difference_arcmin=difference,
             interpolated=interpolated,
-            offset_change_arcmin=float(wrap180((cal_offset - base_offset) / ARCMIN_PER_DEG)) * ARCMIN_PER_DEG,
+            offset_change_arcmin=float(wrap180((cal_offset - base_offset_here) / ARCMIN_PER_DEG)) * ARCMIN_PER_DEG,
             share_within_lsb=None if lsb is None else float(np.mean(np.abs(difference) <= lsb)),
             residual_rms_arcmin=residual,
             increase_arcmin=increase,
