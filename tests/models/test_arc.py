@@ -506,3 +506,34 @@ def test_the_c_range_test_of_codes_of_an_arc_between_two_codes_says_outside_for_
         subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path),
                         str(tmp_path / "main.c"), "-o", str(tmp_path / "main")], check=True)
         assert subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout == "0\n"
+
+
+def test_the_c_range_test_wraps_a_reading_outside_0_to_360_as_the_correction_does(tmp_path):
+    # arc8: encal_correct_deg wraps any reading, but encal_in_range added one turn only: on an arc of 210..330
+    # deg, -170 deg (190, outside) was inside, and 970 deg (250, inside) outside.
+    import shutil
+    import subprocess
+
+    from encal._core.arcs import with_range_in_header
+
+    if shutil.which("gcc") is None:
+        pytest.skip("gcc is not installed: the header's range test is compiled with it")
+    arc = [209.981944651, 329.987674937]
+    readings = [-170.0, -140.0, -30.5, -25.0, 190.0 + 720.0, 250.0 + 720.0, 250.0 - 1080.0, 100.0 - 3600.0,
+                209.981944651 - 360.0, 329.987674937 + 360.0, 1e20, -math.inf, math.nan]
+    shell = "#include <stdint.h>\n#ifdef __cplusplus\n}\n#endif\n"
+    for target, real in (("host", "double"), ("cortex-m4f", "float")):
+        header = with_range_in_header({"r.h": shell}, "r", target, arc, "clamp", bits=None)["r.h"]
+        (tmp_path / "r.h").write_text(header.replace("#ifdef __cplusplus\n}\n#endif\n", ""))
+        values = ", ".join(f"({real}){value!r}" if math.isfinite(value) else
+                           ("(" + real + ")(1.0 / 0.0) * -1" if value < 0 else "(" + real + ")(0.0 / 0.0)")
+                           for value in readings)
+        (tmp_path / "main.c").write_text(
+            '#include <stdio.h>\n#include "r.h"\nint main(void) { ' + real + f' a[] = {{{values}}}; unsigned i; '
+            'for (i = 0; i < sizeof a / sizeof a[0]; ++i) printf("%d", r_in_range(a[i])); printf("\\n"); return 0; }\n')
+        subprocess.run(["gcc", "-std=c99", "-Wall", "-Wextra", "-Werror", "-I", str(tmp_path),
+                        str(tmp_path / "main.c"), "-o", str(tmp_path / "main")], check=True)
+        flags = subprocess.run([str(tmp_path / "main")], capture_output=True, text=True, check=True).stdout.strip()
+        expected = "".join(str(int(inside(value, arc))) if math.isfinite(value) and abs(value) < 1e15 else "0"
+                           for value in readings)
+        assert flags == expected == "0110011011000", target

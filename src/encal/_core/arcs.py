@@ -309,9 +309,16 @@ def with_range_in_header(files, prefix, target, range_deg, rule, bits=None, read
         # within the tolerance of an end is inside: in double the model's own (RANGE_TOLERANCE_DEG); in float two
         # of its steps near 360 degrees (2^-14), since the reading, the start and the span are each rounded to one
         tolerance = repr(RANGE_TOLERANCE_DEG) if real == "double" else repr(FLOAT_RANGE_TOLERANCE_DEG)
-        lines += ["/* 1 when the reading (degrees in [0, 360)) lies in the calibrated range, else 0. */",
+        # A reading outside [0, 360) (in (-180, 180], or unwrapped) is wrapped as the correction wraps it: only
+        # one turn was added, and -170 deg on an arc of 210..330 deg was inside (arc8). No libm (the header
+        # includes only stdint.h); NaN, infinity and |offset| over 1e15 deg are outside, with no undefined cast.
+        lines += ["/* 1 when the reading (degrees, any turn) lies in the calibrated range, else 0. */",
                   f"static inline int {prefix}_in_range({real} angle_deg) {{",
                   f"    {real} offset = angle_deg - ({real}){start!r}{suffix};",
+                  f"    if (!(offset >= -360.0{suffix} && offset < 360.0{suffix})) {{",
+                  f"        if (!(offset > -1e15{suffix} && offset < 1e15{suffix})) return 0;",
+                  f"        offset -= 360.0{suffix} * ({real})(long long)(offset / 360.0{suffix});",
+                  "    }",
                   f"    if (offset < 0.0{suffix}) offset += 360.0{suffix};",
                   f"    return offset <= ({real}){span!r}{suffix} + {tolerance}{suffix}"
                   f" || offset >= 360.0{suffix} - {tolerance}{suffix};",

@@ -1,0 +1,190 @@
+"""Arcs and two-encoder joints against known truth: every path that meets an angle outside a calibrated arc.
+
+Task arc8. Two tables:
+
+1. Arcs (a sum of harmonics plus 0.05 arcmin of noise, readings every 0.25 deg over arcs of 120 deg, one
+   straddling 0, one of 30 deg, one of 350 deg (one gap of 10 deg: a full-turn model, no range), one written in
+   (-180, 180]): the correction inside against the truth, the 2-sigma band's coverage inside and the model's
+   uncertainty at the ends over the middle, then, for test readings 10 deg past each end, what each path does
+   there: ``Model.predict`` (NaN?), ``encal.runtime`` (NaN?), ``encal correct`` by default (exit 1?), with
+   ``--outside clamp`` and ``pass`` (the documented rule, to 1e-9 deg?), ``encal evaluate`` (exit 0, readings
+   outside counted out?), and the host C of ``encal export --format c --outside clamp|pass`` compiled with gcc
+   and run at angles inside, at the ends and outside (its in_range flag and correction against Python's rule).
+2. ``encal selfcal dual`` on simulated joints (``encal.selfcal.dual.simulate_dual``): the profiles against
+   the truth on the orders the command says it separates, and what each wrong input does.
+
+Run: ``PYTHONPATH=src python benchmarks/bench_arc_truth.py`` (about a minute; gcc for the C columns).
+"""
+
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+import encal
+from encal import runtime
+from encal._core.arcs import apply_outside_rule, inside
+from encal._core.errors import InputError
+from encal.selfcal.dual import dual, simulate_dual
+
+NOISE_ARCMIN = 0.05
+CASES = (("120 deg", 30.0, 120.0, False), ("120 deg through 0", 300.0, 120.0, False), ("30 deg", 100.0, 30.0, False),
+         ("350 deg", 5.0, 350.0, False), ("120 deg in (-180,180]", -150.0, 120.0, True))
+
+
+def truth_arcmin(theta_deg):
+    """The true error (arcmin) at the reference angle (degrees)."""
+    t = np.deg2rad(theta_deg)
+    return 3.0 * np.sin(t + 0.3) + 1.5 * np.cos(2 * t - 0.2) + 0.8 * np.sin(5 * t + 1.0) + 0.3 * np.cos(11 * t)
+
+
+def truth_at_reading(reading_deg):
+    """The true error as a function of the encoder reading (fixed point of reading = angle + error / 60)."""
+    angle = np.asarray(reading_deg, dtype=float)
+    for _ in range(8):
+        angle = reading_deg - truth_arcmin(angle) / 60.0
+    return truth_arcmin(angle)
+
+
+def write_log(path, start, span, step, seed, negative, extra=0.0):
+    rng = np.random.default_rng(seed)
+    reference = start - extra + np.arange(0.0, span + 2 * extra + 1e-9, step)
+    encoder = reference + (truth_arcmin(reference) + rng.normal(0.0, NOISE_ARCMIN, reference.size)) / 60.0
+    wrap = (lambda a: (a + 180.0) % 360.0 - 180.0) if negative else (lambda a: a % 360.0)
+    np.savetxt(path, np.column_stack([wrap(reference), wrap(encoder)]), delimiter=",",
+               header="reference_deg,encoder_deg", comments="", fmt="%.9f")
+    return wrap(encoder)
+
+
+def cli(*argv):
+    env = dict(os.environ, PYTHONPATH=str(Path(encal.__file__).resolve().parents[1]))
+    done = subprocess.run([sys.executable, "-m", "encal", *map(str, argv)], env=env, capture_output=True, text=True)
+    return done.returncode, done.stdout
+
+
+def c_gap_deg(folder, model, angles, rule):
+    """Largest gap (deg) between the compiled host C and Python's rule, and whether in_range agrees everywhere."""
+    code = rc_main = None
+    (folder / "main.c").write_text(
+        '#include <stdio.h>\n#include <stdlib.h>\n#include "encal.h"\nint main(int argc, char **argv) { int i;\n'
+        'for (i = 1; i < argc; ++i) { double a = atof(argv[i]); printf("%d %.12f\\n", encal_in_range(a), '
+        '(double)encal_correct_deg((float)a)); } return 0; }\n')
+    subprocess.run(["gcc", "-std=c99", "-O1", "-I", str(folder), str(folder / "main.c"), str(folder / "encal.c"),
+                    "-lm", "-o", str(folder / "main")], check=True)
+    # float in: the angles are compared as the C sees them (float32)
+    angles32 = np.asarray(angles, dtype=np.float32).astype(float)
+    rc_main = subprocess.run([str(folder / "main"), *[repr(float(a)) for a in angles32]], capture_output=True,
+                             text=True, check=True)
+    rows = np.array([line.split() for line in rc_main.stdout.splitlines()], dtype=float)
+    expected = apply_outside_rule(model, angles32, rule)
+    code = np.abs((rows[:, 1] - expected + 180.0) % 360.0 - 180.0)
+    return float(code.max()), bool(np.array_equal(rows[:, 0].astype(bool), inside(angles32, model.range_deg)))
+
+
+def arc_table(folder):
+    rows = []
+    for label, start, span, negative in CASES:
+        train, test = folder / "train.csv", folder / "test.csv"
+        write_log(train, start, span, 0.25, 1, negative)
+        test_readings = write_log(test, start, span, 0.37, 2, negative, extra=10.0)
+        rc, _ = cli("fit", train, "-o", folder / "m.json")
+        model = encal.load_model(folder / "m.json")
+        row = {"case": label, "kind": model.kind, "fit": rc}
+        rng_deg = model.range_deg
+        if rng_deg is None:
+            grid = np.arange(0.0, 360.0, 0.05)
+            gap = ~inside(grid, (start % 360.0, (start + span) % 360.0))
+            error = model.predict(grid) - truth_at_reading(grid)
+            row.update(inside_rms=np.sqrt(np.mean(error[~gap] ** 2)), gap_max=np.abs(error[gap]).max())
+            rows.append(row)
+            continue
+        s, e = rng_deg
+        length = (e - s) % 360.0
+        grid = s + np.linspace(0.0, length, 2001)
+        mean, std = model.predict(grid, return_std=True)
+        model_std = np.sqrt(np.maximum(std**2 - model.uncertainty["noise_std_arcmin"] ** 2, 0.0))
+        error = mean - truth_at_reading(grid)
+        outside = (e + np.linspace(0.5, (360.0 - length) - 0.5, 50)) % 360.0
+        loaded = runtime.load(folder / "m.json")
+        row.update(
+            inside_rms=np.sqrt(np.mean(error**2)), coverage=np.mean(np.abs(error) <= 2 * model_std),
+            ends_over_middle=min(model_std[0], model_std[-1]) / model_std[1000],
+            predict_nan=bool(np.all(np.isnan(model.predict(outside)))),
+            runtime_nan=bool(np.all(np.isnan([loaded.predict_arcmin(a) for a in outside]))),
+            correct_default=cli("correct", folder / "m.json", test)[0])
+        readings = np.loadtxt(test, delimiter=",", skiprows=1)[:, 1]
+        for rule in ("clamp", "pass"):
+            rc, out = cli("correct", folder / "m.json", test, "--outside", rule)
+            got = np.array(out.split(), dtype=float)
+            want = apply_outside_rule(model, readings, rule)
+            row[f"correct_{rule}"] = (rc, float(np.abs((got - want + 180) % 360 - 180).max()) if rc == 0 else None)
+        rc, out = cli("evaluate", folder / "m.json", test)
+        row["evaluate"] = rc
+        near = np.concatenate([[s, e, s - 1e-3, e + 1e-3], grid[::200], outside[::5], test_readings[::40]])
+        for rule in ("clamp", "pass"):
+            target = folder / f"c_{rule}"
+            rc, _ = cli("export", folder / "m.json", "--format", "c", "--outside", rule, "-o", target)
+            row[f"c_{rule}"] = c_gap_deg(target, model, near, rule) if rc == 0 and shutil.which("gcc") else rc
+        rows.append(row)
+    return rows
+
+
+def dual_table():
+    def separable_error(series, truth, side, confounded):
+        grid = np.arange(4096) * 360.0 / 4096
+        spectrum = np.fft.rfft(truth(grid)) / 4096 * 2.0
+        true_cos, true_sin = spectrum.real[series.orders], -spectrum.imag[series.orders]
+        keep = np.array([k not in {pair[side] for pair in confounded} for k in series.orders])
+        gap = np.sum((series.cos_arcmin - true_cos)[keep] ** 2 + (series.sin_arcmin - true_sin)[keep] ** 2)
+        return float(np.sqrt(gap / np.sum(true_cos[keep] ** 2 + true_sin[keep] ** 2)))
+
+    rows = []
+    for ratio, turns in ((6.0, 3.0), (7.5, 3.0), (-9.0, 3.0), (3.7, 3.0), (6.0, 1.3), (6.0, 0.8), (1.0, 3.0)):
+        motor, output, truth = simulate_dual(ratio, output_turns=turns, seed=3)
+        cases = {"as given": (motor, output, ratio), "sign flipped": (motor, output, -ratio),
+                 "columns swapped": (output, motor, ratio), "ratio x2": (motor, output, 2 * ratio),
+                 "counts (14 bits)": (np.round(motor * 2**14 / 360) % 2**14, np.round(output * 2**14 / 360) % 2**14,
+                                      ratio)}
+        for what, (m, o, n) in cases.items():
+            try:
+                result = dual(m, o, n, pinion_teeth=12)
+            except InputError as refused:
+                rows.append((ratio, turns, what, "refused", str(refused)[:70]))
+                continue
+            motor_gap = separable_error(result.motor.series, truth["motor_at_reading"], 0, result.confounded)
+            output_gap = separable_error(result.output.series, truth["output_at_reading"], 1, result.confounded)
+            rows.append((ratio, turns, what, "exit 0", f"motor {motor_gap:.1%}, output {output_gap:.1%} of the true "
+                         f"RMS off on the separable orders; {len(result.confounded)} pairs named"))
+    return rows
+
+
+def main():
+    warnings.simplefilter("ignore")
+    with tempfile.TemporaryDirectory() as tmp:
+        rows = arc_table(Path(tmp))
+    print("| arc | kind | inside RMS off (arcmin) | 2-sigma coverage | sigma ends/middle | predict NaN | runtime NaN "
+          "| correct (exit) | --outside clamp / pass (exit, max deg off) | evaluate | C host clamp / pass (max deg off,"
+          " in_range agrees) |")
+    print("|---" * 11 + "|")
+    for r in rows:
+        if "coverage" not in r:
+            print(f"| {r['case']} | {r['kind']} | {r['inside_rms']:.4f} (gap: max {r['gap_max']:.3f}) | - | - | - "
+                  "| - | - | - | - | - |")
+            continue
+        print(f"| {r['case']} | {r['kind']} | {r['inside_rms']:.4f} | {r['coverage']:.1%} | {r['ends_over_middle']:.2f}"
+              f" | {r['predict_nan']} | {r['runtime_nan']} | {r['correct_default']} | {r['correct_clamp']} / "
+              f"{r['correct_pass']} | {r['evaluate']} | {r['c_clamp']} / {r['c_pass']} |")
+    print()
+    print("| ratio | output turns | input | result | detail |")
+    print("|---|---|---|---|---|")
+    for row in dual_table():
+        print("| " + " | ".join(str(x) for x in row) + " |")
+
+
+if __name__ == "__main__":
+    main()
