@@ -65,6 +65,20 @@ def test_a_ratio_of_one_is_refused_as_it_cannot_tell_the_two_encoders_apart(rati
         dual(motor, output, ratio)
 
 
+def test_the_band_of_a_confounded_pair_covers_the_split_the_prior_got_wrong():
+    # arc8: ratio 2, the fast (motor) shaft's error the smaller: every motor order meets output order 2j and the
+    # prior gave the pairs to the output; the motor profile was 4.0 arcmin RMS off (of 4) with its +-2 sigma band
+    # covering 4 % of a 2-degree grid, the output's 6 %.
+    motor, output, truth = simulate_dual(2.0, seed=3, output_turns=2.0, samples_per_motor_turn=240,
+                                         motor_rms_arcmin=4.0, output_rms_arcmin=12.0)
+    result = dual(motor, output, 2.0, pinion_teeth=12)
+    grid = np.arange(0.0, 360.0, 2.0)
+    for shaft in ("motor", "output"):
+        got, want = getattr(result, shaft).error_arcmin(grid), truth[f"{shaft}_at_reading"](grid)
+        miss = (got - got.mean()) - (want - want.mean())
+        assert np.mean(np.abs(miss) <= 2.0 * getattr(result, shaft).sigma_arcmin(grid)) > 0.9, shaft
+
+
 def test_cli_dual_writes_both_calibrations(tmp_path, capsys):
     motor, output, _ = simulate_dual(6.0, seed=5, output_turns=1.5, samples_per_motor_turn=360)
     log = tmp_path / "joint.csv"

@@ -200,6 +200,7 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
                          f"{ratio:g}; expected them to agree within {RATIO_TOLERANCE:.0%} (the motor encoder's profile "
                          f"scales with the ratio: is it --ratio {ratio_estimated:.4g}?)")
     pairs = confounded_pairs(ratio, k_mot, k_out, turns)
+    out_cov, mot_cov = _widen_confounded(pairs, ratio, out_vec, out_cov, mot_vec, mot_cov)
     note = ("motor orders " + ", ".join(str(j) for j in sorted({j for j, _ in pairs})[:10])
             + " meet output orders at j x ratio; their split is the prior's" if pairs else "")
     removed = ()
@@ -216,6 +217,28 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     fitted = design @ mean
     return DualCalibration(motor_result, output_result, ratio, ratio_estimated, pairs,
                            float(np.sqrt(np.mean((residual - fitted) ** 2))), turns)
+
+
+def _widen_confounded(pairs, ratio, out_vec, out_cov, mot_vec, mot_cov):
+    """The covariances with each confounded pair's split made honest: the log fixes only the pair's sum, and
+    either shaft may own all of it, so each member's cosine and sine get the pair's whole amplitude (in its
+    shaft's arc-minutes) as a further standard deviation.
+
+    The prior's split follows each shaft's evidence scale: at a ratio of 2 with the motor's error 4 and the
+    output's 12 arcmin RMS, the motor's profile came out 4.0 arcmin RMS off with a +-2 sigma band covering 4 %
+    of it (arc8; benchmarks/bench_arc_truth.py).
+    """
+    out_cov, mot_cov = out_cov.copy(), mot_cov.copy()
+    n_out, n_mot = out_vec.size // 2, mot_vec.size // 2
+    for j, k in pairs:
+        output_amplitude = float(np.hypot(out_vec[k - 1], out_vec[n_out + k - 1]))
+        motor_amplitude = float(np.hypot(mot_vec[j - 1], mot_vec[n_mot + j - 1]))
+        in_output = output_amplitude + motor_amplitude / abs(ratio)  # the pair's amplitude, output arcmin
+        for index in (k - 1, n_out + k - 1):
+            out_cov[index, index] += in_output**2
+        for index in (j - 1, n_mot + j - 1):
+            mot_cov[index, index] += (abs(ratio) * in_output) ** 2
+    return out_cov, mot_cov
 
 
 def _refuse_all_confounded(ratio, motor_orders, output_orders, output_turns):
