@@ -160,8 +160,15 @@ def dual_table():
             output_gap = separable_error(result.output.series, truth["output_at_reading"], 1, result.confounded)
             rows.append((ratio, turns, what, "exit 0", f"separable orders, arcmin RMS off of true: motor {motor_gap}, "
                          f"output {output_gap}; {len(result.confounded)} pairs named"))
-    # Not fixed (arc8): whole-number ratio, the fast shaft's error the smaller; the prior of the confounded pairs
-    # (motor j / output jN) follows each shaft's evidence scale, so the larger error takes them.
+    motor, output, _ = simulate_dual(6.0, seed=3, samples_per_motor_turn=2880, output_turns=1.5)
+    try:
+        counts = dual(np.round(motor * 2**16 / 360) % 2**16, np.round(output * 2**16 / 360) % 2**16, 6.0)
+        rows.append((6.0, 1.5, "counts (16 bits, 2880 a turn)", "exit 0", f"{counts.output_turns:.4g} output turns"))
+    except InputError as refused:
+        rows.append((6.0, 1.5, "counts (16 bits, 2880 a turn)", "refused", str(refused)[:70]))
+    # Whole-number ratio, the fast shaft's error the smaller; the prior of the confounded pairs
+    # (motor j / output jN) follows each shaft's evidence scale, so the larger error takes them; the band now covers
+    # the pair's whole amplitude (it covered 4 % and 6 % before arc8).
     motor, output, truth = simulate_dual(2.0, seed=3, motor_rms_arcmin=4.0, output_rms_arcmin=12.0)
     result = dual(motor, output, 2.0, pinion_teeth=12)
     grid = np.arange(0.0, 360.0, 2.0)

@@ -79,6 +79,20 @@ def test_the_band_of_a_confounded_pair_covers_the_split_the_prior_got_wrong():
         assert np.mean(np.abs(miss) <= 2.0 * getattr(result, shaft).sigma_arcmin(grid)) > 0.9, shaft
 
 
+@pytest.mark.parametrize("which", ["both", "motor", "output"])
+def test_counts_given_as_degrees_are_refused(which):
+    # arc8: 16-bit counts in both columns wrap at 65536, 182 turns and 16 "degrees": each wrap's step was a
+    # plausible 75 degrees, and the fit exited 0 with 273 output turns and a motor profile of 0 arcmin.
+    motor, output, _ = simulate_dual(6.0, seed=3, samples_per_motor_turn=2880, output_turns=1.5)
+    counts = {name: np.round(angle * 2**16 / 360.0) % 2**16 for name, angle in (("motor", motor), ("output", output))}
+    motor = counts["motor"] if which in ("both", "motor") else motor
+    output = counts["output"] if which in ("both", "output") else output
+    with pytest.raises(InputError, match=r"expected degrees, wrapped within one turn or unwrapped|expected them to agree"):
+        dual(motor, output, 6.0)
+    unwrapped = np.rad2deg(np.unwrap(np.deg2rad(simulate_dual(6.0, seed=3)[0])))
+    assert np.ptp(unwrapped) > 360.0 and dual(unwrapped, simulate_dual(6.0, seed=3)[1], 6.0).ratio == 6.0
+
+
 def test_cli_dual_writes_both_calibrations(tmp_path, capsys):
     motor, output, _ = simulate_dual(6.0, seed=5, output_turns=1.5, samples_per_motor_turn=360)
     log = tmp_path / "joint.csv"

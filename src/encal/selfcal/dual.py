@@ -140,7 +140,14 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
         raise InputError(f"the gear ratio must be a finite number of motor turns per output turn, not 0; got {ratio!r}")
     ratio = float(ratio)
     for shaft, reading in (("motor", motor), ("output", output)):
-        steps = np.abs(wrap180(np.diff(reading)))
+        raw = np.diff(reading)
+        back = np.flatnonzero(np.abs(raw) > 180.0)
+        if back.size and np.ptp(reading) > 360.0 + 1e-6:  # arc8: 16-bit counts passed as degrees, motor RMS 0, exit 0
+            i = int(back[0])
+            raise InputError(f"the {shaft} readings span {reading.min():.6g} to {reading.max():.6g} and jump by "
+                             f"{raw[i]:.6g} between readings {i + 1} and {i + 2}; expected degrees, wrapped within one "
+                             "turn or unwrapped (an encoder's counts: convert them, degrees = count x 360 / 2^B)")
+        steps = np.abs(wrap180(raw))
         if steps.max() > MAX_STEP_DEG:  # fuzz5: a log out of time order was fitted (a motor profile of 0 +- 1e-147)
             jump = int(np.flatnonzero(steps > MAX_STEP_DEG)[0])
             raise InputError(f"the {shaft} encoder moves {steps[jump]:.4g} deg between readings {jump + 1} and "
