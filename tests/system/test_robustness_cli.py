@@ -187,6 +187,7 @@ def _make_files(folder):
     paths["arc_only"].write_text(_csv_text(arc - (30 * np.sin(np.radians(arc)) + 10 * np.cos(np.radians(3 * arc))) / 60,
                                            arc), encoding="utf-8")
     _make_fleet8_files(folder, paths)
+    _make_arc8_files(folder, paths)
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -1096,6 +1097,35 @@ FLEET8_CASES = [
          ("is the same file as the calibration store",)),
 ]
 CASES += FLEET8_CASES
+
+
+# ---------------------------------------------------------------- arc8: arcs and two-encoder joints against truth
+def _make_arc8_files(folder, paths):
+    """A two-encoder log of a ratio of 1, one of 16-bit counts as degrees, and two calibrations over arcs apart."""
+    output = np.arange(0.0, 725.0, 5.0)
+    paths["arc8_same_speed"] = folder / "arc8_same_speed.csv"  # every order confounded: profiles split by the prior
+    paths["arc8_same_speed"].write_text("motor_deg,output_deg\n" + "".join(
+        f"{o + 0.1 * np.sin(np.radians(o)):.6f},{o % 360:.6f}\n" for o in output), encoding="utf-8")
+    paths["arc8_counts"] = folder / "arc8_counts.csv"  # 16-bit counts: each wrap's step looked like 75 degrees
+    paths["arc8_counts"].write_text("motor_deg,output_deg\n" + "".join(
+        f"{k * 20000 % 65536},{k * 3333 % 65536}\n" for k in range(20)), encoding="utf-8")
+    for name, start in (("arc8_arc_a", 30.0), ("arc8_arc_b", 200.0)):  # no common position
+        paths[name] = folder / f"{name}.csv"
+        reference = np.arange(start, start + 60.0, 0.5)
+        paths[name].write_text(_csv_text(reference, reference + _profile_arcmin(reference) / 60.0), encoding="utf-8")
+
+
+ARC8_CASES = [
+    Case("selfcal-dual-ratio-one", ("selfcal", "dual", "{arc8_same_speed}", "--ratio", "1", "--motor-cal",
+                                    "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("arc8_same_speed.csv", "every motor order up to 30 meets an order of the other shaft")),
+    Case("selfcal-dual-counts-as-degrees", ("selfcal", "dual", "{arc8_counts}", "--ratio", "6", "--motor-cal",
+                                            "{out}/m.csv", "--output-cal", "{out}/o.csv"), 1,
+         ("arc8_counts.csv", "expected degrees", "count x 360 / 2^B")),
+    Case("drift-arcs-apart", ("drift", "{arc8_arc_a}", "{arc8_arc_b}"), 1,
+         ("arc8_arc_b.csv", "fewer than two readings of each lie where both have readings")),
+]
+CASES += ARC8_CASES
 
 # ---------------------------------------------------------------- issue 25: plausibility
 
