@@ -1108,7 +1108,7 @@ def _make_arc8_files(folder, paths):
         f"{o + 0.1 * np.sin(np.radians(o)):.6f},{o % 360:.6f}\n" for o in output), encoding="utf-8")
     paths["arc8_counts"] = folder / "arc8_counts.csv"  # 16-bit counts: each wrap's step looked like 75 degrees
     paths["arc8_counts"].write_text("motor_deg,output_deg\n" + "".join(
-        f"{k * 20000 % 65536},{k * 3333 % 65536}\n" for k in range(20)), encoding="utf-8")
+        f"{k * 80 % 65536},{k * 80 // 6 % 65536}\n" for k in range(900)), encoding="utf-8")
     for name, start in (("arc8_arc_a", 30.0), ("arc8_arc_b", 200.0)):  # no common position
         paths[name] = folder / f"{name}.csv"
         reference = np.arange(start, start + 60.0, 0.5)

@@ -141,8 +141,11 @@ def dual(motor_deg, output_deg, ratio, *, motor_orders=30, output_orders=30, pin
     ratio = float(ratio)
     for shaft, reading in (("motor", motor), ("output", output)):
         raw = np.diff(reading)
-        back = np.flatnonzero(np.abs(raw) > 180.0)
-        if back.size and np.ptp(reading) > 360.0 + 1e-6:  # arc8: 16-bit counts passed as degrees, motor RMS 0, exit 0
+        # A counter's wrap: from near the top of its span to near the bottom (a row out of order jumps less far).
+        # arc8: 16-bit counts passed as degrees wrapped in a step of 75 "degrees": motor profile 0, exit 0.
+        span = float(np.ptp(reading))
+        back = np.flatnonzero(np.abs(raw) > max(180.0, span - 2.0 * MAX_STEP_DEG))
+        if back.size and span > 360.0 + 1e-6:
             i = int(back[0])
             raise InputError(f"the {shaft} readings span {reading.min():.6g} to {reading.max():.6g} and jump by "
                              f"{raw[i]:.6g} between readings {i + 1} and {i + 2}; expected degrees, wrapped within one "
