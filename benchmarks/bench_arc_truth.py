@@ -156,7 +156,8 @@ def dual_table():
         return f"{np.sqrt(gap / 2):.2f} of {np.sqrt(np.sum(true_cos[keep] ** 2 + true_sin[keep] ** 2) / 2):.2f}"
 
     rows = []
-    for ratio, turns in ((6.0, 3.0), (7.5, 3.0), (-9.0, 3.0), (3.7, 3.0), (0.5, 3.0), (6.0, 1.3), (6.0, 0.8), (1.0, 3.0)):
+    for ratio, turns in ((6.0, 3.0), (7.5, 3.0), (-9.0, 3.0), (3.7, 3.0), (0.5, 3.0), (6.0, 1.3), (6.0, 0.8),
+                         (1.0, 3.0)):
         motor, output, truth = simulate_dual(ratio, output_turns=turns, seed=3)
         cases = {"as given": (motor, output, ratio), "sign flipped": (motor, output, -ratio),
                  "columns swapped": (output, motor, ratio), "ratio x2": (motor, output, 2 * ratio),
