@@ -1,5 +1,7 @@
 """Drift between repeated calibrations and the verdict on a model of the first."""
 
+import warnings
+
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
@@ -210,6 +212,27 @@ def test_one_calibration_with_epochs_is_split():
     report = compare_calibrations(joined)
     assert report.baseline_label == "enc7 2016"
     assert [epoch.label for epoch in report.epochs] == ["enc7 2017", "enc7 2018"]
+
+
+@pytest.mark.parametrize("labels, warned", [
+    (["2", "1", "3"], "first appear (2, 1, 3), the first as the baseline, but their labels run 1, 2, 3"),
+    (["10", "9"], "first appear (10, 9), the first as the baseline, but their labels run 9, 10"),
+    (["2026-11-28", "2026-01-05"], "labels run 2026-01-05, 2026-11-28"),
+    (["9", "10"], None),  # in order (by value: 9 before 10, though '10' sorts first as text)
+    (["after", "before"], None),  # names say no order: the order of appearance stands unsaid, as documented
+])
+def test_epochs_labelled_in_an_order_their_rows_do_not_follow_are_said(labels, warned):
+    # a file sorted by angle in a spreadsheet put a later run's row first: it became the baseline without a word
+    rng = np.random.default_rng(6)
+    runs = [calibration(GRID, profile(GRID), rng, noise=0.1) for _ in labels]
+    joined = Calibration(np.concatenate([r.reference_deg for r in runs]), np.concatenate([r.encoder_deg for r in runs]),
+                         epoch=np.repeat(labels, GRID.size), name="enc7")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        parts = split_epochs(joined)
+    assert [part.epoch[0] for part in parts] == labels  # the order of appearance, as documented
+    said = [str(w.message) for w in caught]
+    assert (said == []) if warned is None else (len(said) == 1 and warned in said[0])
 
 
 def test_duplicate_labels_are_told_apart():

@@ -24,13 +24,15 @@ points (about 5 %) twice, three standard errors on fewer. See ``docs/drift.md``.
 """
 
 import math
+import re
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings, wrap180, wrap360
 from ..data.calibration import MAX_BITS, MIN_POINTS, Calibration
-from .._core.errors import InputError
+from .._core.errors import EncalWarning, InputError
 from ..models.base import Model
 from .._core.parameters import check_choice, check_int, check_number, check_type, invalid
 from ..analysis.profile import correction_is_worse, error_stats, worse_sentence, zero_offset_arcmin
@@ -260,6 +262,7 @@ def split_epochs(cal):
     if cal.epoch is None:
         return [cal]
     labels = dict.fromkeys(cal.epoch.tolist())  # first appearance order
+    _warn_if_labels_sort_otherwise(cal, list(labels))
     runs = [cal.subset(cal.epoch == label) for label in labels]
     for label, run in zip(labels, runs):
         if len(run) < MIN_POINTS:
@@ -267,6 +270,26 @@ def split_epochs(cal):
                              f"calibration point{'' if len(run) == 1 else 's'}, expected at least {MIN_POINTS} in each "
                              "epoch, as in a calibration file (is its label mistyped?)")
     return runs
+
+
+#: Epoch labels whose order is their meaning: numbers (``1``, ``2.5``) or ISO 8601 dates and times (``2026-11-28``,
+#: ``2026-11-28T09:30``).
+_ORDERED_LABEL = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?|\d{4}-\d{2}-\d{2}([T ][\d:.]+)?")
+
+
+def _warn_if_labels_sort_otherwise(cal, labels):
+    """Warn when every epoch label is a number or a date and they first appear in another order than theirs: the
+    runs are taken in order of appearance, the first the baseline, and a file sorted by angle (in a spreadsheet) put
+    a later run first and judged the earlier against it."""
+    if len(labels) < 2 or not all(_ORDERED_LABEL.fullmatch(label) for label in labels):
+        return
+    numbers = all(not re.fullmatch(r"\d{4}-\d{2}-\d{2}.*", label) for label in labels)
+    ordered = sorted(labels, key=float) if numbers else sorted(labels)
+    if ordered != labels:
+        warnings.warn(f"{cal.source or cal.name or 'the calibration'}: its epochs are taken in the order their rows "
+                      f"first appear ({', '.join(labels)}), the first as the baseline, but their labels run "
+                      f"{', '.join(ordered)}; sort the rows by epoch, or give the runs as files in the order wanted",
+                      EncalWarning, stacklevel=3)
 
 
 def circular_mean_offset_arcmin(cal):
