@@ -213,14 +213,15 @@ def selfcal_case(seeds):
         fine = np.arange(0.0, 360.0, 0.5)
         zero = float(np.mean(encoder.error_at_reading(fine)))
         for key, reading in (("profile at", fine[::2]), ("profile between", fine[1::2])):
-            mean, std = model.predict(reading, return_std=True)
+            # the profile's own band: without the reading noise the self-calibration measured (noise9)
+            mean, std = model.predict(reading, return_std=True, include_noise=False)
             tallies[key].add(encoder.error_at_reading(reading) - zero - mean, std)
         rng = np.random.default_rng(1000 + seed)
         rotor = rng.uniform(0.0, 360.0, 2000)
         reading = encoder.read(rotor, rng)
         mean, std = model.predict(reading, return_std=True)
         error = ((reading - rotor + 180.0) % 360.0 - 180.0) * 60.0 - zero
-        tallies["new readings"].add(error - mean, std)
+        tallies["new readings"].add(error - mean, std, noise=model.uncertainty["noise_std_arcmin"])
     return [("selfcal (spin), the profile at the points", tallies["profile at"]),
             ("selfcal (spin), the profile between", tallies["profile between"]),
             ("selfcal (spin), new readings (2 arcmin noise, 14 bits)", tallies["new readings"])]

@@ -1,5 +1,6 @@
 """Calibration data: encoder readings against a reference, and its CSV form."""
 
+import math
 import os
 import re
 import stat
@@ -403,6 +404,9 @@ def _parse_float(path, line, column, name, cell, unit=None, decimal_comma=False)
 
 #: The column of a calibration CSV that holds :attr:`Calibration.reference_std_arcmin` (``encal selfcal`` writes it).
 REFERENCE_STD_COLUMN = "sigma_arcmin"
+#: The comment (``# reading_noise_arcmin: X``) and metadata key of one reading's noise, arc-minutes RMS, measured by a
+#: self-calibration from its log: its curve is smoothed, so a model fitted to it cannot see the noise of a new reading.
+READING_NOISE_KEY = "reading_noise_arcmin"
 
 
 def _parse_std(path, line, column, cell, decimal_comma=False):
@@ -544,6 +548,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         records = [(number, line) for number, line in enumerate(lines, start=1) if not _csv.is_skipped(line)]
     if resolution_bits is None:
         resolution_bits = _resolution_from_comments(path, lines)
+    reading_noise = _reading_noise_from_comments(path, lines)
     if not records:
         raise CalibrationError(f"{path}: the file is empty; expected a header row "
                                "'reference_deg,encoder_deg' and at least 8 rows of angles")
@@ -643,6 +648,7 @@ def read_calibration(path, *, allow_gaps=False, reverse=False, name=None, resolu
         reading_sign=-1 if reverse else 1,
         target_tolerance_deg=target_tolerance_deg,
         reference_std_arcmin=reference_std,
+        metadata={} if reading_noise is None else {READING_NOISE_KEY: reading_noise},
     )
     rows = cal
     runs = _runs(cal)
@@ -761,6 +767,32 @@ def _resolution_from_comments(path, lines):
             elif int(value) != found[1]:  # fuzz5: the first of two was taken, silently
                 _fail(path, number, f"resolution_bits is {int(value)} but line {found[0]} says {found[1]}; expected "
                                     "one resolution (remove one of the comments)")
+    return None if found is None else found[1]
+
+
+def _reading_noise_from_comments(path, lines):
+    """One reading's noise (arcmin) from a ``# reading_noise_arcmin: X`` comment (``encal selfcal`` writes it), or
+    None; a value that is not a finite number >= 0, or two that differ, is refused with its line."""
+    found = None  # (line number, value) of the first declaration
+    for number, line in enumerate(lines, start=1):
+        if not line.lstrip().startswith("#"):
+            continue
+        stripped = line.strip().lstrip("#").strip()
+        if not stripped.lower().startswith(READING_NOISE_KEY):
+            continue
+        text = stripped[len(READING_NOISE_KEY):].lstrip().lstrip(":=").strip()
+        try:
+            value = float(text) if text.isascii() else math.nan
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value >= 0.0):
+            _fail(path, number, f"{READING_NOISE_KEY} is {_shown(text)!r}, expected a number of arc-minutes >= 0 "
+                                "(one reading's noise; correct or remove the comment)")
+        if found is None:
+            found = (number, value)
+        elif value != found[1]:
+            _fail(path, number, f"{READING_NOISE_KEY} is {value:g} but line {found[0]} says {found[1]:g}; expected "
+                                "one reading noise (remove one of the comments)")
     return None if found is None else found[1]
 
 

@@ -62,7 +62,7 @@ from .._core.angles import ARCMIN_PER_DEG, model_input, wrap180, wrap360
 from ..analysis.profile import distinct_angles
 from ..data.reversal import (direction_subset, has_both_directions, largest_per_angle, mean_calibration,
                              require_directions, reversal)
-from ..data.calibration import Calibration
+from ..data.calibration import READING_NOISE_KEY, Calibration
 from .._core.errors import InputError
 from .._core.parameters import check_int, check_number
 from . import model_kind
@@ -82,6 +82,8 @@ __all__ = [
     "has_posterior",
     "with_half_reversal",
     "with_reference_uncertainty",
+    "reading_noise",
+    "with_reading_noise",
     "reference_std_rms",
     "with_reference_rms",
     "check_uncertainty",
@@ -569,6 +571,7 @@ def with_reference_uncertainty(uncertainty, cal):
         A new dict when something was added (``reference_std_rms_arcmin`` records its RMS over the table's grid,
         the average a posterior's held-out estimate takes).
     """
+    uncertainty = with_reading_noise(uncertainty, cal)
     std = getattr(cal, "reference_std_arcmin", None)
     if uncertainty is None or std is None or "reference_std_rms_arcmin" in uncertainty:
         return uncertainty
@@ -581,6 +584,29 @@ def with_reference_uncertainty(uncertainty, cal):
             "reference_std_rms_arcmin": float(np.sqrt(np.mean(np.square(reference_std))))}
 
 
+def reading_noise(cal):
+    """One reading's noise (arcmin RMS) a self-calibration measured from its log and wrote with its curve
+    (``# reading_noise_arcmin: X``, :data:`~encal.data.calibration.READING_NOISE_KEY` in ``cal.metadata``), or None."""
+    value = getattr(cal, "metadata", {}).get(READING_NOISE_KEY)
+    return None if value is None else float(value)
+
+
+def with_reading_noise(uncertainty, cal):
+    """``uncertainty`` with the reading noise ``cal`` records (:func:`reading_noise`) added to ``σ_noise``.
+
+    A self-calibration writes a smoothed curve: the noise a fit estimates from its points is nearly 0, so the
+    model's band and held-out estimate held the profile's uncertainty alone (25 % of a noisy encoder's new readings
+    inside the 95 % band, benchmarks/bench_report_band.py). The noise the self-calibration measured from its log
+    is a new reading's own: ``σ_noise² + σ_reading²``, recorded as ``reading_noise_arcmin``. Added once; None and
+    a calibration without it are returned as they are.
+    """
+    noise = reading_noise(cal)
+    if uncertainty is None or noise is None or READING_NOISE_KEY in uncertainty:
+        return uncertainty
+    return {**uncertainty, READING_NOISE_KEY: noise,
+            "noise_std_arcmin": math.hypot(float(uncertainty["noise_std_arcmin"]), noise)}
+
+
 def reference_std_rms(cal):
     """RMS (arcmin) over the points of ``cal``'s own reference uncertainty (:attr:`Calibration.reference_std_arcmin`),
     or None without it."""
@@ -590,10 +616,13 @@ def reference_std_rms(cal):
 
 def with_reference_rms(rms_arcmin, cal):
     """A cross-validated RMS (arcmin) with ``cal``'s reference uncertainty in quadrature: no fold sees an error the
-    reference shares with its neighbours. ``rms_arcmin`` as it is without the column (a posterior's estimate has it
+    reference shares with its neighbours; and the reading noise a self-calibration measured (:func:`reading_noise`),
+    which its smoothed points do not show. ``rms_arcmin`` as it is without either (a posterior's estimate has both
     already: :func:`with_reference_uncertainty`)."""
-    reference = reference_std_rms(cal)
-    return rms_arcmin if reference is None or rms_arcmin is None else math.hypot(rms_arcmin, reference)
+    reference, noise = reference_std_rms(cal), reading_noise(cal)
+    if rms_arcmin is None:
+        return rms_arcmin
+    return math.hypot(rms_arcmin, reference or 0.0, noise or 0.0)
 
 
 def refit_spec(model, method, options):

@@ -27,7 +27,7 @@ from .._core import html as _html
 from .._core.atomic import atomic_file_set, atomic_write
 from .._version import __version__
 from .._core.angles import ARCMIN_PER_DEG, lsb_arcmin, resolution_of_readings
-from ..data.calibration import Calibration
+from ..data.calibration import READING_NOISE_KEY, Calibration
 from .._core.errors import InputError
 from .._core.parameters import check_bool, check_choice, check_int, check_type, invalid
 from ..analysis.profile import (ARBITRARY_ZERO_ARCMIN, ZERO_MODES, error_stats, harmonics, remove_offset,
@@ -557,7 +557,12 @@ def verdict(report):
         _, std = report.model.predict(np.linspace(0.0, 360.0, 721)[:-1], return_std=True)
         half_width = float(norm.ppf(0.975) * np.nanmean(std))  # over the arc of an arc model (NaN outside)
         smoothed = _smoothed_calibration(report.model)
-        if smoothed is None:
+        measured = report.model.uncertainty.get(READING_NOISE_KEY) if isinstance(
+            getattr(report.model, "uncertainty", None), dict) else None
+        if measured is not None:
+            band = (f"; the model's 95 % band for a new reading is ± {half_width:.3g} arcmin on average, with the "
+                    f"reading noise the self-calibration measured from its log ({measured:.3g} arcmin RMS)")
+        elif smoothed is None:
             band = f"; the model's 95 % band for a new reading is ± {half_width:.3g} arcmin on average"
         else:
             band = (f"; the model's 95 % band for the encoder's error is ± {half_width:.3g} arcmin on average, not "

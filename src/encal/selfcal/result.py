@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG
-from ..data.calibration import Calibration
+from ..data.calibration import READING_NOISE_KEY, Calibration
 
 __all__ = ["SelfCalibration"]
 
@@ -36,6 +36,10 @@ class SelfCalibration:
         -1 when the input counted against its reference and was read negated (``--reverse``): ``series`` is
         then a function of the negated reading, and :meth:`write` writes the readings as the encoder gave them,
         to be fitted with ``--reverse`` like the input.
+    reading_noise_arcmin : float or None
+        The standard deviation of one reading about the recovered profile, arc-minutes, measured from the log
+        where the method can (``spin``: the readings' scatter about each run's fit); None where it cannot. It is
+        not part of ``sigma_arcmin`` (the profile's uncertainty): a new reading adds it.
     """
 
     method: str
@@ -45,6 +49,7 @@ class SelfCalibration:
     details: dict = field(default_factory=dict)
     name: str = ""
     reading_sign: int = 1
+    reading_noise_arcmin: float | None = None
 
     def error_arcmin(self, encoder_deg):
         """The recovered error in arc-minutes at encoder readings ``encoder_deg`` (degrees)."""
@@ -66,8 +71,10 @@ class SelfCalibration:
         """
         encoder = self.grid(points)
         reference = encoder - self.error_arcmin(encoder) / ARCMIN_PER_DEG
-        return Calibration(reference, encoder, name=self.name, reading_sign=self.reading_sign,
-                           metadata={"selfcal": self.method, "removed_orders": list(self.removed_orders)},
+        metadata = {"selfcal": self.method, "removed_orders": list(self.removed_orders)}
+        if self.reading_noise_arcmin is not None:
+            metadata[READING_NOISE_KEY] = float(self.reading_noise_arcmin)
+        return Calibration(reference, encoder, name=self.name, reading_sign=self.reading_sign, metadata=metadata,
                            reference_std_arcmin=self.sigma_arcmin(encoder))
 
     def write(self, path, points=DEFAULT_POINTS, resolution_bits=None):
@@ -81,6 +88,9 @@ class SelfCalibration:
         encoder = cal.encoder_deg
         comments = [f"encal selfcal {self.method}: encoder error recovered without a precision reference",
                     "error_arcmin = encoder - reference; sigma_arcmin = its standard uncertainty (1 sigma)"]
+        if self.reading_noise_arcmin is not None:
+            # read back by read_calibration into the metadata: encal fit takes it as a new reading's noise
+            comments.append(f"{READING_NOISE_KEY}: {self.reading_noise_arcmin:.6g}")
         if self.reading_sign == -1:
             # The series is of the negated reading (the input was read with --reverse). Written as it stands, a
             # plain `encal fit` took the negated grid for raw readings: the table corrected the mirrored angle
@@ -141,6 +151,9 @@ class SelfCalibration:
         for i in order:
             lines.append(f"{series.orders[i]:>5d}{series.amplitude_arcmin[i]:>18.3f}"
                          f"{2 * series.amplitude_sigma_arcmin[i]:>11.3f}")
+        if self.reading_noise_arcmin is not None:
+            lines.append(f"reading noise (one reading about the profile, measured from the log): "
+                         f"{self.reading_noise_arcmin:.3g} arcmin RMS")
         for key, value in self.details.items():
             if key == "step_zero_deg":
                 lines.append(_step_zero_text(value))
