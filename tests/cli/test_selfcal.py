@@ -61,6 +61,16 @@ def test_spin_at_two_speeds_from_one_log_file(tmp_path, capsys):
     assert rms(cal.errors_arcmin - truth) <= 0.1 * rms(truth)
     header = [line for line in out.read_text().splitlines() if not line.startswith("#")][0]
     assert header == "reference_deg,encoder_deg,error_arcmin,sigma_arcmin"
+    # noise9: the reading noise measured from the log is written with the curve and used by encal fit and report
+    truth = np.hypot(ENCODER.noise_arcmin, 21600.0 / 2**14 / np.sqrt(12.0))
+    assert cal.metadata["reading_noise_arcmin"] == pytest.approx(truth, rel=0.05)
+    assert "# reading_noise_arcmin: " in out.read_text()
+    assert main(["fit", str(out), "-o", str(tmp_path / "model.json")]) == 0
+    assert "and a new reading's noise (" in capsys.readouterr().out
+    assert load_model(tmp_path / "model.json").uncertainty["noise_std_arcmin"] >= cal.metadata["reading_noise_arcmin"]
+    assert main(["report", str(out), "-o", str(tmp_path / "report.html"), "--no-comparison"]) == 0
+    printed = capsys.readouterr().out
+    assert "band for a new reading" in printed and "the reading noise the self-calibration measured" in printed
 
 
 @pytest.mark.parametrize("args, message", [

@@ -244,6 +244,22 @@ def test_resolution_comment(write_csv):
     assert cal.resolution_bits == 14
 
 
+def test_reading_noise_comment_is_read_into_the_metadata(write_csv):
+    # noise9: encal selfcal writes one reading's noise, measured from its log, as this comment
+    cal = read_calibration(write_csv("# reading_noise_arcmin: 2.05\n" + grid_csv()))
+    assert cal.metadata["reading_noise_arcmin"] == 2.05
+    assert "reading_noise_arcmin" not in read_calibration(write_csv(grid_csv())).metadata
+
+
+@pytest.mark.parametrize("comments, message", [
+    ("# reading_noise_arcmin: -1\n", "line 1: reading_noise_arcmin is '-1', expected a number of arc-minutes >= 0"),
+    ("# reading_noise_arcmin: nan\n", "line 1: reading_noise_arcmin is 'nan'"),
+    ("# reading_noise_arcmin: 2\n# reading_noise_arcmin: 3\n", "line 2: reading_noise_arcmin is 3 but line 1 says 2"),
+])
+def test_a_bad_reading_noise_comment_is_refused_with_its_line(write_csv, comments, message):
+    _refused(write_csv(comments + grid_csv()), message)
+
+
 def test_large_zero_offset_near_180_stays_continuous():
     ref = np.arange(0.0, 360.0, 1.8)
     error_deg = 179.9 + 0.2 * np.sin(np.radians(ref))  # crosses the +-180 boundary

@@ -127,3 +127,31 @@ def test_readings_of_one_angle_give_it_their_largest_reference_std():
     uncertainty = {"method": "given", "grid_step_deg": 1.0, "model_std_arcmin": [0.0] * 360, "noise_std_arcmin": 0.0}
     table = np.array(with_reference_uncertainty(uncertainty, cal)["model_std_arcmin"])
     assert table[90] == pytest.approx(3.0) and table[85] == pytest.approx(1.55)
+
+
+def test_a_self_calibrations_reading_noise_makes_the_band_cover_new_readings(tmp_path):
+    """noise9: a model of a spin's smoothed curve held no reading noise: its 95 % band covered about a quarter of a
+    noisy encoder's new readings. With the noise the spin measured from its log (written with the curve, read back),
+    the band covers them as it says, and the held-out estimate is a new reading's."""
+    from encal.selfcal.spin import SpinLog, spin
+    from encal.selfcal.synthetic import draw_magnetic_encoder, make_motor, simulate_spin
+
+    encoder, motor = draw_magnetic_encoder(3), make_motor(rng=3)
+    runs = [simulate_spin(motor, encoder, speed, revolutions=12, sample_rate_hz=1500.0, rng=seed)
+            for speed, seed in ((1.0, 30), (3.0, 31))]
+    path = tmp_path / "spin_cal.csv"
+    spin([SpinLog(run.time_s, run.encoder_deg) for run in runs]).write(path, resolution_bits=14)
+    cal = read_calibration(path)
+    noise = cal.metadata["reading_noise_arcmin"]
+    model = encal.fit(cal, method="auto", rng=0, uncertainty=True)
+    assert model.uncertainty["reading_noise_arcmin"] == noise
+    rng = np.random.default_rng(7)
+    rotor = rng.uniform(0.0, 360.0, 2000)
+    reading = encoder.read(rotor, rng)
+    zero = float(np.mean(encoder.error_at_reading(np.arange(0.0, 360.0, 0.5))))
+    error = ((reading - rotor + 180.0) % 360.0 - 180.0) * 60.0 - zero
+    mean, std = model.predict(reading, return_std=True)
+    inside = float(np.mean(np.abs(error - mean) <= 1.959964 * std))
+    assert 0.92 <= inside <= 0.98  # 0.28 without the reading noise (the metadata removed)
+    held_out = float(np.sqrt(np.mean((error - mean) ** 2)))
+    assert model.expected_rms_between_points() == pytest.approx(held_out, rel=0.1)  # 2.07 for 2.05; 0.39 without

@@ -326,3 +326,21 @@ def test_the_iso_230_2_table_of_the_page_is_the_standards_on_a_hand_made_log(tmp
         assert cells is not None, label
         assert float(cells.group(1)) == pytest.approx(value, rel=5e-4), label  # 4 significant digits
         assert float(cells.group(2)) == pytest.approx(60 * value, rel=5e-4), label
+
+
+def test_the_band_of_a_smoothed_calibration_with_its_measured_reading_noise_is_for_a_new_reading():
+    """noise9: with the reading noise a self-calibration measured from its log (its reading_noise_arcmin comment,
+    here the metadata it is read into), the band adds it and is said to be for a new reading, with its source."""
+    from encal.reports.encoder import _profile_figure, verdict
+
+    grid = np.arange(0.0, 360.0, 1.0)
+    smooth = Calibration(grid - shape_arcmin(grid) / 60.0, grid, reference_std_arcmin=np.full(grid.size, 0.3),
+                         name="selfcal", metadata={"reading_noise_arcmin": 2.0})
+    report = encoder_report(smooth, rng=0, compare=False)
+    line = verdict(report)
+    assert "the model's 95 % band for a new reading is ±" in line and "not for a new reading" not in line
+    assert "with the reading noise the self-calibration measured from its log (2 arcmin RMS)" in line
+    _, std = report.model.predict(grid, return_std=True)
+    assert float(np.min(std)) >= 2.0  # the noise is in every point's band
+    labels = [artist.get_label() for artist in _profile_figure(report).axes[0].collections]
+    assert "95 % band of a new reading" in labels

@@ -264,3 +264,16 @@ def test_two_speeds_of_a_rotor_driven_by_torque_ripple_keep_the_difference_order
     miss = abs(series.cos_arcmin[i] - 1j * series.sin_arcmin[i] - truth)
     sigma = np.sqrt((series.covariance[i, i] + series.covariance[m + i, m + i]) / 2)
     assert miss < 0.03 and miss < 0.5 * sigma, (miss, sigma)
+
+
+def test_the_reading_noise_is_measured_from_the_log_without_the_speed_ripple(logs):
+    """noise9: a spin measures one reading's noise from its own log (second differences of what each run's fit
+    leaves), the noise and the 14-bit rounding, not the speed ripple the fit leaves at the cogging's high orders."""
+    lsb_arcmin = 21600.0 / 2**ENCODER.bits
+    truth = np.hypot(ENCODER.noise_arcmin, lsb_arcmin / np.sqrt(12.0))  # 2.036 arcmin
+    assert spin([logs[2.0], logs[4.0]], pole_pairs=7, slots=12).reading_noise_arcmin == pytest.approx(truth, rel=0.03)
+    assert spin([logs[2.0]], pole_pairs=7, slots=12).reading_noise_arcmin == pytest.approx(truth, rel=0.03)
+    unrounded = MagneticEncoder(ENCODER.harmonics, noise_arcmin=0.5, bits=None)
+    result = spin([_log(2.0, 3, unrounded), _log(4.0, 4, unrounded)])
+    assert result.reading_noise_arcmin == pytest.approx(0.5, rel=0.03)
+    assert "reading noise" in result.summary() and result.calibration().metadata["reading_noise_arcmin"] > 0.0
