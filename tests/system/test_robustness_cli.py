@@ -188,6 +188,7 @@ def _make_files(folder):
                                            arc), encoding="utf-8")
     _make_fleet8_files(folder, paths)
     _make_arc8_files(folder, paths)
+    _make_noise9_files(folder, paths)
     return {key: str(path) for key, path in paths.items()}
 
 
@@ -1569,6 +1570,25 @@ METROLOGY8_CASES = [
          ("fuzz6_afresh.csv", "as one target", "above the scatter of one target's angles and below the spacing")),
 ]
 CASES += METROLOGY8_CASES
+
+
+# ---------------------------------------------------------------- noise9: a self-calibration's reading noise comment
+def _make_noise9_files(folder, paths):
+    """Calibrations whose ``# reading_noise_arcmin`` comment (encal selfcal writes it) is negative, or given twice."""
+    body = _csv_text(GRID_TRAIN, GRID_TRAIN + _profile_arcmin(GRID_TRAIN) / 60.0)
+    for name, comments in (("noise9_negative", "# reading_noise_arcmin: -1\n"),
+                           ("noise9_twice", "# reading_noise_arcmin: 2\n# reading_noise_arcmin: 3\n")):
+        paths[name] = folder / f"{name}.csv"
+        paths[name].write_text(comments + body, encoding="utf-8")
+
+
+NOISE9_CASES = [
+    Case("noise9-fit-negative-reading-noise", ("fit", "{noise9_negative}", "-o", "{out}/m.json"), 1,
+         ("noise9_negative.csv", "line 1", "reading_noise_arcmin is '-1'", "correct or remove the comment")),
+    Case("noise9-report-two-reading-noises", ("report", "{noise9_twice}", "-o", "{out}/r.html"), 1,
+         ("noise9_twice.csv", "line 2", "but line 1 says 2", "remove one of the comments")),
+]
+CASES += NOISE9_CASES
 
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
