@@ -20,9 +20,10 @@ lies inside that band, at the calibration's own angles (fresh noise) and between
   simulated motor (``make_motor(rng=seed)``) at 1 and 3 rev/s, 20 revolutions each, self-calibrated by
   ``encal.selfcal.spin``; the model fitted to its calibration (360 points, its ``sigma_arcmin`` as the
   reference's uncertainty) against the true error at readings 0:1:359 ("at the points") and 0.5:1:359.5
-  ("between"), noise-free (the profile, which the band of a self-calibration holds) and as new readings
-  (the encoder read afresh at 2000 random rotor angles: with their noise and the 14-bit rounding). The truth's
-  mean is removed: a spin cannot tell the reading's zero.
+  ("between"), noise-free (the profile, against the band without the noise: ``include_noise=False``) and as new
+  readings (the encoder read afresh at 2000 random rotor angles: with their noise and the 14-bit rounding, against
+  the band with the reading noise the spin measured from its log, noise9). The truth's mean is removed: a spin
+  cannot tell the reading's zero.
 
 Every run of every encoder draws its own noise (:func:`noise_rng`). After the default case, an HTML comment gives
 the spread over the angles of the rounded noise's standard deviation (:func:`angle_noise_spread`).

@@ -274,7 +274,8 @@ def _run_coefficients(run, orders, knot_revolutions, rotor_orders=(), rotor_erro
     speed = travel / 360.0 / (time[-1] - time[0])
     return {"vector": full * ARCMIN_PER_DEG, "covariance": covariance, "speed_rev_s": float(speed),
             "revolutions": float(revolutions),
-            "curvature_square_sum_arcmin2": curvature_square_sum * ARCMIN_PER_DEG**2, "curvature_count": curvature_count}
+            "curvature_square_sum_arcmin2": curvature_square_sum * ARCMIN_PER_DEG**2,
+            "curvature_count": curvature_count}
 
 
 def cubic_bspline_design(x, knots):
