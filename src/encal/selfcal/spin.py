@@ -251,8 +251,7 @@ def _run_coefficients(run, orders, knot_revolutions, rotor_orders=(), rotor_erro
     full = solution[wanted]
     curvature_square_sum, curvature_count = 0.0, 0
     if not rotor_orders.size:  # the first pass fits every order: what it leaves is the readings' own scatter
-        for start in range(0, time.size, CHUNK):
-            stop = min(start + CHUNK, time.size)
+        for start, stop in _noise_blocks(time.size):
             x = np.hstack([cubic_bspline_design(time[start:stop], knots), design_matrix(phase[start:stop], orders)])
             residual = phase[start:stop] - origin - x @ solution
             curvature_square_sum += float(np.sum(np.diff(residual, 2) ** 2))
@@ -276,6 +275,20 @@ def _run_coefficients(run, orders, knot_revolutions, rotor_orders=(), rotor_erro
             "revolutions": float(revolutions),
             "curvature_square_sum_arcmin2": curvature_square_sum * ARCMIN_PER_DEG**2,
             "curvature_count": curvature_count}
+
+
+#: Samples of a run whose residual gives the reading noise (:func:`reading_noise_arcmin`), in :data:`NOISE_BLOCKS`
+#: blocks spread over the run: its second differences' mean square to about 1 % (a pass over every sample made
+#: ``encal selfcal spin`` of 2e5 samples 2.2x a NumPy script of its least squares, 1.7x without it).
+NOISE_SAMPLES, NOISE_BLOCKS = 20000, 10
+
+
+def _noise_blocks(samples):
+    """``(start, stop)`` of the blocks of a run of ``samples`` whose residual measures the reading noise."""
+    if samples <= NOISE_SAMPLES:
+        return [(0, samples)]
+    size = NOISE_SAMPLES // NOISE_BLOCKS
+    return [(int(start), int(start) + size) for start in np.linspace(0, samples - size, NOISE_BLOCKS)]
 
 
 def cubic_bspline_design(x, knots):
