@@ -420,10 +420,12 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     Returns
     -------
     SpectralModel
-        With its posterior standard deviation (``uncertainty``: averaged over the unit's scale of the fleet's
-        spread, and holding what the orders held at the fleet's mean leave between the stops) and
-        ``training['prior']`` saying it is the fleet's; ``training['fleet_prior']['spread_scale']`` is the scale's
-        most probable value.
+        With its posterior standard deviation (``uncertainty``: of the shape about the zero offset, as
+        :func:`~encal.models.spectral.fit_spectral`'s, averaged over the unit's scale of the fleet's spread, and
+        holding what the orders held at the fleet's mean leave between the stops) and ``training['prior']`` saying it
+        is the fleet's; ``training['fleet_prior']['spread_scale']`` is the scale's most probable value,
+        ``training['fleet_prior']['offset_std_arcmin']`` the zero offset's posterior standard deviation (arc-minutes),
+        for a reference whose zero is fixed.
 
     Raises
     ------
