@@ -420,10 +420,12 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     Returns
     -------
     SpectralModel
-        With its posterior standard deviation (``uncertainty``: averaged over the unit's scale of the fleet's
-        spread, and holding what the orders held at the fleet's mean leave between the stops) and
-        ``training['prior']`` saying it is the fleet's; ``training['fleet_prior']['spread_scale']`` is the scale's
-        most probable value.
+        With its posterior standard deviation (``uncertainty``: of the shape about the zero offset, as
+        :func:`~encal.models.spectral.fit_spectral`'s, averaged over the unit's scale of the fleet's spread, and
+        holding what the orders held at the fleet's mean leave between the stops) and ``training['prior']`` saying it
+        is the fleet's; ``training['fleet_prior']['spread_scale']`` is the scale's most probable value,
+        ``training['fleet_prior']['offset_std_arcmin']`` the zero offset's posterior standard deviation (arc-minutes),
+        for a reference whose zero is fixed.
 
     Raises
     ------
@@ -489,23 +491,33 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
         log_scale = _golden(lambda c: evidence(log_sigma, c), log_scale - (scales[1] - scales[0]),
                             log_scale + (scales[1] - scales[0]))
     noise_var = math.exp(2 * log_sigma)
-    # the posterior averaged over the scale (its weights: evidence times hyperprior, on a grid)
+    # the posterior averaged over the scale (its weights: evidence times hyperprior, on a grid); the band is of the
+    # shape about the offset, as fit_spectral's (a motor's zero is set at run time): the offset's column is out of
+    # the grid, its own posterior variance kept apart (``offset_std_arcmin``)
     grid = _design(np.arange(360) * 1.0, orders)
+    grid[:, 0] = 0.0
+    offset_row = np.eye(1, prior_mean.size)
     averaged = np.linspace(scale_low, scale_high, _SCALE_POINTS)
     weights = np.array([evidence(log_sigma, c) for c in averaged])
     weights = np.exp(weights - weights.max())
-    weights /= weights.sum()
+    # the scales of negligible weight are left out and the others' weights renormalised: the moments below are raw
+    # (second minus mean squared), and weights summing to 1 - ε left ε times the mean's square in the variance (a real
+    # board's arbitrary zero of -3792 arcmin: a phantom 6.4 arcmin in its band)
+    kept = weights >= 1e-6 * weights.sum()
+    averaged, weights = averaged[kept], weights[kept] / weights[kept].sum()
     shift, second = np.zeros(prior_mean.size), np.zeros(grid.shape[0])
+    offset_second = 0.0
     log_evidence = posterior(log_sigma, log_scale)[2]
     for weight, value in zip(weights, averaged):
-        if weight < 1e-6:
-            continue
         shift_at, cholesky, _ = posterior(log_sigma, value)
         at_grid = grid @ shift_at
         shift += weight * shift_at
         second += weight * (np.sum(solve_triangular(cholesky, grid.T, lower=True) ** 2, axis=0) + at_grid**2
                             + _held_variance(grid, gram, cholesky, noise_var, held, held_blocks, math.exp(value)))
+        offset_second += weight * (float(np.sum(solve_triangular(cholesky, offset_row.T, lower=True) ** 2))
+                                   + shift_at[0] ** 2)
     variance = np.maximum(second - (grid @ shift) ** 2, 0.0)  # the law of total variance over the scale
+    offset_std = math.sqrt(max(offset_second - shift[0] ** 2, 0.0))
     mean = prior_mean + shift
     all_orders = np.r_[0, orders]
     cos = np.r_[mean[0], mean[1:orders.size + 1]]
@@ -516,7 +528,7 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
                   f"{prior.units} units (empirical Bayes), the zero offset flat"),
         "noise": {"source": source, "std_arcmin": math.sqrt(noise_var)},
         "fleet_prior": {"units": int(prior.units), "orders": int(orders.max()), "spread_scale": math.exp(log_scale),
-                        "held_orders": [int(k) for k in orders[held]]},
+                        "held_orders": [int(k) for k in orders[held]], "offset_std_arcmin": offset_std},
         "log_evidence_nats": float(log_evidence),
         "stops": int(np.unique(np.round(theta, 9)).size),
     }
