@@ -71,6 +71,11 @@ def test_spin_at_two_speeds_from_one_log_file(tmp_path, capsys):
     assert main(["report", str(out), "-o", str(tmp_path / "report.html"), "--no-comparison"]) == 0
     printed = capsys.readouterr().out
     assert "band for a new reading" in printed and "the reading noise the self-calibration measured" in printed
+    # --noise on such a file counted the noise twice in the band (noise9's note): refused, nothing written
+    assert main(["fit", str(out), "-o", str(tmp_path / "twice.json"), "--noise", "2"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "records the reading noise its self-calibration measured" in err[0]
+    assert "(leave out --noise)" in err[0] and not (tmp_path / "twice.json").exists()
 
 
 @pytest.mark.parametrize("args, message", [

@@ -302,6 +302,19 @@ def _check_same_zero(cal, second):
                          "arbitrary: compare such passes with 'encal drift', which removes the change of zero)")
 
 
+def _check_noise_not_recorded(noise, cal):
+    """Refuse ``--noise`` on a self-calibration's curve that records the reading noise it measured: the fit adds that
+    to a new reading's band, and the two together counted the noise twice."""
+    from .._core.errors import InputError
+    from ..models.uncertainty import reading_noise
+
+    recorded = reading_noise(cal)
+    if noise is not None and recorded is not None:
+        raise InputError(f"{cal.source}: records the reading noise its self-calibration measured ({recorded:.4g} "
+                         f"arcmin), which the fit adds to a new reading's band, and --noise {noise:g} was given too; "
+                         "expected one of them (leave out --noise)")
+
+
 def run(args):
     from .._core.memory import release_freed_memory
     from ..data.reversal import has_both_directions
@@ -315,6 +328,7 @@ def run(args):
                 outputs=[("-o", args.output)])
     with activity("fit") as progress:
         cal = read_calibration_from_args(args.calibration, args, progress, targets=True)
+        _check_noise_not_recorded(args.noise, cal)
         if args.repeat is not None:
             _check_not_itself(args.repeat, args.calibration)
             second = read_calibration_from_args(args.repeat, args, progress)
