@@ -111,27 +111,24 @@ def _with_reference_uncertainty(estimate, cal, model_uncertainty=None):
     posterior's has it already (:func:`encal.models.uncertainty.with_reference_uncertainty`), and it is said; a
     cross-validation's gets its RMS in quadrature (no fold can see an error the reference shares with its
     neighbours)."""
-    from ..models.uncertainty import reading_noise, reference_std_rms, with_reference_rms
+    from ..models.uncertainty import included_text, reading_noise, reference_std_rms, with_reference_rms
 
     reference, noise = reference_std_rms(cal), reading_noise(cal)
     if estimate is None or (reference is None and noise is None) or estimate.get("rms_arcmin") is None:
         return estimate
-    parts = []
     estimate = dict(estimate)
     if reference is not None:
         if estimate["estimator"] == "posterior":  # averaged over the posterior's grid, as its estimate is
             reference = (model_uncertainty or {}).get("reference_std_rms_arcmin", reference)
         estimate["reference_std_rms_arcmin"] = reference
-        parts.append(f"the reference's own uncertainty (its sigma_arcmin column, RMS {reference:.3g} arcmin)")
     if noise is not None:
         estimate["reading_noise_arcmin"] = noise
-        parts.append(f"a new reading's noise ({noise:.3g} arcmin RMS, measured by the self-calibration from its log: "
-                     "the file's reading_noise_arcmin comment)")
+    included = included_text(reference, noise)
     if estimate["estimator"] == "posterior":
-        estimate["text"] += ", including " + " and ".join(parts)
+        estimate["text"] += ", including " + included
     else:
         estimate["rms_arcmin"] = with_reference_rms(estimate["rms_arcmin"], cal)
-        estimate["text"] += (f"; with {' and '.join(parts)} in quadrature: RMS {estimate['rms_arcmin']:.4g} arcmin")
+        estimate["text"] += f"; with {included} in quadrature: RMS {estimate['rms_arcmin']:.4g} arcmin"
     return estimate
 
 

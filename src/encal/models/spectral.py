@@ -233,15 +233,12 @@ class SpectralModel(FourierModel):
                         f"{_noise_meaning(sigma / quantum, t['noise']['source'], 'readings_resolution_bits' in t)}")
         expected = self.expected_rms_between_points()
         if expected is not None:
-            reference = self.uncertainty.get("reference_std_rms_arcmin")
-            measured = self.uncertainty.get("reading_noise_arcmin")  # noise9: a self-calibration's, from its log
-            parts = ([] if reference is None else
-                     [f"the reference's own uncertainty (its sigma_arcmin column, RMS {reference:.3g} arcmin)"]) + (
-                [] if measured is None else [f"a new reading's noise ({measured:.3g} arcmin RMS, measured by the "
-                                             "self-calibration from its log: the file's reading_noise_arcmin comment)"])
+            from .uncertainty import included_text
+
+            included = included_text(self.uncertainty.get("reference_std_rms_arcmin"),
+                                     self.uncertainty.get("reading_noise_arcmin"))
             text.append(f"held-out estimate (posterior, readings at angles not calibrated): RMS "
-                        f"{expected:.4g} arcmin after correction" + (", including " + " and ".join(parts) if parts
-                                                                     else ""))
+                        f"{expected:.4g} arcmin after correction" + (f", including {included}" if included else ""))
         return "\n".join(text)
 
     def __repr__(self):

@@ -84,6 +84,7 @@ __all__ = [
     "with_reference_uncertainty",
     "reading_noise",
     "with_reading_noise",
+    "included_text",
     "reference_std_rms",
     "with_reference_rms",
     "check_uncertainty",
@@ -605,6 +606,19 @@ def with_reading_noise(uncertainty, cal):
         return uncertainty
     return {**uncertainty, READING_NOISE_KEY: noise,
             "noise_std_arcmin": math.hypot(float(uncertainty["noise_std_arcmin"]), noise)}
+
+
+def included_text(reference_rms_arcmin=None, reading_noise_arcmin=None):
+    """What a held-out estimate holds beyond the fit's own figures, as its report says it: the reference's own
+    uncertainty and a self-calibration's measured reading noise (arcmin RMS; either None). '' with neither."""
+    parts = []
+    if reference_rms_arcmin is not None:
+        parts.append(f"the reference's own uncertainty (its sigma_arcmin column, RMS {reference_rms_arcmin:.3g} "
+                     "arcmin)")
+    if reading_noise_arcmin is not None:
+        parts.append(f"a new reading's noise ({reading_noise_arcmin:.3g} arcmin RMS, measured by the self-calibration "
+                     "from its log: the file's reading_noise_arcmin comment)")
+    return " and ".join(parts)
 
 
 def reference_std_rms(cal):
