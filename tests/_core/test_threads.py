@@ -57,3 +57,16 @@ def test_public_entry_points_that_fit_limit_blas_themselves():
 
     for function in (encal.fit, encal.evaluate, fit_with_prior, fleet_prior):
         assert getattr(function, "__wrapped__", None) is not None, function.__qualname__
+
+
+def test_a_process_that_pinned_blas_before_numpy_loaded_sets_up_no_controller(monkeypatch):
+    # The command line sets the thread variables to 1 before NumPy loads and says so: a decorated function then
+    # runs as it is, without threadpoolctl's controller, whose set-up imports scipy.linalg.
+    from encal._core import threads
+
+    def no_controller():
+        raise AssertionError("a threadpool controller was set up")
+
+    monkeypatch.setattr(threads, "_blas", no_controller)
+    monkeypatch.setattr(threads, "_pinned_by_environment", True)
+    assert single_blas_thread(lambda x: 2 * x)(21) == 42

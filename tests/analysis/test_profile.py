@@ -378,3 +378,62 @@ def test_random_angles_skip_the_grid_fit(monkeypatch):
     theta = np.random.default_rng(1).uniform(0.0, 360.0, 10_000)
     assert profile.angles_and_grid(theta)[2].phase_rad is None
     assert profile.uniform_grid(theta) is None
+
+
+def _qr_only(monkeypatch):
+    from encal.analysis import profile
+
+    monkeypatch.setattr(profile, "_GRAM_ABOVE", 10**12)
+
+
+@pytest.mark.parametrize("case", ["random", "grid with its Nyquist term", "sorted sweep"])
+def test_many_readings_are_fitted_from_the_normal_equations_as_the_qr_fits_them(case, monkeypatch):
+    # From _GRAM_ABOVE readings the least squares is solved from trigonometric moments (no design matrix); its
+    # coefficients agree with the QR's to rounding, the Nyquist term locked to its grid included.
+    rng = np.random.default_rng(3)
+    grid_deg = None
+    if case == "random":
+        theta = rng.uniform(0.0, 360.0, 40_000)
+        orders = [0, 1, 2, 5, 16, 33]
+    elif case == "sorted sweep":
+        theta = np.sort(rng.uniform(0.0, 360.0, 40_000))
+        orders = list(range(17))
+    else:  # 40,000 readings at 400 nodes of a grid starting at 0.3 degrees, 100 each
+        grid_deg = 0.3 + np.arange(400) * 0.9
+        theta = np.repeat(grid_deg, 100) + rng.uniform(-0.2, 0.2, 40_000)
+        orders = [1, 3, 200]
+    errors = 2.0 * np.cos(np.radians(theta) + 0.3) + 0.4 * np.sin(np.radians(16 * theta)) \
+        + rng.normal(0.0, 0.1, theta.size)
+    by_gram = fit_harmonic_series(theta, errors, orders, grid_deg=grid_deg)
+    _qr_only(monkeypatch)
+    by_qr = fit_harmonic_series(theta, errors, orders, grid_deg=grid_deg)
+    assert_allclose(by_gram, by_qr, rtol=0, atol=1e-12)
+
+
+def test_many_readings_on_an_arc_are_left_to_the_qr_and_its_rank_test(monkeypatch):
+    # On an arc low orders are far from orthogonal, past the normal equations' condition limit: the QR solves them
+    # (120 degrees, orders 0 to 3), and refuses orders it cannot tell apart as it always did (30 degrees, 0 to 8).
+    from encal.analysis import profile
+
+    rng = np.random.default_rng(5)
+    theta = rng.uniform(100.0, 220.0, 30_000)
+    errors = np.cos(np.radians(theta)) + rng.normal(0.0, 0.01, theta.size)
+    columns = profile._column_phasors(range(4), profile._grid(theta))[:2]
+    assert profile._well_conditioned(profile._gram(np.radians(theta), np.ones(theta.size), *columns)) is None
+    fitted = fit_harmonic_series(theta, errors, range(4))
+    narrow = rng.uniform(100.0, 130.0, 30_000)
+    with pytest.raises(InputError, match="rank-deficient least squares"):
+        fit_harmonic_series(narrow, np.cos(np.radians(narrow)), range(9))
+    _qr_only(monkeypatch)
+    assert_allclose(fitted, fit_harmonic_series(theta, errors, range(4)), rtol=0, atol=0)
+
+
+def test_harmonic_series_and_order_are_those_of_the_two_functions():
+    from encal.analysis.profile import harmonic_series_and_order
+
+    rng = np.random.default_rng(8)
+    for theta in (rng.uniform(0.0, 360.0, 500), rng.uniform(0.0, 360.0, 30_000), np.arange(0.0, 360.0, 2.0)):
+        errors = np.sin(np.radians(3 * theta)) + rng.normal(0.0, 0.05, theta.size)
+        cos, sin, order = harmonic_series_and_order(theta, errors, [0, 1, 3])
+        assert_allclose((cos, sin), fit_harmonic_series(theta, errors, [0, 1, 3]), rtol=0, atol=0)
+        assert order == identifiable_order(theta)

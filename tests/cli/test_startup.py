@@ -30,11 +30,11 @@ with open(sys.argv[1], "w") as handle:
 """
 
 
-def imported_by(tmp_path, *argv, stdin=""):
+def imported_by(tmp_path, *argv, stdin="", env=None):
     """The exit status, the output and the imported modules of ``encal ARGV`` in a fresh process."""
     listing = tmp_path / "modules.json"
     process = subprocess.run([sys.executable, "-c", PROBE, str(listing), *argv], input=stdin,
-                             capture_output=True, text=True, timeout=120)
+                             capture_output=True, text=True, timeout=120, env=env)
     assert process.stderr == ""
     result = json.loads(listing.read_text())
     return result["status"], process.stdout, result["modules"]
@@ -105,3 +105,27 @@ def test_ctrl_c_while_the_command_is_imported_stops_it_cleanly(monkeypatch, caps
     monkeypatch.setattr(encal.cli, "_add_options", interrupted)
     assert encal.cli.main(["correct", "model.json"]) == 130
     assert capsys.readouterr().err == "encal correct: interrupted\n"
+
+
+@pytest.mark.parametrize("threads, scipy_expected", [(None, False), ("2", True)])
+def test_a_dense_fourier_fit_loads_scipy_only_to_limit_a_blas_the_user_threaded(tmp_path, threads, scipy_expected):
+    # The command line pins one BLAS thread before NumPy loads; its fits then need no threadpool controller, whose
+    # set-up imports scipy.linalg (0.15-0.3 s), and a well-conditioned dense Fourier fit needs no SciPy at all.
+    # A user's own thread count wins, and the fit limits BLAS around its work as in a program.
+    import os
+
+    rng = np.random.default_rng(0)
+    reference = rng.uniform(0.0, 360.0, 60_000)
+    path = tmp_path / "dense.csv"
+    np.savetxt(path, np.c_[reference, reference + np.sin(np.radians(reference)) / 60.0], fmt="%.9f",
+               delimiter=",", header="reference_deg,encoder_deg", comments="")
+    env = {k: v for k, v in os.environ.items() if k not in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS",
+                                                             "MKL_NUM_THREADS")}
+    if threads is not None:
+        env["OPENBLAS_NUM_THREADS"] = threads
+    status, out, modules = imported_by(tmp_path, "fit", str(path), "--method", "fourier", "--orders", "1,2,3",
+                                       "-o", str(tmp_path / "model.json"), env=env)
+    assert status == 0
+    assert any(name.startswith("scipy") for name in modules) == scipy_expected
+    parameters = json.loads((tmp_path / "model.json").read_text())["parameters"]
+    np.testing.assert_allclose(parameters["sin"], [1.0, 0.0, 0.0], rtol=0, atol=1e-3)  # sin θ / 60 degrees

@@ -10,9 +10,10 @@ thread around their own work with threadpoolctl and restore the caller's setting
 import contextvars
 import functools
 
-__all__ = ["single_blas_thread"]
+__all__ = ["single_blas_thread", "note_pinned_by_environment"]
 
 _controller = None
+_pinned_by_environment = False
 _inside = contextvars.ContextVar("encal_single_blas_thread", default=False)
 
 
@@ -28,12 +29,22 @@ def _blas():
     return _controller
 
 
+def note_pinned_by_environment():
+    """Record that every BLAS this process loads runs one thread already: the variables said 1 before NumPy loaded.
+
+    The command line sets them so; the decorated functions then need no threadpool controller, whose set-up imports
+    ``scipy.linalg`` (0.15-0.3 s of CPU) for commands that need no SciPy.
+    """
+    global _pinned_by_environment
+    _pinned_by_environment = True
+
+
 def single_blas_thread(function):
     """Decorate a public function so that BLAS runs on one thread while it works (nested calls limit once)."""
 
     @functools.wraps(function)
     def limited(*args, **kwargs):
-        if _inside.get():
+        if _pinned_by_environment or _inside.get():
             return function(*args, **kwargs)
         token = _inside.set(True)
         try:

@@ -40,6 +40,7 @@ __all__ = [
     "harmonics",
     "identifiable_order",
     "fit_harmonic_series",
+    "harmonic_series_and_order",
     "nested_harmonic_predictions",
     "rank_orders",
     "uniform_grid",
@@ -686,18 +687,39 @@ def fit_harmonic_series(theta_deg, error_arcmin, orders, *, caller="fit_harmonic
     ([2.0, 0.0], [0.0, 1.0])
     """
     theta, error = profile_arrays(theta_deg, error_arcmin, caller)
-    orders = [int(k) for k in orders]
     grid = _grid(theta if grid_deg is None else _in_turn(grid_deg))
+    return _fit_series(theta, error, [int(k) for k in orders], caller, grid, grid_deg is not None)
+
+
+def harmonic_series_and_order(theta_deg, error_arcmin, orders, *, caller="harmonic_series_and_order"):
+    """:func:`fit_harmonic_series` of the angles' own grid, and their :func:`identifiable_order`, from one sort of
+    them (a fit of 10^6 angles spent 20-30 ms in each).
+
+    Returns
+    -------
+    cos_arcmin, sin_arcmin : ndarray of shape (len(orders),)
+    identifiable_order : int
+    """
+    theta, error = profile_arrays(theta_deg, error_arcmin, caller)
+    grid = _grid(theta)
+    return (*_fit_series(theta, error, [int(k) for k in orders], caller, grid, False), grid.stable_order)
+
+
+def _fit_series(theta, error, orders, caller, grid, on_given_grid):
     too_high = [k for k in orders if k > grid.max_order]
     if too_high:
         raise InputError(_aliasing_message(caller, too_high, grid))
+    if theta.size >= _GRAM_ABOVE:
+        solution, owners = _solution_by_gram(theta, error, orders, grid, check_nodes=on_given_grid)
+        if solution is not None:
+            return _coefficients(solution, owners, orders, grid)
     import scipy.linalg  # here, not at the top: the commands that only read a model never import SciPy
 
     design, owners = _design(theta, orders, grid)
     # QR with column pivoting (gelsy): rank-revealing, and much faster than the SVD.
     solution, _, rank, _ = scipy.linalg.lstsq(design, error, cond=_RCOND, lapack_driver="gelsy",
                                               check_finite=False)
-    if grid_deg is not None and grid.phase_rad is not None and rank == design.shape[1]:
+    if on_given_grid and grid.phase_rad is not None and rank == design.shape[1]:
         at_nodes = _design(_snap(theta, grid), orders, grid)[0]
         rank = np.linalg.matrix_rank(at_nodes, tol=_RCOND * np.linalg.norm(at_nodes, 2))
     if rank < design.shape[1]:
@@ -814,6 +836,70 @@ def _identifiable_orders(design, owner, n_orders, block=64):
             rank += done
         start = stop
     return kept
+
+
+#: From this many readings :func:`fit_harmonic_series` solves its normal equations, built from trigonometric moments
+#: (no design matrix: 10^6 readings of 16 orders held 264 MB in it, and its QR took 1.3 s).
+_GRAM_ABOVE = 20_000
+
+#: The normal equations are solved when their matrix's condition number is at most this, else the design's QR.
+#: Each Gram entry is a trigonometric moment within about 1e-14 of the readings' count (:func:`trig_moments`), so the
+#: solution is then within about 1e-10 of the QR's, relative; and the design, its condition at most 100, is of full
+#: rank by far (the QR's rank test is at :data:`_RCOND`).
+_GRAM_CONDITION = 1e4
+
+
+def _column_phasors(orders, grid):
+    """Per design column of :func:`_design`, its order ``k`` and phasor ``α``: the column is ``Re(α e^{ikθ})``."""
+    ks, alphas, owners = [], [], []
+    for index, k in enumerate(orders):
+        if k == 0:
+            ks.append(0), alphas.append(1.0), owners.append((index, "cos"))
+        elif k == grid.nyquist_order:
+            ks.append(k), alphas.append(np.exp(-1j * k * grid.phase_rad)), owners.append((index, "nyquist"))
+        else:
+            ks += [k, k]
+            alphas += [1.0, -1j]  # Re(e^{ikθ}) = cos kθ, Re(-i e^{ikθ}) = sin kθ
+            owners += [(index, "cos"), (index, "sin")]
+    return np.array(ks, dtype=int), np.array(alphas, dtype=complex), owners
+
+
+def _gram(theta_rad, weights, ks, alphas):
+    """``Aᵀ diag(w) A`` of the columns ``Re(α_j e^{i k_j θ})``, from the moments ``S_m = Σ w e^{imθ}``:
+    ``½ Re(α_j α_l S_{k_j+k_l} + α_j conj(α_l) S_{k_j-k_l})``."""
+    moments = trig_moments(theta_rad, weights, 2 * int(ks.max()))
+    difference = ks[:, None] - ks[None, :]
+    s_difference = moments[np.abs(difference)]
+    s_difference = np.where(difference >= 0, s_difference, np.conj(s_difference))
+    gram = 0.5 * np.real(alphas[:, None] * alphas[None, :] * moments[ks[:, None] + ks[None, :]]
+                         + alphas[:, None] * np.conj(alphas)[None, :] * s_difference)
+    return 0.5 * (gram + gram.T)
+
+
+def _well_conditioned(gram):
+    """The Cholesky factor of a symmetric matrix whose condition number is at most :data:`_GRAM_CONDITION`, or None."""
+    eigenvalues = np.linalg.eigvalsh(gram)
+    if not eigenvalues[0] > 0.0 or eigenvalues[-1] > _GRAM_CONDITION * eigenvalues[0]:
+        return None
+    return np.linalg.cholesky(gram)
+
+
+def _solution_by_gram(theta_deg, error_arcmin, orders, grid, check_nodes):
+    """The least-squares column coefficients of :func:`_design` from the normal equations, and their owners; the
+    solution is None when the Gram matrix (or, with ``check_nodes``, the one at the grid's nodes the angles occupy)
+    is not well conditioned: the QR then decides, with its rank test."""
+    ks, alphas, owners = _column_phasors(orders, grid)
+    theta = np.radians(theta_deg)
+    factor = _well_conditioned(_gram(theta, np.ones(theta.size), ks, alphas))
+    if factor is None:
+        return None, owners
+    if check_nodes and grid.phase_rad is not None:
+        nodes = np.unique(np.radians(_snap(theta_deg, grid)))
+        if _well_conditioned(_gram(nodes, np.ones(nodes.size), ks, alphas)) is None:
+            return None, owners
+    projection = np.real(alphas * trig_moments(theta, error_arcmin, int(ks.max()))[ks])  # Aᵀ ε
+    within = np.linalg.solve(factor, projection)
+    return np.linalg.solve(factor.T, within), owners
 
 
 def _coefficients(solution, owners, orders, grid):

@@ -17,8 +17,11 @@ import os
 # encal's matrices are small (at most a few hundred rows): one BLAS thread per process is fastest, and a
 # threaded BLAS on a busy 2-core machine was measured 100x slower (a 0.4 s fit took 98 s). This must run
 # before NumPy is first imported; a user's own setting wins.
-for _variable in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+_BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+for _variable in _BLAS_THREAD_VARIABLES:
     os.environ.setdefault(_variable, "1")
+_PINNED_BEFORE_NUMPY = "numpy" not in __import__("sys").modules and all(
+    os.environ[_variable] == "1" for _variable in _BLAS_THREAD_VARIABLES)
 
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
@@ -28,11 +31,15 @@ import signal  # noqa: E402
 import sys  # noqa: E402
 
 from .._core import signals as _signals
+from .._core import threads as _threads
 from .._version import __version__
 from .._core.errors import EncalError
 from .._core.number_cells import plain_option
 
 __all__ = ["main"]
+
+if _PINNED_BEFORE_NUMPY:  # the public functions need not limit BLAS again (nor load SciPy's to do so)
+    _threads.note_pinned_by_environment()
 
 #: Every command, in the order of ``encal --help``: name -> the line ``encal --help`` shows for it.
 COMMANDS = {

@@ -14,6 +14,7 @@ from .._core.parameters import check_int
 from ..analysis.profile import (
     distinct_angles,
     fit_harmonic_series,
+    harmonic_series_and_order,
     identifiable_order,
     nested_harmonic_predictions,
     profile_arrays,
@@ -215,6 +216,10 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
     """
     theta, error = profile_arrays(theta_enc_deg, error_arcmin, "fit_fourier")
     nodes = _grid_nodes(theta, grid_points, "fit_fourier")
+    if orders is not None and max_order is None and nodes is None:
+        chosen = _check_orders(orders, None)
+        cos, sin, stable = harmonic_series_and_order(theta, error, chosen, caller="fit_fourier")
+        return _fourier_model(chosen, cos, sin, {"select": "explicit"}, stable, grid_points)
     stable = identifiable_order(theta) if nodes is None else nodes.size // 2
     limit = stable if max_order is None else check_int(max_order, "max_order", "fit_fourier", low=0)
     if orders is not None:
@@ -236,7 +241,11 @@ def fit_fourier(theta_enc_deg, error_arcmin, *, orders=None, n_orders=10, select
             f"The 'select' parameter of fit_fourier must be 'top' or 'cv'. Got {select!r} instead."
         )
     cos, sin = fit_harmonic_series(theta, error, chosen, caller="fit_fourier", grid_deg=nodes)
-    training.update(orders=[int(k) for k in chosen], max_order=int(limit))
+    return _fourier_model(chosen, cos, sin, training, limit, grid_points)
+
+
+def _fourier_model(chosen, cos, sin, training, max_order, grid_points):
+    training.update(orders=[int(k) for k in chosen], max_order=int(max_order))
     if grid_points is not None:
         training["grid_points"] = int(grid_points)
     return FourierModel(chosen, cos, sin, training=training)
