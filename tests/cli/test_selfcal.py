@@ -146,6 +146,10 @@ def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
     assert main(["selfcal", "steps", str(path), "--turn", "90", "-o", str(tmp_path / "o.csv")]) == 1
     assert "need a second calibration" in capsys.readouterr().err
     assert not (tmp_path / "o.csv").exists()
+    with pytest.raises(SystemExit) as exit_info:  # sweepnoise: a usage error
+        main(["selfcal", "steps", str(path), "--single-reads", "-o", str(tmp_path / "o.csv")])
+    assert exit_info.value.code == 2 and "--single-reads needs a second calibration" in capsys.readouterr().err
+    assert not (tmp_path / "o.csv").exists()
 
 
 def test_sweep_from_a_csv_of_the_commanded_electrical_angle(tmp_path):
