@@ -116,14 +116,15 @@ def _one_reading_noise(encoder):
 @pytest.mark.parametrize("noise_arcmin", [2.0, 0.5])
 def test_a_sweep_over_an_arc_repeated_twice_measures_one_readings_noise(noise_arcmin, tmp_path):
     """sweepnoise: as the full-turn sweep (tests/selfcal/test_sweep.py); the arc fit's own noise estimate was
-    1.1-1.5 times the truth at 2 arcmin and 2-3.7 times at 0.5 (the motor's ripple), the repeats 0.95-1.06."""
+    1.1-1.4 times the truth at 2 arcmin and 1.3-2.6 times at 0.5 (the motor's ripple, bench_selfcal_noise.py). Over 24
+    seeds the repeats' estimate / truth was 0.99 +- 0.05 at both levels: within 18 % each (3.5 sd), 8 % on the mean."""
     ratios = []
     for seed in range(4):
         encoder = draw_magnetic_encoder(seed, noise_arcmin=noise_arcmin)
         result = _arc_sweep_of(encoder, seed, passes=2)
         ratios.append(result.reading_noise_arcmin / _one_reading_noise(encoder))
-    assert np.all(np.abs(np.array(ratios) - 1) < 0.12), ratios
-    assert abs(np.mean(ratios) - 1) < 0.05, ratios
+    assert np.all(np.abs(np.array(ratios) - 1) < 0.18), ratios
+    assert abs(np.mean(ratios) - 1) < 0.08, ratios
     result.write(tmp_path / "arc.csv")
     assert read_calibration(tmp_path / "arc.csv").metadata["reading_noise_arcmin"] == pytest.approx(
         result.reading_noise_arcmin, rel=1e-5)

@@ -201,7 +201,8 @@ def test_the_first_calibrations_step_zero_is_stated_in_the_frame_written(tmp_pat
 def test_two_calibrations_of_single_reads_measure_one_readings_noise(noise_arcmin, turn):
     """sweepnoise: the difference of two calibrations, the stepper's error cancelled in it, measures one
     calibration point's noise; with one read per step (single_reads) that is a new reading's, with the 14-bit
-    rounding. Over 4 seeds 0.96-1.07 of the truth (2 and 0.5 arcmin, turned and repeated): within 12 % each."""
+    rounding. Over 24 seeds (turned) the estimate / truth was 0.99 +- 0.055 at 2 and at 0.5 arcmin (mean +- sd; 200
+    points): within 18 % each (3.3 sd), 8 % on the mean of 4."""
     ratios = []
     for seed in range(4):
         encoder, stepper = draw_magnetic_encoder(seed, noise_arcmin=noise_arcmin), draw_stepper(seed)
@@ -212,8 +213,8 @@ def test_two_calibrations_of_single_reads_measure_one_readings_noise(noise_arcmi
         ratios.append(result.reading_noise_arcmin / truth)
         assert result.calibration().metadata["reading_noise_arcmin"] == result.reading_noise_arcmin
         assert steps(first, second).reading_noise_arcmin is None  # not said to be single reads: not recorded
-    assert np.all(np.abs(np.array(ratios) - 1) < 0.12), ratios
-    assert abs(np.mean(ratios) - 1) < 0.06, ratios
+    assert np.all(np.abs(np.array(ratios) - 1) < 0.18), ratios
+    assert abs(np.mean(ratios) - 1) < 0.08, ratios
 
 
 def test_the_mean_of_several_reads_a_step_is_not_taken_for_one_readings_noise():

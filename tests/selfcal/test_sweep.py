@@ -129,16 +129,17 @@ def _one_reading_noise(encoder):
 @pytest.mark.parametrize("noise_arcmin", [2.0, 0.5])  # 0.5: 0.38 of a 14-bit code, the rounding 0.38 arcmin
 def test_a_sweep_repeated_over_the_same_angles_measures_one_readings_noise(noise_arcmin):
     """sweepnoise: two passes each way over the same commanded angles measure the reading noise with the 14-bit
-    rounding, not the motor's ripple the fit leaves (its residual was 2.5-3.8 arcmin for 2.04). Over 8 seeds the
-    estimate was 0.91-1.06 of the truth at both levels (spread about 4 %): within 12 % each, 5 % on average."""
+    rounding, not the motor's ripple the fit leaves (1.1-3.3 times the truth, benchmarks/bench_selfcal_noise.py).
+    Over 24 seeds the estimate / truth was 0.99 +- 0.03 at 2 arcmin and 0.99 +- 0.04 at 0.5 (mean +- sd): within
+    15 % each (3.5 sd) and 6 % on the mean of 4."""
     ratios = []
     for seed in range(4):
         encoder = draw_magnetic_encoder(seed, noise_arcmin=noise_arcmin)
         result = _sweep_of(encoder, seed, passes=2)
         ratios.append(result.reading_noise_arcmin / _one_reading_noise(encoder))
         assert result.calibration().metadata["reading_noise_arcmin"] == result.reading_noise_arcmin
-    assert np.all(np.abs(np.array(ratios) - 1) < 0.12), ratios
-    assert abs(np.mean(ratios) - 1) < 0.05, ratios
+    assert np.all(np.abs(np.array(ratios) - 1) < 0.15), ratios
+    assert abs(np.mean(ratios) - 1) < 0.06, ratios
     assert "reading noise (one reading about the profile" in result.summary()
 
 
