@@ -62,6 +62,24 @@ def test_a_moteus_capture_swept_twice_writes_its_reading_noise_for_fit_and_repor
     assert "band for a new reading" in capsys.readouterr().out
 
 
+def test_steps_of_single_reads_writes_their_reading_noise_and_averaged_steps_do_not(tmp_path, capsys):
+    """sweepnoise: --single-reads writes the noise two calibrations' difference measures; without it, none."""
+    from encal.data.calibration import write_calibration
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
+
+    stepper, paths = draw_stepper(4), [tmp_path / "a.csv", tmp_path / "b.csv"]
+    for path, encoder, seed in zip(paths, (ENCODER, ENCODER.turned(137.5)), (1, 2)):
+        write_calibration(path, simulate_steps(stepper, encoder, readings_per_step=1, rng=seed).calibration)
+    out = tmp_path / "cal.csv"
+    assert main(["selfcal", "steps", *map(str, paths), "--single-reads", "-o", str(out)]) == 0
+    assert "reading noise (one reading about the profile" in capsys.readouterr().out
+    truth = np.hypot(ENCODER.noise_arcmin, 21600.0 / 2**14 / np.sqrt(12.0))
+    assert read_calibration(out).metadata["reading_noise_arcmin"] == pytest.approx(truth, rel=0.18)
+    assert main(["selfcal", "steps", *map(str, paths), "-o", str(out)]) == 0
+    assert "reading noise: not measured" in capsys.readouterr().out
+    assert "reading_noise_arcmin" not in read_calibration(out).metadata
+
+
 def test_spin_at_two_speeds_from_one_log_file(tmp_path, capsys):
     motor = make_motor(7, 12, 3)
     runs = [simulate_spin(motor, ENCODER, speed, revolutions=10, sample_rate_hz=1200.0, rng=seed)
