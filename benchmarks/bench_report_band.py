@@ -251,8 +251,8 @@ def _new_readings(encoder, calibration, seed, measured, before):
 
 def selfcal_sweep_case(seeds):
     """``encal.selfcal.sweep`` of a moteus-style capture swept up and down twice over the same commanded angles
-    (``simulate_sweep(make_motor(7, 12, seed), ..., passes=2)``, ``slots=12``), the encoder of the selfcal case without its order 7
-    (the sweep cannot see the multiples of the 7 pole pairs and says so)."""
+    (``simulate_sweep(make_motor(7, 12, seed), ..., passes=2)``, ``slots=12``), the encoder of the selfcal case
+    without its order 7 (the sweep cannot see the multiples of the 7 pole pairs and says so)."""
     from encal.selfcal.sweep import sweep
     from encal.selfcal.synthetic import MagneticEncoder, draw_magnetic_encoder, make_motor, simulate_sweep
 
