@@ -32,7 +32,7 @@ MAX_TRAVEL_MISMATCH = 0.1
 DEFAULT_SKIP = 4
 #: Fewest second differences of repeated readings for a reading noise (:func:`repeat_noise_arcmin`): its
 #: standard error is then about sqrt(1.94 / (2 x 50)), 14 % (the squares of neighbouring second differences of white
-#: noise correlate by 4/9 and 1/36, which inflates the variance of their mean by 1.94; 3.3 % for the 870 of a
+#: noise correlate by 4/9 and 1/36, which inflates the variance of their mean by 1.94; 3.3 % for the 888 of a
 #: one-turn sweep twice each way, whose estimates spread by 2.6-4.1 % over 24 seeds).
 MIN_REPEAT_TERMS = 50
 #: Commanded angles (mechanical degrees, modulo a turn) that agree to this are taken for the same angle.
