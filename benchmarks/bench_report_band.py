@@ -24,6 +24,10 @@ lies inside that band, at the calibration's own angles (fresh noise) and between
   readings (the encoder read afresh at 2000 random rotor angles: with their noise and the 14-bit rounding, against
   the band with the reading noise the spin measured from its log, noise9). The truth's mean is removed: a spin
   cannot tell the reading's zero.
+- ``selfcal-sweep`` and ``selfcal-steps``: the same encoders' new readings against the model of an open-loop sweep
+  up and down twice (without the encoder's order 7, which a sweep of a 7-pole-pair motor cannot see) and of two
+  full-step calibrations of one read a step, the magnet turned 137.5 deg: with the reading noise the method
+  measured (sweepnoise) and without it, as the file was written before.
 
 Every run of every encoder draws its own noise (:func:`noise_rng`). After the default case, an HTML comment gives
 the spread over the angles of the rounded noise's standard deviation (:func:`angle_noise_spread`).
@@ -38,7 +42,7 @@ of the model's ``σ_noise``. The binomial standard deviation of a pooled share o
 more.
 
 Run:  OMP_NUM_THREADS=1 .venv/bin/python benchmarks/bench_report_band.py [--encoders 50] [--cases default
-      unrounded unrounded-known directional selfcal]
+      unrounded unrounded-known directional selfcal selfcal-sweep selfcal-steps]
       (about 1.4 s CPU per encoder for selfcal, 0.1 s for the others)
 """
 
@@ -228,8 +232,62 @@ def selfcal_case(seeds):
             ("selfcal (spin), new readings (2 arcmin noise, 14 bits)", tallies["new readings"])]
 
 
+def _new_readings(encoder, calibration, seed, measured, before):
+    """Add to ``measured`` and ``before`` the new readings of ``encoder`` against the band of a model of
+    ``calibration``: with the reading noise it records, and without it (the file as the method wrote it until
+    sweepnoise). 2000 random rotor angles; the true error's mean (a self-calibration's arbitrary zero) removed."""
+    zero = float(np.mean(encoder.error_at_reading(np.arange(0.0, 360.0, 0.5))))
+    rng = np.random.default_rng(1000 + seed)
+    rotor = rng.uniform(0.0, 360.0, 2000)
+    reading = encoder.read(rotor, rng)
+    error = ((reading - rotor + 180.0) % 360.0 - 180.0) * 60.0 - zero
+    unrecorded = encal.Calibration(calibration.reference_deg, calibration.encoder_deg, name=calibration.name,
+                                   reference_std_arcmin=calibration.reference_std_arcmin)
+    for tally, cal in ((measured, calibration), (before, unrecorded)):
+        model = encal.fit(cal, method="auto", rng=seed, uncertainty=True)
+        mean, std = model.predict(reading, return_std=True)
+        tally.add(error - mean, std, noise=model.uncertainty["noise_std_arcmin"])
+
+
+def selfcal_sweep_case(seeds):
+    """``encal.selfcal.sweep`` of a moteus-style capture swept up and down twice over the same commanded angles
+    (``simulate_sweep(make_motor(7, 12, seed), ..., passes=2)``, ``slots=12``), the encoder of the selfcal case
+    without its order 7 (the sweep cannot see the multiples of the 7 pole pairs and says so)."""
+    from encal.selfcal.sweep import sweep
+    from encal.selfcal.synthetic import MagneticEncoder, draw_magnetic_encoder, make_motor, simulate_sweep
+
+    measured, before = Tally(), Tally()
+    for seed in seeds:
+        drawn = draw_magnetic_encoder(seed)
+        encoder = MagneticEncoder(tuple(h for h in drawn.harmonics if h[0] % 7), drawn.noise_arcmin, drawn.bits)
+        capture = simulate_sweep(make_motor(7, 12, seed), encoder, rng=seed, passes=2)
+        result = sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+                       np.where(np.isin(capture.direction, (1, 3)), 1, -1), 7, slots=12)
+        _new_readings(encoder, result.calibration(), seed, measured, before)
+    return [("selfcal (sweep, twice each way), new readings, with the noise the sweep measured", measured),
+            ("selfcal (sweep), new readings, without it (before sweepnoise)", before)]
+
+
+def selfcal_steps_case(seeds):
+    """``encal.selfcal.steps`` of two full-step calibrations of one read a step (``simulate_steps(draw_stepper(seed),
+    ..., readings_per_step=1)``), the magnet turned 137.5 deg, ``single_reads=True``; the selfcal case's encoder."""
+    from encal.selfcal.steps import steps
+    from encal.selfcal.synthetic import draw_magnetic_encoder, draw_stepper, simulate_steps
+
+    measured, before = Tally(), Tally()
+    for seed in seeds:
+        encoder, stepper = draw_magnetic_encoder(seed), draw_stepper(seed)
+        first = simulate_steps(stepper, encoder, readings_per_step=1, rng=seed).calibration
+        second = simulate_steps(stepper, encoder.turned(137.5), readings_per_step=1, rng=seed + 100).calibration
+        result = steps(first, second, single_reads=True)
+        _new_readings(encoder, result.calibration(), seed, measured, before)
+    return [("selfcal (steps, two calibrations of single reads), new readings, with the noise measured", measured),
+            ("selfcal (steps), new readings, without it (before sweepnoise)", before)]
+
+
 CASES = {"default": default_case, "unrounded": unrounded_case, "unrounded-known": unrounded_known_case,
-         "directional": directional_case, "selfcal": selfcal_case}
+         "directional": directional_case, "selfcal": selfcal_case, "selfcal-sweep": selfcal_sweep_case,
+         "selfcal-steps": selfcal_steps_case}
 
 
 def main():

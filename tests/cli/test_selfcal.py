@@ -47,6 +47,39 @@ def test_moteus_capture_to_model_to_c_and_moteus_table(tmp_path, capsys):
     assert "conf set" in moteus.read_text()
 
 
+def test_a_moteus_capture_swept_twice_writes_its_reading_noise_for_fit_and_report(tmp_path, capsys):
+    """sweepnoise: the reading noise a sweep measures from its repeated angles reaches encal fit and report."""
+    capture = simulate_sweep(make_motor(7, 12, 9), ENCODER, rng=10, passes=2)
+    raw, out = tmp_path / "moteus_raw.txt", tmp_path / "cal.csv"
+    write_moteus_capture(raw, capture.direction, capture.phase, capture.encoder)
+    assert main(["selfcal", "sweep", str(raw), "--pole-pairs", "7", "-o", str(out)]) == 0
+    assert "reading noise (one reading about the profile" in capsys.readouterr().out
+    truth = np.hypot(ENCODER.noise_arcmin, 21600.0 / 2**14 / np.sqrt(12.0))
+    assert read_calibration(out).metadata["reading_noise_arcmin"] == pytest.approx(truth, rel=0.12)
+    assert main(["fit", str(out), "-o", str(tmp_path / "model.json")]) == 0
+    assert "and a new reading's noise (" in capsys.readouterr().out
+    assert main(["report", str(out), "-o", str(tmp_path / "report.html"), "--no-comparison"]) == 0
+    assert "band for a new reading" in capsys.readouterr().out
+
+
+def test_steps_of_single_reads_writes_their_reading_noise_and_averaged_steps_do_not(tmp_path, capsys):
+    """sweepnoise: --single-reads writes the noise two calibrations' difference measures; without it, none."""
+    from encal.data.calibration import write_calibration
+    from encal.selfcal.synthetic import draw_stepper, simulate_steps
+
+    stepper, paths = draw_stepper(4), [tmp_path / "a.csv", tmp_path / "b.csv"]
+    for path, encoder, seed in zip(paths, (ENCODER, ENCODER.turned(137.5)), (1, 2)):
+        write_calibration(path, simulate_steps(stepper, encoder, readings_per_step=1, rng=seed).calibration)
+    out = tmp_path / "cal.csv"
+    assert main(["selfcal", "steps", *map(str, paths), "--single-reads", "-o", str(out)]) == 0
+    assert "reading noise (one reading about the profile" in capsys.readouterr().out
+    truth = np.hypot(ENCODER.noise_arcmin, 21600.0 / 2**14 / np.sqrt(12.0))
+    assert read_calibration(out).metadata["reading_noise_arcmin"] == pytest.approx(truth, rel=0.18)
+    assert main(["selfcal", "steps", *map(str, paths), "-o", str(out)]) == 0
+    assert "reading noise: not measured" in capsys.readouterr().out
+    assert "reading_noise_arcmin" not in read_calibration(out).metadata
+
+
 def test_spin_at_two_speeds_from_one_log_file(tmp_path, capsys):
     motor = make_motor(7, 12, 3)
     runs = [simulate_spin(motor, ENCODER, speed, revolutions=10, sample_rate_hz=1200.0, rng=seed)
@@ -130,6 +163,10 @@ def test_steps_options_that_need_a_second_calibration(tmp_path, capsys):
     write_calibration(path, simulate_steps(draw_stepper(4), ENCODER, rng=1).calibration)
     assert main(["selfcal", "steps", str(path), "--turn", "90", "-o", str(tmp_path / "o.csv")]) == 1
     assert "need a second calibration" in capsys.readouterr().err
+    assert not (tmp_path / "o.csv").exists()
+    with pytest.raises(SystemExit) as exit_info:  # sweepnoise: a usage error
+        main(["selfcal", "steps", str(path), "--single-reads", "-o", str(tmp_path / "o.csv")])
+    assert exit_info.value.code == 2 and "--single-reads needs a second calibration" in capsys.readouterr().err
     assert not (tmp_path / "o.csv").exists()
 
 

@@ -465,3 +465,21 @@ def test_the_report_band_table_is_what_bench_report_band_prints():
     assert len(printed) == len(shown) == 11
     for mine, page in zip(printed, shown):
         assert numbers(mine[2:8]) == numbers(page[1:7]), page[0]
+
+
+@pytest.mark.slow
+def test_the_report_band_rows_of_sweep_and_steps_are_what_bench_report_band_prints():
+    """sweepnoise: docs/uncertainty.md's rows of selfcal sweep and steps, with the reading noise they measure and
+    without it, as bench_report_band.py prints them for 50 encoders (about 4 s CPU)."""
+    printed = [line.strip().strip("|").split("|") for line in _benchmark(
+        "bench_report_band.py", "--cases", "selfcal-sweep", "selfcal-steps").splitlines()
+        if line.startswith("| ") and "encoders" not in line]
+    shown = [row for row in _table_rows("uncertainty.md", "| case | points per encoder | inside ±1.96σ")
+             if row[0].startswith(("self-calibration (sweep", "self-calibration (steps"))]
+
+    def numbers(cells):
+        return [float(value) for cell in cells for value in re.findall(r"\d+(?:\.\d+)?", cell)]
+
+    assert len(printed) == len(shown) == 4
+    for mine, page in zip(printed, shown):
+        assert numbers(mine[2:8]) == numbers(page[1:7]), page[0]

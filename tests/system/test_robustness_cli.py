@@ -1590,6 +1590,13 @@ NOISE9_CASES = [
 ]
 CASES += NOISE9_CASES
 
+# ---------------------------------------------------------------- sweepnoise: selfcal steps --single-reads
+SWEEPNOISE_CASES = [
+    Case("sweepnoise-steps-single-reads-of-one-calibration", ("selfcal", "steps", "{train}", "--single-reads", "-o",
+                                                             "{out}/s.csv"), 2),
+]
+CASES += SWEEPNOISE_CASES
+
 # A command with no case in this catalogue fails test_every_command_is_catalogued.
 
 _DRIVER = r'''

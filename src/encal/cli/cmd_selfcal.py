@@ -56,6 +56,10 @@ def add_arguments(parser):
                        help="full steps between the two calibrations' starts, if known")
     steps.add_argument("--stepper-csv", metavar="FILE",
                        help="also write the stepper's error at each full step (two calibrations)")
+    steps.add_argument("--single-reads", action="store_true",
+                       help="each point of the two calibrations is one reading of the encoder, not a mean of several "
+                            "(as Mechaduino's and Klipper's routines take): the reading noise their difference "
+                            "measures is then a new reading's, and is written for encal fit")
     add_calibration_options(steps)
     _add_log_options(spin, ("--time-col", "time_s", "the time column (seconds)"), unit_options=("--enc-unit",))
     _add_log_options(sweep, ("--ref-col", "electrical_deg", "the commanded electrical angle column"),
@@ -180,12 +184,15 @@ def _steps(args):
 
     if len(args.calibrations) > 2:
         raise InputError(f"steps takes one or two calibrations; got {len(args.calibrations)}")
+    if len(args.calibrations) == 1 and args.single_reads and getattr(args, "_parser", None) is not None:
+        args._parser.error("--single-reads needs a second calibration: one calibration's tooth errors are confounded "
+                           "with its noise")
     if len(args.calibrations) == 1 and (args.turn is not None or args.step_shift is not None
                                         or args.stepper_csv is not None):
         raise InputError("--turn, --step-shift and --stepper-csv need a second calibration (after turning the magnet)")
     calibrations = [read_calibration_from_args(path, args) for path in args.calibrations]
     result = steps(*calibrations, turn_deg=args.turn, step_shift=args.step_shift, max_order=args.max_order,
-                   name=Path(args.calibrations[0]).stem)
+                   name=Path(args.calibrations[0]).stem, single_reads=args.single_reads)
     if args.bits is None:
         from ..models.fitting import resolution_bits
 

@@ -25,7 +25,7 @@ from .._core.arcs import arc_of, describe_range, span_of
 from .._core.errors import InputError
 from .._core.parameters import check_int
 from .._core.limits import check_size
-from .sweep import DEFAULT_SKIP, check_sweep_travel, sweep_samples
+from .sweep import DEFAULT_SKIP, NOT_MEASURED, check_sweep_travel, repeat_noise_arcmin, sweep_samples
 
 __all__ = ["ArcSweepCalibration", "arc_sweep"]
 
@@ -53,6 +53,11 @@ class ArcSweepCalibration:
     confounded : str
         What the method cannot separate.
     name : str
+    reading_noise_arcmin : float or None
+        One reading's noise about the recovered error, arc-minutes RMS, measured from the readings the sweep
+        repeats at one commanded angle in one direction (:func:`~encal.selfcal.sweep.repeat_noise_arcmin`); None
+        when it commands no angle twice in one direction. Written as ``# reading_noise_arcmin: X``; not part of
+        ``sigma_arcmin``.
     """
 
     range_deg: list
@@ -63,13 +68,14 @@ class ArcSweepCalibration:
     confounded: str = ""
     name: str = ""
     method: str = "sweep over an arc"
+    reading_noise_arcmin: float | None = None
 
     def write(self, path, points=None, resolution_bits=None):
         """Write the calibration CSV over the arc (``error_arcmin``, ``sigma_arcmin`` columns), atomically.
 
         ``encal fit`` of it sees one arc and fits the arc kind. ``points`` is ignored (the grid is the arc's).
         """
-        from ..data.calibration import Calibration, write_calibration
+        from ..data.calibration import READING_NOISE_KEY, Calibration, write_calibration
 
         reference = np.mod(self.grid_deg - self.error_arcmin / ARCMIN_PER_DEG, 360.0)
         cal = Calibration(reference, np.mod(self.grid_deg, 360.0), name=self.name, resolution_bits=resolution_bits)
@@ -77,6 +83,9 @@ class ArcSweepCalibration:
                     "without a precision reference",
                     "error_arcmin = encoder - reference; sigma_arcmin = its standard uncertainty (1 sigma)",
                     f"not separable: {self.confounded}"]
+        if self.reading_noise_arcmin is not None:
+            # read back by read_calibration into the metadata: encal fit takes it as a new reading's noise
+            comments.append(f"{READING_NOISE_KEY}: {self.reading_noise_arcmin:.6g}")
         write_calibration(path, cal, comments=comments, extra_columns={
             "error_arcmin": [float(v) for v in self.error_arcmin],
             "sigma_arcmin": [float(v) for v in self.sigma_arcmin]})
@@ -91,6 +100,9 @@ class ArcSweepCalibration:
                  f"lag {d['lag_arcmin']:.4g} arcmin ({d['lag_deg_e']:.4g} electrical deg), separated by the two "
                  "directions",
                  d["lag_statement"],
+                 (f"reading noise (one reading about the profile, measured from the repeated readings): "
+                  f"{self.reading_noise_arcmin:.3g} arcmin RMS" if self.reading_noise_arcmin is not None
+                  else f"reading noise: {NOT_MEASURED}"),
                  "not separable: " + self.confounded]
         return "\n".join(lines)
 
@@ -218,4 +230,5 @@ def arc_sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, skip=DEFAULT_SKIP
                   "shifts the rotor the same way in both directions (gravity on an arm), which stays in the "
                   "recovered error; and everything outside the arc")
     return ArcSweepCalibration([float(arc[0]), float(arc[1])], np.mod(start + where_grid, 360.0), profile, sigma,
-                               details, confounded, name)
+                               details, confounded, name,
+                               reading_noise_arcmin=repeat_noise_arcmin(reference, encoder, travel))

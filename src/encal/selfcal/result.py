@@ -38,8 +38,11 @@ class SelfCalibration:
         to be fitted with ``--reverse`` like the input.
     reading_noise_arcmin : float or None
         The standard deviation of one reading about the recovered profile, arc-minutes, measured from the log
-        where the method can (``spin``: the readings' scatter about each run's fit); None where it cannot. It is
-        not part of ``sigma_arcmin`` (the profile's uncertainty): a new reading adds it.
+        where the method can (``spin``: the readings' scatter about each run's fit; ``sweep``: the readings it
+        repeats at one commanded angle in one direction, :func:`~encal.selfcal.sweep.repeat_noise_arcmin`); None
+        where it cannot (a sweep that commands no angle twice in one direction; ``steps``, whose points are the
+        firmware's means of several reads). It is not part of ``sigma_arcmin`` (the profile's uncertainty): a new
+        reading adds it.
     """
 
     method: str

@@ -35,6 +35,11 @@ __all__ = ["steps", "step_errors"]
 WHOLE_STEP_TOLERANCE = 0.05
 #: Offsets within this fraction of a whole number of steps but beyond the tolerance above are pointed out.
 NEAR_WHOLE_STEP = 0.2
+#: What the summary says when the reading noise is not measured.
+NOT_MEASURED = ("not measured: a full-step calibration's point is usually the firmware's mean of several reads "
+                "(Mechaduino 10, Klipper every sample over 50 ms), whose noise is not one read's; with two "
+                "calibrations of one read per step, --single-reads measures it; the band of a model of this "
+                "calibration is the encoder error's, not a new reading's")
 #: Orders whose visibility |2 sin(n a / 2)| in the difference of the two calibrations is below this are not separated.
 MIN_VISIBILITY = 0.25
 
@@ -78,7 +83,7 @@ def step_errors(cal, where=None):
 
 
 @single_blas_thread
-def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, name=""):
+def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, name="", single_reads=False):
     """Recover the encoder error from one or two full-step calibrations.
 
     Parameters
@@ -98,10 +103,21 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         Highest order of the encoder's error recovered (below N/2). A magnetic encoder's error is of low
         order; each order more adds noise, and the encoder's error above it stays in the stepper's error.
     name : str, default=''
+    single_reads : bool, default=False
+        Each point of the two calibrations is one reading of the encoder, not the mean of several: the noise of a
+        point the two calibrations' difference measures is then a new reading's, and is recorded
+        (``reading_noise_arcmin``). Needs ``second``.
 
     Returns
     -------
     SelfCalibration
+        ``reading_noise_arcmin`` is one reading's noise with ``single_reads``, else None: a full-step
+        calibration's point is usually the firmware's mean of several reads (Mechaduino's routine averages 10,
+        Klipper's ``ANGLE_CALIBRATE`` every sample over 50 ms), and its noise, measured from two calibrations
+        as ``calibration_point_noise_arcmin`` in ``details``, is not one read's: on the simulated stepper with
+        10 reads a step it was 0.66-0.83 arcmin for a read's 2.04, and scaled by sqrt(10) still 3-29 % high at
+        2 arcmin and 1.7-2.4 times at 0.5 (the mean is truncated to a whole code, which the scaling inflates).
+        One calibration cannot measure it at all: its tooth errors are confounded with its noise.
         ``details`` holds the stepper's 4-step pattern, and with two calibrations the turn, the step shift,
         the stepper's error at each full step of ``first`` (``stepper_error_arcmin``, arcmin) and its
         standard uncertainty (``stepper_sigma_arcmin``), and the same error modelled as the 4-step
@@ -121,8 +137,12 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         raise InputError(f"max_order {max_order} is too high for {n} full steps; expected below {n // 2}")
     orders = np.arange(1, max_order + 1)
     if second is None:
+        if single_reads:
+            raise InputError("single_reads needs a second calibration: one calibration's tooth errors are "
+                             "confounded with its noise; give the calibration after turning the magnet (or a repeat)")
         result = _one(reading_a, error_a, orders, name or first.name)
-        return replace(result, reading_sign=first.reading_sign, details=_with_step_zero(result, reading_a))
+        return replace(result, reading_sign=first.reading_sign,
+                       details={**_with_step_zero(result, reading_a), "reading_noise": NOT_MEASURED})
     if second.reading_sign != first.reading_sign:
         raise InputError("one calibration was read with reverse (--reverse) and the other without; expected both "
                          "read the same way (the encoder counts the same way in both)")
@@ -130,7 +150,11 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
     if reading_b.size != n:
         raise InputError(f"the calibrations have {n} and {reading_b.size} full steps; expected the same motor")
     result = _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, name or first.name)
-    return replace(result, reading_sign=first.reading_sign, details=_with_step_zero(result, reading_a))
+    details = _with_step_zero(result, reading_a)
+    noise = details["calibration_point_noise_arcmin"] if single_reads else None
+    if noise is None:
+        details["reading_noise"] = NOT_MEASURED
+    return replace(result, reading_sign=first.reading_sign, details=details, reading_noise_arcmin=noise)
 
 
 def _with_step_zero(result, reading_deg):
@@ -216,7 +240,8 @@ def _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, n
         rest = rest - HarmonicSeries.from_vector(orders[hidden], coefficients, cov).evaluate(reading_a)
     series = HarmonicSeries.from_vector(orders, vector, covariance)
     stepper = rest - rest.mean()
-    noise = np.sqrt(best["variance"] / 2)  # one calibration's reading noise, arcmin
+    # the noise of one calibration's point (arcmin): the difference holds two, the stepper's error cancelled in it
+    noise = np.sqrt(best["variance"] / 2)
     stepper_sigma = np.sqrt(noise ** 2 / 2 + series.sigma(reading_a) ** 2)
     pattern = _pattern(stepper)
     tooth = np.array([(stepper - np.tile(pattern, n // 4))[4 * t:4 * t + 4].mean() for t in range(n // 4)])
@@ -224,6 +249,7 @@ def _two(reading_a, error_a, reading_b, error_b, orders, turn_deg, step_shift, n
     model_sigma = np.sqrt((0.25 + 4.0 / n) * noise ** 2 / 2 + series.sigma(reading_a) ** 2)
     details = {"turn_deg": float(turn), "step_shift": int(shift), "repeat": not visible.size,
                "difference_residual_rms_arcmin": float(np.sqrt(best["variance"])),
+               "calibration_point_noise_arcmin": float(noise),
                "stepper_error_rms_arcmin": float(np.sqrt(np.mean(stepper ** 2))),
                "stepper_pattern_arcmin": ", ".join(f"{v:.3g}" for v in pattern),
                "stepper_tooth_rms_arcmin": float(np.sqrt(np.mean(tooth ** 2))),

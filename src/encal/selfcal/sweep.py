@@ -15,7 +15,7 @@ reading, where the encoder's is. See docs/self-calibration.md.
 
 import numpy as np
 
-from .._core.angles import ARCMIN_PER_DEG
+from .._core.angles import ARCMIN_PER_DEG, wrap180
 from .._core.errors import InputError
 from .._core.parameters import check_int
 from .._core.limits import check_size
@@ -23,13 +23,20 @@ from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 from .._core.threads import single_blas_thread
 
-__all__ = ["sweep", "sweep_capture", "check_sweep_travel"]
+__all__ = ["sweep", "sweep_capture", "check_sweep_travel", "repeat_noise_arcmin"]
 
 #: Largest relative mismatch between the encoder's travel and the commanded travel / pole pairs (and at
 #: most half a pole pair's worth).
 MAX_TRAVEL_MISMATCH = 0.1
 #: Samples at the start of a capture left out: the rotor is still settling on the first commanded angle.
 DEFAULT_SKIP = 4
+#: Fewest second differences of repeated readings for a reading noise (:func:`repeat_noise_arcmin`): its
+#: standard error is then about sqrt(1.94 / (2 x 50)), 14 % (the squares of neighbouring second differences of white
+#: noise correlate by 4/9 and 1/36, which inflates the variance of their mean by 1.94; 3.3 % for the 888 of a
+#: one-turn sweep twice each way, whose estimates spread by 2.6-4.1 % over 24 seeds).
+MIN_REPEAT_TERMS = 50
+#: Commanded angles (mechanical degrees, modulo a turn) that agree to this are taken for the same angle.
+REPEAT_RESOLUTION_DEG = 1e-6
 
 
 @single_blas_thread
@@ -135,7 +142,70 @@ def sweep(phase_deg_e, encoder_deg, travel, pole_pairs, *, max_order=32, slots=N
                      "; torque ripple at other orders (unequal slots: multiples of the slot count; unequal magnets: "
                      "low orders) is not removed and would stay in the result")
                   + f"; orders above {max_order} are not estimated")
-    return SelfCalibration("sweep", series, removed, confounded, details, name)
+    noise = repeat_noise_arcmin(reference, encoder, travel)
+    if noise is None:
+        details["reading_noise"] = NOT_MEASURED
+    return SelfCalibration("sweep", series, removed, confounded, details, name, reading_noise_arcmin=noise)
+
+
+#: What the summary says when a sweep commanded no angle twice in one direction.
+NOT_MEASURED = ("not measured: the sweep commands no angle twice in one direction (sweep up and down twice over "
+                "the same commanded angles to measure it); the band of a model of this calibration is the encoder "
+                "error's, not a new reading's")
+
+
+def repeat_noise_arcmin(reference_deg, encoder_deg, travel, min_terms=MIN_REPEAT_TERMS):
+    """One reading's noise (arcmin RMS) from the readings a sweep repeats at one commanded angle in one direction.
+
+    Driven open loop and quasi-static, the rotor stands at the same place each time the same electrical angle is
+    commanded in the same direction (same lag): the encoder's error and the motor's own (cogging, field
+    distortion, the lag) are then the same, and the two readings differ by their noise alone. Two passes each
+    way over the same commanded angles (moteus' directions 1-4 when they repeat the phases, a sweep over more
+    than one turn, or a CSV stepping the same angles twice) give a difference ``d`` at each angle; its second
+    differences along the sweep take off what changes slowly between the passes (a drift, another lag at
+    another current), and for white noise of variance ``σ²`` have variance ``12 σ²``: ``σ² = mean(Δ²d²) / 12``.
+
+    It is the noise and the rounding to the encoder's codes, which a new reading has too: on the simulated motor
+    0.95-1.04 of the truth at 2 arcmin of noise and 0.91-1.06 at 0.5 (14-bit codes; benchmarks/bench_selfcal_noise.py).
+    It misses what is the same at both visits: part of the rounding when the noise is well below a code (the two
+    readings then often fall in the same code: 0.84-0.96 at 0.2 arcmin), and noise the encoder filters over several
+    samples. The residual of the sweep's own fit cannot stand in for it: it holds the motor's ripple above the
+    orders fitted (1.1-1.4 times the truth at 2 arcmin, 2.0-3.3 at 0.5).
+
+    Parameters
+    ----------
+    reference_deg : ndarray of shape (n,)
+        The commanded electrical angle unwrapped, over the pole pairs (mechanical degrees), in sweep order.
+    encoder_deg : ndarray of shape (n,)
+        The readings, degrees.
+    travel : ndarray of shape (n,) of {+1, -1}
+        Direction of each sample.
+    min_terms : int, default=50
+        Fewest second differences for an estimate.
+
+    Returns
+    -------
+    float or None
+        None when fewer than ``min_terms`` second differences of repeats are found.
+    """
+    reference = np.asarray(reference_deg, dtype=float)
+    steps_per_turn = int(round(360.0 / REPEAT_RESOLUTION_DEG))
+    angle = np.round(np.mod(reference, 360.0) / REPEAT_RESOLUTION_DEG).astype(np.int64) % steps_per_turn
+    key = 2 * angle + (np.asarray(travel) > 0)
+    order = np.lexsort((np.arange(key.size), key))  # by angle and direction, then in sweep order
+    same = key[order][1:] == key[order][:-1]
+    first, second = order[:-1][same], order[1:][same]  # consecutive visits of one angle in one direction
+    by_first = np.argsort(first)
+    first, second = first[by_first], second[by_first]
+    difference = wrap180(np.asarray(encoder_deg, dtype=float)[second]
+                         - np.asarray(encoder_deg, dtype=float)[first]) * ARCMIN_PER_DEG
+    # three pairs in a row: consecutive samples of one pass paired with consecutive samples of another
+    run = (first[2:] - first[:-2] == 2) & (first[1:-1] - first[:-2] == 1) \
+        & (second[2:] - second[:-2] == 2) & (second[1:-1] - second[:-2] == 1)
+    curvature = (difference[:-2] - 2 * difference[1:-1] + difference[2:])[run]
+    if curvature.size < min_terms:
+        return None
+    return float(np.sqrt(np.mean(curvature ** 2) / 12.0))
 
 
 def sweep_samples(phase_deg_e, encoder_deg, travel, pole_pairs, skip, where):
