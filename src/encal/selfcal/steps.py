@@ -114,10 +114,9 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
         ``reading_noise_arcmin`` is one reading's noise with ``single_reads``, else None: a full-step
         calibration's point is usually the firmware's mean of several reads (Mechaduino's routine averages 10,
         Klipper's ``ANGLE_CALIBRATE`` every sample over 50 ms), and its noise, measured from two calibrations
-        as ``calibration_point_noise_arcmin`` in ``details``, is not one read's: on the simulated stepper with
-        10 reads a step it was 0.66-0.83 arcmin for a read's 2.04, and scaled by sqrt(10) still 3-29 % high at
-        2 arcmin and 1.7-2.4 times at 0.5 (the mean is truncated to a whole code, which the scaling inflates).
-        One calibration cannot measure it at all: its tooth errors are confounded with its noise.
+        as ``calibration_point_noise_arcmin`` in ``details``, is not one read's, nor that scaled by the square
+        root of the reads (the mean is truncated to a whole code; docs/self-calibration.md). One calibration
+        cannot measure it at all: its tooth errors are confounded with its noise.
         ``details`` holds the stepper's 4-step pattern, and with two calibrations the turn, the step shift,
         the stepper's error at each full step of ``first`` (``stepper_error_arcmin``, arcmin) and its
         standard uncertainty (``stepper_sigma_arcmin``), and the same error modelled as the 4-step

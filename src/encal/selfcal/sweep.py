@@ -165,12 +165,11 @@ def repeat_noise_arcmin(reference_deg, encoder_deg, travel, min_terms=MIN_REPEAT
     differences along the sweep take off what changes slowly between the passes (a drift, another lag at
     another current), and for white noise of variance ``σ²`` have variance ``12 σ²``: ``σ² = mean(Δ²d²) / 12``.
 
-    It is the noise and the rounding to the encoder's codes, which a new reading has too: on the simulated motor
-    0.95-1.04 of the truth at 2 arcmin of noise and 0.91-1.06 at 0.5 (14-bit codes; benchmarks/bench_selfcal_noise.py).
-    It misses what is the same at both visits: part of the rounding when the noise is well below a code (the two
-    readings then often fall in the same code: 0.84-0.96 at 0.2 arcmin), and noise the encoder filters over several
-    samples. The residual of the sweep's own fit cannot stand in for it: it holds the motor's ripple above the
-    orders fitted (1.1-1.4 times the truth at 2 arcmin, 2.0-3.3 at 0.5).
+    It is the noise and the rounding to the encoder's codes, which a new reading has too (measured against the
+    truth in docs/self-calibration.md, ``benchmarks/bench_selfcal_noise.py``). It misses what is the same at both
+    visits: part of the rounding when the noise is well below a code (the two readings then often fall in the same
+    code), and noise the encoder filters over several samples. The residual of the sweep's own fit cannot stand in
+    for it: it holds the motor's ripple above the orders fitted.
 
     Parameters
     ----------
