@@ -19,6 +19,8 @@ the ratio holds on a loaded machine; the table gives medians and the median of t
   fits Fourier orders 1 to 16 by projection, each a whole process (CPU time, user + system, wall time, and peak
   resident memory, all from GNU ``/usr/bin/time``), both with one BLAS thread and Python's bytecode kept from the
   warm-up run on (in the temporary folder), as an installed package has it.
+* ``encal fit FILE --method fourier --orders 1,...,16``: the script's own fit (Fourier orders 1 to 16, by least
+  squares), with encal's checks and its held-out estimate (five refits), against the script.
 * The same NumPy script that also imports what the spectral fit cannot do without, SciPy's optimiser (L-BFGS-B)
   and LAPACK (``scipy.optimize``, ``scipy.linalg``), and uses neither: the part of the ratio that is the
   imports', not the fit's (the "+ SciPy" rows).
@@ -194,19 +196,24 @@ def main():
             encal = [sys.executable, "-m", "encal", "fit", str(path), "-o", str(Path(folder) / "model.json")]
             plain = [sys.executable, str(script), str(path), str(Path(folder) / "coefficients.npy")]
             imports = [sys.executable, str(with_scipy), str(path), str(Path(folder) / "coefficients.npy")]
-            run_process(encal, env), run_process(plain, env), run_process(imports, env)
-            results = {"encal": [], "plain": [], "imports": []}
+            same_fit = encal[:5] + ["--method", "fourier", "--orders", ",".join(map(str, range(1, 17)))] + encal[5:]
+            commands = {"encal": encal, "plain": plain, "imports": imports, "same": same_fit}
+            for command in commands.values():
+                run_process(command, env)
+            results = {key: [] for key in commands}
             for _ in range(max(1, args.repeats - 2)):
-                results["encal"].append(run_process(encal, env))
-                results["plain"].append(run_process(plain, env))
-                results["imports"].append(run_process(imports, env))
-            encal_runs, plain_runs, import_runs = (np.array(results[key]) for key in ("encal", "plain", "imports"))
+                for key, command in commands.items():
+                    results[key].append(run_process(command, env))
+            encal_runs, plain_runs, import_runs, same_runs = (np.array(results[key]) for key in commands)
             print(row(f"{name}: CPU", encal_runs[:, 0], plain_runs[:, 0]))
             print(row(f"{name}: wall", encal_runs[:, 1], plain_runs[:, 1]))
             print(row(f"{name}: peak memory", encal_runs[:, 2], plain_runs[:, 2], unit="MiB"))
             print(row(f"{name}: CPU, against the script + SciPy's imports", encal_runs[:, 0], import_runs[:, 0]))
             print(row(f"{name}: the script + SciPy's imports, CPU, against the script", import_runs[:, 0],
                       plain_runs[:, 0]))
+            print(row(f"{name}: the script's fit (`--method fourier --orders 1..16`), CPU", same_runs[:, 0],
+                      plain_runs[:, 0]))
+            print(row(f"{name}: the script's fit, peak memory", same_runs[:, 2], plain_runs[:, 2], unit="MiB"))
     print(f"\nload average at the end {os.getloadavg()[0]:.1f}")
 
 

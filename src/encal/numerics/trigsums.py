@@ -24,21 +24,20 @@ _DIRECT_LIMIT = 200_000
 _TAYLOR_TOLERANCE = 1e-17
 #: Angles per block of :func:`trig_moments` (a block's arrays, 8 bytes an angle each, fit in a core's cache).
 _BLOCK_ANGLES = 1 << 15
-#: Consecutive angles of a sweep fall in one node of a small fine grid for thousands of readings, and each addition
-#: to a bin then waits for the last: on small grids every angle of a block goes to one of this many copies of the
-#: grid in turn, summed at the end (a dense sweep's moments to order 32 in 29 ms, was 50; random angles the same).
-_LANES = 4
-#: The largest fine grid given lanes: on larger ones the copies cost more than the wait (random angles to order 400,
-#: 4096 nodes: 32 ms with lanes, 23 without).
-_LANES_UP_TO = 1024
+#: Fewest nodes of the fine grid of :func:`trig_moments`' binning. A finer grid needs fewer Taylor terms, each a
+#: pass of ``np.bincount`` over the angles, and spreads a sweep's consecutive angles over more nodes (an addition to
+#: the bin the last one filled waits for it): 10^6 angles' moments to order 32 on 4096 nodes take 9 terms, 13-22 ms
+#: (sweep or random), against 16 terms on 256 nodes, 19-41 ms.
+_MOMENTS_NODES = 4096
 #: Largest binning (fine-grid nodes times Taylor terms, 8 bytes each) kept for every term at once: the orders of a
 #: fit's Gram matrix, not the scan above its cap (a fine grid of 2^15 nodes would hold 4 MB).
 _BINNED_LIMIT = 1 << 16
 
 
-def _fine_grid(highest_order):
-    """Size ``L`` of the fine grid (a power of 2 with ``π M / L <= 1/2``) and the Taylor terms needed."""
-    size = 16
+def _fine_grid(highest_order, smallest=16):
+    """Size ``L`` of the fine grid (a power of 2, at least ``smallest``, with ``π M / L <= 1/2``) and the Taylor
+    terms needed."""
+    size = smallest
     while size < 2.0 * math.pi * max(highest_order, 1):
         size *= 2
     x = math.pi * highest_order / size  # the largest |m δ|
@@ -117,24 +116,19 @@ def trig_moments(theta_rad, weights, highest_order):
     weights = np.asarray(weights, dtype=float).reshape(-1)
     if theta.size * (highest_order + 1) <= _DIRECT_LIMIT:
         return _exponentials(theta, highest_order + 1) @ weights
-    size, terms = _fine_grid(highest_order)
+    size, terms = _fine_grid(highest_order, _MOMENTS_NODES)
     if terms * size > _BINNED_LIMIT:
+        size, terms = _fine_grid(highest_order)
         return _moments_by_term(theta, weights, highest_order, size, terms)
     # Block by block, every Taylor term's binning: a block's nodes, offsets and powers stay in the cache (term by
     # term, each term read and wrote them from memory: on 10^6 angles, half as long again).
-    lanes = _LANES if size <= _LANES_UP_TO else 1
-    binned = np.zeros((terms, lanes * size))
-    lane_offsets = (np.arange(min(_BLOCK_ANGLES, theta.size)) % lanes) * size
+    binned = np.zeros((terms, size))
     for start in range(0, theta.size, _BLOCK_ANGLES):
         node, offset = _nodes(theta[start:start + _BLOCK_ANGLES], size)
-        if lanes > 1:
-            node += lane_offsets[:node.size]
         power = weights[start:start + _BLOCK_ANGLES].copy()  # w δ^p (δ in spacings)
         for p in range(terms):
-            binned[p] += np.bincount(node, weights=power, minlength=lanes * size)
+            binned[p] += np.bincount(node, weights=power, minlength=size)
             power *= offset
-    if lanes > 1:
-        binned = binned.reshape(terms, lanes, size).sum(axis=1)
     # Σ_j x_j exp(+2πi jm/L) of a real x is the conjugate of its real FFT
     return _taylor_sum((np.conj(np.fft.rfft(row)[: highest_order + 1]) for row in binned), highest_order, size)
 
