@@ -157,8 +157,8 @@ def real_array(values, name, caller, expected="real numbers", *, error=InputErro
     if values is None:
         raise invalid(name, caller, expected, values, error=error)
     try:
-        if np.iscomplexobj(values):  # NumPy would drop the imaginary part with a warning
-            raise TypeError("complex")
+        if getattr(values, "dtype", None) is not None and values.dtype.kind == "c":
+            raise TypeError("complex")  # NumPy would drop the imaginary part with a warning (a list is refused)
         return np.asarray(values, dtype=float)
     except (TypeError, ValueError, OverflowError):  # 'abc', a dict, a ragged list, 10**400, 1+2j
         shown = repr(values)
