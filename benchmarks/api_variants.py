@@ -204,7 +204,8 @@ def form_case(label, form):
         limit_rms, limit_max = TRUTH[label]
         return ((rms if peak <= limit_max else math.inf), limit_rms,
                 f"truth: RMS {rms:.3g}, max {peak:.3g} arcmin; {apart:.2g} arcmin from the plain form's")
-    return Case("fit: calibration form", f"{label}, {form}", run)
+    return Case("fit: float32 calibration, truth" if "float32" in form else "fit: calibration form", f"{label}, {form}",
+                run)
 
 
 _MODELS = {}
@@ -311,11 +312,15 @@ def file_case(label, how):
             loaded = runtime.load(path)
             corrected = [loaded.correct_deg(float(theta)) for theta in TEST_ENCODER[:500]]
             return arcmin_apart(corrected, plain[:500]), 1e-9, "standalone runtime, one reading a call"
-        # compile_table: a 14-bit table against the formula at the codes, within the table's quantisation
-        table = encal.deploy.compile_table(m, 14)
+        # compile_table: a 14-bit table against the formula at the codes, within half its int16 unit (rounding)
+        from encal.deploy import compile_table
+
+        table = compile_table(m, 14)
         codes = np.arange(2**14) * 360.0 / 2**14
         error = table.values.astype(float) * table.scale_arcmin
-        return largest(error, m.predict(codes)), table.quantisation_arcmin, "table at the codes to predict()"
+        apart = largest(error, m.predict(codes))
+        return (apart if apart <= table.quantisation_arcmin else math.inf), table.scale_arcmin / 2, (
+            f"table at the codes to predict(), within half its unit and its stated {table.quantisation_arcmin:.3g}")
     return Case("model file", f"{label}, {how}", run)
 
 
@@ -404,6 +409,87 @@ def simulate_cases():
     ]
 
 
+REVERSAL_ARCMIN = 1.2  # the encoder reads this much more going forward than going back
+BIDIRECTIONAL_REFERENCE = np.concatenate([REFERENCE, REFERENCE[::-1]])
+BIDIRECTIONAL_DIRECTION = np.repeat([1, -1], REFERENCE.size)
+BIDIRECTIONAL_ENCODER = BIDIRECTIONAL_REFERENCE + (
+    truth_error(BIDIRECTIONAL_REFERENCE) + BIDIRECTIONAL_DIRECTION * REVERSAL_ARCMIN / 2
+    + np.random.default_rng(8).normal(0.0, NOISE_ARCMIN, BIDIRECTIONAL_REFERENCE.size)) / 60.0
+TEST_DIRECTION = np.where(np.arange(TEST_REFERENCE.size) % 2 == 0, 1, -1)
+TEST_DIRECTIONAL_ENCODER = TEST_ENCODER + TEST_DIRECTION * REVERSAL_ARCMIN / 2 / 60.0
+BIDIRECTIONAL_ORDER = np.random.default_rng(9).permutation(BIDIRECTIONAL_REFERENCE.size)
+#: a bidirectional calibration in harmless forms (its direction column too)
+BIDIRECTIONAL_FORMS = {
+    "arrays": lambda: encal.Calibration(BIDIRECTIONAL_REFERENCE, BIDIRECTIONAL_ENCODER,
+                                        direction=BIDIRECTIONAL_DIRECTION),
+    "rows shuffled": lambda: encal.Calibration(BIDIRECTIONAL_REFERENCE[BIDIRECTIONAL_ORDER],
+                                               BIDIRECTIONAL_ENCODER[BIDIRECTIONAL_ORDER],
+                                               direction=BIDIRECTIONAL_DIRECTION[BIDIRECTIONAL_ORDER]),
+    "direction as a list": lambda: encal.Calibration(BIDIRECTIONAL_REFERENCE, BIDIRECTIONAL_ENCODER,
+                                                     direction=BIDIRECTIONAL_DIRECTION.tolist()),
+    "direction as floats +-1.0": lambda: encal.Calibration(BIDIRECTIONAL_REFERENCE, BIDIRECTIONAL_ENCODER,
+                                                           direction=BIDIRECTIONAL_DIRECTION.astype(float)),
+}
+#: the test readings' directions in harmless forms
+DIRECTIONS = {
+    "int array": TEST_DIRECTION,
+    "list": TEST_DIRECTION.tolist(),
+    "int8 array": TEST_DIRECTION.astype(np.int8),
+    "floats +-1.0": TEST_DIRECTION.astype(float),
+    "read-only": read_only(TEST_DIRECTION),
+}
+
+
+def directional_cases():
+    def fitted(form, method):
+        return encal.fit(BIDIRECTIONAL_FORMS[form](), method, **({"n_orders": 8} if method == "fourier" else {}))
+
+    def plain(method):
+        return fitted("arrays", method).correct(TEST_DIRECTIONAL_ENCODER, direction=TEST_DIRECTION)
+
+    def truth(method):
+        rms, peak = truth_of(plain(method))
+        return (rms if peak <= TRUTH[method][1] else math.inf), TRUTH[method][0], (
+            f"truth: RMS {rms:.3g}, max {peak:.3g} arcmin, each reading its direction")
+
+    def form(method, name):
+        corrected = fitted(name, method).correct(TEST_DIRECTIONAL_ENCODER, direction=TEST_DIRECTION)
+        return arcmin_apart(corrected, plain(method)), SAME_ARCMIN, "to the plain form's corrected angles"
+
+    def direction(name, how):
+        m = fitted("arrays", "lut")
+        given = DIRECTIONS[name]
+        if how == "Compensator":
+            corrected = encal.Compensator(m).correct(TEST_DIRECTIONAL_ENCODER, direction=given)
+        else:
+            corrected = m.correct(TEST_DIRECTIONAL_ENCODER, direction=given)
+        return arcmin_apart(corrected, plain("lut")), 0.0, "to the int array's"
+
+    found = [Case("directional", f"{method}: truth", lambda _, m=method: truth(m)) for method in ("fourier", "lut")]
+    found += [Case("directional", f"fourier: calibration {name}", lambda _, n=name: form("fourier", n))
+              for name in BIDIRECTIONAL_FORMS if name != "arrays"]
+    found += [Case("directional", f"lut: direction {name} ({how})", lambda _, n=name, h=how: direction(n, h))
+              for name in DIRECTIONS for how in ("correct", "Compensator")]
+    return found
+
+
+def uncertainty_cases():
+    def stds(reference, encoder, readings):
+        m = encal.fit(encal.Calibration(reference, encoder), "fourier", n_orders=8, uncertainty=True, rng=0)
+        return m.predict(readings, return_std=True)[1]
+
+    plain = lambda: stds(REFERENCE, ENCODER, READINGS)  # noqa: E731
+    return [
+        Case("uncertainty", "fourier uncertainty=True, rng=0: from lists, twice", lambda _: (
+            max(largest(stds(REFERENCE.tolist(), ENCODER.tolist(), READINGS), plain()),
+                largest(plain(), plain())), 0.0, "predict(return_std=True)'s std to the arrays'")),
+        Case("uncertainty", "spectral return_std: 2-D Fortran readings keep their shape", lambda _: (
+            largest(model("spectral").predict(fortran(READINGS), return_std=True)[1],
+                    model("spectral").predict(READINGS, return_std=True)[1].reshape(3, -1)), 0.0,
+            "std of (3, 1000) Fortran readings to the 1-D readings' reshaped")),
+    ]
+
+
 def threads_case():
     """``fit`` in a process with no BLAS thread variable set against this one's (pinned by the caller)."""
     code = ("import sys, numpy as np; sys.path.insert(0, sys.argv[1]); sys.path.insert(0, sys.argv[2]);"
@@ -439,6 +525,9 @@ HARMFUL = {
                                                                     ENCODER.reshape(-1, 2)),
     "Calibration: direction 1.7": lambda: encal.Calibration(REFERENCE, ENCODER, direction=np.full(360, 1.7)),
     "Calibration: direction 'cw'": lambda: encal.Calibration(REFERENCE, ENCODER, direction=["cw"] * 360),
+    "Calibration: direction True/False": lambda: encal.Calibration(REFERENCE, ENCODER,
+                                                                  direction=np.arange(360) % 2 == 0),
+    "correct: direction 'cw'": lambda: model().correct([1.0, 2.0], direction="cw"),
     "Calibration.subset: index past the end": lambda: _cal().subset([1000]),
     "Calibration.subset: a mask of another length": lambda: _cal().subset(np.ones(3, bool)),
     "Calibration.subset: a string": lambda: _cal().subset("all"),
@@ -524,7 +613,7 @@ def cases():
     for label in ("auto", "lut", "ann", "stack"):
         found += [file_case(label, how) for how in ("load_model", "Compensator(path)", "runtime.load",
                                                     "compile_table 14 bits")]
-    found += analysis_cases() + simulate_cases() + [threads_case()]
+    found += analysis_cases() + directional_cases() + uncertainty_cases() + simulate_cases() + [threads_case()]
     found += [harmful_case(name) for name in HARMFUL]
     return found
 
@@ -547,6 +636,7 @@ def main(argv=None):
         keys = args.only.split(",")
         selected = [c for c in selected if any(k in f"{c.group}: {c.name}" for k in keys)]
     failures = 0
+    groups = {}  # group -> [cases, agreeing, largest difference, largest limit]
     print("| group | variant | largest difference | limit | agrees | note |")
     print("|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
@@ -554,10 +644,19 @@ def main(argv=None):
             difference, limit, note = outcome(case, folder)
             ok = difference <= limit
             failures += not ok
+            tally = groups.setdefault(case.group, [0, 0, 0.0, 0.0])
+            tally[0] += 1
+            tally[1] += ok
+            tally[2], tally[3] = max(tally[2], difference), max(tally[3], limit)
             shown = "refused" if case.group == "refused" and ok else f"{difference:.3g}"
             note = note.replace("|", "/").replace("\n", " ")[:160]
             print(f"| {case.group} | {case.name} | {shown} | {limit:.3g} | {'yes' if ok else 'NO'} | {note} |",
                   flush=True)
+    print("\n| group | cases | agree | largest difference | largest limit |")
+    print("|---|---:|---:|---:|---:|")
+    for group, (n, agreeing, difference, limit) in groups.items():
+        shown = "all refused" if group == "refused" and agreeing == n else f"{difference:.3g}"
+        print(f"| {group} | {n} | {agreeing} | {shown} | {limit:.3g} |")
     print(f"\n{len(selected) - failures} of {len(selected)} cases agree")
     return 1 if failures else 0
 

@@ -30,7 +30,7 @@ KEPT = [
     "fit: calibration form: auto, angles 3 turns down",
     "fit: calibration form: fourier, written and read back",
     "fit: calibration form: lut, rows shuffled",
-    "fit: calibration form: lut cubic, float32 arrays",
+    "fit: float32 calibration, truth: lut cubic, float32 arrays",
     "inputs: correct: auto, 0-d array",
     "inputs: correct: auto, 2-D Fortran order",
     "inputs: correct: auto, read-only",
