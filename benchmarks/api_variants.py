@@ -376,6 +376,34 @@ def _saved_and_loaded(m):
         return encal.load_model(Path(folder) / "m.json")
 
 
+_PRIOR = []
+
+
+def the_prior():
+    """A fleet prior of 6 units, the truth's error scaled by 0.8 to 1.3 (made once)."""
+    from encal.fleet.prior import fleet_prior
+
+    if not _PRIOR:
+        units = [encal.fit(encal.Calibration(REFERENCE, REFERENCE + (truth_error(REFERENCE) * scale) / 60.0),
+                           "fourier", n_orders=8) for scale in (0.8, 0.9, 1.0, 1.1, 1.2, 1.3)]
+        _PRIOR.append(fleet_prior(units))
+    return _PRIOR[0]
+
+
+def with_prior(form):
+    """``fit_with_prior`` on a quarter turn of the truth's encoder, its prediction at the test readings."""
+    from encal.fleet.prior import fit_with_prior
+
+    cal = encal.Calibration(REFERENCE, ENCODER)
+    keep = np.flatnonzero(REFERENCE < 90.0)
+    if form == "lists":
+        keep = keep[::-1]
+        theta, error = cal.encoder_deg[keep].tolist(), cal.errors_arcmin[keep].tolist()
+    else:
+        theta, error = cal.encoder_deg[keep], cal.errors_arcmin[keep]
+    return fit_with_prior(theta, error, the_prior()).predict(TEST_ENCODER[:500])
+
+
 def simulate_cases():
     def floors():
         fleet = encal.demo_fleet(2)
@@ -395,6 +423,21 @@ def simulate_cases():
         result = steps_method(encal.Calibration(reference[order], encoder[order]), max_order=16)
         return result.error_arcmin(TEST_ENCODER[:500])
 
+    def swept(form):
+        from encal.selfcal import sweep
+
+        # an ideal 7-pole-pair motor swept up and down once; the encoder reads the truth's error
+        up = np.linspace(0.0, 360.0 * 7, 3001)[:-1]
+        phase, travel = np.r_[up, up[::-1]], np.r_[np.ones(up.size), -np.ones(up.size)]
+        encoder = phase / 7 + truth_error(phase / 7) / 60.0
+        given = {"arrays": (phase, encoder, travel), "lists": (phase.tolist(), encoder.tolist(), travel.tolist()),
+                 "wrapped": (phase % 360.0, encoder % 360.0, travel),
+                 "turns away": (phase - 720.0, encoder + 360.0, travel)}[form]
+        return sweep(*given, 7).error_arcmin(TEST_ENCODER[:500])
+
+    # the orders a sweep cannot see (the pole pairs' multiples: order 7 of the truth) and the constant left out
+    swept_truth = truth_error(TEST_REFERENCE[:500]) - OFFSET_ARCMIN - 0.8 * np.sin(7 * np.radians(TEST_REFERENCE[:500])
+                                                                                  + 0.9)
     plain_order = np.arange(200)
     shuffled = np.random.default_rng(7).permutation(200)
     truth = truth_error(TEST_REFERENCE[:500]) - OFFSET_ARCMIN  # the constant is not the steps method's
@@ -404,6 +447,13 @@ def simulate_cases():
                                                                               "")),
         Case("simulate / selfcal", "selfcal.steps, rows shuffled", lambda _: (
             largest(steps(shuffled), steps(plain_order)), 1e-9, "to the rows in order")),
+        Case("simulate / selfcal", "selfcal.sweep against the truth", lambda _: (
+            largest(swept("arrays"), swept_truth), 0.02, "the truth less its constant and order 7, noise-free")),
+        *[Case("simulate / selfcal", f"selfcal.sweep, {form}", lambda _, f=form: (
+            largest(swept(f), swept("arrays")), 1e-9, "to the arrays'"))
+          for form in ("lists", "wrapped", "turns away")],
+        Case("simulate / selfcal", "fit_with_prior: lists, rows shuffled", lambda _: (
+            largest(with_prior("lists"), with_prior("arrays")), 1e-9, "a quarter turn under a prior of 6 units")),
         Case("simulate / selfcal", "selfcal.steps against the truth", lambda _: (
             largest(steps(plain_order), truth), 0.05, "the truth less its constant, 200 noise-free steps")),
     ]
@@ -568,9 +618,43 @@ HARMFUL = {
     "wrap180: a string": lambda: encal.wrap180("a"),
     "angle_difference: lengths differ": lambda: encal.angle_difference([1.0, 2.0, 3.0], [1.0, 2.0]),
     "lsb_arcmin: 14.5": lambda: encal.lsb_arcmin(14.5),
+    "coverage: empty calibration": lambda: _uncertainty().coverage(model("spectral"), encal.Calibration([], [])),
+    "fit_with_prior: words": lambda: _prior().fit_with_prior(["a", "b"], [1.0, 2.0], the_prior()),
+    "fit_with_prior: noise -1 arcmin": lambda: _prior().fit_with_prior(REFERENCE, ENCODER - REFERENCE, the_prior(),
+                                                                        noise_arcmin=-1.0),
+    "fit_with_prior: no prior": lambda: _prior().fit_with_prior(REFERENCE, ENCODER - REFERENCE, None),
+    "fleet_prior: numbers for models": lambda: _prior().fleet_prior([1, 2, 3, 4, 5]),
+    "selfcal.steps: arrays for a calibration": lambda: _selfcal().steps((REFERENCE, ENCODER)),
+    "selfcal.sweep: a NaN phase": lambda: _selfcal().sweep(*_sweep_with_nan(), 7),
+    "selfcal.sweep: words": lambda: _selfcal().sweep(["a"], ["b"], [1], 7),
     "demo_fleet: 0 encoders": lambda: encal.demo_fleet(0),
     "simulate_fleet: 1.5 encoders": lambda: encal.simulate_fleet(1.5),
 }
+
+
+def _uncertainty():
+    import encal.models.uncertainty as module
+
+    return module
+
+
+def _prior():
+    import encal.fleet.prior as module
+
+    return module
+
+
+def _selfcal():
+    import encal.selfcal as module
+
+    return module
+
+
+def _sweep_with_nan():
+    phase = np.r_[np.linspace(0.0, 2520.0, 3000), np.linspace(2520.0, 0.0, 3000)]
+    encoder, travel = phase / 7, np.repeat([1.0, -1.0], 3000)
+    phase[100] = np.nan
+    return phase, encoder, travel
 
 
 def refused(call):

@@ -208,7 +208,8 @@ class Model(ABC):
         of any size, and the runtime and every export are judged against this).
         """
         theta = as_angles(theta_enc_deg)
-        if check_bool(table, "table", "correct") and direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
+        table = check_bool(table, "table", "correct")
+        if table and direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
             table = self._correction_table()
             if table is not None:  # many angles: through a table of the model (see encal.models._table)
                 return correct_through_table(theta.reshape(-1), self.reading_sign, table).reshape(theta.shape)
