@@ -523,6 +523,46 @@ def directional_cases():
     return found
 
 
+ARC_REFERENCE = np.arange(-60.0, 60.5, 1.0)  # a joint of limited travel: an arc of 120 degrees across the zero
+ARC_ENCODER = ARC_REFERENCE + (truth_error(ARC_REFERENCE)
+                               + np.random.default_rng(10).normal(0.0, NOISE_ARCMIN, ARC_REFERENCE.size)) / 60.0
+ARC_ORDER = np.random.default_rng(11).permutation(ARC_REFERENCE.size)
+ARC_FORMS = {
+    "(-180, 180]": lambda: (ARC_REFERENCE, ARC_ENCODER),
+    "[0, 360)": lambda: (ARC_REFERENCE % 360.0, ARC_ENCODER % 360.0),
+    "rows shuffled": lambda: (ARC_REFERENCE[ARC_ORDER], ARC_ENCODER[ARC_ORDER]),
+    "lists": lambda: (ARC_REFERENCE.tolist(), ARC_ENCODER.tolist()),
+    "2 turns up": lambda: (ARC_REFERENCE + 720.0, ARC_ENCODER + 720.0),
+}
+#: test readings well inside the arc, and well outside it (NaN there: never a number where it was not calibrated)
+ARC_INSIDE = (TEST_REFERENCE < 55.0) | (TEST_REFERENCE > 305.0)
+ARC_OUTSIDE = (TEST_REFERENCE > 65.0) & (TEST_REFERENCE < 295.0)
+
+
+def arc_cases():
+    def corrected(form, method):
+        return encal.fit(encal.Calibration(*ARC_FORMS[form]()), method).correct(TEST_ENCODER)
+
+    def truth(method):
+        answer = corrected("(-180, 180]", method)
+        delta = ((answer[ARC_INSIDE] - TEST_REFERENCE[ARC_INSIDE] + 180.0) % 360.0 - 180.0) * 60.0
+        rms, peak = float(np.sqrt(np.mean(delta**2))), float(np.max(np.abs(delta)))
+        nan_outside = bool(np.all(np.isnan(answer[ARC_OUTSIDE])))
+        ok = peak <= TRUTH[method][1] and nan_outside
+        return (rms if ok else math.inf), TRUTH[method][0], (
+            f"truth inside the arc: RMS {rms:.3g}, max {peak:.3g} arcmin; NaN outside: {nan_outside}")
+
+    def form(name):
+        answer, plain = corrected(name, "auto"), corrected("(-180, 180]", "auto")
+        if not np.array_equal(np.isnan(answer), np.isnan(plain)):
+            return math.inf, SAME_ARCMIN, "NaN at other readings"
+        keep = ~np.isnan(plain)
+        return arcmin_apart(answer[keep], plain[keep]), SAME_ARCMIN, "to the (-180, 180] form's corrected angles"
+
+    return [Case("arc", f"{method}: truth", lambda _, m=method: truth(m)) for method in ("auto", "lut")] + [
+        Case("arc", f"auto: {name}", lambda _, n=name: form(n)) for name in ARC_FORMS if name != "(-180, 180]"]
+
+
 def uncertainty_cases():
     def stds(reference, encoder, readings):
         m = encal.fit(encal.Calibration(reference, encoder), "fourier", n_orders=8, uncertainty=True, rng=0)
@@ -697,7 +737,8 @@ def cases():
     for label in ("auto", "lut", "ann", "stack"):
         found += [file_case(label, how) for how in ("load_model", "Compensator(path)", "runtime.load",
                                                     "compile_table 14 bits")]
-    found += analysis_cases() + directional_cases() + uncertainty_cases() + simulate_cases() + [threads_case()]
+    found += analysis_cases() + directional_cases() + arc_cases() + uncertainty_cases() + simulate_cases()
+    found.append(threads_case())
     found += [harmful_case(name) for name in HARMFUL]
     return found
 

@@ -41,6 +41,8 @@ KEPT = [
     "model file: lut, runtime.load",
     "model file: auto, compile_table 14 bits",
     "analysis: harmonics: lists, shuffled, 2 turns up",
+    "arc: auto: rows shuffled",
+    "directional: fourier: calibration rows shuffled",
     "simulate / selfcal: selfcal.steps, rows shuffled",
 ]
 
