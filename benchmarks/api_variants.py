@@ -13,7 +13,8 @@ reference angle; a 1-degree grid with 0.05 arcmin of reading noise, fixed seeds)
   harmless forms (scalar, 0-d, lists, ints, float32, 2-D C and Fortran order, strided, read-only, turns away,
   (-180, 180], 10**6 + 1 readings across chunk boundaries, ``table=True``): the same numbers in the same shape,
   the input untouched, a second call the same;
-- **files**: the model saved and loaded, ``Compensator(path)``, ``compile_table`` on 14-bit codes;
+- **files**: the model saved and loaded, ``Compensator(path)``, ``compile_table`` on 14-bit codes, ``export_c``
+  of the model in memory, loaded and by its path (the same C);
 - **analysis**: ``evaluate``, ``error_stats``, ``harmonics`` on harmless forms; the simulators twice;
   ``encal.selfcal.steps`` on a shuffled calibration; ``fit`` with no BLAS thread variables (another process);
 - **refused**: harmful inputs (NaN, infinity, strings, complex numbers, wrong shapes, mismatched lengths, empty
@@ -312,6 +313,15 @@ def file_case(label, how):
             loaded = runtime.load(path)
             corrected = [loaded.correct_deg(float(theta)) for theta in TEST_ENCODER[:500]]
             return arcmin_apart(corrected, plain[:500]), 1e-9, "standalone runtime, one reading a call"
+        if how == "export_c: in memory, loaded, path":
+            from encal.deploy import export_c
+
+            def code(source):  # the header names the model file's checksum, which a model in memory has not
+                return {name: [line for line in text.splitlines() if "sha256" not in line]
+                        for name, text in export_c(source, bits=14).items()}
+
+            same = code(m) == code(encal.load_model(path)) == code(str(path))
+            return (0.0 if same else math.inf), 0.0, "the C files' text, but for the checksum line"
         # compile_table: a 14-bit table against the formula at the codes, within half its int16 unit (rounding)
         from encal.deploy import compile_table
 
@@ -736,7 +746,7 @@ def cases():
         found += [big_case(label, how) for label in ("auto", "lut")]
     for label in ("auto", "lut", "ann", "stack"):
         found += [file_case(label, how) for how in ("load_model", "Compensator(path)", "runtime.load",
-                                                    "compile_table 14 bits")]
+                                                    "compile_table 14 bits", "export_c: in memory, loaded, path")]
     found += analysis_cases() + directional_cases() + arc_cases() + uncertainty_cases() + simulate_cases()
     found.append(threads_case())
     found += [harmful_case(name) for name in HARMFUL]
