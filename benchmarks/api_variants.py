@@ -127,9 +127,9 @@ def strided(values):
     return double[::2]
 
 
-def written_and_read(reference, encoder, folder):
+def written_and_read(reference, encoder, folder, comments=()):
     path = Path(folder) / "cal.csv"
-    encal.write_calibration(path, encal.Calibration(reference, encoder))
+    encal.write_calibration(path, encal.Calibration(reference, encoder), comments=comments)
     return encal.read_calibration(path)
 
 
@@ -146,6 +146,8 @@ CALIBRATIONS = {
     "rows shuffled": lambda _: encal.Calibration(REFERENCE[ORDER], ENCODER[ORDER]),
     "rows reversed": lambda _: encal.Calibration(REFERENCE[::-1], ENCODER[::-1]),
     "written and read back": lambda folder: written_and_read(REFERENCE, ENCODER, folder),
+    "written with a comment of two lines": lambda folder: written_and_read(REFERENCE, ENCODER, folder,
+                                                                          ["bench 3\nrun 2"]),
     "subset of all of it": lambda _: encal.Calibration(REFERENCE, ENCODER).subset(np.ones(REFERENCE.size, bool)),
     "float32 arrays": lambda _: encal.Calibration(REFERENCE.astype(np.float32), ENCODER.astype(np.float32)),
 }
@@ -677,6 +679,10 @@ HARMFUL = {
     "selfcal.steps: arrays for a calibration": lambda: _selfcal().steps((REFERENCE, ENCODER)),
     "selfcal.sweep: a NaN phase": lambda: _selfcal().sweep(*_sweep_with_nan(), 7),
     "selfcal.sweep: words": lambda: _selfcal().sweep(["a"], ["b"], [1], 7),
+    "plot_profile: lengths differ": lambda: encal.plot_profile(REFERENCE, ENCODER[:-1]),
+    "plot_before_after: words": lambda: encal.plot_before_after(REFERENCE, ENCODER, ["a"] * 360),
+    "plot_model: None for a model": lambda: encal.plot_model(None),
+    "plot_model: coverage 2": lambda: encal.plot_model(model(), coverage=2.0),
     "demo_fleet: 0 encoders": lambda: encal.demo_fleet(0),
     "simulate_fleet: 1.5 encoders": lambda: encal.simulate_fleet(1.5),
 }

@@ -30,6 +30,7 @@ KEPT = [
     "fit: calibration form: auto, strided arrays",
     "fit: calibration form: auto, angles 3 turns down",
     "fit: calibration form: fourier, written and read back",
+    "fit: calibration form: lut, written with a comment of two lines",
     "fit: calibration form: lut, rows shuffled",
     "fit: float32 calibration, truth: lut cubic, float32 arrays",
     "inputs: correct: auto, 0-d array",

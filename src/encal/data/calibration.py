@@ -1406,7 +1406,7 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
         they read as the reference's standard uncertainty). A calibration's ``reference_std_arcmin`` is
         written after them, as ``sigma_arcmin``.
     comments : sequence of str
-        Lines written first, each prefixed with ``# ``.
+        Lines written first, each prefixed with ``# `` (each line of a comment that holds line breaks).
 
     Angles are written with ``repr`` precision, so reading the file back gives the same numbers.
     """
@@ -1430,7 +1430,8 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
         columns[key] = values
     if cal.reference_std_arcmin is not None:
         columns[REFERENCE_STD_COLUMN] = cal.reference_std_arcmin
-    comments = list(comments)
+    # a line break in a comment would start a line without '#' that the reader takes for the header
+    comments = [line for comment in comments for line in (str(comment).splitlines() or [""])]
     if cal.resolution_bits is not None and not any("resolution_bits" in c for c in comments):
         comments.append(f"resolution_bits: {cal.resolution_bits}")
     with atomic_open(path, "w", newline="\n") as handle:
