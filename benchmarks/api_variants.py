@@ -654,6 +654,8 @@ HARMFUL = {
     "Compensator: None": lambda: encal.Compensator(None),
     "load_model: no such file": lambda: encal.load_model("/nonexistent/model.json"),
     "evaluate: arrays for a calibration": lambda: encal.evaluate(model(), (REFERENCE, ENCODER)),
+    "evaluate: radians where degrees are expected": lambda: encal.evaluate(
+        model(), encal.Calibration(np.radians(REFERENCE), np.radians(ENCODER))),
     "evaluate: empty calibration": lambda: encal.evaluate(model(), encal.Calibration([], [])),
     "error_stats: empty": lambda: encal.error_stats([]),
     "error_stats: NaN": lambda: encal.error_stats([1.0, np.nan]),

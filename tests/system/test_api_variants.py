@@ -3,7 +3,7 @@
 The benchmark fits one simulated calibration, whose error is known, with every method, in harmless forms of the
 calibration and of the readings, and calls the API with harmful inputs; all of it agreed when it was written (its
 table is in benchmarks/results/api_variants.md). These tests keep a few harmless forms of each kind and every
-harmful input: each must be refused in one sentence by an encal error (30 of them were a NumPy traceback, a NumPy
+harmful input: each must be refused in one sentence by an encal error (35 of them were a NumPy traceback, a NumPy
 warning or a number before the audit).
 """
 

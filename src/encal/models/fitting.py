@@ -139,7 +139,8 @@ def _check_not_empty(cal, caller):
 
 def _warn_if_radians(cal):
     """Warn when a calibration built in Python holds radians over a turn: in degrees it is an arc of about 6, fitted
-    as such, its errors 57 times too small (:func:`encal.read_calibration` warns of a file the same way)."""
+    as such (or judged: :func:`evaluate`), its errors 57 times too small (:func:`encal.read_calibration` warns of a
+    file the same way)."""
     from ..data.calibration import _looks_like_radians
 
     if all(_looks_like_radians(values) or _looks_like_radians(wrap180(values))
@@ -490,6 +491,8 @@ def evaluate(model, cal, *, zero="fixed"):
     check_type(cal, Calibration, "cal", "evaluate", "a Calibration")
     check_choice(zero, "zero", "evaluate", ZERO_MODES)
     _check_not_empty(cal, "evaluate")
+    if cal.source is None:  # a file's reader has warned already
+        _warn_if_radians(cal)
     observed = cal.errors_arcmin
     # The model maps readings to its input itself (a model of a reversed encoder negates them).
     # A directional model predicts each reading with its own direction's profile.
