@@ -60,6 +60,12 @@ class Calibration:
         average it away: a model fitted to the calibration includes it in its uncertainty
         (:func:`encal.models.uncertainty.with_reference_uncertainty`). Default None: a reference exact for
         the purpose.
+
+    Raises
+    ------
+    CalibrationError
+        If the angles are not real numbers, not finite, or not one reading per reference angle (lengths, or 2-D
+        shapes that would pair other readings once flattened), or a direction is not +1 or -1.
     """
 
     reference_deg: np.ndarray
