@@ -15,7 +15,8 @@ reference angle; a 1-degree grid with 0.05 arcmin of reading noise, fixed seeds)
   the input untouched, a second call the same;
 - **files**: the model saved and loaded, ``Compensator(path)``, ``compile_table`` on 14-bit codes, ``export_c``
   of the model in memory, loaded and by its path (the same C);
-- **analysis**: ``evaluate``, ``error_stats``, ``harmonics`` on harmless forms; the simulators twice;
+- **analysis**: ``evaluate``, ``error_stats``, ``harmonics`` on harmless forms; a bidirectional calibration, an
+  arc across the zero and 14-bit codes in harmless forms; the simulators twice;
   ``encal.selfcal.steps`` on a shuffled calibration; ``fit`` with no BLAS thread variables (another process);
 - **refused**: harmful inputs (NaN, infinity, strings, complex numbers, wrong shapes, mismatched lengths, empty
   arrays, radians where degrees are expected): each must be an encal error in one sentence, never a NumPy
@@ -575,6 +576,43 @@ def arc_cases():
         Case("arc", f"auto: {name}", lambda _, n=name: form(n)) for name in ARC_FORMS if name != "(-180, 180]"]
 
 
+LSB_DEG = 360.0 / 2**14  # a 14-bit encoder: its readings are whole codes
+CODES_ENCODER = np.round(ENCODER / LSB_DEG) * LSB_DEG
+CODES_TEST = np.round(TEST_ENCODER / LSB_DEG) * LSB_DEG
+#: 14-bit codes as degrees in harmless forms (float32 holds them exactly: 14 bits times 45 * 2**-11)
+CODES_FORMS = {
+    "arrays": lambda: (REFERENCE, CODES_ENCODER),
+    "float32": lambda: (REFERENCE.astype(np.float32), CODES_ENCODER.astype(np.float32)),
+    "lists": lambda: (REFERENCE.tolist(), CODES_ENCODER.tolist()),
+    "(-180, 180]": lambda: (encal.wrap180(REFERENCE), encal.wrap180(CODES_ENCODER)),
+    "2 turns up": lambda: (REFERENCE + 720.0, CODES_ENCODER + 720.0),
+}
+#: the corrected quantised readings against the truth: the quantisation of the test readings, LSB / sqrt(12) RMS,
+#: a tenth more for the fit, and 1 LSB at most
+CODES_TRUTH = (1.1 * LSB_DEG * 60.0 / math.sqrt(12.0), LSB_DEG * 60.0)
+
+
+def codes_cases():
+    def fitted(form):
+        return encal.fit(encal.Calibration(*CODES_FORMS[form]()), "auto")
+
+    def truth(_):
+        m = fitted("arrays")
+        rms, peak = truth_of(m.correct(CODES_TEST))
+        ok = peak <= CODES_TRUTH[1] and m.encoder["resolution_bits"] == 14
+        return (rms if ok else math.inf), CODES_TRUTH[0], (
+            f"truth: RMS {rms:.3g}, max {peak:.3g} arcmin; resolution recorded {m.encoder['resolution_bits']} bits")
+
+    def form(name):
+        m = fitted(name)
+        apart = arcmin_apart(m.correct(CODES_TEST), fitted("arrays").correct(CODES_TEST))
+        bits = m.encoder["resolution_bits"]
+        return (apart if bits == 14 else math.inf), SAME_ARCMIN, f"to the arrays'; resolution recorded {bits} bits"
+
+    return [Case("14-bit codes", "auto: truth", truth)] + [
+        Case("14-bit codes", f"auto: {name}", lambda _, n=name: form(n)) for name in CODES_FORMS if name != "arrays"]
+
+
 def uncertainty_cases():
     def stds(reference, encoder, readings):
         m = encal.fit(encal.Calibration(reference, encoder), "fourier", n_orders=8, uncertainty=True, rng=0)
@@ -755,7 +793,8 @@ def cases():
     for label in ("auto", "lut", "ann", "stack"):
         found += [file_case(label, how) for how in ("load_model", "Compensator(path)", "runtime.load",
                                                     "compile_table 14 bits", "export_c: in memory, loaded, path")]
-    found += analysis_cases() + directional_cases() + arc_cases() + uncertainty_cases() + simulate_cases()
+    found += analysis_cases() + directional_cases() + arc_cases() + codes_cases() + uncertainty_cases()
+    found += simulate_cases()
     found.append(threads_case())
     found += [harmful_case(name) for name in HARMFUL]
     return found

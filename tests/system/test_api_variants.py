@@ -43,6 +43,7 @@ KEPT = [
     "model file: auto, compile_table 14 bits",
     "analysis: harmonics: lists, shuffled, 2 turns up",
     "arc: auto: rows shuffled",
+    "14-bit codes: auto: float32",
     "directional: fourier: calibration rows shuffled",
     "simulate / selfcal: selfcal.steps, rows shuffled",
 ]
