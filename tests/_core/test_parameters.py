@@ -11,7 +11,7 @@ from encal.selfcal import spin, steps, sweep
 from encal.data.calibration import write_calibration
 from encal._core.errors import InputError
 from encal.models.stack import fit_stack
-from encal._core.parameters import check_bool, check_choice, check_int, check_number, check_seed, invalid
+from encal._core.parameters import check_bool, check_choice, check_int, check_number, check_seed, invalid, real_array
 
 GRID = np.arange(0.0, 360.0, 2.0)
 
@@ -163,3 +163,17 @@ def test_the_report_checks_its_figures_resolution(tmp_path):
     assert str(info.value) == ("The 'report' parameter of render_encoder_figures must be an EncoderReport. "
                                "Got an object of type ndarray instead.")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("values", [["a"], [1 + 2j], np.array([1.0 + 0j]), [[1.0, 2.0], [3.0]], None, {}, 10**400])
+def test_real_array_refuses_what_numpy_raises_on_or_casts_with_a_warning(values):
+    """Text, complex numbers (NumPy took their real part with a ComplexWarning), ragged lists and None: one
+    sentence naming the parameter, never NumPy's ValueError or TypeError (task pyapi)."""
+    with pytest.raises(InputError, match=r"^The 'theta' parameter of predict must be real numbers\. Got .* instead\.$"):
+        real_array(values, "theta", "predict")
+
+
+def test_real_array_keeps_what_numpy_reads():
+    assert real_array(3, "theta", "predict").shape == ()
+    assert real_array(np.arange(6).reshape(2, 3), "theta", "predict").dtype == float
+    assert np.isnan(real_array([np.nan], "theta", "predict")[0])  # finiteness is the caller's to judge

@@ -548,3 +548,27 @@ def test_a_direction_number_other_than_one_is_refused(tmp_path, cell):
     path.write_text(f"reference_deg,encoder_deg,direction\n0,0.01,{cell}\n{rows}\n")
     with pytest.raises(CalibrationError, match=r"line 2, column 3: direction is .*expected \+1, -1, cw or ccw"):
         read_calibration(path)
+
+
+@pytest.mark.parametrize("direction", [np.full(4, 1.7), np.full(4, -1.5), ["cw"] * 4, np.ones(4, bool)])
+def test_a_direction_that_is_not_plus_or_minus_one_is_refused_before_any_cast(direction):
+    """1.7 was cast to int8 and taken as +1, and 'cw' raised NumPy's ValueError (task pyapi)."""
+    with pytest.raises(CalibrationError, match="direction must hold"):
+        Calibration([0.0, 90.0, 180.0, 270.0], [0.0, 90.0, 180.0, 270.0], direction=direction)
+
+
+def test_arrays_of_shapes_that_pair_other_readings_are_refused():
+    """A (2, n) reference and an (n, 2) encoder were flattened and paired other readings (task pyapi); one shape for
+    both, or an (n, 1) column against (n,), is read."""
+    angles = np.arange(0.0, 360.0, 30.0)
+    with pytest.raises(CalibrationError, match=r"shape \(2, 6\) but encoder_deg \(6, 2\)"):
+        Calibration(angles.reshape(2, 6), angles.reshape(6, 2))
+    assert_array_equal(Calibration(angles.reshape(-1, 1), angles).encoder_deg, angles)
+    assert_array_equal(Calibration(angles.reshape(2, 6), angles.reshape(2, 6)).reference_deg, angles)
+
+
+@pytest.mark.parametrize("index", [[12], np.ones(3, bool), "all"])
+def test_a_subset_index_numpy_cannot_take_is_one_sentence(index):
+    cal = Calibration(np.arange(0.0, 360.0, 30.0), np.arange(0.0, 360.0, 30.0))
+    with pytest.raises(CalibrationError, match="Calibration.subset expects a mask of 12 booleans"):
+        cal.subset(index)

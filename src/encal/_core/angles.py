@@ -6,6 +6,8 @@ Conventions used throughout encal: angles in degrees, errors in arc-minutes,
 
 import numpy as np
 
+from .parameters import check_int, invalid, real_array
+
 __all__ = [
     "ARCMIN_PER_DEG",
     "wrap360",
@@ -46,7 +48,7 @@ def wrap360(angle_deg):
     >>> float(wrap360(720.5))
     0.5
     """
-    angle = np.asarray(angle_deg, dtype=float)
+    angle = real_array(angle_deg, "angle_deg", "wrap360", "angles in degrees (real numbers)")
     if angle.size > 64:  # np.mod's value without its fmod (most of the time of a wrap), bit for bit
         low, high = angle.min(), angle.max()
         if 0.0 <= low and high < 360.0:
@@ -119,7 +121,7 @@ def wrap180(angle_deg):
     >>> float(wrap180(-180.0))
     180.0
     """
-    shifted = -np.asarray(angle_deg, dtype=float) + 180.0
+    shifted = -real_array(angle_deg, "angle_deg", "wrap180", "angles in degrees (real numbers)") + 180.0
     if shifted.size > 64 and -360.0 <= shifted.min() and shifted.max() < 720.0:
         # np.mod's value without its fmod (a fifth of the time), bit for bit: it adds 360 to a negative
         # remainder (rounding once, perhaps to 360.0 exactly, which it keeps) and subtracts 360 from a value
@@ -132,7 +134,14 @@ def wrap180(angle_deg):
 
 def angle_difference(a_deg, b_deg):
     """Signed difference ``a - b`` wrapped to (-180, 180] degrees."""
-    return wrap180(np.asarray(a_deg, dtype=float) - np.asarray(b_deg, dtype=float))
+    a = real_array(a_deg, "a_deg", "angle_difference", "angles in degrees (real numbers)")
+    b = real_array(b_deg, "b_deg", "angle_difference", "angles in degrees (real numbers)")
+    try:
+        np.broadcast_shapes(a.shape, b.shape)
+    except ValueError:
+        raise invalid("b_deg", "angle_difference", f"one angle or angles of a shape that broadcasts with a_deg's "
+                      f"{a.shape}", b_deg, shown=f"the shape {b.shape}") from None
+    return wrap180(a - b)
 
 
 def deg_to_arcmin(angle_deg):
@@ -153,8 +162,6 @@ def lsb_arcmin(bits):
     >>> round(lsb_arcmin(16), 4)
     0.3296
     """
-    from .parameters import check_int
-
     return 21600.0 / 2.0 ** check_int(bits, "bits", "lsb_arcmin", low=1, high=64, note="the encoder resolution")
 
 

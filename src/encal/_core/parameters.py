@@ -15,7 +15,8 @@ import numpy as np
 
 from .errors import InputError
 
-__all__ = ["invalid", "check_int", "check_number", "check_choice", "check_bool", "check_seed", "check_type"]
+__all__ = ["invalid", "check_int", "check_number", "check_choice", "check_bool", "check_seed", "check_type",
+           "real_array"]
 
 
 def invalid(name, caller, expected, value, *, shown=None, error=InputError):
@@ -138,3 +139,28 @@ def check_type(value, types, name, caller, expected, *, error=InputError):
     if not isinstance(value, types):
         raise invalid(name, caller, expected, value, shown=f"an object of type {type(value).__name__}", error=error)
     return value
+
+
+def real_array(values, name, caller, expected="real numbers", *, error=InputError):
+    """``values`` as a float ndarray (any shape; NaN and infinity kept for the caller to judge), or the sentence
+    saying what they are instead: text, None, complex numbers, a ragged list (NumPy's own ValueError,
+    TypeError or ComplexWarning, which in a notebook is a traceback far from the call).
+
+    Examples
+    --------
+    >>> real_array([1, 2.5], "errors", "error_stats").tolist()
+    [1.0, 2.5]
+    >>> real_array(["a"], "errors", "error_stats")
+    Traceback (most recent call last):
+    encal.InputError: The 'errors' parameter of error_stats must be real numbers. Got ['a'] instead.
+    """
+    if values is None:
+        raise invalid(name, caller, expected, values, error=error)
+    try:
+        if getattr(values, "dtype", None) is not None and values.dtype.kind == "c":
+            raise TypeError("complex")  # NumPy would drop the imaginary part with a warning (a list is refused)
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError, OverflowError):  # 'abc', a dict, a ragged list, 10**400, 1+2j
+        shown = repr(values)
+        raise invalid(name, caller, expected, values, shown=shown if len(shown) <= 60 else shown[:56] + " ...",
+                      error=error) from None

@@ -21,7 +21,7 @@ import numpy as np
 from ..numerics.trigsums import trig_moments
 from .._core.angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .._core.errors import InputError
-from .._core.parameters import check_choice, check_number, invalid
+from .._core.parameters import check_choice, check_number, invalid, real_array
 from .._core.sorting import stable_argsort
 
 __all__ = [
@@ -312,7 +312,8 @@ def error_stats(data, *, zero="fixed"):
     >>> round(shape.offset, 6), round(shape.rms, 4)
     (3600.0, 0.8165)
     """
-    errors = np.asarray(getattr(data, "errors_arcmin", data), dtype=float).reshape(-1)
+    errors = real_array(getattr(data, "errors_arcmin", data), "data", "error_stats",
+                        "a Calibration or errors in arc-minutes (real numbers)").reshape(-1)
     if errors.size == 0:
         raise InputError("error_stats expects at least one error value; got none")
     if not np.all(np.isfinite(errors)):
@@ -354,8 +355,8 @@ def profile_arrays(theta_deg, error_arcmin, caller, copy=True):
     With ``copy=False`` the angles are the array given when it is one in
     [0, 360) already (for a caller that only reads them: 8 bytes an angle).
     """
-    theta = np.asarray(theta_deg, dtype=float).reshape(-1)
-    error = np.asarray(error_arcmin, dtype=float).reshape(-1)
+    theta = real_array(theta_deg, "theta_deg", caller, "encoder angles in degrees (real numbers)").reshape(-1)
+    error = real_array(error_arcmin, "error_arcmin", caller, "errors in arc-minutes (real numbers)").reshape(-1)
     if theta.size != error.size:
         raise InputError(
             f"{caller} expects one error per encoder angle; "
@@ -1039,7 +1040,10 @@ class Harmonics:
 
     def __call__(self, theta_deg):
         """The harmonic series evaluated at ``theta_deg`` (degrees), in arc-minutes."""
-        theta = np.radians(np.asarray(theta_deg, dtype=float))[..., np.newaxis]
+        theta = real_array(theta_deg, "theta_deg", "Harmonics", "encoder angles in degrees (real numbers)")
+        if not np.all(np.isfinite(theta)):  # a model's predict refuses them too: never NaN for a reading
+            raise InputError("Harmonics expects finite encoder angles in degrees; got NaN or infinity")
+        theta = np.radians(theta)[..., np.newaxis]
         series = self.cos_arcmin * np.cos(self.orders * theta) + self.sin_arcmin * np.sin(self.orders * theta)
         return series.sum(axis=-1)[()]
 

@@ -16,7 +16,7 @@ from .._core.number_cells import MAX_ABS_DEG, not_plain_note, read_number  # MAX
 from .._core.sorting import stable_argsort
 from .._core.angles import ARCMIN_PER_DEG, READING_SIGNS, angle_unit, model_input, wrap180, wrap360
 from .._core.errors import CalibrationError, EncalWarning
-from .._core.parameters import check_bool, check_choice, check_int, check_number, check_type, invalid
+from .._core.parameters import check_bool, check_choice, check_int, check_number, check_type, invalid, real_array
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "check_turns",
            "turn_checked_errors", "is_multi_revolution", "is_repeated_stops"]
@@ -60,6 +60,12 @@ class Calibration:
         average it away: a model fitted to the calibration includes it in its uncertainty
         (:func:`encal.models.uncertainty.with_reference_uncertainty`). Default None: a reference exact for
         the purpose.
+
+    Raises
+    ------
+    CalibrationError
+        If the angles are not real numbers, not finite, or not one reading per reference angle (lengths, or 2-D
+        shapes that would pair other readings once flattened), or a direction is not +1 or -1.
     """
 
     reference_deg: np.ndarray
@@ -75,8 +81,17 @@ class Calibration:
     reference_std_arcmin: np.ndarray | None = None
 
     def __post_init__(self):
-        ref = np.asarray(self.reference_deg, dtype=float).reshape(-1)
-        enc = np.asarray(self.encoder_deg, dtype=float).reshape(-1)
+        ref = real_array(self.reference_deg, "reference_deg", "Calibration", "real numbers of degrees",
+                         error=CalibrationError)
+        enc = real_array(self.encoder_deg, "encoder_deg", "Calibration", "real numbers of degrees",
+                         error=CalibrationError)
+        if ref.shape != enc.shape and np.squeeze(ref).shape != np.squeeze(enc).shape and max(ref.ndim, enc.ndim) > 1:
+            # flattened, a (2, n) reference and an (n, 2) encoder would pair other readings than the caller's
+            raise CalibrationError(
+                f"reference_deg has the shape {ref.shape} but encoder_deg {enc.shape}; expected one reading per "
+                "reference angle, in two 1-D arrays of the same length"
+            )
+        ref, enc = ref.reshape(-1), enc.reshape(-1)
         if ref.shape != enc.shape:
             raise CalibrationError(
                 f"reference_deg has {ref.size} values but encoder_deg has {enc.size}; "
@@ -98,10 +113,12 @@ class Calibration:
         object.__setattr__(self, "reference_deg", wrap360(ref).reshape(-1))
         object.__setattr__(self, "encoder_deg", wrap360(enc).reshape(-1))
         if self.direction is not None:
-            direction = np.asarray(self.direction, dtype=np.int8).reshape(-1)
-            if direction.shape != ref.shape or not np.all(np.isin(direction, (-1, 1))):
+            direction = np.asarray(self.direction).reshape(-1)
+            # checked before the cast to int8, which would make 1.7 a 1 and 'cw' a ValueError
+            if direction.shape != ref.shape or direction.dtype.kind not in "iuf" \
+                    or not np.all(np.isin(direction, (-1, 1))):
                 raise CalibrationError("direction must hold +1 or -1 for every point")
-            object.__setattr__(self, "direction", direction)
+            object.__setattr__(self, "direction", direction.astype(np.int8))
         if self.epoch is not None:
             epoch = np.asarray(self.epoch, dtype=str).reshape(-1)
             if epoch.shape != ref.shape:
@@ -139,10 +156,17 @@ class Calibration:
 
     def subset(self, index):
         """A calibration holding only the points selected by ``index`` (mask or indices)."""
-        pick = lambda a: None if a is None else a[index]  # noqa: E731
+        try:
+            kept = np.arange(self.reference_deg.size)[index]
+        except (IndexError, TypeError, ValueError):
+            shown = repr(index) if len(repr(index)) <= 40 else f"an index of type {type(index).__name__}"
+            raise CalibrationError(f"Calibration.subset expects a mask of {self.reference_deg.size} booleans, indices "
+                                   f"from {-self.reference_deg.size} to {self.reference_deg.size - 1} or a slice; "
+                                   f"got {shown}") from None
+        pick = lambda a: None if a is None else a[kept]  # noqa: E731
         return Calibration(
-            self.reference_deg[index],
-            self.encoder_deg[index],
+            self.reference_deg[kept],
+            self.encoder_deg[kept],
             direction=pick(self.direction),
             epoch=pick(self.epoch),
             name=self.name,
@@ -1388,7 +1412,7 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
         they read as the reference's standard uncertainty). A calibration's ``reference_std_arcmin`` is
         written after them, as ``sigma_arcmin``.
     comments : sequence of str
-        Lines written first, each prefixed with ``# ``.
+        Lines written first, each prefixed with ``# `` (each line of a comment that holds line breaks).
 
     Angles are written with ``repr`` precision, so reading the file back gives the same numbers.
     """
@@ -1412,7 +1436,8 @@ def write_calibration(path, cal, *, extra_columns=None, comments=()):
         columns[key] = values
     if cal.reference_std_arcmin is not None:
         columns[REFERENCE_STD_COLUMN] = cal.reference_std_arcmin
-    comments = list(comments)
+    # a line break in a comment would start a line without '#' that the reader takes for the header
+    comments = [line for comment in comments for line in (str(comment).splitlines() or [""])]
     if cal.resolution_bits is not None and not any("resolution_bits" in c for c in comments):
         comments.append(f"resolution_bits: {cal.resolution_bits}")
     with atomic_open(path, "w", newline="\n") as handle:

@@ -21,6 +21,7 @@ import numpy as np
 
 from .._core.atomic import atomic_write
 from .._core.errors import InputError
+from .._core.parameters import check_number, invalid, real_array
 from ..numerics.spline import periodic_smoothing_spline
 
 __all__ = [
@@ -162,6 +163,16 @@ def save_figure(fig, path, dpi=100):
 # --------------------------------------------------------------------------- Fig. 1 and spectra
 
 
+def _points(caller, **columns):
+    """The columns of a set of points as 1-D float arrays of one length (NaN kept: a plot leaves a gap), or the
+    sentence saying which one is not numbers or has another length (matplotlib's own error named no parameter)."""
+    arrays = [real_array(values, name, caller).reshape(-1) for name, values in columns.items()]
+    if len({array.size for array in arrays}) > 1:
+        sizes = ", ".join(f"{name} {array.size}" for name, array in zip(columns, arrays))
+        raise InputError(f"{caller} expects one value of each per point; got {sizes}")
+    return arrays
+
+
 def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, title=None, label="calibration",
                  test_label="test"):
     """Fig. 1: an error profile against the encoder angle, with a smooth periodic curve.
@@ -183,13 +194,14 @@ def plot_profile(theta_deg, error_arcmin, *, test=None, smooth=True, ax=None, ti
     -------
     matplotlib.axes.Axes
     """
+    theta, error = _points("plot_profile", theta_deg=theta_deg, error_arcmin=error_arcmin)
+    if test is not None:
+        test = _points("plot_profile", test_theta_deg=test[0], test_error_arcmin=test[1])
     ax = new_axes(ax)
-    theta = np.asarray(theta_deg, dtype=float)
-    error = np.asarray(error_arcmin, dtype=float)
     draw_points(ax, theta, error, colour=_TRAIN_COLOUR, label=label)
     all_theta, all_error = theta, error
     if test is not None:
-        test_theta, test_error = (np.asarray(a, dtype=float) for a in test)
+        test_theta, test_error = test
         draw_points(ax, test_theta, test_error, colour=_TEST_COLOUR, label=test_label)
         all_theta, all_error = np.r_[theta, test_theta], np.r_[error, test_error]
     if smooth:
@@ -315,11 +327,17 @@ def plot_model(model, *, data=None, ax=None, title=None, coverage=0.95, offset_a
     """
     from scipy.stats import norm
 
+    if not callable(getattr(model, "predict", None)):
+        raise invalid("model", "plot_model", "a Model", model, shown=f"an object of type {type(model).__name__}")
+    coverage = check_number(coverage, "coverage", "plot_model", low=0.0, high=1.0, low_open=True, high_open=True,
+                            note="the share of readings the band covers")
+    if data is not None:
+        data = _points("plot_model", theta_deg=data[0], error_arcmin=data[1])
     ax = new_axes(ax)
     grid = np.linspace(0.0, 360.0, 1441)
     shift = lambda values: _wrapped_arcmin(np.asarray(values, dtype=float) - offset_arcmin)  # noqa: E731
     if data is not None:
-        theta, error = (np.asarray(a, dtype=float) for a in data)
+        theta, error = data
         draw_points(ax, theta, shift(error), colour=_TRAIN_COLOUR, label="calibration")
     # a directional model keeps its uncertainty in its parts (has_uncertainty): its band is that of a reading whose
     # direction is unknown, as the report's verdict states it
@@ -361,9 +379,9 @@ def plot_before_after(theta_deg, before_arcmin, after_arcmin, *, ax=None, title=
     -------
     matplotlib.axes.Axes
     """
+    theta, before, after = _points("plot_before_after", theta_deg=theta_deg, before_arcmin=before_arcmin,
+                                   after_arcmin=after_arcmin)
     ax = new_axes(ax)
-    theta = np.asarray(theta_deg, dtype=float)
-    before, after = np.asarray(before_arcmin, dtype=float), np.asarray(after_arcmin, dtype=float)
     order = np.argsort(theta)
     if floor_arcmin is not None:
         ax.axhspan(-floor_arcmin, floor_arcmin, color=_FLOOR_COLOUR, alpha=0.35, lw=0,

@@ -32,6 +32,8 @@ import numpy as np
 from scipy.linalg import solve_triangular
 
 from .._core.errors import InputError
+from .._core.parameters import check_number, check_type, real_array
+from ..models.base import Model
 from .._core.threads import single_blas_thread
 
 __all__ = ["FleetPrior", "StorePrior", "fleet_prior", "fit_with_prior", "MIN_UNITS", "LEAVE_ONE_OUT_UNITS",
@@ -186,6 +188,8 @@ def fleet_prior(models, *, orders=DEFAULT_ORDERS, points=360):
         With fewer than :data:`MIN_UNITS` models.
     """
     given = len(models)
+    for number, model in enumerate(models):
+        check_type(model, Model, f"models[{number}]", "fleet_prior", "a Model")
     models = [model for model in models if _learns(model)]
     if len(models) < MIN_UNITS:
         raise InputError(_too_few(len(models), given))
@@ -434,8 +438,12 @@ def fit_with_prior(theta_enc_deg, error_arcmin, prior, *, noise_arcmin=None):
     """
     from ..models.spectral import SpectralModel
 
-    theta = np.asarray(theta_enc_deg, dtype=float).reshape(-1)
-    error = np.asarray(error_arcmin, dtype=float).reshape(-1)
+    check_type(prior, FleetPrior, "prior", "fit_with_prior", "a FleetPrior (from fleet_prior)")
+    theta = real_array(theta_enc_deg, "theta_enc_deg", "fit_with_prior", "encoder angles in degrees").reshape(-1)
+    error = real_array(error_arcmin, "error_arcmin", "fit_with_prior", "errors in arc-minutes").reshape(-1)
+    if noise_arcmin is not None:
+        noise_arcmin = check_number(noise_arcmin, "noise_arcmin", "fit_with_prior", low=0.0, low_open=True,
+                                    note="the noise of one reading in arc-minutes, or None")
     if theta.size != error.size or theta.size < 2 or not (np.all(np.isfinite(theta)) and np.all(np.isfinite(error))):
         raise InputError(f"fit_with_prior expects 2 or more finite readings, as many angles as errors; got "
                          f"{theta.size} angles and {error.size} errors")

@@ -17,7 +17,7 @@ import numpy as np
 from .._core.angles import ARCMIN_PER_DEG, model_input, wrap360
 from .._core.arcs import inside
 from .._core.errors import InputError
-from .._core.parameters import invalid
+from .._core.parameters import check_bool, invalid
 from ._table import TABLE_MIN_ANGLES, correct_through_table
 from .modelfile import save_model
 from .stored_uncertainty import predictive_std
@@ -173,6 +173,7 @@ class Model(ABC):
             Only with ``return_std=True``: ``sqrt(sigma_model**2 + sigma_noise**2)`` in arc-minutes,
             same shape.
         """
+        return_std = check_bool(return_std, "return_std", "predict")
         theta = model_input(as_angles(theta_enc_deg), self.reading_sign)
         if direction is not None:
             direction_mask(direction, theta.shape)
@@ -207,6 +208,7 @@ class Model(ABC):
         of any size, and the runtime and every export are judged against this).
         """
         theta = as_angles(theta_enc_deg)
+        table = check_bool(table, "table", "correct")
         if table and direction is None and self.range_deg is None and theta.size >= TABLE_MIN_ANGLES:
             table = self._correction_table()
             if table is not None:  # many angles: through a table of the model (see encal.models._table)

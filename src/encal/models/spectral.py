@@ -29,6 +29,7 @@ from ..analysis.profile import (ANGLE_TOLERANCE_DEG, angles_and_grid, distinct_a
                                 profile_arrays, uniform_grid)
 from . import _evidence
 from .base import in_chunks
+from .._core.parameters import check_bool
 from ..numerics.trigsums import SeriesEvaluator, trig_moments, trig_series
 from .fourier import MAX_ORDER, FourierModel
 
@@ -152,7 +153,7 @@ class SpectralModel(FourierModel):
             Only with ``return_std=True``.
         """
         mean = super().predict(theta_enc_deg, direction=direction)
-        if not return_std:
+        if not check_bool(return_std, "return_std", "predict"):
             return mean
         if self.uncertainty is None:
             raise InputError("return_std=True needs the model's posterior uncertainty, which this model "

@@ -64,7 +64,7 @@ from ..data.reversal import (direction_subset, has_both_directions, largest_per_
                              require_directions, reversal)
 from ..data.calibration import READING_NOISE_KEY, Calibration
 from .._core.errors import InputError
-from .._core.parameters import check_int, check_number
+from .._core.parameters import check_int, check_number, check_type
 from . import model_kind
 from .stored_uncertainty import check_uncertainty, grid_size, predictive_std
 from .validation import held_out_predictions, interleaved_folds
@@ -142,6 +142,10 @@ def coverage(model, cal, *, coverage_factor=2.0):
         Between 0 and 1.
     """
     k = check_number(coverage_factor, "coverage_factor", "coverage", low=0.0, low_open=True)
+    check_type(cal, Calibration, "cal", "coverage", "a Calibration")
+    if len(cal) == 0:
+        raise InputError(f"coverage expects a calibration with points; {cal.source or cal.name or 'the calibration'} "
+                         "has none")
     mean, std = model.predict(cal.readings_deg, return_std=True, direction=cal.direction)
     residual = _wrapped_arcmin(cal.errors_arcmin - mean)
     return float(np.mean(np.abs(residual) <= k * std))

@@ -22,8 +22,9 @@ import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, wrap180
 from .._core.errors import InputError
-from .._core.parameters import check_int, check_number
+from .._core.parameters import check_int, check_number, check_type
 from ..analysis.profile import distinct_angles
+from ..data.calibration import Calibration
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
 from .._core.threads import single_blas_thread
@@ -130,6 +131,9 @@ def steps(first, second=None, *, turn_deg=None, step_shift=None, max_order=16, n
     if step_shift is not None:
         step_shift = check_int(step_shift, "step_shift", "steps", note="full steps, or None")
     max_order = check_int(max_order, "max_order", "steps", low=1)
+    check_type(first, Calibration, "first", "steps", "a Calibration")
+    if second is not None:
+        check_type(second, Calibration, "second", "steps", "a Calibration or None")
     reading_a, error_a = step_errors(first)
     n = reading_a.size
     if max_order >= n // 2:

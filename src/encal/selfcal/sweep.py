@@ -17,7 +17,7 @@ import numpy as np
 
 from .._core.angles import ARCMIN_PER_DEG, wrap180
 from .._core.errors import InputError
-from .._core.parameters import check_int
+from .._core.parameters import check_int, real_array
 from .._core.limits import check_size
 from ._series import HarmonicSeries, design_matrix
 from .result import SelfCalibration
@@ -216,11 +216,13 @@ def sweep_samples(phase_deg_e, encoder_deg, travel, pole_pairs, skip, where):
     InputError
         When the three differ in length.
     """
-    phase = np.asarray(phase_deg_e, dtype=float).reshape(-1)[skip:]
-    reading = np.asarray(encoder_deg, dtype=float).reshape(-1)[skip:]
+    phase = real_array(phase_deg_e, "phase_deg_e", where, "electrical degrees (real numbers)").reshape(-1)[skip:]
+    reading = real_array(encoder_deg, "encoder_deg", where, "degrees (real numbers)").reshape(-1)[skip:]
     travel = np.asarray(travel).reshape(-1)[skip:]
     if not phase.size == reading.size == travel.size:
         raise InputError(f"{where}: phase, encoder and direction differ in length; expected one of each per sample")
+    if not (np.all(np.isfinite(phase)) and np.all(np.isfinite(reading))):  # LAPACK's "SVD did not converge"
+        raise InputError(f"{where}: expected finite phases and encoder readings; got NaN or infinity")
     return np.unwrap(phase, period=360.0) / pole_pairs, np.unwrap(reading, period=360.0), travel
 
 
