@@ -437,3 +437,16 @@ def test_harmonic_series_and_order_are_those_of_the_two_functions():
         cos, sin, order = harmonic_series_and_order(theta, errors, [0, 1, 3])
         assert_allclose((cos, sin), fit_harmonic_series(theta, errors, [0, 1, 3]), rtol=0, atol=0)
         assert order == identifiable_order(theta)
+
+
+@pytest.mark.parametrize("case", ["random", "repeats", "across zero", "one angle", "sweep"])
+def test_the_distinct_values_are_those_of_distinct_angles(case):
+    from encal.analysis.profile import _distinct_values
+
+    rng = np.random.default_rng(9)
+    theta = {"random": rng.uniform(0.0, 360.0, 5000),
+             "repeats": np.repeat(rng.uniform(0.0, 360.0, 50), 7) + rng.choice([0.0, 4e-10], 350),
+             "across zero": np.r_[0.0, 2e-10, 359.9999999999, 10.0, 10.0, 200.0],
+             "one angle": np.array([5.0, 5.0, 5.0 + 1e-10]),
+             "sweep": np.tile(np.arange(0.0, 360.0, 0.5), 3)}[case]
+    np.testing.assert_array_equal(_distinct_values(theta), distinct_angles(theta)[0])

@@ -126,11 +126,38 @@ def trig_moments(theta_rad, weights, highest_order):
     for start in range(0, theta.size, _BLOCK_ANGLES):
         node, offset = _nodes(theta[start:start + _BLOCK_ANGLES], size)
         power = weights[start:start + _BLOCK_ANGLES].copy()  # w δ^p (δ in spacings)
+        runs = _runs(node)
         for p in range(terms):
-            binned[p] += np.bincount(node, weights=power, minlength=size)
+            binned[p] += _binned(node, power, size, runs)
             power *= offset
     # Σ_j x_j exp(+2πi jm/L) of a real x is the conjugate of its real FFT
     return _taylor_sum((np.conj(np.fft.rfft(row)[: highest_order + 1]) for row in binned), highest_order, size)
+
+
+#: A block of angles is binned run by run when its nodes change at fewer than this share of them (a sweep's
+#: consecutive angles share a node): an addition to the bin the last one filled waits for it, and ``np.bincount`` of
+#: a sweep's angles took twice as long as of random ones (10^6 angles' moments to order 400: 43 ms, 25 ms by runs;
+#: random angles 23 ms either way). Not in :func:`_moments_by_term`, where it was slower.
+_RUN_SHARE = 0.25
+
+
+def _runs(node):
+    """``(starts, nodes)`` of the runs of equal consecutive nodes, or None when there are too many to help."""
+    changes = node[1:] != node[:-1]
+    if np.count_nonzero(changes) + 1 > _RUN_SHARE * node.size:
+        return None
+    starts = np.flatnonzero(changes)
+    starts += 1
+    starts = np.r_[0, starts]
+    return starts, node[starts]
+
+
+def _binned(node, weights, size, runs):
+    """``np.bincount(node, weights, minlength=size)``, summed run by run first when ``runs`` (:func:`_runs`) is given."""
+    if runs is None:
+        return np.bincount(node, weights=weights, minlength=size)
+    starts, run_node = runs
+    return np.bincount(run_node, weights=np.add.reduceat(weights, starts), minlength=size)
 
 
 def _taylor_sum(spectra, highest_order, size):
