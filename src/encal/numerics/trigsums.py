@@ -153,7 +153,7 @@ def _runs(node):
 
 
 def _binned(node, weights, size, runs):
-    """``np.bincount(node, weights, minlength=size)``, summed run by run first when ``runs`` (:func:`_runs`) is given."""
+    """``np.bincount(node, weights, minlength=size)``, summed run by run first when given ``runs`` (:func:`_runs`)."""
     if runs is None:
         return np.bincount(node, weights=weights, minlength=size)
     starts, run_node = runs
