@@ -465,3 +465,166 @@ def test_the_report_band_table_is_what_bench_report_band_prints():
     assert len(printed) == len(shown) == 11
     for mine, page in zip(printed, shown):
         assert numbers(mine[2:8]) == numbers(page[1:7]), page[0]
+
+
+# --- task claims (session 9): deployment and model-selection figures, and the pages' Python examples -------------
+
+
+def test_the_dense_tables_distance_from_the_model_is_what_compile_table_measures():
+    """docs/deployment.md, "How far the table is from the model": every cell is the header field compile_table
+    stores for that stored model file, at the page's two significant figures."""
+    from encal.deploy import compile_table, load_model
+    from tests._paths import DATA
+
+    files = {"fourier": "fourier", "lut": "lut", "ann, periodic": "ann", "hybrid": "hybrid", "ann, raw": "ann_raw"}
+    rows = _table_rows("deployment.md", "| model | int16 quantisation |")
+    assert len(rows) == len(files)
+    for row in rows:
+        name = next(files[prefix] for prefix in files if row[0].startswith(prefix))
+        model = load_model(DATA / f"model_v1_{name}.json")
+        int16 = compile_table(model, 16, dtype="int16")
+        measured = [int16.quantisation_arcmin, compile_table(model, 16, dtype="float32").quantisation_arcmin,
+                    int16.between_codes_arcmin, compile_table(model, 14).between_codes_arcmin]
+        assert [float(f"{value:.2g}") for value in measured] == [_number(cell) for cell in row[1:5]], row[0]
+
+
+def test_the_cross_validation_table_of_the_model_selection_page_is_what_encal_fit_prints(tmp_path, monkeypatch,
+                                                                                        capsys):
+    """docs/model-selection.md, step 7: the output of its command, every line but the times and the rows it elides."""
+    import shlex
+
+    from encal.cli import main
+
+    text = _model_selection_text_raw()
+    command = re.search(r"\(`(encal simulate --out sim) && (encal fit sim/enc2_train\.csv [^`]*)`", text)
+    monkeypatch.chdir(tmp_path)
+    for part in command.groups():
+        capsys.readouterr()
+        assert main(shlex.split(part)[1:]) == 0, capsys.readouterr().err
+    output = capsys.readouterr()
+    printed = (output.out + output.err).splitlines()
+    shown = re.search(r"```\n(cross-validation over 5 interleaved folds.*?)```", text, flags=re.S).group(1)
+
+    def without_time(line):
+        return re.sub(r"\s+\d+\.\d+s$", "", line.rstrip())
+
+    printed = [without_time(line) for line in printed]
+    shown_lines = [without_time(line) for line in shown.splitlines() if line.strip() != "..."]
+    assert len(shown_lines) > 10
+    missing = [line for line in shown_lines if line not in printed]
+    assert not missing, f"model-selection.md shows lines encal fit no longer prints: {missing}"
+    assert [line for line in printed if line in shown_lines] == shown_lines  # in the page's order
+
+
+def _model_selection_text_raw():
+    return (DOCS / "model-selection.md").read_text(encoding="utf-8")
+
+
+@pytest.fixture
+def simulated_folder(tmp_path, monkeypatch):
+    """A folder holding what the pages' examples read: enc1_train.csv, enc1_test.csv and enc1.json (encal fit's)."""
+    from encal.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--encoders", "1", "--out", "."]) == 0
+    assert main(["fit", "enc1_train.csv", "-o", "enc1.json"]) == 0
+    return tmp_path
+
+
+def _python_blocks(page):
+    return re.findall(r"```python\n(.*?)```", (DOCS / page).read_text(encoding="utf-8"), flags=re.S)
+
+
+def test_the_deployment_pages_python_examples_run_as_written(simulated_folder, capsys):
+    """docs/deployment.md: Compensator on an array of readings, the standalone runtime on one reading (the page leaves
+    ``theta_enc`` to the reader); the runtime is imported as the copy the page tells the reader to make."""
+    import shutil
+
+    from tests._paths import SRC
+
+    compensator, standalone = _python_blocks("deployment.md")[:2]
+    assert "Compensator(" in compensator and "runtime.load(" in standalone
+    namespace = {"theta_enc": np.array([0.0, 123.4, 359.9])}
+    exec(compile(compensator, "deployment.md", "exec"), namespace)
+    assert namespace["theta_cor"].shape == (3,) and namespace["std"].shape == (3,)
+    shutil.copy(SRC / "encal" / "runtime.py", simulated_folder / "runtime.py")
+    sys.path.insert(0, str(simulated_folder))
+    try:
+        namespace = {"theta_enc": 123.4}
+        exec(compile(standalone, "deployment.md", "exec"), namespace)
+    finally:
+        sys.path.remove(str(simulated_folder))
+        sys.modules.pop("runtime", None)
+    assert namespace["theta_cor"] == pytest.approx(123.4 - namespace["error"] / 60.0, abs=1e-12)
+
+
+def test_the_uncertainty_pages_python_example_runs_as_written(simulated_folder):
+    """docs/uncertainty.md, "Use": on the simulated encoder the README's commands make."""
+    block = _python_blocks("uncertainty.md")[0]
+    namespace = {"theta_enc_deg": np.arange(0.0, 360.0, 7.5)}
+    exec(compile(block, "uncertainty.md", "exec"), namespace)
+    assert np.all(namespace["std"] > 0) and namespace["U"] == pytest.approx(2 * namespace["std"])
+
+
+@pytest.mark.slow
+def test_the_production_pages_workflow_and_python_examples_run_as_written(tmp_path, monkeypatch, capsys):
+    """docs/production.md, "The workflow on a station" (on six simulated units; the page's Mechaduino export needs a
+    14-bit unit, so SN0042's is exported for SimpleFOC) and its two Python blocks (the store, the fleet prior)."""
+    import shlex
+    import shutil
+
+    import encal
+    from encal.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--encoders", "6", "--out", "sim"]) == 0
+    (tmp_path / "lot7").mkdir()
+    for unit in range(1, 7):
+        shutil.copy(tmp_path / "sim" / f"enc{unit}_train.csv", tmp_path / "lot7" / f"SN004{unit}.csv")
+    (tmp_path / "angles.txt").write_text("0\n123.4\n359.9\n", encoding="utf-8")
+    text = (DOCS / "production.md").read_text(encoding="utf-8")
+    workflow = re.search(r"## The workflow on a station\n\n```\n(.*?)```", text, flags=re.S).group(1)
+    commands = [shlex.split(line, comments=True) for line in workflow.splitlines()]
+    commands = [words for words in commands if words]
+    assert len(commands) == 4
+    for words in commands:
+        if words[:2] == ["encal", "fleet"] and words[2] == "fit":
+            words = [*words, "--jobs", "0"]
+        if "mechaduino" in words:
+            words = [word for word in words if word not in ("--step-zero", "0")]
+            words[words.index("mechaduino")] = "simplefoc"
+        capsys.readouterr()
+        assert main(words[1:]) == 0, f"production.md: `{' '.join(words)}` failed: {capsys.readouterr().err}"
+    store, prior = _python_blocks("production.md")[:2]
+    namespace = {"cal": encal.read_calibration(tmp_path / "sim" / "enc1_train.csv")}
+    exec(compile(store, "production.md", "exec"), namespace)
+    assert namespace["record"].epoch == 1 and len(namespace["history"]) == 1
+    exec(compile(prior, "production.md", "exec"), namespace)
+    assert (tmp_path / "SN0099.json").is_file()
+
+
+@pytest.mark.slow
+def test_the_runtimes_agreement_figures_are_what_audit_runtime_prints():
+    """docs/deployment.md, the standalone runtime against encal: the largest prediction difference (with a zero
+    offset, without one, and without either of the 12-bit Fourier series) and the corrected angles' one ulp, as
+    audit_runtime.py prints them (about 30 s CPU)."""
+    rows = {}
+    for line in _benchmark("audit_runtime.py").splitlines():
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        if line.startswith("| ") and len(cells) == 7 and re.fullmatch(r"[\d.e+-]+", cells[1]):
+            rows[cells[0]] = [float(cell) for cell in cells[1:5]]
+    text = " ".join((DOCS / "deployment.md").read_text(encoding="utf-8").split())
+    said = re.search(r"predictions within 1e-12 arcmin \(the largest, ([\d.e-]+), a Fourier series holding a 37° zero "
+                     r"offset; at most ([\d.e-]+) without one, a Fourier series of 12-bit readings, and below ([\d.e-]+) "
+                     r"for the rest;.*?corrected angles within one unit in the last place of 360° \(([\d.e-]+) arcmin\)",
+                     text).groups()
+    largest, without_offset, rest, ulp = (float(x) for x in said)
+    predictions = {name: values[0] for name, values in rows.items()}
+    assert max(predictions.values()) < 1e-12
+    assert max(predictions, key=predictions.get) == "fourier offset 37 deg"
+    assert f"{predictions['fourier offset 37 deg']:.2g}" == f"{largest:.2g}"
+    no_offset = {name: value for name, value in predictions.items() if "offset" not in name}
+    assert max(no_offset, key=no_offset.get) == "fourier 12 bits"
+    assert f"{no_offset['fourier 12 bits']:.2g}" == f"{without_offset:.2g}"
+    assert max(value for name, value in no_offset.items() if name != "fourier 12 bits") < rest
+    assert max(max(values[1:]) for values in rows.values()) == pytest.approx(ulp, rel=0.01)
