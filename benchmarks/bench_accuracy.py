@@ -9,7 +9,7 @@ Usage::
     python benchmarks/bench_accuracy.py --known-truth  # only docs/statistics.md's known-truth table (seconds)
 
 Every method is fitted to each demo encoder's training run (0:2:358 degrees) and
-evaluated on its test run (1:3:359 degrees, between the training points, read
+evaluated on its test run (1:2:359 degrees, between the training points, read
 with fresh noise). The measurement floor of the test run is the RMS of its
 measured minus its noise-free error: what a model that knew the systematic error
 exactly would leave. A ratio RMS / floor of 1.00 is perfect.

@@ -628,3 +628,13 @@ def test_the_runtimes_agreement_figures_are_what_audit_runtime_prints():
     assert f"{no_offset['fourier 12 bits']:.2g}" == f"{without_offset:.2g}"
     assert max(value for name, value in no_offset.items() if name != "fourier 12 bits") < rest
     assert max(max(values[1:]) for values in rows.values()) == pytest.approx(ulp, rel=0.01)
+
+
+def test_the_informed_estimator_bound_table_of_results_is_what_bench_floor_bound_prints():
+    """RESULTS.md, Table 4: every row, as bench_floor_bound.py prints it (under a second)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("### Table 4: the informed-estimator bound"):]
+    section = section[:section.index("\n\n", section.index("| encoder | floor |"))]
+    shown = [line for line in section.splitlines() if re.match(r"\| enc\d", line)]
+    printed = [line for line in _benchmark("bench_floor_bound.py").splitlines() if re.match(r"\| enc\d", line)]
+    assert len(shown) == 4 and printed == shown
