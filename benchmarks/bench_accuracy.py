@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_accuracy.py              # 3 seeds, about 2 minutes on 2 cores
+    python benchmarks/bench_accuracy.py              # 3 seeds, about 10 s (2026-11-28)
     python benchmarks/bench_accuracy.py --seeds 1    # quicker
     python benchmarks/bench_accuracy.py --cv-choice  # only the cross-validated choice (--folds 5), with and
                                                      # without stacking, auto's default before 2026-11-24

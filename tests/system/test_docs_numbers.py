@@ -638,3 +638,19 @@ def test_the_informed_estimator_bound_table_of_results_is_what_bench_floor_bound
     shown = [line for line in section.splitlines() if re.match(r"\| enc\d", line)]
     printed = [line for line in _benchmark("bench_floor_bound.py").splitlines() if re.match(r"\| enc\d", line)]
     assert len(shown) == 4 and printed == shown
+
+
+@pytest.mark.slow
+def test_tables_1_and_2_of_results_are_what_bench_accuracy_prints():
+    """RESULTS.md section 1, Tables 1 and 2 (every fit seeded: they repeat exactly; about 10 s)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("### Table 1: test RMS"):text.index("### Table 3: CPU seconds")]
+    printed = _benchmark("bench_accuracy.py")
+    printed = printed[printed.index("## Table 1"):printed.index("## Table 3")]
+
+    def rows(part):
+        return [line for line in part.splitlines() if re.match(r"\| (enc\d|measurement|fourier|lut|ann|hybrid|auto)",
+                                                                  line)]
+
+    assert len(rows(section)) == 9 + 12
+    assert rows(printed) == rows(section)
