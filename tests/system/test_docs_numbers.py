@@ -698,3 +698,16 @@ def test_the_fourier_and_lut_rows_of_the_uncertainty_tables_are_what_bench_uncer
         cell = (f"| {method} | {_range(direction)} | {_range(no_direction)} | {_range(mean)} | "
                 + " / ".join(f"{_percent_range(share)} %" for share in shares) + " |")
         assert cell in bidirectional, cell
+
+
+@pytest.mark.slow
+def test_the_spin_table_of_results_is_what_bench_selfcal_prints():
+    """RESULTS.md section 3, "Spin (arcmin)": its 27 rows, seeded, as ``bench_selfcal.py --seeds 3 --parts spin``
+    prints them (about 30 s CPU)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("#### Spin (arcmin)"):text.index("#### Spin at three speeds")]
+    speeds = re.compile(r"\| (two|one) speeds?, ")
+    shown = [line for line in section.splitlines() if speeds.match(line)]
+    printed = [line for line in _benchmark("bench_selfcal.py", "--seeds", "3", "--parts", "spin").splitlines()
+               if speeds.match(line)]
+    assert len(shown) == 27 and printed == shown
