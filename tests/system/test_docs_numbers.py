@@ -711,3 +711,24 @@ def test_the_spin_table_of_results_is_what_bench_selfcal_prints():
     printed = [line for line in _benchmark("bench_selfcal.py", "--seeds", "3", "--parts", "spin").splitlines()
                if speeds.match(line)]
     assert len(shown) == 27 and printed == shown
+
+
+def test_the_arc_sweep_table_of_the_in_place_page_is_what_bench_arc_sweep_prints():
+    """docs/in-place.md, a sweep over an arc against known truth: every row as bench_arc_sweep.py prints it (2 s)."""
+    printed = []
+    for line in _benchmark("bench_arc_sweep.py").splitlines():
+        words = line.split()
+        if len(words) == 6 and words[0].isdigit():
+            pairs, arc, miss, cover, lag, true_lag = words
+            printed.append(f"| {pairs} | {arc}° | {miss} | {cover} | {lag} ({true_lag}) arcmin |")
+    shown = ["| " + " | ".join(row) + " |" for row in _table_rows("in-place.md", "| pole pairs | arc | RMS miss")]
+    assert len(shown) == 4 and printed == shown
+
+
+def test_the_arc_table_of_the_in_place_page_is_what_bench_arc_prints():
+    """docs/in-place.md, an arc's model against np.interp and a polynomial: every row as bench_arc.py prints it."""
+    printed = [f"| {arc}° | {encal} (max {worst}) | {interp} | {polynomial} |" for arc, encal, worst, interp, polynomial
+               in re.findall(r"arc +(\d+) deg: encal (\S+) \(max (\S+)\), np.interp (\S+), polynomial by CV (\S+)",
+                             _benchmark("bench_arc.py"))]
+    shown = ["| " + " | ".join(row) + " |" for row in _table_rows("in-place.md", "| arc | encal (arc kind) |")]
+    assert len(shown) == 3 and printed == shown
