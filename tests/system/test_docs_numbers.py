@@ -732,3 +732,33 @@ def test_the_arc_table_of_the_in_place_page_is_what_bench_arc_prints():
                              _benchmark("bench_arc.py"))]
     shown = ["| " + " | ".join(row) + " |" for row in _table_rows("in-place.md", "| arc | encal (arc kind) |")]
     assert len(shown) == 3 and printed == shown
+
+
+def _matches_at_its_rounding(cell, value):
+    """Whether the page's ``cell`` is ``value`` rounded to as many decimals as the cell shows."""
+    cell = cell.strip("*")
+    decimals = len(cell.split(".")[1]) if "." in cell else 0
+    return abs(float(cell) - round(value, decimals)) < 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real Mechaduino calibrations (shared/data/real/mechaduino) are not beside this checkout")
+def test_the_fleet_prior_table_of_the_production_page_is_what_bench_fleet_prior_prints():
+    """docs/production.md, the fleet prior measured leave-one-out: every figure of its table, at the table's rounding,
+    as bench_fleet_prior.py prints it (about 90 s CPU). The table had kept the figures of before prior8."""
+    printed = _benchmark("bench_fleet_prior.py")
+    measured = [[float(number) for number in re.findall(r"\d+\.\d+", line)] for line in printed.splitlines()
+                if line.strip().startswith(("quarter of", "quarter turn"))]
+    rows = _table_rows("production.md", "| units | part of the calibration |")
+    assert len(rows) == len(measured) == 6
+    for row, values in zip(rows, measured):
+        if "(seen)" in row[5]:  # the real boards: alone, prior, full, prior/full (90th)
+            cells, numbers = [row[2], row[3], row[5].split()[0], *row[6].replace("(", "").replace(")", "").split()], \
+                values[:5]
+        else:  # alone, prior, informed, full, prior/full (90th), informed/full (90th)
+            cells = [row[2], row[3], row[4], row[5], *row[6].replace("(", "").replace(")", "").split(),
+                     *row[7].replace("(", "").replace(")", "").split()]
+            numbers = values[:8]
+        assert len(cells) == len(numbers)
+        assert all(_matches_at_its_rounding(cell, value) for cell, value in zip(cells, numbers)), (row, values)
