@@ -614,10 +614,10 @@ def test_the_runtimes_agreement_figures_are_what_audit_runtime_prints():
         if line.startswith("| ") and len(cells) == 7 and re.fullmatch(r"[\d.e+-]+", cells[1]):
             rows[cells[0]] = [float(cell) for cell in cells[1:5]]
     text = " ".join((DOCS / "deployment.md").read_text(encoding="utf-8").split())
-    said = re.search(r"predictions within 1e-12 arcmin \(the largest, ([\d.e-]+), a Fourier series holding a 37° zero "
-                     r"offset; at most ([\d.e-]+) without one, a Fourier series of 12-bit readings, and below ([\d.e-]+) "
-                     r"for the rest;.*?corrected angles within one unit in the last place of 360° \(([\d.e-]+) arcmin\)",
-                     text).groups()
+    said = re.search(r"predictions within 1e-12 arcmin \(the largest, ([\d.e-]+), a Fourier series holding a 37° "
+                     r"zero offset; at most ([\d.e-]+) without one, a Fourier series of 12-bit readings, and below "
+                     r"([\d.e-]+) for the rest;.*?corrected angles within one unit in the last place of 360° "
+                     r"\(([\d.e-]+) arcmin\)", text).groups()
     largest, without_offset, rest, ulp = (float(x) for x in said)
     predictions = {name: values[0] for name, values in rows.items()}
     assert max(predictions.values()) < 1e-12
@@ -743,7 +743,7 @@ def _matches_at_its_rounding(cell, value):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
-                    reason="the real Mechaduino calibrations (shared/data/real/mechaduino) are not beside this checkout")
+                    reason="the real calibrations (shared/data/real/mechaduino) are not beside this checkout")
 def test_the_fleet_prior_table_of_the_production_page_is_what_bench_fleet_prior_prints():
     """docs/production.md, the fleet prior measured leave-one-out: every figure of its table, at the table's rounding,
     as bench_fleet_prior.py prints it (about 90 s CPU). The table had kept the figures of before prior8."""
