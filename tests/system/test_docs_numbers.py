@@ -767,3 +767,25 @@ def test_the_fleet_prior_table_of_the_production_page_is_what_bench_fleet_prior_
             numbers = values[:8]
         assert len(cells) == len(numbers)
         assert all(_matches_at_its_rounding(cell, value) for cell, value in zip(cells, numbers)), (row, values)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real calibrations (shared/data/real/mechaduino) are not beside this checkout")
+def test_the_real_files_summary_of_results_section_4_is_what_bench_real_data_prints():
+    """RESULTS.md section 4, "Real files (even/odd)": the summary table, auto against the best single family and its
+    misses, as ``bench_real_data.py --protocol even-odd`` prints them (about 20 s)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("### Real files (even/odd)"):]
+    section = section[:section.index("Goal (auto within 2 %")]
+    printed = _benchmark("bench_real_data.py", "--protocol", "even-odd")
+    printed = printed[printed.index("| method | median RMS"):]
+
+    def summary(part):
+        lines = part.splitlines()
+        table = lines[:lines.index("", 1) if "" in lines[1:] else None]
+        return ([line for line in table if line.startswith("| ")]
+                + [line for line in lines if line.startswith(("- auto / best single", "- auto chose", "  - "))])
+
+    shown = summary(section[section.index("| method | median RMS"):])
+    assert len(shown) > 15 and summary(printed) == shown
