@@ -2,14 +2,14 @@
 
 Usage::
 
-    python benchmarks/bench_accuracy.py              # 3 seeds, about 2 minutes on 2 cores
+    python benchmarks/bench_accuracy.py              # 3 seeds, about 10 s (2026-11-28)
     python benchmarks/bench_accuracy.py --seeds 1    # quicker
     python benchmarks/bench_accuracy.py --cv-choice  # only the cross-validated choice (--folds 5), with and
                                                      # without stacking, auto's default before 2026-11-24
     python benchmarks/bench_accuracy.py --known-truth  # only docs/statistics.md's known-truth table (seconds)
 
 Every method is fitted to each demo encoder's training run (0:2:358 degrees) and
-evaluated on its test run (1:3:359 degrees, between the training points, read
+evaluated on its test run (1:2:359 degrees, between the training points, read
 with fresh noise). The measurement floor of the test run is the RMS of its
 measured minus its noise-free error: what a model that knew the systematic error
 exactly would leave. A ratio RMS / floor of 1.00 is perfect.

@@ -2,7 +2,7 @@
 
 Usage::
 
-    python benchmarks/bench_real_data.py                 # both protocols, about 5 minutes on 2 cores
+    python benchmarks/bench_real_data.py                 # both protocols, about 50 s (2026-11-28)
     python benchmarks/bench_real_data.py --protocol even-odd
     python benchmarks/bench_real_data.py --data PATH     # another copy of the data folder
 

@@ -47,7 +47,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from encal.models import choice, select  # noqa: E402
+from encal.models import select  # noqa: E402
+from encal.models.auto import fit_auto  # noqa: E402
 from encal.models.fourier import fit_fourier  # noqa: E402
 from encal.models.lut import fit_lut  # noqa: E402
 from encal.models.spectral import fit_spectral  # noqa: E402
@@ -175,8 +176,8 @@ def evaluate_case(case, cv_auto, seed=0):
     run("lut cubic", lambda: fit_lut(theta, y, interpolation="cubic"))
     blind = run("spectral blind", lambda: fit_spectral(theta, y))
     run("spectral noise", lambda: fit_spectral(theta, y, noise_arcmin=case["sigma"]))
-    run("auto", lambda: choice.fit_auto(theta, y, rng=seed))
-    run("auto noise", lambda: choice.fit_auto(theta, y, rng=seed, noise_arcmin=case["sigma"]))
+    run("auto", lambda: fit_auto(theta, y, rng=seed))
+    run("auto noise", lambda: fit_auto(theta, y, rng=seed, noise_arcmin=case["sigma"]))
     if cv_auto:
         run("cv auto", lambda: select.fit_auto(theta, y, rng=seed))
     result["informed"] = rms(y_test - informed_estimate(theta, y, theta_test, case["truth"], case["sigma"]))
@@ -207,7 +208,7 @@ def scaling():
             spectral_s = time.process_time() - start
             tracemalloc.start()
             start = time.process_time()
-            choice.fit_auto(theta, error, rng=0)
+            fit_auto(theta, error, rng=0)
             auto_s = time.process_time() - start
             peak = tracemalloc.get_traced_memory()[1] / 1e6
             tracemalloc.stop()

@@ -235,7 +235,10 @@ def main():
             seconds = time.perf_counter() - started
             mean, std = model.predict(test.encoder_deg, return_std=True)
             u = model.uncertainty
-            _, model_std = model.predict(test.encoder_deg, return_std=True, include_noise=False)
+            if has_posterior(model):
+                _, model_std = model.predict(test.encoder_deg, return_std=True, include_noise=False)
+            else:  # only the spectral model's predict takes include_noise: σ_model from sqrt(std² − σ_noise²)
+                model_std = np.sqrt(np.maximum(np.square(std) - u["noise_std_arcmin"] ** 2, 0.0))
             model_error = np.sqrt(np.mean(np.square(mean - member.test.noise_free_error_arcmin)))
             on_test, on_epoch2 = coverage(model, test), coverage(model, epoch2)
             shares[label].append(on_test)

@@ -483,3 +483,326 @@ def test_the_report_band_rows_of_sweep_and_steps_are_what_bench_report_band_prin
     assert len(printed) == len(shown) == 4
     for mine, page in zip(printed, shown):
         assert numbers(mine[2:8]) == numbers(page[1:7]), page[0]
+
+# --- task claims (session 9): deployment and model-selection figures, and the pages' Python examples -------------
+
+
+def test_the_dense_tables_distance_from_the_model_is_what_compile_table_measures():
+    """docs/deployment.md, "How far the table is from the model": every cell is the header field compile_table
+    stores for that stored model file, at the page's two significant figures."""
+    from encal.deploy import compile_table, load_model
+    from tests._paths import DATA
+
+    files = {"fourier": "fourier", "lut": "lut", "ann, periodic": "ann", "hybrid": "hybrid", "ann, raw": "ann_raw"}
+    rows = _table_rows("deployment.md", "| model | int16 quantisation |")
+    assert len(rows) == len(files)
+    for row in rows:
+        name = next(files[prefix] for prefix in files if row[0].startswith(prefix))
+        model = load_model(DATA / f"model_v1_{name}.json")
+        int16 = compile_table(model, 16, dtype="int16")
+        measured = [int16.quantisation_arcmin, compile_table(model, 16, dtype="float32").quantisation_arcmin,
+                    int16.between_codes_arcmin, compile_table(model, 14).between_codes_arcmin]
+        assert [float(f"{value:.2g}") for value in measured] == [_number(cell) for cell in row[1:5]], row[0]
+
+
+def test_the_cross_validation_table_of_the_model_selection_page_is_what_encal_fit_prints(tmp_path, monkeypatch,
+                                                                                        capsys):
+    """docs/model-selection.md, step 7: the output of its command, every line but the times and the rows it elides."""
+    import shlex
+
+    from encal.cli import main
+
+    text = _model_selection_text_raw()
+    command = re.search(r"\(`(encal simulate --out sim) && (encal fit sim/enc2_train\.csv [^`]*)`", text)
+    monkeypatch.chdir(tmp_path)
+    for part in command.groups():
+        capsys.readouterr()
+        assert main(shlex.split(part)[1:]) == 0, capsys.readouterr().err
+    output = capsys.readouterr()
+    printed = (output.out + output.err).splitlines()
+    shown = re.search(r"```\n(cross-validation over 5 interleaved folds.*?)```", text, flags=re.S).group(1)
+
+    def without_time(line):
+        return re.sub(r"\s+\d+\.\d+s$", "", line.rstrip())
+
+    printed = [without_time(line) for line in printed]
+    shown_lines = [without_time(line) for line in shown.splitlines() if line.strip() != "..."]
+    assert len(shown_lines) > 10
+    missing = [line for line in shown_lines if line not in printed]
+    assert not missing, f"model-selection.md shows lines encal fit no longer prints: {missing}"
+    assert [line for line in printed if line in shown_lines] == shown_lines  # in the page's order
+
+
+def _model_selection_text_raw():
+    return (DOCS / "model-selection.md").read_text(encoding="utf-8")
+
+
+@pytest.fixture
+def simulated_folder(tmp_path, monkeypatch):
+    """A folder holding what the pages' examples read: enc1_train.csv, enc1_test.csv and enc1.json (encal fit's)."""
+    from encal.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--encoders", "1", "--out", "."]) == 0
+    assert main(["fit", "enc1_train.csv", "-o", "enc1.json"]) == 0
+    return tmp_path
+
+
+def _python_blocks(page):
+    return re.findall(r"```python\n(.*?)```", (DOCS / page).read_text(encoding="utf-8"), flags=re.S)
+
+
+def test_the_deployment_pages_python_examples_run_as_written(simulated_folder, capsys):
+    """docs/deployment.md: Compensator on an array of readings, the standalone runtime on one reading (the page leaves
+    ``theta_enc`` to the reader); the runtime is imported as the copy the page tells the reader to make."""
+    import shutil
+
+    from tests._paths import SRC
+
+    compensator, standalone = _python_blocks("deployment.md")[:2]
+    assert "Compensator(" in compensator and "runtime.load(" in standalone
+    namespace = {"theta_enc": np.array([0.0, 123.4, 359.9])}
+    exec(compile(compensator, "deployment.md", "exec"), namespace)
+    assert namespace["theta_cor"].shape == (3,) and namespace["std"].shape == (3,)
+    shutil.copy(SRC / "encal" / "runtime.py", simulated_folder / "runtime.py")
+    sys.path.insert(0, str(simulated_folder))
+    try:
+        namespace = {"theta_enc": 123.4}
+        exec(compile(standalone, "deployment.md", "exec"), namespace)
+    finally:
+        sys.path.remove(str(simulated_folder))
+        sys.modules.pop("runtime", None)
+    assert namespace["theta_cor"] == pytest.approx(123.4 - namespace["error"] / 60.0, abs=1e-12)
+
+
+def test_the_uncertainty_pages_python_example_runs_as_written(simulated_folder):
+    """docs/uncertainty.md, "Use": on the simulated encoder the README's commands make."""
+    block = _python_blocks("uncertainty.md")[0]
+    namespace = {"theta_enc_deg": np.arange(0.0, 360.0, 7.5)}
+    exec(compile(block, "uncertainty.md", "exec"), namespace)
+    assert np.all(namespace["std"] > 0) and namespace["U"] == pytest.approx(2 * namespace["std"])
+
+
+@pytest.mark.slow
+def test_the_production_pages_workflow_and_python_examples_run_as_written(tmp_path, monkeypatch, capsys):
+    """docs/production.md, "The workflow on a station" (on six simulated units; the page's Mechaduino export needs a
+    14-bit unit, so SN0042's is exported for SimpleFOC) and its two Python blocks (the store, the fleet prior)."""
+    import shlex
+    import shutil
+
+    import encal
+    from encal.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--encoders", "6", "--out", "sim"]) == 0
+    (tmp_path / "lot7").mkdir()
+    for unit in range(1, 7):
+        shutil.copy(tmp_path / "sim" / f"enc{unit}_train.csv", tmp_path / "lot7" / f"SN004{unit}.csv")
+    (tmp_path / "angles.txt").write_text("0\n123.4\n359.9\n", encoding="utf-8")
+    text = (DOCS / "production.md").read_text(encoding="utf-8")
+    workflow = re.search(r"## The workflow on a station\n\n```\n(.*?)```", text, flags=re.S).group(1)
+    commands = [shlex.split(line, comments=True) for line in workflow.splitlines()]
+    commands = [words for words in commands if words]
+    assert len(commands) == 4
+    for words in commands:
+        if words[:2] == ["encal", "fleet"] and words[2] == "fit":
+            words = [*words, "--jobs", "0"]
+        if "mechaduino" in words:
+            words = [word for word in words if word not in ("--step-zero", "0")]
+            words[words.index("mechaduino")] = "simplefoc"
+        capsys.readouterr()
+        assert main(words[1:]) == 0, f"production.md: `{' '.join(words)}` failed: {capsys.readouterr().err}"
+    store, prior = _python_blocks("production.md")[:2]
+    namespace = {"cal": encal.read_calibration(tmp_path / "sim" / "enc1_train.csv")}
+    exec(compile(store, "production.md", "exec"), namespace)
+    assert namespace["record"].epoch == 1 and len(namespace["history"]) == 1
+    exec(compile(prior, "production.md", "exec"), namespace)
+    assert (tmp_path / "SN0099.json").is_file()
+
+
+@pytest.mark.slow
+def test_the_runtimes_agreement_figures_are_what_audit_runtime_prints():
+    """docs/deployment.md, the standalone runtime against encal: the largest prediction difference (with a zero
+    offset, without one, and without either of the 12-bit Fourier series) and the corrected angles' one ulp, as
+    audit_runtime.py prints them (about 30 s CPU)."""
+    rows = {}
+    for line in _benchmark("audit_runtime.py").splitlines():
+        cells = [cell.strip() for cell in line.strip("|").split("|")]
+        if line.startswith("| ") and len(cells) == 7 and re.fullmatch(r"[\d.e+-]+", cells[1]):
+            rows[cells[0]] = [float(cell) for cell in cells[1:5]]
+    text = " ".join((DOCS / "deployment.md").read_text(encoding="utf-8").split())
+    said = re.search(r"predictions within 1e-12 arcmin \(the largest, ([\d.e-]+), a Fourier series holding a 37° "
+                     r"zero offset; at most ([\d.e-]+) without one, a Fourier series of 12-bit readings, and below "
+                     r"([\d.e-]+) for the rest;.*?corrected angles within one unit in the last place of 360° "
+                     r"\(([\d.e-]+) arcmin\)", text).groups()
+    largest, without_offset, rest, ulp = (float(x) for x in said)
+    predictions = {name: values[0] for name, values in rows.items()}
+    assert max(predictions.values()) < 1e-12
+    assert max(predictions, key=predictions.get) == "fourier offset 37 deg"
+    assert f"{predictions['fourier offset 37 deg']:.2g}" == f"{largest:.2g}"
+    no_offset = {name: value for name, value in predictions.items() if "offset" not in name}
+    assert max(no_offset, key=no_offset.get) == "fourier 12 bits"
+    assert f"{no_offset['fourier 12 bits']:.2g}" == f"{without_offset:.2g}"
+    assert max(value for name, value in no_offset.items() if name != "fourier 12 bits") < rest
+    assert max(max(values[1:]) for values in rows.values()) == pytest.approx(ulp, rel=0.01)
+
+
+def test_the_informed_estimator_bound_table_of_results_is_what_bench_floor_bound_prints():
+    """RESULTS.md, Table 4: every row, as bench_floor_bound.py prints it (under a second)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("### Table 4: the informed-estimator bound"):]
+    section = section[:section.index("\n\n", section.index("| encoder | floor |"))]
+    shown = [line for line in section.splitlines() if re.match(r"\| enc\d", line)]
+    printed = [line for line in _benchmark("bench_floor_bound.py").splitlines() if re.match(r"\| enc\d", line)]
+    assert len(shown) == 4 and printed == shown
+
+
+@pytest.mark.slow
+def test_tables_1_and_2_of_results_are_what_bench_accuracy_prints():
+    """RESULTS.md section 1, Tables 1 and 2 (every fit seeded: they repeat exactly; about 10 s)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("### Table 1: test RMS"):text.index("### Table 3: CPU seconds")]
+    printed = _benchmark("bench_accuracy.py")
+    printed = printed[printed.index("## Table 1"):printed.index("## Table 3")]
+
+    def rows(part):
+        return [line for line in part.splitlines() if re.match(r"\| (enc\d|measurement|fourier|lut|ann|hybrid|auto)",
+                                                                  line)]
+
+    assert len(rows(section)) == 9 + 12
+    assert rows(printed) == rows(section)
+
+
+def _percent_range(values):
+    """``95.0–98.9`` or ``100``: a range of shares as the pages write them (100 % without a decimal)."""
+    low, high = (f"{value:.1f}".replace("100.0", "100") for value in (min(values), max(values)))
+    return low if low == high else f"{low}–{high}"
+
+
+def _range(values, digits=3):
+    return f"{min(values):.{digits}f}–{max(values):.{digits}f}"
+
+
+def test_the_fourier_and_lut_rows_of_the_uncertainty_tables_are_what_bench_uncertainty_prints():
+    """docs/uncertainty.md's demo-fleet table and docs/bidirectional.md's, their fourier and lut rows, as
+    ``bench_uncertainty.py --methods fourier lut`` prints them (about 2 s). The benchmark stopped with a
+    TypeError on any method but the spectral model's until 2026-11-28 (``include_noise`` is the spectral model's)."""
+    printed = _benchmark("bench_uncertainty.py", "--methods", "fourier", "lut")
+    per_encoder = {"fourier": [], "lut": []}
+    for line in printed.splitlines():
+        words = line.split()
+        if len(words) == 13 and words[0].startswith("enc") and words[1] in per_encoder:
+            per_encoder[words[1]].append([float(word.rstrip("%")) for word in words[3:12]])
+    uncertainty = " ".join((DOCS / "uncertainty.md").read_text(encoding="utf-8").split())
+    for method, rows in per_encoder.items():
+        assert len(rows) == 4
+        nu, noise, true, model_std, model_error, predicted, test_rms, inside, epoch2 = zip(*rows)
+        cells = [_range(noise), _range(true), _range(model_std), _range(model_error), _range(predicted),
+                 _range(test_rms), f"{_percent_range(inside)} % ({_percent_range([np.mean(inside)])} %)",
+                 f"{_percent_range(epoch2)} %"]
+        if method == "fourier":
+            assert f"| fourier | residual, ν = {min(nu):.0f}–{max(nu):.0f} | " in uncertainty
+        assert f" | {' | '.join(cells)} | " in uncertainty, (method, cells)
+    bidirectional = " ".join((DOCS / "bidirectional.md").read_text(encoding="utf-8").split())
+    start = printed.index("bidirectional runs")
+    reversal = {"fourier": [], "lut": []}
+    for line in printed[start:].splitlines():
+        words = line.split()
+        if len(words) == 10 and words[0].startswith("enc") and words[3] in reversal:
+            reversal[words[3]].append([float(word.rstrip("%")) for word in words[4:]])
+    for method, rows in reversal.items():
+        direction, no_direction, mean, *shares = zip(*rows)
+        cell = (f"| {method} | {_range(direction)} | {_range(no_direction)} | {_range(mean)} | "
+                + " / ".join(f"{_percent_range(share)} %" for share in shares) + " |")
+        assert cell in bidirectional, cell
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real calibrations (shared/data/real/mechaduino) are not beside this checkout")
+def test_the_self_calibration_tables_of_results_are_what_bench_selfcal_prints():
+    """RESULTS.md section 3: every row of its tables (spin, three speeds, sweep, steps, the real repeat pairs), all
+    seeded, as ``bench_selfcal.py --seeds 3`` prints them (about 55 s CPU). The three-speed table had kept figures
+    from before the spin's second-order ripple term."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("#### Spin (arcmin)"):text.index("## 4. The spectral model")]
+
+    def rows(part):
+        return [line for line in part.splitlines() if line.startswith("| ") and not line.startswith("|---")]
+
+    shown = rows(section)
+    assert len(shown) > 60
+    assert rows(_benchmark("bench_selfcal.py", "--seeds", "3")) == shown
+
+
+def test_the_arc_sweep_table_of_the_in_place_page_is_what_bench_arc_sweep_prints():
+    """docs/in-place.md, a sweep over an arc against known truth: every row as bench_arc_sweep.py prints it (2 s)."""
+    printed = []
+    for line in _benchmark("bench_arc_sweep.py").splitlines():
+        words = line.split()
+        if len(words) == 6 and words[0].isdigit():
+            pairs, arc, miss, cover, lag, true_lag = words
+            printed.append(f"| {pairs} | {arc}° | {miss} | {cover} | {lag} ({true_lag}) arcmin |")
+    shown = ["| " + " | ".join(row) + " |" for row in _table_rows("in-place.md", "| pole pairs | arc | RMS miss")]
+    assert len(shown) == 4 and printed == shown
+
+
+def test_the_arc_table_of_the_in_place_page_is_what_bench_arc_prints():
+    """docs/in-place.md, an arc's model against np.interp and a polynomial: every row as bench_arc.py prints it."""
+    printed = [f"| {arc}° | {encal} (max {worst}) | {interp} | {polynomial} |" for arc, encal, worst, interp, polynomial
+               in re.findall(r"arc +(\d+) deg: encal (\S+) \(max (\S+)\), np.interp (\S+), polynomial by CV (\S+)",
+                             _benchmark("bench_arc.py"))]
+    shown = ["| " + " | ".join(row) + " |" for row in _table_rows("in-place.md", "| arc | encal (arc kind) |")]
+    assert len(shown) == 3 and printed == shown
+
+
+def _matches_at_its_rounding(cell, value):
+    """Whether the page's ``cell`` is ``value`` rounded to as many decimals as the cell shows."""
+    cell = cell.strip("*")
+    decimals = len(cell.split(".")[1]) if "." in cell else 0
+    return abs(float(cell) - round(value, decimals)) < 1e-9
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real calibrations (shared/data/real/mechaduino) are not beside this checkout")
+def test_the_fleet_prior_table_of_the_production_page_is_what_bench_fleet_prior_prints():
+    """docs/production.md, the fleet prior measured leave-one-out: every figure of its table, at the table's rounding,
+    as bench_fleet_prior.py prints it (about 90 s CPU). The table had kept the figures of before prior8."""
+    printed = _benchmark("bench_fleet_prior.py")
+    measured = [[float(number) for number in re.findall(r"\d+\.\d+", line)] for line in printed.splitlines()
+                if line.strip().startswith(("quarter of", "quarter turn"))]
+    rows = _table_rows("production.md", "| units | part of the calibration |")
+    assert len(rows) == len(measured) == 6
+    for row, values in zip(rows, measured):
+        if "(seen)" in row[5]:  # the real boards: alone, prior, full, prior/full (90th)
+            cells, numbers = [row[2], row[3], row[5].split()[0], *row[6].replace("(", "").replace(")", "").split()], \
+                values[:5]
+        else:  # alone, prior, informed, full, prior/full (90th), informed/full (90th)
+            cells = [row[2], row[3], row[4], row[5], *row[6].replace("(", "").replace(")", "").split(),
+                     *row[7].replace("(", "").replace(")", "").split()]
+            numbers = values[:8]
+        assert len(cells) == len(numbers)
+        assert all(_matches_at_its_rounding(cell, value) for cell, value in zip(cells, numbers)), (row, values)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not REAL_MECHADUINO.is_dir(),
+                    reason="the real calibrations (shared/data/real/mechaduino) are not beside this checkout")
+def test_the_real_files_summary_of_results_section_4_is_what_bench_real_data_prints():
+    """RESULTS.md section 4, "Real files (even/odd)": the summary table, auto against the best single family and its
+    misses, as ``bench_real_data.py --protocol even-odd`` prints them (about 20 s)."""
+    text = (REPO / "RESULTS.md").read_text(encoding="utf-8")
+    section = text[text.index("### Real files (even/odd)"):]
+    section = section[:section.index("Goal (auto within 2 %")]
+    printed = _benchmark("bench_real_data.py", "--protocol", "even-odd")
+    printed = printed[printed.index("| method | median RMS"):]
+
+    def summary(part):
+        lines = part.splitlines()
+        table = lines[:lines.index("", 1) if "" in lines[1:] else None]
+        return ([line for line in table if line.startswith("| ")]
+                + [line for line in lines if line.startswith(("- auto / best single", "- auto chose", "  - "))])
+
+    shown = summary(section[section.index("| method | median RMS"):])
+    assert len(shown) > 15 and summary(printed) == shown
