@@ -247,8 +247,6 @@ def test_an_imported_table_is_said_to_be_scored_about_its_own_zero(tmp_path, cap
     assert status == 0 and json.loads(out)["rms_arcmin"] < 0.6  # the format's round trip (Tinymovr 0.5)
 
 
-@pytest.mark.xfail(strict=True, reason="task claims (s9) found it, not fixed: the message names the Python "
-                   "parameter of export_mechaduino, in two sentences, and not the option --bits that fixes it")
 def test_mechaduino_of_a_16_bit_model_names_the_option_that_fixes_it(tmp_path, capsys):
     """docs/production.md's workflow exports a unit for Mechaduino; a model of a 16-bit encoder is refused (its
     lookup is per 14-bit count), and the refusal should say so in one sentence naming ``--bits 14``."""

@@ -213,7 +213,7 @@ def test_mechaduino_matrix():
     for case in cases:
         assert_mechaduino_case(case)
     refused = [case for case in cases if case.row.refused]
-    assert len(cases) == 32 and len(refused) == 2 and "14 or None" in refused[0].row.refused
+    assert len(cases) == 32 and len(refused) == 2 and "14-bit AS5047D" in refused[0].row.refused
     assert "--step-zero DEG" in refused[-1].row.refused
 
 

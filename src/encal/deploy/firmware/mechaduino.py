@@ -51,7 +51,11 @@ def export_mechaduino(model, *, bits=None, step_zero_deg=None):
         ``step_zero_deg`` on every count, no constant removed (the constant is the commutation).
     """
     comp = compensator(model)
-    bits = comp.encoder.get("resolution_bits") if bits is None else bits
+    if bits is None and comp.encoder.get("resolution_bits") not in (None, 14):
+        raise InputError(f"Mechaduino's lookup[16384] has one entry per count of its 14-bit AS5047D, but the model "
+                         f"file records a {comp.encoder['resolution_bits']}-bit encoder; if its readings were 14-bit "
+                         "counts, give --bits 14 (bits=14 in Python), else fit the model from the Mechaduino's own "
+                         "readings")
     if bits is not None and (isinstance(bits, bool) or bits != 14):
         raise invalid("bits", "export_mechaduino", "14 or None (Mechaduino's lookup[16384] is for its 14-bit "
                       "AS5047D; default the model file's resolution)", bits)
