@@ -69,9 +69,12 @@ def held_out_predictions(fit_predict, theta_deg, error_arcmin, fold):
     predictions = None
     for k in range(int(fold.max()) + 1):
         test = fold == k
-        predicted = np.asarray(fit_predict(k, theta_deg[~test], error_arcmin[~test], theta_deg[test]),
-                               dtype=float)
+        train = ~test
+        # (np.compress and index arrays: half the time of boolean indexing on 10^6 points in folds of random order)
+        held = np.flatnonzero(test)
+        predicted = np.asarray(fit_predict(k, np.compress(train, theta_deg), np.compress(train, error_arcmin),
+                                           np.take(theta_deg, held)), dtype=float)
         if predictions is None:
             predictions = np.empty(predicted.shape[:-1] + (np.size(theta_deg),))
-        predictions[..., test] = predicted
+        predictions[..., held] = predicted
     return predictions
