@@ -5,7 +5,6 @@ import dataclasses
 import datetime
 import hashlib
 import math
-import numbers
 import os
 import re
 import unicodedata
@@ -205,7 +204,7 @@ def open_store(location, *, option="--store"):
     """
     if isinstance(location, bool) or not isinstance(location, (str, os.PathLike)):
         raise InputError(f"{option}: expected the path of an SQLite file or a postgresql:// URL, got "
-                         f"{type(location).__name__} {location!r}")
+                         f"{type(location).__name__}")
     if is_url(location):
         return _PostgresStore(str(location), option)
     return _SQLiteStore(Path(location), option)
@@ -266,6 +265,17 @@ def _model_file_text(model, serial):
                              f"{type(document).__name__}")
     model_from_dict(document, source=where)
     return model
+
+
+def _whole_count(value):
+    """Whether ``value`` is a whole number >= 0 (360, numpy's int64, 360.0), not a bool or text."""
+    if isinstance(value, (bool, str, bytes)):
+        return False
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return False
+    return number.is_integer() and number >= 0
 
 
 def _figure(value, name):
@@ -381,7 +391,7 @@ class Store(abc.ABC):
         for fields in records:
             if not isinstance(fields, dict):
                 raise InputError(f"add_many: expected each record as a dict of add()'s arguments; got "
-                                 f"{type(fields).__name__} {fields!r}")
+                                 f"{type(fields).__name__}")
         values = [self._values(**fields) for fields in records]
         if not values:
             return []
@@ -397,8 +407,7 @@ class Store(abc.ABC):
         if calibration_csv is not None and not isinstance(calibration_csv, str):
             raise InputError(f"the record of {serial} needs the calibration as text (the CSV's content); got "
                              f"{type(calibration_csv).__name__}")
-        if n_points is not None and (isinstance(n_points, bool) or not isinstance(n_points, numbers.Integral)
-                                     or n_points < 0):
+        if n_points is not None and not _whole_count(n_points):
             raise InputError(f"the record of {serial} needs n_points as a whole number >= 0; got {n_points!r}")
         if source_sha256 is None and calibration_csv is not None:
             source_sha256 = hashlib.sha256(calibration_csv.encode("utf-8")).hexdigest()
