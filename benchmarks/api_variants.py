@@ -18,9 +18,21 @@ reference angle; a 1-degree grid with 0.05 arcmin of reading noise, fixed seeds)
 - **analysis**: ``evaluate``, ``error_stats``, ``harmonics`` on harmless forms; a bidirectional calibration, an
   arc across the zero and 14-bit codes in harmless forms; the simulators twice;
   ``encal.selfcal.steps`` on a shuffled calibration; ``fit`` with no BLAS thread variables (another process);
+- **store** (task storeapi): ``encal.store`` from Python: the model written by serial number and read back in
+  harmless forms (a ``str`` or ``Path`` store, a ``Model`` or its file's text, serials with spaces, decomposed (NFD),
+  in other scripts, the store opened again, ``history``/``latest_records``): the model in memory's corrected angles
+  exactly; epochs (a unit written twice, the same calibration twice), the drift of a unit recalibrated unchanged and
+  of one whose first order grew by 1 arcmin (``drift_table``: the known change within 3 u, the verdict), grades, and
+  ``fit_batch`` from Python against ``encal.fit`` of each file;
+- **firmware** (task storeapi): each exporter of ``encal.deploy.firmware`` on the model of 14-bit codes, of an encoder
+  counting against the reference and of a bidirectional calibration: the table applied through the project's own
+  reader of the format against ``Model.correct``, within the round trip the export reports (Mechaduino: its stated
+  rounding; Klipper: the list's ``%.1f``); and the same text for the model given as an object, a Compensator, a path
+  (str, Path), ``load_model`` of it, or ``bits=14`` given (the C export too);
 - **refused**: harmful inputs (NaN, infinity, strings, complex numbers, wrong shapes, mismatched lengths, empty
-  arrays, radians where degrees are expected): each must be an encal error in one sentence, never a NumPy
-  traceback or a number.
+  arrays, radians where degrees are expected; for the store a missing folder, a serial not there, a model that is no
+  model file; for the exporters wrong bits, no step zero, a model of an arc): each must be an encal error in one
+  sentence, never a NumPy traceback or a number.
 
 Usage::
 
@@ -647,6 +659,481 @@ def threads_case():
     return Case("threads", "auto fit, no thread variables set vs this process", run)
 
 
+# ------------------------------------------------------------------------------------------------- the store (storeapi)
+# ``encal.store`` from Python: a unit's model and calibration written by serial number, read back, listed; epochs,
+# drift and grades; the batch ``encal.fleet.batch.fit_batch`` from Python. Known truth: the stored model corrects the
+# noise-free test readings exactly as the model in memory does (0 difference), and so to their reference angles.
+
+_SCRATCH = []
+
+
+def scratch():
+    """A folder for the harmful calls (they take no folder), removed when the process ends."""
+    if not _SCRATCH:
+        _SCRATCH.append(tempfile.TemporaryDirectory())
+    return Path(_SCRATCH[0].name)
+
+
+def _store():
+    import encal.store as module
+
+    return module
+
+
+def model_text(m):
+    from encal.models.modelfile import dumps, model_to_dict
+
+    return dumps(model_to_dict(m))
+
+
+CALIBRATION_CSV = "reference_deg,encoder_deg\n" + "".join(f"{float(r)!r},{float(e)!r}\n"
+                                                           for r, e in zip(REFERENCE, ENCODER))
+
+
+def _fresh(folder, name):
+    """The path of a store not written yet in ``folder``."""
+    path = Path(folder) / f"{name}.sqlite"
+    for suffix in ("", "-wal", "-shm"):
+        Path(f"{path}{suffix}").unlink(missing_ok=True)
+    return path
+
+
+#: harmless ways to write the unit and read it back: name -> (store location form, model form, serial written,
+#: serial read). Each must give the model in memory's corrected readings exactly.
+STORE_FORMS = {
+    "store path as str, model as its text": ("str", "text", "SN0042", "SN0042"),
+    "store path as Path": ("Path", "text", "SN0042", "SN0042"),
+    "model as its saved file's text": ("str", "file text", "SN0042", "SN0042"),
+    "model as a Model object": ("str", "object", "SN0042", "SN0042"),
+    "serial with spaces inside and around, read without those around": ("str", "text", "  SN 0042 ", "SN 0042"),
+    "serial decomposed (NFD, from a Mac), read composed": ("str", "text", "SN-Mu\u0308ller", "SN-M\u00fcller"),
+    "serial in Greek and CJK": ("str", "text", "\u03a3\u039d-\u4e03", "\u03a3\u039d-\u4e03"),
+    "serial with quotes, ; and %": ("str", "text", "SN'7\";%_", "SN'7\";%_"),
+    "store closed and opened again": ("reopen", "text", "SN0042", "SN0042"),
+    "read through history()[-1]": ("history", "text", "SN0042", "SN0042"),
+    "read through latest_records()": ("latest_records", "text", "SN0042", "SN0042"),
+}
+
+
+def store_form_case(name):
+    where, form, written, read = STORE_FORMS[name]
+
+    def run(folder):
+        m = model("auto")
+        path = _fresh(folder, "forms")
+        if form == "file text":
+            saved = Path(folder) / "stored_model.json"
+            m.save(saved)
+            given = saved.read_text(encoding="utf-8")
+        else:
+            given = m if form == "object" else model_text(m)
+        with _store().open_store(path if where == "Path" else str(path)) as store:
+            store.add(written, given, calibration_csv=CALIBRATION_CSV, source_name="cal.csv")
+            if where == "reopen":
+                store.close()
+                store = _store().open_store(str(path))
+            if where == "history":
+                record = store.history(read)[-1]
+            elif where == "latest_records":
+                record = store.latest_records()[0]
+            else:
+                record = store.latest(read)
+            serials, count = store.serials(), store.count()
+        if record is None or serials != [read] or count != 1 or record.serial != read or record.epoch != 1:
+            return math.inf, 0.0, f"serials {serials}, {count} records; read {read!r}: {record and record.serial!r}"
+        if record.calibration_csv != CALIBRATION_CSV:
+            return math.inf, 0.0, "the calibration's text was not stored as given"
+        corrected = record.model().correct(TEST_ENCODER)
+        rms, peak = truth_of(corrected)
+        return arcmin_apart(corrected, m.correct(TEST_ENCODER)), 0.0, (
+            f"stored model to the one in memory; truth RMS {rms:.3g}, max {peak:.3g} arcmin")
+    return Case("store: write and read back", name, run)
+
+
+def store_epoch_cases():
+    def twice(folder):
+        first, second = model("auto"), model("fourier")
+        with _store().open_store(_fresh(folder, "epochs")) as store:
+            a = store.add("SN1", model_text(first), calibration_csv=CALIBRATION_CSV)
+            b = store.add("SN1", model_text(second), calibration_csv=CALIBRATION_CSV + "# again\n")
+            history, latest = store.history("SN1"), store.latest("SN1")
+            ok = ((a.epoch, b.epoch) == (1, 2) and [r.epoch for r in history] == [1, 2] and latest.epoch == 2
+                  and store.count() == 2 and store.serials() == ["SN1"])
+            apart = max(arcmin_apart(latest.model().correct(TEST_ENCODER), second.correct(TEST_ENCODER)),
+                        arcmin_apart(history[0].model().correct(TEST_ENCODER), first.correct(TEST_ENCODER)))
+        return (apart if ok else math.inf), 0.0, "epochs 1, 2; latest the second; each epoch's model as written"
+
+    def same_bytes(folder):
+        text = model_text(model("auto"))
+        with _store().open_store(_fresh(folder, "same")) as store:
+            store.add("SN1", text, calibration_csv=CALIBRATION_CSV)
+            again = store.add("SN1", text, calibration_csv=CALIBRATION_CSV)
+            skipped = store.add_many([{"serial": "SN1", "model_json": text, "calibration_csv": CALIBRATION_CSV}],
+                                     skip_stored=True)
+            ok = again.epoch == 2 and skipped == [None] and store.count() == 2
+        return (0.0 if ok else math.inf), 0.0, ("the same calibration again: add() a new epoch (2), "
+                                                "add_many(skip_stored=True) skips it")
+
+    def three_units(folder):
+        text = model_text(model("auto"))
+        with _store().open_store(_fresh(folder, "three")) as store:
+            for serial in ("sn1", "SN1", "SN001"):
+                store.add(serial, text)
+            ok = store.serials() == ["SN001", "SN1", "sn1"] and all(len(store.history(s)) == 1
+                                                                   for s in ("sn1", "SN1", "SN001"))
+            ok = ok and store.latest("Sn1") is None and store.history("SN2") == []
+        return (0.0 if ok else math.inf), 0.0, "case and leading zeros count; an unknown serial: None and []"
+
+    return [Case("store: epochs", "the same unit written twice: epochs 1 and 2", twice),
+            Case("store: epochs", "the same calibration twice under one serial", same_bytes),
+            Case("store: epochs", "sn1, SN1, SN001: three units", three_units)]
+
+
+#: the drift case's second calibrations: name -> (the change to the encoder's error, arcmin, as a function of the
+#: reference angle; the RMS of that change over the turn, arcmin)
+DRIFTS = {
+    "recalibrated unchanged": (lambda r: 0.0 * r, 0.0),
+    "first order grown by 1 arcmin": (lambda r: 1.0 * np.sin(np.radians(r) + 0.5), 1.0 / math.sqrt(2.0)),
+}
+
+
+def drift_case(name):
+    change, expected = DRIFTS[name]
+
+    def run(folder):
+        from encal.fleet.statistics import DRIFT_MOVED, drift_table
+
+        again = REFERENCE + (truth_error(REFERENCE) + change(REFERENCE)
+                             + np.random.default_rng(7).normal(0.0, NOISE_ARCMIN, REFERENCE.size)) / 60.0
+        with _store().open_store(_fresh(folder, "drift")) as store:
+            store.add("SN1", model_text(model("spectral")))
+            store.add("SN1", model_text(_fit(encal.Calibration(REFERENCE, again), "spectral")))
+            row, = drift_table(store.records())
+        drift, u = row["drift_arcmin"][-1], row["uncertainty_arcmin"]
+        verdict = "moved" if expected > 0 else "within"
+        ok = row["verdict"] == verdict and row["epochs"] == [1, 2] and (expected == 0 or row["largest_order"] == 1)
+        # the measured change is the true one within the noise the verdict weighs it by (3 u)
+        return (abs(drift - expected) if ok else math.inf), DRIFT_MOVED * u, (
+            f"drift {drift:.3g} arcmin (truth {expected:.3g}), u {u:.3g}; verdict {row['verdict']!r}, "
+            f"order {row['largest_order']}")
+    return Case("store: drift", name, run)
+
+
+def grade_cases():
+    def limits(_):
+        store = _store()
+        forms = ["A=0.02,B=0.05", "A=1.2arcmin,B=3arcmin", "A=72arcsec,B=180arcsec", "B=0.05, A=0.02"]
+        parsed = [store.parse_grades(text) for text in forms]
+        names_ok = all([name for name, _ in p] == ["A", "B"] for p in parsed)
+        apart = max(largest([limit for _, limit in p], [1.2, 3.0]) for p in parsed)
+        return (apart if names_ok else math.inf), 1e-12, "the thresholds in arcmin, in 4 spellings"
+
+    def graded(_):
+        store = _store()
+        grades = store.parse_grades("A=0.02,B=0.05")
+        got = [store.grade_of(value, grades) for value in (0.5, 1.2, 2.0, 3.0, 3.5)]
+        return (0.0 if got == ["A", "A", "B", "B", store.GRADE_NONE] else math.inf), 0.0, f"grades {got}"
+
+    def batch(folder):
+        from encal.fleet.batch import fit_batch
+
+        lot = Path(folder) / "lot"
+        lot.mkdir(exist_ok=True)
+        paths = []
+        for serial, seed in (("SN1", 1), ("SN2", 7)):
+            reference, encoder = grid_calibration(seed)
+            paths.append(lot / f"{serial}.csv")
+            encal.write_calibration(paths[-1], encal.Calibration(reference, encoder))
+        grades = _store().parse_grades("A=0.02,B=0.05")
+        worst, notes = 0.0, []
+        with _store().open_store(_fresh(folder, "batch")) as store:
+            fit_batch(paths, store, grades=grades, jobs=0)
+            fit_batch(paths, store, grades=grades, jobs=0)  # run again: every file stored already, skipped
+            if store.count() != 2:
+                return math.inf, 0.0, f"{store.count()} records after two runs of one lot of 2"
+            for path in paths:
+                record = store.latest(path.stem)
+                alone = encal.fit(encal.read_calibration(path), "spectral")
+                corrected = record.model().correct(TEST_ENCODER)
+                worst = max(worst, arcmin_apart(corrected, alone.correct(TEST_ENCODER)))
+                rms, peak = truth_of(corrected)
+                if (record.grade != _store().grade_of(record.held_out_arcmin, grades) or record.grade != "A"
+                        or record.grade_limits() != grades or peak > TRUTH["spectral"][1]):
+                    return math.inf, 0.0, f"{path.stem}: grade {record.grade}, truth max {peak:.3g} arcmin"
+                notes.append(f"{path.stem} held-out {record.held_out_arcmin:.3g}, truth RMS {rms:.3g}")
+        return worst, SAME_ARCMIN, "fit_batch's stored model to encal.fit of the file; " + "; ".join(notes)
+
+    return [Case("store: grades", "parse_grades: degrees, arcmin, arcsec, any order", limits),
+            Case("store: grades", "grade_of at and about the limits", graded),
+            Case("store: grades", "fit_batch of 2 files (jobs=0, run twice): models, grades, limits", batch)]
+
+
+def store_cases():
+    return ([store_form_case(name) for name in STORE_FORMS] + store_epoch_cases()
+            + [drift_case(name) for name in DRIFTS] + grade_cases())
+
+
+def _store_with_sn1():
+    path = scratch() / "refusals.sqlite"
+    store = _store().open_store(path)
+    if not store.serials():
+        store.add("SN1", model_text(model("fourier")), calibration_csv=CALIBRATION_CSV)
+    return store
+
+
+def _other_tables():
+    import sqlite3
+
+    path = scratch() / "parts.sqlite"
+    with sqlite3.connect(path) as connection:
+        connection.execute("CREATE TABLE IF NOT EXISTS parts (id INTEGER)")
+    connection.close()
+    return path
+
+
+def _text_file(name, text):
+    path = scratch() / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _tampered_model_text():
+    import json
+
+    document = json.loads(model_text(model("fourier")))
+    document["parameters"]["cos"][1] += 1.0  # the checksum no longer matches
+    return json.dumps(document)
+
+
+STORE_HARMFUL = {
+    "open_store: a folder that does not exist": lambda: _store().open_store("/nonexistent/lot7/encal-store.sqlite"),
+    "open_store: a folder": lambda: _store().open_store(scratch()),
+    "open_store: a text file": lambda: _store().open_store(_text_file("notes.txt", "not a database\n")),
+    "open_store: an SQLite database of other tables": lambda: _store().open_store(_other_tables()),
+    "open_store: None": lambda: _store().open_store(None),
+    "open_store: a number": lambda: _store().open_store(7),
+    "Store.latest_model: a serial not there": lambda: _store_with_sn1().latest_model("SN2"),
+    "Store.history: None for a serial": lambda: _store_with_sn1().history(None),
+    "Store.add: an empty serial": lambda: _store_with_sn1().add("  ", model_text(model("fourier"))),
+    "Store.add: a serial with a line end": lambda: _store_with_sn1().add("SN\n2", model_text(model("fourier"))),
+    "Store.add: a serial of 201 characters": lambda: _store_with_sn1().add("S" * 201, model_text(model("fourier"))),
+    "Store.add: a number for a serial": lambda: _store_with_sn1().add(42, model_text(model("fourier"))),
+    "Store.add: text that is not JSON for a model": lambda: _store_with_sn1().add("SN2", "not a model"),
+    "Store.add: JSON that is no model file": lambda: _store_with_sn1().add("SN2", '{"kind": "fourier"}'),
+    "Store.add: a model file's path for its text": lambda: _store_with_sn1().add(
+        "SN2", str(_text_file("m.json", model_text(model("fourier"))))),
+    "Store.add: a model file whose checksum fails": lambda: _store_with_sn1().add("SN2", _tampered_model_text()),
+    "Store.add: a calibration CSV for a model": lambda: _store_with_sn1().add("SN2", CALIBRATION_CSV),
+    "Store.add: None for a model": lambda: _store_with_sn1().add("SN2", None),
+    "Store.add: the same calibration under a second serial": lambda: _store_with_sn1().add(
+        "SN2", model_text(model("fourier")), calibration_csv=CALIBRATION_CSV),
+    "Store.add: held-out estimate 'x'": lambda: _store_with_sn1().add("SN2", model_text(model("fourier")),
+                                                                      held_out_arcmin="x"),
+    "Store.add: held-out estimate NaN": lambda: _store_with_sn1().add("SN2", model_text(model("fourier")),
+                                                                      held_out_arcmin=np.nan),
+    "Store.add: n_points 'many'": lambda: _store_with_sn1().add("SN2", model_text(model("fourier")),
+                                                                n_points="many"),
+    "Store.add: the calibration as bytes": lambda: _store_with_sn1().add("SN2", model_text(model("fourier")),
+                                                                         calibration_csv=b"reference_deg\n"),
+    "Store.add_many: a number for a record": lambda: _store_with_sn1().add_many([7]),
+    "parse_grades: 'A=fast'": lambda: _store().parse_grades("A=fast"),
+    "parse_grades: a limit of -1 degree": lambda: _store().parse_grades("A=-1"),
+}
+
+
+# ------------------------------------------------------------------------------------------------- firmware (storeapi)
+# Each firmware exporter of ``encal.deploy.firmware`` and the C export from Python, on the known-truth model fitted to
+# 14-bit codes (so the file records its resolution), on the same encoder counting against the reference, and on a
+# bidirectional model (tabulated as the mean of its directions, docs/deployment.md). The table is applied by the
+# project's own reader of the format (``read_moteus_conf`` etc.: the firmware's rule on its stored values) and must
+# give ``Model.correct`` within the round trip the export reports; the same model given as an object, a Compensator,
+# a path (str or Path) or with ``bits=14`` given must write the same text.
+
+_FW_MODELS = {}
+LSB16_DEG = 360.0 / 2**16
+
+
+def fw_model(name):
+    if name not in _FW_MODELS:
+        if name == "14-bit codes":
+            made = encal.fit(encal.Calibration(REFERENCE, CODES_ENCODER), "auto")
+        elif name == "reversed reading":  # the encoder counts against the reference: its readings are -CODES_ENCODER
+            made = encal.fit(encal.Calibration(REFERENCE, CODES_ENCODER, reading_sign=-1, resolution_bits=14), "auto")
+        else:
+            made = encal.fit(BIDIRECTIONAL_FORMS["arrays"](), "fourier", n_orders=8)
+        _FW_MODELS[name] = made
+    return _FW_MODELS[name]
+
+
+def fw_readings(name):
+    """(raw readings the firmware sees, degrees, on codes; their reference angles in the reading's sense)."""
+    if name == "14-bit codes":
+        return CODES_TEST % 360.0, TEST_REFERENCE
+    if name == "reversed reading":
+        return (-CODES_TEST) % 360.0, -TEST_REFERENCE
+    return np.round(TEST_ENCODER / LSB16_DEG) * LSB16_DEG % 360.0, TEST_REFERENCE
+
+
+def _firmware():
+    import encal.deploy.firmware as module
+
+    return module
+
+
+def fw_export(fmt, source, **options):
+    """The text a format writes for ``source`` (the C export's two files joined) and its FirmwareExport or None."""
+    fw = _firmware()
+    calls = {"moteus": fw.export_moteus, "simplefoc": fw.export_simplefoc, "tinymovr": fw.export_tinymovr,
+             "mechaduino": lambda s, **o: fw.export_mechaduino(s, step_zero_deg=0.5, **o),
+             "klipper": lambda s, **o: fw.export_klipper(s, step_zero_deg=0.5, step_direction=1, **o)}
+    if fmt == "C":
+        from encal.deploy import export_c
+
+        files = export_c(source, **options)
+        # the header names the model file's checksum, which a model in memory has not
+        return "".join(line for name in sorted(files) for line in files[name].splitlines(True)
+                       if "sha256" not in line), None
+    out = calls[fmt](source, **options)
+    return out.text, out
+
+
+FORMATS = ("moteus", "simplefoc", "tinymovr", "mechaduino", "klipper")
+
+
+def table_case(fmt, name):
+    def run(_):
+        fw, m = _firmware(), fw_model(name)
+        options = {"bits": 16} if fmt == "tinymovr" and name.startswith("bidirectional") else {}
+        text, out = fw_export(fmt, m, **options)
+        raw, truth = fw_readings(name)
+        sign = m.reading_sign
+        wanted = sign * np.asarray(m.correct(raw), dtype=float)  # the corrected angle in the reading's sense
+        if fmt in ("moteus", "simplefoc", "tinymovr"):
+            reread = {"moteus": fw.read_moteus_conf, "simplefoc": fw.read_simplefoc,
+                      "tinymovr": lambda t: fw.read_tinymovr(t, bits=options.get("bits", 14))}[fmt](text)
+            applied = raw - (np.asarray(reread.predict(raw)) - out.offset_arcmin) / 60.0
+            # the reader interpolates in float64, moteus and SimpleFOC in float32 (1e-5 arcmin of it)
+            limit, what = out.max_error_arcmin + 1e-5, "its reported round trip"
+        elif fmt == "mechaduino":  # y = lookup[count]: the angle from step 0 in the reading's sense
+            lookup = fw.read_c_array(text, "lookup").astype(np.float32).astype(float)
+            count = np.rint(raw / (360.0 / 2**14)).astype(np.int64) % 2**14  # the AS5047D's 14-bit counts
+            raw = count * (360.0 / 2**14)
+            wanted = sign * np.asarray(m.correct(raw), dtype=float)
+            applied = lookup[count] + sign * 0.5
+            limit, what = out.quantisation_arcmin, "its stated rounding"
+        else:  # klipper: the sensor's reading at each full step; the model corrects it to the step's angle
+            cal = fw.read_klipper(text)
+            readings = cal.reading_sign * np.asarray(cal.encoder_deg)
+            raw = readings % 360.0
+            wanted = np.asarray(m.correct(raw), dtype=float)
+            shift = (wanted - 0.5 - np.asarray(cal.reference_deg) + 180.0) % 360.0 - 180.0
+            applied = wanted - (shift - np.round(np.median(shift) / 7.2) * 7.2)  # modulo the driver's 4-step cycle
+            truth = None
+            # "%.1f" of 16-bit units, times the correction's slope (within 1 %)
+            limit, what = 1.01 * 0.05 * 21600.0 / 65536.0, "the list's %.1f rounding"
+        apart = arcmin_apart(applied, wanted)
+        note = f"{fmt}'s table through encal's reader to Model.correct, within {what}"
+        if truth is not None:
+            rms = float(np.sqrt(np.mean((((applied - truth + 180.0) % 360.0 - 180.0) * 60.0) ** 2)))
+            note += f"; truth RMS {rms:.3g} arcmin"
+        if out is not None and out.offset_arcmin and fmt != "simplefoc":
+            note += f"; constant left out {out.offset_arcmin:.4g} arcmin (the truth's {-sign * OFFSET_ARCMIN:g})"
+        return apart, limit, note
+    return Case(f"firmware: {fmt}", f"{name}: the table applied, to Model.correct", run)
+
+
+#: harmless forms of the model given to an exporter: name -> a function of (model, its saved path)
+FW_SOURCES = {
+    "Compensator(model)": lambda m, path: encal.Compensator(m),
+    "model file path as str": lambda m, path: str(path),
+    "model file path as Path": lambda m, path: path,
+    "Compensator(path)": lambda m, path: encal.Compensator(path),
+    "load_model(path)": lambda m, path: encal.load_model(path),
+}
+
+
+def source_case(fmt, form):
+    def run(folder):
+        m = fw_model("14-bit codes")
+        path = Path(folder) / "codes_model.json"
+        if not path.exists():
+            m.save(path)
+        plain, _ = fw_export(fmt, m, **({"bits": 14} if fmt == "C" else {}))
+        if form == "bits=14 given":
+            other, _ = fw_export(fmt, m, bits=14)
+        else:
+            other, _ = fw_export(fmt, FW_SOURCES[form](m, path), **({"bits": 14} if fmt == "C" else {}))
+        return (0.0 if other == plain else math.inf), 0.0, "the text written for the model object"
+    return Case(f"firmware: {fmt}", f"14-bit codes: {form}", run)
+
+
+def firmware_cases():
+    found = []
+    for fmt in FORMATS:
+        found += [table_case(fmt, name) for name in ("14-bit codes", "reversed reading",
+                                                      "bidirectional (the mean of its directions)")]
+    for fmt in FORMATS + ("C",):
+        found += [source_case(fmt, form) for form in FW_SOURCES]
+        if fmt != "C":
+            found.append(source_case(fmt, "bits=14 given"))
+    return found
+
+
+def _arc_model():
+    return encal.fit(encal.Calibration(REFERENCE[:90], ENCODER[:90]), "auto")
+
+
+FIRMWARE_HARMFUL = {
+    "export_tinymovr: no bits, none in the model file": lambda: _firmware().export_tinymovr(model("auto")),
+    "export_tinymovr: bits=5": lambda: _firmware().export_tinymovr(fw_model("14-bit codes"), bits=5),
+    "export_tinymovr: bits=14.5": lambda: _firmware().export_tinymovr(fw_model("14-bit codes"), bits=14.5),
+    "export_moteus: bits=7": lambda: _firmware().export_moteus(fw_model("14-bit codes"), bits=7),
+    "export_moteus: bits='14'": lambda: _firmware().export_moteus(fw_model("14-bit codes"), bits="14"),
+    "export_moteus: sign=0": lambda: _firmware().export_moteus(fw_model("14-bit codes"), sign=0),
+    "export_moteus: style='json'": lambda: _firmware().export_moteus(fw_model("14-bit codes"), style="json"),
+    "export_simplefoc: bits=True": lambda: _firmware().export_simplefoc(fw_model("14-bit codes"), bits=True),
+    "export_simplefoc: firmware_version '2.0'": lambda: _firmware().export_simplefoc(fw_model("14-bit codes"),
+                                                                                    firmware_version="2.0"),
+    "export_simplefoc: nodes=1": lambda: _firmware().export_simplefoc(fw_model("14-bit codes"), nodes=1),
+    "export_mechaduino: bits=12": lambda: _firmware().export_mechaduino(fw_model("14-bit codes"), bits=12,
+                                                                        step_zero_deg=0.0),
+    "export_mechaduino: no step zero": lambda: _firmware().export_mechaduino(fw_model("14-bit codes")),
+    "export_mechaduino: step zero NaN": lambda: _firmware().export_mechaduino(fw_model("14-bit codes"),
+                                                                              step_zero_deg=np.nan),
+    "export_mechaduino: a 16-bit model without bits=14": lambda: _firmware().export_mechaduino(
+        encal.fit(encal.Calibration(REFERENCE, ENCODER, resolution_bits=16), "fourier", n_orders=8),
+        step_zero_deg=0.0),
+    "export_klipper: no step zero": lambda: _firmware().export_klipper(fw_model("14-bit codes"), step_direction=1),
+    "export_klipper: no step direction": lambda: _firmware().export_klipper(fw_model("14-bit codes"),
+                                                                            step_zero_deg=0.0),
+    "export_klipper: 202 full steps": lambda: _firmware().export_klipper(fw_model("14-bit codes"), full_steps=202,
+                                                                         step_zero_deg=0.0, step_direction=1),
+    "export_klipper: step direction 0": lambda: _firmware().export_klipper(fw_model("14-bit codes"),
+                                                                           step_zero_deg=0.0, step_direction=0),
+    "export_moteus: a model of an arc": lambda: _firmware().export_moteus(_arc_model()),
+    "export_tinymovr: a model of an arc": lambda: _firmware().export_tinymovr(_arc_model(), bits=14),
+    "export_moteus: None for a model": lambda: _firmware().export_moteus(None),
+    "export_simplefoc: a model file that does not exist": lambda: _firmware().export_simplefoc("/nonexistent/m.json"),
+    "export_tinymovr: a calibration CSV for a model file": lambda: _firmware().export_tinymovr(
+        _text_file("cal.csv", CALIBRATION_CSV), bits=14),
+    "export_klipper: a calibration for a model": lambda: _firmware().export_klipper(
+        encal.Calibration(REFERENCE, ENCODER), step_zero_deg=0.0, step_direction=1),
+    "export_c: bits=0": lambda: _deploy().export_c(fw_model("14-bit codes"), bits=0),
+    "export_c: prefix '1st'": lambda: _deploy().export_c(fw_model("14-bit codes"), prefix="1st"),
+    "export_c: table='int8'": lambda: _deploy().export_c(fw_model("14-bit codes"), table="int8"),
+    "read_tinymovr: no bits": lambda: _firmware().read_tinymovr(
+        _firmware().export_tinymovr(fw_model("14-bit codes")).text, bits=None),
+    "read_moteus_conf: a Klipper list": lambda: _firmware().read_moteus_conf(
+        _firmware().export_klipper(fw_model("14-bit codes"), step_zero_deg=0.0, step_direction=1).text),
+}
+
+
+def _deploy():
+    import encal.deploy as module
+
+    return module
+
+
 # ------------------------------------------------------------------------------------------------- refused
 
 def _cal():
@@ -727,6 +1214,9 @@ HARMFUL = {
     "simulate_fleet: 1.5 encoders": lambda: encal.simulate_fleet(1.5),
 }
 
+HARMFUL.update(STORE_HARMFUL)  # task storeapi
+HARMFUL.update(FIRMWARE_HARMFUL)
+
 
 def _uncertainty():
     import encal.models.uncertainty as module
@@ -795,6 +1285,7 @@ def cases():
                                                     "compile_table 14 bits", "export_c: in memory, loaded, path")]
     found += analysis_cases() + directional_cases() + arc_cases() + codes_cases() + uncertainty_cases()
     found += simulate_cases()
+    found += store_cases() + firmware_cases()  # task storeapi
     found.append(threads_case())
     found += [harmful_case(name) for name in HARMFUL]
     return found

@@ -95,12 +95,20 @@ def _cpu_seconds():
     return times.user + times.system + times.children_user + times.children_system
 
 
+def _model_file(**training):
+    """A small model file's text carrying ``training`` (the store takes model files only)."""
+    from encal.models.fourier import FourierModel
+    from encal.models.modelfile import dumps, model_to_dict
+
+    return dumps(model_to_dict(FourierModel([0, 1], [0.0, 1.0], [0.0, 0.5], training=training), reproducible=True))
+
+
 def _writer(location, writer, count):
     from encal.store import open_store
 
     with open_store(location) as store:
         for index in range(count):
-            store.add(f"SN-{index % 3}", json.dumps({"writer": writer, "index": index, "payload": "x" * 5000}),
+            store.add(f"SN-{index % 3}", _model_file(writer=writer, index=index, payload="x" * 5000),
                       calibration_csv=f"{writer},{index}\n" * 200, station=f"station-{writer}")
 
 
@@ -126,7 +134,8 @@ def bench_writers(location_of, records):
                 assert all(p.exitcode == 0 for p in processes)
                 with open_store(location) as store:
                     stored = store.records()
-                    whole = all(r.calibration_csv == "{writer},{index}\n".format(**json.loads(r.model_json)) * 200
+                    whole = all(r.calibration_csv
+                                == "{writer},{index}\n".format(**json.loads(r.model_json)["training"]) * 200
                                 for r in stored)
                     epochs = all([r.epoch for r in store.history(s)] == list(range(1, len(store.history(s)) + 1))
                                  for s in store.serials())

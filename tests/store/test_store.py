@@ -53,8 +53,28 @@ def location(request, tmp_path):
     drop()
 
 
+#: a model file of a small Fourier model whose training metadata carries what the tests tell records apart by (the
+#: store refuses a model that is not a model file); {training} is replaced by that metadata's JSON
+_MODEL_FILE = textwrap.dedent("""
+    import json
+    from encal.models.fourier import FourierModel
+    from encal.models.modelfile import dumps, model_to_dict
+    def model_file(**training):
+        model = FourierModel([0, 1], [0.0, 1.0], [0.0, 0.5], training={"payload": "x" * 2000, **training})
+        return dumps(model_to_dict(model, reproducible=True))
+""")
+_namespace = {}
+exec(_MODEL_FILE, _namespace)
+_model_file = _namespace["model_file"]
+
+
 def _model_json(label):
-    return json.dumps({"label": label, "payload": "x" * 2000})
+    return _model_file(label=label)
+
+
+def _training(text):
+    """The training metadata of a model file's text: what :func:`_model_file` was given."""
+    return json.loads(text)["training"]
 
 
 def test_epochs_count_per_serial_and_latest_is_the_last(location):
@@ -92,14 +112,14 @@ def test_a_record_is_never_overwritten_or_deleted(location):
         assert store.latest("SN-1").grade is None and store.count() == 1
 
 
-_WRITER = textwrap.dedent("""
-    import json, sys
+_WRITER = _MODEL_FILE + textwrap.dedent("""
+    import sys
     from encal.store import open_store
     location, writer, count = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
     with open_store(location) as store:
         for index in range(count):
             serial = f"SN-{index % 3}"
-            store.add(serial, json.dumps({"writer": writer, "index": index, "payload": "x" * 5000}),
+            store.add(serial, model_file(writer=writer, index=index),
                       calibration_csv=f"{writer},{index}\\n" * 200, station=f"station-{writer}")
 """)
 
@@ -117,10 +137,10 @@ def test_concurrent_writers_lose_nothing(location, writers):
     with open_store(location) as store:
         records = store.records()
         assert len(records) == writers * count
-        written = {(json.loads(r.model_json)["writer"], json.loads(r.model_json)["index"]) for r in records}
+        written = {(_training(r.model_json)["writer"], _training(r.model_json)["index"]) for r in records}
         assert written == {(w, i) for w in range(writers) for i in range(count)}
         for record in records:
-            document = json.loads(record.model_json)
+            document = _training(record.model_json)
             assert record.calibration_csv == f"{document['writer']},{document['index']}\n" * 200
             assert record.station == f"station-{document['writer']}"
         for serial in store.serials():
@@ -138,7 +158,7 @@ def test_a_file_that_is_no_database_is_refused_in_one_sentence(tmp_path):
 
 def test_a_bad_serial_is_refused(tmp_path):
     with open_store(tmp_path / "s.sqlite") as store, pytest.raises(InputError, match="printable characters"):
-        store.add("SN\n2", "{}")
+        store.add("SN\n2", _model_json("x"))
 
 
 def test_grades_in_degrees_by_default_or_with_a_unit():
@@ -155,9 +175,10 @@ def test_grades_in_degrees_by_default_or_with_a_unit():
 def test_a_calibration_stored_meanwhile_is_left_out_inside_the_transaction(location):
     """Two batches on the same file at once: add_many(skip_stored=True) stores it once."""
     with open_store(location) as store:
-        first = store.add_many([{"serial": "SN-1", "model_json": "{}", "source_sha256": "ab"}], skip_stored=True)
-        again = store.add_many([{"serial": "SN-1", "model_json": "{}", "source_sha256": "ab"},
-                                {"serial": "SN-1", "model_json": "{}", "source_sha256": "cd"}], skip_stored=True)
+        model_json = _model_json("x")
+        first = store.add_many([{"serial": "SN-1", "model_json": model_json, "source_sha256": "ab"}], skip_stored=True)
+        again = store.add_many([{"serial": "SN-1", "model_json": model_json, "source_sha256": "ab"},
+                                {"serial": "SN-1", "model_json": model_json, "source_sha256": "cd"}], skip_stored=True)
         assert first[0].epoch == 1 and again[0] is None and again[1].epoch == 2
         assert store.count() == 2
 
@@ -168,8 +189,8 @@ def test_a_serial_number_is_one_whatever_its_unicode_form(location):
 
     composed, decomposed = (unicodedata.normalize(form, "SNÅ1") for form in ("NFC", "NFD"))
     with open_store(location) as store:
-        store.add(composed, "{}")
-        store.add(decomposed, "{}")
+        store.add(composed, _model_json("x"))
+        store.add(decomposed, _model_json("x"))
         assert store.serials() == [composed]
         assert [r.epoch for r in store.history(decomposed)] == [1, 2] and store.latest(composed).epoch == 2
 
@@ -199,7 +220,7 @@ def test_a_store_opened_while_another_opener_turns_it_to_wal_waits(tmp_path, mon
 
     monkeypatch.setattr(sqlite3, "connect", lambda *args, **kwargs: Busy(connect(*args, **kwargs)))
     with open_store(tmp_path / "s.sqlite") as store:
-        store.add("SN1", "{}")
+        store.add("SN1", _model_json("x"))
         assert store.count() == 1
     assert len(refusals) == 2
 
@@ -213,7 +234,7 @@ def test_odd_serial_numbers_are_units_of_their_own_found_as_written(location):
         store.add(" SN1 ", _model_json("SN1 again"))
         assert sorted(store.serials()) == sorted(serials)
         for serial in serials:
-            assert json.loads(store.latest(serial).model_json)["label"] == ("SN1 again" if serial == "SN1" else serial)
+            assert _training(store.latest(serial).model_json)["label"] == ("SN1 again" if serial == "SN1" else serial)
         assert store.latest("SN%") is None and store.latest("SN_") is None  # no pattern matching
 
 
@@ -231,7 +252,7 @@ def _layout_1_store(location, rows):
 
 
 def _label(record):
-    return json.loads(record.model_json)["label"]
+    return _training(record.model_json)["label"]
 
 
 def test_an_old_store_with_decomposed_serials_is_converted_when_opened(location):
@@ -293,7 +314,7 @@ def test_a_station_that_may_not_convert_an_old_store_is_told_who_may(location, m
 
 def test_a_store_of_a_newer_layout_is_refused(location):
     with open_store(location) as store:
-        store.add("SN1", "{}")
+        store.add("SN1", _model_json("x"))
         if location.startswith("postgresql"):
             with store._connection.transaction():
                 store._connection.execute("UPDATE encal_store SET value = '99' WHERE key = 'schema_version'")
@@ -311,8 +332,8 @@ def test_a_calibration_stored_under_another_serial_is_refused(location):
         store.add("SN1", _model_json("a"), calibration_csv=csv)
         with pytest.raises(CopiedCalibrationError, match=r"the calibration of SN2 \(SHA-256 [0-9a-f]{12}\.\.\.\) is "
                                                          r"stored under SN1 already; expected each unit's own"):
-            store.add_many([{"serial": "SN3", "model_json": "{}", "calibration_csv": "other"},
-                            {"serial": "SN2", "model_json": "{}", "calibration_csv": csv}])
+            store.add_many([{"serial": "SN3", "model_json": _model_json("x"), "calibration_csv": "other"},
+                            {"serial": "SN2", "model_json": _model_json("x"), "calibration_csv": csv}])
         assert store.count() == 1  # all or none: SN3 was not written either
         assert store.add("SN1", _model_json("b"), calibration_csv=csv).epoch == 2  # its own unit's: a new epoch
 
@@ -375,7 +396,7 @@ def test_two_writers_of_one_calibration_under_two_serials_at_once_store_it_once(
     def first():
         with open_store(location) as store:
             store._connection = _HeldAfterInsert(store._connection, inserted, release)
-            outcome["first"] = store.add("SN1", "{}", source_sha256="ab" * 32)
+            outcome["first"] = store.add("SN1", _model_json("x"), source_sha256="ab" * 32)
             store._connection = store._connection._connection
 
     def second():
@@ -383,7 +404,7 @@ def test_two_writers_of_one_calibration_under_two_serials_at_once_store_it_once(
             opened.set()
             assert go.wait(60)
             try:
-                outcome["second"] = store.add("SN9", "{}", source_sha256="ab" * 32)
+                outcome["second"] = store.add("SN9", _model_json("x"), source_sha256="ab" * 32)
             except CopiedCalibrationError as exc:
                 outcome["second"] = exc
 
@@ -405,12 +426,12 @@ def test_two_writers_of_one_calibration_under_two_serials_at_once_store_it_once(
         assert [(r.serial, r.source_sha256) for r in store.records()] == [("SN1", "ab" * 32)]
 
 
-_OPENER = textwrap.dedent("""
+_OPENER = _MODEL_FILE + textwrap.dedent("""
     import sys
     from encal.store import open_store
     location, opener = sys.argv[1], int(sys.argv[2])
     with open_store(location) as store:
-        store.add("SN-M\\u00fcller", '{"label": "opener-%d"}' % opener)
+        store.add("SN-M\\u00fcller", model_file(label="opener-%d" % opener))
 """)
 
 
@@ -465,7 +486,7 @@ def test_another_programs_database_is_refused_and_left_as_it_was(tmp_path):
         open_store(foreign)
     assert foreign.read_bytes() == before and not (tmp_path / "app.sqlite-wal").exists()
     with open_store(tmp_path / "s.sqlite") as store:  # a new file, and then a store, are opened as before
-        store.add("SN1", '{"x": 1}')
+        store.add("SN1", _model_json("x"))
     with open_store(tmp_path / "s.sqlite") as store:
         assert store.count() == 1
 
@@ -504,3 +525,31 @@ def test_a_write_the_store_cannot_take_is_one_sentence_and_writes_nothing(locati
             holder.close()
     with open_store(location) as again:
         assert [r.serial for r in again.records()] == ["SN-1"]
+
+
+def test_a_model_that_is_no_model_file_is_refused_before_it_is_written(tmp_path):
+    """A record is never changed or deleted, so one whose model cannot be read would break ``export --serial`` and the
+    fleet report for good (task storeapi: text, a path, a calibration, a hand-edited file were all stored)."""
+    from encal._core.errors import ModelFileError
+    from encal.models.fourier import FourierModel
+    from encal.models.modelfile import load_model, save_model
+
+    saved = tmp_path / "model.json"
+    model = FourierModel([0, 1], [0.0, 1.0], [0.0, 0.5])
+    save_model(model, saved)
+    edited = json.loads(saved.read_text(encoding="utf-8"))
+    edited["parameters"]["cos"][1] = 2.0
+    with open_store(tmp_path / "store.sqlite") as store:
+        for given, said in [("not a model", "is not JSON"), (str(saved), "not its path"),
+                            ('{"kind": "fourier"}', "'format'"), (json.dumps(edited), "checksum does not match"),
+                            (None, "got NoneType")]:
+            with pytest.raises(ModelFileError, match=said) as caught:
+                store.add("SN1", given)
+            assert "\n" not in str(caught.value) and str(caught.value).startswith("the model given for SN1: ")
+        assert store.count() == 0
+        # a Model, or its file's text: the same record's model
+        by_object, by_text = store.add("SN1", model), store.add("SN2", saved.read_text(encoding="utf-8"))
+        assert by_object.model().predict(30.0) == by_text.model().predict(30.0) == load_model(saved).predict(30.0)
+    for location in (None, 7):
+        with pytest.raises(InputError, match="expected the path of an SQLite file or a postgresql:// URL"):
+            open_store(location)

@@ -46,6 +46,18 @@ KEPT = [
     "14-bit codes: auto: float32",
     "directional: fourier: calibration rows shuffled",
     "simulate / selfcal: selfcal.steps, rows shuffled",
+    # task storeapi: the store and the firmware exporters from Python
+    "store: write and read back: model as a Model object",
+    "store: write and read back: serial decomposed (NFD, from a Mac), read composed",
+    "store: epochs: the same calibration twice under one serial",
+    "store: drift: first order grown by 1 arcmin",
+    "store: grades: grade_of at and about the limits",
+    "firmware: moteus: reversed reading: the table applied, to Model.correct",
+    "firmware: tinymovr: 14-bit codes: the table applied, to Model.correct",
+    "firmware: mechaduino: bidirectional (the mean of its directions): the table applied, to Model.correct",
+    "firmware: klipper: reversed reading: the table applied, to Model.correct",
+    "firmware: simplefoc: 14-bit codes: model file path as str",
+    "firmware: C: 14-bit codes: Compensator(path)",
 ]
 
 

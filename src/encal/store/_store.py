@@ -5,6 +5,7 @@ import dataclasses
 import datetime
 import hashlib
 import math
+import os
 import re
 import unicodedata
 from pathlib import Path
@@ -201,6 +202,9 @@ def open_store(location, *, option="--store"):
         If the file is not an SQLite database, its folder is missing, the server cannot be reached, or the
         driver is not installed, in one sentence.
     """
+    if isinstance(location, bool) or not isinstance(location, (str, os.PathLike)):
+        raise InputError(f"{option}: expected the path of an SQLite file or a postgresql:// URL, got "
+                         f"{type(location).__name__}")
     if is_url(location):
         return _PostgresStore(str(location), option)
     return _SQLiteStore(Path(location), option)
@@ -232,10 +236,55 @@ def _composed(serial):
         return serial
 
 
+def _model_file_text(model, serial):
+    """The model file's text of a record: ``model`` itself when it is one (checked: JSON, of a model file whose checksum
+    holds), or a :class:`~encal.models.base.Model`'s file; ModelFileError otherwise.
+
+    A record is never changed or deleted, so one whose model cannot be read (a path given for the file's text, a
+    calibration, a file edited by hand) would break ``export --serial`` and the fleet report for good: it is refused
+    before it is written.
+    """
+    import json
+
+    from .._core.errors import ModelFileError
+    from ..models.base import Model
+    from ..models.modelfile import dumps, model_from_dict, model_to_dict
+
+    if isinstance(model, Model):
+        return dumps(model_to_dict(model))
+    where = f"the model given for {serial}"
+    if not isinstance(model, str):
+        raise ModelFileError(f"{where}: expected a model file's text (JSON) or a Model, got {type(model).__name__}")
+    try:
+        document = json.loads(model)
+    except ValueError as exc:
+        raise ModelFileError(f"{where}: is not JSON ({exc}: {model[:40]!r}); expected a model file's text (JSON, "
+                             "not its path) or a Model") from None
+    if not isinstance(document, dict):
+        raise ModelFileError(f"{where}: expected a model file's text (a JSON object), got JSON "
+                             f"{type(document).__name__}")
+    model_from_dict(document, source=where)
+    return model
+
+
+def _whole_count(value):
+    """Whether ``value`` is a whole number >= 0 (360, numpy's int64, 360.0), not a bool or text."""
+    if isinstance(value, (bool, str, bytes)):
+        return False
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return False
+    return number.is_integer() and number >= 0
+
+
 def _figure(value, name):
     if value is None:
         return None
-    value = float(value)
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"the record's {name} must be a finite number >= 0 (arc-minutes); got {value!r}") from None
     if not math.isfinite(value) or value < 0:
         raise InputError(f"the record's {name} must be a finite number >= 0 (arc-minutes); got {value!r}")
     return value
@@ -277,8 +326,9 @@ class Store(abc.ABC):
         ----------
         serial : str
             The unit's serial number.
-        model_json : str
-            The model file's text.
+        model_json : str or Model
+            The model file's text (as :meth:`Model.save` writes it), or the model itself. Checked before it is
+            written: JSON of a model file whose checksum holds.
         calibration_csv : str, optional
             The calibration's text.
         source_name, source_sha256 : str, optional
@@ -302,6 +352,9 @@ class Store(abc.ABC):
             When the same calibration (``source_sha256``) is stored under another serial number: which unit the
             readings belong to cannot be told, and a unit must never get another's model. Checked inside the
             write's transaction, so two writers of one file under two serials at once store it once.
+        ModelFileError
+            When ``model_json`` is not a model file (not JSON, a path for the text, another file, a checksum
+            that fails): a record is never changed or deleted, so one whose model cannot be read is never written.
         InputError
             When the serial number or a figure is not usable.
         """
@@ -335,6 +388,10 @@ class Store(abc.ABC):
         CopiedCalibrationError
             When a record's calibration is stored under another serial number (as :meth:`add`); none is written.
         """
+        for fields in records:
+            if not isinstance(fields, dict):
+                raise InputError(f"add_many: expected each record as a dict of add()'s arguments; got "
+                                 f"{type(fields).__name__}")
         values = [self._values(**fields) for fields in records]
         if not values:
             return []
@@ -346,8 +403,12 @@ class Store(abc.ABC):
                 model_kind=None, n_points=None, rms_before_arcmin=None, rms_after_arcmin=None, held_out_arcmin=None,
                 grade=None, station=None, created_utc=None):
         serial = check_serial(serial)
-        if not isinstance(model_json, str) or not model_json.strip():
-            raise InputError(f"the record of {serial} needs the model file's text (JSON); got {model_json!r}")
+        model_json = _model_file_text(model_json, serial)
+        if calibration_csv is not None and not isinstance(calibration_csv, str):
+            raise InputError(f"the record of {serial} needs the calibration as text (the CSV's content); got "
+                             f"{type(calibration_csv).__name__}")
+        if n_points is not None and not _whole_count(n_points):
+            raise InputError(f"the record of {serial} needs n_points as a whole number >= 0; got {n_points!r}")
         if source_sha256 is None and calibration_csv is not None:
             source_sha256 = hashlib.sha256(calibration_csv.encode("utf-8")).hexdigest()
         values = {
