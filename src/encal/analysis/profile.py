@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.trigsums import trig_moments
+from ..numerics.trigsums import _fine_grid, _nodes, trig_moments
 from .._core.angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .._core.errors import InputError
 from .._core.parameters import check_choice, check_number, invalid, real_array
@@ -1379,6 +1379,40 @@ def _toeplitz_product(moments, half):
 _NUFFT_ABOVE = 2_000_000
 
 
+#: Above this order the sums of :func:`_trigonometric_sums` are taken Taylor term by term with real FFTs
+#: (:func:`_moments_by_real_fft`); up to it by :func:`trig_moments`, which then bins every term in one pass.
+_REAL_FFT_ABOVE_ORDER = 1000
+
+
+def _moments(theta_rad, weights, highest_order):
+    """:func:`trig_moments` of the angles, by :func:`_moments_by_real_fft` above ``_REAL_FFT_ABOVE_ORDER``."""
+    if highest_order > _REAL_FFT_ABOVE_ORDER:
+        return _moments_by_real_fft(theta_rad, weights, highest_order)
+    return trig_moments(theta_rad, weights, highest_order)
+
+
+def _moments_by_real_fft(theta_rad, weights, highest_order):
+    """``S_m = Σ_i w_i e^{imθ_i}``, ``m = 0 .. highest_order``, as :func:`trig_moments` takes them Taylor term by term,
+    on the same fine grid of ``L`` nodes with as many terms, each term's binning a *real* FFT.
+
+    With ``θ_i = (j_i + δ_i) h``, ``h = 2π / L``: ``S_m = Σ_p (imh)^p / p! Σ_j x_{p,j} e^{2πijm/L}`` with
+    ``x_{p,j} = Σ_{j_i = j} w_i δ_i^p`` real, whose sum over ``j`` is ``conj(rfft(x_p))[m]``. (``trig_moments``' term
+    by term takes a complex FFT of the real binning: at order 73,642, ``L = 2^19``, 18 ms a term against 6.5.)
+    """
+    size, terms = _fine_grid(highest_order)
+    node, offset = _nodes(theta_rad, size)
+    power = np.array(weights, dtype=float)  # w δ^p (δ in grid spacings)
+    factor = np.ones(highest_order + 1, dtype=complex)  # (imh)^p / p!
+    turn = 1j * np.arange(highest_order + 1) * (2.0 * math.pi / size)
+    moments = np.zeros(highest_order + 1, dtype=complex)
+    for p in range(terms):
+        spectrum = np.fft.rfft(np.bincount(node, weights=power, minlength=size))[: highest_order + 1]
+        moments += factor * np.conj(spectrum)
+        factor *= turn / (p + 1)
+        power *= offset
+    return moments
+
+
 def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk=4096):
     """``s_m = Σ_i e^{imθ_i}`` for m < n_moments and ``r_j = Σ_i ε_i e^{-ijθ_i}`` for j < n_projections.
 
@@ -1392,8 +1426,8 @@ def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk
     """
     if theta_rad.size * n_moments > _NUFFT_ABOVE:
         # O(n + M log M) by the Taylor-expanded non-uniform FFT, to about 1e-14 of Σ|weights|
-        moments = trig_moments(theta_rad, np.ones(theta_rad.size), n_moments - 1)
-        projections = np.conj(trig_moments(theta_rad, error_arcmin, n_projections - 1))
+        moments = _moments(theta_rad, np.ones(theta_rad.size), n_moments - 1)
+        projections = np.conj(_moments(theta_rad, error_arcmin, n_projections - 1))
         return moments, projections
     block = int(np.ceil(np.sqrt(n_moments)))
     coarse = np.arange(-(-n_moments // block)) * block
