@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.trigsums import _fine_grid, _nodes, trig_moments
+from ..numerics.trigsums import _nodes, trig_moments
 from .._core.angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .._core.errors import InputError
 from .._core.parameters import check_choice, check_number, invalid, real_array
@@ -1392,14 +1392,23 @@ def _moments(theta_rad, weights, highest_order):
 
 
 def _moments_by_real_fft(theta_rad, weights, highest_order):
-    """``S_m = Σ_i w_i e^{imθ_i}``, ``m = 0 .. highest_order``, as :func:`trig_moments` takes them Taylor term by term,
-    on the same fine grid of ``L`` nodes with as many terms, each term's binning a *real* FFT.
+    """``S_m = Σ_i w_i e^{imθ_i}``, ``m = 0 .. highest_order``, by the Taylor-expanded non-uniform FFT of
+    :func:`trig_moments`, one term at a time, each a real FFT of a grid of ``L >= 2 highest_order`` nodes.
 
-    With ``θ_i = (j_i + δ_i) h``, ``h = 2π / L``: ``S_m = Σ_p (imh)^p / p! Σ_j x_{p,j} e^{2πijm/L}`` with
-    ``x_{p,j} = Σ_{j_i = j} w_i δ_i^p`` real, whose sum over ``j`` is ``conj(rfft(x_p))[m]``. (``trig_moments``' term
-    by term takes a complex FFT of the real binning: at order 73,642, ``L = 2^19``, 18 ms a term against 6.5.)
+    With ``θ_i = (j_i + δ_i) h``, ``h = 2π / L``, ``|δ_i| <= 1/2``: ``S_m = Σ_p (imh)^p / p! Σ_j x_{p,j} e^{2πijm/L}``
+    with ``x_{p,j} = Σ_{j_i = j} w_i δ_i^p`` real, whose sum over ``j`` is ``conj(rfft(x_p))[m]``; the terms stop when
+    ``(πM/L)^p / p!`` is below 1e-17 (``|mhδ| <= πM/L <= π/2``), at most 24. (``trig_moments`` takes a complex FFT of
+    each term on a grid of ``L >= 2πM``: at order 73,642 on 10^6 random angles, 16 terms of 2^19 nodes, 0.36 s; here
+    20 terms of 2^18 nodes, 0.14 s, the same sums to 1.1e-16 of ``Σ|w_i|``.)
     """
-    size, terms = _fine_grid(highest_order)
+    size = 16
+    while size < 2 * highest_order:
+        size *= 2
+    largest = math.pi * highest_order / size  # the largest |mhδ|
+    terms, term = 1, 1.0
+    while term > 1e-17:
+        term *= largest / terms
+        terms += 1
     node, offset = _nodes(theta_rad, size)
     power = np.array(weights, dtype=float)  # w δ^p (δ in grid spacings)
     factor = np.ones(highest_order + 1, dtype=complex)  # (imh)^p / p!
