@@ -1354,7 +1354,8 @@ def _fast_length(n):
 
 
 def _toeplitz_product(moments, half):
-    """``x ↦ (Σ_{|k| <= L} s_{k-j} x_k)_{j = 0..L}`` for vectors with ``x_{-k} = conj(x_k)``, given by ``x_0 .. x_L``.
+    """``x ↦ (Σ_{|k| <= L} s_{k-j} x_k)_{j = 0..L}`` for vectors with ``x_{-k} = conj(x_k)`` given by
+    ``x_0 .. x_L``.
 
     ``L`` is ``half`` and ``moments`` holds ``s_0 .. s_{2L}`` (at least), ``s_{-m} = conj(s_m)``. On a circle of
     ``M >= 4L + 1`` points (:func:`_fast_length`) the product is a circular convolution without wrap-around; with
@@ -1395,11 +1396,12 @@ def _moments_by_real_fft(theta_rad, weights, highest_order):
     """``S_m = Σ_i w_i e^{imθ_i}``, ``m = 0 .. highest_order``, by the Taylor-expanded non-uniform FFT of
     :func:`trig_moments`, one term at a time, each a real FFT of a grid of ``L >= 2 highest_order`` nodes.
 
-    With ``θ_i = (j_i + δ_i) h``, ``h = 2π / L``, ``|δ_i| <= 1/2``: ``S_m = Σ_p (imh)^p / p! Σ_j x_{p,j} e^{2πijm/L}``
-    with ``x_{p,j} = Σ_{j_i = j} w_i δ_i^p`` real, whose sum over ``j`` is ``conj(rfft(x_p))[m]``; the terms stop when
-    ``(πM/L)^p / p!`` is below 1e-17 (``|mhδ| <= πM/L <= π/2``), at most 24. (``trig_moments`` takes a complex FFT of
-    each term on a grid of ``L >= 2πM``: at order 73,642 on 10^6 random angles, 16 terms of 2^19 nodes, 0.36 s; here
-    20 terms of 2^18 nodes, 0.14 s, the same sums to 1.1e-16 of ``Σ|w_i|``.)
+    With ``θ_i = (j_i + δ_i) h``, ``h = 2π / L``, ``|δ_i| <= 1/2``:
+    ``S_m = Σ_p (imh)^p / p! Σ_j x_{p,j} e^{2πijm/L}`` with ``x_{p,j} = Σ_{j_i = j} w_i δ_i^p`` real, whose sum
+    over ``j`` is ``conj(rfft(x_p))[m]``; the terms stop when ``(πM/L)^p / p!`` is below 1e-17
+    (``|mhδ| <= πM/L <= π/2``), at most 24. (``trig_moments`` takes a complex FFT of each term on a grid of
+    ``L >= 2πM``: at order 73,642 on 10^6 random angles, 16 terms of 2^19 nodes, 0.34 s; here 20 terms of 2^18
+    nodes, 0.12 s, the same sums to 1.1e-16 of ``Σ|w_i|``.)
     """
     size = 16
     while size < 2 * highest_order:
