@@ -99,3 +99,121 @@ def test_a_bad_grid_tolerance_is_one_sentence(tolerance):
     theta, error = _jittered_grid(36, 0.0, seed=5)
     with pytest.raises(InputError, match="grid_tolerance_deg"):
         profile.harmonics(theta, error, grid_tolerance_deg=tolerance)
+
+
+# ---------------------------------------------------------------- the normal equations at NumPy speed (harmonics10)
+
+def _normal_equations_answers(monkeypatch):
+    """A list that records, for every call of ``_series_by_normal_equations``, whether it answered (not the QR)."""
+    answers = []
+    solve = profile._series_by_normal_equations
+
+    def spy(*args):
+        result = solve(*args)
+        answers.append(result is not None)
+        return result
+
+    monkeypatch.setattr(profile, "_series_by_normal_equations", spy)
+    return answers
+
+
+def _dense_cases(case):
+    """Angles (degrees), errors (arcmin) and the order of one of the dense layouts the normal equations solve."""
+    rng = np.random.default_rng(10)
+    if case == "random":
+        theta, max_order = rng.uniform(0.0, 360.0, 3000), 100
+    elif case == "sweep":  # three revolutions over 1000 stops, read by an encoder with a first-harmonic error
+        reference = np.tile(np.arange(1000) * 0.36, 3)
+        theta, max_order = np.mod(reference + 0.05 * np.sin(np.radians(reference)) + rng.normal(0, 1e-3, 3000),
+                                  360.0), 100
+    else:  # a jittered grid of 601 (odd) or 600 (even: the Nyquist term) nodes, every node read, no arc
+        nodes = 601 if case == "jittered grid" else 600
+        spacing = 360.0 / nodes
+        theta = np.mod(0.37 + (np.arange(nodes) + rng.uniform(-0.2, 0.2, nodes)) * spacing, 360.0)  # Kadec: < 1/4
+        max_order = None  # the identifiable order, the Nyquist order of the grid
+    r = np.radians(theta)
+    error = 2.0 * np.cos(r + 0.3) + 0.5 * np.sin(17 * r) + 0.1 * np.cos(40 * r) + rng.normal(0.0, 0.2, theta.size)
+    return theta, error, max_order
+
+
+@pytest.mark.parametrize("case", ["random", "sweep", "jittered grid", "jittered grid, Nyquist"])
+def test_normal_equations_give_the_qr_answer_and_its_ranking(case, monkeypatch):
+    """Known truth: the least squares of the QR (``fit_harmonic_series``) to 1e-10 of the largest coefficient, and the
+    same ranking of every order. The spy checks that conjugate gradients answered: a wrong product or
+    preconditioner would not converge and leave the answer to the QR, hiding the fault."""
+    theta, error, max_order = _dense_cases(case)
+    answered = _normal_equations_answers(monkeypatch)
+    result = profile.harmonics(theta, error, max_order)
+    assert answered == [True]
+    grid = profile._grid(theta)
+    assert (grid.nyquist_order == result.max_order) == (case == "jittered grid, Nyquist")
+    assert case in ("random", "sweep") or (result.max_order == theta.size // 2 and not grid.uniform)
+    cos, sin = profile.fit_harmonic_series(theta, error, range(result.max_order + 1))
+    scale = np.abs(cos - 1j * sin).max()
+    assert np.abs((result.cos_arcmin - cos) + 1j * (result.sin_arcmin - sin)).max() <= 1e-10 * scale
+    by_qr = profile.Harmonics(result.orders, cos, sin, theta.size)
+    assert np.array_equal(result.ranked(), by_qr.ranked())
+    assert profile.rank_orders(theta, error, max_order)[:10] == [int(k) for k in by_qr.ranked()[:10]]
+
+
+@pytest.mark.parametrize("half", [0, 1, 7, 40])
+def test_the_toeplitz_product_is_the_dense_matrix_product(half):
+    """``Σ_k s_{k-j} x_k`` over ``|k| <= L`` for vectors with ``x_{-k} = conj(x_k)``, against the dense matrix."""
+    rng = np.random.default_rng(half)
+    moments = rng.normal(size=2 * half + 1) + 1j * rng.normal(size=2 * half + 1)
+    moments[0] = moments[0].real
+    x = rng.normal(size=half + 1) + 1j * rng.normal(size=half + 1)
+    x[0] = x[0].real
+    index = np.arange(-half, half + 1)
+    difference = index[np.newaxis, :] - index[:, np.newaxis]  # k - j
+    matrix = np.where(difference >= 0, moments[np.abs(difference)], np.conj(moments[np.abs(difference)]))
+    whole = np.r_[np.conj(x[:0:-1]), x]
+    expected = (matrix @ whole)[half:]
+    assert np.abs(profile._toeplitz_product(moments, half)(x) - expected).max() <= 1e-13 * np.abs(matrix).sum()
+
+
+def test_the_fast_length_is_the_smallest_5_smooth_length():
+    def smooth(n):
+        for factor in (2, 3, 5):
+            while n % factor == 0:
+                n //= factor
+        return n == 1
+
+    lengths = [profile._fast_length(n) for n in range(1, 3001)]
+    expected = [next(m for m in range(n, 2 * n + 1) if smooth(m)) for n in range(1, 3001)]
+    assert lengths == expected
+    assert profile._fast_length(147_285) == 147_456  # 4L + 1 for 10^6 random angles' identifiable order
+
+
+def test_moments_by_real_ffts_agree_with_the_exponentials():
+    from encal.numerics.trigsums import trig_moments_real
+
+    rng = np.random.default_rng(12)
+    theta = rng.uniform(-1.0, 7.0, 1500)  # outside [0, 2π) too
+    weights = rng.normal(size=theta.size)
+    highest = 1201
+    assert highest > profile._REAL_FFT_ABOVE_ORDER
+    exact = np.exp(1j * np.multiply.outer(np.arange(highest + 1), theta)) @ weights
+    assert np.abs(trig_moments_real(theta, weights, highest) - exact).max() <= 1e-13 * np.abs(weights).sum()
+
+
+def test_harmonics_to_a_high_order_recover_a_trigonometric_polynomial(monkeypatch):
+    """20,000 random angles, every order to 600 (moments to 1200: the real FFTs of ``trig_moments_real``), no
+    noise: the least squares is the polynomial itself."""
+    rng = np.random.default_rng(13)
+    theta = rng.uniform(0.0, 360.0, 20_000)
+    order = 600
+    assert order <= profile.identifiable_order(theta)
+    coefficients = rng.normal(size=order + 1) + 1j * rng.normal(size=order + 1)  # a_k - i b_k
+    coefficients[0] = coefficients[0].real
+    z = np.exp(1j * np.radians(theta))
+    series = np.zeros(theta.size, dtype=complex)
+    for c in coefficients[::-1]:  # Horner: Σ c_k z^k
+        series = series * z + c
+    error = series.real - 0.5 * coefficients[0].real  # a_0 once, a_k cos + b_k sin from Re(c_k z^k) for k > 0
+    answered = _normal_equations_answers(monkeypatch)
+    result = profile.harmonics(theta, error, order)
+    assert answered == [True]
+    expected = coefficients.copy()
+    expected[0] *= 0.5
+    assert np.abs((result.cos_arcmin - 1j * result.sin_arcmin) - expected).max() <= 1e-10 * np.abs(expected).max()

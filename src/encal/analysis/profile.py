@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..numerics.trigsums import trig_moments
+from ..numerics.trigsums import trig_moments, trig_moments_real
 from .._core.angles import ARCMIN_PER_DEG, wrap180, wrap360
 from .._core.errors import InputError
 from .._core.parameters import check_choice, check_number, invalid, real_array
@@ -1289,41 +1289,43 @@ def _series_by_normal_equations(theta_deg, error_arcmin, max_order, grid):
 
     with ``u_j = (e^{-iKφ} s_{K-j} + e^{iKφ} s_{-K-j}) / 2`` and
     ``v = (n + Re(e^{-2iKφ} s_{2K})) / 2``: a Hermitian Toeplitz matrix,
-    bordered by one row and column for ``d``. Returns None if conjugate
-    gradients do not converge.
+    bordered by one row and column for ``d``. The matrix keeps vectors with
+    ``x_{-j} = conj(x_j)``, as are the right-hand side and every iterate of
+    conjugate gradients started at zero: they run on ``c_0 .. c_L`` alone,
+    with the inner product of the whole vectors (:func:`_symmetric_inner`)
+    and the products of :func:`_toeplitz_product`. Returns None if
+    conjugate gradients do not converge.
     """
-    import scipy.linalg
-
     theta = np.radians(theta_deg)
     order = max_order
     nyquist = order > 0 and order == grid.nyquist_order
     half = order - 1 if nyquist else order  # L
     moments, projections = _trigonometric_sums(theta, error_arcmin, 2 * order + 1, order + 1)
-    size = 2 * half + 1
-    toeplitz = (np.conj(moments[:size]), moments[:size])  # first column s_{-p}, first row s_q
-    rhs = np.r_[np.conj(projections[half:0:-1]), projections[: half + 1]]  # r_j, j = -L..L
-    diagonal = np.full(size, float(theta.size))  # s_0 = n
-
-    def product(x):
-        return scipy.linalg.matmul_toeplitz(toeplitz, x, check_finite=False)
-
+    rhs = projections[: half + 1].copy()  # r_0 .. r_L
+    rhs[0] = rhs[0].real  # Σ ε_i: real (the non-uniform FFT leaves a rounding's imaginary part)
+    multiplicity = np.full(half + 1, 2.0)  # x_j stands for x_j and x_{-j}
+    multiplicity[0] = 1.0
+    diagonal = np.full(half + 1, float(theta.size))  # s_0 = n
+    product = _toeplitz_product(moments, half)
     if nyquist:
-        j = np.arange(-half, half + 1)
+        j = np.arange(half + 1)
         turn = np.exp(1j * order * grid.phase_rad)
-        border = 0.5 * (moments[order - j] / turn + turn * np.conj(moments[order + j]))
+        border = 0.5 * (moments[order - j] / turn + turn * np.conj(moments[order + j]))  # u_0 .. u_L
         corner = 0.5 * (theta.size + np.real(moments[2 * order] / turn**2))
         rhs = np.r_[rhs, np.real(turn * projections[order])]
         diagonal = np.r_[diagonal, corner]
-        toeplitz_product = product
+        toeplitz_product, border_weights = product, multiplicity * np.conj(border)
+        multiplicity = np.r_[multiplicity, 1.0]
 
         def product(z):
-            x, d = z[:-1], z[-1]
-            return np.r_[toeplitz_product(x) + border * d, np.vdot(border, x) + corner * d]
+            x, d = z[:-1], z[-1].real
+            along = float(np.sum((border_weights * x).real))  # Σ_{|k| <= L} conj(u_k) x_k: real
+            return np.r_[toeplitz_product(x) + border * d, along + corner * d]
 
-    solution = _conjugate_gradients(product, rhs, diagonal)
+    solution = _conjugate_gradients(product, rhs, diagonal, multiplicity)
     if solution is None:
         return None
-    c = solution[half : 2 * half + 1]  # c_0 .. c_L
+    c = solution[: half + 1]  # c_0 .. c_L
     cos_arcmin, sin_arcmin = np.zeros(order + 1), np.zeros(order + 1)
     cos_arcmin[: half + 1], sin_arcmin[: half + 1] = 2.0 * c.real, -2.0 * c.imag
     cos_arcmin[0], sin_arcmin[0] = c[0].real, 0.0
@@ -1333,10 +1335,61 @@ def _series_by_normal_equations(theta_deg, error_arcmin, max_order, grid):
     return cos_arcmin, sin_arcmin
 
 
+def _fast_length(n):
+    """The smallest ``2^a 3^b 5^c >= n``: an FFT of that length runs at full speed (an FFT of a length with a large
+    prime factor, 147,285 = 3 · 5 · 9,819, took 12 times as long as one of 147,456)."""
+    n = max(int(n), 1)
+    best = 1 << (n - 1).bit_length()  # a power of 2
+    power5 = 1
+    while power5 < best:
+        odd = power5  # 3^b 5^c
+        while odd < best:
+            length = odd
+            while length < n:
+                length *= 2
+            best = min(best, length)
+            odd *= 3
+        power5 *= 5
+    return best
+
+
+def _toeplitz_product(moments, half):
+    """``x ↦ (Σ_{|k| <= L} s_{k-j} x_k)_{j = 0..L}`` for vectors with ``x_{-k} = conj(x_k)`` given by
+    ``x_0 .. x_L``.
+
+    ``L`` is ``half`` and ``moments`` holds ``s_0 .. s_{2L}`` (at least), ``s_{-m} = conj(s_m)``. On a circle of
+    ``M >= 4L + 1`` points (:func:`_fast_length`) the product is a circular convolution without wrap-around; with
+    ``x_k`` placed at ``k mod M``, ``X(t) = Σ_k x_k e^{2πikt/M}`` and the spectrum ``H(t) = Σ_m s_m e^{-2πimt/M}``
+    are real (Hermitian sequences), so each product is one inverse real FFT, a real product and one real FFT of
+    length ``M``: ``rfft(H · irfft(x, M))[: L + 1]``. ``H`` is computed once. (SciPy's ``matmul_toeplitz`` took
+    three complex FFTs of the whole vector's embedding a product, its spectrum among them: on 10^6 random angles
+    to order 36,821, 27 ms a product, against 2 ms.)
+    """
+    size = _fast_length(4 * half + 1)
+    spectrum = np.fft.hfft(moments[: 2 * half + 1], n=size)  # Σ_m s_m e^{-2πimt/M}, |m| <= 2L: real
+
+    def product(x):
+        return np.fft.rfft(spectrum * np.fft.irfft(x, n=size))[: half + 1]
+
+    return product
+
+
 #: Above this many terms (points times moments) the trigonometric sums of the normal equations come
 #: from the non-uniform FFT of :mod:`encal.numerics.trigsums`; below it from the exact products, which are
 #: then as fast.
 _NUFFT_ABOVE = 2_000_000
+
+
+#: Above this order the sums of :func:`_trigonometric_sums` are taken Taylor term by term with real FFTs
+#: (:func:`~encal.numerics.trigsums.trig_moments_real`); up to it by :func:`trig_moments`, which then bins every term in one pass.
+_REAL_FFT_ABOVE_ORDER = 1000
+
+
+def _moments(theta_rad, weights, highest_order):
+    """:func:`trig_moments` of the angles, by :func:`~encal.numerics.trigsums.trig_moments_real` above ``_REAL_FFT_ABOVE_ORDER``."""
+    if highest_order > _REAL_FFT_ABOVE_ORDER:
+        return trig_moments_real(theta_rad, weights, highest_order)
+    return trig_moments(theta_rad, weights, highest_order)
 
 
 def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk=4096):
@@ -1352,8 +1405,8 @@ def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk
     """
     if theta_rad.size * n_moments > _NUFFT_ABOVE:
         # O(n + M log M) by the Taylor-expanded non-uniform FFT, to about 1e-14 of Σ|weights|
-        moments = trig_moments(theta_rad, np.ones(theta_rad.size), n_moments - 1)
-        projections = np.conj(trig_moments(theta_rad, error_arcmin, n_projections - 1))
+        moments = _moments(theta_rad, np.ones(theta_rad.size), n_moments - 1)
+        projections = np.conj(_moments(theta_rad, error_arcmin, n_projections - 1))
         return moments, projections
     block = int(np.ceil(np.sqrt(n_moments)))
     coarse = np.arange(-(-n_moments // block)) * block
@@ -1370,29 +1423,38 @@ def _trigonometric_sums(theta_rad, error_arcmin, n_moments, n_projections, chunk
     return moments.reshape(-1)[:n_moments], np.conj(projections.reshape(-1)[:n_projections])
 
 
-def _conjugate_gradients(product, rhs, diagonal):
+def _symmetric_inner(a, b, multiplicity):
+    """``Re Σ_j conj(a_j) b_j`` of whole vectors given by their halves: ``multiplicity`` counts each entry's copies."""
+    return float(np.sum(multiplicity * (a.real * b.real + a.imag * b.imag)))
+
+
+def _conjugate_gradients(product, rhs, diagonal, multiplicity):
     """Solve ``product(x) = rhs``, Hermitian positive definite, by Jacobi-preconditioned CG.
 
-    Returns None if the residual is not below ``_CG_RTOL`` of ``rhs`` within
-    ``_CG_MAX_ITER`` steps (an ill-conditioned system: the QR is then used).
+    The vectors are halves of vectors with ``x_{-j} = conj(x_j)``, and inner products are those of the whole
+    vectors (:func:`_symmetric_inner` with ``multiplicity``). Returns None if the residual is not below
+    ``_CG_RTOL`` of ``rhs`` within ``_CG_MAX_ITER`` steps (an ill-conditioned system: the QR is then used).
     """
+    def norm(vector):
+        return math.sqrt(_symmetric_inner(vector, vector, multiplicity))
+
     x = np.zeros_like(rhs)
     residual = rhs.copy()
-    target = _CG_RTOL * np.linalg.norm(rhs)
+    target = _CG_RTOL * norm(rhs)
     preconditioned = residual / diagonal
     direction = preconditioned.copy()
-    energy = np.vdot(residual, preconditioned).real
+    energy = _symmetric_inner(residual, preconditioned, multiplicity)
     for _ in range(_CG_MAX_ITER):
-        if np.linalg.norm(residual) <= target:
+        if norm(residual) <= target:
             return x
         image = product(direction)
-        curvature = np.vdot(direction, image).real
+        curvature = _symmetric_inner(direction, image, multiplicity)
         if not curvature > 0.0:
             return None
         step = energy / curvature
         x += step * direction
         residual -= step * image
         preconditioned = residual / diagonal
-        energy, previous = np.vdot(residual, preconditioned).real, energy
+        energy, previous = _symmetric_inner(residual, preconditioned, multiplicity), energy
         direction = preconditioned + (energy / previous) * direction
     return None
