@@ -1381,12 +1381,14 @@ _NUFFT_ABOVE = 2_000_000
 
 
 #: Above this order the sums of :func:`_trigonometric_sums` are taken Taylor term by term with real FFTs
-#: (:func:`~encal.numerics.trigsums.trig_moments_real`); up to it by :func:`trig_moments`, which then bins every term in one pass.
+#: (:func:`~encal.numerics.trigsums.trig_moments_real`); up to it by :func:`trig_moments`, which then bins every
+#: term in one pass.
 _REAL_FFT_ABOVE_ORDER = 1000
 
 
 def _moments(theta_rad, weights, highest_order):
-    """:func:`trig_moments` of the angles, by :func:`~encal.numerics.trigsums.trig_moments_real` above ``_REAL_FFT_ABOVE_ORDER``."""
+    """:func:`trig_moments` of the angles, by :func:`~encal.numerics.trigsums.trig_moments_real` above
+    ``_REAL_FFT_ABOVE_ORDER``."""
     if highest_order > _REAL_FFT_ABOVE_ORDER:
         return trig_moments_real(theta_rad, weights, highest_order)
     return trig_moments(theta_rad, weights, highest_order)
