@@ -7,22 +7,14 @@ harmful input: each must be refused in one sentence by an encal error (35 of the
 warning or a number before the audit).
 """
 
-import importlib.util
 
 import numpy as np
 import pytest
 
-from tests._paths import REPO
+from tests._benchmarks import load_benchmark
 
 
-def _harness():
-    spec = importlib.util.spec_from_file_location("api_variants", REPO / "benchmarks" / "api_variants.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-av = _harness()
+av = load_benchmark("api_variants")
 CASES = {f"{case.group}: {case.name}": case for case in av.cases()}
 KEPT = [
     "fit: truth: auto on a 1-degree grid",

@@ -424,11 +424,10 @@ def test_bench_report_band_draws_each_encoders_own_noise(monkeypatch):
     directional rows' RMS residual / RMS σ 1.04-1.05 that way, 1.02 with a draw per encoder). Two encoders made
     alike must now see different noise in every run of both cases (1 s)."""
     import copy
-    import importlib.util
 
-    spec = importlib.util.spec_from_file_location("bench_report_band", REPO / "benchmarks" / "bench_report_band.py")
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
+    from tests._benchmarks import load_benchmark
+
+    bench = load_benchmark("bench_report_band")
     one_encoder = bench.draw_encoder(0)
     runs = []
 

@@ -7,22 +7,14 @@ a reader that makes one form read other numbers is seen in the suite: the correc
 readings must be the plain form's (within 1e-5 arcmin) and the truth's (the reference angle of each reading).
 """
 
-import importlib.util
 
 import numpy as np
 import pytest
 
-from tests._paths import REPO
+from tests._benchmarks import load_benchmark
 
 
-def _harness():
-    spec = importlib.util.spec_from_file_location("truth_variants", REPO / "benchmarks" / "truth_variants.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-tv = _harness()
+tv = load_benchmark("truth_variants")
 CASES = {case.name: case for case in tv.cases()}
 KEPT = {
     "plain": ["rows shuffled", "all at once", "radians (-pi, pi] --unit rad", "encoder counting back, --reverse"],
