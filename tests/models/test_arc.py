@@ -8,7 +8,7 @@ import pytest
 
 import encal
 from encal import runtime
-from encal._core.arcs import arc_of, clamp_to_range, inside
+from encal._core.arcs import arc_of, clamp_to_range, inside, periodic_for_export
 from encal.cli import main
 from encal.deploy import Compensator, compile_table
 from encal._core.errors import InputError, ModelFileError
@@ -233,9 +233,12 @@ def test_every_export_refuses_an_arc_model_without_a_rule(arc_model_file, tmp_pa
 
 def test_the_dense_table_honours_the_rule_exactly(arc_model_file):
     model = load_model(arc_model_file)
-    with pytest.raises(InputError, match="calibrated over"):
+    with pytest.raises(InputError, match="calibrated over") as refused:
         compile_table(model, 12)
-    from encal._core.arcs import periodic_for_export
+    # a Python caller is told its own way, not only the command line's --outside (found by storeapi)
+    assert "model.full_turn('clamp')" in str(refused.value)
+    np.testing.assert_array_equal(compile_table(model.full_turn("clamp"), 12, dtype="float32").values,
+                                  compile_table(periodic_for_export(model, "clamp"), 12, dtype="float32").values)
 
     codes = np.arange(4096) * 360.0 / 4096
     held = inside(codes, model.range_deg)

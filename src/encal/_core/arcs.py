@@ -209,7 +209,8 @@ def refuse_arc(compensator, what):
         source = getattr(compensator, "source", None) or "the model"
         raise InputError(f"{source} is calibrated over {describe_range(model.range_deg)} only, and {what} covers "
                          "the whole turn with no way to say 'outside'; expected a rule for the rest of the turn "
-                         "(pass --outside clamp to hold the nearer end's correction, or --outside pass for none)")
+                         "(pass --outside clamp to hold the nearer end's correction, or --outside pass for none; "
+                         "in Python, export model.full_turn('clamp') or model.full_turn('pass'))")
 
 
 def periodic_for_export(model, rule):
