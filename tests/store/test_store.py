@@ -553,3 +553,19 @@ def test_a_model_that_is_no_model_file_is_refused_before_it_is_written(tmp_path)
     for location in (None, 7):
         with pytest.raises(InputError, match="expected the path of an SQLite file or a postgresql:// URL"):
             open_store(location)
+
+
+def test_a_records_texts_and_time_are_checked_before_it_is_written(tmp_path):
+    # a record is permanent: a grade of 1, a station of 3.5 or a creation time of 'yesterday' were stored as given
+    from encal.models.fourier import FourierModel
+
+    model = FourierModel([0, 1], [0.0, 1.0], [0.0, 0.5])
+    with open_store(tmp_path / "store.sqlite") as store:
+        for fields, said in [({"grade": 1}, "grade as text or None"), ({"station": 3.5}, "station as text"),
+                             ({"created_utc": "yesterday"}, "created_utc as an ISO 8601 date and time"),
+                             ({"created_utc": 20261128}, "created_utc as an ISO 8601")]:
+            with pytest.raises(InputError, match=said):
+                store.add("SN1", model, **fields)
+        assert store.count() == 0
+        record = store.add("SN1", model, grade="A", station="line 2", created_utc="2026-11-28T12:00:00+00:00")
+        assert (record.grade, record.station, record.created_utc) == ("A", "line 2", "2026-11-28T12:00:00+00:00")

@@ -278,6 +278,17 @@ def _whole_count(value):
     return number.is_integer() and number >= 0
 
 
+def _iso_time(text):
+    """Whether ``text`` is an ISO 8601 date and time (a record's ``created_utc``: the fleet report shows it)."""
+    if not isinstance(text, str):
+        return False
+    try:
+        datetime.datetime.fromisoformat(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _figure(value, name):
     if value is None:
         return None
@@ -409,6 +420,13 @@ class Store(abc.ABC):
                              f"{type(calibration_csv).__name__}")
         if n_points is not None and not _whole_count(n_points):
             raise InputError(f"the record of {serial} needs n_points as a whole number >= 0; got {n_points!r}")
+        for name, text in (("grade", grade), ("station", station), ("source_name", source_name),
+                           ("model_kind", model_kind)):
+            if text is not None and not isinstance(text, str):
+                raise InputError(f"the record of {serial} needs its {name} as text or None; got {text!r}")
+        if created_utc is not None and not _iso_time(created_utc):
+            raise InputError(f"the record of {serial} needs created_utc as an ISO 8601 date and time (as "
+                             f"2026-11-28T12:00:00+00:00); got {created_utc!r}")
         if source_sha256 is None and calibration_csv is not None:
             source_sha256 = hashlib.sha256(calibration_csv.encode("utf-8")).hexdigest()
         values = {
