@@ -256,7 +256,7 @@ def _settled_rotor_deg(motor, commanded_deg_e, sign):
 MOTEUS_PRINT_TICKS = 10
 
 
-def simulate_moteus_cal(motor, encoder, speed=1.0, runs=1, rng=None):
+def simulate_moteus_cal(motor, encoder, speed=1.0, runs=1, start_counts=0, rng=None):
     """The capture of moteus' voltage-mode encoder calibration (``d cal V s<speed>``), tick by tick as its firmware.
 
     As ``fw/board_debug.cc`` (mjbots/moteus db1a762, ``DoCalibration``) does it: every millisecond the phase
@@ -274,6 +274,10 @@ def simulate_moteus_cal(motor, encoder, speed=1.0, runs=1, rng=None):
     speed : float, default=1
         Electrical turns per second (moteus_tool's ``--cal-ll-encoder-speed``, default 1).
     runs : int, default=1
+    start_counts : int or sequence of int, default=0
+        Phase each run starts from, 1/65536 of an electrical turn, one for all runs or one per run: 0 is
+        ``d cal``'s; other values give runs whose printed phases do not coincide (as ``d cali``'s, whose phase is
+        the control position, which starts where the rotor was held).
     rng : int or numpy.random.Generator, optional
 
     Returns
@@ -295,9 +299,10 @@ def simulate_moteus_cal(motor, encoder, speed=1.0, runs=1, rng=None):
         return int(beyond[0]) + 1
 
     directions, phases, readings, rotors = [], [], [], []
-    for _ in range(runs):
+    starts = np.broadcast_to(np.asarray(start_counts, dtype=np.int64), (runs,))
+    for start in starts:
         tick = np.arange(1, most + 1)  # cal_count_ after its increment
-        up_phase = (tick - 1) * step  # unwrapped: the phase the rotor stands at when tick is read
+        up_phase = start + (tick - 1) * step  # unwrapped: the phase the rotor stands at when tick is read
         up_rotor = _settled_rotor_deg(motor, up_phase * (360.0 / 65536), 1.0)
         up_counts = _moteus_counts(encoder.read(up_rotor, rng))
         switch = travelled_turn(up_counts)  # index of the tick that turns the sweep down
