@@ -233,12 +233,13 @@ def interpolated_repeat_noise_arcmin(reference_deg, encoder_deg, travel, min_ter
 
     Each reading of a pass is paired with the previous pass in the same direction, interpolated at the same
     commanded angle (a whole number of turns away) by the polynomial through its ``points`` nearest samples (2:
-    linear; 4: cubic), which assumes the encoder's and the motor's errors smooth at the sample spacing. The second differences of those differences along the pass take off what changes slowly.
-    Each is a known combination of independent readings: weights 1, -2, 1 on this pass's three, and on the other
-    pass's the same weights spread by the interpolation (``1 - f`` and ``f`` at a fraction ``f`` of the way), which
-    smooths the other pass's noise: a second difference of white noise interpolated at a constant ``f`` has variance
-    ``(6 - 20 f (1 - f)) σ²``, not ``((1 - f)² + f²) 6 σ²``. So ``σ² = Σ (Δ²d)² / Σ |w|²``, with ``|w|²`` each
-    second difference's sum of squared weights (12 at ``f = 0``, as :func:`repeat_noise_arcmin`); a cubic's
+    linear; 4: cubic), which assumes the encoder's and the motor's errors smooth at the sample spacing. The second
+    differences of those differences along the pass take off what changes slowly. Each is a known combination of
+    independent readings: weights 1, -2, 1 on this pass's three, and on the other pass's the same weights spread by
+    the interpolation (``1 - f`` and ``f`` at a fraction ``f`` of the way, linearly), which smooths the other
+    pass's noise: a second difference of white noise interpolated at a constant ``f`` has variance
+    ``(6 - 20 f (1 - f)) σ²``, not ``((1 - f)² + f²) 6 σ²``. So ``σ² = Σ (Δ²d)² / Σ |w|²``, with ``|w|²``
+    each second difference's sum of squared weights (12 at ``f = 0``, as :func:`repeat_noise_arcmin`); a cubic's
     weights are the Lagrange polynomials'.
 
     Parameters
