@@ -217,7 +217,7 @@ def repeat_noise_arcmin(reference_deg, encoder_deg, travel, min_terms=MIN_REPEAT
     if cubic is None:
         return None
     linear = interpolated_repeat_noise_arcmin(reference, encoder_deg, travel, min_terms, points=2)
-    return cubic if abs(linear / cubic - 1.0) <= MAX_INTERPOLATION_DISAGREEMENT else None
+    return cubic if abs(linear - cubic) <= MAX_INTERPOLATION_DISAGREEMENT * cubic else None
 
 
 #: Largest relative difference between the noise from a linear and from a cubic interpolation of the other pass
