@@ -7,6 +7,10 @@ reading's noise about its profile is ``hypot(noise, LSB / sqrt(12))``), the rati
   down twice (``passes=2``): the estimate from the repeated angles (:func:`encal.selfcal.sweep.repeat_noise_arcmin`),
   and what the sweep's own fit leaves (each direction's residual RMS; the arc's REML ``noise_arcmin``), which holds
   the motor's ripple; swept once each way, no estimate (``None``);
+- ``sweep`` of moteus ``d cal`` captures simulated tick by tick (``simulate_moteus_cal``, 7 pole pairs): one run (once
+  each way, as every moteus capture), two runs joined (the same phases exactly), and two runs whose phases do not
+  coincide (the second started half a print step and 37 x seed counts on), at the default speed and at a quarter of
+  it (the interpolated pairing, :func:`encal.selfcal.sweep.interpolated_repeat_noise_arcmin`);
 - ``steps`` of two calibrations (``draw_stepper(seed)``), the magnet turned 137.5 deg and a repeat: the noise of a
   calibration point (``calibration_point_noise_arcmin``) with 10 reads a step (Mechaduino), that times sqrt(10),
   and with one read a step (what ``single_reads=True`` records).
@@ -27,8 +31,8 @@ from encal.selfcal._series import design_matrix  # noqa: E402
 from encal.selfcal.arc_sweep import arc_sweep  # noqa: E402
 from encal.selfcal.steps import steps  # noqa: E402
 from encal.selfcal.sweep import _motor_orders, sweep, sweep_samples  # noqa: E402
-from encal.selfcal.synthetic import (draw_magnetic_encoder, draw_stepper, make_motor, simulate_steps,  # noqa: E402
-                                     simulate_sweep)
+from encal.selfcal.synthetic import (draw_magnetic_encoder, draw_stepper, make_motor,  # noqa: E402
+                                     simulate_moteus_cal, simulate_steps, simulate_sweep)
 
 SEEDS = range(8)
 POLE_PAIRS = 7
@@ -54,8 +58,10 @@ def fit_residual_arcmin(phase, reading, travel):
 
 
 def span(values):
-    values = [v for v in values if v is not None]
-    return f"{min(values):.2f}-{max(values):.2f}" if values else "None"
+    stated = [v for v in values if v is not None]
+    missing = len(values) - len(stated)
+    text = f"{min(stated):.2f}-{max(stated):.2f}" if stated else "None"
+    return text + (f" ({missing} None)" if stated and missing else "")
 
 
 def main():
@@ -79,6 +85,17 @@ def main():
                     if passes == 2:
                         own = fit_residual_arcmin(*args) if method is sweep else result.details["noise_arcmin"]
                         rows.setdefault(f"sweep, {label}: the fit's own residual", []).append(own / truth)
+            for label, speed, runs, offset in (("one run", 1.0, 1, False), ("two runs", 1.0, 2, False),
+                                               ("two runs, phases offset", 1.0, 2, True),
+                                               ("two runs, phases offset, speed 0.25", 0.25, 2, True)):
+                step = 10 * int(speed * 65.536)
+                capture = simulate_moteus_cal(make_motor(POLE_PAIRS, 12, seed), encoder, speed=speed, runs=runs,
+                                              start_counts=[0, step // 2 + 37 * seed][:runs] if offset else 0,
+                                              rng=seed)
+                measured = sweep(capture.phase * 360 / 65536, capture.encoder * 360 / 65536,
+                                 np.where(capture.direction == 1, 1, -1), POLE_PAIRS).reading_noise_arcmin
+                rows.setdefault(f"sweep, moteus d cal, {label}", []).append(
+                    None if measured is None else measured / truth)
             if noise == 0.2:
                 continue
             stepper = draw_stepper(seed)

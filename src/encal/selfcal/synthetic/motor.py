@@ -16,7 +16,7 @@ import numpy as np
 
 from ..._core.angles import wrap360
 
-__all__ = ["Motor", "make_motor", "SpinRun", "simulate_spin", "SweepCapture", "simulate_sweep"]
+__all__ = ["Motor", "make_motor", "SpinRun", "simulate_spin", "SweepCapture", "simulate_sweep", "simulate_moteus_cal"]
 
 
 @dataclass(frozen=True)
@@ -235,12 +235,94 @@ def simulate_sweep(motor, encoder, revolutions=1.0, samples_per_period=64, passe
     commanded = np.concatenate(segments)
     direction = np.concatenate(codes)
     sign = np.concatenate(travel)
-    field = motor.field_deg_e(commanded)
-    rotor = field / p
-    for _ in range(50):
-        load = (motor.coulomb_nm * sign + motor.ripple_torque_nm(np.radians(rotor))) / motor.holding_torque_nm
-        rotor = (field - np.degrees(np.arcsin(np.clip(load, -1, 1)))) / p
+    rotor = _settled_rotor_deg(motor, commanded, sign)
     reading = encoder.read(rotor, rng)
     phase = np.round(wrap360(commanded) * 65536 / 360.0).astype(np.int64) % 65536
     counts = np.round(reading * 65536 / 360.0).astype(np.int64) % 65536
     return SweepCapture(direction.astype(int), phase, counts, rotor)
+
+
+def _settled_rotor_deg(motor, commanded_deg_e, sign):
+    """Where the rotor settles (mechanical degrees) under each commanded electrical angle, moving in ``sign``."""
+    field = motor.field_deg_e(commanded_deg_e)
+    rotor = field / motor.pole_pairs
+    for _ in range(50):
+        load = (motor.coulomb_nm * sign + motor.ripple_torque_nm(np.radians(rotor))) / motor.holding_torque_nm
+        rotor = (field - np.degrees(np.arcsin(np.clip(load, -1, 1)))) / motor.pole_pairs
+    return rotor
+
+
+#: moteus' calibration prints every 10th millisecond tick (board_debug.cc, ``cal_count_ % 10``).
+MOTEUS_PRINT_TICKS = 10
+
+
+def simulate_moteus_cal(motor, encoder, speed=1.0, runs=1, start_counts=0, rng=None):
+    """The capture of moteus' voltage-mode encoder calibration (``d cal V s<speed>``), tick by tick as its firmware.
+
+    As ``fw/board_debug.cc`` (mjbots/moteus db1a762, ``DoCalibration``) does it: every millisecond the phase
+    (uint16) steps by ``int(speed * 65536 / 1000)`` from 0, up (direction 1) until the encoder has travelled more
+    than one turn (65536 counts), then down (direction 2) until it has travelled one turn back; every 10th tick
+    prints the phase commanded before that tick's step and the encoder's reading. A run thus sweeps ONE pass each
+    way; ``runs`` > 1 appends further runs (each from phase 0 and tick 0, the rotor back at its start), whose
+    printed phases are those of the first run exactly. Prints the firmware skips while a write is outstanding are
+    not modelled.
+
+    Parameters
+    ----------
+    motor : Motor
+    encoder : MagneticEncoder
+    speed : float, default=1
+        Electrical turns per second (moteus_tool's ``--cal-ll-encoder-speed``, default 1).
+    runs : int, default=1
+    start_counts : int or sequence of int, default=0
+        Phase each run starts from, 1/65536 of an electrical turn, one for all runs or one per run: 0 is
+        ``d cal``'s; other values give runs whose printed phases do not coincide (as ``d cali``'s, whose phase is
+        the control position, which starts where the rotor was held).
+    rng : int or numpy.random.Generator, optional
+
+    Returns
+    -------
+    SweepCapture
+    """
+    rng = np.random.default_rng(rng)
+    step = int(speed * 65536.0 / 1000.0)
+    if step < 1:
+        raise ValueError(f"speed {speed} gives no phase step per millisecond; expected at least 1/65.536")
+    most = int(math.ceil(1.5 * motor.pole_pairs * 65536 / step)) + 2 * MOTEUS_PRINT_TICKS
+
+    def travelled_turn(counts):
+        """Index of the first reading after which the int16 deltas add to more than a turn."""
+        delta = np.cumsum(((np.diff(counts) + 32768) % 65536) - 32768)
+        beyond = np.flatnonzero(np.abs(delta) > 65536)
+        if beyond.size == 0:
+            raise ValueError("the encoder did not travel one turn within 1.5 turns of phase")
+        return int(beyond[0]) + 1
+
+    directions, phases, readings, rotors = [], [], [], []
+    starts = np.broadcast_to(np.asarray(start_counts, dtype=np.int64), (runs,))
+    for start in starts:
+        tick = np.arange(1, most + 1)  # cal_count_ after its increment
+        up_phase = start + (tick - 1) * step  # unwrapped: the phase the rotor stands at when tick is read
+        up_rotor = _settled_rotor_deg(motor, up_phase * (360.0 / 65536), 1.0)
+        up_counts = _moteus_counts(encoder.read(up_rotor, rng))
+        switch = travelled_turn(up_counts)  # index of the tick that turns the sweep down
+        turn_tick = int(tick[switch])
+        down_phase = up_phase[switch] - np.arange(most) * step
+        down_rotor = _settled_rotor_deg(motor, down_phase * (360.0 / 65536), -1.0)
+        down_counts = _moteus_counts(encoder.read(down_rotor, rng))
+        end = travelled_turn(down_counts)  # the tick that ends the sweep prints nothing
+        down_tick = turn_tick + np.arange(end)
+        for code, ticks, phase, counts, rotor in ((1, tick[:switch], up_phase, up_counts, up_rotor),
+                                                  (2, down_tick, down_phase, down_counts, down_rotor)):
+            printed = np.flatnonzero(ticks % MOTEUS_PRINT_TICKS == 0)
+            directions.append(np.full(printed.size, code))
+            phases.append(phase[printed] % 65536)
+            readings.append(counts[printed])
+            rotors.append(rotor[printed])
+    return SweepCapture(np.concatenate(directions).astype(int), np.concatenate(phases).astype(np.int64),
+                        np.concatenate(readings), np.concatenate(rotors))
+
+
+def _moteus_counts(reading_deg):
+    """Readings in degrees as moteus' ``position_raw``: 65536 counts a turn."""
+    return np.round(np.asarray(reading_deg) * 65536 / 360.0).astype(np.int64) % 65536
