@@ -19,7 +19,7 @@ from .._core.errors import CalibrationError, EncalWarning
 from .._core.parameters import check_bool, check_choice, check_int, check_number, check_type, invalid, real_array
 
 __all__ = ["Calibration", "read_calibration", "write_calibration", "check_folds", "check_turns",
-           "turn_checked_errors", "is_multi_revolution", "is_repeated_stops"]
+           "turn_checked_errors", "is_multi_revolution", "is_repeated_stops", "warn_if_in_radians"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -830,6 +830,19 @@ def _warn_if_radians(path, columns):
             "radians over a full revolution would; expected degrees (radians times 57.29578; if they are radians, "
             "say so with --unit rad, or --ref-unit rad or --enc-unit rad for one column)",
             EncalWarning, stacklevel=3)
+
+
+def warn_if_in_radians(cal):
+    """Warn when a calibration built in Python holds radians over a turn: in degrees it is an arc of about 6, fitted
+    as such (or judged), its errors 57 times too small. :func:`read_calibration` warns of a file itself; this is for
+    :func:`~encal.models.fitting.fit` and :func:`~encal.models.fitting.evaluate` of a calibration made in memory
+    (the warning points at their caller)."""
+    if all(_looks_like_radians(values) or _looks_like_radians(wrap180(values))
+           for values in (cal.reference_deg, cal.encoder_deg)):
+        warnings.warn(
+            f"{cal.name or 'the calibration'}: reference_deg and encoder_deg all lie within one turn measured in "
+            "radians, as radians over a full revolution would; expected degrees (if they are radians, pass "
+            "numpy.degrees of them to Calibration)", EncalWarning, stacklevel=4)
 
 
 def _looks_like_radians(values):

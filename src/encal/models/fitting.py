@@ -8,7 +8,6 @@ model came from.
 
 import hashlib
 import inspect
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,8 +21,8 @@ from ..data.reversal import (
     require_directions,
     reversal,
 )
-from ..data.calibration import Calibration, check_folds, turn_checked_errors
-from .._core.errors import CalibrationError, EncalWarning, InputError
+from ..data.calibration import Calibration, check_folds, turn_checked_errors, warn_if_in_radians
+from .._core.errors import CalibrationError, InputError
 from . import Model, kind_names, model_kind
 from .._core.parameters import check_bool, check_choice, check_seed, check_type
 from ..analysis.profile import (ARBITRARY_ZERO_ARCMIN, ZERO_MODES, ErrorStats, correction_is_worse, error_stats,
@@ -113,7 +112,7 @@ def fit(cal, method="auto", *, rng=None, uncertainty=False, bidirectional=None, 
     _check_not_empty(cal, "fit")
     arc = calibrated_arc(cal)
     if arc is not None and cal.source is None:  # a file's reader has warned already
-        _warn_if_radians(cal)
+        warn_if_in_radians(cal)
     if arc is not None and method == "auto":
         method = "arc"  # over an arc the error is no periodic function: the interval's family
     if arc is not None and method not in ON_AN_ARC:
@@ -135,20 +134,6 @@ def _check_not_empty(cal, caller):
     if len(cal) == 0:
         where = cal.source or cal.name or "the calibration"
         raise CalibrationError(f"{caller} expects a calibration with points; {where} has none")
-
-
-def _warn_if_radians(cal):
-    """Warn when a calibration built in Python holds radians over a turn: in degrees it is an arc of about 6, fitted
-    as such (or judged: :func:`evaluate`), its errors 57 times too small (:func:`encal.read_calibration` warns of a
-    file the same way)."""
-    from ..data.calibration import _looks_like_radians
-
-    if all(_looks_like_radians(values) or _looks_like_radians(wrap180(values))
-           for values in (cal.reference_deg, cal.encoder_deg)):
-        warnings.warn(
-            f"{cal.name or 'the calibration'}: reference_deg and encoder_deg all lie within one turn measured in "
-            "radians, as radians over a full revolution would; expected degrees (if they are radians, pass "
-            "numpy.degrees of them to Calibration)", EncalWarning, stacklevel=3)
 
 
 #: The methods fitted on a calibration over an arc: the interval's own family, and the lookup table, which
@@ -492,7 +477,7 @@ def evaluate(model, cal, *, zero="fixed"):
     check_choice(zero, "zero", "evaluate", ZERO_MODES)
     _check_not_empty(cal, "evaluate")
     if cal.source is None:  # a file's reader has warned already
-        _warn_if_radians(cal)
+        warn_if_in_radians(cal)
     observed = cal.errors_arcmin
     # The model maps readings to its input itself (a model of a reversed encoder negates them).
     # A directional model predicts each reading with its own direction's profile.
